@@ -1,0 +1,46 @@
+"""drake_dynid: on-line robot dynamic identification with Drake.
+
+The public names are loaded lazily (PEP 562) so that importing the pure numpy/scipy
+core, or running ``dynid --help``, does not pay for importing pydrake.
+
+Layers (see ``docs/CONVENTIONS.md``):
+
+* ``drake_dynid.core``: pure numpy/scipy, functional (design functions return
+  immutable data, step functions take state and return new state). Never imports
+  pydrake.
+* ``drake_dynid.systems``: thin Drake ``LeafSystem`` blocks over the core; all state
+  lives in the Context.
+* ``drake_dynid.plants``, ``drake_dynid.diagrams``, ``drake_dynid.cli``: URDF plants,
+  diagram builders and the ``dynid`` command.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+__version__ = "0.1.0"
+
+# Public name -> module that defines it. Add one line per public name.
+_LAZY: dict[str, str] = {
+    # core (no pydrake)
+    "jacobi_filter": "drake_dynid.core.jacobi",
+    "JacobiFilter": "drake_dynid.core.jacobi",
+    # systems (pydrake)
+    "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
+}
+
+__all__ = ["__version__", *sorted(_LAZY)]
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _LAZY.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'drake_dynid' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module_name), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,0 +1,92 @@
+"""The ``dynid`` command line tool.
+
+Subcommands live in ``drake_dynid.commands.<name>``; each module defines ``HELP``
+(one line), ``add_arguments(parser)`` and ``run(args) -> int``, and imports pydrake
+only inside ``run`` so that ``dynid --help`` stays fast.
+
+Exit codes: 0 success, 2 bad input (a one-line message on stderr, no traceback),
+1 internal error (a traceback: please report it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import sys
+import traceback
+from collections.abc import Sequence
+
+from drake_dynid import __version__
+
+# Order shown in ``dynid --help``. A name whose module does not exist yet is skipped.
+SUBCOMMANDS = ("params", "identify", "offline")
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose usage errors exit with code 2 and no traceback."""
+
+
+def _available() -> list[str]:
+    names = []
+    for name in SUBCOMMANDS:
+        if importlib.util.find_spec(f"drake_dynid.commands.{name}") is not None:
+            names.append(name)
+    return names
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Returns the ``dynid`` argument parser with every available subcommand."""
+    parser = _Parser(
+        prog="dynid",
+        description=(
+            "On-line robot dynamic identification with Drake: base parameters of a "
+            "URDF robot, on-line identification (modulating functions + sliding QR) "
+            "and off-line IDIM-LS from recorded logs."
+        ),
+        epilog="Exit codes: 0 success, 2 bad input, 1 internal error.",
+    )
+    parser.add_argument("--version", action="version", version=f"dynid {__version__}")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _available():
+        module = importlib.import_module(f"drake_dynid.commands.{name}")
+        description = getattr(module, "DESCRIPTION", module.HELP)
+        sub = subparsers.add_parser(name, help=module.HELP, description=description)
+        module.add_arguments(sub)
+        sub.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs ``dynid`` on ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    run = getattr(args, "_run", None)
+    if run is None:
+        parser.print_help()
+        return EXIT_OK
+    try:
+        return int(run(args) or EXIT_OK)
+    except (ValueError, OSError) as error:
+        # Bad input: the message names the problem; no traceback.
+        print(f"dynid {args.command}: error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print(f"dynid {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERNAL
+    except Exception:
+        traceback.print_exc()
+        print(
+            f"dynid {args.command}: internal error (a bug in drake_dynid; please "
+            "report it with the traceback above).",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

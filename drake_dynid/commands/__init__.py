@@ -1,0 +1,1 @@
+"""Subcommands of the ``dynid`` command line tool (one module per subcommand)."""

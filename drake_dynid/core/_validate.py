@@ -1,0 +1,146 @@
+"""Argument checks shared by the core and the blocks.
+
+Every message names the owner, the parameter, the constraint, the unit and the
+value, in the house format::
+
+    CausalJacobiDifferentiator: window must be a multiple of time_step [s]; got 0.0105
+    with time_step 0.001.
+
+All checks raise ``ValueError`` (bad value) or ``TypeError`` (bad type).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+
+def _unit(unit: str | None) -> str:
+    return f" [{unit}]" if unit else ""
+
+
+def fail(owner: str, message: str) -> None:
+    """Raises ``ValueError(f"{owner}: {message}")``."""
+    raise ValueError(f"{owner}: {message}")
+
+
+def real(owner: str, name: str, value: Any, unit: str | None = None) -> float:
+    """Returns ``value`` as a finite float, or raises naming ``name``."""
+    numeric = (int, float, np.integer, np.floating)
+    if isinstance(value, bool) or not isinstance(value, numeric):
+        raise TypeError(
+            f"{owner}: {name} must be a real number{_unit(unit)}; got {value!r} "
+            f"of type {type(value).__name__}."
+        )
+    out = float(value)
+    if not math.isfinite(out):
+        raise ValueError(f"{owner}: {name} must be finite{_unit(unit)}; got {out}.")
+    return out
+
+
+def positive(owner: str, name: str, value: Any, unit: str | None = None) -> float:
+    """Returns ``value`` as a float > 0, or raises naming ``name``."""
+    out = real(owner, name, value, unit)
+    if out <= 0.0:
+        raise ValueError(f"{owner}: {name} must be > 0{_unit(unit)}; got {out}.")
+    return out
+
+
+def greater_than(
+    owner: str, name: str, value: Any, bound: float, unit: str | None = None
+) -> float:
+    """Returns ``value`` as a float > ``bound``, or raises naming ``name``."""
+    out = real(owner, name, value, unit)
+    if not out > bound:
+        raise ValueError(f"{owner}: {name} must be > {bound}{_unit(unit)}; got {out}.")
+    return out
+
+
+def in_range(
+    owner: str,
+    name: str,
+    value: Any,
+    low: float,
+    high: float,
+    unit: str | None = None,
+) -> float:
+    """Returns ``value`` as a float in the closed interval [low, high]."""
+    out = real(owner, name, value, unit)
+    if not low <= out <= high:
+        raise ValueError(
+            f"{owner}: {name} must be in [{low}, {high}]{_unit(unit)}; got {out}."
+        )
+    return out
+
+
+def integer(owner: str, name: str, value: Any, minimum: int | None = None) -> int:
+    """Returns ``value`` as an int (>= ``minimum`` when given), or raises."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, (float, np.floating)) and float(value).is_integer():
+            value = int(value)
+        else:
+            raise TypeError(
+                f"{owner}: {name} must be an integer; got {value!r} "
+                f"of type {type(value).__name__}."
+            )
+    out = int(value)
+    if minimum is not None and out < minimum:
+        raise ValueError(f"{owner}: {name} must be >= {minimum}; got {out}.")
+    return out
+
+
+def multiple_of(
+    owner: str,
+    name: str,
+    value: float,
+    step_name: str,
+    step: float,
+    unit: str | None = "s",
+    rtol: float = 1e-9,
+) -> int:
+    """Returns the integer ``value / step``; raises unless it is a whole number >= 1."""
+    ratio = value / step
+    count = round(ratio)
+    if count < 1 or abs(ratio - count) > rtol * max(1.0, abs(ratio)):
+        raise ValueError(
+            f"{owner}: {name} must be a multiple of {step_name}{_unit(unit)}; "
+            f"got {value:g} with {step_name} {step:g}."
+        )
+    return int(count)
+
+
+def array(
+    owner: str,
+    name: str,
+    value: Any,
+    shape: Sequence[int | None] | None = None,
+    finite: bool = True,
+) -> np.ndarray:
+    """Returns ``value`` as a float64 array, checking its shape and finiteness.
+
+    ``shape`` entries of ``None`` accept any size along that axis.
+    """
+    try:
+        out = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{owner}: {name} must be an array of real numbers.") from None
+    if shape is not None:
+        ok = out.ndim == len(shape) and all(
+            want is None or got == want
+            for got, want in zip(out.shape, shape, strict=True)
+        )
+        if not ok:
+            sizes = ", ".join("any" if s is None else str(s) for s in shape)
+            want_text = f"({sizes})"
+            raise ValueError(
+                f"{owner}: {name} must have shape {want_text}; got {out.shape}."
+            )
+    if finite and not np.all(np.isfinite(out)):
+        bad = int(np.size(out) - np.count_nonzero(np.isfinite(out)))
+        raise ValueError(
+            f"{owner}: {name} must be finite; got {bad} NaN or infinite value(s)."
+        )
+    return out
