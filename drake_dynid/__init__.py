@@ -26,6 +26,19 @@ _LAZY: dict[str, str] = {
     # core (no pydrake)
     "jacobi_filter": "drake_dynid.core.jacobi",
     "JacobiFilter": "drake_dynid.core.jacobi",
+    "jacobi_filters": "drake_dynid.core.jacobi",
+    "jacobi_minimum_delay_xi": "drake_dynid.core.jacobi",
+    "jacobi_kernel": "drake_dynid.core.jacobi",
+    "jacobi_frequency_response": "drake_dynid.core.jacobi",
+    "jacobi_sinusoid_error": "drake_dynid.core.jacobi",
+    "jacobi_apply": "drake_dynid.core.jacobi",
+    "jacobi_batch": "drake_dynid.core.jacobi",
+    "JacobiRing": "drake_dynid.core.jacobi",
+    "jacobi_ring": "drake_dynid.core.jacobi",
+    "jacobi_initial_state": "drake_dynid.core.jacobi",
+    "jacobi_step": "drake_dynid.core.jacobi",
+    "jacobi_outputs": "drake_dynid.core.jacobi",
+    "jacobi_valid": "drake_dynid.core.jacobi",
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
 }
