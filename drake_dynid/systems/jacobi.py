@@ -1,0 +1,169 @@
+"""Drake block for the causal Jacobi derivative estimator (MATH.md §1)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import partial
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
+
+from drake_dynid.core import _validate
+from drake_dynid.core.jacobi import (
+    JacobiFilter,
+    _design_bank,
+    jacobi_initial_state,
+    jacobi_outputs,
+    jacobi_ring,
+    jacobi_step,
+    jacobi_valid,
+)
+
+_OWNER = "CausalJacobiDifferentiator"
+
+
+class CausalJacobiDifferentiator(LeafSystem):
+    """Causal Jacobi estimates of the derivatives of a sampled vector signal.
+
+    .. pydrake_system::
+
+        name: CausalJacobiDifferentiator
+        input_ports:
+        - u
+        output_ports:
+        - derivative_<order> (one per requested order, e.g. derivative_0)
+        - ...
+        - valid
+
+    Every ``time_step`` h [s] (offset 0) the block samples ``u`` (size m) into a ring
+    buffer of the last N+1 samples (N = window/h) held in its discrete state, and
+    for each requested order k outputs the FIR estimate (see
+    :func:`drake_dynid.core.jacobi.jacobi_filter`)::
+
+        derivative_k = Σ_{j=0..N} taps_k[j] u(t_n - j·h)  ≈  u^(k)(t_n - delay)
+
+    in [unit of u · s^-k], where t_n is the time of the last update and
+    ``delay = window·ξ`` [s] is the same for every order (one ξ for the bank: by
+    default the minimum-delay root of the highest order, see
+    :func:`~drake_dynid.core.jacobi.jacobi_filters`). Order 0 is the smoothed
+    signal at the same instant, to align other signals with the derivatives.
+
+    Timing: after the update at t_k the outputs use the samples up to and
+    including t_k. Outputs depend on the state only (no direct feedthrough), so a
+    logger or a downstream block that samples them at t_k sees the state after the
+    update at t_{k-1}: one extra sample of latency, as for every state-output block
+    (docs/CONVENTIONS.md §2). ``valid`` is 0 until N+1 samples have been taken
+    (before that, missing samples count as zeros), then 1.
+
+    State (numeric discrete state, in the Context only):
+    ``[buffer ((N+1)·m, slot-major) | head | count]``
+    (:func:`~drake_dynid.core.jacobi.jacobi_ring`); the FIR is one matrix-vector
+    product with a doubled, age-reversed kernel, without rolling the buffer. The
+    block does not resample or hold values: ``u`` must be meaningful at the update
+    times.
+
+    Args:
+        num_signals: Size m >= 1 of ``u``.
+        time_step: Update period h > 0 [s].
+        window: Window length Tj [s], a multiple of ``time_step``.
+        kappa: κ > -1 (weight of the newest end).
+        mu: μ > -1 (weight of the oldest end).
+        q: Integer q >= 0 (the fitted polynomial has degree k+q).
+        xi: ξ in [0, 1] shared by all orders, or None (minimum-delay root of the
+            highest order).
+        orders: Distinct derivative orders, one output port each.
+    """
+
+    def __init__(
+        self,
+        num_signals: int,
+        time_step: float,
+        window: float,
+        *,
+        kappa: float,
+        mu: float,
+        q: int,
+        xi: float | None = None,
+        orders: Sequence[int] = (0, 1),
+    ):
+        super().__init__()
+        num_signals = _validate.integer(_OWNER, "num_signals", num_signals, minimum=1)
+        self._filters = _design_bank(
+            _OWNER, orders, window, time_step, kappa, mu, q, xi
+        )
+        self._ring = jacobi_ring(self._filters, num_signals)
+        self._num_signals = num_signals
+        self._time_step = self._filters[0].time_step
+
+        self._input = self.DeclareVectorInputPort("u", num_signals)
+        self._state_index = self.DeclareDiscreteState(jacobi_initial_state(self._ring))
+        self.DeclarePeriodicDiscreteUpdateEvent(
+            period_sec=self._time_step, offset_sec=0.0, update=self._Update
+        )
+        ticket = {self.xd_ticket()}
+        for index, filt in enumerate(self._filters):
+            self.DeclareVectorOutputPort(
+                f"derivative_{filt.order}",
+                num_signals,
+                partial(self._CalcDerivative, index),
+                prerequisites_of_calc=ticket,
+            )
+        self.DeclareVectorOutputPort(
+            "valid", 1, self._CalcValid, prerequisites_of_calc=ticket
+        )
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def delay(self) -> float:
+        """window·ξ [s]: every output refers to (time of the last update) - delay."""
+        return self._filters[0].delay
+
+    @property
+    def xi(self) -> float:
+        """The normalised delay ξ shared by all orders."""
+        return self._filters[0].xi
+
+    @property
+    def filters(self) -> tuple[JacobiFilter, ...]:
+        """The designed filters, one per output port, in port order."""
+        return self._filters
+
+    @property
+    def num_signals(self) -> int:
+        """Size of ``u`` and of every derivative port."""
+        return self._num_signals
+
+    @property
+    def time_step(self) -> float:
+        """Update period h [s]."""
+        return self._time_step
+
+    def get_input_port_u(self):
+        """The input port ``u``."""
+        return self._input
+
+    def get_output_port_derivative(self, order: int):
+        """The output port ``derivative_<order>``."""
+        return self.GetOutputPort(f"derivative_{int(order)}")
+
+    def get_output_port_valid(self):
+        """The output port ``valid``."""
+        return self.GetOutputPort("valid")
+
+    # ------------------------------------------------------------------- callbacks
+    def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
+        state = discrete_state.get_mutable_value(self._state_index)
+        sample = self._input.Eval(context)
+        jacobi_step(self._ring, state, sample, out=state)
+
+    def _CalcDerivative(
+        self, index: int, context: Context, output: BasicVector
+    ) -> None:
+        state = context.get_discrete_state(self._state_index).get_value()
+        output.SetFromVector(jacobi_outputs(self._ring, state, index))
+
+    def _CalcValid(self, context: Context, output: BasicVector) -> None:
+        state = context.get_discrete_state(self._state_index).get_value()
+        output.SetFromVector(
+            np.array([1.0 if jacobi_valid(self._ring, state) else 0.0])
+        )
