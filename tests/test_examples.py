@@ -1,0 +1,32 @@
+"""Every example runs with its short-run flag (one test per example; append yours).
+
+Each example is imported from examples/ by path and its ``main(argv)`` is called
+with ``--quick`` and a temporary ``--out`` directory.
+"""
+
+import importlib.util
+import pathlib
+import re
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def load_example(name):
+    path = ROOT / "examples" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"example_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_jacobi_velocity_quick(tmp_path, capsys):
+    example = load_example("jacobi_velocity")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "jacobi_velocity.png").stat().st_size > 10_000
+    assert (tmp_path / "jacobi_tuning.png").stat().st_size > 10_000
+    rms = float(re.search(r"RMS error: ([0-9.]+) rad/s", printed).group(1))
+    # closed-form prediction 0.038 rad/s for the default settings (seed 1)
+    assert rms < 0.06
+    delay = float(re.search(r"delay: ([0-9.]+) s", printed).group(1))
+    assert abs(delay - 0.110557) < 1e-6
