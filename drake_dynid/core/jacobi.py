@@ -559,7 +559,7 @@ def jacobi_outputs(
     """
     length, m = ring.num_taps, ring.num_signals
     head = int(state[-2])
-    buffer = np.reshape(state[: length * m], (length, m))
+    buffer = state[: length * m].reshape(length, m)
     start = length - 1 - head
     if index is None:
         return ring.kernel[:, start : start + length] @ buffer
