@@ -96,7 +96,8 @@ class CausalJacobiDifferentiator(LeafSystem):
         self._time_step = self._filters[0].time_step
 
         self._input = self.DeclareVectorInputPort("u", num_signals)
-        self._state_index = self.DeclareDiscreteState(jacobi_initial_state(self._ring))
+        initial = jacobi_initial_state(self._ring)
+        self._state_index = int(self.DeclareDiscreteState(initial))
         self.DeclarePeriodicDiscreteUpdateEvent(
             period_sec=self._time_step, offset_sec=0.0, update=self._Update
         )
