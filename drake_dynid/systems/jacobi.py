@@ -72,6 +72,10 @@ class CausalJacobiDifferentiator(LeafSystem):
         xi: ξ in [0, 1] shared by all orders, or None (minimum-delay root of the
             highest order).
         orders: Distinct derivative orders, one output port each.
+        matched: If True, order k uses κ + K - k and μ + K - k (K the highest
+            order) so that every output is the same low-pass filter applied to
+            u^(k) (:func:`~drake_dynid.core.jacobi.jacobi_filters`); use it when
+            the outputs enter one equation together, as in identification.
     """
 
     def __init__(
@@ -85,11 +89,12 @@ class CausalJacobiDifferentiator(LeafSystem):
         q: int,
         xi: float | None = None,
         orders: Sequence[int] = (0, 1),
+        matched: bool = False,
     ):
         super().__init__()
         num_signals = _validate.integer(_OWNER, "num_signals", num_signals, minimum=1)
         self._filters = _design_bank(
-            _OWNER, orders, window, time_step, kappa, mu, q, xi
+            _OWNER, orders, window, time_step, kappa, mu, q, xi, matched
         )
         self._ring = jacobi_ring(self._filters, num_signals)
         self._num_signals = num_signals

@@ -507,3 +507,28 @@ def test_noise_gain_is_the_output_noise_std():
     sigma = 0.01
     y = jacobi_batch(f, sigma * rng.normal(size=200_000))[f.num_taps :]
     assert np.std(y) == pytest.approx(sigma * f.noise_gain, rel=0.03)
+
+
+@pytest.mark.parametrize(
+    ("kappa", "mu", "q"), [(1.0, 1.0, 1), (0.0, 0.5, 0), (-0.5, 2.0, 2)]
+)
+def test_matched_bank_is_one_low_pass_on_every_derivative(kappa, mu, q):
+    # D^(1)_{κ,μ,q}[x] == D^(0)_{κ+1,μ+1,q}[ẋ]: with matched=True the order-1 output
+    # on samples of x equals the order-0 output on samples of ẋ, up to the O(h²)
+    # discretisation of product integration.
+    from drake_dynid.core.jacobi import jacobi_batch, jacobi_filters
+
+    h = 1e-3
+    f0, f1 = jacobi_filters((0, 1), 0.2, h, kappa=kappa, mu=mu, q=q, matched=True)
+    assert f0.xi == f1.xi
+    assert (f0.kappa, f0.mu) == (kappa + 1, mu + 1)
+    assert (f1.kappa, f1.mu) == (kappa, mu)
+    t = h * np.arange(2000)
+    x = np.sin(9.0 * t) + 0.3 * np.cos(23.0 * t)
+    xdot = 9.0 * np.cos(9.0 * t) - 6.9 * np.sin(23.0 * t)
+    derivative = jacobi_batch(f1, x)[400:]
+    filtered_velocity = jacobi_batch(f0, xdot)[400:]
+    np.testing.assert_allclose(derivative, filtered_velocity, atol=2e-4)
+    # The unmatched order-0 filter does not have this property.
+    g0 = jacobi_filters((0, 1), 0.2, h, kappa=kappa, mu=mu, q=q)[0]
+    assert np.max(np.abs(jacobi_batch(g0, xdot)[400:] - derivative)) > 1e-2

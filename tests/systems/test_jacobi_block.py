@@ -254,3 +254,12 @@ def test_sine_through_simulator():
             rtol=0,
             atol=1e-10,
         )
+
+
+def test_matched_block_uses_shifted_weights_and_one_xi():
+    block = CausalJacobiDifferentiator(
+        2, 1e-3, 0.1, kappa=1.0, mu=0.5, q=1, orders=(0, 1), matched=True
+    )
+    f0, f1 = block.filters
+    assert (f0.kappa, f0.mu, f1.kappa, f1.mu) == (2.0, 1.5, 1.0, 0.5)
+    assert f0.delay == f1.delay == block.delay
