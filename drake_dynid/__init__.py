@@ -52,8 +52,20 @@ _LAZY: dict[str, str] = {
     "sliding_push": "drake_dynid.core.modulating",
     "sliding_push_many": "drake_dynid.core.modulating",
     "sliding_fourier_integrals": "drake_dynid.core.modulating",
+    "LeastSquaresResult": "drake_dynid.core.lsq",
+    "solve_least_squares": "drake_dynid.core.lsq",
+    "solve_weighted_least_squares": "drake_dynid.core.lsq",
+    "Planar2RRows": "drake_dynid.core.planar2r",
+    "BaseParameters": "drake_dynid.core.base_parameters",
+    "base_parameters": "drake_dynid.core.base_parameters",
+    # plants (pydrake)
+    "RobotModel": "drake_dynid.plants",
+    "load_plant": "drake_dynid.plants",
+    "model_path": "drake_dynid.plants",
+    "read_urdf_friction": "drake_dynid.plants",
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
+    "JointFriction": "drake_dynid.systems.friction",
 }
 
 __all__ = ["__version__", *sorted(_LAZY)]

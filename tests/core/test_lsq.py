@@ -1,0 +1,170 @@
+"""QR least squares: values, Gautier σ, conditioning and failure reporting."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.lsq import (
+    DEFAULT_MAX_CONDITION,
+    solve_least_squares,
+    solve_weighted_least_squares,
+)
+
+NAMES = ("ZZ1R", "ZZ2", "FV1", "FC1")
+
+
+def _system(seed, rows=80, p=4, noise=0.1):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((rows, p)) * np.array([1.0, 1e3, 1e-3, 5.0])[:p]
+    theta = np.array([3.9, 0.25, 0.3, 0.4])[:p]
+    return A, theta, A @ theta + noise * rng.standard_normal(rows)
+
+
+def test_matches_lstsq_and_the_textbook_covariance():
+    A, _, B = _system(seed=1)  # seed 1
+    result = solve_least_squares(A, B, names=NAMES)
+    assert result.valid and result.reason == ""
+    assert result.rank == 4 and result.num_rows == 80
+    expected, residual, *_ = np.linalg.lstsq(A, B, rcond=None)
+    np.testing.assert_allclose(result.theta, expected, rtol=1e-10)
+    sigma2 = residual[0] / (80 - 4)
+    np.testing.assert_allclose(result.residual_std, np.sqrt(sigma2), rtol=1e-10)
+    covariance = sigma2 * np.linalg.inv(A.T @ A)
+    np.testing.assert_allclose(result.std, np.sqrt(np.diag(covariance)), rtol=1e-8)
+    np.testing.assert_allclose(
+        result.relative_std_percent, 100 * result.std / np.abs(result.theta)
+    )
+    # Condition number of the unit-norm-column matrix, independent of units.
+    scaled = A / np.linalg.norm(A, axis=0)
+    assert result.condition_number == pytest.approx(np.linalg.cond(scaled), rel=1e-9)
+    assert result.condition_number < 10 < np.linalg.cond(A)
+    with pytest.raises(ValueError):
+        result.theta[0] = 0.0
+
+
+def test_sigma_agrees_with_monte_carlo():
+    # Known Gaussian model: the spread of θ̂ over 2000 noise draws (seed 7) must
+    # match the σ reported from a single draw, and σ_ρ must estimate the noise.
+    rng = np.random.default_rng(7)  # seed 7
+    A = rng.standard_normal((40, 3)) * [1.0, 10.0, 0.1]
+    theta = np.array([1.0, -2.0, 0.5])
+    noise = 0.2
+    estimates, stds, residual_stds = [], [], []
+    for _ in range(2000):
+        result = solve_least_squares(A, A @ theta + noise * rng.standard_normal(40))
+        estimates.append(result.theta)
+        stds.append(result.std)
+        residual_stds.append(result.residual_std)
+    empirical = np.std(estimates, axis=0, ddof=1)
+    exact = noise * np.sqrt(np.diag(np.linalg.inv(A.T @ A)))
+    np.testing.assert_allclose(empirical, exact, rtol=0.05)
+    np.testing.assert_allclose(np.mean(stds, axis=0), exact, rtol=0.03)
+    np.testing.assert_allclose(np.mean(np.square(residual_stds)), noise**2, rtol=0.03)
+    bias = np.abs(np.mean(estimates, axis=0) - theta)
+    assert np.all(bias < 4 * exact / np.sqrt(2000))
+
+
+def test_zero_column_is_reported_by_name():
+    A, _, B = _system(seed=2)
+    A[:, 2] = 0.0
+    result = solve_least_squares(A, B, names=NAMES)
+    assert not result.valid
+    assert "rank deficient" in result.reason and "FV1 (column 2)" in result.reason
+    assert result.unidentified == ("FV1",) and result.unidentified_indices == (2,)
+    assert np.isnan(result.theta).all() and np.isnan(result.std).all()
+    assert result.condition_number == np.inf
+
+
+def test_dependent_columns_are_reported_by_name():
+    A, _, B = _system(seed=3)
+    A[:, 3] = 2.0 * A[:, 0]  # FC1 is not separable from ZZ1R
+    result = solve_least_squares(A, B, names=NAMES)
+    assert not result.valid and result.rank == 3
+    assert result.reason.startswith("rank deficient: rank 3 < 4 parameters")
+    assert result.unidentified == ("ZZ1R", "FC1")
+    assert np.isnan(result.theta).all()
+
+
+def test_ill_conditioned_window_names_the_condition_number_and_parameters():
+    A, _, B = _system(seed=4)
+    rng = np.random.default_rng(44)  # seed 44
+    A[:, 1] = 1e3 * (A[:, 2] * 1e3 + 1e-8 * rng.standard_normal(80))
+    result = solve_least_squares(A, B, names=NAMES, max_condition=1e4)
+    assert not result.valid and result.rank == 4
+    assert result.condition_number > 1e4
+    assert "ill-conditioned: condition number" in result.reason
+    assert "> max_condition 1e+04" in result.reason
+    assert result.unidentified == ("ZZ2", "FV1")
+    assert "ZZ2 (column 1), FV1 (column 2)" in result.reason
+    # The same system passes with a looser threshold.
+    loose = solve_least_squares(A, B, max_condition=10 * result.condition_number)
+    assert loose.valid
+
+
+def test_robot_at_rest_gives_invalid_not_noise():
+    rows = np.zeros((50, 4))
+    result = solve_least_squares(rows, np.zeros(50), names=NAMES)
+    assert not result.valid and result.unidentified == NAMES
+
+
+def test_too_few_rows_and_non_finite_input():
+    A, _, B = _system(seed=5, rows=4)
+    result = solve_least_squares(A, B)
+    assert not result.valid
+    assert result.reason == "too few rows: 4 rows for 4 parameters (need more than 4)."
+    A, _, B = _system(seed=5)
+    A[3, 1] = np.nan
+    B[7] = np.inf
+    result = solve_least_squares(A, B, names=NAMES)
+    assert not result.valid
+    assert result.reason == (
+        "non-finite input: 1 NaN or infinite value(s) in A "
+        "(columns: ZZ2 (column 1)), 1 in B."
+    )
+
+
+def test_poorly_identified_uses_the_relative_std():
+    A, _, B = _system(seed=6, noise=0.1)
+    A[:, 2] *= 1e-3  # FV1 barely excited: large relative σ
+    result = solve_least_squares(A, B, names=NAMES)
+    assert result.valid
+    assert result.relative_std_percent[2] > 30
+    assert result.poorly_identified() == ("FV1",)
+    assert result.poorly_identified(threshold_percent=1e9) == ()
+
+
+def test_weighted_least_squares_equals_scaled_rows_and_helps_heteroscedastic_noise():
+    rng = np.random.default_rng(8)  # seed 8
+    A = rng.standard_normal((200, 2))
+    theta = np.array([1.0, 2.0])
+    sigma = np.where(np.arange(200) < 100, 0.01, 1.0)
+    weights = 1.0 / sigma
+    B = A @ theta + sigma * rng.standard_normal(200)
+    weighted = solve_weighted_least_squares(A, B, weights, names=("a", "b"))
+    plain = solve_least_squares(A * weights[:, None], B * weights, names=("a", "b"))
+    np.testing.assert_allclose(weighted.theta, plain.theta, rtol=1e-12)
+    np.testing.assert_allclose(weighted.std, plain.std, rtol=1e-12)
+    assert weighted.residual_std == pytest.approx(1.0, abs=0.15)
+    ordinary = solve_least_squares(A, B)
+    assert np.all(weighted.std < ordinary.std / 3)
+    assert np.all(np.abs(weighted.theta - theta) < 4 * weighted.std)
+
+
+def test_argument_errors():
+    A, _, B = _system(seed=9)
+    with pytest.raises(ValueError, match=r"A must have shape \(rows, p\) with p >= 1"):
+        solve_least_squares(B, B)
+    with pytest.raises(ValueError, match=r"B must have shape \(80\)"):
+        solve_least_squares(A, B[:-1])
+    with pytest.raises(ValueError, match="names must have 4 entries; got 2"):
+        solve_least_squares(A, B, names=("a", "b"))
+    with pytest.raises(ValueError, match=r"max_condition must be > 1\.0"):
+        solve_least_squares(A, B, max_condition=0.5)
+    with pytest.raises(TypeError, match="max_condition must be a real number"):
+        solve_least_squares(A, B, max_condition="big")
+    with pytest.raises(TypeError, match="A must be an array of real numbers"):
+        solve_least_squares([["a"]], [1.0])
+    with pytest.raises(ValueError, match="weights must be > 0"):
+        solve_weighted_least_squares(A, B, np.zeros(80))
+    with pytest.raises(ValueError, match=r"weights must have shape \(80\)"):
+        solve_weighted_least_squares(A, B, np.ones(3))
+    assert DEFAULT_MAX_CONDITION == 1e6
