@@ -1,0 +1,168 @@
+"""Off-line IDIM: zero-phase derivatives, parallel decimation, IDIM-LS/WLS."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.idim import (
+    default_trim,
+    idim_least_squares,
+    joint_noise_std,
+    offline_derivatives,
+    parallel_decimation,
+)
+from drake_dynid.core.noise import add_noise
+
+H = 1e-3
+
+
+def _signal(t):
+    w1, w2 = 2 * np.pi * 0.5, 2 * np.pi * 1.3
+    q = np.stack([np.sin(w1 * t), 0.3 * np.sin(w2 * t) + 0.2 * np.cos(w1 * t)], 1)
+    v = np.stack(
+        [w1 * np.cos(w1 * t), 0.3 * w2 * np.cos(w2 * t) - 0.2 * w1 * np.sin(w1 * t)], 1
+    )
+    a = np.stack(
+        [
+            -(w1**2) * np.sin(w1 * t),
+            -0.3 * w2**2 * np.sin(w2 * t) - 0.2 * w1**2 * np.cos(w1 * t),
+        ],
+        1,
+    )
+    return q, v, a
+
+
+def test_offline_derivatives_match_the_analytic_derivatives_away_from_the_edges():
+    t = np.arange(6000) * H
+    q, v, a = _signal(t)
+    trim = default_trim(H, 10.0)
+    assert trim == 401
+    q_f, v_f, a_f = offline_derivatives(q, H, cutoff_hz=10.0)
+    keep = slice(trim, len(t) - trim)
+    assert q_f.shape == v_f.shape == a_f.shape == (len(t) - 2 * trim, 2)
+    # Amplitudes: q ≈ 1 rad, v ≈ 3 rad/s, v̇ ≈ 20 rad/s².
+    np.testing.assert_allclose(q_f, q[keep], atol=1e-5)
+    np.testing.assert_allclose(v_f, v[keep], atol=3e-4)
+    np.testing.assert_allclose(a_f, a[keep], atol=1e-2)
+    # 1-D input and an explicit trim.
+    q1, v1, _ = offline_derivatives(q[:, 0], H, cutoff_hz=10.0, trim=1)
+    assert q1.shape == (len(t) - 2,)
+    np.testing.assert_allclose(
+        v1[trim - 1 : -(trim - 1)], v_f[:, 0], rtol=0, atol=1e-12
+    )
+
+
+def test_offline_derivatives_reject_noise():
+    rng = np.random.default_rng(21)  # seed 21
+    t = np.arange(8000) * H
+    q, v, a = _signal(t)
+    noisy = add_noise(q, 40.0, rng)
+    _, v_f, a_f = offline_derivatives(noisy, H, cutoff_hz=5.0)
+    trim = default_trim(H, 5.0)
+    keep = slice(trim, len(t) - trim)
+    # Raw central differences of the noisy q would have errors ~ σ/h ≈ 5 rad/s.
+    assert np.sqrt(np.mean((v_f - v[keep]) ** 2)) < 0.05
+    assert np.sqrt(np.mean((a_f - a[keep]) ** 2)) < 1.0
+
+
+def test_parallel_decimation_keeps_the_linear_relation():
+    rng = np.random.default_rng(22)  # seed 22
+    t = np.arange(3001) * H
+    _, v, a = _signal(t)
+    clean = np.stack([a, v, np.sin(3 * t)[:, None] * np.ones(2)], axis=-1)  # (N, 2, 3)
+    W = clean + 0.01 * rng.standard_normal(clean.shape)  # broadband content
+    X = np.array([2.0, -0.5, 0.3])
+    tau = W @ X
+    W_d, tau_d = parallel_decimation(W, tau, 10)
+    assert W_d.shape == (301, 2, 3) and tau_d.shape == (301, 2)
+    np.testing.assert_allclose(tau_d, W_d @ X, atol=1e-10)
+    # The noise above the new Nyquist band is filtered out before down-sampling:
+    # about sqrt(0.08) of the white noise std remains.
+    clean_d, _ = parallel_decimation(clean, tau, 10)
+    assert np.std(W_d - clean_d) < 0.35 * 0.01
+    W1, _ = parallel_decimation(W, tau, 1)
+    np.testing.assert_array_equal(W1, W)
+    assert W1 is not W
+    W2, tau2 = parallel_decimation(W[:, 0, :], tau[:, 0], 5)
+    assert W2.shape == (601, 3) and tau2.shape == (601,)
+
+
+def _two_joint_problem(seed, samples=2000, sigma=(0.01, 1.0)):
+    # Joint 2 does not see parameters 0 and 1 (like the 2R arm's IDIM rows).
+    rng = np.random.default_rng(seed)
+    W = rng.standard_normal((samples, 2, 4)) * [3.0, 1.0, 0.5, 2.0]
+    W[:, 1, :2] = 0.0
+    X = np.array([3.9, 0.3, 0.25, 0.15])
+    tau = W @ X + np.asarray(sigma) * rng.standard_normal((samples, 2))
+    return W, X, tau
+
+
+def test_joint_noise_std_recovers_each_joint_noise():
+    W, _, tau = _two_joint_problem(seed=23)  # seed 23
+    np.testing.assert_allclose(joint_noise_std(W, tau), [0.01, 1.0], rtol=0.06)
+
+
+def test_idim_ls_and_wls_recover_the_parameters():
+    W, X, tau = _two_joint_problem(seed=24)  # seed 24
+    names = ("ZZ1R", "FV1", "ZZ2", "FV2")
+    ordinary = idim_least_squares(W, tau, names=names)
+    weighted = idim_least_squares(W, tau, weighted=True, names=names)
+    for result in (ordinary, weighted):
+        assert result.valid and result.names == names
+        assert result.num_rows == 4000
+        assert np.all(np.abs(result.theta - X) < 4 * result.std)
+    # The precise joint 1 dominates the weighted fit: much smaller σ.
+    assert np.all(weighted.std < ordinary.std)
+    assert weighted.std[0] < ordinary.std[0] / 10
+    assert weighted.residual_std == pytest.approx(1.0, abs=0.1)
+    # Row order: sample-major, joint-minor, same as reshaping W and τ.
+    flat = idim_least_squares(W.reshape(-1, 4), tau.reshape(-1), names=names)
+    np.testing.assert_allclose(flat.theta, ordinary.theta, rtol=1e-12)
+
+
+def test_idim_wls_on_exact_data_and_unexcited_parameter():
+    W, X, _ = _two_joint_problem(seed=25)
+    result = idim_least_squares(W, W @ X, weighted=True)
+    np.testing.assert_allclose(result.theta, X, rtol=1e-9)
+    W[:, :, 3] = 0.0
+    result = idim_least_squares(W, W @ X, weighted=True, names=list("abcd"))
+    assert not result.valid and result.unidentified == ("d",)
+
+
+def test_one_joint_pipeline_from_noisy_positions():
+    # ZZ q̈ + Fv q̇ + Fc sign(q̇) = τ; q and τ noisy at 40 dB (seed 26).
+    rng = np.random.default_rng(26)
+    t = np.arange(20000) * H
+    q, v, a = _signal(t)
+    q, v, a = q[:, 0], v[:, 0], a[:, 0]
+    tau = 3.0 * a + 0.4 * v + 0.5 * np.sign(v)
+    q_n, tau_n = add_noise(q, 40.0, rng), add_noise(tau, 40.0, rng)
+    trim = default_trim(H, 5.0)
+    _, v_f, a_f = offline_derivatives(q_n, H, cutoff_hz=5.0, trim=trim)
+    W = np.stack([a_f, v_f, np.sign(v_f)], axis=-1)
+    W_d, tau_d = parallel_decimation(W, tau_n[trim:-trim], 10)
+    result = idim_least_squares(W_d, tau_d, names=("ZZ", "FV", "FC"))
+    assert result.valid
+    np.testing.assert_allclose(result.theta, [3.0, 0.4, 0.5], rtol=0.05)
+
+
+def test_validation():
+    with pytest.raises(
+        ValueError, match=r"cutoff_hz must be < the Nyquist frequency 500"
+    ):
+        offline_derivatives(np.zeros(100), H, cutoff_hz=600.0)
+    with pytest.raises(ValueError, match="q must have at least 803 samples"):
+        offline_derivatives(np.zeros(100), H, cutoff_hz=10.0)
+    with pytest.raises(ValueError, match="trim must be >= 1"):
+        offline_derivatives(np.zeros(100), H, cutoff_hz=10.0, trim=0)
+    with pytest.raises(ValueError, match="q must have shape"):
+        offline_derivatives(np.zeros((100, 2, 2)), H, cutoff_hz=10.0, trim=1)
+    with pytest.raises(ValueError, match="q must be finite"):
+        offline_derivatives(np.full(100, np.nan), H, cutoff_hz=10.0, trim=1)
+    with pytest.raises(ValueError, match="factor must be >= 1"):
+        parallel_decimation(np.zeros((50, 2, 3)), np.zeros((50, 2)), 0)
+    with pytest.raises(ValueError, match="W must have shape"):
+        parallel_decimation(np.zeros((50, 2, 3)), np.zeros((50, 3)), 2)
+    with pytest.raises(ValueError, match="W must have at least 28 samples"):
+        parallel_decimation(np.zeros((20, 2, 3)), np.zeros((20, 2)), 2)
+    with pytest.raises(ValueError, match="W must have shape"):
+        idim_least_squares(np.zeros((50, 2, 3)), np.zeros((50, 3)))
