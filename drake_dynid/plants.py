@@ -160,6 +160,7 @@ def load_plant(
     builder: Any = None,
     gravity: Sequence[float] | None = None,
     weld_root: bool = True,
+    sampled_output_ports: bool = False,
 ) -> Any:
     """Loads a URDF robot into a finalized ``MultibodyPlant``.
 
@@ -173,6 +174,13 @@ def load_plant(
         weld_root: weld a root link that has no joint to the world (a URDF without a
             ``world`` link) at the world origin, as fixed-base arms are described.
             With False such a link is a floating base, which is rejected.
+        sampled_output_ports: for a discrete plant, keep Drake's default sampled
+            output ports (True) or use live ones (False, drake_dynid's default).
+            With sampled ports (pydrake 1.51), a discrete-update handler at t_k that
+            reads the plant's state port sees the post-step state x_{k+1}, while a
+            logger at t_k sees x_k: the identification blocks would then pair
+            q_{k+1} with the torque computed from x_k. Live ports give every block
+            x_k at t_k (docs/CONVENTIONS.md §2; tested).
 
     Returns:
         The finalized plant. Its joint ``friction`` attributes are ignored by Drake:
@@ -204,6 +212,8 @@ def load_plant(
         plant = MultibodyPlant(time_step)
     else:
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
+    if time_step > 0.0:
+        plant.SetUseSampledOutputPorts(bool(sampled_output_ports))
     drake_logger = logging.getLogger("drake")
     quiet = _DropFrictionWarning()
     drake_logger.addFilter(quiet)

@@ -528,3 +528,42 @@ def test_model_errors(models):
         RobotModel.from_plant(model.plant, kinematics="pinocchio")
     d, g, y = model.model_rows("power", np.zeros(2), np.ones(2), np.ones(2))
     assert d.shape == g.shape == (1, 8) and y.shape == (1,)
+
+
+@pytest.mark.parametrize("sampled", [False, True])
+def test_discrete_plant_state_port_timing_seen_by_an_update(sampled):
+    # docs/CONVENTIONS.md §2: a block updating at t_k must read x_k, as a logger
+    # does. Drake's sampled output ports (its default) give such a block x_{k+1}.
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder, LeafSystem
+    from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput
+
+    h = 1e-3
+
+    class Recorder(LeafSystem):
+        def __init__(self):
+            super().__init__()
+            self.DeclareVectorInputPort("x", 4)
+            self.DeclareDiscreteState(4)
+            self.DeclarePeriodicDiscreteUpdateEvent(h, 0.0, self._Update)
+
+        def _Update(self, context, state):
+            state.set_value(0, self.get_input_port(0).Eval(context))
+
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(
+        load_plant(model_path("planar_2r"), h, sampled_output_ports=sampled)
+    )
+    torque = builder.AddSystem(ConstantVectorSource([1.0, -1.0]))
+    builder.Connect(torque.get_output_port(), plant.get_actuation_input_port())
+    recorder = builder.AddSystem(Recorder())
+    builder.Connect(plant.get_state_output_port(), recorder.get_input_port(0))
+    log = LogVectorOutput(plant.get_state_output_port(), builder, h)
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(5 * h)  # updates at 0..4 ms, publishes at 0..5 ms
+    context = simulator.get_context()
+    seen = recorder.GetMyContextFromRoot(context).get_discrete_state(0).get_value()
+    logged = log.FindLog(context).data().T  # x_0 .. x_5
+    expected = logged[4] if not sampled else logged[5]
+    np.testing.assert_array_equal(seen, expected)
+    assert not np.array_equal(logged[4], logged[5])
