@@ -79,6 +79,7 @@ __all__ = [
 
 _DECIMALS = 12  # ℓ and ν are rounded to 1e-12 so that ℓ + i matches a listed ℓ'
 _BLOCK = 2048  # samples per block in the direct sums (bounds memory to K × _BLOCK)
+_TABLE = 256  # columns of FourierBank.phase_table
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -110,6 +111,9 @@ class FourierBank:
         phase_leave: (K,) complex ``e^{+j2πν(N+1)/N}``: ``w_ν(n-N-1) = w_ν(n) ·
             phase_leave``.
         phase_end: (K,) complex ``e^{-j2πν}``, the window-relative phase at s = T.
+        phase_table: (K, 256) complex ``e^{-j2πνk/N}``, k = 0..255: the phases of a
+            run of consecutive samples are ``w_ν(first) · phase_table`` (one
+            complex product per entry instead of an exponential).
     """
 
     window: float
@@ -124,6 +128,7 @@ class FourierBank:
     phase_step: np.ndarray
     phase_leave: np.ndarray
     phase_end: np.ndarray
+    phase_table: np.ndarray
 
     @property
     def num_intervals(self) -> int:
@@ -220,6 +225,9 @@ def fourier_bank(
         phase_step=_frozen(np.exp(-2j * np.pi * nu / intervals)),
         phase_leave=_frozen(np.exp(2j * np.pi * (np.mod(nu, 1.0) + nu / intervals))),
         phase_end=_frozen(np.exp(-2j * np.pi * np.mod(nu, 1.0))),
+        phase_table=_frozen(
+            np.exp(-2j * np.pi * np.multiply.outer(nu, np.arange(_TABLE) / intervals))
+        ),
     )
 
 
@@ -332,11 +340,13 @@ def modulated_integrals(bank: FourierBank, F: Any, derivative: int = 0) -> np.nd
     """
     derivative = _derivative(bank, derivative)
     F = _integrals("modulated_integrals", bank, F)
-    gathered = F[bank.index]  # (L, k+1[, c])
     weights = bank.weights[derivative]
-    if F.ndim == 1:
-        return np.einsum("li,li->l", weights, gathered)
-    return np.einsum("li,lic->lc", weights, gathered)
+    if F.ndim == 2:
+        weights = weights[:, :, None]
+    out = weights[:, 0] * F[bank.index[:, 0]]
+    for i in range(1, bank.order + 1):
+        out += weights[:, i] * F[bank.index[:, i]]
+    return out
 
 
 # -- equations of the model-row contract (docs/CONVENTIONS.md §3) ----------------------
@@ -502,14 +512,31 @@ def _phases(bank: FourierBank, index: Any) -> np.ndarray:
     return np.exp(-2j * np.pi * cycles)
 
 
+def _run_phases(bank: FourierBank, first: int, count: int) -> np.ndarray:
+    """``w_ν(first + k)`` for k = 0..count-1: (K, count) complex.
+
+    Each run of 256 starts from an exact :func:`_phases` and multiplies the
+    precomputed ``phase_table`` (error: a few ulps, no accumulation).
+    """
+    out = np.empty((bank.num_frequencies, count), dtype=complex)
+    starts = np.arange(0, count, _TABLE)
+    origins = _phases(bank, first + starts)  # (K, runs)
+    for run, start in enumerate(starts):
+        stop = min(start + _TABLE, count)
+        np.multiply(
+            origins[:, run, None],
+            bank.phase_table[:, : stop - start],
+            out=out[:, start:stop],
+        )
+    return out
+
+
 def _absolute_sums(bank: FourierBank, samples: np.ndarray, first: int) -> np.ndarray:
     """``Σ_i w_ν(first + i) samples[i]`` by blocks: (K, c) complex."""
     out = np.zeros((bank.num_frequencies, samples.shape[1]), dtype=complex)
     for start in range(0, len(samples), _BLOCK):
         stop = min(start + _BLOCK, len(samples))
-        out += (
-            _phases(bank, np.arange(first + start, first + stop)) @ samples[start:stop]
-        )
+        out += _run_phases(bank, first + start, stop - start) @ samples[start:stop]
     return out
 
 
@@ -696,13 +723,11 @@ def sliding_push_many(
             state.resync_every,
         )
         return sliding_resync(bank, new)
-    sums = _phases(bank, np.arange(state.count, new_count)) @ x
+    sums = _absolute_sums(bank, x, state.count)
     leaving = max(0, state.ring.size + count - bank.num_samples)
     if leaving:
         first = state.count - state.ring.size
-        sums -= _phases(bank, np.arange(first, first + leaving)) @ state.ring.head(
-            leaving
-        )
+        sums -= _absolute_sums(bank, state.ring.head(leaving), first)
     sums += state.sums
     return SlidingState(
         ring=ring,
@@ -726,10 +751,10 @@ def sliding_fourier_integrals(bank: FourierBank, state: SlidingState) -> np.ndar
     if ring.size == 0:
         return np.zeros((bank.num_frequencies, state.num_channels), dtype=complex)
     # w(n - N) = w(count - 1 - N) = w(count) · e^{+j2πν(N+1)/N}.
-    rotation = np.conj(state.phase * bank.phase_leave)
+    h = bank.time_step
+    rotation = np.conj(state.phase * bank.phase_leave) * h
     out = rotation[:, None] * state.sums
-    out -= 0.5 * np.multiply.outer(bank.phase_end, ring.newest)
+    out -= np.multiply.outer((0.5 * h) * bank.phase_end, ring.newest)
     if ring.is_full:
-        out -= 0.5 * ring.oldest
-    out *= bank.time_step
+        out -= (0.5 * h) * ring.oldest
     return out

@@ -173,6 +173,22 @@ def test_sliding_equals_direct_over_a_long_run_with_non_integer_nu():
     assert np.all(error < 1e-9 * scale)
 
 
+def test_push_many_with_long_blocks_equals_direct():
+    # Blocks longer than the 256-sample phase table, shorter and longer than the
+    # window, starting at large absolute indices.
+    rng = np.random.default_rng(12)  # seed 12
+    bank = fourier_bank(0.6, 1e-3, order=2, ell=[0.0, 0.05, 2.5, 7.3])
+    x = rng.standard_normal((5000, 3))
+    state = sliding_init(bank, 3, resync_every=0)
+    start = 0
+    for size in (1000, 300, 257, 2000, 599, 844):
+        state = sliding_push_many(bank, state, x[start : start + size])
+        start += size
+        direct = direct_fourier_integrals(bank, x[start - bank.num_samples : start])
+        F = sliding_fourier_integrals(bank, state)
+        assert _relative(F, direct) < 1e-12
+
+
 @settings(max_examples=25, deadline=None)
 @given(
     intervals=st.integers(1, 60),
