@@ -74,6 +74,21 @@ _LAZY: dict[str, str] = {
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
     "JointFriction": "drake_dynid.systems.friction",
+    "ModelRows": "drake_dynid.systems.identification",
+    "ModulatingIntegralBank": "drake_dynid.systems.identification",
+    "SlidingQRIdentifier": "drake_dynid.systems.identification",
+    # logs (no pydrake)
+    "RobotLog": "drake_dynid.logs",
+    "read_log": "drake_dynid.logs",
+    "write_log": "drake_dynid.logs",
+    # diagrams (pydrake)
+    "OnlineSettings": "drake_dynid.diagrams",
+    "OnlineTrace": "drake_dynid.diagrams",
+    "SimulationSettings": "drake_dynid.diagrams",
+    "SimulationResult": "drake_dynid.diagrams",
+    "add_online_identifier": "drake_dynid.diagrams",
+    "replay_log": "drake_dynid.diagrams",
+    "simulate_identification": "drake_dynid.diagrams",
 }
 
 __all__ = ["__version__", *sorted(_LAZY)]

@@ -41,3 +41,8 @@ def test_console_script_installed():
         check=True,
     )
     assert out.stdout.strip() == f"dynid {drake_dynid.__version__}"
+
+
+def test_every_public_name_resolves():
+    for name in drake_dynid.__all__:
+        assert getattr(drake_dynid, name) is not None

@@ -1,0 +1,616 @@
+"""Diagram builders: the paper's simulated set-up and the replay of a recorded log.
+
+Both feed the same on-line identification chain (docs/CONVENTIONS.md §2-§3)::
+
+    [q; τ] measured ──► CausalJacobiDifferentiator (matched orders 0, 1)
+        ──► (q̂, v̂, τ̂) at t - delay ──► ModelRows ──► ModulatingIntegralBank
+        ──► SlidingQRIdentifier ──► θ̂, σ(θ̂), cond, valid
+
+Every signal of an equation goes through the same differentiator, so q̂, v̂ and τ̂
+refer to the same instant; with ``matched`` orders they are the same low-pass
+applied to q, q̇ and τ, which keeps the linear terms of the dynamics exact.
+
+The simulated set-up (paper §V): a discrete ``MultibodyPlant`` from URDF at 1 kHz,
+Coulomb friction as an applied generalized force (viscous friction through the URDF
+damping, implicit in the plant), a finite-Fourier-series reference tracked by
+Drake's ``InverseDynamicsController`` (which does not compensate Coulomb friction),
+seeded white measurement noise on q and τ at a given SNR, and loggers. The torque
+fed to identification is the controller's command at t_k (never ``net_actuation``,
+which lags one sample).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core import modulating
+
+__all__ = [
+    "OnlineSettings",
+    "OnlineTrace",
+    "SimulationResult",
+    "SimulationSettings",
+    "add_online_identifier",
+    "replay_log",
+    "simulate_identification",
+]
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """Settings of one on-line identifier (all echoed in the JSON results).
+
+    Attributes:
+        model: ``"lagrangian"`` (n equations per sample, the default) or ``"power"``
+            (the paper's scalar power model).
+        window: sliding window T of the modulating functions [s].
+        order: modulating order k (>= 1).
+        frequencies: indices ℓ of the modulating functions; None uses the integer
+            set ``default_frequencies(window, bandwidth)``, ``"paper"`` the paper's
+            ℓ = 0:0.05:10.
+        bandwidth: highest excitation frequency the default ℓ set covers [Hz].
+        jacobi_window: window Tj of the causal Jacobi differentiator [s].
+        kappa, mu, jacobi_q: Jacobi parameters κ, μ, q of the velocity estimate
+            (q̂, τ̂ use κ+1, μ+1: the matched bank).
+        bank_time_step: sample period of the bank [s] (a multiple of the signal
+            period: the bank decimates after the differentiator's low-pass).
+        update_period: period of the least-squares solve [s].
+        max_condition: largest accepted condition number of the column-scaled A.
+    """
+
+    model: str = "lagrangian"
+    window: float = 20.0
+    order: int = 1
+    frequencies: Any = None
+    bandwidth: float = 1.0
+    jacobi_window: float = 0.1
+    kappa: float = 1.0
+    mu: float = 1.0
+    jacobi_q: int = 1
+    bank_time_step: float = 0.005
+    update_period: float = 0.1
+    max_condition: float = 1e4
+
+    def __post_init__(self):
+        owner = "OnlineSettings"
+        if self.model not in ("power", "lagrangian"):
+            check.fail(
+                owner, f"model must be 'power' or 'lagrangian'; got {self.model!r}."
+            )
+        check.positive(owner, "window", self.window, "s")
+        check.positive(owner, "jacobi_window", self.jacobi_window, "s")
+        check.positive(owner, "bank_time_step", self.bank_time_step, "s")
+        check.positive(owner, "update_period", self.update_period, "s")
+        check.positive(owner, "bandwidth", self.bandwidth, "Hz")
+        check.greater_than(owner, "max_condition", self.max_condition, 1.0)
+        if isinstance(self.frequencies, str) and self.frequencies != "paper":
+            check.fail(
+                owner,
+                f"frequencies must be None, 'paper' or a list of reals; got "
+                f"{self.frequencies!r}.",
+            )
+
+    def ell(self) -> np.ndarray:
+        """The modulating indices ℓ of this configuration."""
+        if self.frequencies is None:
+            return modulating.default_frequencies(
+                self.window, self.bandwidth, order=self.order
+            )
+        if isinstance(self.frequencies, str):
+            return modulating.paper_frequencies()
+        return np.asarray(self.frequencies, dtype=float)
+
+    def bank(self) -> modulating.FourierBank:
+        """The modulating-function design."""
+        return modulating.fourier_bank(
+            self.window, self.bank_time_step, order=self.order, ell=self.ell()
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly dict of the settings (ℓ as a list)."""
+        out = asdict(self)
+        out["frequencies"] = self.ell().tolist()
+        return out
+
+
+@dataclass
+class OnlineTrace:
+    """Estimates of one on-line identifier over time (one row per solve).
+
+    Attributes:
+        settings: the identifier's settings.
+        names: base parameter names (p).
+        t: (M,) times of the solves [s].
+        theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
+        std: (M, p) Gautier standard deviations (inf before the first valid solve).
+        condition_number: (M,) condition number of the column-scaled A.
+        valid: (M,) 1 when the solve at that time was accepted.
+        delay: latency of the estimate [s]: the differentiator delay plus one sample
+            per block (the window ends at t - delay).
+    """
+
+    settings: OnlineSettings
+    names: tuple[str, ...]
+    t: np.ndarray
+    theta: np.ndarray
+    std: np.ndarray
+    condition_number: np.ndarray
+    valid: np.ndarray
+    delay: float
+
+    def final(self) -> dict[str, Any]:
+        """The estimate at the end of the run (last valid estimate held)."""
+        theta = self.theta[-1] if len(self.t) else np.full(len(self.names), np.nan)
+        std = self.std[-1] if len(self.t) else np.full(len(self.names), np.inf)
+        return {
+            "theta": theta,
+            "std": std,
+            "condition_number": float(self.condition_number[-1])
+            if len(self.t)
+            else math.inf,
+            "valid": bool(self.valid[-1]) if len(self.t) else False,
+        }
+
+
+@dataclass
+class _Chain:
+    settings: OnlineSettings
+    names: tuple[str, ...]
+    differentiator: Any
+    rows: Any
+    bank: Any
+    identifier: Any
+    logs: dict[str, Any] = field(default_factory=dict)
+
+
+def add_online_identifier(
+    builder: Any,
+    rows: Any,
+    measurement: Any,
+    time_step: float,
+    settings: OnlineSettings,
+    *,
+    differentiator: Any = None,
+    log: bool = True,
+) -> _Chain:
+    """Adds the on-line identification chain fed by a measurement port [q; τ].
+
+    Args:
+        builder: the ``DiagramBuilder``.
+        rows: row provider (``RobotModel`` or its ``rows_provider()``): has
+            ``num_joints``, ``num_parameters``, ``names`` and ``model_rows``.
+        measurement: output port of size 2n carrying [q; τ] sampled at ``time_step``.
+        time_step: sample period h of the measurement [s].
+        settings: identifier settings.
+        differentiator: reuse an existing differentiator (a chain returned earlier
+            with the same Jacobi settings) instead of adding a new one.
+        log: add loggers of θ̂, σ, cond and valid at the solve period.
+
+    Returns:
+        Handles to the blocks and loggers.
+    """
+    from pydrake.systems.primitives import LogVectorOutput, MatrixGain
+
+    from drake_dynid.systems.identification import (
+        ModelRows,
+        ModulatingIntegralBank,
+        SlidingQRIdentifier,
+    )
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+
+    n = int(rows.num_joints)
+    check.multiple_of(
+        "add_online_identifier",
+        "bank_time_step",
+        settings.bank_time_step,
+        "time_step",
+        time_step,
+    )
+    if differentiator is None:
+        differentiator = builder.AddSystem(
+            CausalJacobiDifferentiator(
+                2 * n,
+                time_step,
+                settings.jacobi_window,
+                kappa=settings.kappa,
+                mu=settings.mu,
+                q=settings.jacobi_q,
+                orders=(0, 1),
+                matched=True,
+            )
+        )
+        builder.Connect(measurement, differentiator.get_input_port(0))
+    eye = np.eye(n)
+    zero = np.zeros((n, n))
+    pick_first = builder.AddSystem(MatrixGain(np.hstack([eye, zero])))
+    pick_second = builder.AddSystem(MatrixGain(np.hstack([zero, eye])))
+    pick_velocity = builder.AddSystem(MatrixGain(np.hstack([eye, zero])))
+    builder.Connect(
+        differentiator.GetOutputPort("derivative_0"), pick_first.get_input_port()
+    )
+    builder.Connect(
+        differentiator.GetOutputPort("derivative_0"), pick_second.get_input_port()
+    )
+    builder.Connect(
+        differentiator.GetOutputPort("derivative_1"), pick_velocity.get_input_port()
+    )
+    model_rows = builder.AddSystem(ModelRows(rows, settings.model))
+    builder.Connect(pick_first.get_output_port(), model_rows.GetInputPort("q"))
+    builder.Connect(pick_velocity.get_output_port(), model_rows.GetInputPort("v"))
+    builder.Connect(pick_second.get_output_port(), model_rows.GetInputPort("tau"))
+    bank = builder.AddSystem(
+        ModulatingIntegralBank(
+            settings.bank(), model_rows.num_equations, model_rows.num_parameters
+        )
+    )
+    builder.Connect(model_rows.get_output_port(), bank.GetInputPort("channels"))
+    builder.Connect(
+        differentiator.GetOutputPort("valid"), bank.GetInputPort("sample_valid")
+    )
+    names = tuple(rows.names)
+    identifier = builder.AddSystem(
+        SlidingQRIdentifier(
+            model_rows.num_parameters,
+            bank.num_rows,
+            settings.update_period,
+            max_condition=settings.max_condition,
+            names=names,
+        )
+    )
+    for port in ("A", "B"):
+        builder.Connect(bank.GetOutputPort(port), identifier.GetInputPort(port))
+    builder.Connect(
+        bank.GetOutputPort("valid"), identifier.GetInputPort("window_valid")
+    )
+    chain = _Chain(settings, names, differentiator, model_rows, bank, identifier)
+    if log:
+        for port in ("theta", "theta_std", "condition_number", "valid"):
+            chain.logs[port] = LogVectorOutput(
+                identifier.GetOutputPort(port), builder, settings.update_period
+            )
+    return chain
+
+
+def _trace(chain: _Chain, context: Any, time_step: float) -> OnlineTrace:
+    logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
+    # Latency: the differentiator delay, plus one sample each for the
+    # differentiator and the bank state, plus the bank's and the solve's periods.
+    delay = chain.differentiator.delay + time_step + chain.settings.bank_time_step
+    return OnlineTrace(
+        settings=chain.settings,
+        names=chain.names,
+        t=logs["theta"].sample_times().copy(),
+        theta=logs["theta"].data().T.copy(),
+        std=logs["theta_std"].data().T.copy(),
+        condition_number=logs["condition_number"].data()[0].copy(),
+        valid=logs["valid"].data()[0].copy(),
+        delay=delay,
+    )
+
+
+def _advance(simulator: Any, t_end: float, progress: bool, label: str) -> None:
+    """AdvanceTo in chunks, printing progress on stderr when asked."""
+    if not progress:
+        simulator.AdvanceTo(t_end)
+        return
+    chunks = max(1, math.ceil(t_end))
+    for i in range(1, chunks + 1):
+        simulator.AdvanceTo(min(t_end, t_end * i / chunks))
+        print(f"\r{label}: {100.0 * i / chunks:5.1f} %", end="", file=sys.stderr)
+    print(file=sys.stderr)
+
+
+# ----------------------------------------------------------------------------- replay
+
+
+def replay_log(
+    log: Any,
+    rows: Any,
+    settings: Sequence[OnlineSettings],
+    *,
+    progress: bool = False,
+) -> list[OnlineTrace]:
+    """Runs the on-line identification blocks over a recorded log in a Simulator.
+
+    A ``TrajectorySource`` holds row k of the log ([q_k; τ_k]) from t_k to t_{k+1}
+    (zero-order hold), so the blocks read sample k at their update at t_k, exactly
+    as in the closed-loop set-up.
+
+    Args:
+        log: a ``drake_dynid.logs.RobotLog``.
+        rows: row provider of the robot (``RobotModel.rows_provider()``).
+        settings: one entry per identifier; identifiers with the same Jacobi
+            settings share one differentiator.
+        progress: print the progress on stderr.
+
+    Returns:
+        One :class:`OnlineTrace` per settings entry, with times relative to the
+        first sample of the log.
+    """
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    h = log.time_step
+    t = h * np.arange(log.num_samples)
+    values = np.hstack([log.q, log.tau]).T
+    # One extra break so that the last sample is held at t[-1] (a zero-order hold
+    # ends with the previous segment).
+    source_values = np.hstack([values, values[:, -1:]])
+    source_breaks = np.append(t, t[-1] + h)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(source_breaks, source_values)
+        )
+    )
+    chains = _add_chains(builder, rows, source.get_output_port(), h, settings)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    simulator.Initialize()
+    _advance(simulator, float(t[-1]), progress, "dynid identify")
+    context = simulator.get_context()
+    return [_trace(chain, context, h) for chain in chains]
+
+
+def _add_chains(builder, rows, measurement, h, settings) -> list[_Chain]:
+    chains: list[_Chain] = []
+    shared: dict[tuple, Any] = {}
+    for entry in settings:
+        key = (entry.jacobi_window, entry.kappa, entry.mu, entry.jacobi_q)
+        chain = add_online_identifier(
+            builder, rows, measurement, h, entry, differentiator=shared.get(key)
+        )
+        shared[key] = chain.differentiator
+        chains.append(chain)
+    return chains
+
+
+# -------------------------------------------------------------------------- simulation
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """Settings of the simulated set-up (paper §V).
+
+    Attributes:
+        duration: simulated time [s].
+        time_step: plant and sampling period h [s].
+        snr_db: SNR of the white Gaussian noise added to every q and τ channel,
+            SNR = 10 log10(var(x)/σ²) with var(x) of the noise-free reference signal
+            (q of the reference trajectory, τ of its inverse dynamics); None: no
+            noise.
+        seed: seed of the noise.
+        kp, kd: position and velocity gains of the inverse-dynamics controller
+            [1/s², 1/s].
+        coulomb_smoothing: ε of tanh(v/ε) in the simulated Coulomb friction [rad/s]
+            (a discrete plant chatters with an exact sign()).
+    """
+
+    duration: float = 25.0
+    time_step: float = 1e-3
+    snr_db: float | None = 30.0
+    seed: int = 0
+    kp: float = 400.0
+    kd: float = 40.0
+    coulomb_smoothing: float = 1e-2
+
+
+@dataclass
+class SimulationResult:
+    """Logs of a simulated identification run.
+
+    Attributes:
+        t: (N,) sample times [s].
+        q: (N, n) measured (noisy) joint positions, the log the identifiers saw.
+        tau: (N, n) measured (noisy) joint torques (commands at t_k plus noise).
+        q_true: (N, n) noise-free joint positions.
+        tau_true: (N, n) noise-free torque commands.
+        noise_std: (2n,) standard deviations of the noise on [q; τ].
+        traces: one :class:`OnlineTrace` per identifier.
+        joint_names: the joints.
+        simulator: the Simulator at the end of the run (for inspection).
+        chains: handles to the blocks of each identifier.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    tau: np.ndarray
+    q_true: np.ndarray
+    tau_true: np.ndarray
+    noise_std: np.ndarray
+    traces: list[OnlineTrace]
+    joint_names: tuple[str, ...]
+    simulator: Any = None
+    chains: list[Any] = field(default_factory=list)
+
+
+def reference_noise_std(
+    robot: Any, trajectory: Any, duration: float, snr_db: float | None, time_step: float
+) -> np.ndarray:
+    """σ of the noise on [q; τ] for an SNR on the noise-free reference signals.
+
+    σ_i = std(x_i)/10^(SNR/20) with x = q of the reference and τ = its inverse
+    dynamics (inertial + friction with the robot's base values).
+    """
+    n = robot.num_joints
+    if snr_db is None:
+        return np.zeros(2 * n)
+    t = np.arange(0.0, duration, time_step)
+    q, v, vdot = trajectory.evaluate(t)
+    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    scale = 10.0 ** (-snr_db / 20.0)
+    return np.concatenate([q.std(axis=0), tau.std(axis=0)]) * scale
+
+
+def simulate_identification(
+    robot: Any,
+    trajectory: Any,
+    simulation: SimulationSettings,
+    settings: Sequence[OnlineSettings],
+    *,
+    rows: Any = None,
+    events: Sequence[tuple[float, Callable[[Any, Any], None]]] = (),
+    progress: bool = False,
+) -> SimulationResult:
+    """Simulates the paper's set-up and runs on-line identifiers in the loop.
+
+    Args:
+        robot: ``RobotModel`` of the simulated robot (its URDF is loaded again as a
+            discrete plant, and as the controller's model).
+        trajectory: reference with ``evaluate(t) -> (q, v, vdot)`` (e.g. a
+            ``FourierTrajectory``); the plant starts on it.
+        simulation: set-up settings.
+        settings: one entry per on-line identifier.
+        rows: row provider for identification (default ``robot.rows_provider()``).
+        events: (time, callback(plant, plant_context)) pairs applied when the
+            simulation reaches that time, e.g. a change of an inertial parameter.
+        progress: print the progress on stderr.
+
+    Returns:
+        The logs and one estimate trace per identifier.
+    """
+    from pydrake.common import RandomDistribution, RandomGenerator
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.controllers import InverseDynamicsController
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import (
+        Adder,
+        LogVectorOutput,
+        MatrixGain,
+        Multiplexer,
+        RandomSource,
+        TrajectorySource,
+    )
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from drake_dynid.plants import load_plant, read_urdf_friction
+    from drake_dynid.systems.friction import JointFriction
+
+    h = check.positive(
+        "simulate_identification", "time_step", simulation.time_step, "s"
+    )
+    n = robot.num_joints
+    rows = robot.rows_provider() if rows is None else rows
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(load_plant(robot.path, h, gravity=robot.gravity))
+    plant.set_name("plant")
+    controller_plant = load_plant(robot.path, h, gravity=robot.gravity)
+
+    # Coulomb friction as an applied generalized force (viscous: URDF damping).
+    coulomb = read_urdf_friction(robot.path)
+    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
+    friction = builder.AddSystem(
+        JointFriction(
+            viscous=np.zeros(n),
+            coulomb=fc,
+            offset=np.zeros(n),
+            smoothing=simulation.coulomb_smoothing,
+        )
+    )
+    builder.Connect(plant.get_state_output_port(), friction.get_input_port())
+    builder.Connect(
+        friction.get_output_port(), plant.get_applied_generalized_force_input_port()
+    )
+
+    # Reference: cubic Hermite through the exact trajectory every 10 ms.
+    knots = np.arange(0.0, simulation.duration + 0.02, 0.01)
+    q_ref, v_ref, _ = trajectory.evaluate(knots)
+    reference = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.CubicHermite(knots, q_ref.T, v_ref.T),
+            output_derivative_order=2,
+        )
+    )
+    eye = np.eye(n)
+    zero = np.zeros((n, n))
+    desired_state = builder.AddSystem(
+        MatrixGain(np.block([[eye, zero, zero], [zero, eye, zero]]))
+    )
+    desired_acceleration = builder.AddSystem(MatrixGain(np.hstack([zero, zero, eye])))
+    builder.Connect(reference.get_output_port(), desired_state.get_input_port())
+    builder.Connect(reference.get_output_port(), desired_acceleration.get_input_port())
+    controller = builder.AddSystem(
+        InverseDynamicsController(
+            controller_plant,
+            kp=np.full(n, simulation.kp),
+            ki=np.zeros(n),
+            kd=np.full(n, simulation.kd),
+            has_reference_acceleration=True,
+        )
+    )
+    builder.Connect(
+        plant.get_state_output_port(), controller.get_input_port_estimated_state()
+    )
+    builder.Connect(
+        desired_state.get_output_port(), controller.get_input_port_desired_state()
+    )
+    builder.Connect(
+        desired_acceleration.get_output_port(),
+        controller.get_input_port_desired_acceleration(),
+    )
+    builder.Connect(
+        controller.get_output_port_control(), plant.get_actuation_input_port()
+    )
+
+    # Measurement [q; τ] (τ: the command at t_k) plus seeded white noise.
+    positions = builder.AddSystem(MatrixGain(np.hstack([eye, zero])))
+    builder.Connect(plant.get_state_output_port(), positions.get_input_port())
+    clean = builder.AddSystem(Multiplexer([n, n]))
+    builder.Connect(positions.get_output_port(), clean.get_input_port(0))
+    builder.Connect(controller.get_output_port_control(), clean.get_input_port(1))
+    noise_std = reference_noise_std(
+        robot, trajectory, simulation.duration, simulation.snr_db, h
+    )
+    noise = builder.AddSystem(
+        RandomSource(RandomDistribution.kGaussian, 2 * n, sampling_interval_sec=h)
+    )
+    scale = builder.AddSystem(MatrixGain(np.diag(noise_std)))
+    builder.Connect(noise.get_output_port(), scale.get_input_port())
+    measured = builder.AddSystem(Adder(2, 2 * n))
+    builder.Connect(clean.get_output_port(), measured.get_input_port(0))
+    builder.Connect(scale.get_output_port(), measured.get_input_port(1))
+    measurement = measured.get_output_port()
+
+    chains = _add_chains(builder, rows, measurement, h, settings)
+    measured_log = LogVectorOutput(measurement, builder, h)
+    clean_log = LogVectorOutput(clean.get_output_port(), builder, h)
+
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    diagram.SetRandomContext(context, RandomGenerator(int(simulation.seed)))
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    plant.SetPositions(plant_context, q_ref[0])
+    plant.SetVelocities(plant_context, v_ref[0])
+    simulator.Initialize()
+    t_end = float(simulation.duration)
+    for when, callback in sorted(events, key=lambda e: e[0]):
+        if when < t_end:
+            _advance(simulator, when, progress, "simulating")
+            callback(plant, plant.GetMyMutableContextFromRoot(context))
+    _advance(simulator, t_end, progress, "simulating")
+
+    measured_data = measured_log.FindLog(context)
+    clean_data = clean_log.FindLog(context).data().T
+    data = measured_data.data().T
+    return SimulationResult(
+        t=measured_data.sample_times().copy(),
+        q=data[:, :n].copy(),
+        tau=data[:, n:].copy(),
+        q_true=clean_data[:, :n].copy(),
+        tau_true=clean_data[:, n:].copy(),
+        noise_std=noise_std,
+        traces=[_trace(chain, context, h) for chain in chains],
+        joint_names=tuple(robot.joint_names),
+        simulator=simulator,
+        chains=chains,
+    )
