@@ -69,8 +69,8 @@ class OnlineSettings:
     window: float = 20.0
     order: int = 1
     frequencies: Any = None
-    bandwidth: float = 1.0
-    jacobi_window: float = 0.1
+    bandwidth: float = 0.6
+    jacobi_window: float = 0.3
     kappa: float = 1.0
     mu: float = 1.0
     jacobi_q: int = 1
@@ -97,6 +97,16 @@ class OnlineSettings:
                 f"{self.frequencies!r}.",
             )
 
+    @classmethod
+    def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
+        """Default settings of ``model`` (:data:`MODEL_DEFAULTS`), with overrides."""
+        if model not in MODEL_DEFAULTS:
+            check.fail(
+                "OnlineSettings",
+                f"model must be 'power' or 'lagrangian'; got {model!r}.",
+            )
+        return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
+
     def ell(self) -> np.ndarray:
         """The modulating indices ℓ of this configuration."""
         if self.frequencies is None:
@@ -118,6 +128,15 @@ class OnlineSettings:
         out = asdict(self)
         out["frequencies"] = self.ell().tolist()
         return out
+
+
+#: Per-model defaults (benchmarks/bench_accuracy.py): the power model, quadratic in
+#: the filtered signals, wants a shorter, flatter Jacobi window than the Lagrangian
+#: model, whose linear terms the matched differentiator keeps exact.
+MODEL_DEFAULTS: dict[str, dict[str, Any]] = {
+    "lagrangian": {"jacobi_window": 0.3, "kappa": 1.0, "mu": 1.0, "bandwidth": 0.6},
+    "power": {"jacobi_window": 0.1, "kappa": 0.0, "mu": 0.0, "bandwidth": 0.6},
+}
 
 
 @dataclass

@@ -100,3 +100,45 @@ def test_settings_validation():
         OnlineSettings(window=0.0)
     with pytest.raises(ValueError, match="frequencies must be None, 'paper'"):
         OnlineSettings(frequencies="dense")
+
+
+def test_per_model_defaults_and_overrides():
+    from drake_dynid.diagrams import MODEL_DEFAULTS
+
+    power = OnlineSettings.for_model("power", window=7.0)
+    assert power.model == "power" and power.window == 7.0
+    assert power.jacobi_window == MODEL_DEFAULTS["power"]["jacobi_window"]
+    assert OnlineSettings.for_model("lagrangian") == OnlineSettings()
+    with pytest.raises(ValueError, match="model must be"):
+        OnlineSettings.for_model("energy")
+
+
+def test_paper_trajectory_is_documented_and_reproducible():
+    from drake_dynid.paper import paper_trajectory
+
+    t = np.arange(0.0, 40.0, 1e-3)
+    _, v, _ = paper_trajectory().evaluate(t)
+    np.testing.assert_allclose(np.abs(v).max(axis=0), 5.0, rtol=1e-9)
+    _, v2, _ = paper_trajectory().evaluate(t[:10])
+    np.testing.assert_array_equal(v[:10], v2)
+
+
+def test_zz1_jump_is_tracked(robot):
+    from drake_dynid.paper import paper_trajectory, zz1_jump
+
+    settings = OnlineSettings(window=2.0, frequencies=np.arange(11.0))
+    result = simulate_identification(
+        robot,
+        paper_trajectory(),
+        SimulationSettings(duration=6.0, snr_db=None),
+        [settings],
+        events=[(3.0, zz1_jump(0.6))],
+    )
+    trace = result.traces[0]
+    before = trace.theta[np.searchsorted(trace.t, 2.9)]
+    after = trace.theta[-1]
+    assert before[0] == pytest.approx(3.9, rel=0.01)
+    assert after[0] == pytest.approx(4.5, rel=0.01)
+    # The other inertial parameters stay put (MY2 = 0.1 is the least precise one
+    # with a 2 s window).
+    np.testing.assert_allclose(after[1:4], robot.base_values[1:4], rtol=0.06)
