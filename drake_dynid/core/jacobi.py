@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import signal, special
+from scipy import special
 
 from drake_dynid.core import _validate
 
@@ -481,7 +481,16 @@ def jacobi_batch(filt: JacobiFilter, samples: Any) -> np.ndarray:
         _validate.fail(
             "jacobi_batch", f"samples must be 1-D or 2-D (T, m); got {samples.shape}."
         )
-    return signal.lfilter(filt.taps, [1.0], samples, axis=0)
+    # Direct causal convolution in numpy (the same sums as scipy.signal.lfilter
+    # with a = [1], to rounding) without importing scipy.signal (~1.5 s at start-up,
+    # most of a command-line replay).
+    count = samples.shape[0]
+    if samples.ndim == 1:
+        return np.convolve(samples, filt.taps)[:count]
+    out = np.empty_like(samples)
+    for column in range(samples.shape[1]):
+        out[:, column] = np.convolve(samples[:, column], filt.taps)[:count]
+    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -24,6 +24,7 @@ an independent check of the generic Drake-based regressor in ``drake_dynid.plant
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from types import MappingProxyType
 
@@ -192,6 +193,15 @@ def model_rows_from_parts(
     return d_rows, g_rows, y
 
 
+def _friction_value(kind: str, velocity: float) -> float:
+    """One friction column of joint i's IDIM row: v_i, sign v_i or 1."""
+    if kind == "viscous":
+        return velocity
+    if kind == "coulomb":
+        return float(np.sign(velocity))
+    return 1.0
+
+
 def _drop(single: bool, *arrays: np.ndarray):
     if single:
         arrays = tuple(a[0] for a in arrays)
@@ -342,6 +352,56 @@ class Planar2RRows:
         """
         q, v, vdot, single = as_batches(_OWNER, _NUM_JOINTS, q=q, v=v, vdot=vdot)
         return _drop(single, np.einsum("ni,nip->np", v, self._idim(q, v, vdot)))
+
+    def packed_rows(self, kind: str, q, v, tau) -> np.ndarray:
+        """One sample's model rows, packed as ``modulating.pack_rows(D, G, y)``.
+
+        The single-sample fast path of :meth:`model_rows` for the on-line blocks
+        (``ModelRows`` evaluates one sample per bank update): the same equations
+        with plain floats, about 10x cheaper than numpy on (1, 2) arrays. No
+        validation beyond the kind; non-finite inputs give non-finite channels.
+
+        Args:
+            kind: ``"power"`` or ``"lagrangian"``.
+            q: (2,) joint positions [rad].
+            v: (2,) joint velocities [rad/s].
+            tau: (2,) joint torques [N·m].
+
+        Returns:
+            ``[D row-major, G row-major, y]``, length ``2·m·p + m``.
+        """
+        q2 = float(q[1])
+        v1, v2 = float(v[0]), float(v[1])
+        c2, s2 = math.cos(q2), math.sin(q2)
+        L1, p, width = self.L1, self.num_parameters, len(self.friction)
+        if kind == "lagrangian":
+            # D: 2 rows (momentum), G: 2 rows (-∂h_E/∂q + friction), y = τ.
+            out = [0.0] * (4 * p + 2)
+            a, b = L1 * c2, L1 * s2
+            out[0:4] = (v1, v1 + v2, a * (2 * v1 + v2), -b * (2 * v1 + v2))
+            out[p + 1 : p + 4] = (v1 + v2, a * v1, -b * v1)
+            w = v1 * v1 + v1 * v2
+            out[3 * p + 2 : 3 * p + 4] = (b * w, a * w)
+            for i, vi in enumerate((v1, v2)):
+                row = 2 * p + i * p + _NUM_INERTIAL + i * width
+                for k, kind_f in enumerate(self.friction):
+                    out[row + k] = _friction_value(kind_f, vi)
+            out[4 * p] = float(tau[0])
+            out[4 * p + 1] = float(tau[1])
+        elif kind == "power":
+            out = [0.0] * (2 * p + 1)
+            w = v1 * v1 + v1 * v2
+            out[0:4] = (0.5 * v1 * v1, 0.5 * (v1 + v2) ** 2, L1 * c2 * w, -L1 * s2 * w)
+            for i, vi in enumerate((v1, v2)):
+                row = p + _NUM_INERTIAL + i * width
+                for k, kind_f in enumerate(self.friction):
+                    out[row + k] = vi * _friction_value(kind_f, vi)
+            out[2 * p] = v1 * float(tau[0]) + v2 * float(tau[1])
+        else:
+            raise ValueError(
+                f"{_OWNER}: kind must be one of {', '.join(MODEL_KINDS)}; got {kind!r}."
+            )
+        return np.array(out)
 
     def model_rows(
         self, kind: str, q, v, tau

@@ -72,9 +72,12 @@ class ModelRows(LeafSystem):
         self._m = 1 if kind == "power" else n
         self._p = p
         self._num_channels = modulating.num_channels(self._m, p)
-        self.DeclareVectorInputPort("q", n)
-        self.DeclareVectorInputPort("v", n)
-        self.DeclareVectorInputPort("tau", n)
+        # Providers with ``packed_rows(kind, q, v, tau)`` (one sample, packed as
+        # ``pack_rows``) skip numpy's per-call overhead on (1, n) batches.
+        self._packed = getattr(rows, "packed_rows", None)
+        self._q = self.DeclareVectorInputPort("q", n)
+        self._v = self.DeclareVectorInputPort("v", n)
+        self._tau = self.DeclareVectorInputPort("tau", n)
         self.DeclareVectorOutputPort("channels", self._num_channels, self._CalcChannels)
 
     @property
@@ -93,11 +96,14 @@ class ModelRows(LeafSystem):
         return self._p
 
     def _CalcChannels(self, context: Context, output: BasicVector) -> None:
-        q = self.get_input_port(0).Eval(context)[None, :]
-        v = self.get_input_port(1).Eval(context)[None, :]
-        tau = self.get_input_port(2).Eval(context)[None, :]
-        d, g, y = self._rows.model_rows(self._kind, q, v, tau)
-        output.SetFromVector(modulating.pack_rows(d[0], g[0], y[0]))
+        q = self._q.Eval(context)
+        v = self._v.Eval(context)
+        tau = self._tau.Eval(context)
+        if self._packed is not None:  # single-sample fast path (Planar2RRows)
+            output.SetFromVector(self._packed(self._kind, q, v, tau))
+            return
+        d, g, y = self._rows.model_rows(self._kind, q[None, :], v[None, :], tau[None])
+        output.SetFromVector(np.concatenate([d[0].ravel(), g[0].ravel(), y[0]]))
 
 
 class ModulatingIntegralBank(LeafSystem):
