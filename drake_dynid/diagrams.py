@@ -108,11 +108,24 @@ class OnlineSettings:
         return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
 
     def ell(self) -> np.ndarray:
-        """The modulating indices ℓ of this configuration."""
+        """The modulating indices ℓ of this configuration.
+
+        ``frequencies=None``: the integer set ℓ = 0, 1, ... with (ℓ + k)/T up to
+        ``bandwidth`` (orthogonal rows). When the window is too short for that set to
+        hold :data:`MIN_FUNCTIONS` functions, the same band is divided into
+        :data:`MIN_FUNCTIONS` evenly spaced ℓ instead (nearly dependent rows, but a
+        well-posed least-squares problem).
+        """
         if self.frequencies is None:
-            return modulating.default_frequencies(
-                self.window, self.bandwidth, order=self.order
+            ell = modulating.default_frequencies(
+                self.window,
+                max(self.bandwidth, self.order / self.window),
+                order=self.order,
             )
+            if ell.size >= MIN_FUNCTIONS:
+                return ell
+            top = max(self.bandwidth * self.window - self.order, 1.0)
+            return np.round(np.linspace(0.0, top, MIN_FUNCTIONS), 12)
         if isinstance(self.frequencies, str):
             return modulating.paper_frequencies()
         return np.asarray(self.frequencies, dtype=float)
@@ -129,6 +142,9 @@ class OnlineSettings:
         out["frequencies"] = self.ell().tolist()
         return out
 
+
+#: Fewest modulating functions of the default ℓ set (see OnlineSettings.ell).
+MIN_FUNCTIONS = 12
 
 #: Per-model defaults (benchmarks/bench_accuracy.py): the power model, quadratic in
 #: the filtered signals, wants a shorter, flatter Jacobi window than the Lagrangian

@@ -142,3 +142,17 @@ def test_zz1_jump_is_tracked(robot):
     # The other inertial parameters stay put (MY2 = 0.1 is the least precise one
     # with a 2 s window).
     np.testing.assert_allclose(after[1:4], robot.base_values[1:4], rtol=0.06)
+
+
+def test_default_frequencies_follow_the_band_and_stay_well_posed():
+    from drake_dynid.diagrams import MIN_FUNCTIONS
+
+    long = OnlineSettings(window=20.0, bandwidth=0.6)
+    np.testing.assert_array_equal(long.ell(), np.arange(12.0))  # (11 + 1)/20 = 0.6 Hz
+    short = OnlineSettings(window=4.0, bandwidth=0.6)
+    ell = short.ell()
+    assert ell.size == MIN_FUNCTIONS
+    assert ell[0] == 0.0 and ell[-1] == pytest.approx(0.6 * 4.0 - 1.0)
+    np.testing.assert_array_equal(
+        OnlineSettings(frequencies="paper").ell(), np.round(0.05 * np.arange(201), 12)
+    )

@@ -30,3 +30,32 @@ def test_jacobi_velocity_quick(tmp_path, capsys):
     assert rms < 0.06
     delay = float(re.search(r"delay: ([0-9.]+) s", printed).group(1))
     assert abs(delay - 0.110557) < 1e-6
+
+
+def test_paper_fig3_quick(tmp_path, capsys):
+    example = load_example("paper_fig3")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "fig3_estimates.png").stat().st_size > 10_000
+    assert "| lagrangian |" in printed and "| power |" in printed
+
+
+def test_paper_fig4_quick(tmp_path, capsys):
+    example = load_example("paper_fig4")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "fig4_tracking.png").stat().st_size > 10_000
+    # SNR 30 dB, T = 3 s, jump at 4 s: the Lagrangian estimate ends near 4.5.
+    final = float(re.search(r"lagrangian: .* at the end ([0-9.]+);", printed).group(1))
+    assert abs(final - 4.5) < 0.05 * 4.5
+
+
+def test_fig4_settling_time_helper():
+    import numpy as np
+
+    example = load_example("paper_fig4")
+    t = np.arange(0.0, 10.0, 0.5)
+    estimate = np.where(t < 6.0, 3.9, 4.5)
+    estimate[t == 7.0] = 4.0  # leaves the band once after entering it
+    assert example.settling_time(t, estimate, 4.5, after=5.0) == 2.5
+    assert example.settling_time(t, np.full_like(t, 3.9), 4.5, after=5.0) == np.inf
