@@ -59,3 +59,13 @@ def test_fig4_settling_time_helper():
     estimate[t == 7.0] = 4.0  # leaves the band once after entering it
     assert example.settling_time(t, estimate, 4.5, after=5.0) == 2.5
     assert example.settling_time(t, np.full_like(t, 3.9), 4.5, after=5.0) == np.inf
+
+
+def test_paper_fig1_quick(tmp_path, capsys):
+    example = load_example("paper_fig1")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "fig1_estimates.png").stat().st_size > 10_000
+    paper = re.search(r"\| paper form \(k = 2\) \| ([0-9.]+) \|", printed)
+    # ZZ = 3 within 3 % after 6 s with T = 4 s at SNR 40 dB.
+    assert abs(float(paper.group(1)) - 3.0) < 0.09
