@@ -81,6 +81,9 @@ _LAZY: dict[str, str] = {
     "RobotLog": "drake_dynid.logs",
     "read_log": "drake_dynid.logs",
     "write_log": "drake_dynid.logs",
+    # off-line identification on logs (no pydrake)
+    "OfflineResult": "drake_dynid.offline",
+    "identify_offline": "drake_dynid.offline",
     # diagrams (pydrake)
     "OnlineSettings": "drake_dynid.diagrams",
     "OnlineTrace": "drake_dynid.diagrams",

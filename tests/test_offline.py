@@ -1,0 +1,200 @@
+"""Off-line IDIM-LS/WLS on a RobotLog: accuracy, automatic cutoff, NaN segments."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.idim import default_trim
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.diagrams import SimulationSettings, simulate_identification
+from drake_dynid.logs import RobotLog
+from drake_dynid.offline import (
+    MAX_AUTO_CUTOFF_HZ,
+    _stages,
+    auto_cutoff,
+    auto_decimation,
+    identify_offline,
+)
+from drake_dynid.plants import RobotModel, model_path
+
+H = 1e-3
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel.from_urdf(model_path("planar_2r"))
+
+
+@pytest.fixture(scope="module")
+def trajectory():
+    # Seed 1: period 10 s, 5 harmonics (top line 0.5 Hz), |v| <= 5 rad/s (paper Fig. 3).
+    return random_fourier_trajectory(
+        2,
+        harmonics=5,
+        base_frequency=2 * np.pi / 10.0,
+        max_velocity=5.0,
+        rng=np.random.default_rng(1),
+    )
+
+
+def _log(result):
+    return RobotLog(result.t, result.q, result.tau, result.joint_names, H)
+
+
+@pytest.fixture(scope="module")
+def clean_log(robot, trajectory):
+    result = simulate_identification(
+        robot, trajectory, SimulationSettings(duration=10.0, snr_db=None), []
+    )
+    return _log(result)
+
+
+@pytest.fixture(scope="module")
+def noisy_log(robot, trajectory):
+    # Paper §V: SNR 30 dB on q and τ (noise seed 7), 20 s.
+    result = simulate_identification(
+        robot, trajectory, SimulationSettings(duration=20.0, snr_db=30.0, seed=7), []
+    )
+    return _log(result)
+
+
+def _relative_error(result, robot):
+    return (result.theta - robot.base_values) / robot.base_values
+
+
+@pytest.mark.parametrize("weighted", [False, True])
+def test_noise_free_log_recovers_the_base_parameters(robot, clean_log, weighted):
+    result = identify_offline(clean_log, robot, weighted=weighted)
+    assert result.valid and result.reason == ""
+    assert result.names == robot.base.names
+    assert result.model == ("idim-wls" if weighted else "idim-ls")
+    # A clean log: the spectrum meets the (numerical) floor far above the 0.5 Hz
+    # excitation: the cutoff sits near the 40 Hz cap.
+    cutoff = result.settings["cutoff_hz"]
+    assert 20.0 <= cutoff <= MAX_AUTO_CUTOFF_HZ
+    assert result.settings["cutoff_rule"] == "auto"
+    assert result.settings["decimation"] == auto_decimation(H, cutoff)
+    trim = default_trim(H, cutoff)
+    assert result.settings["trim"] == trim
+    assert result.num_samples == clean_log.num_samples
+    assert result.num_samples_used == clean_log.num_samples - 2 * trim
+    assert result.num_segments == result.num_segments_used == 1
+    error = np.abs(_relative_error(result, robot))
+    assert np.all(error < 0.01), error
+    assert np.all(result.relative_std_percent < 1.0)
+    assert 1.0 < result.condition_number < 20.0
+
+
+def test_snr_30db_log_is_identified_with_an_automatic_cutoff(robot, noisy_log):
+    result = identify_offline(noisy_log, robot)
+    assert result.valid
+    # The noise floor sets the cutoff a few times above the 0.5 Hz excitation.
+    cutoff = result.settings["cutoff_hz"]
+    assert 0.75 <= cutoff <= 4.0
+    error = _relative_error(result, robot)
+    # Paper Table II (off-line IDIM at 30 dB): inertial within 1.3 %, friction 11 %.
+    assert np.all(np.abs(error[:4]) < 0.05), error
+    assert np.all(np.abs(error[4:]) < 0.20), error
+    # Gautier's σ is honest: every error within 3 σ.
+    assert np.all(np.abs(result.theta - robot.base_values) < 3.0 * result.std)
+    # The automatic cutoff matters: 20 Hz passes so much noise into v̇ that the
+    # errors-in-variables bias shrinks every inertial parameter by more than 50 %.
+    wide = identify_offline(noisy_log, robot, cutoff_hz=20.0)
+    assert wide.settings["cutoff_rule"] == "given"
+    assert np.all(_relative_error(wide, robot)[:4] < -0.5)
+
+
+def test_weighted_least_squares_weights_each_joint(robot, clean_log):
+    # Joint 2's torque is 50x noisier than joint 1's (seed 3).
+    rng = np.random.default_rng(3)
+    tau = clean_log.tau.copy()
+    tau[:, 0] += rng.normal(0.0, 0.02 * tau[:, 0].std(), tau.shape[0])
+    tau[:, 1] += rng.normal(0.0, 1.0 * tau[:, 1].std(), tau.shape[0])
+    log = RobotLog(clean_log.t, clean_log.q, tau, clean_log.joint_names, H)
+    ls = identify_offline(log, robot, cutoff_hz=10.0)
+    wls = identify_offline(log, robot, cutoff_hz=10.0, weighted=True)
+    assert ls.valid and wls.valid
+    assert ls.settings["weighted"] is False and wls.settings["weighted"] is True
+    # WLS residual is weighted by 1/σ_j: about 1.
+    assert 0.9 < wls.residual_std < 1.1
+    assert ls.residual_std > 0.1
+    # Joint 1's own parameters (ZZ1R, FV1, FC1) are no longer drowned in joint 2's
+    # noise: their σ drops by more than 2x.
+    own = [robot.base.names.index(name) for name in ("ZZ1R", "FV1", "FC1")]
+    assert np.all(wls.std[own] < 0.5 * ls.std[own])
+    assert np.all(np.abs(_relative_error(wls, robot)[:4]) < 0.03)
+
+
+def test_nan_samples_split_the_log_into_segments(robot, clean_log):
+    q = clean_log.q.copy()
+    tau = clean_log.tau.copy()
+    q[4000:4200] = np.nan  # a 0.2 s dropout
+    tau[7000, 1] = np.inf  # one bad torque cell
+    q[7100, 0] = np.nan  # a 99-sample segment between them: too short
+    log = RobotLog(clean_log.t, q, tau, clean_log.joint_names, H)
+    result = identify_offline(log, robot, cutoff_hz=20.0)
+    assert result.valid
+    assert np.all(np.isfinite(result.theta)) and np.all(np.isfinite(result.std))
+    assert result.num_segments == 4 and result.num_segments_used == 3
+    trim = default_trim(H, 20.0)
+    lengths = [4000, 7000 - 4200, 10001 - 7101]
+    assert result.num_samples_used == sum(n - 2 * trim for n in lengths)
+    assert np.all(np.abs(_relative_error(result, robot)) < 0.01)
+
+
+def test_logs_without_a_long_enough_segment_are_rejected(robot, clean_log):
+    q = np.full_like(clean_log.q, np.nan)
+    log = RobotLog(clean_log.t, q, clean_log.tau, clean_log.joint_names, H)
+    with pytest.raises(ValueError, match="no finite sample"):
+        identify_offline(log, robot)
+    short = RobotLog(
+        clean_log.t[:500], clean_log.q[:500], clean_log.tau[:500], log.joint_names, H
+    )
+    with pytest.raises(ValueError, match="no finite segment of the log is long"):
+        identify_offline(short, robot, cutoff_hz=2.0)
+
+
+def test_argument_validation(robot, clean_log):
+    with pytest.raises(ValueError, match="cutoff_hz must be > 0"):
+        identify_offline(clean_log, robot, cutoff_hz=0.0)
+    with pytest.raises(ValueError, match="cutoff_hz must be < the Nyquist"):
+        identify_offline(clean_log, robot, cutoff_hz=600.0)
+    with pytest.raises(ValueError, match="decimation must be >= 1"):
+        identify_offline(clean_log, robot, decimation=0)
+    with pytest.raises(TypeError, match="decimation must be an integer"):
+        identify_offline(clean_log, robot, decimation=2.5)
+    with pytest.raises(ValueError, match="filter_order must be >= 1"):
+        identify_offline(clean_log, robot, filter_order=0)
+    with pytest.raises(TypeError, match="weighted must be a bool"):
+        identify_offline(clean_log, robot, weighted="yes")
+    with pytest.raises(TypeError, match="log must be a RobotLog"):
+        identify_offline(clean_log.q, robot)
+    swapped = RobotLog(clean_log.t, clean_log.q, clean_log.tau, ("joint2", "joint1"), H)
+    with pytest.raises(ValueError, match="log joints must be the robot's"):
+        identify_offline(swapped, robot)
+
+
+def test_auto_cutoff_follows_the_noise_floor():
+    rng = np.random.default_rng(5)  # seed 5
+    t = np.arange(20000) * H
+    q = np.stack([np.sin(2 * np.pi * 0.5 * t), 0.5 * np.cos(2 * np.pi * 0.3 * t)], 1)
+    # No noise: only rounding and the window's -92 dB side lobes, far above the
+    # excitation; never above the caps (40 Hz, fs/5 = 20 Hz at 100 Hz).
+    assert 20.0 <= auto_cutoff(q, H) <= MAX_AUTO_CUTOFF_HZ
+    assert auto_cutoff(q[::10], 0.01) <= 20.0
+    noisy = q + rng.normal(0.0, 1e-2, q.shape)
+    cutoff = auto_cutoff(noisy, H)
+    # At least twice the 0.5 Hz line, far below the 40 Hz cap.
+    assert 1.0 <= cutoff <= 3.0
+    # More noise never raises the cutoff.
+    assert auto_cutoff(q + rng.normal(0.0, 1e-1, q.shape), H) <= cutoff
+
+
+def test_auto_decimation_and_stages():
+    assert auto_decimation(H, 1.5) == 264  # <= 266.7, factors 2^3·3·11
+    assert auto_decimation(H, 40.0) == 10
+    assert auto_decimation(H, 400.0) == 1
+    for factor in (264, 10, 1, 130, 17):
+        stages = _stages(factor)
+        assert int(np.prod(stages)) == factor
+    assert all(stage <= 13 for stage in _stages(264))
+    assert _stages(17) == [17]
