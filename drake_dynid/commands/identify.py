@@ -1,0 +1,492 @@
+"""``dynid identify``: on-line identification blocks replayed over a recorded log."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
+DESCRIPTION = (
+    "Replays a recorded robot log (CSV: t, q_<joint>, tau_<joint> for every URDF "
+    "joint) through drake_dynid's on-line identification blocks in a Drake "
+    "Simulator: causal Jacobi differentiator -> model rows (power or Lagrangian) -> "
+    "modulating-integral bank over a sliding window -> sliding QR identifier. "
+    "Prints the final base-parameter estimates with Gautier's standard deviations "
+    "(a parameter with %σ > 30 is flagged '*' = not identified), the condition "
+    "number and the validity of the last window; optionally writes the estimates "
+    "over time (--out CSV, --plot PNG) and a JSON summary (--json). Options left "
+    "out take the OnlineSettings defaults."
+)
+
+# A parameter whose relative standard deviation exceeds this is "not identified".
+NOT_IDENTIFIED_PERCENT = 30.0
+
+# Option name -> OnlineSettings field; None values keep the OnlineSettings default.
+_SETTING_OPTIONS = {
+    "model": "model",
+    "window": "window",
+    "bandwidth": "bandwidth",
+    "jacobi_window": "jacobi_window",
+    "kappa": "kappa",
+    "mu": "mu",
+    "jacobi_q": "jacobi_q",
+    "bank_time_step": "bank_time_step",
+    "update_period": "update_period",
+    "max_condition": "max_condition",
+}
+
+
+# ------------------------------------------------------------------ shared helpers
+def add_common_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments shared by ``dynid identify`` and ``dynid offline``."""
+    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    parser.add_argument(
+        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
+    )
+    parser.add_argument(
+        "--friction",
+        default="viscous,coulomb",
+        help=(
+            "comma-separated friction columns per joint among viscous, coulomb, "
+            "offset, or 'none' (default: viscous,coulomb)"
+        ),
+    )
+    parser.add_argument(
+        "--resample",
+        action="store_true",
+        help="accept a non-uniformly sampled log by linear interpolation onto the "
+        "grid of its median step (off by default: it changes the data)",
+    )
+    parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print nothing on stdout (log warnings and errors still go to stderr)",
+    )
+
+
+def parse_friction(text: str) -> tuple[str, ...]:
+    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``."""
+    if text.strip().lower() in ("", "none"):
+        return ()
+    return tuple(item.strip() for item in text.split(",") if item.strip())
+
+
+def load_robot_and_log(args: argparse.Namespace, command: str):
+    """Loads the URDF model and the log; prints the reader's warnings on stderr."""
+    from drake_dynid.logs import read_log
+    from drake_dynid.plants import RobotModel
+
+    robot = RobotModel.from_urdf(args.urdf, friction=parse_friction(args.friction))
+    log = read_log(args.log, robot.joint_names, resample=args.resample)
+    for warning in log.warnings:
+        print(f"dynid {command}: warning: log {args.log}: {warning}", file=sys.stderr)
+    return robot, log
+
+
+def json_number(value: Any) -> float | None:
+    """A float for JSON, None for NaN and infinities (JSON has neither)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _text(value: float, digits: int = 6) -> str:
+    return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
+
+
+def estimates_table(
+    names: Sequence[str], theta: Sequence[float], std: Sequence[float]
+) -> list[str]:
+    """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30)."""
+    rows = []
+    for name, value, sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(value), float(sigma)
+        if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
+            percent = 100.0 * sigma / abs(value)
+            percent_text = f"{percent:.2f}"
+        else:
+            percent = math.inf
+            percent_text = "inf" if math.isfinite(value) else "nan"
+        flag = "*" if not percent <= NOT_IDENTIFIED_PERCENT else ""
+        rows.append((name, _text(value), _text(sigma, 3), percent_text, flag))
+    headers = ("name", "value", "σ", "%σ", "")
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)]
+    lines = [
+        f"{headers[0]:<{widths[0]}}  {headers[1]:>{widths[1]}}  "
+        f"{headers[2]:>{widths[2]}}  {headers[3]:>{widths[3]}}",
+        f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}  {'-' * widths[3]}",
+    ]
+    for name, value, sigma, percent, flag in rows:
+        lines.append(
+            f"{name:<{widths[0]}}  {value:>{widths[1]}}  {sigma:>{widths[2]}}  "
+            f"{percent:>{widths[3]}}  {flag}".rstrip()
+        )
+    if any(r[4] for r in rows):
+        lines.append(
+            f"* %σ > {NOT_IDENTIFIED_PERCENT:g}: not identified (too little "
+            "excitation of this parameter, or too much noise)"
+        )
+    return lines
+
+
+def parameters_document(
+    robot: Any, names: Sequence[str], theta: Sequence[float], std: Sequence[float]
+) -> list[dict[str, Any]]:
+    """The ``parameters`` list of the JSON format (DESIGN.md)."""
+    definitions: Mapping[str, Any] = dict(
+        zip(robot.base.names, robot.base.definitions, strict=True)
+    )
+    out = []
+    for name, value, sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(value), float(sigma)
+        percent = (
+            100.0 * sigma / abs(value)
+            if math.isfinite(value) and math.isfinite(sigma) and value != 0.0
+            else math.inf
+        )
+        out.append(
+            {
+                "name": name,
+                "value": json_number(value),
+                "std": json_number(sigma),
+                "relative_std_percent": json_number(percent),
+                "identified": bool(percent <= NOT_IDENTIFIED_PERCENT),
+                "definition": dict(definitions.get(name, {})),
+            }
+        )
+    return out
+
+
+def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
+    """The ``log`` entry of the JSON format."""
+    return {
+        "path": str(args.log),
+        "samples": int(log.num_samples),
+        "bad_samples": int(np.count_nonzero(log.bad_samples)),
+        "time_step": float(log.time_step),
+        "duration": float(log.duration),
+        "warnings": list(log.warnings),
+    }
+
+
+def write_json(path: str, document: Mapping[str, Any]) -> None:
+    """Writes ``document`` as indented JSON (no NaN: invalid JSON)."""
+    Path(path).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n")
+
+
+# --------------------------------------------------------------------- identify
+def _frequencies(text: str | None) -> Any:
+    """``paper`` | ``auto`` | ``LIST`` (comma-separated ℓ, or ``start:step:stop``)."""
+    if text is None:
+        return "default"
+    text = text.strip()
+    if text == "paper":
+        return "paper"
+    if text == "auto":
+        return None
+    try:
+        if ":" in text and "," not in text:
+            start, step, stop = (float(x) for x in text.split(":"))
+            if step <= 0.0 or stop < start:
+                raise ValueError
+            count = math.floor((stop - start) / step + 1e-9) + 1
+            return np.round(start + step * np.arange(count), 9).tolist()
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(
+            f"--frequencies must be 'paper', 'auto', a comma-separated list of "
+            f"indices ℓ >= 0 or start:step:stop; got {text!r}."
+        ) from None
+    if not values or any(not math.isfinite(x) or x < 0.0 for x in values):
+        raise ValueError(
+            f"--frequencies must hold finite indices ℓ >= 0; got {text!r}."
+        )
+    return values
+
+
+def online_settings(args: argparse.Namespace) -> Any:
+    """The ``OnlineSettings`` of the options; unset options keep its defaults."""
+    from drake_dynid.diagrams import OnlineSettings
+
+    kwargs: dict[str, Any] = {}
+    for option, name in _SETTING_OPTIONS.items():
+        value = getattr(args, option)
+        if value is not None:
+            kwargs[name] = value
+    frequencies = _frequencies(args.frequencies)
+    if not (isinstance(frequencies, str) and frequencies == "default"):
+        kwargs["frequencies"] = frequencies
+    settings = OnlineSettings(**kwargs)
+    settings.bank()  # check the window, ℓ and bank step now, with their message
+    return settings
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``dynid identify`` arguments."""
+    add_common_arguments(parser)
+    group = parser.add_argument_group(
+        "identifier settings (default: the OnlineSettings defaults)"
+    )
+    group.add_argument(
+        "--model",
+        choices=("power", "lagrangian"),
+        help="power (the paper's scalar power model) or lagrangian (n equations "
+        "per sample)",
+    )
+    group.add_argument("--window", type=float, metavar="S", help="sliding window T [s]")
+    group.add_argument(
+        "--frequencies",
+        metavar="paper|auto|LIST",
+        help="modulating indices ℓ: 'paper' (0:0.05:10), 'auto' (integers up to "
+        "--bandwidth·T - 1), or a list '0,1,2' / 'start:step:stop'",
+    )
+    group.add_argument(
+        "--bandwidth",
+        type=float,
+        metavar="HZ",
+        help="highest excitation frequency covered by the auto ℓ set [Hz]",
+    )
+    group.add_argument(
+        "--jacobi-window",
+        type=float,
+        metavar="S",
+        help="window of the causal Jacobi differentiator [s]",
+    )
+    group.add_argument("--kappa", type=float, metavar="K", help="Jacobi κ (> -1)")
+    group.add_argument("--mu", type=float, metavar="M", help="Jacobi μ (> -1)")
+    group.add_argument(
+        "--jacobi-q", type=int, metavar="Q", help="Jacobi truncation order q (>= 0)"
+    )
+    group.add_argument(
+        "--bank-time-step",
+        type=float,
+        metavar="S",
+        help="sample period of the modulating bank [s] (a multiple of the log's)",
+    )
+    group.add_argument(
+        "--update-period",
+        type=float,
+        metavar="S",
+        help="period of the least-squares solve [s]",
+    )
+    group.add_argument(
+        "--max-condition",
+        type=float,
+        metavar="C",
+        help="largest accepted condition number of the column-scaled regressor",
+    )
+    outputs = parser.add_argument_group("outputs")
+    outputs.add_argument(
+        "--out",
+        metavar="FILE.csv",
+        help="write the estimates over time: t,valid,<base parameter names>",
+    )
+    outputs.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="plot the estimates over time (needs matplotlib)",
+    )
+
+
+def _matplotlib() -> Any:
+    try:
+        import matplotlib
+    except ImportError:
+        raise ValueError(
+            "--plot needs matplotlib, which is not installed (pip install "
+            "matplotlib, or drop --plot)."
+        ) from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _invalid_runs(t: np.ndarray, valid: np.ndarray, step: float):
+    """(start, stop) time spans where ``valid`` is 0."""
+    bad = np.concatenate([[False], valid < 0.5, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(bad))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        yield t[start], t[stop - 1] + step
+
+
+def write_plot(
+    path: str, t: np.ndarray, theta: np.ndarray, std: np.ndarray, valid, names, title
+) -> None:
+    """One subplot per parameter: estimate, ±σ band, invalid periods shaded."""
+    plt = _matplotlib()
+    p = len(names)
+    columns = 2 if p > 4 else 1
+    rows = math.ceil(p / columns)
+    figure, axes = plt.subplots(
+        rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
+    )
+    axes = np.atleast_1d(axes).ravel()
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    # Nothing to show before the first valid solve (the block holds zeros).
+    first = int(np.argmax(np.asarray(valid) > 0.5))
+    theta = np.array(theta, dtype=float)
+    theta[:first] = np.nan
+    finite_std = np.where(np.isfinite(std), std, np.nan)
+    for i, name in enumerate(names):
+        axis = axes[i]
+        axis.plot(t, theta[:, i], color="C0", lw=1.0)
+        axis.fill_between(
+            t,
+            theta[:, i] - finite_std[:, i],
+            theta[:, i] + finite_std[:, i],
+            color="C0",
+            alpha=0.25,
+            lw=0.0,
+        )
+        for start, stop in _invalid_runs(t, valid, step):
+            axis.axvspan(start, stop, color="0.85", lw=0.0, zorder=0)
+        axis.set_ylabel(name)
+        axis.grid(True, alpha=0.3)
+    for axis in axes[p:]:
+        axis.set_visible(False)
+    for axis in axes[max(0, p - columns) : p]:
+        axis.set_xlabel("t [s]")
+    figure.suptitle(f"{title} (grey: invalid window, estimate held; band: ±σ)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+
+
+def _write_estimates_csv(path: str, t, valid, theta, names) -> None:
+    with open(path, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["t", "valid", *names])
+        for k in range(len(t)):
+            writer.writerow(
+                [
+                    f"{round(float(t[k]), 9):.15g}",
+                    int(valid[k] > 0.5),
+                    *(f"{x:.17g}" for x in theta[k]),
+                ]
+            )
+
+
+def _invalid_reason(trace: Any) -> str:
+    settings = trace.settings
+    condition = float(trace.condition_number[-1])
+    if not math.isfinite(condition):
+        return (
+            "the regressor of the last window is rank deficient (some parameters "
+            "are not excited)"
+        )
+    if condition > settings.max_condition:
+        return (
+            f"the last window is ill-conditioned (condition number "
+            f"{condition:.3g} > --max-condition {settings.max_condition:g})"
+        )
+    return (
+        "the last window is not ready: it contains bad (NaN) samples or starts "
+        "before the differentiator's output was valid"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Replays the log through the on-line identifier; prints and writes results."""
+    settings = online_settings(args)
+    if args.plot:
+        _matplotlib()  # fail before the long replay
+    robot, log = load_robot_and_log(args, "identify")
+    needed = settings.window + settings.jacobi_window
+    if log.duration <= needed:
+        raise ValueError(
+            f"log {args.log} lasts {log.duration:g} s; the on-line identifier needs "
+            f"more than window + jacobi_window = {needed:g} s before its first "
+            "estimate: record a longer log or shorten --window."
+        )
+    from drake_dynid.diagrams import replay_log
+
+    progress = bool(sys.stderr.isatty()) and not args.quiet
+    (trace,) = replay_log(log, robot.rows_provider(), [settings], progress=progress)
+    valid = np.asarray(trace.valid) > 0.5
+    if not valid.any():
+        finite = trace.condition_number[np.isfinite(trace.condition_number)]
+        best = f"{finite.min():.3g}" if finite.size else "inf"
+        raise ValueError(
+            f"no window of the log gave a valid estimate (best condition number "
+            f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves): "
+            f"the {len(trace.names)} base parameters are not all excited. Use a log "
+            "longer than the window with a more exciting trajectory (every joint "
+            "moving, velocity reversals), a longer --window, a wider --bandwidth or "
+            "--frequencies set, fewer friction columns (--friction), or a larger "
+            "--max-condition."
+        )
+    t = log.t[0] + np.asarray(trace.t)
+    last_valid = int(np.flatnonzero(valid)[-1])
+    final = trace.final()
+    theta, std = final["theta"], final["std"]
+    final_valid = bool(valid[-1])
+    reason = "" if final_valid else _invalid_reason(trace)
+    condition = float(trace.condition_number[last_valid])
+    if not args.quiet:
+        print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+        print(
+            f"model: {settings.model}; window: {settings.window:g} s; "
+            f"{len(settings.ell())} modulating functions; latency "
+            f"{trace.delay:.4g} s"
+        )
+        print()
+        for line in estimates_table(trace.names, theta, std):
+            print(line)
+        print()
+        print(f"condition number: {condition:.4g}")
+        print(
+            f"valid windows: {int(valid.sum())} of {valid.size} solves; final "
+            f"window: {'valid' if final_valid else 'INVALID'}"
+        )
+        if not final_valid:
+            print(
+                f"  {reason}; the estimates above are the last valid ones "
+                f"(t = {t[last_valid]:.4g} s)."
+            )
+    if args.out:
+        _write_estimates_csv(args.out, t, trace.valid, trace.theta, trace.names)
+        if not args.quiet:
+            print(f"wrote {args.out}")
+    if args.json:
+        document = {
+            "parameters": parameters_document(robot, trace.names, theta, std),
+            "condition_number": json_number(condition),
+            "window": float(settings.window),
+            "model": settings.model,
+            "valid": final_valid,
+            "reason": reason,
+            "last_valid_time": float(t[last_valid]),
+            "delay": float(trace.delay),
+            "settings": {
+                **settings.as_dict(),
+                "friction": list(robot.friction),
+                "resample": bool(args.resample),
+            },
+            "urdf": str(args.urdf),
+            "log": log_document(args, log),
+        }
+        write_json(args.json, document)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    if args.plot:
+        write_plot(
+            args.plot,
+            t,
+            np.asarray(trace.theta),
+            np.asarray(trace.std),
+            trace.valid,
+            trace.names,
+            f"dynid identify: {settings.model} model, window {settings.window:g} s",
+        )
+        if not args.quiet:
+            print(f"wrote {args.plot}")
+    return 0

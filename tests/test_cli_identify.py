@@ -1,0 +1,268 @@
+"""``dynid identify`` and ``dynid offline`` on a simulated 2R log; bad input -> 2."""
+
+import csv
+import json
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.diagrams import SimulationSettings, simulate_identification
+from drake_dynid.logs import write_log
+from drake_dynid.plants import RobotModel, model_path
+
+URDF = model_path("planar_2r")
+TRUTH = {
+    "ZZ1R": 3.9,
+    "ZZ2": 0.25,
+    "MX2": 0.45,
+    "MY2": 0.1,
+    "FV1": 0.3,
+    "FC1": 0.4,
+    "FV2": 0.15,
+    "FC2": 0.25,
+}
+# A 2 s window on a 3 s log: short Jacobi window and the integer ℓ set 0..7.
+FAST = [
+    "--window",
+    "2",
+    "--jacobi-window",
+    "0.05",
+    "--update-period",
+    "0.05",
+    "--frequencies",
+    "0:1:7",
+]
+
+
+@pytest.fixture(scope="module")
+def simulation():
+    robot = RobotModel.from_urdf(URDF)
+    # Seed 4: period 2 s, 3 harmonics, |v| <= 3 rad/s; noise-free, 3 s at 1 kHz.
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.5,
+        max_velocity=3.0,
+        rng=np.random.default_rng(4),
+    )
+    result = simulate_identification(
+        robot, trajectory, SimulationSettings(duration=3.0, snr_db=None), []
+    )
+    return result
+
+
+@pytest.fixture(scope="module")
+def log_file(simulation, tmp_path_factory):
+    path = tmp_path_factory.mktemp("logs") / "robot.csv"
+    write_log(path, simulation.t, simulation.q, simulation.tau, simulation.joint_names)
+    return str(path)
+
+
+def _table(out):
+    """name -> (value, %σ) from the estimates table."""
+    rows = {}
+    for line in out.splitlines():
+        match = re.match(r"^(\w+)\s+(-?[\d.e+-]+)\s+([\d.e+-]+)\s+([\d.]+|inf)", line)
+        if match and match.group(1) in TRUTH:
+            rows[match.group(1)] = (float(match.group(2)), float(match.group(4)))
+    return rows
+
+
+def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, capsys):
+    out_csv = tmp_path / "estimates.csv"
+    out_json = tmp_path / "result.json"
+    out_png = tmp_path / "estimates.png"
+    argv = ["identify", log_file, "--urdf", URDF, *FAST]
+    argv += ["--out", str(out_csv), "--json", str(out_json), "--plot", str(out_png)]
+    assert cli.main(argv) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""  # no warnings, no progress (not a terminal)
+    out = captured.out
+    assert re.search(r"^name\s+value\s+σ\s+%σ$", out, flags=re.M)
+    assert "model: lagrangian; window: 2 s; 8 modulating functions" in out
+    assert re.search(r"^condition number: [\d.]+$", out, flags=re.M)
+    assert "final window: valid" in out
+    table = _table(out)
+    assert list(table) == list(TRUTH)
+    for name, (value, percent) in table.items():
+        assert abs(value - TRUTH[name]) < 0.03 * TRUTH[name], (name, value)
+        assert percent < 30.0
+    # CSV: exactly t,valid,<names>, one row per solve (every 0.05 s).
+    with open(out_csv, newline="") as stream:
+        rows = list(csv.reader(stream))
+    assert rows[0] == ["t", "valid", *TRUTH]
+    assert len(rows) - 1 == 60
+    assert rows[1][:2] == ["0", "0"] and rows[-1][1] == "1"
+    assert float(rows[-1][2]) == pytest.approx(table["ZZ1R"][0], rel=1e-5)
+    # JSON: DESIGN.md keys, σ and definitions.
+    document = json.loads(out_json.read_text())
+    for key in ("parameters", "condition_number", "window", "model", "settings"):
+        assert key in document
+    assert document["model"] == "lagrangian" and document["window"] == 2.0
+    assert document["valid"] is True
+    first = document["parameters"][0]
+    assert first["name"] == "ZZ1R" and first["definition"] == {"ZZ1": 1.0, "M2": 1.0}
+    assert first["std"] > 0 and abs(first["value"] - 3.9) < 0.03 * 3.9
+    settings = document["settings"]
+    assert settings["frequencies"] == [float(i) for i in range(8)]
+    assert settings["jacobi_window"] == 0.05 and settings["update_period"] == 0.05
+    # Unset options echo the OnlineSettings defaults.
+    from drake_dynid.diagrams import OnlineSettings
+
+    defaults = OnlineSettings()
+    assert settings["kappa"] == defaults.kappa
+    assert settings["bank_time_step"] == defaults.bank_time_step
+    assert settings["max_condition"] == defaults.max_condition
+    assert settings["friction"] == ["viscous", "coulomb"]
+    log = document["log"]
+    assert log["samples"] == 3001 and log["time_step"] == pytest.approx(1e-3)
+    assert log["warnings"] == [] and log["path"] == log_file
+    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_identify_quiet_power_model(log_file, tmp_path, capsys):
+    out_json = tmp_path / "power.json"
+    argv = ["identify", log_file, "--urdf", URDF, *FAST[:6], "--model", "power"]
+    argv += ["--frequencies", "0:0.25:7", "--json", str(out_json), "--quiet"]
+    assert cli.main(argv) == 0
+    assert capsys.readouterr().out == ""
+    document = json.loads(out_json.read_text())
+    assert document["model"] == "power"
+    values = {p["name"]: p["value"] for p in document["parameters"]}
+    for name in ("ZZ1R", "ZZ2", "MX2", "MY2"):
+        assert abs(values[name] - TRUTH[name]) < 0.05 * TRUTH[name], name
+
+
+def test_identify_reports_an_invalid_final_window(simulation, tmp_path, capsys):
+    # 0.3 s of dropped samples (NaN rows) at the end of the log.
+    t = np.append(simulation.t, simulation.t[-1] + 1e-3 * np.arange(1, 301))
+    pad = np.full((300, 2), np.nan)
+    path = tmp_path / "gap.csv"
+    q = np.vstack([simulation.q, pad])
+    tau = np.vstack([simulation.tau, pad])
+    write_log(path, t, q, tau, simulation.joint_names)
+    assert cli.main(["identify", str(path), "--urdf", URDF, *FAST]) == 0
+    captured = capsys.readouterr()
+    assert "warning: log" in captured.err and "300 sample(s)" in captured.err
+    assert "final window: INVALID" in captured.out
+    assert "contains bad (NaN) samples" in captured.out
+    assert "the estimates above are the last valid ones" in captured.out
+    table = _table(captured.out)
+    assert abs(table["ZZ1R"][0] - 3.9) < 0.03 * 3.9
+
+
+def test_identify_without_any_valid_window_exits_2(tmp_path, capsys):
+    # The robot at rest: nothing is excited.
+    t = 1e-3 * np.arange(2500)
+    zeros = np.zeros((t.size, 2))
+    path = tmp_path / "rest.csv"
+    write_log(path, t, zeros + 0.3, zeros, ("joint1", "joint2"))
+    assert cli.main(["identify", str(path), "--urdf", URDF, *FAST]) == 2
+    err = capsys.readouterr().err
+    assert "no window of the log gave a valid estimate" in err
+    assert "more exciting trajectory" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
+    out_json = tmp_path / "offline.json"
+    argv = ["offline", log_file, "--urdf", URDF, "--weighted", "--json", str(out_json)]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^model: idim-wls; cutoff [\d.]+ Hz \(auto\)", out, flags=re.M)
+    assert "samples used" in out and "of 3001 in 1 of 1 segment(s)" in out
+    table = _table(out)
+    assert list(table) == list(TRUTH)
+    for name, (value, _) in table.items():
+        assert abs(value - TRUTH[name]) < 0.01 * TRUTH[name], (name, value)
+    document = json.loads(out_json.read_text())
+    assert document["model"] == "idim-wls" and document["valid"] is True
+    assert document["window"] == pytest.approx(3.0)
+    assert document["settings"]["cutoff_rule"] == "auto"
+    assert document["settings"]["weighted"] is True
+    assert document["samples_used"] < 3001
+    assert [p["name"] for p in document["parameters"]] == list(TRUTH)
+    assert document["parameters"][0]["definition"] == {"ZZ1": 1.0, "M2": 1.0}
+    # Given cutoff and decimation are echoed.
+    argv = ["offline", log_file, "--urdf", URDF, "--cutoff", "20", "--decimation"]
+    argv += ["20", "--json", str(out_json), "--quiet"]
+    assert cli.main(argv) == 0
+    assert capsys.readouterr().out == ""
+    settings = json.loads(out_json.read_text())["settings"]
+    assert settings["cutoff_hz"] == 20.0 and settings["decimation"] == 20
+    assert settings["cutoff_rule"] == "given"
+
+
+def _error(capsys):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+@pytest.mark.parametrize("command", ["identify", "offline"])
+def test_bad_files_exit_2_with_one_line(command, log_file, tmp_path, capsys):
+    missing = str(tmp_path / "missing.csv")
+    assert cli.main([command, missing, "--urdf", URDF]) == 2
+    assert "no such file" in _error(capsys)
+    malformed = tmp_path / "malformed.csv"
+    malformed.write_text("t,q_joint1,q_joint2,tau_joint1\n0,0,0,0\n0.001,0,0,0\n")
+    assert cli.main([command, str(malformed), "--urdf", URDF]) == 2
+    assert "missing column(s) tau_joint2" in _error(capsys)
+    assert cli.main([command, log_file, "--urdf", str(tmp_path / "none.urdf")]) == 2
+    assert "URDF file not found" in _error(capsys)
+    bad_urdf = tmp_path / "bad.urdf"
+    bad_urdf.write_text('<robot name="r"><link name="a"></robot>')
+    assert cli.main([command, log_file, "--urdf", str(bad_urdf)]) == 2
+    assert "not well-formed XML" in _error(capsys)
+    assert cli.main([command, log_file, "--urdf", URDF, "--friction", "dry"]) == 2
+    assert "friction kinds must be among" in _error(capsys)
+
+
+def test_identify_bad_options_exit_2(log_file, capsys):
+    base = ["identify", log_file, "--urdf", URDF]
+    # The 3 s log is shorter than the default window (20 s) + Jacobi window.
+    assert cli.main(base) == 2
+    message = _error(capsys)
+    assert "lasts 3 s" in message and "shorten --window" in message
+    assert cli.main([*base, "--window", "-1"]) == 2
+    assert "window must be > 0" in _error(capsys)
+    assert cli.main([*base, *FAST[2:], "--window", "2", "--frequencies", "a,b"]) == 2
+    assert "--frequencies must be" in _error(capsys)
+    for bad in (["--model", "energy"], ["--window", "long"]):
+        with pytest.raises(SystemExit) as exit_info:
+            cli.main([*base, *bad])
+        assert exit_info.value.code == 2
+        assert "invalid" in capsys.readouterr().err
+
+
+def test_offline_bad_options_exit_2(log_file, capsys):
+    base = ["offline", log_file, "--urdf", URDF]
+    assert cli.main([*base, "--cutoff", "600"]) == 2
+    assert "cutoff_hz must be < the Nyquist frequency 500" in _error(capsys)
+    assert cli.main([*base, "--decimation", "0"]) == 2
+    assert "decimation must be >= 1" in _error(capsys)
+    assert cli.main([*base, "--cutoff", "0.5"]) == 2
+    assert "no finite segment of the log is long enough" in _error(capsys)
+
+
+def test_installed_entry_point_runs_offline(log_file, tmp_path):
+    out_json = tmp_path / "entry.json"
+    argv = [sys.executable, "-m", "drake_dynid.cli", "offline", log_file]
+    argv += ["--urdf", URDF, "--json", str(out_json)]
+    done = subprocess.run(argv, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    assert "ZZ1R" in done.stdout and "condition number" in done.stdout
+    assert json.loads(out_json.read_text())["model"] == "idim-ls"
+    missing = [sys.executable, "-m", "drake_dynid.cli", "identify", "nope.csv"]
+    done = subprocess.run(
+        [*missing, "--urdf", URDF], capture_output=True, text=True, check=False
+    )
+    assert done.returncode == 2
+    assert done.stderr.startswith("dynid identify: error: log nope.csv: no such file")
