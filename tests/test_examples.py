@@ -69,3 +69,15 @@ def test_paper_fig1_quick(tmp_path, capsys):
     paper = re.search(r"\| paper form \(k = 2\) \| ([0-9.]+) \|", printed)
     # ZZ = 3 within 3 % after 6 s with T = 4 s at SNR 40 dB.
     assert abs(float(paper.group(1)) - 3.0) < 0.09
+
+
+def test_paper_table2_quick(tmp_path, capsys):
+    example = load_example("paper_table2")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    for name in ("table2.md", "table2.csv", "table2_estimates.png"):
+        assert (tmp_path / name).stat().st_size > 100
+    assert "| on-line Lagrangian |" in printed and "| off-line IDIM-LS |" in printed
+    lagrangian = re.search(r"\| on-line Lagrangian \| ([0-9.]+) \|", printed)
+    # ZZ1R within 3 % with T = 6 s at SNR 30 dB (seed 1).
+    assert abs(float(lagrangian.group(1)) - 3.9) < 0.03 * 3.9
