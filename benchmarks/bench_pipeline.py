@@ -1,0 +1,426 @@
+"""Real-time factors of the on-line identification pipeline (issue 5).
+
+Tables (medians over ``--repeats``; ratios measured side by side in one run):
+
+1. Replay of a 1 kHz 2R log (Lagrangian model, T = 20 s): the core path
+   (``drake_dynid.fast_replay.replay_log_core``) end to end in a fresh process (start,
+   imports, URDF, CSV read, replay: what ``dynid identify`` does), its in-process
+   time, and the Drake blocks (``diagrams.replay_log``) on a shorter log.
+2. Closed loop (``diagrams.simulate_identification``, one Lagrangian identifier):
+   µs per simulated step in the steady state (window full), T = 5 s and T = 40 s,
+   and the plant/controller/noise floor without identifier.
+3. Window independence: per-step cost at T = 40 s / T = 5 s, closed loop and
+   replay.
+4. 7-DOF arm (``models/iiwa7.urdf``, gravity + friction, Lagrangian model, bank
+   decimated to 20 ms after the differentiator's low-pass): the Drake blocks on a
+   1 kHz log, real-time factor.
+5. Per block: µs per 1 kHz step and state size; the sliding integrals against a
+   direct quadrature of the whole window at every bank step.
+
+Logs are synthetic: a random Fourier trajectory (numpy default_rng(4), 2R; rng(5),
+7-DOF) and τ from the inverse-dynamics rows with the URDF's base values, plus
+white noise (default_rng(0)). Timings on a shared 2-core machine move by ±30 %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+from drake_dynid.core import modulating
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.diagrams import (
+    OnlineSettings,
+    SimulationSettings,
+    replay_log,
+    simulate_identification,
+)
+from drake_dynid.fast_replay import replay_log_core
+from drake_dynid.logs import RobotLog, write_log
+from drake_dynid.plants import RobotModel, model_path
+
+_CLI_PROXY = """
+import sys
+from drake_dynid.diagrams import OnlineSettings
+from drake_dynid.fast_replay import replay_log_core
+from drake_dynid.logs import read_log
+from drake_dynid.plants import RobotModel, model_path
+robot = RobotModel.from_urdf(model_path("planar_2r"))
+log = read_log(sys.argv[1], robot.joint_names)
+traces = replay_log_core(
+    log, robot.rows_provider(), [OnlineSettings(window=float(sys.argv[2]))]
+)
+print(traces[0].final()["valid"])
+"""
+
+
+def _median_time(function, repeats: int) -> float:
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        samples.append(time.perf_counter() - start)
+    return statistics.median(samples)
+
+
+def _synthetic_log(robot, duration: float, seed: int, velocity: float) -> RobotLog:
+    trajectory = random_fourier_trajectory(
+        robot.num_joints,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.2,
+        max_velocity=velocity,
+        rng=np.random.default_rng(seed),
+    )
+    h = 1e-3
+    t = h * np.arange(round(duration / h) + 1)
+    q, v, vdot = trajectory.evaluate(t)
+    tau = np.einsum("nip,p->ni", robot.idim_rows(q, v, vdot), robot.base_values)
+    rng = np.random.default_rng(0)
+    q = q + 1e-4 * rng.normal(size=q.shape)
+    tau = tau + 0.01 * tau.std(axis=0) * rng.normal(size=tau.shape)
+    return RobotLog(t, q, tau, tuple(robot.joint_names), h)
+
+
+def _closed_loop_step_us(robot, trajectory, settings, measure: float) -> float:
+    """µs per simulated 1 ms step between t0 and t0 + measure (after the window)."""
+    stamps = {}
+    start = (settings[0].window + 0.3) if settings else 0.3
+    events = [
+        (start, lambda plant, context: stamps.__setitem__(0, time.perf_counter())),
+        (
+            start + measure,
+            lambda plant, context: stamps.__setitem__(1, time.perf_counter()),
+        ),
+    ]
+    simulate_identification(
+        robot,
+        trajectory,
+        SimulationSettings(duration=start + measure + 0.01),
+        settings,
+        events=events,
+    )
+    return 1e6 * (stamps[1] - stamps[0]) / (measure * 1000)
+
+
+def _table(title: str, header: tuple[str, ...], rows: list[tuple]) -> str:
+    lines = [f"\n### {title}\n", "| " + " | ".join(header) + " |"]
+    lines.append(
+        "|" + "|".join("---:" if i else "---" for i in range(len(header))) + "|"
+    )
+    for row in rows:
+        cells = [f"{c:.3g}" if isinstance(c, float) else str(c) for c in row]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
+    parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    args = parser.parse_args(argv)
+    quick = args.quick
+    repeats = 1 if quick else args.repeats
+    window = 2.0 if quick else 20.0
+    log_duration = 4.0 if quick else 60.0
+    results: dict[str, dict] = {}
+    out: list[str] = []
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    rows = robot.rows_provider()
+    log = _synthetic_log(robot, log_duration, 4, 3.0)
+    settings = [OnlineSettings(window=window)]
+
+    # 1. Replay.
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "log.csv")
+        write_log(path, log.t, log.q, log.tau, log.joint_names)
+        command = [sys.executable, "-c", _CLI_PROXY, path, str(window)]
+        end_to_end = _median_time(
+            lambda: subprocess.run(command, check=True, capture_output=True), repeats
+        )
+    in_process = _median_time(lambda: replay_log_core(log, rows, settings), repeats)
+    short = log_duration if quick else window + 5.0
+    short_log = RobotLog(
+        log.t[: round(short / 1e-3) + 1],
+        log.q[: round(short / 1e-3) + 1],
+        log.tau[: round(short / 1e-3) + 1],
+        log.joint_names,
+        1e-3,
+    )
+    blocks = _median_time(lambda: replay_log(short_log, rows, settings), 1)
+    core_short = _median_time(
+        lambda: replay_log_core(short_log, rows, settings), repeats
+    )
+    results["replay"] = {
+        "log_s": log_duration,
+        "end_to_end_s": end_to_end,
+        "end_to_end_rtf": log_duration / end_to_end,
+        "core_in_process_s": in_process,
+        "core_rtf": log_duration / in_process,
+        "blocks_rtf": short / blocks,
+        "core_over_blocks_speedup": blocks / core_short,
+    }
+    r = results["replay"]
+    out.append(
+        _table(
+            f"Replay, 2R, Lagrangian, T = {window:g} s, {log_duration:g} s log, 1 kHz",
+            ("path", "wall [s]", "× real time"),
+            [
+                (
+                    "core, fresh process (dynid identify proxy)",
+                    end_to_end,
+                    r["end_to_end_rtf"],
+                ),
+                ("core, in process", in_process, r["core_rtf"]),
+                (f"Drake blocks ({short:g} s log)", blocks, r["blocks_rtf"]),
+                (
+                    "speed-up core / blocks (same log)",
+                    "",
+                    r["core_over_blocks_speedup"],
+                ),
+            ],
+        )
+    )
+
+    # 2-3. Closed loop and window independence.
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.5,
+        max_velocity=3.0,
+        rng=np.random.default_rng(4),
+    )
+    measure = 0.5 if quick else 3.0
+    windows = (0.5, 1.0) if quick else (5.0, 40.0)
+    floor, per_window = [], {w: [] for w in windows}
+    for _ in range(repeats):
+        floor.append(_closed_loop_step_us(robot, trajectory, [], measure))
+        for w in windows:
+            per_window[w].append(
+                _closed_loop_step_us(
+                    robot, trajectory, [OnlineSettings(window=w)], measure
+                )
+            )
+    floor_us = statistics.median(floor)
+    loop = {w: statistics.median(v) for w, v in per_window.items()}
+    ratio = statistics.median(
+        b / a
+        for a, b in zip(per_window[windows[0]], per_window[windows[1]], strict=True)
+    )
+    replay_cost = {}
+    for w in windows:
+        length = w + (1.0 if quick else 5.0)
+        cut = round(length / 1e-3) + 1
+        part = RobotLog(log.t[:cut], log.q[:cut], log.tau[:cut], log.joint_names, 1e-3)
+        each = [OnlineSettings(window=w)]
+        replay_cost[w] = (
+            _median_time(lambda p=part, e=each: replay_log(p, rows, e), 1) / cut * 1e6,
+            _median_time(lambda p=part, e=each: replay_log_core(p, rows, e), repeats)
+            / cut
+            * 1e6,
+        )
+    results["closed_loop"] = {
+        "floor_us_per_step": floor_us,
+        "us_per_step": {str(w): v for w, v in loop.items()},
+        "rtf": {str(w): 1000.0 / v for w, v in loop.items()},
+        "window_ratio": ratio,
+        "replay_us_per_sample": {str(w): v for w, v in replay_cost.items()},
+    }
+    out.append(
+        _table(
+            "Closed loop (2R plant + IDC + friction + noise + 1 Lagrangian identifier)",
+            ("case", "µs per 1 ms step", "× real time"),
+            [("no identifier (floor)", floor_us, 1000.0 / floor_us)]
+            + [(f"T = {w:g} s", loop[w], 1000.0 / loop[w]) for w in windows],
+        )
+    )
+    out.append(
+        _table(
+            "Window independence (per step)",
+            ("path", f"T = {windows[0]:g} s", f"T = {windows[1]:g} s", "ratio"),
+            [
+                ("closed loop [µs/step]", loop[windows[0]], loop[windows[1]], ratio),
+                (
+                    "replay, Drake blocks [µs/sample]",
+                    replay_cost[windows[0]][0],
+                    replay_cost[windows[1]][0],
+                    replay_cost[windows[1]][0] / replay_cost[windows[0]][0],
+                ),
+                (
+                    "replay, core [µs/sample]",
+                    replay_cost[windows[0]][1],
+                    replay_cost[windows[1]][1],
+                    replay_cost[windows[1]][1] / replay_cost[windows[0]][1],
+                ),
+            ],
+        )
+    )
+
+    # 4. 7-DOF arm through the Drake blocks.
+    arm = RobotModel.from_urdf(model_path("iiwa7"))
+    arm_window = 1.0 if quick else 5.0
+    arm_duration = arm_window + (0.5 if quick else 3.0)
+    arm_log = _synthetic_log(arm, arm_duration, 5, 1.0)
+    arm_settings = [
+        OnlineSettings(window=arm_window, bank_time_step=0.02, update_period=0.1)
+    ]
+    arm_wall = _median_time(lambda: replay_log(arm_log, arm, arm_settings), 1)
+    arm_core = _median_time(
+        lambda: replay_log_core(arm_log, arm, arm_settings), repeats
+    )
+    results["arm7"] = {
+        "standard": len(arm.standard_names),
+        "base": arm.num_parameters,
+        "blocks_rtf": arm_duration / arm_wall,
+        "core_rtf": arm_duration / arm_core,
+    }
+    out.append(
+        _table(
+            f"7-DOF iiwa7 (gravity + friction), Lagrangian, T = {arm_window:g} s, "
+            "bank at 20 ms",
+            ("path", "standard / base", "× real time"),
+            [
+                (
+                    "Drake blocks",
+                    f"{len(arm.standard_names)} / {arm.num_parameters}",
+                    results["arm7"]["blocks_rtf"],
+                ),
+                ("core replay", "", results["arm7"]["core_rtf"]),
+            ],
+        )
+    )
+
+    # 5. Per block and sliding vs direct quadrature.
+    out.append(_block_table(results, window, repeats, quick))
+    text = "\n".join(out)
+    print(text)
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as handle:
+            json.dump(results, handle, indent=2)
+    return 0
+
+
+def _block_table(results: dict, window: float, repeats: int, quick: bool) -> str:
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+
+    settings = OnlineSettings(window=window)
+    rows_out = []
+    # Jacobi block alone at 1 kHz (4 signals).
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource(np.ones(4)))
+    jacobi = builder.AddSystem(
+        CausalJacobiDifferentiator(
+            4, 1e-3, settings.jacobi_window, kappa=1, mu=1, q=1, matched=True
+        )
+    )
+    builder.Connect(source.get_output_port(), jacobi.get_input_port(0))
+    simulator = Simulator(builder.Build())
+    simulator.Initialize()
+    steps = 200 if quick else 3000
+
+    def advance():
+        simulator.AdvanceTo(simulator.get_context().get_time() + steps * 1e-3)
+
+    jacobi_us = _median_time(advance, repeats) / steps * 1e6
+    rows_out.append(
+        (
+            "CausalJacobiDifferentiator (4 signals)",
+            jacobi_us,
+            "1 ms",
+            jacobi.num_signals * jacobi.filters[0].num_taps + 2,
+        )
+    )
+    # Bank core: push, outputs, deep copy, vs direct quadrature per bank step.
+    bank = settings.bank()
+    channels = modulating.num_channels(2, 8)
+    rng = np.random.default_rng(0)
+    state = modulating.sliding_init(bank, channels)
+    window_samples = rng.normal(size=(bank.num_samples, channels))
+    state = modulating.sliding_push_many(bank, state, window_samples)
+    sample = rng.normal(size=channels)
+    count = 200 if quick else 2000
+    push = (
+        _median_time(
+            lambda: [
+                modulating.sliding_push(bank, state, sample) for _ in range(count)
+            ],
+            repeats,
+        )
+        / count
+        * 1e6
+    )
+    deep = (
+        _median_time(lambda: [copy.deepcopy(state) for _ in range(count)], repeats)
+        / count
+        * 1e6
+    )
+    integrals = (
+        _median_time(lambda: modulating.sliding_fourier_integrals(bank, state), repeats)
+        * 1e6
+    )
+    direct = (
+        _median_time(
+            lambda: modulating.direct_fourier_integrals(bank, window_samples), repeats
+        )
+        * 1e6
+    )
+    per_ms = bank.time_step / 1e-3
+    rows_out.append(
+        (
+            "bank: sliding_push + 2 deep copies",
+            push + 2 * deep,
+            f"{bank.time_step * 1e3:g} ms",
+            f"ring {bank.num_samples}×{channels} (shared chunks)",
+        )
+    )
+    rows_out.append(
+        (
+            "bank: F from running sums",
+            integrals,
+            "per solve",
+            f"K = {bank.num_frequencies}",
+        )
+    )
+    rows_out.append(
+        ("bank: F by direct quadrature of the window", direct, "per solve", "")
+    )
+    results["blocks"] = {
+        "jacobi_us_per_step": jacobi_us,
+        "bank_push_us": push,
+        "bank_deepcopy_us": deep,
+        "bank_us_per_ms": (push + 2 * deep) / per_ms,
+        "sliding_integrals_us": integrals,
+        "direct_quadrature_us": direct,
+        "sliding_speedup_per_step": (direct) / (push + 2 * deep),
+    }
+    rows_out.append(
+        (
+            "speed-up sliding (push per bank step) vs direct quadrature per bank step",
+            results["blocks"]["sliding_speedup_per_step"],
+            "",
+            "",
+        )
+    )
+    return _table(
+        f"Per block (T = {window:g} s, 2R Lagrangian, c = {channels} channels)",
+        ("block", "µs per call", "period", "state"),
+        rows_out,
+    )
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
