@@ -227,8 +227,8 @@ def test_bad_files_exit_2_with_one_line(command, log_file, tmp_path, capsys):
 
 def test_identify_bad_options_exit_2(log_file, capsys):
     base = ["identify", log_file, "--urdf", URDF]
-    # The 3 s log is shorter than the default window (20 s) + Jacobi window.
-    assert cli.main(base) == 2
+    # The 3 s log is shorter than window + Jacobi window.
+    assert cli.main([*base, "--window", "5"]) == 2
     message = _error(capsys)
     assert "lasts 3 s" in message and "shorten --window" in message
     assert cli.main([*base, "--window", "-1"]) == 2

@@ -368,7 +368,7 @@ def _write_estimates_csv(path: str, t, valid, theta, names) -> None:
         for k in range(len(t)):
             writer.writerow(
                 [
-                    f"{round(float(t[k]), 9):.15g}",
+                    f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
                     int(valid[k] > 0.5),
                     *(f"{x:.17g}" for x in theta[k]),
                 ]
