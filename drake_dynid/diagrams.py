@@ -167,6 +167,9 @@ class OnlineTrace:
         std: (M, p) Gautier standard deviations (inf before the first valid solve).
         condition_number: (M,) condition number of the column-scaled A.
         valid: (M,) 1 when the solve at that time was accepted.
+        status: (M,) the identifier's status code (0 ok, 1 window not ready or holding
+            a bad sample, 2 not identifiable).
+        unidentified: (M, p) 1 for the parameters found not excited by that solve.
         delay: latency of the estimate [s]: the differentiator delay plus one sample
             per block (the window ends at t - delay).
     """
@@ -179,6 +182,8 @@ class OnlineTrace:
     condition_number: np.ndarray
     valid: np.ndarray
     delay: float
+    status: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    unidentified: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def final(self) -> dict[str, Any]:
         """The estimate at the end of the run (last valid estimate held)."""
@@ -191,6 +196,16 @@ class OnlineTrace:
             if len(self.t)
             else math.inf,
             "valid": bool(self.valid[-1]) if len(self.t) else False,
+            "status": int(self.status[-1]) if len(self.status) else None,
+            "unidentified": tuple(
+                name
+                for name, flag in zip(
+                    self.names,
+                    self.unidentified[-1] if len(self.unidentified) else (),
+                    strict=False,
+                )
+                if flag > 0.5
+            ),
         }
 
 
@@ -306,7 +321,14 @@ def add_online_identifier(
     )
     chain = _Chain(settings, names, differentiator, model_rows, bank, identifier)
     if log:
-        for port in ("theta", "theta_std", "condition_number", "valid"):
+        for port in (
+            "theta",
+            "theta_std",
+            "condition_number",
+            "valid",
+            "status",
+            "unidentified",
+        ):
             chain.logs[port] = LogVectorOutput(
                 identifier.GetOutputPort(port), builder, settings.update_period
             )
@@ -327,6 +349,8 @@ def _trace(chain: _Chain, context: Any, time_step: float) -> OnlineTrace:
         condition_number=logs["condition_number"].data()[0].copy(),
         valid=logs["valid"].data()[0].copy(),
         delay=delay,
+        status=logs["status"].data()[0].copy(),
+        unidentified=logs["unidentified"].data().T.copy(),
     )
 
 

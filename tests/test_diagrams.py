@@ -156,3 +156,26 @@ def test_default_frequencies_follow_the_band_and_stay_well_posed():
     np.testing.assert_array_equal(
         OnlineSettings(frequencies="paper").ell(), np.round(0.05 * np.arange(201), 12)
     )
+
+
+def test_trace_reports_status_and_unexcited_parameters(robot):
+    # Joint 2 never moves: with q2 constant the columns of ZZ1R, ZZ2 and MX2 all
+    # scale with joint 1's motion (dependent), the identifier names them and never
+    # reports a valid estimate.
+    from drake_dynid.core.trajectory import FourierTrajectory
+
+    still = FourierTrajectory(
+        np.zeros(2), np.array([[2.0, 1.0], [0.0, 0.0]]), np.zeros((2, 2)), 2 * np.pi / 2
+    )
+    result = simulate_identification(
+        robot,
+        still,
+        SimulationSettings(duration=2.5, snr_db=None),
+        [OnlineSettings(window=2.0, jacobi_window=0.05, update_period=0.1)],
+    )
+    trace = result.traces[0]
+    final = trace.final()
+    assert not final["valid"] and final["status"] == 2
+    assert {"ZZ2", "MX2"} <= set(final["unidentified"])
+    assert np.all(trace.valid == 0) and np.all(trace.theta == 0.0)
+    assert trace.status[0] == 1  # window not ready at the start

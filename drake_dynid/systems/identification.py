@@ -260,6 +260,7 @@ class SlidingQRIdentifier(LeafSystem):
         - condition_number
         - valid
         - unidentified
+        - status
 
     Every ``update_period`` seconds, if ``window_valid`` is 1, the block solves
 
@@ -270,7 +271,10 @@ class SlidingQRIdentifier(LeafSystem):
     scaling its columns to unit norm. When the window is not ready, or the system
     is rank deficient or more ill-conditioned than ``max_condition``, the block
     **holds the last valid estimate** and its σ, sets ``valid`` = 0, and marks in
-    ``unidentified`` (p, 0/1) the parameters found not excited. Before the first
+    ``unidentified`` (p, 0/1) the parameters found not excited; ``status`` is
+    ``STATUS_OK`` (0), ``STATUS_WINDOW_NOT_READY`` (1: window not full or holding an
+    invalid sample) or ``STATUS_NOT_IDENTIFIABLE`` (2: rank deficient or
+    ill-conditioned). Before the first
     valid update ``theta`` is ``initial_theta`` (default zeros) and ``theta_std``
     is +inf.
 
@@ -352,6 +356,9 @@ class SlidingQRIdentifier(LeafSystem):
             p,
             self._Slice(2 * p + 2, 3 * p + 2),
             prerequisites_of_calc=ticket,
+        )
+        self.DeclareVectorOutputPort(
+            "status", 1, self._Slice(3 * p + 2, 3 * p + 3), prerequisites_of_calc=ticket
         )
 
     @property
