@@ -376,21 +376,23 @@ def _write_estimates_csv(path: str, t, valid, theta, names) -> None:
 
 
 def _invalid_reason(trace: Any) -> str:
+    final = trace.final()
     settings = trace.settings
-    condition = float(trace.condition_number[-1])
+    condition = float(final["condition_number"])
+    unexcited = ", ".join(final["unidentified"]) or "some parameters"
+    if final["status"] == 1:
+        return (
+            "the last window is not ready: it contains bad (NaN) samples or starts "
+            "before the differentiator's output was valid"
+        )
     if not math.isfinite(condition):
         return (
-            "the regressor of the last window is rank deficient (some parameters "
-            "are not excited)"
-        )
-    if condition > settings.max_condition:
-        return (
-            f"the last window is ill-conditioned (condition number "
-            f"{condition:.3g} > --max-condition {settings.max_condition:g})"
+            f"the regressor of the last window is rank deficient ({unexcited} not "
+            "excited)"
         )
     return (
-        "the last window is not ready: it contains bad (NaN) samples or starts "
-        "before the differentiator's output was valid"
+        f"the last window is ill-conditioned (condition number {condition:.3g} > "
+        f"--max-condition {settings.max_condition:g}; weakest: {unexcited})"
     )
 
 
