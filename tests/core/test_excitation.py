@@ -1,0 +1,96 @@
+"""Excitation bandwidth estimate and the modulating set that covers it."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.excitation import (
+    estimate_bandwidth,
+    frequencies_for,
+    velocity_spectrum,
+)
+
+H = 1e-3
+
+
+def multisine(freqs, duration=21.0, velocity_amplitude=1.0):
+    """q_j = Σ (a/(2πf)) sin(2πf t + φ): every line has velocity amplitude a."""
+    t = np.arange(0.0, duration, H)
+    q = np.zeros((t.size, len(freqs)))
+    for j, fj in enumerate(freqs):
+        for i, f in enumerate(fj):
+            q[:, j] += (
+                velocity_amplitude / (2 * np.pi * f) * np.sin(2 * np.pi * f * t + i)
+            )
+    return q
+
+
+FREQS = [[0.11, 0.23, 0.37, 0.53], [0.13, 0.29, 0.43, 0.61]]
+
+
+def test_known_multisine_gives_its_top_line_within_the_resolution():
+    q = multisine(FREQS)
+    band = estimate_bandwidth(q, H)
+    # Highest line 0.61 Hz; the Hann main lobe adds at most 2/duration Hz.
+    assert 0.61 - 1 / 21 <= band <= 0.61 + 2 / 21
+
+
+def test_energy_fraction_selects_lower_lines():
+    # Four lines of equal velocity power: 70 % of it lies at or below the third one.
+    q = multisine([[0.1, 0.3, 0.5, 0.9]], duration=40.0)
+    assert 0.45 <= estimate_bandwidth(q, H, energy=0.70) <= 0.55
+    assert 0.85 <= estimate_bandwidth(q, H, energy=0.99) <= 0.95
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_robust_to_30_db_noise(seed):
+    q = multisine(FREQS)
+    sigma = q.std(axis=0) * 10 ** (-30 / 20)
+    noisy = q + np.random.default_rng(seed).standard_normal(q.shape) * sigma
+    assert estimate_bandwidth(noisy, H) == pytest.approx(estimate_bandwidth(q, H))
+
+
+def test_noise_would_dominate_without_the_floor_removal():
+    # Sanity of the design: at 30 dB the f²-weighted noise is > 5 % of the velocity
+    # power up to 20 Hz, which the threshold removes.
+    q = multisine(FREQS)
+    noise = np.random.default_rng(0).standard_normal(q.shape) * q.std(0) * 10**-1.5
+    f, p = velocity_spectrum(q + noise, H)
+    assert np.all(p[f > 2.0] == 0.0)
+    from scipy import signal
+
+    _, s = signal.periodogram(noise, fs=1 / H, window="hann", axis=0)
+    raw = ((2 * np.pi * f[:, None]) ** 2 * s)[f <= 20.0].sum(0) * (f[1] - f[0])
+    assert np.all(raw > 0.05 * 2.0)  # velocity power of the signal: 4 lines × ½
+
+
+def test_single_channel_and_frequencies_for():
+    q = multisine([[0.2, 0.4]])[:, 0]
+    assert 0.35 <= estimate_bandwidth(q, H) <= 0.5
+    np.testing.assert_array_equal(frequencies_for(20.0, 0.55), np.arange(11.0))
+    np.testing.assert_array_equal(frequencies_for(20.0, 0.01), np.arange(4.0))
+    np.testing.assert_array_equal(frequencies_for(7.0, 0.62), np.arange(4.0))
+    assert frequencies_for(20.0, 0.55, spacing=0.05)[-1] == pytest.approx(10.0)
+
+
+def test_validation_errors():
+    q = multisine(FREQS)
+    with pytest.raises(ValueError, match="energy must be in"):
+        estimate_bandwidth(q, H, energy=0.0)
+    with pytest.raises(ValueError, match="time_step must be > 0"):
+        estimate_bandwidth(q, 0.0)
+    with pytest.raises(ValueError, match="threshold must be > 1"):
+        estimate_bandwidth(q, H, threshold=1.0)
+    with pytest.raises(ValueError, match="N >= 64"):
+        estimate_bandwidth(np.zeros((10, 2)), H)
+    with pytest.raises(ValueError, match="must be finite"):
+        estimate_bandwidth(np.full((100, 2), np.nan), H)
+    with pytest.raises(ValueError, match="no motion above the noise"):
+        estimate_bandwidth(np.random.default_rng(0).standard_normal((4000, 2)), H)
+    with pytest.raises(ValueError, match="no motion above the noise"):
+        estimate_bandwidth(np.ones((4000, 2)), H)
+    with pytest.raises(TypeError, match="energy must be a real number"):
+        estimate_bandwidth(q, H, energy="all")
+    with pytest.raises(ValueError, match="bandwidth_hz must be > 0"):
+        frequencies_for(20.0, 0.0)
+    with pytest.raises(ValueError, match="min_count must be >= 1"):
+        frequencies_for(20.0, 0.5, min_count=0)
