@@ -1,0 +1,80 @@
+"""Bad data through the on-line blocks: NaN bursts, dropped samples (issue 6)."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.diagrams import (
+    OnlineSettings,
+    SimulationSettings,
+    replay_log,
+    simulate_identification,
+)
+from drake_dynid.logs import RobotLog
+from drake_dynid.paper import paper_trajectory
+from drake_dynid.plants import RobotModel, model_path
+
+WINDOW = 2.0
+SETTINGS = OnlineSettings(window=WINDOW, jacobi_window=0.1, update_period=0.05)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel.from_urdf(model_path("planar_2r"))
+
+
+@pytest.fixture(scope="module")
+def clean_log(robot):
+    result = simulate_identification(
+        robot, paper_trajectory(), SimulationSettings(duration=8.0, snr_db=None), []
+    )
+    return RobotLog(result.t, result.q, result.tau, result.joint_names, 1e-3)
+
+
+def test_nan_burst_invalidates_its_windows_then_recovers(robot, clean_log):
+    q = clean_log.q.copy()
+    tau = clean_log.tau.copy()
+    q[3000:3050, 1] = np.nan  # 50 ms of a dead encoder at t = 3.0 s
+    tau[3020, 0] = np.inf
+    log = RobotLog(clean_log.t, q, tau, clean_log.joint_names, 1e-3)
+    (trace,) = replay_log(log, robot.rows_provider(), [SETTINGS])
+    (reference,) = replay_log(clean_log, robot.rows_provider(), [SETTINGS])
+    # Never a NaN estimate, even while the window holds the burst.
+    assert np.all(np.isfinite(trace.theta))
+    # Valid before the burst reaches the bank, invalid while it is in the window,
+    # valid again once it has left (window + differentiator window later).
+    before = (trace.t > 2.6) & (trace.t < 2.95)
+    during = (trace.t > 3.2) & (trace.t < 4.9)
+    after = trace.t > 5.4
+    assert np.all(trace.valid[before] == 1)
+    assert np.all(trace.valid[during] == 0)
+    assert np.all(trace.status[during] == 1)
+    assert np.all(trace.valid[after] == 1)
+    # While invalid the last valid estimate is held.
+    held = trace.theta[during]
+    assert np.all(held == held[0])
+    # After recovery the estimates are those of the clean log (same window data).
+    np.testing.assert_allclose(
+        trace.theta[after], reference.theta[after], rtol=1e-9, atol=1e-12
+    )
+
+
+def test_dropped_samples_in_a_csv_become_an_invalid_stretch(robot, clean_log, tmp_path):
+    from drake_dynid.logs import read_log, write_log
+
+    keep = np.ones(clean_log.num_samples, bool)
+    keep[4000:4010] = False  # 10 samples missing from the file
+    path = tmp_path / "gappy.csv"
+    write_log(
+        path,
+        clean_log.t[keep],
+        clean_log.q[keep],
+        clean_log.tau[keep],
+        robot.joint_names,
+    )
+    log = read_log(path, robot.joint_names)
+    assert log.num_samples == clean_log.num_samples
+    assert any("dropped" in w for w in log.warnings)
+    (trace,) = replay_log(log, robot.rows_provider(), [SETTINGS])
+    assert np.all(np.isfinite(trace.theta))
+    assert np.all(trace.valid[(trace.t > 4.2) & (trace.t < 5.9)] == 0)
+    assert trace.valid[-1] == 1
