@@ -78,3 +78,55 @@ def test_dropped_samples_in_a_csv_become_an_invalid_stretch(robot, clean_log, tm
     assert np.all(np.isfinite(trace.theta))
     assert np.all(trace.valid[(trace.t > 4.2) & (trace.t < 5.9)] == 0)
     assert trace.valid[-1] == 1
+
+
+BALL_URDF = """<?xml version="1.0"?>
+<robot name="ball">
+  <link name="world"/>
+  <link name="a"><inertial><mass value="1"/>
+    <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j" type="ball"><parent link="world"/><child link="a"/></joint>
+</robot>
+"""
+
+FLOATING_URDF = """<?xml version="1.0"?>
+<robot name="floating">
+  <link name="a"><inertial><mass value="1"/>
+    <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="b"><inertial><mass value="1"/>
+    <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j" type="floating"><parent link="a"/><child link="b"/></joint>
+</robot>
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        (BALL_URDF, "type 'ball'"),
+        (FLOATING_URDF, "type 'floating'"),
+        ("<robot name='x'><link name='a'>", "could not parse|not well-formed"),
+    ],
+)
+@pytest.mark.parametrize("command", ["params", "identify", "offline"])
+def test_unsupported_or_malformed_urdf_exits_2_with_the_reason(
+    command, text, match, tmp_path, capsys
+):
+    import re
+
+    from drake_dynid import cli
+
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(text)
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_j,tau_j\n0,0,0\n0.001,0,0\n")
+    argv = {
+        "params": ["params", str(urdf)],
+        "identify": ["identify", str(log), "--urdf", str(urdf)],
+        "offline": ["offline", str(log), "--urdf", str(urdf)],
+    }[command]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert re.search(match, err), err
