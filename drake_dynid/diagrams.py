@@ -220,6 +220,21 @@ class _Chain:
     logs: dict[str, Any] = field(default_factory=dict)
 
 
+def _check_rows(owner: str, rows: Any) -> int:
+    """Checks a row provider's interface; returns its number of joints."""
+    missing = [
+        name
+        for name in ("num_joints", "num_parameters", "names", "model_rows")
+        if not hasattr(rows, name)
+    ]
+    if missing:
+        raise TypeError(
+            f"{owner}: rows must be a row provider (RobotModel or its "
+            f"rows_provider()); {type(rows).__name__} has no {', '.join(missing)}."
+        )
+    return int(rows.num_joints)
+
+
 def add_online_identifier(
     builder: Any,
     rows: Any,
@@ -255,7 +270,18 @@ def add_online_identifier(
     )
     from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
 
-    n = int(rows.num_joints)
+    n = _check_rows("add_online_identifier", rows)
+    if not isinstance(settings, OnlineSettings):
+        raise TypeError(
+            "add_online_identifier: settings must be an OnlineSettings; got "
+            f"{type(settings).__name__}."
+        )
+    if measurement.size() != 2 * n:
+        check.fail(
+            "add_online_identifier",
+            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
+            f"{measurement.size()}.",
+        )
     check.multiple_of(
         "add_online_identifier",
         "bank_time_step",
@@ -398,6 +424,12 @@ def replay_log(
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
+    n = _check_rows("replay_log", rows)
+    if log.q.shape[1] != n or log.tau.shape[1] != n:
+        check.fail(
+            "replay_log",
+            f"the log has {log.q.shape[1]} joints; the robot has {n}.",
+        )
     h = log.time_step
     t = h * np.arange(log.num_samples)
     values = np.hstack([log.q, log.tau]).T
@@ -461,6 +493,23 @@ class SimulationSettings:
     kp: float = 400.0
     kd: float = 40.0
     coulomb_smoothing: float = 1e-2
+
+    def __post_init__(self):
+        owner = "SimulationSettings"
+        check.positive(owner, "duration", self.duration, "s")
+        check.positive(owner, "time_step", self.time_step, "s")
+        if self.snr_db is not None:
+            check.real(owner, "snr_db", self.snr_db, "dB")
+        check.integer(owner, "seed", self.seed, 0)
+        check.positive(owner, "kp", self.kp, "1/s²")
+        check.positive(owner, "kd", self.kd, "1/s")
+        check.real(owner, "coulomb_smoothing", self.coulomb_smoothing, "rad/s")
+        if self.coulomb_smoothing < 0:
+            check.fail(
+                owner,
+                "coulomb_smoothing must be >= 0 [rad/s]; got "
+                f"{self.coulomb_smoothing}.",
+            )
 
 
 @dataclass
@@ -554,10 +603,13 @@ def simulate_identification(
     from drake_dynid.plants import load_plant, read_urdf_friction
     from drake_dynid.systems.friction import JointFriction
 
-    h = check.positive(
-        "simulate_identification", "time_step", simulation.time_step, "s"
-    )
+    h = simulation.time_step
     n = robot.num_joints
+    if getattr(trajectory, "num_joints", n) != n:
+        check.fail(
+            "simulate_identification",
+            f"trajectory has {trajectory.num_joints} joints; the robot has {n}.",
+        )
     rows = robot.rows_provider() if rows is None else rows
     builder = DiagramBuilder()
     plant = builder.AddSystem(load_plant(robot.path, h, gravity=robot.gravity))

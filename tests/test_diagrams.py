@@ -179,3 +179,24 @@ def test_trace_reports_status_and_unexcited_parameters(robot):
     assert {"ZZ2", "MX2"} <= set(final["unidentified"])
     assert np.all(trace.valid == 0) and np.all(trace.theta == 0.0)
     assert trace.status[0] == 1  # window not ready at the start
+
+
+def test_diagram_argument_checks(robot, trajectory):
+    from drake_dynid.core.trajectory import FourierTrajectory
+
+    with pytest.raises(ValueError, match="duration must be > 0"):
+        SimulationSettings(duration=0.0)
+    with pytest.raises(ValueError, match="kd must be > 0"):
+        SimulationSettings(kd=-1.0)
+    with pytest.raises(ValueError, match="coulomb_smoothing must be >= 0"):
+        SimulationSettings(coulomb_smoothing=-0.1)
+    one = FourierTrajectory(np.zeros(1), np.ones((1, 1)), np.zeros((1, 1)), 1.0)
+    with pytest.raises(ValueError, match="trajectory has 1 joints; the robot has 2"):
+        simulate_identification(robot, one, SimulationSettings(duration=0.1), [])
+    log = RobotLog(
+        np.arange(3) * 1e-3, np.zeros((3, 1)), np.zeros((3, 1)), ("a",), 1e-3
+    )
+    with pytest.raises(ValueError, match="the log has 1 joints; the robot has 2"):
+        replay_log(log, robot.rows_provider(), [OnlineSettings()])
+    with pytest.raises(TypeError, match="rows must be a row provider"):
+        replay_log(log, object(), [OnlineSettings()])
