@@ -1,0 +1,447 @@
+"""Accuracy of on-line (power, Lagrangian) and off-line (IDIM) identification, 2R arm.
+
+Set-up (paper §V): ``simulate_identification`` on the paper's 2R arm
+(``model_path("planar_2r")``, L1 = 1 m), discrete plant at 1 kHz, inverse-dynamics
+tracking, SNR 30 dB white noise on every q and τ channel (SNR = 10 log10(var(x)/σ²),
+var of the noise-free reference), duration T + 1 = 21 s, window T = 20 s. The
+estimate is the one of the last full window (ending at the last sample).
+
+Main trajectory: ``drake_dynid.paper.paper_trajectory()`` (finite Fourier series,
+period 40 s, harmonics 4..24, i.e. 0.1-0.6 Hz, coefficients N(0,1)/√l from
+default_rng(2014), each joint scaled to max |q̇_j| = 5 rad/s).
+
+Seeds: the controller uses the true state, so the measurement noise never enters the
+loop: every scenario is simulated once (``simulate_identification``, seed 0) and seed s
+adds ``noise_std · N(0, 1)`` from ``np.random.default_rng(1000 + s)`` to the recorded
+noise-free q, τ (also used for the noise-only / bias-only error budget).
+
+On-line estimates: a core replica of the blocks (batch matched Jacobi, model rows of the
+decimated samples of the last window, trapezoid Fourier integrals, QR LS). Checked once
+against the Drake blocks in the loop (first table line): same window, the blocks' own
+noise, relative difference ~1e-12. Off-line: ``drake_dynid.offline.identify_offline``
+(IDIM-LS, automatic cutoff and decimation). Medians over seeds of the relative error
+[%] per parameter; "inertial" / "friction" are the means of the 4 medians of |error|.
+
+Other scenarios: two more 2R geometries (URDFs generated in a temp dir from
+planar_2r.urdf: ``g1`` L1 = 0.7 m, heavy link 2, strong friction; ``g2`` L1 = 1.3 m,
+light link 2, weak friction) and ``random_fourier_trajectory`` (H = 5, ω_f = 2π·0.1,
+|q̇| ≤ 4 rad/s, default_rng(1|2|3)), plus a wide-band one (H = 4, ω_f = 2π·0.25,
+|q̇| ≤ 4, default_rng(5): 0.25-1 Hz). The default settings are the same everywhere:
+the ℓ set comes from ``estimate_bandwidth`` of the measured q.
+
+ZZ1R jump (paper Fig. 4): ``paper.zz1_jump()`` at 9.4 s, T = 7 s, in the loop
+(Drake blocks), 25 s; time until ZZ1R stays within 2 % of 4.5.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from drake_dynid import paper
+from drake_dynid.core.excitation import estimate_bandwidth, frequencies_for
+from drake_dynid.core.jacobi import jacobi_batch, jacobi_filters
+from drake_dynid.core.lsq import solve_least_squares
+from drake_dynid.core.modulating import (
+    assemble_equations,
+    direct_fourier_integrals,
+    pack_rows,
+)
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.diagrams import (
+    OnlineSettings,
+    SimulationSettings,
+    simulate_identification,
+)
+from drake_dynid.logs import RobotLog
+from drake_dynid.offline import identify_offline
+from drake_dynid.plants import RobotModel, model_path
+
+H = 1e-3
+T = 20.0
+# Recommended defaults (see the module docstring and the study tables).
+LAGRANGIAN = dict(model="lagrangian", jacobi_window=0.4, kappa=1.0, mu=1.0, jacobi_q=1)
+POWER = dict(model="power", jacobi_window=0.3, kappa=1.0, mu=1.0, jacobi_q=1)
+PAPER_ONLINE_ERR = 100 * (paper.TABLE2_ONLINE - paper.TRUE_VALUES) / paper.TRUE_VALUES
+PAPER_OFFLINE_ERR = 100 * (paper.TABLE2_OFFLINE - paper.TRUE_VALUES) / paper.TRUE_VALUES
+
+
+def settings_for(
+    kind: dict, window: float, bandwidth: float, **extra
+) -> OnlineSettings:
+    """OnlineSettings with the ℓ rule: integer ℓ covering the measured band.
+
+    At least 8 values of ℓ (2·8 rows per equation: the power model has one equation
+    per ℓ for p = 8 parameters; with T = 7 s the band alone gives only 4).
+    """
+    ell = frequencies_for(window, bandwidth, min_count=8)
+    return OnlineSettings(window=window, frequencies=ell, **{**kind, **extra})
+
+
+# ----------------------------------------------------------------- scenarios
+
+
+def _variant(text: str, L1, m1, izz1, m2, com2, izz2, fv, fc) -> str:
+    """planar_2r.urdf with another geometry, masses and friction."""
+
+    def sub(pattern, value, t):
+        return re.sub(pattern, lambda m: m.group(1) + value, t, count=1, flags=re.S)
+
+    inertia = 'ixx="{a}" ixy="0" ixz="0" iyy="{b}" iyz="0" izz="{b}"'
+    t = sub(r'(<link name="link1">.*?<origin xyz=")[^"]*', f"{L1 / 2} 0 0", text)
+    t = sub(r'(<link name="link1">.*?<mass value=")[^"]*', f"{m1}", t)
+    t = sub(
+        r'(<link name="link1">.*?<inertia )[^/]*',
+        inertia.format(a=0.05 * izz1, b=izz1),
+        t,
+    )
+    t = sub(r'(<link name="link2">.*?<origin xyz=")[^"]*', f"{com2[0]} {com2[1]} 0", t)
+    t = sub(r'(<link name="link2">.*?<mass value=")[^"]*', f"{m2}", t)
+    t = sub(
+        r'(<link name="link2">.*?<inertia )[^/]*',
+        inertia.format(a=0.05 * izz2, b=izz2),
+        t,
+    )
+    t = sub(r'(<joint name="joint2".*?<origin xyz=")[^"]*', f"{L1} 0 0", t)
+    for j in (0, 1):
+        t = sub(
+            rf'(<joint name="joint{j + 1}".*?<dynamics )[^/]*',
+            f'damping="{fv[j]}" friction="{fc[j]}"',
+            t,
+        )
+    return t
+
+
+def robots(directory: Path) -> dict[str, RobotModel]:
+    text = Path(model_path("planar_2r")).read_text()
+    g1 = _variant(text, 0.7, 3.0, 1.5, 2.0, (0.3, -0.05), 0.05, (0.5, 0.2), (0.6, 0.3))
+    g2 = _variant(text, 1.3, 1.0, 0.8, 0.5, (0.6, 0.08), 0.02, (0.1, 0.05), (0.2, 0.1))
+    (directory / "g1.urdf").write_text(g1)
+    (directory / "g2.urdf").write_text(g2)
+    return {
+        "paper": RobotModel.from_urdf(model_path("planar_2r")),
+        "g1": RobotModel.from_urdf(directory / "g1.urdf"),
+        "g2": RobotModel.from_urdf(directory / "g2.urdf"),
+    }
+
+
+def _rf(seed: int, harmonics: int = 5, f: float = 0.1):
+    return random_fourier_trajectory(
+        2,
+        harmonics=harmonics,
+        base_frequency=2 * np.pi * f,
+        max_velocity=4.0,
+        rng=np.random.default_rng(seed),
+    )
+
+
+def scenarios(quick: bool) -> dict[str, tuple[str, object]]:
+    main = {"paper 2R / paper_trajectory": ("paper", paper.paper_trajectory())}
+    if quick:
+        return main
+    return {
+        **main,
+        "g1 / paper_trajectory": ("g1", paper.paper_trajectory()),
+        "g2 / paper_trajectory": ("g2", paper.paper_trajectory()),
+        "paper 2R / rf seed 1": ("paper", _rf(1)),
+        "paper 2R / rf seed 2": ("paper", _rf(2)),
+        "g1 / rf seed 3": ("g1", _rf(3)),
+        "paper 2R / wide rf seed 5": ("paper", _rf(5, harmonics=4, f=0.25)),
+    }
+
+
+# ------------------------------------------------------------------ estimators
+
+
+def filtered(q, tau, s: OnlineSettings):
+    """Matched Jacobi (orders 0, 1) over the whole log, as the differentiator block."""
+    f0, f1 = jacobi_filters(
+        (0, 1), s.jacobi_window, H, kappa=s.kappa, mu=s.mu, q=s.jacobi_q, matched=True
+    )
+    n = q.shape[1]
+    smooth = jacobi_batch(f0, np.hstack([q, tau]))
+    return smooth[:, :n], jacobi_batch(f1, q), smooth[:, n:]
+
+
+def online(rows, s: OnlineSettings, signals, end: int):
+    """Core replica of the blocks' solve (the same numerics, batch).
+
+    The window's newest bank sample is the differentiator output at sample ``end``.
+    """
+    qh, vh, th = signals
+    step = round(s.bank_time_step / H)
+    idx = end - step * np.arange(round(s.window / s.bank_time_step), -1, -1)
+    d, g, y = rows.model_rows(s.model, qh[idx], vh[idx], th[idx])
+    bank = s.bank()
+    A, B = assemble_equations(
+        bank, direct_fourier_integrals(bank, pack_rows(d, g, y)), d.shape[1], d.shape[2]
+    )
+    res = solve_least_squares(A, B, max_condition=s.max_condition, names=rows.names)
+    return res.theta if res.valid else np.full(rows.num_parameters, np.nan)
+
+
+def offline(robot, q, tau):
+    log = RobotLog(H * np.arange(len(q)), q, tau, tuple(robot.joint_names), H)
+    res = identify_offline(log, robot)
+    return res.theta if res.valid else np.full(robot.num_parameters, np.nan)
+
+
+def noisy(clean_q, clean_tau, std, seed, which="both"):
+    e = np.random.default_rng(1000 + seed).standard_normal((len(clean_q), 4)) * std
+    q = clean_q + (e[:, :2] if which in ("both", "q") else 0.0)
+    tau = clean_tau + (e[:, 2:] if which in ("both", "tau") else 0.0)
+    return q, tau
+
+
+def errors(estimates, truth):
+    """Median over seeds of the signed and absolute relative errors [%]."""
+    e = 100 * (np.asarray(estimates) - truth) / truth
+    med_abs = np.nanmedian(np.abs(e), axis=0)
+    return {
+        "median_signed": np.nanmedian(e, axis=0).tolist(),
+        "median_abs": med_abs.tolist(),
+        "inertial": float(med_abs[:4].mean()),
+        "friction": float(med_abs[4:].mean()),
+        "failed": int(np.isnan(e).any(axis=1).sum()),
+    }
+
+
+# ------------------------------------------------------------------------ runs
+
+
+def simulate(robot, trajectory, duration=T + 1.0, settings=(), **kw):
+    return simulate_identification(
+        robot,
+        trajectory,
+        SimulationSettings(duration=duration, snr_db=30.0, seed=0),
+        list(settings),
+        **kw,
+    )
+
+
+def block_check(robot, trajectory, bandwidth):
+    """In-loop Drake blocks vs the core replica on the blocks' own noisy signals."""
+    chosen = [
+        settings_for(LAGRANGIAN, T, bandwidth, update_period=0.5),
+        settings_for(POWER, T, bandwidth, update_period=0.5),
+    ]
+    r = simulate(robot, trajectory, settings=chosen)
+    # The logged noise is one sample late w.r.t. what the blocks saw (RandomSource
+    # update vs logger publish), so advance it by one sample.
+    q = r.q_true + np.roll(r.q - r.q_true, -1, axis=0)
+    tau = r.tau_true + np.roll(r.tau - r.tau_true, -1, axis=0)
+    out = []
+    for s, trace in zip(chosen, r.traces, strict=True):
+        # The logger at t_last shows the solve at t_last - update_period, whose
+        # window ends with the differentiator output of the previous sample.
+        end = round((trace.t[-1] - s.update_period) / H) - 1
+        core = online(robot.rows_provider(), s, filtered(q, tau, s), end)
+        blocks = trace.final()["theta"]
+        out.append(float(np.max(np.abs(core - blocks) / np.abs(robot.base_values))))
+    return out
+
+
+def run_scenario(robot, trajectory, seeds, methods, budget=False):
+    r = simulate(robot, trajectory)
+    bandwidth = estimate_bandwidth(r.q, H)
+    rows = robot.rows_provider()
+    truth = robot.base_values
+    end = len(r.q) - 1
+    results = {"bandwidth_hz": bandwidth}
+    cases = [("both", m) for m in methods]
+    if budget:
+        cases += [
+            (w, m)
+            for w in ("tau", "q", "none")
+            for m in methods
+            if m != "off-line IDIM-LS"
+        ]
+    for which, name in cases:
+        estimates = []
+        for seed in seeds if which != "none" else [0]:
+            if which == "none":
+                q, tau = r.q_true, r.tau_true
+            else:
+                q, tau = noisy(r.q_true, r.tau_true, r.noise_std, seed, which)
+            if name == "off-line IDIM-LS":
+                estimates.append(offline(robot, q, tau))
+                continue
+            s = methods[name](bandwidth)
+            estimates.append(online(rows, s, filtered(q, tau, s), end))
+        results[(which, name)] = errors(estimates, truth)
+    return results
+
+
+def method_table(bandwidth_note=True):
+    return {
+        "on-line Lagrangian": lambda b: settings_for(LAGRANGIAN, T, b),
+        "on-line power": lambda b: settings_for(POWER, T, b),
+        "on-line power, paper set": lambda b: OnlineSettings(
+            window=T, frequencies="paper", **POWER
+        ),
+        "off-line IDIM-LS": None,
+    }
+
+
+def jump_run(robot, trajectory):
+    window = 7.0
+    probe = simulate(robot, trajectory, duration=10.0)
+    bandwidth = estimate_bandwidth(probe.q, H)
+    chosen = [
+        settings_for(LAGRANGIAN, window, bandwidth, update_period=0.05),
+        settings_for(POWER, window, bandwidth, update_period=0.05),
+    ]
+    r = simulate(
+        robot,
+        trajectory,
+        duration=25.0,
+        settings=chosen,
+        events=[(9.4, paper.zz1_jump(0.6))],
+    )
+    out = {}
+    for s, trace in zip(chosen, r.traces, strict=True):
+        z = trace.theta[:, 0]
+        bad = np.flatnonzero((trace.t >= 9.4) & (np.abs(z - 4.5) > 0.02 * 4.5))
+        if not len(bad):
+            settle = 0.0
+        elif bad[-1] + 1 >= len(trace.t):
+            settle = float("nan")  # not within 2 % at the end of the run
+        else:
+            settle = float(trace.t[bad[-1] + 1] - 9.4)
+        out[s.model] = {
+            "settle_s": settle,
+            "final_ZZ1R": float(z[-1]),
+            "before_jump_ZZ1R": float(z[np.searchsorted(trace.t, 9.4) - 1]),
+            "ell": s.ell().tolist(),
+        }
+    return out
+
+
+# ---------------------------------------------------------------------- output
+
+
+def _row(label, values, fmt="{:+.2f}"):
+    return f"| {label} | " + " | ".join(fmt.format(x) for x in values) + " |"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=10)
+    parser.add_argument("--quick", action="store_true", help="3 seeds, main case only")
+    parser.add_argument("--json", type=str, default=None)
+    args = parser.parse_args(argv)
+    seeds = range(3 if args.quick else args.seeds)
+    start = time.perf_counter()
+    report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}
+    methods = method_table()
+    names = paper.BASE_NAMES
+    with tempfile.TemporaryDirectory() as tmp:
+        models = robots(Path(tmp))
+        scen = scenarios(args.quick)
+        main_robot, main_traj = models["paper"], paper.paper_trajectory()
+        bw0 = estimate_bandwidth(simulate(main_robot, main_traj).q, H)
+        check = block_check(main_robot, main_traj, bw0)
+        print(
+            f"Core replica vs Drake blocks in the loop (seed 0, same window): max rel. "
+            f"difference Lagrangian {check[0]:.1e}, power {check[1]:.1e}\n"
+        )
+        report["block_check"] = check
+        all_results = {}
+        for label, (rname, traj) in scen.items():
+            all_results[label] = run_scenario(
+                models[rname],
+                traj,
+                seeds,
+                methods,
+                budget=(label in scen and not all_results),
+            )
+        main_label = next(iter(scen))
+        res = all_results[main_label]
+        print(
+            f"## {main_label}: median relative error over {len(seeds)} seeds [%] "
+            f"(SNR 30 dB, T = 20 s, measured band {res['bandwidth_hz']:.3f} Hz)\n"
+        )
+        print("| | " + " | ".join(names) + " | inertial | friction |")
+        print("|---" * (len(names) + 3) + "|")
+        for name in methods:
+            e = res[("both", name)]
+            print(
+                _row(name, e["median_signed"])[:-2]
+                + f" | {e['inertial']:.2f} | {e['friction']:.2f} |"
+            )
+        for label, err in (
+            ("paper Table II on-line", PAPER_ONLINE_ERR),
+            ("paper Table II off-line", PAPER_OFFLINE_ERR),
+        ):
+            a = np.abs(err)
+            print(
+                _row(label, err)[:-2] + f" | {a[:4].mean():.2f} | {a[4:].mean():.2f} |"
+            )
+        print(
+            "\n(signed medians; inertial/friction: mean of the 4 medians of |error|)\n"
+        )
+        print("## Error budget (same seeds; mean |error| % inertial / friction)\n")
+        print(
+            "| method | noise q and τ | noise on τ only | noise on q only "
+            "| noise-free |"
+        )
+        print("|---|---|---|---|---|")
+        for name in methods:
+            if name == "off-line IDIM-LS":
+                continue
+            cells = [
+                f"{res[(w, name)]['inertial']:.2f} / {res[(w, name)]['friction']:.2f}"
+                for w in ("both", "tau", "q", "none")
+            ]
+            print(f"| {name} | " + " | ".join(cells) + " |")
+        if len(all_results) > 1:
+            print(
+                "\n## Other geometries and trajectories "
+                "(same defaults; inertial / friction %)\n"
+            )
+            print("| scenario | band Hz | " + " | ".join(methods) + " |")
+            print("|---|---|" + "---|" * len(methods))
+            for label, res_s in all_results.items():
+                cells = [
+                    "{inertial:.2f} / {friction:.2f}".format(**res_s[("both", m)])
+                    for m in methods
+                ]
+                print(
+                    f"| {label} | {res_s['bandwidth_hz']:.2f} | "
+                    + " | ".join(cells)
+                    + " |"
+                )
+        jump = jump_run(main_robot, main_traj)
+        print("\n## ZZ1R jump 3.9 -> 4.5 at 9.4 s (T = 7 s, in-loop blocks, seed 0)\n")
+        print("| model | ZZ1R before | ZZ1R at 25 s | time to stay within 2 % [s] |")
+        print("|---|---|---|---|")
+        for model, j in jump.items():
+            print(
+                f"| {model} | {j['before_jump_ZZ1R']:.3f} | {j['final_ZZ1R']:.3f} | "
+                f"{j['settle_s']:.2f} |"
+            )
+        print("\n(paper Fig. 4: about 5 s)")
+    wall = time.perf_counter() - start
+    print(f"\nwall time {wall:.0f} s")
+    report["wall_s"] = wall
+    report["jump"] = jump
+    report["settings"] = {"lagrangian": LAGRANGIAN, "power": POWER}
+    report["results"] = {
+        label: {
+            (k if isinstance(k, str) else f"{k[0]}|{k[1]}"): v for k, v in r.items()
+        }
+        for label, r in all_results.items()
+    }
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
