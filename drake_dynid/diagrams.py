@@ -143,6 +143,10 @@ class OnlineSettings:
         return out
 
 
+#: Offsets of the bank's and the solver's periodic events, in signal periods h.
+BANK_OFFSET = 0.5
+SOLVE_OFFSET = 0.75
+
 #: Fewest modulating functions of the default ℓ set (see OnlineSettings.ell).
 MIN_FUNCTIONS = 12
 
@@ -321,9 +325,17 @@ def add_online_identifier(
     builder.Connect(pick_first.get_output_port(), model_rows.GetInputPort("q"))
     builder.Connect(pick_velocity.get_output_port(), model_rows.GetInputPort("v"))
     builder.Connect(pick_second.get_output_port(), model_rows.GetInputPort("tau"))
+    # Multi-rate timing without ties: the differentiator updates at k·h, the bank at
+    # j·D·h + h/2 (it reads the differentiator's state after its update at j·D·h) and
+    # the solver at u·U·h + 3h/4 (after the bank updates up to u·U·h). Event times of
+    # different periods computed in floating point can differ by an ulp; the offsets
+    # make every read unambiguous (docs/CONVENTIONS.md §2).
     bank = builder.AddSystem(
         ModulatingIntegralBank(
-            settings.bank(), model_rows.num_equations, model_rows.num_parameters
+            settings.bank(),
+            model_rows.num_equations,
+            model_rows.num_parameters,
+            offset=BANK_OFFSET * time_step,
         )
     )
     builder.Connect(model_rows.get_output_port(), bank.GetInputPort("channels"))
@@ -338,6 +350,7 @@ def add_online_identifier(
             settings.update_period,
             max_condition=settings.max_condition,
             names=names,
+            offset=SOLVE_OFFSET * time_step,
         )
     )
     for port in ("A", "B"):
@@ -363,9 +376,9 @@ def add_online_identifier(
 
 def _trace(chain: _Chain, context: Any, time_step: float) -> OnlineTrace:
     logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
-    # Latency: the differentiator delay, plus one sample each for the
-    # differentiator and the bank state, plus the bank's and the solve's periods.
-    delay = chain.differentiator.delay + time_step + chain.settings.bank_time_step
+    # Latency: a solve at u·U·h + 3h/4 uses the samples up to u·U·h, whose estimates
+    # refer to u·U·h - (differentiator delay).
+    delay = chain.differentiator.delay + SOLVE_OFFSET * time_step
     return OnlineTrace(
         settings=chain.settings,
         names=chain.names,
@@ -431,12 +444,11 @@ def replay_log(
             f"the log has {log.q.shape[1]} joints; the robot has {n}.",
         )
     h = log.time_step
-    t = h * np.arange(log.num_samples)
     values = np.hstack([log.q, log.tau]).T
-    # One extra break so that the last sample is held at t[-1] (a zero-order hold
-    # ends with the previous segment).
+    # Sample k is held over [t_k - h/2, t_k + h/2): the differentiator's update at
+    # t_k reads it whatever the floating-point rounding of the event times.
     source_values = np.hstack([values, values[:, -1:]])
-    source_breaks = np.append(t, t[-1] + h)
+    source_breaks = h * (np.arange(log.num_samples + 1) - 0.5)
     builder = DiagramBuilder()
     source = builder.AddSystem(
         TrajectorySource(
@@ -447,7 +459,9 @@ def replay_log(
     diagram = builder.Build()
     simulator = Simulator(diagram)
     simulator.Initialize()
-    _advance(simulator, float(t[-1]), progress, "dynid identify")
+    # Run to t_N = N·h: the updates at times < N·h process every sample (the bank's
+    # and the solver's offset events included), the loggers publish up to N·h.
+    _advance(simulator, float(h * log.num_samples), progress, "dynid identify")
     context = simulator.get_context()
     return [_trace(chain, context, h) for chain in chains]
 

@@ -11,14 +11,13 @@ bank_time_step/h and U = update_period/h samples:
 * the differentiator's state after its update at t_k holds samples 0..k; its
   outputs are the causal FIR ``ẑ_k = Σ_j taps[j] [q; τ]_{k-j}`` (zeros before the
   first sample), valid once k + 1 >= N + 1 taps;
-* the bank's update at t_j (j = 0, D, 2D, ...) reads the differentiator's
-  pre-update outputs, ``ẑ_{j-1}`` (``ẑ_{-1}`` = 0, invalid), and pushes the model
-  rows of that sample;
-* the identifier's solve at t_u (u = 0, U, 2U, ...) runs after the bank's update at
-  the same instant (Drake applies unrestricted updates first), so its window ends
-  with the bank sample pushed at t_u;
-* a logger at t_s records the identifier state after the solves at t < t_s; the
-  Simulator stops at the last sample's time, so updates at that time never run.
+* the bank updates at t_j + h/2 (j = 0, D, 2D, ...): it reads ``ẑ_j`` and pushes
+  the model rows of that sample;
+* the identifier solves at t_u + 3h/4 (u = 0, U, 2U, ...): its window ends with the
+  bank sample pushed at t_u + h/2;
+* a logger at t_s records the identifier state after the solves before t_s; the
+  Simulator runs to t_N = N·h (one period after the last sample), so every sample
+  is processed and the loggers publish up to t_N.
 
 Vectorised: one FIR per filter over the whole log (only the columns the model
 uses: the smoothed q and τ and the velocity of q), the rows of every decimated
@@ -37,7 +36,12 @@ import numpy as np
 
 from drake_dynid.core import lsq, modulating
 from drake_dynid.core.jacobi import jacobi_batch, jacobi_filters
-from drake_dynid.diagrams import OnlineSettings, OnlineTrace
+from drake_dynid.core.lsq import (
+    STATUS_NOT_IDENTIFIABLE,
+    STATUS_OK,
+    STATUS_WINDOW_NOT_READY,
+)
+from drake_dynid.diagrams import SOLVE_OFFSET, OnlineSettings, OnlineTrace
 
 __all__ = ["replay_log_core"]
 
@@ -95,11 +99,9 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
     p = int(rows.num_parameters)
     names = tuple(rows.names)
 
-    # Bank updates run at t_j, j = 0, D, ... < count - 1, each pushing ẑ_{j-1}.
-    bank_times = np.arange(0, count - 1, decimation)
-    source = bank_times - 1
-    used = source >= 0
-    picked = np.where(used, source, 0)
+    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
+    bank_times = np.arange(0, count, decimation)
+    picked = bank_times
     d_rows, g_rows, y_rows = rows.model_rows(
         entry.model, q_hat[picked], v_hat[picked], tau_hat[picked]
     )
@@ -108,26 +110,33 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
         [d_rows.reshape(lead, -1), g_rows.reshape(lead, -1), y_rows.reshape(lead, -1)],
         axis=1,
     )
-    sample_valid = used & jacobi_ok[picked]
+    sample_valid = jacobi_ok[picked]
 
-    # Solves at t_u, u = 0, U, ... < count - 1; logs at t_s, s = 0, U, ... <= count - 1.
-    log_times = np.arange(0, count, solve_every)
+    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
+    # <= count.
+    log_times = np.arange(0, count + 1, solve_every)
     num_logs = len(log_times)
     theta = np.zeros((num_logs, p))
     std = np.full((num_logs, p), np.inf)
     condition = np.full(num_logs, np.inf)
     valid = np.zeros(num_logs)
+    status = np.zeros(num_logs)
+    unidentified = np.zeros((num_logs, p))
     current_theta, current_std = np.zeros(p), np.full(p, np.inf)
     current_condition, current_valid = math.inf, 0.0
+    # As SlidingQRIdentifier: status 1 (window not ready) until a solve; the
+    # unidentified flags are those of the last solve.
+    current_status, current_unidentified = float(STATUS_WINDOW_NOT_READY), np.zeros(p)
     state = modulating.sliding_init(bank, channels.shape[1])
     pushed = 0
     for index, s in enumerate(log_times):
         # Record the state after the solves at t < t_s.
         theta[index], std[index] = current_theta, current_std
         condition[index], valid[index] = current_condition, current_valid
-        if s >= count - 1:
+        status[index], unidentified[index] = current_status, current_unidentified
+        if s > count - 1:
             break
-        # Solve at t_s: after the bank updates at t_j <= t_s.
+        # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
         upto = int(np.searchsorted(bank_times, s, side="right"))
         if upto > pushed:
             state = modulating.sliding_push_many(
@@ -139,6 +148,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
             pushed = upto
         if not modulating.window_valid(state):
             current_valid = 0.0
+            current_status = float(STATUS_WINDOW_NOT_READY)
             continue
         integrals = modulating.sliding_fourier_integrals(bank, state)
         a, b = modulating.assemble_equations(bank, integrals, m, p)
@@ -146,11 +156,15 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
             a, b, max_condition=entry.max_condition, names=names
         )
         current_condition = result.condition_number
+        current_unidentified = np.zeros(p)
         if result.valid:
             current_theta, current_std = result.theta.copy(), result.std.copy()
             current_valid = 1.0
+            current_status = float(STATUS_OK)
         else:
             current_valid = 0.0
+            current_status = float(STATUS_NOT_IDENTIFIABLE)
+            current_unidentified[list(result.unidentified_indices)] = 1.0
     return OnlineTrace(
         settings=entry,
         names=names,
@@ -159,7 +173,9 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
         std=std,
         condition_number=condition,
         valid=valid,
-        delay=jacobi_delay + h + entry.bank_time_step,
+        delay=jacobi_delay + SOLVE_OFFSET * h,
+        status=status,
+        unidentified=unidentified,
     )
 
 

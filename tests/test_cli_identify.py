@@ -92,11 +92,12 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     for name, (value, percent) in table.items():
         assert abs(value - TRUTH[name]) < 0.03 * TRUTH[name], (name, value)
         assert percent < 30.0
-    # CSV: exactly t,valid,<names>, one row per solve (every 0.05 s).
+    # CSV: exactly t,valid,<names>, one row per solve (every 0.05 s) from t = 0 to
+    # t = N·h = 3 s (the state after the last sample has been processed).
     with open(out_csv, newline="") as stream:
         rows = list(csv.reader(stream))
     assert rows[0] == ["t", "valid", *TRUTH]
-    assert len(rows) - 1 == 60
+    assert len(rows) - 1 == 61
     assert rows[1][:2] == ["0", "0"] and rows[-1][1] == "1"
     assert float(rows[-1][2]) == pytest.approx(table["ZZ1R"][0], rel=1e-5)
     # JSON: DESIGN.md keys, σ and definitions.
@@ -266,3 +267,24 @@ def test_installed_entry_point_runs_offline(log_file, tmp_path):
     )
     assert done.returncode == 2
     assert done.stderr.startswith("dynid identify: error: log nope.csv: no such file")
+
+
+def test_identify_engines_agree(log_file, tmp_path):
+    # The default engine (vectorised core) and the Drake blocks give the same JSON.
+    import json
+
+    documents = []
+    for engine in ("core", "blocks"):
+        out = tmp_path / f"{engine}.json"
+        args = ["identify", str(log_file), "--urdf", model_path("planar_2r")]
+        args += ["--window", "2", "--quiet", "--engine", engine, "--json", str(out)]
+        assert cli.main(args) == 0
+        documents.append(json.loads(out.read_text()))
+    core, blocks = documents
+    assert (
+        core["settings"]["engine"] == "core"
+        and blocks["settings"]["engine"] == "blocks"
+    )
+    for mine, reference in zip(core["parameters"], blocks["parameters"], strict=True):
+        assert mine["value"] == pytest.approx(reference["value"], rel=1e-9, abs=1e-12)
+    assert core["valid"] == blocks["valid"]

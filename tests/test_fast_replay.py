@@ -65,6 +65,8 @@ def _compare(fast, reference):
         assert got.names == want.names
         np.testing.assert_allclose(got.t, want.t, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(got.valid, want.valid)
+        np.testing.assert_array_equal(got.status, want.status)
+        np.testing.assert_array_equal(got.unidentified, want.unidentified)
         np.testing.assert_allclose(got.theta, want.theta, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(got.std, want.std, rtol=1e-7, atol=1e-12)
         finite = np.isfinite(want.condition_number)

@@ -283,6 +283,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="C",
         help="largest accepted condition number of the column-scaled regressor",
     )
+    group.add_argument(
+        "--engine",
+        choices=("core", "blocks"),
+        default="core",
+        help="core: the vectorised numerical core (fast, default); blocks: the Drake "
+        "LeafSystems stepped in a Simulator (the reference; the test suite checks "
+        "that both give the same estimates)",
+    )
     outputs = parser.add_argument_group("outputs")
     outputs.add_argument(
         "--out",
@@ -409,10 +417,13 @@ def run(args: argparse.Namespace) -> int:
             f"more than window + jacobi_window = {needed:g} s before its first "
             "estimate: record a longer log or shorten --window."
         )
-    from drake_dynid.diagrams import replay_log
+    if args.engine == "blocks":
+        from drake_dynid.diagrams import replay_log as replay
+    else:
+        from drake_dynid.fast_replay import replay_log_core as replay
 
     progress = bool(sys.stderr.isatty()) and not args.quiet
-    (trace,) = replay_log(log, robot.rows_provider(), [settings], progress=progress)
+    (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
     valid = np.asarray(trace.valid) > 0.5
     if not valid.any():
         finite = trace.condition_number[np.isfinite(trace.condition_number)]
@@ -472,6 +483,7 @@ def run(args: argparse.Namespace) -> int:
                 **settings.as_dict(),
                 "friction": list(robot.friction),
                 "resample": bool(args.resample),
+                "engine": args.engine,
             },
             "urdf": str(args.urdf),
             "log": log_document(args, log),

@@ -37,6 +37,12 @@ __all__ = [
 ]
 
 DEFAULT_MAX_CONDITION = 1e6
+
+# Status of a sliding least-squares identifier after an update (the
+# SlidingQRIdentifier block's ``status`` output and the core replay's trace).
+STATUS_OK = 0  # the window was solved and accepted
+STATUS_WINDOW_NOT_READY = 1  # window not full, or holding an invalid sample
+STATUS_NOT_IDENTIFIABLE = 2  # rank deficient or too ill-conditioned
 """Largest accepted condition number of the column-scaled A (well-excited robot
 regressors are typically below 1e2-1e3; beyond 1e6 the estimate is noise)."""
 

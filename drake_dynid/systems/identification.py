@@ -238,10 +238,10 @@ class ModulatingIntegralBank(LeafSystem):
         output.SetAtIndex(0, 1.0 if modulating.window_valid(state) else 0.0)
 
 
-# Status codes of SlidingQRIdentifier (output ``status``).
-STATUS_OK = 0
-STATUS_WINDOW_NOT_READY = 1
-STATUS_NOT_IDENTIFIABLE = 2
+# Status codes of SlidingQRIdentifier (output ``status``), defined in the core.
+STATUS_OK = lsq.STATUS_OK
+STATUS_WINDOW_NOT_READY = lsq.STATUS_WINDOW_NOT_READY
+STATUS_NOT_IDENTIFIABLE = lsq.STATUS_NOT_IDENTIFIABLE
 
 
 class SlidingQRIdentifier(LeafSystem):
