@@ -493,7 +493,8 @@ class SimulationSettings:
             SNR = 10 log10(var(x)/σ²) with var(x) of the noise-free reference signal
             (q of the reference trajectory, τ of its inverse dynamics); None: no
             noise.
-        seed: seed of the noise.
+        seed: seed of the noise (``numpy.random.default_rng(seed)``, one standard
+            normal draw per sample and channel, scaled by σ).
         kp, kd: position and velocity gains of the inverse-dynamics controller
             [1/s², 1/s].
         coulomb_smoothing: ε of tanh(v/ε) in the simulated Coulomb friction [rad/s]
@@ -600,7 +601,6 @@ def simulate_identification(
     Returns:
         The logs and one estimate trace per identifier.
     """
-    from pydrake.common import RandomDistribution, RandomGenerator
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.controllers import InverseDynamicsController
     from pydrake.systems.framework import DiagramBuilder
@@ -609,7 +609,6 @@ def simulate_identification(
         LogVectorOutput,
         MatrixGain,
         Multiplexer,
-        RandomSource,
         TrajectorySource,
     )
     from pydrake.trajectories import PiecewisePolynomial
@@ -695,14 +694,23 @@ def simulate_identification(
     noise_std = reference_noise_std(
         robot, trajectory, simulation.duration, simulation.snr_db, h
     )
+    # White noise: sample k drawn from numpy.random.default_rng(seed) and held over
+    # [t_k - h/2, t_k + h/2), so every block reading it at t_k and the logger see
+    # the same value (Drake's RandomSource updates before discrete updates, which
+    # would make the log one sample off what the blocks saw).
+    steps = round(simulation.duration / h) + 2
+    draws = np.random.default_rng(int(simulation.seed)).standard_normal((steps, 2 * n))
     noise = builder.AddSystem(
-        RandomSource(RandomDistribution.kGaussian, 2 * n, sampling_interval_sec=h)
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(
+                h * (np.arange(steps + 1) - 0.5),
+                np.vstack([draws, draws[-1:]]).T * noise_std[:, None],
+            )
+        )
     )
-    scale = builder.AddSystem(MatrixGain(np.diag(noise_std)))
-    builder.Connect(noise.get_output_port(), scale.get_input_port())
     measured = builder.AddSystem(Adder(2, 2 * n))
     builder.Connect(clean.get_output_port(), measured.get_input_port(0))
-    builder.Connect(scale.get_output_port(), measured.get_input_port(1))
+    builder.Connect(noise.get_output_port(), measured.get_input_port(1))
     measurement = measured.get_output_port()
 
     chains = _add_chains(builder, rows, measurement, h, settings)
@@ -712,7 +720,6 @@ def simulate_identification(
     diagram = builder.Build()
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
-    diagram.SetRandomContext(context, RandomGenerator(int(simulation.seed)))
     plant_context = plant.GetMyMutableContextFromRoot(context)
     plant.SetPositions(plant_context, q_ref[0])
     plant.SetVelocities(plant_context, v_ref[0])
