@@ -288,3 +288,29 @@ def test_identify_engines_agree(log_file, tmp_path):
     for mine, reference in zip(core["parameters"], blocks["parameters"], strict=True):
         assert mine["value"] == pytest.approx(reference["value"], rel=1e-9, abs=1e-12)
     assert core["valid"] == blocks["valid"]
+
+
+def test_identify_measures_the_excitation_band_unless_given(log_file, tmp_path):
+    import json
+
+    from drake_dynid.commands.identify import measured_bandwidth
+    from drake_dynid.logs import read_log
+    from drake_dynid.plants import RobotModel
+
+    log = read_log(log_file, RobotModel.from_urdf(URDF).joint_names)
+    band = measured_bandwidth(log, 2.0)
+    assert 0.3 < band < 3.0
+    # A NaN burst does not stop the measurement (longest finite run).
+    q = log.q.copy()
+    q[100:110] = np.nan
+    gappy = type(log)(log.t, q, log.tau, log.joint_names, log.time_step)
+    assert measured_bandwidth(gappy, 2.0) == pytest.approx(band, rel=0.3)
+    out = tmp_path / "band.json"
+    base = ["identify", str(log_file), "--urdf", URDF, "--window", "2", "--quiet"]
+    assert cli.main([*base, "--json", str(out)]) == 0
+    settings = json.loads(out.read_text())["settings"]
+    assert settings["bandwidth_measured"] is True
+    assert settings["bandwidth"] == pytest.approx(max(band, 1.0), rel=1e-9)
+    assert cli.main([*base, "--bandwidth", "1.5", "--json", str(out)]) == 0
+    settings = json.loads(out.read_text())["settings"]
+    assert settings["bandwidth_measured"] is False and settings["bandwidth"] == 1.5

@@ -126,7 +126,9 @@ def test_paper_trajectory_is_documented_and_reproducible():
 def test_zz1_jump_is_tracked(robot):
     from drake_dynid.paper import paper_trajectory, zz1_jump
 
-    settings = OnlineSettings(window=2.0, frequencies=np.arange(11.0))
+    settings = OnlineSettings(
+        window=2.0, frequencies=np.arange(11.0), jacobi_window=0.3
+    )
     result = simulate_identification(
         robot,
         paper_trajectory(),

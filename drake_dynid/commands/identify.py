@@ -212,8 +212,12 @@ def _frequencies(text: str | None) -> Any:
     return values
 
 
-def online_settings(args: argparse.Namespace) -> Any:
-    """The ``OnlineSettings`` of the options; unset options keep its defaults."""
+def online_settings(args: argparse.Namespace, bandwidth: float | None = None) -> Any:
+    """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
+
+    ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
+    ``--bandwidth`` nor ``--frequencies`` is given.
+    """
     from drake_dynid.diagrams import OnlineSettings
 
     kwargs: dict[str, Any] = {}
@@ -224,9 +228,34 @@ def online_settings(args: argparse.Namespace) -> Any:
     frequencies = _frequencies(args.frequencies)
     if not (isinstance(frequencies, str) and frequencies == "default"):
         kwargs["frequencies"] = frequencies
-    settings = OnlineSettings(**kwargs)
+    if bandwidth is not None and "bandwidth" not in kwargs:
+        kwargs["bandwidth"] = bandwidth
+    model = kwargs.pop("model", "lagrangian")
+    settings = OnlineSettings.for_model(model, **kwargs)
     settings.bank()  # check the window, ℓ and bank step now, with their message
     return settings
+
+
+def measured_bandwidth(log: Any, window: float) -> float:
+    """The excitation band of the log's positions [Hz] (99 % of the velocity power).
+
+    Measured on the longest run of finite samples with
+    ``core.excitation.estimate_bandwidth``; at least 1/window (the bank's lowest
+    non-zero frequency) so that the default ℓ set is never empty.
+    """
+    from drake_dynid.core.excitation import estimate_bandwidth
+
+    finite = ~log.bad_samples
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], finite.astype(int), [0]])))
+    starts, stops = edges[::2], edges[1::2]
+    longest = int(np.argmax(stops - starts))
+    q = log.q[starts[longest] : stops[longest]]
+    if q.shape[0] < 16:
+        raise ValueError(
+            "cannot measure the excitation band: no run of 16 finite samples in the "
+            "log; give --bandwidth or --frequencies."
+        )
+    return max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -410,6 +439,11 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         _matplotlib()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
+    band_measured = args.bandwidth is None and (
+        args.frequencies is None or args.frequencies.strip() == "auto"
+    )
+    if band_measured:
+        settings = online_settings(args, measured_bandwidth(log, settings.window))
     needed = settings.window + settings.jacobi_window
     if log.duration <= needed:
         raise ValueError(
@@ -451,6 +485,11 @@ def run(args: argparse.Namespace) -> int:
             f"{len(settings.ell())} modulating functions; latency "
             f"{trace.delay:.4g} s"
         )
+        if band_measured:
+            print(
+                f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
+                "99 % of the velocity power; --bandwidth to override)"
+            )
         print()
         for line in estimates_table(trace.names, theta, std):
             print(line)
@@ -483,6 +522,7 @@ def run(args: argparse.Namespace) -> int:
                 **settings.as_dict(),
                 "friction": list(robot.friction),
                 "resample": bool(args.resample),
+                "bandwidth_measured": band_measured,
                 "engine": args.engine,
             },
             "urdf": str(args.urdf),
