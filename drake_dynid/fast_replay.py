@@ -41,7 +41,12 @@ from drake_dynid.core.lsq import (
     STATUS_OK,
     STATUS_WINDOW_NOT_READY,
 )
-from drake_dynid.diagrams import SOLVE_OFFSET, OnlineSettings, OnlineTrace
+from drake_dynid.diagrams import (
+    SOLVE_OFFSET,
+    OnlineSettings,
+    OnlineTrace,
+    _check_rows,
+)
 
 __all__ = ["replay_log_core"]
 
@@ -206,6 +211,17 @@ def replay_log_core(
         times relative to the first sample of the log.
     """
     del progress
+    n = _check_rows("replay_log_core", rows)
+    if log.q.shape[1] != n or log.tau.shape[1] != n:
+        raise ValueError(
+            f"replay_log_core: the log has {log.q.shape[1]} joints; the robot has {n}."
+        )
+    for entry in settings:
+        if not isinstance(entry, OnlineSettings):
+            raise TypeError(
+                "replay_log_core: settings must be OnlineSettings; got "
+                f"{type(entry).__name__}."
+            )
     shared: dict[tuple, Any] = {}
     traces = []
     for entry in settings:

@@ -94,3 +94,13 @@ def test_core_replay_handles_bad_samples_like_the_blocks(robot, log):
     fast = replay_log_core(bad, rows, SETTINGS[:1])
     _compare(fast, replay_log(bad, rows, SETTINGS[:1]))
     assert 0.0 in fast[0].valid[-10:]
+
+
+def test_core_replay_argument_checks(robot, log):
+    from drake_dynid.diagrams import OnlineSettings
+    from drake_dynid.fast_replay import replay_log_core
+
+    with pytest.raises(TypeError, match="rows must be a row provider"):
+        replay_log_core(log, object(), [OnlineSettings()])
+    with pytest.raises(TypeError, match="settings must be OnlineSettings"):
+        replay_log_core(log, robot.rows_provider(), [{"window": 2.0}])

@@ -158,6 +158,11 @@ class ModulatingIntegralBank(LeafSystem):
             offset: time of the first update [s].
         """
         super().__init__()
+        if not isinstance(bank, modulating.FourierBank):
+            raise TypeError(
+                "ModulatingIntegralBank: bank must be a FourierBank (from "
+                f"drake_dynid.core.modulating.fourier_bank); got {type(bank).__name__}."
+            )
         self._bank = bank
         self._m = check.integer(
             "ModulatingIntegralBank", "num_equations", num_equations, 1

@@ -170,3 +170,11 @@ def test_two_simulators_on_one_bank_block_give_identical_outputs():
         context = block.GetMyContextFromRoot(simulator.get_context())
         outputs.append(block.GetOutputPort("B").Eval(context).copy())
     np.testing.assert_array_equal(outputs[0], outputs[1])
+
+
+def test_bank_block_checks_its_design():
+    with pytest.raises(TypeError, match="bank must be a FourierBank"):
+        ModulatingIntegralBank({"window": 1.0}, 1, 2)
+    bank = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0])
+    with pytest.raises(ValueError, match="num_equations must be >= 1"):
+        ModulatingIntegralBank(bank, 0, 2)
