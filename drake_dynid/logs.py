@@ -35,8 +35,10 @@ from __future__ import annotations
 import csv
 import math
 import os
+import warnings as warnings_module
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -146,16 +148,20 @@ def read_log(
         raise ValueError(
             f"read_log: jitter_tolerance must be in (0, 0.5); got {jitter_tolerance}."
         )
-    with open(path, newline="") as stream:
-        rows = [row for row in csv.reader(stream) if any(cell.strip() for cell in row)]
-    if not rows:
-        raise ValueError(f"log {path}: the file is empty; expected a header row.")
-    header = [cell.strip() for cell in rows[0]]
-    body = rows[1:]
+    table = _fast_table(path)
+    if table is None:
+        with open(path, newline="") as stream:
+            rows = [r for r in csv.reader(stream) if any(cell.strip() for cell in r)]
+        if not rows:
+            raise ValueError(f"log {path}: the file is empty; expected a header row.")
+        header = [cell.strip() for cell in rows[0]]
+        body: Any = rows[1:]
+    else:
+        header, body = table
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
         raise ValueError(f"log {path}: duplicated column(s) {', '.join(duplicated)}.")
-    if not body:
+    if len(body) == 0:
         raise ValueError(f"log {path}: the header has no data rows below it.")
     wanted = ["t", *(f"q_{j}" for j in joint_names), *(f"tau_{j}" for j in joint_names)]
     missing = [name for name in wanted if name not in header]
@@ -170,6 +176,44 @@ def read_log(
     if extra:
         warnings.append(f"ignored extra column(s) {', '.join(extra)}.")
     index = [header.index(name) for name in wanted]
+    if isinstance(body, np.ndarray):
+        data = body[:, index]
+    else:
+        data = _parse_rows(path, body, header, index, wanted)
+    t = data[:, 0]
+    n = len(joint_names)
+    q = data[:, 1 : 1 + n]
+    tau = data[:, 1 + n :]
+    return _uniform(
+        path, t, q, tau, tuple(joint_names), jitter_tolerance, resample, warnings
+    )
+
+
+def _fast_table(path: str) -> tuple[list[str], np.ndarray] | None:
+    """Header and numbers of a clean log with numpy's C parser, else None.
+
+    Clean: the first line is the header and every other line holds exactly as many
+    numbers (``nan``/``inf`` included) as the header has names. Anything else goes
+    to the cell-by-cell reader, whose messages name the row and the column.
+    """
+    with open(path) as stream:
+        first = stream.readline()
+    header = [cell.strip() for cell in first.strip().split(",")]
+    if not first.strip() or '"' in first:
+        return None
+    try:
+        with warnings_module.catch_warnings():
+            warnings_module.simplefilter("error")  # "input contained no data"
+            body = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=float)
+    except (ValueError, UserWarning):
+        return None
+    if body.shape[1] != len(header):
+        return None
+    return header, body
+
+
+def _parse_rows(path, body, header, index, wanted) -> np.ndarray:
+    """Cell by cell, with a message naming the row and column of a bad cell."""
     data = np.empty((len(body), len(wanted)))
     for r, row in enumerate(body):
         line = r + 2  # 1-based, after the header
@@ -180,13 +224,7 @@ def read_log(
             )
         for c, i in enumerate(index):
             data[r, c] = _parse_cell(row[i], line, wanted[c], path)
-    t = data[:, 0]
-    n = len(joint_names)
-    q = data[:, 1 : 1 + n]
-    tau = data[:, 1 + n :]
-    return _uniform(
-        path, t, q, tau, tuple(joint_names), jitter_tolerance, resample, warnings
-    )
+    return data
 
 
 def _uniform(path, t, q, tau, joint_names, jitter_tolerance, resample, warnings):

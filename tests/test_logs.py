@@ -135,3 +135,15 @@ def test_write_log_checks_shapes(tmp_path):
         write_log(
             tmp_path / "h.csv", np.zeros(3), np.zeros((3, 1)), np.zeros((3, 2)), JOINTS
         )
+
+
+def test_fast_and_cell_by_cell_readers_agree(tmp_path, monkeypatch):
+    import drake_dynid.logs as logs
+
+    make_log(tmp_path / "a.csv", n=200, seed=3)
+    fast = read_log(tmp_path / "a.csv", JOINTS)
+    monkeypatch.setattr(logs, "_fast_table", lambda path: None)
+    slow = read_log(tmp_path / "a.csv", JOINTS)
+    np.testing.assert_array_equal(fast.q, slow.q)
+    np.testing.assert_array_equal(fast.tau, slow.tau)
+    np.testing.assert_array_equal(fast.t, slow.t)
