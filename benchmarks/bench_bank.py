@@ -23,6 +23,7 @@ import statistics
 import time
 
 import numpy as np
+from _timing import time_call  # benchmarks/_timing.py
 
 from drake_dynid.core.lsq import solve_least_squares
 from drake_dynid.core.modulating import (
@@ -35,22 +36,6 @@ from drake_dynid.core.modulating import (
     sliding_push_many,
     sliding_resync,
 )
-
-
-def _time(function, repeats: int, min_time: float) -> float:
-    """Median seconds per call over ``repeats`` runs of at least ``min_time``."""
-    function()
-    samples = []
-    for _ in range(repeats):
-        calls, start = 0, time.perf_counter()
-        while True:
-            function()
-            calls += 1
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_time:
-                break
-        samples.append(elapsed / calls)
-    return statistics.median(samples)
 
 
 def _push_cost(bank, state, samples: np.ndarray, repeats: int) -> float:
@@ -97,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
                 cost = _push_cost(bank, state, data[bank.num_samples :], repeats)
                 record("sliding_push", setting, cost)
                 block = data[bank.num_samples : bank.num_samples + pushes]
-                many = _time(
+                many = time_call(
                     lambda b=bank, s=state, x=block: sliding_push_many(b, s, x),
                     repeats,
                     min_time,
@@ -106,9 +91,10 @@ def main(argv: list[str] | None = None) -> int:
                 record(
                     "sliding_resync (once)",
                     setting,
-                    1e6 * _time(lambda b=bank, s=state: sliding_resync(b, s), 1, 0.0),
+                    1e6
+                    * time_call(lambda b=bank, s=state: sliding_resync(b, s), 1, 0.0),
                 )
-                outputs = _time(
+                outputs = time_call(
                     lambda b=bank, s=state, m=m: assemble_equations(
                         b, sliding_fourier_integrals(b, s), m, 8
                     ),
@@ -121,19 +107,19 @@ def main(argv: list[str] | None = None) -> int:
             record(
                 "deepcopy(sliding state)",
                 setting,
-                1e6 * _time(lambda s=state: copy.deepcopy(s), repeats, min_time),
+                1e6 * time_call(lambda s=state: copy.deepcopy(s), repeats, min_time),
             )
             naive = {"window": state.ring.window(), "sums": np.array(state.sums)}
             record(
                 "deepcopy(naive numpy window + sums)",
                 setting,
-                1e6 * _time(lambda s=naive: copy.deepcopy(s), repeats, min_time),
+                1e6 * time_call(lambda s=naive: copy.deepcopy(s), repeats, min_time),
             )
 
     for shape in ((804, 8), (442, 8)):
         A = rng.standard_normal(shape) * np.logspace(0, 3, shape[1])
         B = A @ np.ones(shape[1]) + 0.01 * rng.standard_normal(shape[0])
-        cost = _time(lambda A=A, B=B: solve_least_squares(A, B), repeats, min_time)
+        cost = time_call(lambda A=A, B=B: solve_least_squares(A, B), repeats, min_time)
         record("solve_least_squares", f"A {shape[0]}x{shape[1]}", 1e6 * cost)
 
     print("| operation | setting | µs |")

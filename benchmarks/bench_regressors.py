@@ -12,10 +12,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
-import time
 
 import numpy as np
+from _timing import time_call  # benchmarks/_timing.py
 
 from drake_dynid.core.planar2r import Planar2RRows
 from drake_dynid.plants import RobotModel, model_path
@@ -27,22 +26,6 @@ OPERATIONS = {
     "D,G,y power": lambda m, q, v, a, t: m.model_rows("power", q, v, t),
     "D,G,y lagrangian": lambda m, q, v, a, t: m.model_rows("lagrangian", q, v, t),
 }
-
-
-def _time(function, repeats: int, min_time: float) -> float:
-    """Median seconds per call over ``repeats`` runs of at least ``min_time``."""
-    function()
-    samples = []
-    for _ in range(repeats):
-        calls, start = 0, time.perf_counter()
-        while True:
-            function()
-            calls += 1
-            elapsed = time.perf_counter() - start
-            if elapsed >= min_time:
-                break
-        samples.append(elapsed / calls)
-    return statistics.median(samples)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
             if size == 1:
                 q, v, a, t = q[0], v[0], a[0], t[0]
             for operation, function in OPERATIONS.items():
-                seconds = _time(
+                seconds = time_call(
                     lambda f=function, m=provider, q=q, v=v, a=a, t=t: f(m, q, v, a, t),
                     repeats,
                     min_time,

@@ -9,23 +9,14 @@ import sys
 import numpy as np
 import pytest
 
-from drake_dynid import cli
+from drake_dynid import cli, paper
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.diagrams import SimulationSettings, simulate_identification
 from drake_dynid.logs import write_log
 from drake_dynid.plants import RobotModel, model_path
 
 URDF = model_path("planar_2r")
-TRUTH = {
-    "ZZ1R": 3.9,
-    "ZZ2": 0.25,
-    "MX2": 0.45,
-    "MY2": 0.1,
-    "FV1": 0.3,
-    "FC1": 0.4,
-    "FV2": 0.15,
-    "FC2": 0.25,
-}
+TRUTH = dict(zip(paper.BASE_NAMES, paper.TRUE_VALUES, strict=True))
 # A 2 s window on a 3 s log: short Jacobi window and the integer ℓ set 0..7.
 FAST = [
     "--window",

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+
 HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
 DESCRIPTION = (
     "Replays a recorded robot log (CSV: t, q_<joint>, tau_<joint> for every URDF "
@@ -51,14 +53,7 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
     )
-    parser.add_argument(
-        "--friction",
-        default="viscous,coulomb",
-        help=(
-            "comma-separated friction columns per joint among viscous, coulomb, "
-            "offset, or 'none' (default: viscous,coulomb)"
-        ),
-    )
+    add_friction_argument(parser)
     parser.add_argument(
         "--resample",
         action="store_true",
@@ -71,13 +66,6 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="print nothing on stdout (log warnings and errors still go to stderr)",
     )
-
-
-def parse_friction(text: str) -> tuple[str, ...]:
-    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``."""
-    if text.strip().lower() in ("", "none"):
-        return ()
-    return tuple(item.strip() for item in text.split(",") if item.strip())
 
 
 def load_robot_and_log(args: argparse.Namespace, command: str):

@@ -7,6 +7,8 @@ import json
 import math
 from pathlib import Path
 
+from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+
 HELP = "standard and base parameters of a URDF robot"
 DESCRIPTION = (
     "Reads a fixed-base URDF robot (revolute, prismatic and fixed joints), lists its "
@@ -22,14 +24,7 @@ DESCRIPTION = (
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid params`` arguments."""
     parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
-    parser.add_argument(
-        "--friction",
-        default="viscous,coulomb",
-        help=(
-            "comma-separated friction columns per joint among viscous, coulomb, "
-            "offset, or 'none' (default: viscous,coulomb)"
-        ),
-    )
+    add_friction_argument(parser)
     parser.add_argument(
         "--rotor-inertia",
         action="store_true",
@@ -38,12 +33,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json", metavar="FILE", help="also write the parameters as JSON to FILE"
     )
-
-
-def _friction(text: str) -> tuple[str, ...]:
-    if text.strip().lower() in ("", "none"):
-        return ()
-    return tuple(item.strip() for item in text.split(",") if item.strip())
 
 
 def _number(value: float) -> str:
@@ -55,7 +44,9 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.plants import RobotModel
 
     model = RobotModel.from_urdf(
-        args.urdf, friction=_friction(args.friction), rotor_inertia=args.rotor_inertia
+        args.urdf,
+        friction=parse_friction(args.friction),
+        rotor_inertia=args.rotor_inertia,
     )
     base = model.base
     values = model.base_values
