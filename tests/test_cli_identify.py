@@ -23,6 +23,8 @@ FAST = [
     "2",
     "--jacobi-window",
     "0.05",
+    "--bank-time-step",
+    "0.005",
     "--update-period",
     "0.05",
     "--frequencies",
@@ -103,12 +105,13 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     settings = document["settings"]
     assert settings["frequencies"] == [float(i) for i in range(8)]
     assert settings["jacobi_window"] == 0.05 and settings["update_period"] == 0.05
+    assert settings["bank_time_step"] == 0.005
     # Unset options echo the OnlineSettings defaults.
     from drake_dynid.diagrams import OnlineSettings
 
     defaults = OnlineSettings()
     assert settings["kappa"] == defaults.kappa
-    assert settings["bank_time_step"] == defaults.bank_time_step
+    assert settings["mu"] == defaults.mu
     assert settings["max_condition"] == defaults.max_condition
     assert settings["friction"] == ["viscous", "coulomb"]
     log = document["log"]

@@ -37,6 +37,7 @@ SETTINGS = [
         window=2.0,
         frequencies=np.arange(8.0),
         jacobi_window=0.05,
+        bank_time_step=0.005,
         update_period=0.05,
     ),
     OnlineSettings(
@@ -44,6 +45,7 @@ SETTINGS = [
         window=2.0,
         frequencies=np.arange(0, 7.01, 0.25),
         jacobi_window=0.05,
+        bank_time_step=0.005,
         update_period=0.05,
     ),
 ]
@@ -173,7 +175,11 @@ def test_trace_reports_status_and_unexcited_parameters(robot):
         robot,
         still,
         SimulationSettings(duration=2.5, snr_db=None),
-        [OnlineSettings(window=2.0, jacobi_window=0.05, update_period=0.1)],
+        [
+            OnlineSettings(
+                window=2.0, jacobi_window=0.05, bank_time_step=0.005, update_period=0.1
+            )
+        ],
     )
     trace = result.traces[0]
     final = trace.final()
@@ -227,3 +233,9 @@ def test_replay_of_a_noisy_closed_loop_log_is_exact(robot, trajectory):
         (noisy.q - noisy.q_true)[:150] / noisy.noise_std[:2],
         rtol=1e-9,
     )
+
+
+def test_bank_step_must_follow_the_differentiator_low_pass():
+    with pytest.raises(ValueError, match=r"bank_time_step must be <= jacobi_window/10"):
+        OnlineSettings(jacobi_window=0.05, bank_time_step=0.02)
+    assert OnlineSettings().bank_time_step <= OnlineSettings().jacobi_window / 10

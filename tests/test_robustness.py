@@ -14,7 +14,9 @@ from drake_dynid.paper import paper_trajectory
 from drake_dynid.plants import RobotModel, model_path
 
 WINDOW = 2.0
-SETTINGS = OnlineSettings(window=WINDOW, jacobi_window=0.1, update_period=0.05)
+SETTINGS = OnlineSettings(
+    window=WINDOW, jacobi_window=0.1, bank_time_step=0.005, update_period=0.05
+)
 
 
 @pytest.fixture(scope="module")

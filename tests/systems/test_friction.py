@@ -77,3 +77,19 @@ def test_errors():
         JointFriction([0.1], [0.1], smoothing=-1.0)
     with pytest.raises(ValueError, match="at least one joint"):
         JointFriction([], [])
+
+
+@pytest.mark.parametrize("smoothing", [0.0, 1e-2])
+def test_block_equals_the_core_function(smoothing):
+    rng = np.random.default_rng(8)
+    viscous, coulomb, offset = rng.uniform(0, 1, (3, 3))
+    block = JointFriction(viscous, coulomb, offset, smoothing=smoothing)
+    context = block.CreateDefaultContext()
+    for v in (rng.normal(size=3), np.array([0.0, 1e-3, -1e-3])):
+        block.get_input_port(0).FixValue(context, np.concatenate([np.zeros(3), v]))
+        np.testing.assert_allclose(
+            block.get_output_port(0).Eval(context),
+            -joint_friction_force(v, viscous, coulomb, offset, smoothing),
+            rtol=1e-14,
+            atol=1e-15,
+        )
