@@ -28,3 +28,32 @@ def test_ci_runs_the_readme_test_command():
 def test_main_example_exists():
     script = re.search(r"(examples/\S+\.py)", quick_start_commands()[0]).group(1)
     assert (ROOT / script).is_file()
+
+
+def test_compose_snippet_runs(tmp_path, monkeypatch, capsys):
+    # The README's "Compose the blocks" snippet, run on a simulated 21 s log.
+    import numpy as np
+
+    from drake_dynid.diagrams import SimulationSettings, simulate_identification
+    from drake_dynid.logs import write_log
+    from drake_dynid.paper import TRUE_VALUES, paper_trajectory
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    result = simulate_identification(
+        robot, paper_trajectory(), SimulationSettings(duration=21.0, snr_db=None), []
+    )
+    write_log(
+        tmp_path / "robot_log.csv", result.t, result.q, result.tau, robot.joint_names
+    )
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Compose the blocks in your own diagram", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(code, "README.md", "exec"), {})
+    printed = capsys.readouterr().out
+    theta = np.array(
+        re.search(r"^theta \[(.*?)\]", printed, re.M | re.S).group(1).split(), float
+    )
+    np.testing.assert_allclose(theta[:4], TRUE_VALUES[:4], rtol=0.02)
+    assert re.search(r"^valid \[1\.\]", printed, re.M)
