@@ -1,6 +1,6 @@
 """Pure numpy/scipy numerical core of drake_dynid.
 
-Nothing in this package imports Drake's Python bindings (a test enforces it). Design functions
-return immutable data; step functions take state and return new state, so the same
-code serves the Drake blocks, the log replay and the benchmarks.
+Nothing in this package imports Drake's Python bindings (a test enforces it).
+Design functions return immutable data; step functions take state and return new
+state, so the same code serves the Drake blocks, the log replay and the benchmarks.
 """
