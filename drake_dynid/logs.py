@@ -82,6 +82,12 @@ class RobotLog:
             np.all(np.isfinite(self.q), axis=1) & np.all(np.isfinite(self.tau), axis=1)
         )
 
+    def good_segments(self) -> list[tuple[int, int]]:
+        """[start, stop) sample ranges of the runs of good (finite) samples."""
+        good = np.concatenate([[False], ~self.bad_samples, [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(good))
+        return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
 
 def write_log(
     path: str | os.PathLike,

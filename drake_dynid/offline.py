@@ -130,13 +130,6 @@ class OfflineResult:
         return "idim-wls" if self.settings.get("weighted") else "idim-ls"
 
 
-def _segments(bad: np.ndarray) -> list[tuple[int, int]]:
-    """[start, stop) of the runs of good samples."""
-    good = np.concatenate([[False], ~bad, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(good))
-    return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
-
-
 def auto_cutoff(q: Any, time_step: float) -> float:
     """Automatic Butterworth cutoff f_c [Hz] from the spectrum of the positions.
 
@@ -311,8 +304,7 @@ def identify_offline(
         )
     q = np.asarray(log.q, dtype=float)
     tau = np.asarray(log.tau, dtype=float)
-    bad = ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1))
-    segments = _segments(bad)
+    segments = log.good_segments()
     if not segments:
         check.fail(owner, "the log has no finite sample (every row has a NaN).")
     longest = max(segments, key=lambda s: s[1] - s[0])

@@ -308,3 +308,13 @@ def test_identify_measures_the_excitation_band_unless_given(log_file, tmp_path):
     assert cli.main([*base, "--bandwidth", "1.5", "--json", str(out)]) == 0
     settings = json.loads(out.read_text())["settings"]
     assert settings["bandwidth_measured"] is False and settings["bandwidth"] == 1.5
+
+
+def test_measured_bandwidth_of_a_log_without_finite_samples_is_a_clear_error():
+    from drake_dynid.commands.identify import measured_bandwidth
+    from drake_dynid.logs import RobotLog
+
+    nan = np.full((100, 2), np.nan)
+    log = RobotLog(np.arange(100) * 1e-3, nan, nan, ("joint1", "joint2"), 1e-3)
+    with pytest.raises(ValueError, match="no run of 16 finite samples"):
+        measured_bandwidth(log, 2.0)

@@ -147,3 +147,14 @@ def test_fast_and_cell_by_cell_readers_agree(tmp_path, monkeypatch):
     np.testing.assert_array_equal(fast.q, slow.q)
     np.testing.assert_array_equal(fast.tau, slow.tau)
     np.testing.assert_array_equal(fast.t, slow.t)
+
+
+def test_good_segments_are_the_runs_of_finite_samples(tmp_path):
+    from drake_dynid.logs import RobotLog
+
+    q = np.zeros((10, 2))
+    q[[0, 4, 5]] = np.nan
+    log = RobotLog(np.arange(10) * 1e-3, q, np.zeros((10, 2)), JOINTS, 1e-3)
+    assert log.good_segments() == [(1, 4), (6, 10)]
+    empty = RobotLog(np.arange(3) * 1e-3, np.full((3, 2), np.nan), q[:3], JOINTS, 1e-3)
+    assert empty.good_segments() == []

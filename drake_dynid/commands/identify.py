@@ -233,11 +233,8 @@ def measured_bandwidth(log: Any, window: float) -> float:
     """
     from drake_dynid.core.excitation import estimate_bandwidth
 
-    finite = ~log.bad_samples
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], finite.astype(int), [0]])))
-    starts, stops = edges[::2], edges[1::2]
-    longest = int(np.argmax(stops - starts))
-    q = log.q[starts[longest] : stops[longest]]
+    start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
+    q = log.q[start:stop]
     if q.shape[0] < 16:
         raise ValueError(
             "cannot measure the excitation band: no run of 16 finite samples in the "
