@@ -93,6 +93,7 @@ _LAZY: dict[str, str] = {
     "SimulationSettings": "drake_dynid.diagrams",
     "SimulationResult": "drake_dynid.diagrams",
     "add_online_identifier": "drake_dynid.diagrams",
+    "log_source": "drake_dynid.diagrams",
     "replay_log": "drake_dynid.diagrams",
     "simulate_identification": "drake_dynid.diagrams",
 }

@@ -38,6 +38,7 @@ __all__ = [
     "SimulationResult",
     "SimulationSettings",
     "add_online_identifier",
+    "log_source",
     "replay_log",
     "simulate_identification",
 ]
@@ -429,6 +430,28 @@ def _advance(simulator: Any, t_end: float, progress: bool, label: str) -> None:
 # ----------------------------------------------------------------------------- replay
 
 
+def log_source(log: Any) -> Any:
+    """A ``TrajectorySource`` playing a log's [q; τ] (size 2n) from t = 0.
+
+    Sample k is held over [t_k - h/2, t_k + h/2), t_k = k·h, so a block updating
+    at t_k reads sample k whatever the floating-point rounding of the event times
+    (docs/CONVENTIONS.md §2). The last sample is held afterwards.
+
+    Args:
+        log: a ``drake_dynid.logs.RobotLog``.
+    """
+    from pydrake.systems.primitives import TrajectorySource
+    from pydrake.trajectories import PiecewisePolynomial
+
+    values = np.hstack([log.q, log.tau]).T
+    return TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold(
+            log.time_step * (np.arange(log.num_samples + 1) - 0.5),
+            np.hstack([values, values[:, -1:]]),
+        )
+    )
+
+
 def replay_log(
     log: Any,
     rows: Any,
@@ -438,9 +461,10 @@ def replay_log(
 ) -> list[OnlineTrace]:
     """Runs the on-line identification blocks over a recorded log in a Simulator.
 
-    A ``TrajectorySource`` holds row k of the log ([q_k; τ_k]) from t_k to t_{k+1}
-    (zero-order hold), so the blocks read sample k at their update at t_k, exactly
-    as in the closed-loop set-up.
+    :func:`log_source` holds row k of the log ([q_k; τ_k]) over
+    [t_k - h/2, t_k + h/2), so the blocks read sample k at their update at t_k,
+    exactly as in the closed-loop set-up; the Simulator runs to t_N = N·h so that
+    every sample is processed.
 
     Args:
         log: a ``drake_dynid.logs.RobotLog``.
@@ -455,8 +479,6 @@ def replay_log(
     """
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
-    from pydrake.systems.primitives import TrajectorySource
-    from pydrake.trajectories import PiecewisePolynomial
 
     n = _check_rows("replay_log", rows)
     if log.q.shape[1] != n or log.tau.shape[1] != n:
@@ -465,17 +487,8 @@ def replay_log(
             f"the log has {log.q.shape[1]} joints; the robot has {n}.",
         )
     h = log.time_step
-    values = np.hstack([log.q, log.tau]).T
-    # Sample k is held over [t_k - h/2, t_k + h/2): the differentiator's update at
-    # t_k reads it whatever the floating-point rounding of the event times.
-    source_values = np.hstack([values, values[:, -1:]])
-    source_breaks = h * (np.arange(log.num_samples + 1) - 0.5)
     builder = DiagramBuilder()
-    source = builder.AddSystem(
-        TrajectorySource(
-            PiecewisePolynomial.ZeroOrderHold(source_breaks, source_values)
-        )
-    )
+    source = builder.AddSystem(log_source(log))
     chains = _add_chains(builder, rows, source.get_output_port(), h, settings)
     diagram = builder.Build()
     simulator = Simulator(diagram)
