@@ -9,18 +9,28 @@ The inverse dynamic model is linear in the p base parameters X::
 
 1. split the log into its finite segments (NaN rows, ``RobotLog.bad_samples``, cut
    it; no NaN ever reaches the least squares);
-2. per segment, zero-phase Butterworth low-pass of q and central differences for
-   v and v̇ (:func:`drake_dynid.core.idim.offline_derivatives`), dropping
-   ``trim = 1 + ceil(4/(f_c·h))`` samples at each end of the segment (four cutoff
-   periods: the filter's edge transient; the same rows are dropped next to every
-   gap);
+2. per segment, zero-phase Butterworth low-pass of q at f_c and central differences
+   for v and v̇ (:func:`drake_dynid.core.idim.offline_derivatives`: odd-reflection
+   padding of four cutoff periods, ``trim = 1 + ceil(2/(f_c·h))`` samples dropped
+   at each end of the segment, so also next to every gap);
 3. rows ``W = robot.idim_rows(q_f, v, v̇)``, torques τ of the same samples;
-4. parallel decimation of W and τ by ``decimation`` (the same zero-phase low-pass
-   + down-sampling on every column, in stages of at most 13,
-   :func:`drake_dynid.core.idim.parallel_decimation`); it removes the torque noise
-   above the dynamics band and keeps ``τ = W X``;
+4. parallel decimation of W and τ (:func:`drake_dynid.core.idim.parallel_decimation`:
+   the same zero-phase order-8 Butterworth low-pass at f_d on every column, then
+   one sample in D); it removes the equation noise above the dynamics band and
+   keeps ``τ = W X``;
 5. stack all segments and solve ``min ‖τ - W X‖`` by QR (IDIM-LS), or with one
    weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (MATH.md §4).
+
+Two cutoffs, two jobs. f_c (position filter) must leave the motion undistorted:
+W is nonlinear in q, so a distorted q would bias W; f_c sits well above the
+excitation band. f_d (decimation filter) acts on a *linear* equation, so it may
+cut into the band without bias: it is set just above the band, ``f_d = min(f_c,
+1.5·B)`` with B the velocity bandwidth of the log
+(:func:`drake_dynid.core.excitation.estimate_bandwidth`, 99 % of the velocity
+power). Between B and f_c the log holds almost no motion but most of the noise
+of v̇ (which grows like f² times the position noise): on the paper's 2R at SNR
+30 dB, f_d = f_c gave 1.1 / 7.5 % mean inertial / friction error, f_d = 1.5·B
+0.9 / 4.1 % (60 seeds; benchmarks/bench_accuracy.py).
 
 Automatic cutoff (:func:`auto_cutoff`, used when ``cutoff_hz`` is None). The
 Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
@@ -41,10 +51,9 @@ excitation band. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidt
 (Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. On the paper's 2R arm at
 1 kHz this gives about 1.5 Hz at SNR 30 dB and 40 Hz without noise.
 
-Automatic decimation (``decimation`` None): the largest integer D ≤ 0.4·fs/f_c
-with prime factors ≤ 13, so that the decimation low-pass 0.8·(fs/2)/D stays at or
-above f_c; each stage of ``scipy.signal.decimate`` is at most 13 (a segment
-too short for a stage keeps fewer stages).
+Automatic decimation (``decimation`` None): ``D = max(1, floor(0.25·fs/f_d))``,
+so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
+order-8 Butterworth is below 1.5e-5 there: no aliasing).
 """
 
 from __future__ import annotations
@@ -57,7 +66,9 @@ import numpy as np
 from scipy import signal
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.excitation import estimate_bandwidth
 from drake_dynid.core.idim import (
+    default_padding,
     default_trim,
     idim_least_squares,
     offline_derivatives,
@@ -69,6 +80,7 @@ __all__ = [
     "OfflineResult",
     "auto_cutoff",
     "auto_decimation",
+    "auto_decimation_cutoff",
     "identify_offline",
 ]
 
@@ -78,8 +90,8 @@ MAX_AUTO_CUTOFF_HZ = 40.0
 _FLOOR_MARGIN = 100.0  # 20 dB above the noise floor
 _POWER_SHARE = 0.99  # excitation bandwidth: 99 % of the noise-corrected power
 _SPECTRUM_SEGMENT = 4.0  # Welch segment length [s]
-_MIN_DECIMATION_INPUT = 28  # parallel_decimation's minimum length per stage
-_STAGES = (13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2)
+DECIMATION_BAND_FACTOR = 1.5
+"""Automatic decimation low-pass f_d = min(f_c, 1.5·B), B the velocity bandwidth."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,8 +110,9 @@ class OfflineResult:
         valid: True when X̂ and σ are meaningful.
         reason: empty when valid; otherwise what is wrong.
         settings: the settings used: ``cutoff_hz``, ``cutoff_rule`` ("auto" or
-            "given"), ``decimation``, ``decimation_rule``, ``weighted``,
-            ``filter_order``, ``trim`` [samples per segment end], ``max_condition``.
+            "given"), ``decimation``, ``decimation_rule``, ``decimation_cutoff_hz``,
+            ``decimation_cutoff_rule``, ``weighted``, ``filter_order``, ``trim`` and
+            ``padding`` [samples per segment end], ``max_condition``.
         num_samples: samples in the log (N).
         num_samples_used: samples whose rows entered the least squares, before
             decimation (finite segments minus the trimmed ends).
@@ -186,50 +199,36 @@ def auto_cutoff(q: Any, time_step: float) -> float:
 
 
 def auto_decimation(time_step: float, cutoff_hz: float) -> int:
-    """Largest D ≤ 0.4·fs/f_c with prime factors ≤ 13 (at least 1).
+    """``max(1, floor(0.25·fs/f_d))``: the decimated Nyquist frequency is >= 2·f_d.
 
-    The zero-phase decimation low-pass of ``scipy.signal.decimate`` is at
-    0.8·(fs/2)/D, so this D keeps it at or above the cutoff f_c.
+    Args:
+        time_step: sample period h [s].
+        cutoff_hz: the decimation low-pass f_d [Hz].
     """
     owner = "auto_decimation"
     time_step = check.positive(owner, "time_step", time_step, "s")
     cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    limit = max(1, math.floor(0.4 / (time_step * cutoff_hz)))
-    for candidate in range(limit, 0, -1):
-        rest = candidate
-        for prime in (2, 3, 5, 7, 11, 13):
-            while rest % prime == 0:
-                rest //= prime
-        if rest == 1:
-            return candidate
-    return 1  # pragma: no cover (1 always qualifies)
+    return max(1, math.floor(0.25 / (time_step * cutoff_hz)))
 
 
-def _stages(factor: int) -> list[int]:
-    """Splits ``factor`` into decimation stages of at most 13 (largest first)."""
-    stages: list[int] = []
-    rest = factor
-    while rest > 1:
-        for stage in _STAGES:
-            if rest % stage == 0:
-                stages.append(stage)
-                rest //= stage
-                break
-        else:  # a prime factor above 13: one stage (scipy advises against it)
-            stages.append(rest)
-            rest = 1
-    return stages
+def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
+    """The decimation low-pass ``f_d = min(f_c, 1.5·B)`` [Hz].
 
+    B is the velocity bandwidth of the positions
+    (:func:`~drake_dynid.core.excitation.estimate_bandwidth`); when it cannot be
+    measured (no joint moves above the noise, or fewer than 64 samples), f_d = f_c
+    (the least squares then reports the unexcited parameters).
 
-def _decimate(W: np.ndarray, tau: np.ndarray, stages: list[int]):
-    """Applies the stages while the data is long enough; returns the factor used."""
-    used = 1
-    for stage in stages:
-        if W.shape[0] < _MIN_DECIMATION_INPUT:
-            break
-        W, tau = parallel_decimation(W, tau, stage)
-        used *= stage
-    return W, tau, used
+    Args:
+        q: (N, n) finite positions [rad or m].
+        time_step: sample period h [s].
+        cutoff_hz: the position filter's cutoff f_c [Hz].
+    """
+    try:
+        band = estimate_bandwidth(q, time_step)
+    except ValueError:
+        return float(cutoff_hz)
+    return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
 
 
 def _provider(robot: Any) -> Any:
@@ -244,6 +243,7 @@ def identify_offline(
     *,
     cutoff_hz: float | None = None,
     decimation: int | None = None,
+    decimation_cutoff_hz: float | None = None,
     weighted: bool = False,
     filter_order: int = 4,
     max_condition: float = DEFAULT_MAX_CONDITION,
@@ -257,8 +257,8 @@ def identify_offline(
         v_k = (q_f[k+1] - q_f[k-1]) / (2h),  v̇_k = (q_f[k+1] - 2q_f[k] + q_f[k-1]) / h²
         X̂ = argmin ‖D(τ) - D(W) X‖ (optionally weighted 1/σ_j per joint)
 
-    with D the parallel decimation; Gautier's σ_X and the column-scaled condition
-    number (MATH.md §4).
+    with D the parallel decimation (zero-phase low-pass at f_d, one sample in D);
+    Gautier's σ_X and the column-scaled condition number (MATH.md §4).
 
     Args:
         log: a :class:`~drake_dynid.logs.RobotLog` whose joints are the robot's.
@@ -267,8 +267,11 @@ def identify_offline(
             faster), or any object with ``names`` and ``idim_rows(q, v, vdot)``.
         cutoff_hz: Butterworth cutoff f_c [Hz]; None: :func:`auto_cutoff` on the
             longest finite segment.
-        decimation: parallel decimation factor (>= 1); None:
-            :func:`auto_decimation`.
+        decimation: parallel decimation factor D (>= 1); None:
+            :func:`auto_decimation` of f_d.
+        decimation_cutoff_hz: low-pass f_d of the parallel decimation [Hz]; None:
+            :func:`auto_decimation_cutoff` (``min(f_c, 1.5·B)``), lowered to
+            0.4·fs/D when D is given.
         weighted: IDIM-WLS (one weight per joint) instead of IDIM-LS.
         filter_order: Butterworth order (>= 1; zero phase doubles it).
         max_condition: largest accepted condition number of the column-scaled W.
@@ -324,30 +327,51 @@ def identify_offline(
             f"cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; got "
             f"{cutoff_hz:g}.",
         )
+    decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
+    if decimation_cutoff_hz is None:
+        decimation_cutoff_hz = auto_decimation_cutoff(
+            q[longest[0] : longest[1]], h, cutoff_hz
+        )
+        if decimation is not None:
+            decimation = check.integer(owner, "decimation", decimation, minimum=1)
+            decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
+    decimation_cutoff_hz = check.positive(
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, "Hz"
+    )
+    if decimation_cutoff_hz >= 0.5 / h:
+        check.fail(
+            owner,
+            f"decimation_cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; "
+            f"got {decimation_cutoff_hz:g}.",
+        )
     decimation_rule = "given" if decimation is not None else "auto"
     if decimation is None:
-        decimation = auto_decimation(h, cutoff_hz)
+        decimation = auto_decimation(h, decimation_cutoff_hz)
     decimation = check.integer(owner, "decimation", decimation, minimum=1)
     trim = default_trim(h, cutoff_hz)
-    sections = math.ceil(filter_order / 2)
-    minimum = max(2 * trim + 1, 3 * (2 * sections + 1) + 1)
-    stages = _stages(decimation)
+    padding = default_padding(h, cutoff_hz)
+    minimum = 2 * trim + 1
 
     W_parts: list[np.ndarray] = []
     tau_parts: list[np.ndarray] = []
     used_samples = 0
-    used_factors: list[int] = []
     for start, stop in segments:
         if stop - start < minimum:
             continue
         q_f, v, vdot = offline_derivatives(
-            q[start:stop], h, cutoff_hz=cutoff_hz, filter_order=filter_order, trim=trim
+            q[start:stop],
+            h,
+            cutoff_hz=cutoff_hz,
+            filter_order=filter_order,
+            trim=trim,
+            padding=padding,
         )
         W = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)
         tau_segment = tau[start + trim : stop - trim]
         used_samples += tau_segment.shape[0]
-        W, tau_segment, used = _decimate(W, tau_segment, stages)
-        used_factors.append(used)
+        W, tau_segment = parallel_decimation(
+            W, tau_segment, decimation, cutoff=decimation_cutoff_hz * h
+        )
         W_parts.append(W)
         tau_parts.append(tau_segment)
     if not W_parts:
@@ -371,7 +395,9 @@ def identify_offline(
         "cutoff_rule": cutoff_rule,
         "decimation": int(decimation),
         "decimation_rule": decimation_rule,
-        "decimation_used": sorted(set(used_factors)),
+        "decimation_cutoff_hz": float(decimation_cutoff_hz),
+        "decimation_cutoff_rule": decimation_cutoff_rule,
+        "padding": int(padding),
         "weighted": bool(weighted),
         "filter_order": int(filter_order),
         "trim": int(trim),

@@ -191,6 +191,16 @@ def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
     settings = json.loads(out_json.read_text())["settings"]
     assert settings["cutoff_hz"] == 20.0 and settings["decimation"] == 20
     assert settings["cutoff_rule"] == "given"
+    # D given: the automatic decimation low-pass stays below 0.8 x its Nyquist.
+    assert settings["decimation_cutoff_rule"] == "auto"
+    assert settings["decimation_cutoff_hz"] <= 0.4 / (20 * 1e-3)
+    argv = ["offline", log_file, "--urdf", URDF, "--decimation-cutoff", "2.5"]
+    argv += ["--json", str(out_json), "--quiet"]
+    assert cli.main(argv) == 0
+    settings = json.loads(out_json.read_text())["settings"]
+    assert settings["decimation_cutoff_hz"] == 2.5
+    assert settings["decimation_cutoff_rule"] == "given"
+    assert settings["decimation"] == 100  # 0.25 · 1000 Hz / 2.5 Hz
 
 
 def _error(capsys):
@@ -243,6 +253,8 @@ def test_offline_bad_options_exit_2(log_file, capsys):
     assert "cutoff_hz must be < the Nyquist frequency 500" in _error(capsys)
     assert cli.main([*base, "--decimation", "0"]) == 2
     assert "decimation must be >= 1" in _error(capsys)
+    assert cli.main([*base, "--decimation-cutoff", "-1"]) == 2
+    assert "decimation_cutoff_hz must be > 0" in _error(capsys)
     assert cli.main([*base, "--cutoff", "0.5"]) == 2
     assert "no finite segment of the log is long enough" in _error(capsys)
 
