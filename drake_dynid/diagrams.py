@@ -67,6 +67,12 @@ class OnlineSettings:
             about 1.5 times faster. At most jacobi_window/10.
         update_period: period of the least-squares solve [s].
         max_condition: largest accepted condition number of the column-scaled A.
+        weighting: ``"frequency"`` (default): two-step weighted least squares
+            whose row weights follow a fitted noise model σ_j²(ν) = a_j + b_j ν²
+            per equation j (high-ℓ rows carry more velocity-estimate noise;
+            ``lsq.solve_frequency_weighted_least_squares``); ``"none"``: ordinary
+            least squares, as in the paper. On the 2R benchmark at 30 dB the
+            weighting halves the inertial error (benchmarks/bench_accuracy.py).
     """
 
     model: str = "lagrangian"
@@ -81,6 +87,7 @@ class OnlineSettings:
     bank_time_step: float = 0.02
     update_period: float = 0.1
     max_condition: float = 1e4
+    weighting: str = "frequency"
 
     def __post_init__(self):
         owner = "OnlineSettings"
@@ -94,6 +101,12 @@ class OnlineSettings:
         check.positive(owner, "update_period", self.update_period, "s")
         check.positive(owner, "bandwidth", self.bandwidth, "Hz")
         check.greater_than(owner, "max_condition", self.max_condition, 1.0)
+        if self.weighting not in WEIGHTINGS:
+            check.fail(
+                owner,
+                f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}; got "
+                f"{self.weighting!r}.",
+            )
         if (
             self.bank_time_step
             > self.jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
@@ -121,6 +134,16 @@ class OnlineSettings:
                 f"model must be 'power' or 'lagrangian'; got {model!r}.",
             )
         return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
+
+    def row_weighting(self, m: int) -> tuple[Any, Any]:
+        """``(row_frequency, row_group)`` for the solver, or ``(None, None)``.
+
+        Args:
+            m: equations per sample of the model rows.
+        """
+        if self.weighting == "none":
+            return None, None
+        return modulating.row_frequencies(self.bank(), m)
 
     def ell(self) -> np.ndarray:
         """The modulating indices ℓ of this configuration.
@@ -168,6 +191,9 @@ MIN_BANK_SAMPLES_PER_JACOBI_WINDOW = 10
 
 #: Fewest modulating functions of the default ℓ set (see OnlineSettings.ell).
 MIN_FUNCTIONS = 12
+
+#: Least-squares weightings of OnlineSettings.weighting.
+WEIGHTINGS = ("frequency", "none")
 
 #: Per-model defaults (benchmarks/bench_accuracy.py, 2R at SNR 30 dB over noise seeds,
 #: geometries and trajectories): κ = μ = q = 1 for both; the Lagrangian model, whose
@@ -365,6 +391,7 @@ def add_online_identifier(
         differentiator.GetOutputPort("valid"), bank.GetInputPort("sample_valid")
     )
     names = tuple(rows.names)
+    frequency, group = settings.row_weighting(model_rows.num_equations)
     identifier = builder.AddSystem(
         SlidingQRIdentifier(
             model_rows.num_parameters,
@@ -373,6 +400,8 @@ def add_online_identifier(
             max_condition=settings.max_condition,
             names=names,
             offset=SOLVE_OFFSET * time_step,
+            row_frequency=frequency,
+            row_group=group,
         )
     )
     for port in ("A", "B"):

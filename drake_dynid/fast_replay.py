@@ -103,6 +103,8 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
     m = 1 if entry.model == "power" else int(rows.num_joints)
     p = int(rows.num_parameters)
     names = tuple(rows.names)
+    frequency, group = entry.row_weighting(m)
+    weighting = None if frequency is None else (frequency, group)
 
     # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
     bank_times = np.arange(0, count, decimation)
@@ -157,8 +159,8 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
             continue
         integrals = modulating.sliding_fourier_integrals(bank, state)
         a, b = modulating.assemble_equations(bank, integrals, m, p)
-        result = lsq.solve_least_squares(
-            a, b, max_condition=entry.max_condition, names=names
+        result = lsq.solve_window(
+            a, b, weighting, max_condition=entry.max_condition, names=names
         )
         current_condition = result.condition_number
         current_unidentified = np.zeros(p)

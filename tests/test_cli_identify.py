@@ -113,6 +113,7 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     assert settings["kappa"] == defaults.kappa
     assert settings["mu"] == defaults.mu
     assert settings["max_condition"] == defaults.max_condition
+    assert settings["weighting"] == defaults.weighting == "frequency"
     assert settings["friction"] == ["viscous", "coulomb"]
     log = document["log"]
     assert log["samples"] == 3001 and log["time_step"] == pytest.approx(1e-3)
@@ -124,10 +125,12 @@ def test_identify_quiet_power_model(log_file, tmp_path, capsys):
     out_json = tmp_path / "power.json"
     argv = ["identify", log_file, "--urdf", URDF, *FAST[:6], "--model", "power"]
     argv += ["--frequencies", "0:0.25:7", "--json", str(out_json), "--quiet"]
+    argv += ["--weighting", "none"]
     assert cli.main(argv) == 0
     assert capsys.readouterr().out == ""
     document = json.loads(out_json.read_text())
     assert document["model"] == "power"
+    assert document["settings"]["weighting"] == "none"
     values = {p["name"]: p["value"] for p in document["parameters"]}
     for name in ("ZZ1R", "ZZ2", "MX2", "MY2"):
         assert abs(values[name] - TRUTH[name]) < 0.05 * TRUTH[name], name

@@ -36,6 +36,16 @@ SETTINGS = [
         bank_time_step=0.002,
         update_period=0.02,
     ),
+    # Ordinary least squares (the paper's solve) through both engines too.
+    OnlineSettings(
+        model="lagrangian",
+        window=1.0,
+        frequencies=np.arange(5.0),
+        jacobi_window=0.05,
+        bank_time_step=0.005,
+        update_period=0.05,
+        weighting="none",
+    ),
 ]
 
 

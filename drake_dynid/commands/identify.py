@@ -43,6 +43,7 @@ _SETTING_OPTIONS = {
     "bank_time_step": "bank_time_step",
     "update_period": "update_period",
     "max_condition": "max_condition",
+    "weighting": "weighting",
 }
 
 
@@ -296,6 +297,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="C",
         help="largest accepted condition number of the column-scaled regressor",
+    )
+    group.add_argument(
+        "--weighting",
+        choices=("frequency", "none"),
+        help="least squares of each window: 'frequency' (default) re-weights the "
+        "rows by a noise model fitted to the residuals, growing with the "
+        "modulating frequency; 'none': ordinary least squares (the paper)",
     )
     group.add_argument(
         "--engine",

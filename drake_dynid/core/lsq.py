@@ -32,8 +32,11 @@ from drake_dynid.core import _validate as v
 __all__ = [
     "DEFAULT_MAX_CONDITION",
     "LeastSquaresResult",
+    "frequency_noise_weights",
+    "solve_frequency_weighted_least_squares",
     "solve_least_squares",
     "solve_weighted_least_squares",
+    "solve_window",
 ]
 
 DEFAULT_MAX_CONDITION = 1e6
@@ -290,4 +293,125 @@ def solve_weighted_least_squares(
     B = v.array(owner, "B", B, shape=(A.shape[0],), finite=False)
     return solve_least_squares(
         A * w[:, None], B * w, max_condition=max_condition, names=names
+    )
+
+
+def frequency_noise_weights(
+    residual: Any, frequency: Any, group: Any, *, floor: float = 1e-3
+) -> np.ndarray:
+    """Row weights ``1/σ_i`` from a noise model that grows with the row's frequency.
+
+    For every group g of rows (one equation of the model), fits::
+
+        σ_g²(ν) = a_g + b_g ν²,    a_g, b_g >= 0    (non-negative LS)
+
+    to the squared residuals ``ρ_i²`` of its rows, ν_i the row's frequency index.
+    A modulated row of frequency ν multiplies the measurement noise by the
+    modulating function's derivative (∝ ν) wherever a velocity estimate enters, and
+    by the function itself (∝ 1) for the torque: ``a`` is the torque-noise floor,
+    ``b ν²`` the velocity-noise share. σ_i² is floored at ``floor`` times the group's
+    largest value (a fit that is zero somewhere must not give an infinite weight).
+
+    Args:
+        residual: (r,) first-pass residuals ``B - A X̂`` [unit of B].
+        frequency: (r,) frequency index ν of each row (>= 0) [dimensionless].
+        group: (r,) integer group of each row.
+        floor: relative floor of σ² in (0, 1].
+
+    Returns:
+        (r,) weights ``1/σ_i`` [1/unit of B] (all ones for a group whose residuals
+        are all zero).
+    """
+    from scipy.optimize import nnls
+
+    owner = "frequency_noise_weights"
+    residual = v.array(owner, "residual", residual)
+    frequency = v.array(owner, "frequency", frequency, shape=residual.shape)
+    group = np.asarray(group)
+    if residual.ndim != 1 or group.shape != residual.shape:
+        v.fail(
+            owner,
+            f"residual, frequency and group must have one shape (r,); got "
+            f"{residual.shape}, {frequency.shape} and {group.shape}.",
+        )
+    floor = v.positive(owner, "floor", floor)
+    if floor > 1.0:
+        v.fail(owner, f"floor must be in (0, 1]; got {floor:g}.")
+    weights = np.ones_like(residual)
+    for g in np.unique(group):
+        rows = group == g
+        model = np.stack([np.ones(rows.sum()), frequency[rows] ** 2], axis=1)
+        coefficients, _ = nnls(model, residual[rows] ** 2)
+        variance = model @ coefficients
+        top = float(variance.max())
+        if top > 0.0:
+            weights[rows] = 1.0 / np.sqrt(np.maximum(variance, floor * top))
+    return weights
+
+
+def solve_frequency_weighted_least_squares(
+    A: Any,
+    B: Any,
+    frequency: Any,
+    group: Any,
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+) -> LeastSquaresResult:
+    """Two-step weighted least squares for rows whose noise grows with frequency.
+
+    1. ``X̂₀ = argmin ‖B - A X‖`` (:func:`solve_least_squares`);
+    2. weights ``w = 1/σ`` from :func:`frequency_noise_weights` of its residuals;
+    3. ``X̂ = argmin ‖w (B - A X)‖`` (:func:`solve_weighted_least_squares`), with
+       Gautier's σ from the weighted problem (C_X = σ_ρ² (Aᵀ W² A)⁻¹).
+
+    A feasible generalised least squares: with the modulated equations of the
+    on-line identifier (MATH.md §3), whose high-ℓ rows carry most of the
+    velocity-estimate noise, it halved the inertial error on the 2R benchmark
+    (benchmarks/bench_accuracy.py). When step 1 is not valid, its result is
+    returned unchanged.
+
+    Args:
+        A: (r, p) regressor.
+        B: (r,) observations.
+        frequency: (r,) frequency index ν of each row.
+        group: (r,) integer noise group of each row (one per model equation).
+        max_condition: largest accepted scaled condition number.
+        names: p parameter names.
+    """
+    first = solve_least_squares(A, B, max_condition=max_condition, names=names)
+    if not first.valid:
+        return first
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    weights = frequency_noise_weights(B - A @ first.theta, frequency, group)
+    return solve_weighted_least_squares(
+        A, B, weights, max_condition=max_condition, names=names
+    )
+
+
+def solve_window(
+    A: Any,
+    B: Any,
+    weighting: tuple[Any, Any] | None = None,
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+) -> LeastSquaresResult:
+    """The on-line identifier's solve of one window (block and core replay alike).
+
+    Args:
+        A: (r, p) regressor.
+        B: (r,) observations.
+        weighting: None for ordinary least squares (:func:`solve_least_squares`),
+            or ``(frequency, group)`` of the rows for
+            :func:`solve_frequency_weighted_least_squares`.
+        max_condition: largest accepted scaled condition number.
+        names: p parameter names.
+    """
+    if weighting is None:
+        return solve_least_squares(A, B, max_condition=max_condition, names=names)
+    frequency, group = weighting
+    return solve_frequency_weighted_least_squares(
+        A, B, frequency, group, max_condition=max_condition, names=names
     )

@@ -68,6 +68,7 @@ __all__ = [
     "num_equation_rows",
     "pack_rows",
     "paper_frequencies",
+    "row_frequencies",
     "sliding_fourier_integrals",
     "sliding_init",
     "sliding_push",
@@ -445,6 +446,27 @@ def assemble_equations(
         return A, B
     keep = np.repeat(bank.row_mask.ravel(), m)
     return A[keep], B[keep]
+
+
+def row_frequencies(bank: FourierBank, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Frequency index ν and equation j of every row of :func:`assemble_equations`.
+
+    ``ν = |ℓ + (k + 1)/2|`` for both parts of g_ℓ (its lines are at ℓ + i, i = 0..k,
+    centred on ℓ + k/2; the half-step up was the measured best on the 2R benchmark):
+    the derivative ġ_ℓ, which multiplies the velocity estimate in every row, has a
+    magnitude ∝ ν/T. Used by the frequency-weighted solve
+    (:func:`drake_dynid.core.lsq.solve_frequency_weighted_least_squares`), one
+    noise group per equation j.
+
+    Returns:
+        ``(frequency, group)``, each (``bank.num_rows(m)``,): float ν and int j.
+    """
+    m = v.integer("row_frequencies", "m", m, minimum=1)
+    L = bank.num_functions
+    frequency = np.repeat(np.abs(bank.ell + (bank.order + 1) / 2.0), 2 * m)
+    group = np.tile(np.arange(m), 2 * L)
+    keep = np.repeat(bank.row_mask.ravel(), m)
+    return frequency[keep], group[keep]
 
 
 # -- sliding state ---------------------------------------------------------------------

@@ -297,6 +297,8 @@ class SlidingQRIdentifier(LeafSystem):
         names: Sequence[str] | None = None,
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
+        row_frequency: Sequence[float] | None = None,
+        row_group: Sequence[int] | None = None,
     ):
         """Builds the block.
 
@@ -308,6 +310,13 @@ class SlidingQRIdentifier(LeafSystem):
             names: parameter names (for messages), length p.
             initial_theta: estimate held before the first valid solve (default 0).
             offset: time of the first update [s].
+            row_frequency: (r,) frequency index ν of each row
+                (``modulating.row_frequencies``). Given (with ``row_group``), every
+                solve is the two-step frequency-weighted one
+                (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
+                σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
+                None: ordinary least squares.
+            row_group: (r,) noise group (model equation j) of each row.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -326,6 +335,14 @@ class SlidingQRIdentifier(LeafSystem):
             else check.array(owner, "initial_theta", initial_theta, (p,))
         )
         self._p, self._r = p, r
+        if (row_frequency is None) != (row_group is None):
+            check.fail(owner, "give both row_frequency and row_group, or neither.")
+        self._weighting = None
+        if row_frequency is not None:
+            self._weighting = (
+                check.array(owner, "row_frequency", row_frequency, (r,)),
+                check.array(owner, "row_group", row_group, (r,)).astype(int),
+            )
         self.DeclareVectorInputPort("A", r * p)
         self.DeclareVectorInputPort("B", r)
         self.DeclareVectorInputPort("window_valid", 1)
@@ -391,8 +408,12 @@ class SlidingQRIdentifier(LeafSystem):
             return
         a = self.get_input_port(0).Eval(context).reshape(self._r, p)
         b = self.get_input_port(1).Eval(context)
-        result = lsq.solve_least_squares(
-            a, b, max_condition=self._max_condition, names=self._names
+        result = lsq.solve_window(
+            a,
+            b,
+            self._weighting,
+            max_condition=self._max_condition,
+            names=self._names,
         )
         x[2 * p] = result.condition_number
         x[2 * p + 2 : 3 * p + 2] = 0.0
