@@ -188,11 +188,10 @@ def online(rows, s: OnlineSettings, signals, end: int):
     A, B = assemble_equations(
         bank, direct_fourier_integrals(bank, pack_rows(d, g, y)), d.shape[1], d.shape[2]
     )
-    frequency, group = s.row_weighting(d.shape[1])
     res = solve_window(
         A,
         B,
-        None if frequency is None else (frequency, group),
+        s.row_weighting(d.shape[1], bank),
         max_condition=s.max_condition,
         names=rows.names,
     )

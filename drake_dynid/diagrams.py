@@ -135,15 +135,22 @@ class OnlineSettings:
             )
         return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
 
-    def row_weighting(self, m: int) -> tuple[Any, Any]:
-        """``(row_frequency, row_group)`` for the solver, or ``(None, None)``.
+    def row_weighting(
+        self, m: int, bank: modulating.FourierBank | None = None
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The solver's ``weighting`` argument (``lsq.solve_window``).
+
+        None for ordinary least squares, else ``(row_frequency, row_group)`` of
+        the bank's rows (``modulating.row_frequencies``).
 
         Args:
             m: equations per sample of the model rows.
+            bank: this configuration's bank when already built (default: builds
+                ``self.bank()``).
         """
         if self.weighting == "none":
-            return None, None
-        return modulating.row_frequencies(self.bank(), m)
+            return None
+        return modulating.row_frequencies(self.bank() if bank is None else bank, m)
 
     def ell(self) -> np.ndarray:
         """The modulating indices ℓ of this configuration.
@@ -378,9 +385,10 @@ def add_online_identifier(
     # the solver at u·U·h + 3h/4 (after the bank updates up to u·U·h). Event times of
     # different periods computed in floating point can differ by an ulp; the offsets
     # make every read unambiguous (docs/CONVENTIONS.md §2).
+    design = settings.bank()
     bank = builder.AddSystem(
         ModulatingIntegralBank(
-            settings.bank(),
+            design,
             model_rows.num_equations,
             model_rows.num_parameters,
             offset=BANK_OFFSET * time_step,
@@ -391,7 +399,6 @@ def add_online_identifier(
         differentiator.GetOutputPort("valid"), bank.GetInputPort("sample_valid")
     )
     names = tuple(rows.names)
-    frequency, group = settings.row_weighting(model_rows.num_equations)
     identifier = builder.AddSystem(
         SlidingQRIdentifier(
             model_rows.num_parameters,
@@ -400,8 +407,7 @@ def add_online_identifier(
             max_condition=settings.max_condition,
             names=names,
             offset=SOLVE_OFFSET * time_step,
-            row_frequency=frequency,
-            row_group=group,
+            row_weighting=settings.row_weighting(model_rows.num_equations, design),
         )
     )
     for port in ("A", "B"):

@@ -103,8 +103,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings, derived) -> OnlineTr
     m = 1 if entry.model == "power" else int(rows.num_joints)
     p = int(rows.num_parameters)
     names = tuple(rows.names)
-    frequency, group = entry.row_weighting(m)
-    weighting = None if frequency is None else (frequency, group)
+    weighting = entry.row_weighting(m, bank)
 
     # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
     bank_times = np.arange(0, count, decimation)

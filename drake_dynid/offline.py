@@ -231,6 +231,18 @@ def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
     return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
 
 
+def _below_nyquist(owner: str, name: str, value: Any, time_step: float) -> float:
+    """A frequency [Hz] in (0, 1/(2h)), or a ValueError naming it."""
+    value = check.positive(owner, name, value, "Hz")
+    if value >= 0.5 / time_step:
+        check.fail(
+            owner,
+            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
+            f"{value:g}.",
+        )
+    return value
+
+
 def _provider(robot: Any) -> Any:
     """The fastest object with ``idim_rows`` and ``names`` for this robot."""
     fast = robot.rows_provider() if hasattr(robot, "rows_provider") else robot
@@ -320,34 +332,22 @@ def identify_offline(
                 "at least 16 are needed to choose the cutoff.",
             )
         cutoff_hz = auto_cutoff(q[longest[0] : longest[1]], h)
-    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    if cutoff_hz >= 0.5 / h:
-        check.fail(
-            owner,
-            f"cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; got "
-            f"{cutoff_hz:g}.",
-        )
+    cutoff_hz = _below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
+    decimation_rule = "given" if decimation is not None else "auto"
+    if decimation is not None:
+        decimation = check.integer(owner, "decimation", decimation, minimum=1)
     decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(
             q[longest[0] : longest[1]], h, cutoff_hz
         )
         if decimation is not None:
-            decimation = check.integer(owner, "decimation", decimation, minimum=1)
             decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
-    decimation_cutoff_hz = check.positive(
-        owner, "decimation_cutoff_hz", decimation_cutoff_hz, "Hz"
+    decimation_cutoff_hz = _below_nyquist(
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
     )
-    if decimation_cutoff_hz >= 0.5 / h:
-        check.fail(
-            owner,
-            f"decimation_cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; "
-            f"got {decimation_cutoff_hz:g}.",
-        )
-    decimation_rule = "given" if decimation is not None else "auto"
     if decimation is None:
         decimation = auto_decimation(h, decimation_cutoff_hz)
-    decimation = check.integer(owner, "decimation", decimation, minimum=1)
     trim = default_trim(h, cutoff_hz)
     padding = default_padding(h, cutoff_hz)
     minimum = 2 * trim + 1

@@ -110,13 +110,19 @@ def test_row_weighting_follows_the_bank_rows():
     from drake_dynid.core.modulating import row_frequencies
 
     settings = OnlineSettings(window=4.0, frequencies=[0.0, 1.0, 2.0])
-    frequency, group = settings.row_weighting(2)
+    weighting = settings.row_weighting(2)
+    assert weighting is not None
+    frequency, group = weighting
+    # The same rows from an already built bank.
+    np.testing.assert_array_equal(
+        settings.row_weighting(2, settings.bank())[0], frequency
+    )
     assert frequency.shape == group.shape == (settings.bank().num_rows(2),)
     # ℓ-major, (real, imaginary), joint: ν = ℓ + 1 for k = 1.
     np.testing.assert_array_equal(group[:4], [0, 1, 0, 1])
     np.testing.assert_array_equal(frequency[:4], [1.0] * 4)
     assert frequency[-1] == 3.0
-    assert OnlineSettings(weighting="none").row_weighting(2) == (None, None)
+    assert OnlineSettings(weighting="none").row_weighting(2) is None
     # Order 2 drops the identically zero part of ℓ = -1 (row_mask).
     bank = OnlineSettings(order=2, frequencies=[-1.0, 0.0]).bank()
     frequency, group = row_frequencies(bank, 1)

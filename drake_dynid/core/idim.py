@@ -58,10 +58,7 @@ def default_trim(time_step: float, cutoff_hz: float) -> int:
     full-trim ones to 0.1 %); a longer trim only throws away data, which costs more
     accuracy on a 20 s log than the transient (benchmarks/bench_accuracy.py).
     """
-    owner = "default_trim"
-    time_step = v.positive(owner, "time_step", time_step, "s")
-    cutoff_hz = v.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    return 1 + math.ceil(2.0 / (cutoff_hz * time_step))
+    return 1 + _cutoff_periods("default_trim", 2.0, time_step, cutoff_hz)
 
 
 def default_padding(time_step: float, cutoff_hz: float) -> int:
@@ -71,10 +68,14 @@ def default_padding(time_step: float, cutoff_hz: float) -> int:
     inside the padding instead of inside the data (scipy's default pads only
     ``3·(2·sections + 1)`` samples).
     """
-    owner = "default_padding"
+    return _cutoff_periods("default_padding", 4.0, time_step, cutoff_hz)
+
+
+def _cutoff_periods(owner: str, periods: float, time_step: Any, cutoff_hz: Any) -> int:
+    """``ceil(periods / (cutoff_hz · h))``: samples in ``periods`` cutoff periods."""
     time_step = v.positive(owner, "time_step", time_step, "s")
     cutoff_hz = v.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    return math.ceil(4.0 / (cutoff_hz * time_step))
+    return math.ceil(periods / (cutoff_hz * time_step))
 
 
 def offline_derivatives(
@@ -187,7 +188,8 @@ def parallel_decimation(
             default ``0.25 / factor`` (the decimated Nyquist frequency is then
             twice the cutoff). ``factor = 1`` with no cutoff returns copies.
         padding: even-reflection samples at each end (>= 0, at most N - 1 used);
-            default four cutoff periods, ``ceil(4 / cutoff)``.
+            default four cutoff periods, ``ceil(4 / cutoff)`` (as
+            :func:`default_padding`).
 
     Returns:
         ``(W_d, tau_d)`` with ``ceil(N / factor)`` samples.
@@ -212,7 +214,7 @@ def parallel_decimation(
     if cutoff >= 0.5:
         v.fail(owner, f"cutoff must be < 0.5 cycles/sample; got {cutoff:g}.")
     if padding is None:
-        padding = math.ceil(4.0 / cutoff)
+        padding = default_padding(1.0, cutoff)  # one "second" per sample
     padding = v.integer(owner, "padding", padding, minimum=0)
     columns = np.concatenate(
         [W.reshape(W.shape[0], -1), tau.reshape(tau.shape[0], -1)], axis=1

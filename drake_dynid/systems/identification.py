@@ -297,8 +297,7 @@ class SlidingQRIdentifier(LeafSystem):
         names: Sequence[str] | None = None,
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
-        row_frequency: Sequence[float] | None = None,
-        row_group: Sequence[int] | None = None,
+        row_weighting: tuple[Sequence[float], Sequence[int]] | None = None,
     ):
         """Builds the block.
 
@@ -310,13 +309,13 @@ class SlidingQRIdentifier(LeafSystem):
             names: parameter names (for messages), length p.
             initial_theta: estimate held before the first valid solve (default 0).
             offset: time of the first update [s].
-            row_frequency: (r,) frequency index ν of each row
-                (``modulating.row_frequencies``). Given (with ``row_group``), every
-                solve is the two-step frequency-weighted one
+            row_weighting: ``(row_frequency, row_group)``, each (r,): the frequency
+                index ν and noise group (model equation j) of each row
+                (``modulating.row_frequencies``). Given, every solve is the
+                two-step frequency-weighted one
                 (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
                 σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
                 None: ordinary least squares.
-            row_group: (r,) noise group (model equation j) of each row.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -335,13 +334,12 @@ class SlidingQRIdentifier(LeafSystem):
             else check.array(owner, "initial_theta", initial_theta, (p,))
         )
         self._p, self._r = p, r
-        if (row_frequency is None) != (row_group is None):
-            check.fail(owner, "give both row_frequency and row_group, or neither.")
         self._weighting = None
-        if row_frequency is not None:
+        if row_weighting is not None:
+            frequency, group = row_weighting
             self._weighting = (
-                check.array(owner, "row_frequency", row_frequency, (r,)),
-                check.array(owner, "row_group", row_group, (r,)).astype(int),
+                check.array(owner, "row_frequency", frequency, (r,)),
+                check.array(owner, "row_group", group, (r,)).astype(int),
             )
         self.DeclareVectorInputPort("A", r * p)
         self.DeclareVectorInputPort("B", r)
