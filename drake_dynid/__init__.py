@@ -10,8 +10,9 @@ Layers (see ``docs/CONVENTIONS.md``):
   pydrake.
 * ``drake_dynid.systems``: thin Drake ``LeafSystem`` blocks over the core; all state
   lives in the Context.
-* ``drake_dynid.plants``, ``drake_dynid.diagrams``, ``drake_dynid.cli``: URDF plants,
-  diagram builders and the ``dynid`` command.
+* ``drake_dynid.urdf``, ``drake_dynid.robot``, ``drake_dynid.diagrams``,
+  ``drake_dynid.cli``: URDF plants, the robot description, diagram builders and the
+  ``dynid`` command.
 """
 
 from __future__ import annotations
@@ -69,11 +70,11 @@ _LAZY: dict[str, str] = {
     "Planar2RRows": "drake_dynid.core.planar2r",
     "BaseParameters": "drake_dynid.core.base_parameters",
     "base_parameters": "drake_dynid.core.base_parameters",
-    # plants (pydrake)
-    "RobotModel": "drake_dynid.plants",
-    "load_plant": "drake_dynid.plants",
-    "model_path": "drake_dynid.plants",
-    "read_urdf_friction": "drake_dynid.plants",
+    # URDF loading and the robot description (pydrake)
+    "RobotModel": "drake_dynid.robot",
+    "load_plant": "drake_dynid.urdf",
+    "model_path": "drake_dynid.urdf",
+    "read_urdf_friction": "drake_dynid.urdf",
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
     "JointFriction": "drake_dynid.systems.friction",

@@ -682,8 +682,8 @@ def simulate_identification(
     )
     from pydrake.trajectories import PiecewisePolynomial
 
-    from drake_dynid.plants import load_plant, read_urdf_friction
     from drake_dynid.systems.friction import JointFriction
+    from drake_dynid.urdf import load_plant, read_urdf_friction
 
     h = simulation.time_step
     n = robot.num_joints

@@ -274,7 +274,7 @@ def identify_offline(
 
     Args:
         log: a :class:`~drake_dynid.logs.RobotLog` whose joints are the robot's.
-        robot: a :class:`~drake_dynid.plants.RobotModel` (its ``rows_provider()``
+        robot: a :class:`~drake_dynid.robot.RobotModel` (its ``rows_provider()``
             is used when it has ``idim_rows``: the analytic 2R rows are much
             faster), or any object with ``names`` and ``idim_rows(q, v, vdot)``.
         cutoff_hz: Butterworth cutoff f_c [Hz]; None: :func:`auto_cutoff` on the

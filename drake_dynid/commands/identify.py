@@ -72,7 +72,7 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
 def load_robot_and_log(args: argparse.Namespace, command: str):
     """Loads the URDF model and the log; prints the reader's warnings on stderr."""
     from drake_dynid.logs import read_log
-    from drake_dynid.plants import RobotModel
+    from drake_dynid.robot import RobotModel
 
     robot = RobotModel.from_urdf(args.urdf, friction=parse_friction(args.friction))
     log = read_log(args.log, robot.joint_names, resample=args.resample)

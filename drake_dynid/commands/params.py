@@ -41,7 +41,7 @@ def _number(value: float) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Prints the base-parameter table; writes JSON when asked. Returns 0."""
-    from drake_dynid.plants import RobotModel
+    from drake_dynid.robot import RobotModel
 
     model = RobotModel.from_urdf(
         args.urdf,

@@ -19,7 +19,7 @@ h are zero)::
 Everything is vectorised over a leading sample axis: ``q``, ``v``, ``vdot``, ``tau``
 are ``(N, 2)`` (or ``(2,)`` for one sample, which drops the sample axis of the
 results). Pure numpy: this is the fast path of the on-line blocks for the 2R arm and
-an independent check of the generic Drake-based regressor in ``drake_dynid.plants``.
+an independent check of the generic Drake-based regressor in ``drake_dynid.robot``.
 """
 
 from __future__ import annotations
@@ -212,7 +212,7 @@ def _drop(single: bool, *arrays: np.ndarray):
 class Planar2RRows:
     """Analytic rows of the paper's 2R arm in base-parameter columns.
 
-    The same interface as ``drake_dynid.plants.RobotModel`` (``names``,
+    The same interface as ``drake_dynid.robot.RobotModel`` (``names``,
     ``energy_rows``, ``momentum_rows``, ``lagrangian_rows``, ``idim_rows``,
     ``power_rows``, ``model_rows``), pure numpy and vectorised. See the module
     docstring for the equations.
