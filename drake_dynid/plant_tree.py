@@ -3,39 +3,92 @@
 :func:`extract_tree` reads, from a finalized fixed-base plant, the joint geometry
 (:class:`drake_dynid.core.kinematics.KinematicTree`) and the standard inertial
 parameters of every moving link, with the bodies welded to a link lumped into it
-and the bodies welded to the world dropped (their energy is constant).
+and the bodies welded to the world dropped (their energy is constant). A locked
+joint is a weld at its locked position: the bodies beyond it are lumped the same
+way.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from drake_dynid.core.kinematics import KinematicTree
+from drake_dynid.core.joint_map import JointMap, joint_map
+from drake_dynid.core.kinematics import KinematicTree, rotation_about
+from drake_dynid.core.planar2r import FRICTION_PREFIX
 
-__all__ = ["extract_tree"]
+__all__ = [
+    "INERTIAL_NAMES",
+    "MOVABLE_JOINTS",
+    "PlantDescription",
+    "describe_plant",
+    "drake_forward",
+    "extract_tree",
+    "movable_joints",
+    "standard_table",
+]
+
+#: The 10 inertial parameters of one link, in Khalil's (and the preferred) order.
+INERTIAL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+
+
+#: Drake joint types drake_dynid identifies (a URDF continuous joint is revolute).
+MOVABLE_JOINTS = ("revolute", "prismatic")
 
 
 def _pose_matrix(transform: Any) -> np.ndarray:
     return np.asarray(transform.GetAsMatrix4(), dtype=float)
 
 
-def extract_tree(plant: Any) -> tuple[KinematicTree, list[Any], np.ndarray]:
+def movable_joints(plant: Any) -> list[Any]:
+    """The plant's non-weld joints in generalized-velocity order."""
+    from pydrake.multibody.tree import JointIndex
+
+    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    return sorted(
+        (j for j in joints if j.type_name() != "weld"), key=lambda j: j.velocity_start()
+    )
+
+
+def _locked_pose(joint: Any, position: float) -> np.ndarray:
+    """X_FM of a revolute or prismatic joint at ``position`` [rad or m], 4×4."""
+    pose = np.eye(4)
+    if joint.type_name() == "prismatic":
+        pose[:3, 3] = np.asarray(joint.translation_axis()) * position
+    else:
+        axis = np.asarray(joint.revolute_axis(), dtype=float)
+        pose[:3, :3] = rotation_about(axis, np.array([position]))[0]
+    return pose
+
+
+def extract_tree(
+    plant: Any,
+    moving: list[Any] | None = None,
+    locked: dict[str, float] | None = None,
+) -> tuple[KinematicTree, list[Any], np.ndarray]:
     """Reads the joint geometry and the lumped link inertias from a plant.
 
+    Args:
+        plant: a finalized fixed-base plant with revolute, prismatic and weld joints.
+        moving: the joints that move, in the order of the tree's links (link k is
+            the child of ``moving[k]``); default every non-weld joint in
+            generalized-velocity order.
+        locked: ``{joint name: position [rad or m]}`` for the other non-weld joints
+            (missing ones: 0). A locked joint is treated as a weld at that position.
+
     Returns:
-        ``(tree, joints, inertial)`` with ``joints`` the moving joints in velocity
-        order and ``inertial`` the ``(n, 10)`` standard inertial values.
+        ``(tree, joints, inertial)`` with ``joints`` the moving joints (link order)
+        and ``inertial`` the ``(n, 10)`` standard inertial values.
     """
     from pydrake.multibody.tree import JointIndex
 
     all_joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
-    moving = sorted(
-        (j for j in all_joints if j.type_name() != "weld"),
-        key=lambda j: j.velocity_start(),
-    )
+    moving = list(movable_joints(plant) if moving is None else moving)
+    locked = dict(locked or {})
     n = len(moving)
     link_of_joint = {joint.index(): k for k, joint in enumerate(moving)}
     by_parent: dict[Any, list[Any]] = {}
@@ -59,8 +112,12 @@ def extract_tree(plant: Any) -> tuple[KinematicTree, list[Any], np.ndarray]:
             child = joint.child_body().index()
             x_p_f = _pose_matrix(joint.frame_on_parent().GetFixedPoseInBodyFrame())
             x_c_m = _pose_matrix(joint.frame_on_child().GetFixedPoseInBodyFrame())
-            if joint.type_name() == "weld":
-                x_p_c = x_p_f @ _pose_matrix(joint.X_FM()) @ np.linalg.inv(x_c_m)
+            if joint.index() not in link_of_joint:
+                if joint.type_name() == "weld":
+                    x_f_m = _pose_matrix(joint.X_FM())
+                else:
+                    x_f_m = _locked_pose(joint, locked.get(joint.name(), 0.0))
+                x_p_c = x_p_f @ x_f_m @ np.linalg.inv(x_c_m)
                 group[child] = (link, x_link_body @ x_p_c)
             else:
                 k = link_of_joint[joint.index()]
@@ -123,3 +180,169 @@ def extract_tree(plant: Any) -> tuple[KinematicTree, list[Any], np.ndarray]:
         array.setflags(write=False)
     return tree, moving, inertial
 
+
+def standard_table(
+    plant: Any,
+    moving: list[Any],
+    num_identified: int,
+    inertial: np.ndarray,
+    *,
+    friction: tuple[str, ...],
+    rotor_inertia: bool,
+    coulomb: dict[str, float] | None,
+    mimic: Mapping[str, tuple[str, float, float]] | None = None,
+) -> tuple[tuple[str, ...], np.ndarray]:
+    """Standard parameter names and values, in the preferred column order.
+
+    Link j (1-based) of ``moving``: ``XXj … Mj`` (+ ``IAj`` for an identified
+    joint with ``rotor_inertia``: the actuator's rotor inertia times its gear ratio
+    squared [kg·m²]); then, per identified joint, the friction columns: ``FVj``
+    (the joint's damping [N·m·s/rad or N·s/m]), ``FCj`` (``coulomb[name]``, 0 when
+    missing [N·m or N]), ``OFFj`` (0). The friction of a moving mimic joint f
+    (q_f = a q_i + b) acts on its leader i through τ_i = a τ_f: FVi += a² FVf and
+    FCi += |a| FCf.
+
+    Returns:
+        ``(names, values)``; ``values`` is read-only.
+    """
+    from pydrake.multibody.tree import JointActuatorIndex
+
+    identified = [joint.name() for joint in moving[:num_identified]]
+    rotor = np.zeros(num_identified)
+    for index in range(plant.num_actuators()):
+        actuator = plant.get_joint_actuator(JointActuatorIndex(index))
+        if actuator.joint().name() in identified:
+            gear = actuator.default_gear_ratio()
+            rotor[identified.index(actuator.joint().name())] = (
+                actuator.default_rotor_inertia() * gear**2
+            )
+    coulomb = dict(coulomb or {})
+    damping = {j.name(): float(j.default_damping_vector()[0]) for j in moving}
+    dry = {j.name(): float(coulomb.get(j.name(), 0.0)) for j in moving}
+    for follower, (leader, a, _) in dict(mimic or {}).items():
+        damping[leader] += a * a * damping[follower]
+        dry[leader] += abs(a) * dry[follower]
+    names: list[str] = []
+    values: list[float] = []
+    for j in range(len(moving)):
+        names += [f"{name}{j + 1}" for name in INERTIAL_NAMES]
+        values += list(inertial[j])
+        if rotor_inertia and j < num_identified:
+            names.append(f"IA{j + 1}")
+            values.append(rotor[j])
+    for j, joint in enumerate(moving[:num_identified]):
+        for kind in friction:
+            names.append(f"{FRICTION_PREFIX[kind]}{j + 1}")
+            if kind == "viscous":
+                values.append(damping[joint.name()])
+            elif kind == "coulomb":
+                values.append(dry[joint.name()])
+            else:
+                values.append(0.0)
+    out = np.array(values)
+    out.setflags(write=False)
+    return tuple(names), out
+
+
+def drake_forward(
+    plant: Any,
+    q_plant: np.ndarray,
+    bodies: tuple[Any, ...],
+    frames: tuple[Any, ...],
+    tree: KinematicTree,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Link poses and world joint screws from Drake, one sample at a time.
+
+    The same outputs as ``KinematicTree.forward`` (R (N, b, 3, 3), p (N, b, 3),
+    S (N, b, 6)), from ``EvalBodyPoseInWorld`` of each link body and the pose of
+    each joint's child frame, with the plant at ``q_plant`` (N, num_positions).
+    """
+    context = plant.CreateDefaultContext()
+    num_samples, links = q_plant.shape[0], len(bodies)
+    rotation = np.empty((num_samples, links, 3, 3))
+    position = np.empty((num_samples, links, 3))
+    screws = np.zeros((num_samples, links, 6))
+    for k in range(num_samples):
+        plant.SetPositions(context, q_plant[k])
+        for j, (body, frame) in enumerate(zip(bodies, frames, strict=True)):
+            x_wb = plant.EvalBodyPoseInWorld(context, body)
+            rotation[k, j] = x_wb.rotation().matrix()
+            position[k, j] = x_wb.translation()
+            x_wm = frame.CalcPoseInWorld(context)
+            axis = x_wm.rotation().matrix() @ tree.axis[j]
+            if tree.prismatic[j]:
+                screws[k, j, 3:] = axis
+            else:
+                screws[k, j, :3] = axis
+                screws[k, j, 3:] = np.cross(x_wm.translation(), axis)
+    return rotation, position, screws
+
+
+@dataclass(frozen=True, eq=False)
+class PlantDescription:
+    """What :func:`describe_plant` reads: joint map, moving joints, tree, table."""
+
+    joint_map: JointMap
+    moving: tuple[Any, ...]
+    chain: KinematicTree
+    standard_names: tuple[str, ...]
+    standard_values: np.ndarray
+
+
+def describe_plant(
+    owner: str,
+    plant: Any,
+    *,
+    joints: Sequence[str] | None,
+    locked: Mapping[str, float] | None,
+    mimic: Mapping[str, tuple[str, float, float]] | None,
+    friction: tuple[str, ...],
+    rotor_inertia: bool,
+    coulomb: dict[str, float] | None,
+) -> PlantDescription:
+    """Checks a finalized fixed-base plant and reads what identification needs.
+
+    The identified joints, locked positions and mimic joints
+    (``drake_dynid.core.joint_map.joint_map``), the tree of the moving joints
+    with the locked ones welded (:func:`extract_tree`) and the standard parameter
+    table (:func:`standard_table`).
+
+    Raises:
+        ValueError: the plant is not finalized, not fixed-base, has a joint other
+            than revolute, prismatic or weld, or the joint choice is invalid.
+    """
+    if not plant.is_finalized():
+        raise ValueError(f"{owner}: plant must be finalized.")
+    movable = movable_joints(plant)
+    if (
+        any(j.type_name() not in MOVABLE_JOINTS for j in movable)
+        or plant.num_positions() != len(movable)
+        or plant.num_velocities() != len(movable)
+        or any(j.position_start() != j.velocity_start() for j in movable)
+    ):
+        raise ValueError(
+            f"{owner}: plant must have only revolute, prismatic and fixed joints "
+            f"on a fixed base; got {plant.num_positions()} positions for "
+            f"{len(movable)} joints."
+        )
+    jmap = joint_map(
+        [j.name() for j in movable],
+        joints=joints,
+        locked=locked,
+        mimic=mimic,
+        owner=owner,
+    )
+    by_name = {j.name(): j for j in movable}
+    moving = [by_name[name] for name in jmap.moving]
+    chain, _, inertial = extract_tree(plant, moving, dict(jmap.locked))
+    names, values = standard_table(
+        plant,
+        moving,
+        len(jmap.names),
+        inertial,
+        friction=friction,
+        rotor_inertia=rotor_inertia,
+        coulomb=coulomb,
+        mimic=jmap.mimic,
+    )
+    return PlantDescription(jmap, tuple(moving), chain, names, values)

@@ -5,14 +5,23 @@ standard parameters read from the URDF, base parameters
 (``drake_dynid.core.base_parameters``) and exact regressors (``core.rigid_body``),
 vectorised over a leading sample axis.
 
-Standard parameters (Khalil-Kleinfinger names, docs/MATH.md §2), per joint j (1-based,
-in Drake's generalized-velocity order, which runs along the chain): ``XXj XYj XZj YYj
-YZj ZZj`` (inertia tensor entries about the origin of joint j's child-link frame, in
-that frame [kg·m²]; ``XYj`` is the tensor entry, i.e. -∫xy dm), ``MXj MYj MZj`` (first
-moments m·c [kg·m]), ``Mj`` [kg], optional ``IAj`` (rotor inertia reflected to the
-joint [kg·m²]), then the friction columns ``FVj FCj OFFj`` of every joint. Bodies
-welded to a child link are lumped into it; bodies welded to the world are dropped
-(their energy is constant).
+Standard parameters (Khalil-Kleinfinger names, docs/CONVENTIONS.md §4), per joint j
+(1-based, in Drake's generalized-velocity order, which runs along the chain): ``XXj
+XYj XZj YYj YZj ZZj`` (inertia tensor entries about the origin of joint j's
+child-link frame, in that frame [kg·m²]; ``XYj`` is the tensor entry, i.e. -∫xy dm),
+``MXj MYj MZj`` (first moments m·c [kg·m]), ``Mj`` [kg], optional ``IAj`` (rotor
+inertia reflected to the joint [kg·m²]), then the friction columns ``FVj FCj OFFj``
+of every joint. Bodies welded to a child link are lumped into it; bodies welded to
+the world are dropped (their energy is constant).
+
+Identified joints (``joints=``): every other movable joint is locked (at 0 or at the
+position given in ``locked=``) and is then a weld, so the bodies beyond it are
+lumped like welded ones; a URDF ``<mimic>`` joint follows its leader. The links of
+moving mimic joints come after the identified ones (links n+1 …, names ``XXn+1``
+…, listed in :attr:`RobotModel.links`); they have no friction or rotor columns.
+Rows are computed on the tree of moving joints (identified + mimic) with
+q_tree = P q + c, v_tree = P v, v̇_tree = P v̇, and every per-joint row is reduced
+by Pᵀ (τ = Pᵀ τ_tree, virtual work; ``drake_dynid.core.joint_map``).
 
 The kinematics (poses and screws) come from the joint geometry read from the plant
 (``drake_dynid.plant_tree``), either evaluated in numpy over the whole batch
@@ -22,45 +31,32 @@ The kinematics (poses and screws) come from the joint geometry read from the pla
 
 from __future__ import annotations
 
+import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
+from drake_dynid.core.joint_map import JointMap
 from drake_dynid.core.kinematics import KinematicTree
-from drake_dynid.core.planar2r import (
-    FRICTION_PREFIX,
-    MODEL_KINDS,
-    Planar2RRows,
-    as_batches,
-    check_friction,
-    friction_idim_columns,
-    model_rows_from_parts,
-)
-from drake_dynid.core.rigid_body import (
-    energy_blocks,
-    idim_blocks,
-    lagrangian_blocks,
-    link_terms,
-)
-from drake_dynid.plant_tree import extract_tree
-from drake_dynid.urdf import load_plant, read_urdf_friction
+from drake_dynid.core.planar2r import Planar2RRows, check_friction
+from drake_dynid.plant_tree import INERTIAL_NAMES, describe_plant
+from drake_dynid.robot_rows import RobotRows
+from drake_dynid.urdf import load_urdf, read_urdf_friction, read_urdf_mimic
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
-#: The 10 inertial parameters of one link, in Khalil's (and the preferred) order.
-INERTIAL_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
-
 _KINEMATICS = ("numpy", "drake")
-_COLUMNS = ("base", "standard")
+_LOGGER = logging.getLogger("drake_dynid")
 
 
 @dataclass(frozen=True, eq=False)
-class RobotModel:
+class RobotModel(RobotRows):
     """Immutable description of a fixed-base robot for identification.
 
     Build it with :meth:`from_urdf` (or :meth:`from_plant`). All row methods take
@@ -69,7 +65,8 @@ class RobotModel:
     results), in Drake's generalized-velocity order (``joint_names``), and return
     base-parameter columns (``columns="base"``, default) or standard ones
     (``columns="standard"``). The contract used by the on-line blocks is
-    :meth:`model_rows` ``(kind, q, v, tau) -> (D, G, y)``.
+    :meth:`model_rows` ``(kind, q, v, tau) -> (D, G, y)``. The rows are
+    :class:`drake_dynid.robot_rows.RobotRows`'s.
 
     Attributes:
         plant: the finalized ``MultibodyPlant`` (continuous unless a time step was
@@ -84,6 +81,15 @@ class RobotModel:
         base: the base parameters (names, definitions, standard -> base map).
         kinematics: ``"numpy"`` (vectorised forward kinematics from the joint
             geometry, default) or ``"drake"`` (``EvalBodyPoseInWorld`` per sample).
+        links: the joint moving each link: ``joint_names``, then the moving mimic
+            joints (links n+1 …).
+        locked: ``{joint: position [rad or m]}`` for every movable joint of the
+            plant that is not identified and does not move (a weld at that
+            position; the default position is 0).
+        mimic: ``{joint: (leader, multiplier, offset)}`` for the mimic joints that
+            move with an identified leader (q = multiplier·q_leader + offset).
+        notes: one-line remarks made while loading (joints treated as actuated,
+            Drake's parser warnings summarised, an unclear rank decision).
     """
 
     plant: Any
@@ -96,6 +102,13 @@ class RobotModel:
     standard_values: np.ndarray
     base: BaseParameters
     kinematics: str = "numpy"
+    links: tuple[str, ...] = ()
+    locked: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+    mimic: Mapping[str, tuple[str, float, float]] = field(
+        default_factory=lambda: MappingProxyType({})
+    )
+    notes: tuple[str, ...] = ()
+    _map: JointMap = field(repr=False, default=None)  # type: ignore[assignment]
     _chain: KinematicTree = field(repr=False, default=None)  # type: ignore[assignment]
     _link_bodies: tuple[Any, ...] = field(repr=False, default=())
     _joint_frames: tuple[Any, ...] = field(repr=False, default=())
@@ -112,8 +125,15 @@ class RobotModel:
         time_step: float = 0.0,
         kinematics: str = "numpy",
         seed: int = 0,
+        joints: Sequence[str] | None = None,
+        locked: Mapping[str, float] | None = None,
     ) -> RobotModel:
-        """Loads a URDF (see :func:`load_plant`) and computes its parameters.
+        """Loads a URDF (see :func:`drake_dynid.urdf.load_plant`) and its parameters.
+
+        Any fixed-base description is accepted: joints without a ``<transmission>``
+        are treated as actuated, meshes are not needed (``<visual>`` and
+        ``<collision>`` are stripped), Drake's parser warnings are summarised in
+        one line of :attr:`notes`.
 
         Args:
             path: the URDF file (``model_path("planar_2r")`` for the paper's arm).
@@ -126,17 +146,30 @@ class RobotModel:
             time_step: period of the plant held in ``plant`` [s] (0: continuous).
             kinematics: ``"numpy"`` or ``"drake"`` (see the class docstring).
             seed: seed of the random states used for the base-parameter reduction.
+            joints: the identified joints (any order; kept in the plant's order);
+                default every movable joint that is not a mimic and not locked.
+            locked: ``{joint: position [rad or m]}`` for joints that are not
+                identified; the other ones are locked at 0. A mimic joint follows
+                its leader (``<mimic>``: q = multiplier·q_leader + offset).
+
+        Raises:
+            ValueError: the loader's errors, an unknown joint name (the message
+                lists the movable joints), a joint both identified and locked, a
+                mimic joint identified or locked on its own.
         """
-        plant = load_plant(path, time_step, gravity=gravity)
-        coulomb = read_urdf_friction(path)
+        loaded = load_urdf(path, time_step, gravity=gravity)
         return cls.from_plant(
-            plant,
+            loaded.plant,
             friction=friction,
             rotor_inertia=rotor_inertia,
-            coulomb=coulomb,
+            coulomb=read_urdf_friction(path),
             kinematics=kinematics,
             seed=seed,
             path=str(path),
+            joints=joints,
+            locked=locked,
+            mimic=read_urdf_mimic(path),
+            notes=loaded.notes,
         )
 
     @classmethod
@@ -150,11 +183,18 @@ class RobotModel:
         kinematics: str = "numpy",
         seed: int = 0,
         path: str = "",
+        joints: Sequence[str] | None = None,
+        locked: Mapping[str, float] | None = None,
+        mimic: Mapping[str, tuple[str, float, float]] | None = None,
+        notes: Sequence[str] = (),
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
         ``coulomb`` maps joint names to Coulomb friction values (Drake does not
         store them); the viscous values are the joints' default damping.
+        ``joints``, ``locked`` and ``mimic`` (``{joint: (leader, multiplier,
+        offset)}``, see :func:`drake_dynid.urdf.read_urdf_mimic`) choose the
+        identified joints as in :meth:`from_urdf`.
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
@@ -163,74 +203,66 @@ class RobotModel:
                 f"{owner}: kinematics must be one of {', '.join(_KINEMATICS)}; got "
                 f"{kinematics!r}."
             )
-        if not plant.is_finalized():
-            raise ValueError(f"{owner}: plant must be finalized.")
-        chain, joints, inertial = extract_tree(plant)
-        n = len(joints)
-        if plant.num_positions() != n or plant.num_velocities() != n:
-            raise ValueError(
-                f"{owner}: plant must have only revolute, prismatic and fixed joints "
-                f"on a fixed base; got {plant.num_positions()} positions for {n} "
-                "joints."
-            )
-        coulomb = dict(coulomb or {})
-        rotor = np.zeros(n)
-        from pydrake.multibody.tree import JointActuatorIndex
-
-        for index in range(plant.num_actuators()):
-            actuator = plant.get_joint_actuator(JointActuatorIndex(index))
-            k = actuator.joint().velocity_start()
-            rotor[k] = actuator.default_rotor_inertia() * (
-                actuator.default_gear_ratio() ** 2
-            )
-
-        names: list[str] = []
-        values: list[float] = []
-        for j in range(n):
-            names += [f"{name}{j + 1}" for name in INERTIAL_NAMES]
-            values += list(inertial[j])
-            if rotor_inertia:
-                names.append(f"IA{j + 1}")
-                values.append(rotor[j])
-        for j, joint in enumerate(joints):
-            for kind in friction:
-                names.append(f"{FRICTION_PREFIX[kind]}{j + 1}")
-                if kind == "viscous":
-                    values.append(float(joint.default_damping_vector()[0]))
-                elif kind == "coulomb":
-                    values.append(float(coulomb.get(joint.name(), 0.0)))
-                else:
-                    values.append(0.0)
-        standard_values = np.array(values)
-        standard_values.setflags(write=False)
+        tree = describe_plant(
+            owner,
+            plant,
+            joints=joints,
+            locked=locked,
+            mimic=mimic,
+            friction=friction,
+            rotor_inertia=rotor_inertia,
+            coulomb=coulomb,
+        )
+        jmap, moving = tree.joint_map, tree.moving
         gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
         gravity.setflags(write=False)
         model = cls(
             plant=plant,
             path=path,
-            joint_names=tuple(joint.name() for joint in joints),
+            joint_names=jmap.names,
             gravity=gravity,
             friction=friction,
             rotor_inertia=bool(rotor_inertia),
-            standard_names=tuple(names),
-            standard_values=standard_values,
+            standard_names=tree.standard_names,
+            standard_values=tree.standard_values,
             base=None,  # type: ignore[arg-type]
             kinematics=kinematics,
-            _chain=chain,
-            _link_bodies=tuple(joint.child_body() for joint in joints),
-            _joint_frames=tuple(joint.frame_on_child() for joint in joints),
+            links=jmap.moving,
+            locked=jmap.locked,
+            mimic=jmap.mimic,
+            notes=tuple(notes),
+            _map=jmap,
+            _chain=tree.chain,
+            _link_bodies=tuple(joint.child_body() for joint in moving),
+            _joint_frames=tuple(joint.frame_on_child() for joint in moving),
         )
-        object.__setattr__(model, "base", model._reduce(seed))
+        base = model._reduce(seed)
+        object.__setattr__(model, "base", base)
+        if not base.clear:
+            note = (
+                f"the base-parameter rank decision is not clear (|R_kk| kept/dropped "
+                f"{base.smallest_kept:.2g}/{base.largest_dropped:.2g}, singular "
+                f"values {base.singular_kept:.2g}/{base.singular_dropped:.2g}); "
+                "check the description for a near-singular geometry"
+            )
+            _LOGGER.warning("RobotModel: %s.", note)
+            object.__setattr__(model, "notes", (*model.notes, note))
         return model
 
     def _reduce(self, seed: int) -> BaseParameters:
-        """Base parameters from IDIM rows at random states (seeded)."""
+        """Base parameters from IDIM rows at random states (seeded).
+
+        Rows: inverse dynamics with gravity and friction at ``max(20, 4 p_std / n)``
+        states, q uniform in ±π rad (prismatic: ±1 m), q̇ and q̈ standard normal
+        [rad/s, rad/s², m/s, m/s²], no row weighting; the rank decision is
+        relative to the largest column (``drake_dynid.core.base_parameters``).
+        """
         rng = np.random.default_rng(seed)
         n = self.num_joints
         p_std = len(self.standard_names)
         num_samples = max(20, math.ceil(4 * p_std / n))
         q = rng.uniform(-np.pi, np.pi, (num_samples, n))
-        for j in np.flatnonzero(self._chain.prismatic):
+        for j in np.flatnonzero(self._chain.prismatic[:n]):
             q[:, j] = rng.uniform(-1.0, 1.0, num_samples)
         v = rng.normal(size=(num_samples, n))
         vdot = rng.normal(size=(num_samples, n))
@@ -238,16 +270,6 @@ class RobotModel:
         return base_parameters(rows, self.standard_names)
 
     # ---------------------------------------------------------------- properties
-    @property
-    def _block(self) -> int:
-        """Standard columns per link: 10 inertial (+ IAj)."""
-        return 11 if self.rotor_inertia else 10
-
-    @property
-    def num_joints(self) -> int:
-        """Number of moving joints n (= positions = velocities)."""
-        return len(self.joint_names)
-
     @property
     def base_names(self) -> tuple[str, ...]:
         """Base parameter names (``self.base.names``)."""
@@ -259,232 +281,20 @@ class RobotModel:
         return self.base.values(self.standard_values)
 
     @property
-    def num_parameters(self) -> int:
-        """Number of base parameters p."""
-        return self.base.num_base
-
-    @property
     def names(self) -> tuple[str, ...]:
         """Column names of the rows (base parameters), as ``Planar2RRows.names``."""
         return self.base.names
+
+    @property
+    def plant_joint_names(self) -> tuple[str, ...]:
+        """Every movable joint of ``plant``, in its position order."""
+        return self._map.movable
 
     def standard_parameters(self) -> dict[str, float]:
         """Returns ``{standard name: value}``."""
         return dict(
             zip(self.standard_names, self.standard_values.tolist(), strict=True)
         )
-
-    # ------------------------------------------------------------------ kinematics
-    def _forward(self, q: np.ndarray):
-        if self.kinematics == "numpy":
-            return self._chain.forward(q)
-        return self._forward_drake(q)
-
-    def _forward_drake(self, q: np.ndarray):
-        plant = self.plant
-        context = plant.CreateDefaultContext()
-        num_samples, n = q.shape
-        rotation = np.empty((num_samples, n, 3, 3))
-        position = np.empty((num_samples, n, 3))
-        screws = np.zeros((num_samples, n, 6))
-        for k in range(num_samples):
-            plant.SetPositions(context, q[k])
-            for j, (body, frame) in enumerate(
-                zip(self._link_bodies, self._joint_frames, strict=True)
-            ):
-                x_wb = plant.EvalBodyPoseInWorld(context, body)
-                rotation[k, j] = x_wb.rotation().matrix()
-                position[k, j] = x_wb.translation()
-                x_wm = frame.CalcPoseInWorld(context)
-                axis = x_wm.rotation().matrix() @ self._chain.axis[j]
-                if self._chain.prismatic[j]:
-                    screws[k, j, 3:] = axis
-                else:
-                    screws[k, j, :3] = axis
-                    screws[k, j, 3:] = np.cross(x_wm.translation(), axis)
-        return rotation, position, screws
-
-    def _terms(self, q, v, *, derivatives=False):
-        """Per-link spatial quantities shared by the rows (core.rigid_body)."""
-        return link_terms(
-            self._chain, self._forward(q), v, self.gravity, derivatives=derivatives
-        )
-
-    # ------------------------------------------------------- rows, standard columns
-    def _assemble(self, inertial: np.ndarray, extra: dict[int, np.ndarray] | None):
-        """(..., n_links, 10) inertial blocks (+ IA columns) -> (..., p_std)."""
-        n = self.num_joints
-        block = self._block
-        lead = inertial.shape[:-2]
-        out = np.zeros((*lead, len(self.standard_names)))
-        body = out[..., : n * block].reshape(*lead, n, block)
-        body[..., :10] = inertial
-        if extra is not None and self.rotor_inertia:
-            body[..., 10] = extra
-        return out
-
-    def _friction_slice(self) -> slice:
-        return slice(self.num_joints * self._block, None)
-
-    def _energy_standard(self, q, v):
-        kinetic, potential = energy_blocks(self._terms(q, v), self.gravity)
-        return (
-            self._assemble(kinetic, 0.5 * v * v),
-            self._assemble(potential, np.zeros_like(v)),
-        )
-
-    def _lagrangian_standard(self, q, v):
-        n = self.num_joints
-        dhe_dv, dhe_dq, dhu_dq = lagrangian_blocks(
-            self._terms(q, v, derivatives=True)
-        )
-        zero = np.zeros((*v.shape, n))
-        return (
-            self._assemble(dhe_dv, np.eye(n)[None] * v[:, None, :]),
-            self._assemble(dhe_dq, zero),
-            self._assemble(dhu_dq, zero),
-        )
-
-    def _idim_standard(self, q, v, vdot):
-        rows = idim_blocks(self._terms(q, v, derivatives=True), v, vdot)
-        out = self._assemble(rows, np.eye(self.num_joints)[None] * vdot[:, None, :])
-        out[..., self._friction_slice()] = friction_idim_columns(v, self.friction)
-        return out
-
-    def _columns(self, rows: np.ndarray, columns: str) -> np.ndarray:
-        if columns == "base":
-            return rows[..., list(self.base.independent)]
-        if columns == "standard":
-            return rows
-        raise ValueError(
-            f"RobotModel: columns must be one of {', '.join(_COLUMNS)}; got "
-            f"{columns!r}."
-        )
-
-    def _batches(self, **arrays):
-        return as_batches("RobotModel", self.num_joints, **arrays)
-
-    # ---------------------------------------------------------------- public rows
-    def energy_rows(self, q, v, *, columns: str = "base") -> np.ndarray:
-        """Energy rows h(q, v) = h_E + h_U, shape ``(N, p)``: H = E + U = h·θ [J].
-
-        U is Drake's gravity potential up to a constant (bodies welded to the world
-        are not included). Friction columns are zero.
-        """
-        q, v, single = self._batches(q=q, v=v)
-        kinetic, potential = self._energy_standard(q, v)
-        out = self._columns(kinetic + potential, columns)
-        return out[0] if single else out
-
-    def kinetic_potential_rows(
-        self, q, v, *, columns: str = "base"
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Returns ``(h_E, h_U)`` separately, each ``(N, p)`` [J per unit]."""
-        q, v, single = self._batches(q=q, v=v)
-        kinetic, potential = self._energy_standard(q, v)
-        out = (self._columns(kinetic, columns), self._columns(potential, columns))
-        return (out[0][0], out[1][0]) if single else out
-
-    def momentum_rows(self, q, v, *, columns: str = "base") -> np.ndarray:
-        """Generalized-momentum rows ∂h_E/∂v, ``(N, n, p)``: momentum = (∂h_E/∂v)·θ."""
-        return self.lagrangian_rows(q, v, columns=columns)[0]
-
-    def lagrangian_rows(
-        self, q, v, *, columns: str = "base"
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Returns ``(∂h_E/∂v, ∂h_E/∂q, ∂h_U/∂q)``, each ``(N, n, p)``, exact.
-
-        Lagrange's equations: d/dt(∂h_E/∂v)·θ - ∂h_E/∂q·θ + ∂h_U/∂q·θ + τ_f = τ.
-        """
-        q, v, single = self._batches(q=q, v=v)
-        out = tuple(self._columns(a, columns) for a in self._lagrangian_standard(q, v))
-        return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
-
-    def idim_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
-        """Inverse-dynamics rows W(q, v, v̇), shape ``(N, n, p)``: τ = W·θ [N·m, N].
-
-        Includes gravity and the friction columns v_j, sign v_j, 1 (joint j's row);
-        equals ``CalcInverseDynamics`` (gravity as a force element) + friction.
-        """
-        q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
-        out = self._columns(self._idim_standard(q, v, vdot), columns)
-        return out[0] if single else out
-
-    def power_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
-        """Power rows vᵀW = [d/dt h, friction power], shape ``(N, p)`` [W per unit]."""
-        q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
-        rows = np.einsum("ni,nip->np", v, self._idim_standard(q, v, vdot))
-        out = self._columns(rows, columns)
-        return out[0] if single else out
-
-    def model_rows(
-        self, kind: str, q, v, tau
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Model rows (D, G, y) of docs/CONVENTIONS.md §3 in base columns.
-
-        The modulated equation of the bank is -M_ġ(D)·θ + M_g(G)·θ = M_g(y), from
-        d/dt(D·θ) + G·θ = y:
-
-        * ``"power"`` (m = 1): D = h = h_E + h_U, G = friction power
-          [v_j², |v_j|, v_j] in the friction columns, y = vᵀτ [W].
-        * ``"lagrangian"`` (m = n): D = ∂h_E/∂v, G = ∂h_U/∂q - ∂h_E/∂q + friction
-          [v_i, sign v_i, 1] in joint i's columns, y = τ [N·m, N].
-
-        Args:
-            kind: ``"power"`` or ``"lagrangian"``.
-            q: joint positions ``(N, n)`` [rad, m] (or ``(n,)``).
-            v: joint velocities ``(N, n)`` [rad/s, m/s].
-            tau: joint torques ``(N, n)`` [N·m, N], generalized-velocity order.
-
-        Returns:
-            ``D``, ``G`` of shape ``(N, m, p)`` and ``y`` of shape ``(N, m)``
-            (no sample axis for a single sample).
-        """
-        q, v, tau, single = self._batches(q=q, v=v, tau=tau)
-        fslice = slice(
-            self.base.independent.index(self._friction_slice().start)
-            if self.friction
-            else self.num_parameters,
-            None,
-        )
-
-        def energy():
-            kinetic, potential = self._energy_standard(q, v)
-            return self._columns(kinetic + potential, "base")
-
-        def lagrangian():
-            return tuple(
-                self._columns(a, "base") for a in self._lagrangian_standard(q, v)
-            )
-
-        if kind not in MODEL_KINDS:
-            raise ValueError(
-                f"RobotModel: kind must be one of {', '.join(MODEL_KINDS)}; got "
-                f"{kind!r}."
-            )
-        if self.friction:
-            self._check_friction_columns()
-        out = model_rows_from_parts(
-            kind,
-            "RobotModel",
-            v,
-            tau,
-            energy,
-            lagrangian,
-            fslice,
-            self.friction,
-            self.num_parameters,
-        )
-        return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
-
-    def _check_friction_columns(self) -> None:
-        start = self._friction_slice().start
-        kept = [i for i in self.base.independent if i >= start]
-        if kept != list(range(start, len(self.standard_names))):
-            raise ValueError(
-                "RobotModel: a friction column is not identifiable (all must be); "
-                "check the friction kinds."
-            )
 
     # ------------------------------------------------------------ fast 2R provider
     def rows_provider(self, *, tolerance: float = 1e-9) -> Any:
@@ -498,7 +308,7 @@ class RobotModel:
         ``self``. Both have ``names``, ``num_parameters`` and ``model_rows(kind, q,
         v, tau)``.
         """
-        if self.num_joints != 2 or self.rotor_inertia:
+        if self.num_joints != 2 or self.rotor_inertia or self.mimic:
             return self
         if self.base.names[:4] != ("ZZ1R", "ZZ2", "MX2", "MY2"):
             return self

@@ -1,27 +1,50 @@
 """URDF robots: files shipped with drake_dynid and loading them into Drake.
 
 ``load_plant`` turns a URDF into a finalized ``MultibodyPlant`` and checks that
-drake_dynid can handle it (fixed base; revolute, prismatic and fixed joints; at least
-one actuator). ``read_urdf_friction`` reads the Coulomb friction that Drake ignores.
+drake_dynid can handle it (fixed base; revolute, continuous, prismatic and fixed
+joints). Any such description loads:
+
+* identification needs no geometry, so ``<visual>`` and ``<collision>`` are stripped
+  before parsing: missing ``package://`` meshes never fail the load;
+* a movable joint without a ``<transmission>`` (or with one Drake ignores) is
+  treated as actuated: it gets an actuator without effort limit (one note says
+  which); mimic joints do not;
+* Drake's parser warnings are summarised in one note (counted by kind; each one at
+  DEBUG on the ``drake_dynid`` logger) instead of a flood.
+
+``read_urdf_friction`` reads the Coulomb friction that Drake ignores and
+``read_urdf_mimic`` the ``<mimic>`` tags.
 """
 
 from __future__ import annotations
 
 import logging
+import re
 import xml.etree.ElementTree as ElementTree
+from collections import Counter
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from drake_dynid.core import _validate
 
-__all__ = ["MODELS_DIR", "load_plant", "model_path", "read_urdf_friction"]
+__all__ = [
+    "MODELS_DIR",
+    "LoadedUrdf",
+    "load_plant",
+    "load_urdf",
+    "model_path",
+    "read_urdf_friction",
+    "read_urdf_mimic",
+]
 
 #: Directory of the URDF robots shipped with drake_dynid.
 MODELS_DIR = Path(__file__).resolve().parent / "models"
 
 _SUPPORTED_JOINTS = ("revolute", "prismatic", "weld")
 _FRICTION_WARNING = "does not currently support non-zero joint friction"
+_LOGGER = logging.getLogger("drake_dynid")
 
 
 def model_path(name: str) -> str:
@@ -90,11 +113,126 @@ def read_urdf_friction(path: str | Path) -> dict[str, float]:
     return out
 
 
-class _DropFrictionWarning(logging.Filter):
-    """Drops Drake's warning that URDF joint friction is ignored (we read it)."""
+def read_urdf_mimic(path: str | Path) -> dict[str, tuple[str, float, float]]:
+    """Returns ``{joint: (leader, multiplier, offset)}`` from URDF ``<mimic>`` tags.
+
+    q_joint = multiplier·q_leader + offset [rad or m]; multiplier defaults to 1 and
+    offset to 0, as in the URDF specification.
+
+    Raises:
+        ValueError: the file is missing, is not XML, a ``<mimic>`` has no
+            ``joint`` attribute or a non-numeric multiplier or offset.
+    """
+    owner = "read_urdf_mimic"
+    file = _check_file(owner, path)
+    root = _read_urdf(owner, file)
+    out: dict[str, tuple[str, float, float]] = {}
+    for joint in root.iter("joint"):
+        mimic = joint.find("mimic")
+        if mimic is None or joint.find("parent") is None:
+            continue
+        name = joint.attrib.get("name", "")
+        leader = mimic.attrib.get("joint", "")
+        if not leader:
+            raise ValueError(
+                f"{owner}: the <mimic> of joint {name!r} in {file} has no 'joint' "
+                "attribute (the leader)."
+            )
+        numbers = []
+        for key, default in (("multiplier", 1.0), ("offset", 0.0)):
+            text = mimic.attrib.get(key, str(default))
+            try:
+                numbers.append(float(text))
+            except ValueError:
+                raise ValueError(
+                    f"{owner}: the <mimic> of joint {name!r} in {file} has a "
+                    f"non-numeric {key} {text!r}."
+                ) from None
+        out[name] = (leader, numbers[0], numbers[1])
+    return out
+
+
+# Geometry is not needed for identification: comments (which may hold unbalanced
+# tags), then <visual> and <collision> elements, are removed from the text, so that
+# the rest of the file (namespaces, drake: tags) reaches Drake unchanged.
+_COMMENT = re.compile(r"<!--.*?-->", re.S)
+_GEOMETRY = re.compile(r"<(visual|collision)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
+_RELATIVE_FILE = re.compile(
+    r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://|/)([^"']+)\2"""
+)
+
+
+def _strip_geometry(text: str, directory: Path) -> str:
+    """URDF text without comments, ``<visual>`` and ``<collision>``.
+
+    Any other relative ``filename`` left is made absolute (relative to the file's
+    directory), since the text is parsed from a string.
+    """
+    text = _GEOMETRY.sub("", _COMMENT.sub("", text))
+    return _RELATIVE_FILE.sub(
+        lambda m: (
+            f"{m.group(1)}{m.group(2)}{(directory / m.group(3)).as_posix()}{m.group(2)}"
+        ),
+        text,
+    )
+
+
+_WARNING_KINDS = (
+    (re.compile(r"The tag '([^']+)' found as a child of '([^']+)'"), "ignored <{0}>"),
+    (re.compile(r"While parsing inertia matrix"), "non-physical inertia"),
+    (re.compile(r"<transmission> has a type"), "ignored transmission type"),
+    (re.compile(r"mechanicalReduction"), "ignored mechanical reduction"),
+    (re.compile(r"Skipping transmission"), "transmission on a fixed joint"),
+    (re.compile(r"[Mm]imic"), "mimic element"),
+)
+
+
+class _ParserLog(logging.Filter):
+    """Holds back Drake's parser messages (they are summarised in one note).
+
+    The warning that URDF joint friction is ignored is dropped: drake_dynid reads
+    that friction itself (:func:`read_urdf_friction`).
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.messages: list[str] = []
 
     def filter(self, record: logging.LogRecord) -> bool:
-        return _FRICTION_WARNING not in record.getMessage()
+        message = record.getMessage()
+        if _FRICTION_WARNING not in message and record.levelno >= logging.WARNING:
+            self.messages.append(message)
+        return False
+
+    def summary(self, file: Path) -> str | None:
+        """One line: how many warnings of each kind, or None without warnings."""
+        if not self.messages:
+            return None
+        kinds: Counter[str] = Counter()
+        for message in self.messages:
+            _LOGGER.debug("Drake's parser on %s: %s", file.name, message)
+            text = message.split("warning: ", 1)[-1]
+            for pattern, label in _WARNING_KINDS:
+                match = pattern.search(text)
+                if match:
+                    kinds[label.format(*match.groups())] += 1
+                    break
+            else:
+                kinds[re.sub(r"\d+(\.\d+)?", "#", text.splitlines()[0])[:60]] += 1
+        listing = ", ".join(f"{count} {kind}" for kind, count in kinds.most_common())
+        count = len(self.messages)
+        return (
+            f"Drake's parser: {count} warning{'s' if count > 1 else ''} on "
+            f"{file.name} ({listing}); each one at DEBUG on the 'drake_dynid' logger"
+        )
+
+
+@dataclass(frozen=True)
+class LoadedUrdf:
+    """A loaded robot: the finalized plant and the one-line notes of the load."""
+
+    plant: Any
+    notes: tuple[str, ...]
 
 
 def load_plant(
@@ -108,16 +246,103 @@ def load_plant(
 ) -> Any:
     """Loads a URDF robot into a finalized ``MultibodyPlant``.
 
+    Returns ``load_urdf(...).plant``; the notes of the load (joints treated as
+    actuated, Drake's parser warnings) go to the ``drake_dynid`` logger at INFO.
+    See :func:`load_urdf` for the arguments.
+    """
+    loaded = load_urdf(
+        path,
+        time_step,
+        builder=builder,
+        gravity=gravity,
+        weld_root=weld_root,
+        sampled_output_ports=sampled_output_ports,
+    )
+    for note in loaded.notes:
+        _LOGGER.info("load_plant: %s.", note)
+    return loaded.plant
+
+
+def _parse(owner: str, plant: Any, file: Path) -> tuple[list[Any], str | None]:
+    """Adds the models of ``file`` to ``plant``; returns them and the summary."""
+    from pydrake.multibody.parsing import Parser
+
+    drake_logger = logging.getLogger("drake")
+    log = _ParserLog()
+    drake_logger.addFilter(log)
+    try:
+        parser = Parser(plant)
+        if file.suffix.lower() == ".urdf":
+            text = _strip_geometry(file.read_text(), file.resolve().parent)
+            instances = parser.AddModelsFromString(text, "urdf")
+        else:
+            instances = parser.AddModels(str(file))
+    except RuntimeError as error:
+        message = str(error).strip().splitlines()[0] if str(error).strip() else ""
+        message = message.replace("<literal-string>.urdf", file.name)
+        raise ValueError(
+            f"{owner}: could not parse {file}: {message}. Fix the URDF (valid XML, "
+            "every joint's parent and child links defined)."
+        ) from None
+    finally:
+        drake_logger.removeFilter(log)
+    summary = log.summary(file)
+    if summary:
+        summary = summary.replace("<literal-string>.urdf", file.name)
+    return instances, summary
+
+
+def _actuate_all(plant: Any, mimic: dict[str, Any]) -> str | None:
+    """Adds an actuator to every movable joint without one (not to mimic joints)."""
+    from pydrake.multibody.tree import JointActuatorIndex, JointIndex
+
+    actuated = {
+        plant.get_joint_actuator(JointActuatorIndex(i)).joint().index()
+        for i in range(plant.num_actuators())
+    }
+    added = []
+    for i in range(plant.num_joints()):
+        joint = plant.get_joint(JointIndex(i))
+        if (
+            joint.num_velocities() == 1
+            and joint.index() not in actuated
+            and joint.name() not in mimic
+        ):
+            plant.AddJointActuator(f"{joint.name()}_dynid_actuator", joint)
+            added.append(joint.name())
+    if not added:
+        return None
+    shown = ", ".join(added[:8])
+    if len(added) > 8:
+        shown += f", … ({len(added)} in all)"
+    return (
+        f"{len(added)} joint{'s' if len(added) > 1 else ''} without a (simple) "
+        f"<transmission> treated as actuated (no effort limit): {shown}"
+    )
+
+
+def load_urdf(
+    path: str | Path,
+    time_step: float = 0.0,
+    *,
+    builder: Any = None,
+    gravity: Sequence[float] | None = None,
+    weld_root: bool = True,
+    sampled_output_ports: bool = False,
+) -> LoadedUrdf:
+    """Loads a URDF robot into a finalized ``MultibodyPlant``, with the notes.
+
     Args:
-        path: the URDF file.
+        path: the URDF file (an SDFormat or MJCF file is parsed as is).
         time_step: plant period [s]; 0.0 gives a continuous plant, > 0 a discrete
             one (drake_dynid's simulations use 1e-3).
         builder: optional ``DiagramBuilder``; when given the plant is added with
             ``AddMultibodyPlantSceneGraph`` (so it has a SceneGraph).
         gravity: gravity vector in the world [m/s²]; default Drake's (0, 0, -9.81).
         weld_root: weld a root link that has no joint to the world (a URDF without a
-            ``world`` link) at the world origin, as fixed-base arms are described.
-            With False such a link is a floating base, which is rejected.
+            ``world`` link, e.g. a mobile base) at the world origin, as fixed-base
+            arms are described. With False such a link is a floating base, which is
+            rejected.
         sampled_output_ports: for a discrete plant, keep Drake's default sampled
             output ports (True) or use live ones (False, drake_dynid's default).
             With sampled ports (pydrake 1.51), a discrete-update handler at t_k that
@@ -127,15 +352,15 @@ def load_plant(
             x_k at t_k (docs/CONVENTIONS.md §2; tested).
 
     Returns:
-        The finalized plant. Its joint ``friction`` attributes are ignored by Drake:
-        read them with :func:`read_urdf_friction` and apply them with
-        ``drake_dynid.systems.friction.JointFriction``.
+        :class:`LoadedUrdf`: the finalized plant (one actuator per movable joint
+        that is not a mimic; its joint ``friction`` attributes are ignored by
+        Drake: read them with :func:`read_urdf_friction` and apply them with
+        ``drake_dynid.systems.friction.JointFriction``) and the notes.
 
     Raises:
         ValueError: missing or malformed file, a floating base, a joint other than
-            revolute, prismatic or fixed, or no actuated joint.
+            revolute, continuous, prismatic or fixed, or no movable joint.
     """
-    from pydrake.multibody.parsing import Parser
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 
     owner = "load_plant"
@@ -143,6 +368,7 @@ def load_plant(
     time_step = _validate.real(owner, "time_step", time_step, "s")
     if time_step < 0.0:
         raise ValueError(f"{owner}: time_step must be >= 0 [s]; got {time_step}.")
+    mimic: dict[str, Any] = {}
     if file.suffix.lower() == ".urdf":
         for joint in _read_urdf(owner, file).iter("joint"):
             kind = joint.attrib.get("type", "")
@@ -152,25 +378,14 @@ def load_plant(
                     f"{kind!r}; only revolute, continuous, prismatic and fixed joints "
                     "are supported (no floating, planar or ball joints)."
                 )
+        mimic = read_urdf_mimic(file)
     if builder is None:
         plant = MultibodyPlant(time_step)
     else:
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
     if time_step > 0.0:
         plant.SetUseSampledOutputPorts(bool(sampled_output_ports))
-    drake_logger = logging.getLogger("drake")
-    quiet = _DropFrictionWarning()
-    drake_logger.addFilter(quiet)
-    try:
-        instances = Parser(plant).AddModels(str(file))
-    except RuntimeError as error:
-        message = str(error).strip().splitlines()[0] if str(error).strip() else ""
-        raise ValueError(
-            f"{owner}: could not parse {file}: {message}. Fix the URDF (valid XML, "
-            "every joint's parent and child links defined)."
-        ) from None
-    finally:
-        drake_logger.removeFilter(quiet)
+    instances, summary = _parse(owner, plant, file)
     if gravity is not None:
         g = _validate.array(owner, "gravity", gravity, shape=(3,))
         plant.mutable_gravity_field().set_gravity_vector(g)
@@ -198,9 +413,7 @@ def load_plant(
         )
     for body in roots:
         plant.WeldFrames(plant.world_frame(), body.body_frame())
-    plant.Finalize()
-    for index in range(plant.num_joints()):
-        joint = plant.get_joint(JointIndex(index))
+    for joint in joints:
         kind = joint.type_name()
         if kind not in _SUPPORTED_JOINTS:
             raise ValueError(
@@ -208,14 +421,12 @@ def load_plant(
                 "revolute (and continuous), prismatic and fixed joints are supported "
                 "(no floating, ball or planar joints)."
             )
-    if plant.num_actuators() == 0:
+    if all(joint.type_name() == "weld" for joint in joints):
         raise ValueError(
-            f"{owner}: {file} has no actuated joint; add a <transmission> per joint "
-            "(drake_dynid identifies actuated robots)."
+            f"{owner}: {file} has no movable joint (revolute, continuous or "
+            "prismatic); there is nothing to identify."
         )
-    return plant
-
-
-# ----------------------------------------------------------------------------------
-# Numeric kinematic structure and vectorised spatial algebra.
-
+    actuated = _actuate_all(plant, mimic)
+    plant.Finalize()
+    notes = tuple(note for note in (actuated, summary) if note)
+    return LoadedUrdf(plant=plant, notes=notes)

@@ -179,7 +179,7 @@ def _one_joint(kind, child="a", extra='<axis xyz="0 0 1"/>'):
     [
         ('<robot name="r"><link name="a"></robot>', "not well-formed XML"),
         (_one_joint("revolute", child="b"), "could not parse"),
-        (_one_joint("revolute"), "no actuated joint"),
+        (_one_joint("fixed"), "no movable joint"),
         (_one_joint("planar"), "joint 'j' .* type 'planar'"),
         (_one_joint("floating", extra=""), "joint 'j' .* type 'floating'"),
     ],

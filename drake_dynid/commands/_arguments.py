@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import math
+import sys
+from typing import Any
 
 
 def add_friction_argument(parser: argparse.ArgumentParser) -> None:
@@ -22,3 +25,102 @@ def parse_friction(text: str) -> tuple[str, ...]:
     if text.strip().lower() in ("", "none"):
         return ()
     return tuple(item.strip() for item in text.split(",") if item.strip())
+
+
+def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--joints`` (the identified joints) and ``--lock`` (locked positions)."""
+    parser.add_argument(
+        "--joints",
+        metavar="A,B,...",
+        help=(
+            "comma-separated joints to identify (default: every movable joint that "
+            "is not a mimic joint); every other movable joint is locked, at 0 "
+            "unless --lock gives its position; mimic joints follow their leader"
+        ),
+    )
+    parser.add_argument(
+        "--lock",
+        metavar="NAME=VALUE,...",
+        help=(
+            "positions [rad or m] of locked joints, e.g. head_1_joint=0.2,"
+            "head_2_joint=-0.1; without --joints, the joints not locked are "
+            "identified"
+        ),
+    )
+
+
+def parse_joints(text: str | None) -> tuple[str, ...] | None:
+    """``"a, b"`` -> ``("a", "b")``; None or blank -> None (every joint).
+
+    Raises:
+        ValueError: an empty name (``"a,,b"``).
+    """
+    if text is None or not text.strip():
+        return None
+    names = tuple(item.strip() for item in text.split(","))
+    if any(not name for name in names):
+        raise ValueError(f"--joints must be comma-separated joint names; got {text!r}.")
+    return names
+
+
+def parse_locked(text: str | None) -> dict[str, float]:
+    """``"a=0.2,b=-1"`` -> ``{"a": 0.2, "b": -1.0}`` [rad or m]; None -> ``{}``.
+
+    Raises:
+        ValueError: an item without ``=``, an empty name, a value that is not a
+            finite number, or a joint given twice.
+    """
+    out: dict[str, float] = {}
+    if text is None or not text.strip():
+        return out
+    for item in text.split(","):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        try:
+            position = float(value)
+        except ValueError:
+            position = math.nan
+        if not sep or not name or not math.isfinite(position):
+            raise ValueError(
+                "--lock must be NAME=VALUE pairs with finite values [rad or m] "
+                f"separated by commas; got {item.strip()!r}."
+            )
+        if name in out:
+            raise ValueError(f"--lock gives joint {name!r} twice.")
+        out[name] = position
+    return out
+
+
+def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> Any:
+    """Builds the ``RobotModel`` of ``args`` and prints its notes on stderr.
+
+    Reads ``args.urdf``, ``args.friction``, ``args.joints`` and ``args.lock`` (each
+    optional on ``args``; see :func:`add_friction_argument` and
+    :func:`add_joint_arguments`) and ``args.rotor_inertia`` when present. Each note
+    of the load (joints treated as actuated, Drake's parser warnings summarised,
+    an unclear rank decision) is one line ``dynid COMMAND: note: ...`` on stderr.
+
+    Args:
+        args: the parsed arguments.
+        command: the subcommand name, for the notes.
+        **kwargs: further ``RobotModel.from_urdf`` arguments (they win over
+            ``args``).
+
+    Raises:
+        ValueError: bad ``--joints``/``--lock`` syntax, or the model's errors (an
+            unknown joint names the available ones).
+    """
+    from drake_dynid.robot import RobotModel
+
+    options: dict[str, Any] = {
+        "friction": parse_friction(getattr(args, "friction", "viscous,coulomb")),
+        "joints": parse_joints(getattr(args, "joints", None)),
+        "locked": parse_locked(getattr(args, "lock", None)),
+    }
+    if hasattr(args, "rotor_inertia"):
+        options["rotor_inertia"] = bool(args.rotor_inertia)
+    options.update(kwargs)
+    robot = RobotModel.from_urdf(args.urdf, **options)
+    for note in robot.notes:
+        print(f"dynid {command}: note: {note}", file=sys.stderr)
+    return robot

@@ -7,7 +7,11 @@ import json
 import math
 from pathlib import Path
 
-from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+from drake_dynid.commands._arguments import (
+    add_friction_argument,
+    add_joint_arguments,
+    robot_from_args,
+)
 
 HELP = "standard and base parameters of a URDF robot"
 DESCRIPTION = (
@@ -15,9 +19,12 @@ DESCRIPTION = (
     "standard parameters (Khalil-Kleinfinger names: XXj XYj XZj YYj YZj ZZj MXj MYj "
     "MZj Mj about joint j's child-link frame, IAj, FVj FCj OFFj) and computes its base "
     "(identifiable) parameters by numerical QR reduction of inverse-dynamics rows at "
-    "random states. Prints each base parameter's name, its definition as a linear "
-    "combination of standard parameters (e.g. ZZ1R = ZZ1 + 1.0 M2) and its value from "
-    "the URDF (FV from <dynamics damping>, FC from <dynamics friction>)."
+    "random states. Prints the rank decision (how far the kept and the dropped "
+    "columns are from the rank tolerance), then each base parameter's name, its "
+    "definition as a linear combination of standard parameters (e.g. ZZ1R = ZZ1 + "
+    "1.0 M2) and its value from the URDF (FV from <dynamics damping>, FC from "
+    "<dynamics friction>). Joints without a <transmission> are treated as actuated; "
+    "--joints chooses the identified joints and --lock the positions of the others."
 )
 
 
@@ -25,6 +32,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid params`` arguments."""
     parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
     add_friction_argument(parser)
+    add_joint_arguments(parser)
     parser.add_argument(
         "--rotor-inertia",
         action="store_true",
@@ -39,25 +47,67 @@ def _number(value: float) -> str:
     return f"{value:.6g}" if math.isfinite(value) else str(value)
 
 
+def _short(value: float) -> str:
+    return f"{value:.2g}" if math.isfinite(value) else str(value)
+
+
+def rank_lines(base) -> list[str]:
+    """The rank decision of ``base`` (a ``BaseParameters``) in two lines."""
+    zero = base.zero_columns
+    round_off = ", ".join(base.round_off_columns)
+    return [
+        f"rank: {base.num_base} of {base.num_standard} columns "
+        f"({'clear' if base.clear else 'NOT CLEAR'}); |R_kk| of unit columns: "
+        f"smallest kept {_short(base.smallest_kept)}, largest dropped "
+        f"{_short(base.largest_dropped)}, gap {_short(base.gap)} (tolerance "
+        f"{base.tolerance:g}); singular values / largest: smallest kept "
+        f"{_short(base.singular_kept)}, largest dropped "
+        f"{_short(base.singular_dropped)}, gap {_short(base.singular_gap)}",
+        f"zero columns (|W_k| <= {base.column_tolerance:g} x largest): {len(zero)}"
+        + (f"; round-off, not exactly zero: {round_off}" if round_off else ""),
+    ]
+
+
+def _rank_json(base) -> dict:
+    def finite(value: float):
+        return float(value) if math.isfinite(value) else None
+
+    return {
+        "tolerance": base.tolerance,
+        "column_tolerance": base.column_tolerance,
+        "smallest_kept": finite(base.smallest_kept),
+        "largest_dropped": finite(base.largest_dropped),
+        "gap": finite(base.gap),
+        "singular_kept": finite(base.singular_kept),
+        "singular_dropped": finite(base.singular_dropped),
+        "singular_gap": finite(base.singular_gap),
+        "clear": base.clear,
+        "zero_columns": list(base.zero_columns),
+        "round_off_columns": list(base.round_off_columns),
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     """Prints the base-parameter table; writes JSON when asked. Returns 0."""
-    from drake_dynid.robot import RobotModel
-
-    model = RobotModel.from_urdf(
-        args.urdf,
-        friction=parse_friction(args.friction),
-        rotor_inertia=args.rotor_inertia,
-    )
+    model = robot_from_args(args, "params")
     base = model.base
     values = model.base_values
     friction = ", ".join(model.friction) or "none"
     print(f"robot: {args.urdf}")
     print(f"joints ({model.num_joints}): {', '.join(model.joint_names)}")
+    if model.locked:
+        locked = ", ".join(f"{k}={v:g}" for k, v in model.locked.items())
+        print(f"locked ({len(model.locked)}): {locked}")
+    for k, (name, (leader, a, b)) in enumerate(model.mimic.items()):
+        link = model.num_joints + k + 1
+        print(f"mimic: {name} = {a:g} x {leader} + {b:g} (link {link})")
     print(
         f"standard parameters: {base.num_standard}; base parameters: "
         f"{base.num_base} (friction: {friction}; rotor inertia: "
         f"{'yes' if model.rotor_inertia else 'no'})"
     )
+    for line in rank_lines(base):
+        print(line)
     rows = [
         (name, _number(value), base.definition_text(name))
         for name, value in zip(base.names, values, strict=True)
@@ -90,7 +140,15 @@ def run(args: argparse.Namespace) -> int:
             ],
             "num_standard": base.num_standard,
             "num_base": base.num_base,
+            "rank": _rank_json(base),
             "joints": list(model.joint_names),
+            "links": list(model.links),
+            "locked": dict(model.locked),
+            "mimic": {
+                name: {"leader": leader, "multiplier": a, "offset": b}
+                for name, (leader, a, b) in model.mimic.items()
+            },
+            "notes": list(model.notes),
             "urdf": str(args.urdf),
             "settings": {
                 "friction": list(model.friction),

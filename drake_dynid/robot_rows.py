@@ -1,0 +1,330 @@
+"""Exact regressor rows of a :class:`drake_dynid.robot.RobotModel`.
+
+:class:`RobotRows` holds the row methods of ``RobotModel`` (a mixin: the data lives
+on the model): energy, Lagrangian, inverse-dynamics, power and model rows, in
+standard or base columns, vectorised over a leading sample axis. They are computed
+on the tree of moving links (``drake_dynid.core.rigid_body``) at q_tree = P q + c,
+v_tree = P v, v̇_tree = P v̇ (identified joints, then moving mimic joints;
+``drake_dynid.core.joint_map``), and every per-joint row is reduced by Pᵀ:
+τ = Pᵀ τ_tree by virtual work. Rotor inertia (IAj) and friction (FVj, FCj, OFFj)
+columns exist only for the n identified joints.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core.planar2r import (
+    MODEL_KINDS,
+    as_batches,
+    friction_idim_columns,
+    model_rows_from_parts,
+)
+from drake_dynid.core.rigid_body import (
+    energy_blocks,
+    idim_blocks,
+    lagrangian_blocks,
+    link_terms,
+)
+from drake_dynid.plant_tree import drake_forward
+
+__all__ = ["RobotRows"]
+
+_COLUMNS = ("base", "standard")
+
+
+class RobotRows:
+    """Row methods of ``RobotModel`` (see the module docstring).
+
+    Uses the model's ``joint_names``, ``links``, ``mimic``, ``gravity``,
+    ``friction``, ``rotor_inertia``, ``standard_names``, ``base``, ``kinematics``,
+    ``plant`` and its private tree and joint map.
+    """
+
+    # Provided by RobotModel (a frozen dataclass).
+    base: Any
+    friction: tuple[str, ...]
+    gravity: np.ndarray
+    kinematics: str
+    links: tuple[str, ...]
+    mimic: Any
+    plant: Any
+    rotor_inertia: bool
+    standard_names: tuple[str, ...]
+    _chain: Any
+    _joint_frames: tuple[Any, ...]
+    _link_bodies: tuple[Any, ...]
+    _map: Any
+    joint_names: tuple[str, ...]
+
+    # ---------------------------------------------------------------- sizes, maps
+    @property
+    def _block(self) -> int:
+        """Standard columns per identified link: 10 inertial (+ IAj)."""
+        return 11 if self.rotor_inertia else 10
+
+    @property
+    def num_joints(self) -> int:
+        """Number of identified joints n (the length of q, v, τ)."""
+        return len(self.joint_names)
+
+    @property
+    def num_links(self) -> int:
+        """Number of moving links: n identified + the moving mimic joints."""
+        return len(self.links)
+
+    @property
+    def num_parameters(self) -> int:
+        """Number of base parameters p."""
+        return self.base.num_base
+
+    def plant_positions(self, q) -> np.ndarray:
+        """Plant positions q_full = P q + c, ``(N, plant.num_positions())``.
+
+        Locked joints at their locked positions, mimic joints following their
+        leader (``drake_dynid.core.joint_map``) [rad or m].
+        """
+        q, single = self._batches(q=q)
+        out = q @ self._map.matrix.T + self._map.offset
+        return out[0] if single else out
+
+    def plant_velocities(self, v) -> np.ndarray:
+        """Plant velocities v_full = P v, ``(N, plant.num_velocities())``."""
+        v, single = self._batches(v=v)
+        out = v @ self._map.matrix.T
+        return out[0] if single else out
+
+    # ------------------------------------------------------------------ kinematics
+    def _tree_map(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(P, c) of the moving links' joints (None: no moving mimic joint)."""
+        if not self.mimic:
+            return None
+        return self._map.rows(self.links)
+
+    def _to_tree(self, x: np.ndarray, offset: bool = False) -> np.ndarray:
+        """Identified coordinates (N, n) -> moving-joint coordinates (N, n_links)."""
+        tree = self._tree_map()
+        if tree is None:
+            return x
+        return x @ tree[0].T + (tree[1] if offset else 0.0)
+
+    def _reduce_joints(self, rows: np.ndarray) -> np.ndarray:
+        """Per-joint rows (N, n_links, ...) -> (N, n, ...): Pᵀ (virtual work)."""
+        tree = self._tree_map()
+        if tree is None:
+            return rows
+        return np.einsum("ti,nt...->ni...", tree[0], rows)
+
+    def _forward(self, q: np.ndarray):
+        if self.kinematics == "numpy":
+            return self._chain.forward(self._to_tree(q, offset=True))
+        return drake_forward(
+            self.plant,
+            self.plant_positions(q),
+            self._link_bodies,
+            self._joint_frames,
+            self._chain,
+        )
+
+    def _terms(self, q, v, *, derivatives=False):
+        """Per-link spatial quantities shared by the rows (core.rigid_body)."""
+        return link_terms(
+            self._chain,
+            self._forward(q),
+            self._to_tree(v),
+            self.gravity,
+            derivatives=derivatives,
+        )
+
+    # ------------------------------------------------------- rows, standard columns
+    def _assemble(self, inertial: np.ndarray, extra: np.ndarray | None):
+        """(..., n_links, 10) inertial blocks (+ IA columns) -> (..., p_std)."""
+        n = self.num_joints
+        block = self._block
+        lead = inertial.shape[:-2]
+        out = np.zeros((*lead, len(self.standard_names)))
+        body = out[..., : n * block].reshape(*lead, n, block)
+        body[..., :10] = inertial[..., :n, :]
+        if extra is not None and self.rotor_inertia:
+            body[..., 10] = extra
+        extra_links = self.num_links - n
+        if extra_links:
+            start = n * block
+            out[..., start : start + 10 * extra_links] = inertial[..., n:, :].reshape(
+                *lead, 10 * extra_links
+            )
+        return out
+
+    def _friction_slice(self) -> slice:
+        return slice(
+            self.num_joints * self._block + 10 * (self.num_links - self.num_joints),
+            None,
+        )
+
+    def _energy_standard(self, q, v):
+        kinetic, potential = energy_blocks(self._terms(q, v), self.gravity)
+        return (
+            self._assemble(kinetic, 0.5 * v * v),
+            self._assemble(potential, np.zeros_like(v)),
+        )
+
+    def _lagrangian_standard(self, q, v):
+        n = self.num_joints
+        dhe_dv, dhe_dq, dhu_dq = (
+            self._reduce_joints(a)
+            for a in lagrangian_blocks(self._terms(q, v, derivatives=True))
+        )
+        zero = np.zeros((*v.shape, n))
+        return (
+            self._assemble(dhe_dv, np.eye(n)[None] * v[:, None, :]),
+            self._assemble(dhe_dq, zero),
+            self._assemble(dhu_dq, zero),
+        )
+
+    def _idim_standard(self, q, v, vdot):
+        rows = idim_blocks(
+            self._terms(q, v, derivatives=True), self._to_tree(v), self._to_tree(vdot)
+        )
+        out = self._assemble(
+            self._reduce_joints(rows),
+            np.eye(self.num_joints)[None] * vdot[:, None, :],
+        )
+        out[..., self._friction_slice()] = friction_idim_columns(v, self.friction)
+        return out
+
+    def _columns(self, rows: np.ndarray, columns: str) -> np.ndarray:
+        if columns == "base":
+            return rows[..., list(self.base.independent)]
+        if columns == "standard":
+            return rows
+        raise ValueError(
+            f"RobotModel: columns must be one of {', '.join(_COLUMNS)}; got "
+            f"{columns!r}."
+        )
+
+    def _batches(self, **arrays):
+        return as_batches("RobotModel", self.num_joints, **arrays)
+
+    # ---------------------------------------------------------------- public rows
+    def energy_rows(self, q, v, *, columns: str = "base") -> np.ndarray:
+        """Energy rows h(q, v) = h_E + h_U, shape ``(N, p)``: H = E + U = h·θ [J].
+
+        U is Drake's gravity potential up to a constant (bodies welded to the world
+        are not included). Friction columns are zero.
+        """
+        q, v, single = self._batches(q=q, v=v)
+        kinetic, potential = self._energy_standard(q, v)
+        out = self._columns(kinetic + potential, columns)
+        return out[0] if single else out
+
+    def kinetic_potential_rows(
+        self, q, v, *, columns: str = "base"
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Returns ``(h_E, h_U)`` separately, each ``(N, p)`` [J per unit]."""
+        q, v, single = self._batches(q=q, v=v)
+        kinetic, potential = self._energy_standard(q, v)
+        out = (self._columns(kinetic, columns), self._columns(potential, columns))
+        return (out[0][0], out[1][0]) if single else out
+
+    def momentum_rows(self, q, v, *, columns: str = "base") -> np.ndarray:
+        """Generalized-momentum rows ∂h_E/∂v, ``(N, n, p)``: momentum = (∂h_E/∂v)·θ."""
+        return self.lagrangian_rows(q, v, columns=columns)[0]
+
+    def lagrangian_rows(
+        self, q, v, *, columns: str = "base"
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Returns ``(∂h_E/∂v, ∂h_E/∂q, ∂h_U/∂q)``, each ``(N, n, p)``, exact.
+
+        Lagrange's equations: d/dt(∂h_E/∂v)·θ - ∂h_E/∂q·θ + ∂h_U/∂q·θ + τ_f = τ.
+        """
+        q, v, single = self._batches(q=q, v=v)
+        out = tuple(self._columns(a, columns) for a in self._lagrangian_standard(q, v))
+        return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
+
+    def idim_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
+        """Inverse-dynamics rows W(q, v, v̇), shape ``(N, n, p)``: τ = W·θ [N·m, N].
+
+        Includes gravity and the friction columns v_j, sign v_j, 1 (joint j's row);
+        equals ``CalcInverseDynamics`` (gravity as a force element) + friction.
+        """
+        q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
+        out = self._columns(self._idim_standard(q, v, vdot), columns)
+        return out[0] if single else out
+
+    def power_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
+        """Power rows vᵀW = [d/dt h, friction power], shape ``(N, p)`` [W per unit]."""
+        q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
+        rows = np.einsum("ni,nip->np", v, self._idim_standard(q, v, vdot))
+        out = self._columns(rows, columns)
+        return out[0] if single else out
+
+    def model_rows(
+        self, kind: str, q, v, tau
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Model rows (D, G, y) of docs/CONVENTIONS.md §3 in base columns.
+
+        The modulated equation of the bank is -M_ġ(D)·θ + M_g(G)·θ = M_g(y), from
+        d/dt(D·θ) + G·θ = y:
+
+        * ``"power"`` (m = 1): D = h = h_E + h_U, G = friction power
+          [v_j², |v_j|, v_j] in the friction columns, y = vᵀτ [W].
+        * ``"lagrangian"`` (m = n): D = ∂h_E/∂v, G = ∂h_U/∂q - ∂h_E/∂q + friction
+          [v_i, sign v_i, 1] in joint i's columns, y = τ [N·m, N].
+
+        Args:
+            kind: ``"power"`` or ``"lagrangian"``.
+            q: joint positions ``(N, n)`` [rad, m] (or ``(n,)``).
+            v: joint velocities ``(N, n)`` [rad/s, m/s].
+            tau: joint torques ``(N, n)`` [N·m, N], generalized-velocity order.
+
+        Returns:
+            ``D``, ``G`` of shape ``(N, m, p)`` and ``y`` of shape ``(N, m)``
+            (no sample axis for a single sample).
+        """
+        q, v, tau, single = self._batches(q=q, v=v, tau=tau)
+        fslice = slice(
+            self.base.independent.index(self._friction_slice().start)
+            if self.friction
+            else self.num_parameters,
+            None,
+        )
+
+        def energy():
+            kinetic, potential = self._energy_standard(q, v)
+            return self._columns(kinetic + potential, "base")
+
+        def lagrangian():
+            return tuple(
+                self._columns(a, "base") for a in self._lagrangian_standard(q, v)
+            )
+
+        if kind not in MODEL_KINDS:
+            raise ValueError(
+                f"RobotModel: kind must be one of {', '.join(MODEL_KINDS)}; got "
+                f"{kind!r}."
+            )
+        if self.friction:
+            self._check_friction_columns()
+        out = model_rows_from_parts(
+            kind,
+            "RobotModel",
+            v,
+            tau,
+            energy,
+            lagrangian,
+            fslice,
+            self.friction,
+            self.num_parameters,
+        )
+        return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
+
+    def _check_friction_columns(self) -> None:
+        start = self._friction_slice().start
+        kept = [i for i in self.base.independent if i >= start]
+        if kept != list(range(start, len(self.standard_names))):
+            raise ValueError(
+                "RobotModel: a friction column is not identifiable (all must be); "
+                "check the friction kinds."
+            )
