@@ -95,7 +95,7 @@ def _resolve_mimic(
                     f"mimic joint {leader!r} must have a finite multiplier and offset; "
                     f"got {multiplier} and {shift}.",
                 )
-            a, b = a * multiplier, b * multiplier + shift
+            a, b = a * multiplier, a * shift + b
             leader = parent
             if leader in seen:
                 _fail(

@@ -133,3 +133,79 @@ def test_errors():
         base.rows(np.zeros((3, 5)))
     with pytest.raises(ValueError, match="name must be one of"):
         base.definition_text("ZZ1")
+
+
+# ---------------------------------------------------------------- rank decision
+NAMES_6 = ("A", "B", "C", "D", "E", "F")
+
+
+def _rows_with_round_off(seed=12, num_rows=60):
+    """Columns: A, B genuine; C = round-off of A's size (1e-13 relative, as left by a
+    π rotation written with 11 digits); D = A + B (dependent); E exactly zero;
+    F = 2A + 1e-10-relative noise (a near-dependence at 1e-10)."""
+    rng = np.random.default_rng(seed)
+    a, b = rng.normal(size=(2, num_rows)) * [[10.0], [3.0]]
+    noise = rng.normal(size=(2, num_rows))
+    return np.stack(
+        [
+            a,
+            b,
+            1e-13 * 10 * noise[0],
+            a + b,
+            np.zeros(num_rows),
+            2 * a + 1e-9 * noise[1],
+        ],
+        1,
+    )
+
+
+def test_round_off_columns_never_become_parameters():
+    rows = _rows_with_round_off()
+    base = base_parameters(rows, NAMES_6)
+    assert base.names == ("AR", "BR")
+    assert dict(base.definitions[0]) == {"A": 1.0, "D": 1.0, "F": 2.0}
+    assert dict(base.definitions[1]) == {"B": 1.0, "D": 1.0}
+    assert base.zero_columns == ("C", "E") and base.round_off_columns == ("C",)
+    assert base.relative_norms[4] == 0.0 and 0 < base.relative_norms[2] < 1e-12
+    assert base.clear and base.gap > 1e6 and base.singular_gap > 1e6
+    assert base.smallest_kept > 0.1 and base.largest_dropped < 1e-8
+    # The former rule (normalise every non-zero column, QR without pivoting) keeps
+    # the round-off column C: unit round-off is a random, "independent" direction.
+    scale = np.linalg.norm(rows, axis=0)
+    unit = rows[:, scale > 0] / scale[scale > 0]
+    diagonal = np.abs(np.diag(np.linalg.qr(unit, mode="r")))
+    assert diagonal[2] > 0.5  # column C: it would have been a parameter
+
+
+def test_small_genuine_columns_are_kept():
+    # A column 1e-7 of the largest (a tilt of 1e-7 rad in a description) that is
+    # independent is identifiable in exact arithmetic: it is kept.
+    rng = np.random.default_rng(13)
+    a, b = rng.normal(size=(2, 50))
+    base = base_parameters(np.stack([a, 1e-7 * b, a], 1), ("A", "B", "C"))
+    assert base.names == ("AR", "B") and base.zero_columns == ()
+    # ... unless it is below the column tolerance, or its component outside the
+    # span is round-off of the largest column (distance 1e-12 < 1e-10).
+    base = base_parameters(
+        np.stack([a, 1e-7 * b, a], 1), ("A", "B", "C"), column_tolerance=1e-6
+    )
+    assert base.names == ("AR",) and base.zero_columns == ("B",)
+    base = base_parameters(np.stack([a, a + 1e-12 * b], 1), ("A", "B"))
+    assert base.names == ("AR",) and dict(base.definitions[0]) == {"A": 1.0, "B": 1.0}
+
+
+def test_rank_matches_an_independent_svd_with_a_gap():
+    rows = _rows_with_round_off(seed=14)
+    s = np.linalg.svd(rows, compute_uv=False)
+    gaps = s[:-1] / np.maximum(s[1:], 1e-300)
+    rank = int(np.flatnonzero(gaps > 1e8)[0]) + 1
+    assert rank == base_parameters(rows, NAMES_6).num_base == 2
+
+
+def test_column_tolerance_is_checked():
+    with pytest.raises(ValueError, match=r"column_tolerance must be in \[0.0, 1.0\]"):
+        base_parameters(_rows_2r(1.0), NAMES_2R, column_tolerance=-1.0)
+    with pytest.raises(ValueError, match="relative_norms must have 12 entries"):
+        dataclasses.replace(
+            base_parameters(_rows_2r(1.0), NAMES_2R), relative_norms=np.ones(3)
+        )

@@ -1,0 +1,208 @@
+"""Any fixed-base description loads: no transmissions, missing meshes, parser noise,
+continuous joints, mimic joints, chosen and locked joints (seeds stated per test)."""
+
+import logging
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydrake.multibody.parsing import Parser
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph
+from pydrake.systems.framework import DiagramBuilder
+
+from drake_dynid.robot import RobotModel
+from drake_dynid.urdf import (
+    _strip_geometry,
+    load_plant,
+    load_urdf,
+    model_path,
+    read_urdf_mimic,
+)
+
+TIAGO_ARM = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
+
+
+def _inertial(mass=1.0, x=0.1):
+    return (
+        f'<inertial><origin xyz="{x} 0.02 0.03"/><mass value="{mass}"/>'
+        '<inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/>'
+        "</inertial>"
+    )
+
+
+MESH = (
+    '<visual><geometry><mesh filename="package://nowhere/meshes/{0}.stl"/>'
+    "</geometry></visual><collision><geometry>"
+    '<mesh filename="meshes/{0}_collision.dae"/></geometry></collision>'
+)
+
+
+def gripper_urdf(path):
+    """No world link, no <transmission>, package:// meshes that do not exist, a
+    continuous joint, a prismatic finger with a mimic, an unsupported tag."""
+    links = "".join(
+        f'<link name="{name}">{_inertial(x=0.1 * k)}{MESH.format(name)}</link>'
+        for k, name in enumerate(("base", "l1", "l2", "fa", "fb"))
+    )
+    joints = (
+        '<joint name="j1" type="continuous"><parent link="base"/><child link="l1"/>'
+        '<origin xyz="0 0 0.1"/><axis xyz="0 0 1"/></joint>'
+        '<joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>'
+        '<origin xyz="0.2 0 0" rpy="1.5707963267949 0 0"/><axis xyz="0 0 1"/>'
+        '<limit lower="-2" upper="2" effort="10" velocity="1"/>'
+        '<safety_controller k_velocity="1"/></joint>'
+        '<joint name="fa" type="prismatic"><parent link="l2"/><child link="fa"/>'
+        '<origin xyz="0.3 0 0"/><axis xyz="0 1 0"/>'
+        '<limit lower="0" upper="0.04" effort="10" velocity="1"/>'
+        '<dynamics damping="0.3" friction="0.1"/></joint>'
+        '<joint name="fb" type="prismatic"><parent link="l2"/><child link="fb"/>'
+        '<origin xyz="0.3 0 0"/><axis xyz="0 -1 0"/>'
+        '<limit lower="0" upper="0.04" effort="10" velocity="1"/>'
+        '<mimic joint="fa" multiplier="1.5" offset="0.01"/>'
+        '<dynamics damping="0.2" friction="0.05"/></joint>'
+    )
+    path.write_text(
+        f'<?xml version="1.0"?><robot name="gripper"><!-- <visual> -->{links}{joints}'
+        "</robot>"
+    )
+    return path
+
+
+@pytest.fixture(scope="module")
+def gripper(tmp_path_factory):
+    return gripper_urdf(tmp_path_factory.mktemp("gripper") / "gripper.urdf")
+
+
+def test_description_without_transmissions_or_meshes_loads(gripper, caplog):
+    # Drake alone fails on the missing package:// meshes.
+    builder = DiagramBuilder()
+    with pytest.raises(RuntimeError, match="unknown package 'nowhere'"):
+        Parser(AddMultibodyPlantSceneGraph(builder, 0.0)[0]).AddModels(str(gripper))
+    assert load_plant(gripper, builder=DiagramBuilder()).num_positions() == 4
+    with caplog.at_level(logging.INFO, logger="drake_dynid"):
+        plant = load_plant(gripper)
+    # Every movable joint but the mimic one is actuated, without effort limit.
+    actuated = sorted(
+        plant.get_joint_actuator(i).joint().name()
+        for i in plant.GetJointActuatorIndices()
+    )
+    assert actuated == ["fa", "j1", "j2"]
+    assert plant.GetJointByName("j1").type_name() == "revolute"  # continuous
+    notes = [r.getMessage() for r in caplog.records if r.name == "drake_dynid"]
+    assert len(notes) == 2
+    assert "3 joints without a (simple) <transmission> treated as actuated" in notes[0]
+    assert "1 ignored <safety_controller>" in notes[1]
+    assert not [r for r in caplog.records if r.name == "drake"]  # no flood
+
+
+def test_mimic_is_read_and_followed(gripper):
+    assert read_urdf_mimic(gripper) == {"fb": ("fa", 1.5, 0.01)}
+    model = RobotModel.from_urdf(gripper)
+    assert model.joint_names == ("j1", "j2", "fa") and model.links[-1] == "fb"
+    assert dict(model.mimic) == {"fb": ("fa", 1.5, 0.01)}
+    assert "XX4" in model.standard_names and "FV4" not in model.standard_names
+    values = model.standard_parameters()
+    # The mimic's friction acts on its leader: FV += a² FV_fb, FC += |a| FC_fb.
+    assert values["FV3"] == pytest.approx(0.3 + 1.5**2 * 0.2)
+    assert values["FC3"] == pytest.approx(0.1 + 1.5 * 0.05)
+    q = np.array([0.1, 0.2, 0.03])
+    np.testing.assert_allclose(model.plant_positions(q), [0.1, 0.2, 0.03, 0.055])
+    np.testing.assert_allclose(model.plant_velocities(q), [0.1, 0.2, 0.03, 0.045])
+    # Numpy and Drake kinematics agree with the mimic link (seed 4).
+    drake = RobotModel.from_urdf(gripper, kinematics="drake")
+    rng = np.random.default_rng(4)
+    q, v, vdot = rng.normal(size=(3, 3, 3))
+    np.testing.assert_allclose(
+        model.idim_rows(q, v, vdot), drake.idim_rows(q, v, vdot), atol=1e-12
+    )
+    for a, b in zip(
+        model.lagrangian_rows(q, v), drake.lagrangian_rows(q, v), strict=True
+    ):
+        np.testing.assert_allclose(a, b, atol=1e-12)
+
+
+def test_power_and_lagrangian_identities_hold_with_locked_and_mimic(gripper):
+    """vᵀW = d/dt h + friction power and W = d/dt(∂h_E/∂v) + G with a locked
+    joint and a mimic link (fourth-order differences, seed-free trajectory)."""
+    model = RobotModel.from_urdf(gripper, joints=["j2", "fa"], locked={"j1": 0.4})
+    t = np.linspace(0.0, 2.0, 4)
+
+    def trajectory(s):
+        arg = np.stack([1.3 * (t + s), 0.7 * (t + s) + 1.0], 1)
+        amp = np.array([1.0, 0.02])
+        return (
+            amp * np.sin(arg),
+            amp * np.cos(arg) * [1.3, 0.7],
+            -amp * np.sin(arg) * [1.3**2, 0.7**2],
+        )
+
+    def derivative(f, h=1e-3):
+        return (-f(2 * h) + 8 * f(h) - 8 * f(-h) + f(-2 * h)) / (12 * h)
+
+    q, v, vdot = trajectory(0.0)
+    w = model.idim_rows(q, v, vdot)
+    friction = model.model_rows("power", q, v, v)[1][:, 0]
+    ddt_h = derivative(lambda s: model.energy_rows(*trajectory(s)[:2]))
+    np.testing.assert_allclose(
+        model.power_rows(q, v, vdot), ddt_h + friction, atol=1e-8
+    )
+    d_dot = derivative(lambda s: model.model_rows("lagrangian", *trajectory(s))[0])
+    g = model.model_rows("lagrangian", q, v, v)[1]
+    np.testing.assert_allclose(d_dot + g, w, atol=1e-8)
+
+
+def test_tiago_arm_with_wheels_and_head_locked():
+    model = RobotModel.from_urdf(
+        model_path("tiago_no_hand"),
+        joints=list(reversed(TIAGO_ARM)),
+        locked={"head_2_joint": -0.2},
+    )
+    assert model.joint_names == TIAGO_ARM  # the plant's order
+    assert dict(model.locked) == {
+        "wheel_right_joint": 0.0,
+        "wheel_left_joint": 0.0,
+        "head_1_joint": 0.0,
+        "head_2_joint": -0.2,
+    }
+    assert len(model.standard_names) == 8 * 10 + 8 * 2
+    assert model.num_parameters == 44 + 16  # independent ranks: test_real_robots
+    assert model.base.clear
+    assert len(model.notes) == 2  # actuated arm_6/arm_7; one parser summary
+    assert "arm_6_joint, arm_7_joint" in model.notes[0]
+    assert re.search(
+        r"Drake's parser: 15 warnings .*3 non-physical inertia", model.notes[1]
+    )
+    # The provenance comment of the shipped copy.
+    head = Path(model_path("tiago_no_hand")).read_text()[:600]
+    assert "github.com/thanhndv212/figaroh-examples" in head and "c0b5c7f" in head
+
+
+def test_joint_choice_errors_name_the_joints():
+    path = model_path("tiago_no_hand")
+    with pytest.raises(ValueError, match=r"'arm_8_joint' is not a movable.*arm_7"):
+        RobotModel.from_urdf(path, joints=[*TIAGO_ARM, "arm_8_joint"])
+    with pytest.raises(ValueError, match="'arm_1_joint' is both identified and locked"):
+        RobotModel.from_urdf(path, joints=TIAGO_ARM, locked={"arm_1_joint": 0.0})
+    with pytest.raises(ValueError, match=r"locked joint 'head' is not.*head_1_joint"):
+        RobotModel.from_urdf(path, locked={"head": 0.0})
+
+
+def test_strip_geometry_keeps_the_rest_and_absolute_paths():
+    text = (
+        '<robot xmlns:drake="http://drake.mit.edu"><!-- <collision> --><link name="a">'
+        '<visual><geometry><mesh filename="m.stl"/></geometry></visual>'
+        '<collision name="c"/><drake:thing filename="data/x.obj"/>'
+        '<other filename="package://p/y.obj"/></link></robot>'
+    )
+    out = _strip_geometry(text, Path("/robots/r"))
+    assert "visual" not in out and "collision" not in out
+    assert '<drake:thing filename="/robots/r/data/x.obj"/>' in out
+    assert 'filename="package://p/y.obj"' in out
+
+
+def test_floating_base_is_refused_and_a_mobile_base_is_welded(gripper):
+    with pytest.raises(ValueError, match="floating base"):
+        load_urdf(gripper, weld_root=False)
+    plant = load_urdf(model_path("tiago_no_hand")).plant
+    assert plant.num_positions() == 12  # base_footprint welded: no floating joint
