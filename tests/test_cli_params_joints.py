@@ -14,7 +14,7 @@ def test_rank_decision_and_round_off_columns(tmp_path, capsys):
     assert cli.main(argv) == 0
     captured = capsys.readouterr()
     assert "standard parameters: 84; base parameters: 57" in captured.out
-    assert "rank: 57 of 84 columns (clear); |R_kk| of unit columns" in captured.out
+    assert "rank: 57 of 84 columns, clear: |R_kk| of unit columns kept" in captured.out
     assert "round-off, not exactly zero: MZ2" in captured.out
     assert captured.err == ""  # a clean description: no note
     rank = json.loads(out_file.read_text())["rank"]

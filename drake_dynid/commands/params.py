@@ -52,18 +52,18 @@ def _short(value: float) -> str:
 
 
 def rank_lines(base) -> list[str]:
-    """The rank decision of ``base`` (a ``BaseParameters``) in two lines."""
-    zero = base.zero_columns
+    """The rank decision of ``base`` (a ``BaseParameters``) in three lines."""
     round_off = ", ".join(base.round_off_columns)
     return [
-        f"rank: {base.num_base} of {base.num_standard} columns "
-        f"({'clear' if base.clear else 'NOT CLEAR'}); |R_kk| of unit columns: "
-        f"smallest kept {_short(base.smallest_kept)}, largest dropped "
-        f"{_short(base.largest_dropped)}, gap {_short(base.gap)} (tolerance "
-        f"{base.tolerance:g}); singular values / largest: smallest kept "
-        f"{_short(base.singular_kept)}, largest dropped "
-        f"{_short(base.singular_dropped)}, gap {_short(base.singular_gap)}",
-        f"zero columns (|W_k| <= {base.column_tolerance:g} x largest): {len(zero)}"
+        f"rank: {base.num_base} of {base.num_standard} columns, "
+        f"{'clear' if base.clear else 'NOT CLEAR'}: |R_kk| of unit columns kept >= "
+        f"{_short(base.smallest_kept)}, dropped <= {_short(base.largest_dropped)} "
+        f"(gap {_short(base.gap)}; tolerance {base.tolerance:g})",
+        f"      singular values / largest: kept >= {_short(base.singular_kept)}, "
+        f"dropped <= {_short(base.singular_dropped)} (gap "
+        f"{_short(base.singular_gap)})",
+        f"zero columns (|W_k| <= {base.column_tolerance:g} x largest): "
+        f"{len(base.zero_columns)}"
         + (f"; round-off, not exactly zero: {round_off}" if round_off else ""),
     ]
 
