@@ -243,6 +243,7 @@ def load_plant(
     gravity: Sequence[float] | None = None,
     weld_root: bool = True,
     sampled_output_ports: bool = False,
+    geometry: bool = False,
 ) -> Any:
     """Loads a URDF robot into a finalized ``MultibodyPlant``.
 
@@ -257,13 +258,16 @@ def load_plant(
         gravity=gravity,
         weld_root=weld_root,
         sampled_output_ports=sampled_output_ports,
+        geometry=geometry,
     )
     for note in loaded.notes:
         _LOGGER.info("load_plant: %s.", note)
     return loaded.plant
 
 
-def _parse(owner: str, plant: Any, file: Path) -> tuple[list[Any], str | None]:
+def _parse(
+    owner: str, plant: Any, file: Path, geometry: bool
+) -> tuple[list[Any], str | None]:
     """Adds the models of ``file`` to ``plant``; returns them and the summary."""
     from pydrake.multibody.parsing import Parser
 
@@ -272,7 +276,7 @@ def _parse(owner: str, plant: Any, file: Path) -> tuple[list[Any], str | None]:
     drake_logger.addFilter(log)
     try:
         parser = Parser(plant)
-        if file.suffix.lower() == ".urdf":
+        if file.suffix.lower() == ".urdf" and not geometry:
             text = _strip_geometry(file.read_text(), file.resolve().parent)
             instances = parser.AddModelsFromString(text, "urdf")
         else:
@@ -329,6 +333,7 @@ def load_urdf(
     gravity: Sequence[float] | None = None,
     weld_root: bool = True,
     sampled_output_ports: bool = False,
+    geometry: bool = False,
 ) -> LoadedUrdf:
     """Loads a URDF robot into a finalized ``MultibodyPlant``, with the notes.
 
@@ -350,6 +355,9 @@ def load_urdf(
             logger at t_k sees x_k: the identification blocks would then pair
             q_{k+1} with the torque computed from x_k. Live ports give every block
             x_k at t_k (docs/CONVENTIONS.md §2; tested).
+        geometry: keep ``<visual>`` and ``<collision>`` (for a visualisation; every
+            mesh must then resolve). Identification needs none: by default they
+            are stripped.
 
     Returns:
         :class:`LoadedUrdf`: the finalized plant (one actuator per movable joint
@@ -385,7 +393,7 @@ def load_urdf(
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
     if time_step > 0.0:
         plant.SetUseSampledOutputPorts(bool(sampled_output_ports))
-    instances, summary = _parse(owner, plant, file)
+    instances, summary = _parse(owner, plant, file, geometry)
     if gravity is not None:
         g = _validate.array(owner, "gravity", gravity, shape=(3,))
         plant.mutable_gravity_field().set_gravity_vector(g)

@@ -80,6 +80,8 @@ def test_description_without_transmissions_or_meshes_loads(gripper, caplog):
     with pytest.raises(RuntimeError, match="unknown package 'nowhere'"):
         Parser(AddMultibodyPlantSceneGraph(builder, 0.0)[0]).AddModels(str(gripper))
     assert load_plant(gripper, builder=DiagramBuilder()).num_positions() == 4
+    with pytest.raises(ValueError, match="unknown package 'nowhere'"):
+        load_plant(gripper, builder=DiagramBuilder(), geometry=True)
     with caplog.at_level(logging.INFO, logger="drake_dynid"):
         plant = load_plant(gripper)
     # Every movable joint but the mimic one is actuated, without effort limit.
