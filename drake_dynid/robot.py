@@ -133,7 +133,8 @@ class RobotModel(RobotRows):
         Any fixed-base description is accepted: joints without a ``<transmission>``
         are treated as actuated, meshes are not needed (``<visual>`` and
         ``<collision>`` are stripped), Drake's parser warnings are summarised in
-        one line of :attr:`notes`.
+        one line of :attr:`notes` (each note is also logged once at INFO on the
+        ``drake_dynid`` logger).
 
         Args:
             path: the URDF file (``model_path("planar_2r")`` for the paper's arm).
@@ -158,6 +159,8 @@ class RobotModel(RobotRows):
                 mimic joint identified or locked on its own.
         """
         loaded = load_urdf(path, time_step, gravity=gravity)
+        for note in loaded.notes:
+            _LOGGER.info("RobotModel: %s.", note)
         return cls.from_plant(
             loaded.plant,
             friction=friction,

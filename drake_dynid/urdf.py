@@ -165,10 +165,15 @@ _RELATIVE_FILE = re.compile(
 def _strip_geometry(text: str, directory: Path) -> str:
     """URDF text without comments, ``<visual>`` and ``<collision>``.
 
-    Any other relative ``filename`` left is made absolute (relative to the file's
-    directory), since the text is parsed from a string.
+    Each removed element leaves its newlines, so Drake's messages keep the file's
+    line numbers. Any other relative ``filename`` left is made absolute (relative
+    to the file's directory), since the text is parsed from a string.
     """
-    text = _GEOMETRY.sub("", _COMMENT.sub("", text))
+
+    def blank(match: re.Match) -> str:
+        return "\n" * match.group(0).count("\n")
+
+    text = _GEOMETRY.sub(blank, _COMMENT.sub(blank, text))
     return _RELATIVE_FILE.sub(
         lambda m: (
             f"{m.group(1)}{m.group(2)}{(directory / m.group(3)).as_posix()}{m.group(2)}"
@@ -210,7 +215,8 @@ class _ParserLog(logging.Filter):
             return None
         kinds: Counter[str] = Counter()
         for message in self.messages:
-            _LOGGER.debug("Drake's parser on %s: %s", file.name, message)
+            message = message.replace("<literal-string>.urdf", file.name)
+            _LOGGER.debug("Drake's parser: %s", message)
             text = message.split("warning: ", 1)[-1]
             for pattern, label in _WARNING_KINDS:
                 match = pattern.search(text)
@@ -277,7 +283,9 @@ def _parse(
     try:
         parser = Parser(plant)
         if file.suffix.lower() == ".urdf" and not geometry:
-            text = _strip_geometry(file.read_text(), file.resolve().parent)
+            text = _strip_geometry(
+                file.read_text(encoding="utf-8"), file.resolve().parent
+            )
             instances = parser.AddModelsFromString(text, "urdf")
         else:
             instances = parser.AddModels(str(file))
