@@ -21,6 +21,7 @@ def test_rank_decision_and_round_off_columns(tmp_path, capsys):
     assert rank["round_off_columns"] == ["MZ2"] and rank["clear"] is True
     assert rank["smallest_kept"] > 0.1 and rank["largest_dropped"] < 1e-12
     assert rank["gap"] > 1e8 and rank["singular_gap"] > 1e8
+    assert rank["margin_kept"] > 1e4 and rank["margin_dropped"] < 1e-2
     assert rank["tolerance"] == 1e-8 and rank["column_tolerance"] == 1e-10
 
 

@@ -81,6 +81,8 @@ def _rank_json(base) -> dict:
         "singular_kept": finite(base.singular_kept),
         "singular_dropped": finite(base.singular_dropped),
         "singular_gap": finite(base.singular_gap),
+        "margin_kept": finite(base.margin_kept),
+        "margin_dropped": finite(base.margin_dropped),
         "clear": base.clear,
         "zero_columns": list(base.zero_columns),
         "round_off_columns": list(base.round_off_columns),

@@ -42,9 +42,10 @@ least a decade (mostly four or more) from both sides. They are fixed rather than
 moved per robot: a tolerance placed in "the largest gap" of a spectrum always finds
 a gap, even in a full-rank set. The decision is checked instead by a second rank
 rule: the singular values σ of the normalised non-zero columns must drop at the
-same rank p; :attr:`BaseParameters.clear` says whether both gaps (|R_kk| and σ_p
-over σ_p+1, kept over dropped) exceed 1e4. With Khalil's column order this returns
-Khalil's base set (e.g. the 2R arm gives ZZ1R = ZZ1 + L1²·M2, ZZ2, MX2, MY2).
+same rank p; :attr:`BaseParameters.clear` says whether σ_p / σ_p+1 exceeds 1e4 and
+every column passes or fails its tests by a factor of 100 or more. With Khalil's
+column order this returns Khalil's base set (e.g. the 2R arm gives ZZ1R = ZZ1 +
+L1²·M2, ZZ2, MX2, MY2).
 
 Reduce on inverse-dynamics rows or power rows (energy differences), never on raw
 energies: a constant energy column (potential energy along a vertical axis) is not
@@ -68,8 +69,10 @@ _OWNER = "base_parameters"
 COLUMN_TOLERANCE = 1e-10
 #: Default rank tolerance on |R_kk| of the column-normalised QR.
 RANK_TOLERANCE = 1e-8
-#: A rank decision is "clear" when kept / dropped exceeds this on |R_kk| and on σ.
+#: A rank decision is "clear" when σ_p / σ_p+1 exceeds this ...
 CLEAR_GAP = 1e4
+#: ... and every column's decision statistic is this far from its threshold.
+CLEAR_MARGIN = 100.0
 
 
 def _snap(value: float, decimals: int) -> float:
@@ -123,6 +126,10 @@ class BaseParameters:
         singular_kept: σ_p / σ_1, the p-th singular value of the normalised
             non-zero columns relative to the largest (NaN when unknown).
         singular_dropped: σ_(p+1) / σ_1 (0 when every non-zero column is kept).
+        margin_kept: the smallest decision margin of a kept column,
+            min(|R_kk| / tolerance, ρ_k |R_kk| / column_tolerance) (> 1).
+        margin_dropped: the largest decision margin of a dropped non-zero column
+            (≤ 1; 0 if none).
     """
 
     standard_names: tuple[str, ...]
@@ -137,6 +144,8 @@ class BaseParameters:
     relative_norms: np.ndarray = field(default_factory=lambda: np.zeros(0))
     singular_kept: float = float("nan")
     singular_dropped: float = 0.0
+    margin_kept: float = float("nan")
+    margin_dropped: float = 0.0
 
     def __post_init__(self) -> None:
         matrix = np.array(self.matrix, dtype=float)
@@ -213,14 +222,23 @@ class BaseParameters:
 
     @property
     def clear(self) -> bool:
-        """Whether the rank decision is clear: both gaps are at least 1e4.
+        """Whether the rank decision is clear.
 
-        A gap below that means a parameter sits between "identifiable" and "a
-        round-off combination"; check the description (a near-singular geometry) or
-        reduce on more random states.
+        Every kept column passes both tests by a factor of at least 100
+        (``margin_kept``), every dropped non-zero column fails one of them by a
+        factor of at least 100 (``margin_dropped``), and the singular values of
+        the normalised non-zero columns drop by at least 1e4 at the same rank
+        (``singular_gap``). Otherwise a parameter sits between "identifiable" and
+        "a round-off combination": check the description (a near-singular
+        geometry) or reduce on more random states.
         """
-        gaps = (self.gap, self.singular_gap)
-        return all(not math.isnan(g) and g >= CLEAR_GAP for g in gaps)
+        if math.isnan(self.margin_kept) or math.isnan(self.singular_gap):
+            return False
+        return (
+            self.margin_kept >= CLEAR_MARGIN
+            and self.margin_dropped <= 1.0 / CLEAR_MARGIN
+            and self.singular_gap >= CLEAR_GAP
+        )
 
     def rows(self, standard_rows) -> np.ndarray:
         """Maps regressor rows in standard columns (..., p_std) to base (..., p)."""
@@ -378,6 +396,11 @@ def base_parameters(
         definitions.append(definition)
         base_names.append(names[column] + ("R" if len(definition) > 1 else ""))
     dropped = diagonal[regrouped]
+    margin = np.full(len(names), np.inf)
+    if tolerance > 0.0:
+        margin = np.minimum(margin, diagonal / tolerance)
+    if column_tolerance > 0.0:
+        margin = np.minimum(margin, relative * diagonal / column_tolerance)
     p = independent.size
     return BaseParameters(
         standard_names=names,
@@ -392,4 +415,6 @@ def base_parameters(
         relative_norms=relative,
         singular_kept=float(singular[p - 1]),
         singular_dropped=float(singular[p]) if p < singular.size else 0.0,
+        margin_kept=float(margin[independent].min()),
+        margin_dropped=float(margin[regrouped].max()) if regrouped.size else 0.0,
     )

@@ -209,3 +209,15 @@ def test_column_tolerance_is_checked():
         dataclasses.replace(
             base_parameters(_rows_2r(1.0), NAMES_2R), relative_norms=np.ones(3)
         )
+
+
+def test_a_column_near_the_tolerance_is_not_clear():
+    # Seed 15: C = A + 1e-7 c is independent, but only about 10x above the 1e-8
+    # rank tolerance: kept, and the decision is flagged as not clear.
+    rng = np.random.default_rng(15)
+    a, b, c = rng.normal(size=(3, 50))
+    base = base_parameters(np.stack([a, b, a + 1e-7 * c], 1), ("A", "B", "C"))
+    assert base.names == ("A", "B", "C") and not base.clear
+    assert 1.0 < base.margin_kept < 100.0 and base.margin_dropped == 0.0
+    clean = base_parameters(np.stack([a, b, a + b], 1), ("A", "B", "C"))
+    assert clean.clear and clean.margin_kept > 1e6 and clean.margin_dropped < 1e-6
