@@ -248,7 +248,7 @@ class RobotModel(RobotRows):
                 f"values {base.singular_kept:.2g}/{base.singular_dropped:.2g}); "
                 "check the description for a near-singular geometry"
             )
-            _LOGGER.warning("RobotModel: %s.", note)
+            _LOGGER.info("RobotModel: %s.", note)
             object.__setattr__(model, "notes", (*model.notes, note))
         return model
 
