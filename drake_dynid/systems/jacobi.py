@@ -1,4 +1,4 @@
-"""Drake block for the causal Jacobi derivative estimator (MATH.md §1)."""
+"""Drake block for the causal Jacobi derivative estimator (docs/MATH.md §1)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from drake_dynid.core import _validate
-from drake_dynid.core.jacobi import (
-    JacobiFilter,
-    _design_bank,
+from drake_dynid.core.jacobi_design import JacobiFilter, _design_bank
+from drake_dynid.core.jacobi_stream import (
     jacobi_initial_state,
     jacobi_outputs,
     jacobi_ring,
