@@ -111,8 +111,8 @@ def _identifier_context(a, b, window_valid, **kwargs):
 
 
 def _step(block, context):
-    update = block.EvalUniquePeriodicDiscreteUpdate(context)
-    context.SetDiscreteState(0, update.get_value(0))
+    # One periodic solve; every discrete state group (one per quantity) is updated.
+    context.SetDiscreteState(block.EvalUniquePeriodicDiscreteUpdate(context))
 
 
 def test_identifier_solves_like_the_core_and_holds_invalid_windows():
@@ -173,7 +173,7 @@ def test_two_simulators_on_one_bank_block_give_identical_outputs():
 
 
 def test_bank_block_checks_its_design():
-    with pytest.raises(TypeError, match="bank must be a FourierBank"):
+    with pytest.raises(TypeError, match="bank must be a modulating bank design"):
         ModulatingIntegralBank({"window": 1.0}, 1, 2)
     bank = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0])
     with pytest.raises(ValueError, match="num_equations must be >= 1"):
