@@ -44,13 +44,14 @@ def _text(value: float, digits: int = 6) -> str:
     return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
 
 
-def estimates_table(
-    names: Sequence[str], theta: Sequence[float], std: Sequence[float]
-) -> list[str]:
-    """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30)."""
+def estimates_table(names: Sequence[str], theta: Any, std: Any) -> list[str]:
+    """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30).
+
+    ``theta`` and ``std`` are sequences of p reals (arrays or lists).
+    """
     rows = []
-    for name, value, sigma in zip(names, theta, std, strict=True):
-        value, sigma = float(value), float(sigma)
+    for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(raw_value), float(raw_sigma)
         if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
             percent = 100.0 * sigma / abs(value)
             percent_text = f"{percent:.2f}"
@@ -66,10 +67,10 @@ def estimates_table(
         f"{headers[2]:>{widths[2]}}  {headers[3]:>{widths[3]}}",
         f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}  {'-' * widths[3]}",
     ]
-    for name, value, sigma, percent, flag in rows:
+    for name, value_text, sigma_text, percent_text, flag in rows:
         lines.append(
-            f"{name:<{widths[0]}}  {value:>{widths[1]}}  {sigma:>{widths[2]}}  "
-            f"{percent:>{widths[3]}}  {flag}".rstrip()
+            f"{name:<{widths[0]}}  {value_text:>{widths[1]}}  "
+            f"{sigma_text:>{widths[2]}}  {percent_text:>{widths[3]}}  {flag}".rstrip()
         )
     if any(r[4] for r in rows):
         lines.append(
@@ -80,15 +81,15 @@ def estimates_table(
 
 
 def parameters_document(
-    robot: Any, names: Sequence[str], theta: Sequence[float], std: Sequence[float]
+    robot: Any, names: Sequence[str], theta: Any, std: Any
 ) -> list[dict[str, Any]]:
     """The ``parameters`` list of the JSON format (README.md, "JSON (--json)")."""
     definitions: Mapping[str, Any] = dict(
         zip(robot.base.names, robot.base.definitions, strict=True)
     )
     out = []
-    for name, value, sigma in zip(names, theta, std, strict=True):
-        value, sigma = float(value), float(sigma)
+    for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(raw_value), float(raw_sigma)
         percent = (
             100.0 * sigma / abs(value)
             if math.isfinite(value) and math.isfinite(sigma) and value != 0.0

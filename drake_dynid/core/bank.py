@@ -34,9 +34,20 @@ class ModulatingBank(Protocol):
         num_samples: samples in a full window.
     """
 
-    window: float
-    time_step: float
-    num_samples: int
+    @property
+    def window(self) -> float:
+        """Sliding window T [s]."""
+        ...
+
+    @property
+    def time_step(self) -> float:
+        """Period of the samples entering the bank [s]."""
+        ...
+
+    @property
+    def num_samples(self) -> int:
+        """Samples in a full window."""
+        ...
 
     def num_rows(self, m: int) -> int:
         """Rows of the stacked equations for ``m`` equations per sample."""

@@ -21,7 +21,7 @@ malformed arguments (shapes, types) raise.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -93,7 +93,7 @@ class LeastSquaresResult:
         return tuple(self.names[i] for i in bad)
 
 
-def _describe(names: Sequence[str], indices: Sequence[int]) -> str:
+def _describe(names: Sequence[str], indices: Iterable[int]) -> str:
     return ", ".join(f"{names[i]} (column {i})" for i in indices)
 
 
@@ -158,7 +158,7 @@ def solve_least_squares(
         reason: str,
         condition: float = np.nan,
         rank: int = 0,
-        indices: Sequence[int] = (),
+        indices: Iterable[int] = (),
     ) -> LeastSquaresResult:
         nan = np.full(p, np.nan)
         nan.flags.writeable = False
@@ -207,7 +207,8 @@ def solve_least_squares(
     augmented = np.empty((rows, p + 1))
     np.divide(A, norms, out=augmented[:, :p])
     augmented[:, p] = B
-    R_aug = np.linalg.qr(augmented, mode="r")
+    # (numpy's stubs type mode="r" as a tuple; it is the array R.)
+    R_aug = np.asarray(np.linalg.qr(augmented, mode="r"))
     R = R_aug[:p, :p]
     singular = np.linalg.svd(R, compute_uv=False)
     tolerance = singular[0] * max(rows, p) * np.finfo(float).eps

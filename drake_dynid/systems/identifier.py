@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from pydrake.systems.framework import (
@@ -86,7 +87,7 @@ class SlidingQRIdentifier(LeafSystem):
         names: Sequence[str] | None = None,
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
-        row_weighting: tuple[Sequence[float], Sequence[int]] | None = None,
+        row_weighting: tuple[Any, Any] | None = None,
     ):
         """Builds the block.
 
