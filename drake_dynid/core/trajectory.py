@@ -1,4 +1,4 @@
-"""Exciting trajectories: finite Fourier series (Swevers 1997; MATH.md §7).
+"""Exciting trajectories: finite Fourier series (Swevers 1997; docs/MATH.md §7).
 
 Per joint j, with base frequency ω_f [rad/s] and H harmonics::
 
