@@ -20,6 +20,7 @@ from drake_dynid.commands._report import (
     write_json,
     write_plot,
 )
+from drake_dynid.core.rows import MODEL_KINDS
 
 HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
 DESCRIPTION = (
@@ -144,7 +145,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--model",
-        choices=("power", "lagrangian"),
+        choices=MODEL_KINDS,
         help="power (the paper's scalar power model) or lagrangian (n equations "
         "per sample)",
     )

@@ -44,7 +44,7 @@ from drake_dynid.core.fourier_bank import (
 )
 from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
-from drake_dynid.core.rows import MODEL_KINDS, num_equations
+from drake_dynid.core.rows import check_model_kind, num_equations
 
 __all__ = [
     "BANK_OFFSET",
@@ -166,10 +166,7 @@ class OnlineSettings:
 
     def __post_init__(self) -> None:
         owner = _OWNER
-        if self.model not in MODEL_KINDS:
-            check.fail(
-                owner, f"model must be 'power' or 'lagrangian'; got {self.model!r}."
-            )
+        check_model_kind(owner, self.model, "model")
         check.positive(owner, "window", self.window, "s")
         check.positive(owner, "jacobi_window", self.jacobi_window, "s")
         if self.bank_time_step is not None:
@@ -203,8 +200,7 @@ class OnlineSettings:
     @classmethod
     def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
         """Default settings of ``model`` (:data:`MODEL_DEFAULTS`), with overrides."""
-        if model not in MODEL_DEFAULTS:
-            check.fail(_OWNER, f"model must be 'power' or 'lagrangian'; got {model!r}.")
+        check_model_kind(_OWNER, model, "model")
         return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
 
     # ----------------------------------------------------------- the signal grid

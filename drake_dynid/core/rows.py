@@ -84,11 +84,14 @@ class RowProvider(Protocol):
         ...
 
 
-def check_model_kind(owner: str, kind: Any) -> str:
-    """Returns ``kind`` if it is one of :data:`MODEL_KINDS`, else raises ValueError."""
+def check_model_kind(owner: str, kind: Any, name: str = "kind") -> str:
+    """Returns ``kind`` if it is one of :data:`MODEL_KINDS`, else raises ValueError.
+
+    The one check of a model kind; ``name`` is the argument's name in the message.
+    """
     if kind not in MODEL_KINDS:
         _validate.fail(
-            owner, f"kind must be one of {', '.join(MODEL_KINDS)}; got {kind!r}."
+            owner, f"{name} must be one of {', '.join(MODEL_KINDS)}; got {kind!r}."
         )
     return str(kind)
 

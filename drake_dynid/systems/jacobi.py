@@ -54,12 +54,15 @@ class CausalJacobiDifferentiator(LeafSystem):
     (docs/CONVENTIONS.md §2). ``valid`` is 0 until N+1 samples have been taken
     (before that, missing samples count as zeros), then 1.
 
-    State (numeric discrete state, in the Context only):
+    State (numeric discrete state, in the Context only): one group, the ring of the
+    last N+1 samples with its position,
     ``[buffer ((N+1)·m, slot-major) | head | count]``
-    (:func:`~drake_dynid.core.jacobi.jacobi_ring`); the FIR is one matrix-vector
-    product with a doubled, age-reversed kernel, without rolling the buffer. The
-    block does not resample or hold values: ``u`` must be meaningful at the update
-    times.
+    (:func:`~drake_dynid.core.jacobi.jacobi_ring`: the core's streaming functions
+    step this one vector in place); the FIR is one matrix-vector product with a
+    doubled, age-reversed kernel, without rolling the buffer. The block does not
+    resample or hold values: ``u`` must be meaningful at the update times. Double
+    only: a plain Python ``LeafSystem`` has no AutoDiffXd or symbolic scalar
+    conversion (differentiate the plant off-line instead).
 
     Args:
         num_signals: Size m >= 1 of ``u``.
