@@ -101,3 +101,29 @@ def test_both_drivers_run_default_periods_on_odd_rates(robot, time_step):
     # The Lagrangian estimate of the 125 Hz / 909 Hz log is close to the truth.
     error = np.abs(core[0].theta[-1] - robot.base_values) / robot.base_values
     assert np.all(error[:4] < 0.05), error
+
+
+def test_dynid_identify_runs_a_125_hz_log_with_default_settings(robot, tmp_path):
+    # The paper's trajectory simulated without noise at 1 kHz, logged at 125 Hz.
+    import json
+
+    from drake_dynid import cli
+    from drake_dynid.logs import write_log
+    from drake_dynid.paper import paper_trajectory
+
+    result = simulate_identification(
+        robot, paper_trajectory(), SimulationSettings(duration=21.0, snr_db=None), []
+    )
+    log_file = tmp_path / "log_125hz.csv"
+    write_log(
+        log_file, result.t[::8], result.q[::8], result.tau[::8], robot.joint_names
+    )
+    out = tmp_path / "id.json"
+    argv = ["identify", str(log_file), "--urdf", model_path("planar_2r")]
+    assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0
+    document = json.loads(out.read_text())
+    assert document["settings"]["bank_time_step"] == pytest.approx(0.016)
+    assert document["settings"]["update_period"] == pytest.approx(0.096)
+    assert document["log"]["time_step"] == pytest.approx(0.008)
+    zz1r = document["parameters"][0]
+    assert zz1r["name"] == "ZZ1R" and zz1r["value"] == pytest.approx(3.9, rel=0.02)
