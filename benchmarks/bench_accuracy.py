@@ -15,11 +15,12 @@ loop: every scenario is simulated once (``simulate_identification``, seed 0) and
 adds ``noise_std · N(0, 1)`` from ``np.random.default_rng(1000 + s)`` to the recorded
 noise-free q, τ (also used for the noise-only / bias-only error budget).
 
-On-line estimates: a core replica of the blocks (batch matched Jacobi, model rows of the
-decimated samples of the last window, trapezoid Fourier integrals, the blocks' window
-solve ``lsq.solve_window``: frequency-weighted by default, "OLS" rows without). Checked
-once against the Drake blocks in the loop (first table line): same window, the blocks'
-own noise, relative difference ~1e-12. Off-line:
+On-line estimates: the numerical core of the blocks, batch
+(``core.replay.filtered_signals``: matched Jacobi over the whole log;
+``core.replay.window_estimate``: model rows of the decimated samples of the last window,
+trapezoid Fourier integrals, the identifier's window solve: frequency-weighted by
+default, "OLS" rows without). Checked once against the Drake blocks in the loop (first
+table line): same window, the blocks' own noise, relative difference ~1e-12. Off-line:
 ``drake_dynid.offline.identify_offline`` (IDIM-LS and IDIM-WLS, automatic cutoffs and
 decimation). Medians over seeds (40 by default: with 10 the median friction error moves
 by a few points from one seed set to the next) of the relative error [%] per
@@ -48,27 +49,19 @@ from pathlib import Path
 import numpy as np
 
 from drake_dynid import paper
-from drake_dynid.core.excitation import estimate_bandwidth, frequencies_for
-from drake_dynid.core.jacobi import jacobi_batch, jacobi_filters
-from drake_dynid.core.lsq import solve_window
-from drake_dynid.core.modulating import (
-    assemble_equations,
-    direct_fourier_integrals,
-    pack_rows,
-)
+from drake_dynid.core.excitation import estimate_bandwidth
+from drake_dynid.core.online import OnlineSettings
+from drake_dynid.core.replay import filtered_signals, window_estimate
 from drake_dynid.core.trajectory import random_fourier_trajectory
-from drake_dynid.diagrams import (
-    OnlineSettings,
-    SimulationSettings,
-    simulate_identification,
-)
 from drake_dynid.logs import RobotLog
 from drake_dynid.offline import identify_offline
-from drake_dynid.plants import RobotModel, model_path
+from drake_dynid.robot import RobotModel
+from drake_dynid.simulation import SimulationSettings, simulate_identification
+from drake_dynid.urdf import model_path
 
 H = 1e-3
 T = 20.0
-# The library's per-model defaults (drake_dynid.diagrams.MODEL_DEFAULTS).
+# The library's per-model defaults (drake_dynid.core.online.MODEL_DEFAULTS).
 LAGRANGIAN = dict(model="lagrangian")
 POWER = dict(model="power")
 PAPER_ONLINE_ERR = 100 * (paper.TABLE2_ONLINE - paper.TRUE_VALUES) / paper.TRUE_VALUES
@@ -78,15 +71,15 @@ PAPER_OFFLINE_ERR = 100 * (paper.TABLE2_OFFLINE - paper.TRUE_VALUES) / paper.TRU
 def settings_for(
     kind: dict, window: float, bandwidth: float, **extra
 ) -> OnlineSettings:
-    """OnlineSettings with the ℓ rule: integer ℓ covering the measured band.
+    """The library defaults with the measured band.
 
-    At least 8 values of ℓ (2·8 rows per equation: the power model has one equation
+    The default ℓ set covers the band with integer ℓ, at least 8 of them
+    (``band_frequencies``: 2·8 rows per equation: the power model has one equation
     per ℓ for p = 8 parameters; with T = 7 s the band alone gives only 4).
     """
-    ell = frequencies_for(window, bandwidth, min_count=8)
     options = {**kind, **extra}
     return OnlineSettings.for_model(
-        options.pop("model"), window=window, frequencies=ell, **options
+        options.pop("model"), window=window, bandwidth=bandwidth, **options
     )
 
 
@@ -167,34 +160,15 @@ def scenarios(quick: bool) -> dict[str, tuple[str, object]]:
 
 def filtered(q, tau, s: OnlineSettings):
     """Matched Jacobi (orders 0, 1) over the whole log, as the differentiator block."""
-    f0, f1 = jacobi_filters(
-        (0, 1), s.jacobi_window, H, kappa=s.kappa, mu=s.mu, q=s.jacobi_q, matched=True
-    )
-    n = q.shape[1]
-    smooth = jacobi_batch(f0, np.hstack([q, tau]))
-    return smooth[:, :n], jacobi_batch(f1, q), smooth[:, n:]
+    return filtered_signals(q, tau, s, H)
 
 
 def online(rows, s: OnlineSettings, signals, end: int):
-    """Core replica of the blocks' solve (the same numerics, batch).
+    """The core's solve of one window (``core.replay.window_estimate``).
 
     The window's newest bank sample is the differentiator output at sample ``end``.
     """
-    qh, vh, th = signals
-    step = round(s.bank_time_step / H)
-    idx = end - step * np.arange(round(s.window / s.bank_time_step), -1, -1)
-    d, g, y = rows.model_rows(s.model, qh[idx], vh[idx], th[idx])
-    bank = s.bank()
-    A, B = assemble_equations(
-        bank, direct_fourier_integrals(bank, pack_rows(d, g, y)), d.shape[1], d.shape[2]
-    )
-    res = solve_window(
-        A,
-        B,
-        s.row_weighting(d.shape[1], bank),
-        max_condition=s.max_condition,
-        names=rows.names,
-    )
+    res = window_estimate(rows, s, signals, end, H)
     return res.theta if res.valid else np.full(rows.num_parameters, np.nan)
 
 

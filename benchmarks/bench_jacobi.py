@@ -13,7 +13,8 @@ q = 1) it measures, as medians over repeats:
 * the floor: the same diagram with the loggers on the source and no block;
 * the design time of the bank (``jacobi_filters``), ms.
 
-Usage: ``python benchmarks/bench_jacobi.py [--repeats 5] [--seconds 2] [--json FILE]``.
+Usage: ``python benchmarks/bench_jacobi.py [--repeats 5] [--seconds 2] [--json FILE]``
+(``--quick``: one repeat of 0.1 s, the 0.1 s window only; a smoke test).
 Timings on a shared 2-core machine move by about ±30 %.
 """
 
@@ -130,11 +131,15 @@ def main(argv=None) -> int:
         "--seconds", type=float, default=2.0, help="simulated seconds per run"
     )
     parser.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
+    parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     args = parser.parse_args(argv)
+    windows = WINDOWS
+    if args.quick:
+        args.repeats, args.seconds, windows = 1, 0.1, WINDOWS[:1]
 
     floor = bench_simulator(None, args.seconds, args.repeats, consume=True)
     rows = []
-    for window in WINDOWS:
+    for window in windows:
         sim = bench_simulator(window, args.seconds, args.repeats, consume=True)
         update_only = bench_simulator(window, args.seconds, args.repeats, consume=False)
         core_step, functional = bench_core(window, args.repeats)

@@ -11,8 +11,8 @@ Layers (see ``docs/CONVENTIONS.md``):
 * ``drake_dynid.systems``: thin Drake ``LeafSystem`` blocks over the core; all state
   lives in the Context.
 * ``drake_dynid.urdf``, ``drake_dynid.robot``, ``drake_dynid.diagrams``,
-  ``drake_dynid.cli``: URDF plants, the robot description, diagram builders and the
-  ``dynid`` command.
+  ``drake_dynid.simulation``, ``drake_dynid.cli``: URDF plants, the robot
+  description, diagram builders, the simulated set-up and the ``dynid`` command.
 """
 
 from __future__ import annotations
@@ -45,7 +45,6 @@ _LAZY: dict[str, str] = {
     "fourier_bank": "drake_dynid.core.modulating",
     "default_frequencies": "drake_dynid.core.modulating",
     "paper_frequencies": "drake_dynid.core.modulating",
-    "pack_rows": "drake_dynid.core.modulating",
     "assemble_equations": "drake_dynid.core.modulating",
     "direct_fourier_integrals": "drake_dynid.core.modulating",
     "modulated_integrals": "drake_dynid.core.modulating",
@@ -68,6 +67,19 @@ _LAZY: dict[str, str] = {
     "random_fourier_trajectory": "drake_dynid.core.trajectory",
     "optimize_fourier_trajectory": "drake_dynid.core.trajectory",
     "Planar2RRows": "drake_dynid.core.planar2r",
+    "RowProvider": "drake_dynid.core.rows",
+    "pack_rows": "drake_dynid.core.rows",
+    "ModulatingBank": "drake_dynid.core.bank",
+    "band_frequencies": "drake_dynid.core.fourier_bank",
+    "SignLaw": "drake_dynid.core.friction",
+    "ExactSign": "drake_dynid.core.friction",
+    "TanhSign": "drake_dynid.core.friction",
+    "Status": "drake_dynid.core.identifier",
+    "identifier_init": "drake_dynid.core.identifier",
+    "identifier_update": "drake_dynid.core.identifier",
+    "OnlineSettings": "drake_dynid.core.online",
+    "OnlineTrace": "drake_dynid.core.online",
+    "replay_log_core": "drake_dynid.core.replay",
     "BaseParameters": "drake_dynid.core.base_parameters",
     "base_parameters": "drake_dynid.core.base_parameters",
     # URDF loading and the robot description (pydrake)
@@ -88,15 +100,13 @@ _LAZY: dict[str, str] = {
     # off-line identification on logs (no pydrake)
     "OfflineResult": "drake_dynid.offline",
     "identify_offline": "drake_dynid.offline",
-    # diagrams (pydrake)
-    "OnlineSettings": "drake_dynid.diagrams",
-    "OnlineTrace": "drake_dynid.diagrams",
-    "SimulationSettings": "drake_dynid.diagrams",
-    "SimulationResult": "drake_dynid.diagrams",
+    # diagrams and the simulated set-up (pydrake)
     "add_online_identifier": "drake_dynid.diagrams",
     "log_source": "drake_dynid.diagrams",
     "replay_log": "drake_dynid.diagrams",
-    "simulate_identification": "drake_dynid.diagrams",
+    "SimulationSettings": "drake_dynid.simulation",
+    "SimulationResult": "drake_dynid.simulation",
+    "simulate_identification": "drake_dynid.simulation",
 }
 
 __all__ = ["__version__", *sorted(_LAZY)]

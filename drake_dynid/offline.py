@@ -1,6 +1,6 @@
-"""Off-line IDIM-LS / IDIM-WLS on a recorded robot log (MATH.md §5, Gautier's practice).
+"""Off-line IDIM-LS / IDIM-WLS on a recorded robot log (Gautier's practice).
 
-The inverse dynamic model is linear in the p base parameters X::
+The inverse dynamic model (docs/MATH.md §5) is linear in the p base parameters X::
 
     τ(t_k) = W(q_k, v_k, v̇_k) X + e_k      W: n × p per sample [N·m or N per unit]
 
@@ -19,7 +19,7 @@ The inverse dynamic model is linear in the p base parameters X::
    one sample in D); it removes the equation noise above the dynamics band and
    keeps ``τ = W X``;
 5. stack all segments and solve ``min ‖τ - W X‖`` by QR (IDIM-LS), or with one
-   weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (MATH.md §4).
+   weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (docs/MATH.md §4).
 
 Two cutoffs, two jobs. f_c (position filter) must leave the motion undistorted:
 W is nonlinear in q, so a distorted q would bias W; f_c sits well above the
@@ -270,7 +270,7 @@ def identify_offline(
         X̂ = argmin ‖D(τ) - D(W) X‖ (optionally weighted 1/σ_j per joint)
 
     with D the parallel decimation (zero-phase low-pass at f_d, one sample in D);
-    Gautier's σ_X and the column-scaled condition number (MATH.md §4).
+    Gautier's σ_X and the column-scaled condition number (docs/MATH.md §4).
 
     Args:
         log: a :class:`~drake_dynid.logs.RobotLog` whose joints are the robot's.

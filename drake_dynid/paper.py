@@ -55,7 +55,7 @@ def paper_trajectory(
 ) -> FourierTrajectory:
     """The documented exciting trajectory of the examples and benchmarks.
 
-    A finite Fourier series per joint (MATH.md §7),
+    A finite Fourier series per joint (docs/MATH.md §7),
     q_j(t) = Σ_l [a_jl/(lω_f) sin(lω_f t) - b_jl/(lω_f) cos(lω_f t)], ω_f = 2π/period,
     with only the harmonics
     ``lowest_harmonic..highest_harmonic`` (0.1-0.6 Hz by default: every 20 s window

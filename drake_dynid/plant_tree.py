@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.friction import FRICTION_PREFIX
 from drake_dynid.core.joint_map import JointMap, joint_map
 from drake_dynid.core.kinematics import KinematicTree, rotation_about
-from drake_dynid.core.planar2r import FRICTION_PREFIX
 
 __all__ = [
     "INERTIAL_NAMES",

@@ -42,9 +42,10 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
+from drake_dynid.core.friction import check_friction
 from drake_dynid.core.joint_map import JointMap
 from drake_dynid.core.kinematics import KinematicTree
-from drake_dynid.core.planar2r import Planar2RRows, check_friction
+from drake_dynid.core.planar2r import Planar2RRows
 from drake_dynid.plant_tree import INERTIAL_NAMES, describe_plant
 from drake_dynid.robot_rows import RobotRows
 from drake_dynid.urdf import load_urdf, read_urdf_friction, read_urdf_mimic

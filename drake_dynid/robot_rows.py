@@ -16,18 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.core.planar2r import (
-    MODEL_KINDS,
-    as_batches,
-    friction_idim_columns,
-    model_rows_from_parts,
-)
+from drake_dynid.core.friction import friction_idim_columns
 from drake_dynid.core.rigid_body import (
     energy_blocks,
     idim_blocks,
     lagrangian_blocks,
     link_terms,
 )
+from drake_dynid.core.rows import as_batches, check_model_kind, model_rows_from_parts
 from drake_dynid.plant_tree import drake_forward
 
 __all__ = ["RobotRows"]
@@ -300,11 +296,7 @@ class RobotRows:
                 self._columns(a, "base") for a in self._lagrangian_standard(q, v)
             )
 
-        if kind not in MODEL_KINDS:
-            raise ValueError(
-                f"RobotModel: kind must be one of {', '.join(MODEL_KINDS)}; got "
-                f"{kind!r}."
-            )
+        check_model_kind("RobotModel", kind)
         if self.friction:
             self._check_friction_columns()
         out = model_rows_from_parts(

@@ -28,6 +28,7 @@ import sys
 import numpy as np
 
 from drake_dynid.core import lsq, modulating
+from drake_dynid.core.friction import friction_column
 from drake_dynid.core.jacobi import jacobi_batch, jacobi_filters
 from drake_dynid.core.trajectory import FourierTrajectory
 from drake_dynid.diagrams import (
@@ -66,7 +67,8 @@ def paper_form_estimates(t, q, tau, window, update_period, jacobi):
     q_hat = jacobi_batch(f0, q[:, 0])
     v_hat = jacobi_batch(f1, q[:, 0])
     tau_hat = jacobi_batch(f0, tau[:, 0])
-    channels = np.column_stack([q_hat, np.sign(v_hat), tau_hat])
+    coulomb = friction_column("coulomb", v_hat)  # sign(v̂), the identification law
+    channels = np.column_stack([q_hat, coulomb, tau_hat])
     ell = np.arange(1, 201) / 50.0
     bank = modulating.fourier_bank(window, h, order=2, ell=ell)
     state = modulating.sliding_init(bank, 3)

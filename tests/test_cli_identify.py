@@ -93,7 +93,7 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     assert len(rows) - 1 == 61
     assert rows[1][:2] == ["0", "0"] and rows[-1][1] == "1"
     assert float(rows[-1][2]) == pytest.approx(table["ZZ1R"][0], rel=1e-5)
-    # JSON: DESIGN.md keys, σ and definitions.
+    # JSON: the keys of the README (JSON (--json)), σ and definitions.
     document = json.loads(out_json.read_text())
     for key in ("parameters", "condition_number", "window", "model", "settings"):
         assert key in document

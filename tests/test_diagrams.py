@@ -179,10 +179,17 @@ def test_default_frequencies_follow_the_band_and_stay_well_posed():
 
     long = OnlineSettings(window=20.0, bandwidth=0.6)
     np.testing.assert_array_equal(long.ell(), np.arange(12.0))  # (11 + 1)/20 = 0.6 Hz
+    # A short window: the band's integer bins extended to MIN_FUNCTIONS integers.
     short = OnlineSettings(window=4.0, bandwidth=0.6)
-    ell = short.ell()
-    assert ell.size == MIN_FUNCTIONS
-    assert ell[0] == 0.0 and ell[-1] == pytest.approx(0.6 * 4.0 - 1.0)
+    np.testing.assert_array_equal(short.ell(), np.arange(float(MIN_FUNCTIONS)))
+    # One rule: the settings and core.excitation.frequencies_for agree (T = 7 s).
+    from drake_dynid.core.excitation import frequencies_for
+
+    for window, band in ((7.0, 0.62), (20.0, 0.62), (4.0, 0.6), (12.0, 1.3)):
+        np.testing.assert_array_equal(
+            OnlineSettings(window=window, bandwidth=band).ell(),
+            frequencies_for(window, band),
+        )
     np.testing.assert_array_equal(
         OnlineSettings(frequencies="paper").ell(), np.round(0.05 * np.arange(201), 12)
     )
@@ -203,7 +210,13 @@ def test_trace_reports_status_and_unexcited_parameters(robot):
         SimulationSettings(duration=2.5, snr_db=None),
         [
             OnlineSettings(
-                window=2.0, jacobi_window=0.05, bank_time_step=0.005, update_period=0.1
+                window=2.0,
+                jacobi_window=0.05,
+                bank_time_step=0.005,
+                update_period=0.1,
+                # 12 functions within 0.5 Hz: no bin reaches the small coupling
+                # motion of q2 (1.3 mrad) that integer bins up to 4 Hz would excite.
+                frequencies=np.round(np.linspace(0.0, 1.0, 12), 12),
             )
         ],
     )
@@ -264,4 +277,5 @@ def test_replay_of_a_noisy_closed_loop_log_is_exact(robot, trajectory):
 def test_bank_step_must_follow_the_differentiator_low_pass():
     with pytest.raises(ValueError, match=r"bank_time_step must be <= jacobi_window/10"):
         OnlineSettings(jacobi_window=0.05, bank_time_step=0.02)
-    assert OnlineSettings().bank_time_step <= OnlineSettings().jacobi_window / 10
+    default = OnlineSettings().on_grid(1e-3)
+    assert default.bank_time_step <= default.jacobi_window / 10

@@ -1,4 +1,4 @@
-"""Options shared by several ``dynid`` subcommands (not a subcommand itself)."""
+"""Options and inputs shared by several ``dynid`` subcommands (not a subcommand)."""
 
 from __future__ import annotations
 
@@ -124,3 +124,36 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
     for note in robot.notes:
         print(f"dynid {command}: note: {note}", file=sys.stderr)
     return robot
+
+
+def add_common_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments shared by ``dynid identify`` and ``dynid offline``."""
+    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    parser.add_argument(
+        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
+    )
+    add_friction_argument(parser)
+    add_joint_arguments(parser)
+    parser.add_argument(
+        "--resample",
+        action="store_true",
+        help="accept a non-uniformly sampled log by linear interpolation onto the "
+        "grid of its median step (off by default: it changes the data)",
+    )
+    parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="print nothing on stdout (log warnings and errors still go to stderr)",
+    )
+
+
+def load_robot_and_log(args: argparse.Namespace, command: str):
+    """Loads the URDF model and the log; prints the reader's warnings on stderr."""
+    from drake_dynid.logs import read_log
+
+    robot = robot_from_args(args, command)
+    log = read_log(args.log, robot.joint_names, resample=args.resample)
+    for warning in log.warnings:
+        print(f"dynid {command}: warning: log {args.log}: {warning}", file=sys.stderr)
+    return robot, log

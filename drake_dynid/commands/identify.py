@@ -3,33 +3,41 @@
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
 import sys
-from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+from drake_dynid.commands._arguments import add_common_arguments, load_robot_and_log
+from drake_dynid.commands._report import (
+    estimates_table,
+    json_number,
+    log_document,
+    matplotlib_pyplot,
+    parameters_document,
+    write_estimates_csv,
+    write_json,
+    write_plot,
+)
+from drake_dynid.core.rows import MODEL_KINDS
 
 HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
 DESCRIPTION = (
     "Replays a recorded robot log (CSV: t, q_<joint>, tau_<joint> for every URDF "
-    "joint) through drake_dynid's on-line identification blocks in a Drake "
-    "Simulator: causal Jacobi differentiator -> model rows (power or Lagrangian) -> "
-    "modulating-integral bank over a sliding window -> sliding QR identifier. "
-    "Prints the final base-parameter estimates with Gautier's standard deviations "
-    "(a parameter with %σ > 30 is flagged '*' = not identified), the condition "
-    "number and the validity of the last window; optionally writes the estimates "
-    "over time (--out CSV, --plot PNG) and a JSON summary (--json). Options left "
-    "out take the OnlineSettings defaults."
+    "joint) through drake_dynid's on-line identifier: causal Jacobi differentiator "
+    "-> model rows (power or Lagrangian) -> modulating-integral bank over a sliding "
+    "window -> sliding QR identifier. The default engine (--engine core) runs the "
+    "vectorised numerical core, without a Simulator; --engine blocks steps the Drake "
+    "LeafSystems in a Drake Simulator (the reference: both give the same "
+    "estimates). Prints the final base-parameter estimates with Gautier's standard "
+    "deviations (a parameter with %σ > 30 is flagged '*' = not identified), the "
+    "condition number and the validity of the last window; optionally writes the "
+    "estimates over time (--out CSV, --plot PNG) and a JSON summary (--json). Options "
+    "left "
+    "out take the OnlineSettings defaults; the bank and solve periods default to "
+    "the multiples of the log's time step closest to 20 ms and 0.1 s."
 )
-
-# A parameter whose relative standard deviation exceeds this is "not identified".
-NOT_IDENTIFIED_PERCENT = 30.0
 
 # Option name -> OnlineSettings field; None values keep the OnlineSettings default.
 _SETTING_OPTIONS = {
@@ -45,130 +53,6 @@ _SETTING_OPTIONS = {
     "max_condition": "max_condition",
     "weighting": "weighting",
 }
-
-
-# ------------------------------------------------------------------ shared helpers
-def add_common_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments shared by ``dynid identify`` and ``dynid offline``."""
-    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
-    parser.add_argument(
-        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
-    )
-    add_friction_argument(parser)
-    parser.add_argument(
-        "--resample",
-        action="store_true",
-        help="accept a non-uniformly sampled log by linear interpolation onto the "
-        "grid of its median step (off by default: it changes the data)",
-    )
-    parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
-    parser.add_argument(
-        "--quiet",
-        action="store_true",
-        help="print nothing on stdout (log warnings and errors still go to stderr)",
-    )
-
-
-def load_robot_and_log(args: argparse.Namespace, command: str):
-    """Loads the URDF model and the log; prints the reader's warnings on stderr."""
-    from drake_dynid.logs import read_log
-    from drake_dynid.robot import RobotModel
-
-    robot = RobotModel.from_urdf(args.urdf, friction=parse_friction(args.friction))
-    log = read_log(args.log, robot.joint_names, resample=args.resample)
-    for warning in log.warnings:
-        print(f"dynid {command}: warning: log {args.log}: {warning}", file=sys.stderr)
-    return robot, log
-
-
-def json_number(value: Any) -> float | None:
-    """A float for JSON, None for NaN and infinities (JSON has neither)."""
-    value = float(value)
-    return value if math.isfinite(value) else None
-
-
-def _text(value: float, digits: int = 6) -> str:
-    return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
-
-
-def estimates_table(
-    names: Sequence[str], theta: Sequence[float], std: Sequence[float]
-) -> list[str]:
-    """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30)."""
-    rows = []
-    for name, value, sigma in zip(names, theta, std, strict=True):
-        value, sigma = float(value), float(sigma)
-        if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
-            percent = 100.0 * sigma / abs(value)
-            percent_text = f"{percent:.2f}"
-        else:
-            percent = math.inf
-            percent_text = "inf" if math.isfinite(value) else "nan"
-        flag = "*" if not percent <= NOT_IDENTIFIED_PERCENT else ""
-        rows.append((name, _text(value), _text(sigma, 3), percent_text, flag))
-    headers = ("name", "value", "σ", "%σ", "")
-    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)]
-    lines = [
-        f"{headers[0]:<{widths[0]}}  {headers[1]:>{widths[1]}}  "
-        f"{headers[2]:>{widths[2]}}  {headers[3]:>{widths[3]}}",
-        f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}  {'-' * widths[3]}",
-    ]
-    for name, value, sigma, percent, flag in rows:
-        lines.append(
-            f"{name:<{widths[0]}}  {value:>{widths[1]}}  {sigma:>{widths[2]}}  "
-            f"{percent:>{widths[3]}}  {flag}".rstrip()
-        )
-    if any(r[4] for r in rows):
-        lines.append(
-            f"* %σ > {NOT_IDENTIFIED_PERCENT:g}: not identified (too little "
-            "excitation of this parameter, or too much noise)"
-        )
-    return lines
-
-
-def parameters_document(
-    robot: Any, names: Sequence[str], theta: Sequence[float], std: Sequence[float]
-) -> list[dict[str, Any]]:
-    """The ``parameters`` list of the JSON format (DESIGN.md)."""
-    definitions: Mapping[str, Any] = dict(
-        zip(robot.base.names, robot.base.definitions, strict=True)
-    )
-    out = []
-    for name, value, sigma in zip(names, theta, std, strict=True):
-        value, sigma = float(value), float(sigma)
-        percent = (
-            100.0 * sigma / abs(value)
-            if math.isfinite(value) and math.isfinite(sigma) and value != 0.0
-            else math.inf
-        )
-        out.append(
-            {
-                "name": name,
-                "value": json_number(value),
-                "std": json_number(sigma),
-                "relative_std_percent": json_number(percent),
-                "identified": bool(percent <= NOT_IDENTIFIED_PERCENT),
-                "definition": dict(definitions.get(name, {})),
-            }
-        )
-    return out
-
-
-def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
-    """The ``log`` entry of the JSON format."""
-    return {
-        "path": str(args.log),
-        "samples": int(log.num_samples),
-        "bad_samples": int(np.count_nonzero(log.bad_samples)),
-        "time_step": float(log.time_step),
-        "duration": float(log.duration),
-        "warnings": list(log.warnings),
-    }
-
-
-def write_json(path: str, document: Mapping[str, Any]) -> None:
-    """Writes ``document`` as indented JSON (no NaN: invalid JSON)."""
-    Path(path).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n")
 
 
 # --------------------------------------------------------------------- identify
@@ -201,13 +85,19 @@ def _frequencies(text: str | None) -> Any:
     return values
 
 
-def online_settings(args: argparse.Namespace, bandwidth: float | None = None) -> Any:
+def online_settings(
+    args: argparse.Namespace,
+    bandwidth: float | None = None,
+    time_step: float | None = None,
+) -> Any:
     """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
 
     ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
-    ``--bandwidth`` nor ``--frequencies`` is given.
+    ``--bandwidth`` nor ``--frequencies`` is given. With the log's ``time_step``
+    [s] the settings are put on its grid (``OnlineSettings.on_grid``) and the bank
+    design is checked.
     """
-    from drake_dynid.diagrams import OnlineSettings
+    from drake_dynid.core.online import OnlineSettings
 
     kwargs: dict[str, Any] = {}
     for option, name in _SETTING_OPTIONS.items():
@@ -221,7 +111,10 @@ def online_settings(args: argparse.Namespace, bandwidth: float | None = None) ->
         kwargs["bandwidth"] = bandwidth
     model = kwargs.pop("model", "lagrangian")
     settings = OnlineSettings.for_model(model, **kwargs)
-    settings.bank()  # check the window, ℓ and bank step now, with their message
+    settings.ell()  # check the ℓ set now, with its message
+    if time_step is not None:
+        settings = settings.on_grid(time_step)
+        settings.bank()  # check the window and the bank step, with their message
     return settings
 
 
@@ -252,7 +145,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--model",
-        choices=("power", "lagrangian"),
+        choices=MODEL_KINDS,
         help="power (the paper's scalar power model) or lagrangian (n equations "
         "per sample)",
     )
@@ -284,13 +177,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--bank-time-step",
         type=float,
         metavar="S",
-        help="sample period of the modulating bank [s] (a multiple of the log's)",
+        help="sample period of the modulating bank [s], a multiple of the log's "
+        "(default: the multiple closest to 20 ms, at most --jacobi-window/10)",
     )
     group.add_argument(
         "--update-period",
         type=float,
         metavar="S",
-        help="period of the least-squares solve [s]",
+        help="period of the least-squares solve [s], a multiple of the log's "
+        "(default: the multiple closest to 0.1 s)",
     )
     group.add_argument(
         "--max-condition",
@@ -326,85 +221,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _matplotlib() -> Any:
-    try:
-        import matplotlib
-    except ImportError:
-        raise ValueError(
-            "--plot needs matplotlib, which is not installed (pip install "
-            "matplotlib, or drop --plot)."
-        ) from None
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _invalid_runs(t: np.ndarray, valid: np.ndarray, step: float):
-    """(start, stop) time spans where ``valid`` is 0."""
-    bad = np.concatenate([[False], valid < 0.5, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(bad))
-    for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        yield t[start], t[stop - 1] + step
-
-
-def write_plot(
-    path: str, t: np.ndarray, theta: np.ndarray, std: np.ndarray, valid, names, title
-) -> None:
-    """One subplot per parameter: estimate, ±σ band, invalid periods shaded."""
-    plt = _matplotlib()
-    p = len(names)
-    columns = 2 if p > 4 else 1
-    rows = math.ceil(p / columns)
-    figure, axes = plt.subplots(
-        rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
-    )
-    axes = np.atleast_1d(axes).ravel()
-    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    # Nothing to show before the first valid solve (the block holds zeros).
-    first = int(np.argmax(np.asarray(valid) > 0.5))
-    theta = np.array(theta, dtype=float)
-    theta[:first] = np.nan
-    finite_std = np.where(np.isfinite(std), std, np.nan)
-    for i, name in enumerate(names):
-        axis = axes[i]
-        axis.plot(t, theta[:, i], color="C0", lw=1.0)
-        axis.fill_between(
-            t,
-            theta[:, i] - finite_std[:, i],
-            theta[:, i] + finite_std[:, i],
-            color="C0",
-            alpha=0.25,
-            lw=0.0,
-        )
-        for start, stop in _invalid_runs(t, valid, step):
-            axis.axvspan(start, stop, color="0.85", lw=0.0, zorder=0)
-        axis.set_ylabel(name)
-        axis.grid(True, alpha=0.3)
-    for axis in axes[p:]:
-        axis.set_visible(False)
-    for axis in axes[max(0, p - columns) : p]:
-        axis.set_xlabel("t [s]")
-    figure.suptitle(f"{title} (grey: invalid window, estimate held; band: ±σ)")
-    figure.tight_layout()
-    figure.savefig(path, dpi=100)
-    plt.close(figure)
-
-
-def _write_estimates_csv(path: str, t, valid, theta, names) -> None:
-    with open(path, "w", newline="") as stream:
-        writer = csv.writer(stream)
-        writer.writerow(["t", "valid", *names])
-        for k in range(len(t)):
-            writer.writerow(
-                [
-                    f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
-                    int(valid[k] > 0.5),
-                    *(f"{x:.17g}" for x in theta[k]),
-                ]
-            )
-
-
 def _invalid_reason(trace: Any) -> str:
     final = trace.final()
     settings = trace.settings
@@ -430,13 +246,13 @@ def run(args: argparse.Namespace) -> int:
     """Replays the log through the on-line identifier; prints and writes results."""
     settings = online_settings(args)
     if args.plot:
-        _matplotlib()  # fail before the long replay
+        matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )
-    if band_measured:
-        settings = online_settings(args, measured_bandwidth(log, settings.window))
+    bandwidth = measured_bandwidth(log, settings.window) if band_measured else None
+    settings = online_settings(args, bandwidth, log.time_step)
     needed = settings.window + settings.jacobi_window
     if log.duration <= needed:
         raise ValueError(
@@ -447,7 +263,7 @@ def run(args: argparse.Namespace) -> int:
     if args.engine == "blocks":
         from drake_dynid.diagrams import replay_log as replay
     else:
-        from drake_dynid.fast_replay import replay_log_core as replay
+        from drake_dynid.core.replay import replay_log_core as replay
 
     progress = bool(sys.stderr.isatty()) and not args.quiet
     (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
@@ -498,7 +314,7 @@ def run(args: argparse.Namespace) -> int:
                 f"(t = {t[last_valid]:.4g} s)."
             )
     if args.out:
-        _write_estimates_csv(args.out, t, trace.valid, trace.theta, trace.names)
+        write_estimates_csv(args.out, t, trace.valid, trace.theta, trace.names)
         if not args.quiet:
             print(f"wrote {args.out}")
     if args.json:

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-from drake_dynid.commands.identify import (
-    add_common_arguments,
+from drake_dynid.commands._arguments import add_common_arguments, load_robot_and_log
+from drake_dynid.commands._report import (
     estimates_table,
     json_number,
-    load_robot_and_log,
     log_document,
     parameters_document,
     write_json,

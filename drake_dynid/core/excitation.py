@@ -1,12 +1,12 @@
 """Excitation bandwidth of a recorded motion, and the modulating set that covers it.
 
 The on-line identifiers only see the window's Fourier bins ν/T [Hz]
-(``core.modulating``): bins above the excitation carry noise only, bins below it miss
+(``core.fourier_bank``): bins above the excitation carry noise only, bins below it miss
 information. The rule measured in ``benchmarks/bench_accuracy.py`` is to cover the
 velocity band and no more::
 
     B = estimate_bandwidth(q, h)   # f below which 99 % of the velocity power lies
-    ℓ = frequencies_for(T, B)      # ℓ = 0, 1, ..., with (ℓ + k)/T <= B
+    ℓ = frequencies_for(T, B)      # ℓ = 0, 1, ..., with (ℓ + k)/T <= B, at least 8
 
 Bandwidth estimate (noise-robust, no tuning):
 
@@ -37,7 +37,7 @@ import numpy as np
 from scipy import signal
 
 from drake_dynid.core import _validate as v
-from drake_dynid.core.modulating import default_frequencies
+from drake_dynid.core.fourier_bank import band_frequencies
 
 __all__ = ["estimate_bandwidth", "frequencies_for", "velocity_spectrum"]
 
@@ -131,38 +131,7 @@ def estimate_bandwidth(
     return float(max(bands))
 
 
-def frequencies_for(
-    window: float,
-    bandwidth_hz: float,
-    *,
-    order: int = 1,
-    spacing: float = 1.0,
-    min_count: int = 4,
-) -> np.ndarray:
-    """Modulating indices ℓ that cover an excitation band, at least ``min_count``.
-
-    ``ℓ = 0, spacing, 2·spacing, ...`` with ``(ℓ + order)/window <= bandwidth_hz``
-    (:func:`drake_dynid.core.modulating.default_frequencies`), extended to
-    ``min_count`` values when the band is narrower than ``min_count/window``
-    (a short window on a slow motion still needs a few equations per joint).
-
-    Args:
-        window: modulating window T [s].
-        bandwidth_hz: excitation bandwidth [Hz] (:func:`estimate_bandwidth`).
-        order: modulating order k >= 1.
-        spacing: step of ℓ (1: orthogonal integer bins, the recommended set).
-        min_count: smallest number of ℓ values returned (>= 1).
-
-    Returns:
-        (L,) the indices ℓ.
-    """
-    owner = "frequencies_for"
-    window = v.positive(owner, "window", window, "s")
-    bandwidth_hz = v.positive(owner, "bandwidth_hz", bandwidth_hz, "Hz")
-    order = v.integer(owner, "order", order, minimum=1)
-    spacing = v.positive(owner, "spacing", spacing)
-    min_count = v.integer(owner, "min_count", min_count, minimum=1)
-    floor_band = (order + spacing * (min_count - 1)) / window
-    return default_frequencies(
-        window, max(bandwidth_hz, floor_band), order=order, spacing=spacing
-    )
+#: The default ℓ set covering a band (the library's one rule, defined with the bank
+#: design): ``frequencies_for(T, B)`` equals ``OnlineSettings(window=T,
+#: bandwidth=B).ell()``.
+frequencies_for = band_frequencies

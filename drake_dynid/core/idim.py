@@ -1,4 +1,4 @@
-"""Off-line inverse-dynamics identification, IDIM-LS and IDIM-WLS (MATH.md §5).
+"""Off-line inverse-dynamics identification, IDIM-LS and IDIM-WLS (docs/MATH.md §5).
 
 The inverse dynamic model is linear in the base parameters X::
 

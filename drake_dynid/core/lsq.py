@@ -1,6 +1,6 @@
 """Least squares by QR with Gautier's standard deviations and a scaled condition number.
 
-Solves the over-determined system ``A X ≈ B`` (MATH.md §4)::
+Solves the over-determined system ``A X ≈ B`` (docs/MATH.md §4)::
 
     X̂ = argmin ‖B - A X‖₂            A: r × p, B: r, by QR of the column-scaled A
     σ_ρ² = ‖B - A X̂‖² / (r - p)       residual variance [unit of B]²
@@ -21,7 +21,7 @@ malformed arguments (shapes, types) raise.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,15 +39,11 @@ __all__ = [
     "solve_window",
 ]
 
-DEFAULT_MAX_CONDITION = 1e6
-
-# Status of a sliding least-squares identifier after an update (the
-# SlidingQRIdentifier block's ``status`` output and the core replay's trace).
-STATUS_OK = 0  # the window was solved and accepted
-STATUS_WINDOW_NOT_READY = 1  # window not full, or holding an invalid sample
-STATUS_NOT_IDENTIFIABLE = 2  # rank deficient or too ill-conditioned
-"""Largest accepted condition number of the column-scaled A (well-excited robot
-regressors are typically below 1e2-1e3; beyond 1e6 the estimate is noise)."""
+#: Largest accepted condition number of the column-scaled A, the one default of the
+#: library (on-line settings, the identifier block, the least-squares functions and
+#: the off-line IDIM). Well-excited robot regressors are typically below 1e2-1e3;
+#: a window above 1e4 is reported as not identifiable rather than solved.
+DEFAULT_MAX_CONDITION = 1e4
 
 _WEAK_SHARE = 0.05  # a parameter is "involved" if ≥ 5 % of a weak direction's energy
 
@@ -97,7 +93,7 @@ class LeastSquaresResult:
         return tuple(self.names[i] for i in bad)
 
 
-def _describe(names: Sequence[str], indices: Sequence[int]) -> str:
+def _describe(names: Sequence[str], indices: Iterable[int]) -> str:
     return ", ".join(f"{names[i]} (column {i})" for i in indices)
 
 
@@ -122,11 +118,11 @@ def solve_least_squares(
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
 ) -> LeastSquaresResult:
-    """Least squares ``X̂ = argmin ‖B - A X‖`` by QR, with Gautier's σ (MATH.md §4).
+    """Least squares ``X̂ = argmin ‖B - A X‖`` by QR, with Gautier's σ.
 
     ``σ_ρ² = ‖B - A X̂‖²/(r - p)``, ``C_X = σ_ρ² (AᵀA)⁻¹`` from the QR's R,
     ``σ_Xi = √C_X[i,i]``; condition number of A after scaling its columns to unit
-    norm.
+    norm (docs/MATH.md §4).
 
     Args:
         A: (r, p) regressor [unit of B / unit of X].
@@ -162,7 +158,7 @@ def solve_least_squares(
         reason: str,
         condition: float = np.nan,
         rank: int = 0,
-        indices: Sequence[int] = (),
+        indices: Iterable[int] = (),
     ) -> LeastSquaresResult:
         nan = np.full(p, np.nan)
         nan.flags.writeable = False
@@ -211,7 +207,8 @@ def solve_least_squares(
     augmented = np.empty((rows, p + 1))
     np.divide(A, norms, out=augmented[:, :p])
     augmented[:, p] = B
-    R_aug = np.linalg.qr(augmented, mode="r")
+    # (numpy's stubs type mode="r" as a tuple; it is the array R.)
+    R_aug = np.asarray(np.linalg.qr(augmented, mode="r"))
     R = R_aug[:p, :p]
     singular = np.linalg.svd(R, compute_uv=False)
     tolerance = singular[0] * max(rows, p) * np.finfo(float).eps
@@ -366,7 +363,7 @@ def solve_frequency_weighted_least_squares(
        Gautier's σ from the weighted problem (C_X = σ_ρ² (Aᵀ W² A)⁻¹).
 
     A feasible generalised least squares: with the modulated equations of the
-    on-line identifier (MATH.md §3), whose high-ℓ rows carry most of the
+    on-line identifier (docs/MATH.md §3), whose high-ℓ rows carry most of the
     velocity-estimate noise, it halved the inertial error on the 2R benchmark
     (benchmarks/bench_accuracy.py). When step 1 is not valid, its result is
     returned unchanged.

@@ -1,4 +1,4 @@
-"""Measurement noise at a given signal-to-noise ratio (MATH.md §6).
+"""Measurement noise at a given signal-to-noise ratio (docs/MATH.md §6).
 
 Definition used everywhere in drake_dynid (state it with any result)::
 

@@ -32,12 +32,38 @@ import numpy as np
 
 from drake_dynid.core import _validate
 
-#: Friction kinds in column order, with the column prefix of each.
-FRICTION_KINDS = ("viscous", "coulomb", "offset")
-FRICTION_PREFIX = MappingProxyType({"viscous": "FV", "coulomb": "FC", "offset": "OFF"})
+# Friction and the row contract live in their own modules; these names stay
+# importable from here for the modules that imported them before the split.
+from drake_dynid.core.friction import (
+    FRICTION_KINDS,
+    FRICTION_PREFIX,
+    check_friction,
+    friction_idim_columns,
+    friction_names,
+    friction_power_columns,
+    friction_value,
+)
+from drake_dynid.core.rows import (
+    MODEL_KINDS,
+    as_batch,
+    as_batches,
+    check_model_kind,
+    model_rows_from_parts,
+)
 
-#: Model kinds of the (D, G, y) contract (docs/CONVENTIONS.md §3).
-MODEL_KINDS = ("power", "lagrangian")
+__all__ = [
+    "FRICTION_KINDS",
+    "FRICTION_PREFIX",
+    "MODEL_KINDS",
+    "PAPER_BASE_VALUES",
+    "Planar2RRows",
+    "as_batch",
+    "as_batches",
+    "check_friction",
+    "friction_idim_columns",
+    "friction_power_columns",
+    "model_rows_from_parts",
+]
 
 #: The paper's true base-parameter values (Table II), friction viscous + Coulomb.
 PAPER_BASE_VALUES = MappingProxyType(
@@ -56,150 +82,6 @@ PAPER_BASE_VALUES = MappingProxyType(
 _OWNER = "Planar2RRows"
 _NUM_JOINTS = 2
 _NUM_INERTIAL = 4
-
-
-def check_friction(owner: str, friction: object) -> tuple[str, ...]:
-    """Returns ``friction`` as a tuple of kinds in canonical order, or raises.
-
-    Args:
-        owner: the name used in error messages.
-        friction: an iterable of kinds among ``"viscous"``, ``"coulomb"`` and
-            ``"offset"`` (a comma-separated string is accepted too).
-
-    Returns:
-        The kinds, without duplicates, in the order viscous, coulomb, offset.
-    """
-    if isinstance(friction, str):
-        friction = [item.strip() for item in friction.split(",") if item.strip()]
-    try:
-        kinds = list(friction)  # type: ignore[call-overload]
-    except TypeError:
-        raise TypeError(
-            f"{owner}: friction must be a sequence of {FRICTION_KINDS}; got "
-            f"{friction!r}."
-        ) from None
-    unknown = [kind for kind in kinds if kind not in FRICTION_KINDS]
-    if unknown:
-        raise ValueError(
-            f"{owner}: friction kinds must be among {', '.join(FRICTION_KINDS)}; got "
-            f"{', '.join(map(str, unknown))}."
-        )
-    return tuple(kind for kind in FRICTION_KINDS if kind in kinds)
-
-
-def as_batch(
-    owner: str, name: str, value: object, num_joints: int
-) -> tuple[np.ndarray, bool]:
-    """Returns ``(array of shape (N, num_joints), single)`` from (n,) or (N, n).
-
-    ``single`` is True when one sample of shape ``(n,)`` was given; callers then drop
-    the sample axis of their results.
-    """
-    array = (
-        np.asarray(value, dtype=float) if not isinstance(value, np.ndarray) else value
-    )
-    single = array.ndim == 1
-    if single:
-        array = array[None, :]
-    array = _validate.array(owner, name, array, shape=(None, num_joints))
-    return array, single
-
-
-def as_batches(owner: str, num_joints: int, **arrays: object):
-    """Converts several per-joint arrays with :func:`as_batch`; checks equal N.
-
-    Returns:
-        The ``(N, num_joints)`` arrays in keyword order, then ``single``.
-    """
-    out = []
-    singles = []
-    for name, value in arrays.items():
-        array, single = as_batch(owner, name, value, num_joints)
-        out.append(array)
-        singles.append(single)
-    counts = [a.shape[0] for a in out]
-    if len(set(counts)) > 1:
-        names = ", ".join(arrays)
-        raise ValueError(
-            f"{owner}: {names} must have the same number of samples; got "
-            f"{', '.join(map(str, counts))}."
-        )
-    return (*out, all(singles))
-
-
-def friction_idim_columns(v: np.ndarray, friction: tuple[str, ...]) -> np.ndarray:
-    """Friction columns of the inverse-dynamics rows, shape ``(N, n, n·len(friction))``.
-
-    Joint i's row has, in joint i's columns: ``v_i`` [rad/s] (viscous), ``sign v_i``
-    (Coulomb), ``1`` (offset), so that τ_f,i = FV_i v_i + FC_i sign(v_i) + OFF_i [N·m].
-    """
-    num_samples, num_joints = v.shape
-    width = len(friction)
-    out = np.zeros((num_samples, num_joints, num_joints * width))
-    for k, kind in enumerate(friction):
-        if kind == "viscous":
-            value = v
-        elif kind == "coulomb":
-            value = np.sign(v)
-        else:
-            value = np.ones_like(v)
-        for i in range(num_joints):
-            out[:, i, i * width + k] = value[:, i]
-    return out
-
-
-def friction_power_columns(v: np.ndarray, friction: tuple[str, ...]) -> np.ndarray:
-    """Friction power columns, shape ``(N, n·len(friction))``.
-
-    Joint j contributes ``v_j²`` (viscous), ``abs(v_j)`` (Coulomb) and ``v_j``
-    (offset): the dissipated power is Σ_j FV_j v_j² + FC_j |v_j| + OFF_j v_j [W].
-    """
-    return np.einsum("ni,nik->nk", v, friction_idim_columns(v, friction))
-
-
-def model_rows_from_parts(
-    kind: str,
-    owner: str,
-    v: np.ndarray,
-    tau: np.ndarray,
-    energy: callable,  # type: ignore[valid-type]
-    lagrangian: callable,  # type: ignore[valid-type]
-    friction_slice: slice,
-    friction: tuple[str, ...],
-    num_parameters: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Assembles the (D, G, y) rows of docs/CONVENTIONS.md §3 (batch shapes).
-
-    power: ``D = h``, ``G`` = friction power columns, ``y = vᵀτ`` (m = 1).
-    lagrangian: ``D = ∂h_E/∂v``, ``G = ∂h_U/∂q - ∂h_E/∂q`` + friction columns,
-    ``y = τ`` (m = n). ``energy()`` returns h ``(N, p)``; ``lagrangian()`` returns
-    ``(∂h_E/∂v, ∂h_E/∂q, ∂h_U/∂q)``, each ``(N, n, p)``.
-    """
-    num_samples = v.shape[0]
-    if kind == "power":
-        d_rows = energy()[:, None, :]
-        g_rows = np.zeros((num_samples, 1, num_parameters))
-        g_rows[:, 0, friction_slice] = friction_power_columns(v, friction)
-        y = np.einsum("ni,ni->n", v, tau)[:, None]
-    elif kind == "lagrangian":
-        d_rows, dhe_dq, dhu_dq = lagrangian()
-        g_rows = dhu_dq - dhe_dq
-        g_rows[:, :, friction_slice] += friction_idim_columns(v, friction)
-        y = tau.copy()
-    else:
-        raise ValueError(
-            f"{owner}: kind must be one of {', '.join(MODEL_KINDS)}; got {kind!r}."
-        )
-    return d_rows, g_rows, y
-
-
-def _friction_value(kind: str, velocity: float) -> float:
-    """One friction column of joint i's IDIM row: v_i, sign v_i or 1."""
-    if kind == "viscous":
-        return velocity
-    if kind == "coulomb":
-        return float(np.sign(velocity))
-    return 1.0
 
 
 def _drop(single: bool, *arrays: np.ndarray):
@@ -239,10 +121,7 @@ class Planar2RRows:
     @property
     def names(self) -> tuple[str, ...]:
         """Base-parameter names: ZZ1R, ZZ2, MX2, MY2, then friction per joint."""
-        friction = tuple(
-            f"{FRICTION_PREFIX[kind]}{j}" for j in (1, 2) for kind in self.friction
-        )
-        return ("ZZ1R", "ZZ2", "MX2", "MY2", *friction)
+        return ("ZZ1R", "ZZ2", "MX2", "MY2", *friction_names(self.friction, 2))
 
     @property
     def num_parameters(self) -> int:
@@ -347,14 +226,14 @@ class Planar2RRows:
     def power_rows(self, q, v, vdot) -> np.ndarray:
         """Power rows vᵀW = [d/dt h, friction power], shape ``(N, p)`` [W per unit].
 
-        Power balance (MATH.md eq. P): d/dt(h)·X + Σ_j FV_j v_j² + FC_j |v_j|
+        Power balance (docs/MATH.md §2, eq. P): d/dt(h)·X + Σ_j FV_j v_j² + FC_j |v_j|
         + OFF_j v_j = vᵀτ.
         """
         q, v, vdot, single = as_batches(_OWNER, _NUM_JOINTS, q=q, v=v, vdot=vdot)
         return _drop(single, np.einsum("ni,nip->np", v, self._idim(q, v, vdot)))
 
     def packed_rows(self, kind: str, q, v, tau) -> np.ndarray:
-        """One sample's model rows, packed as ``modulating.pack_rows(D, G, y)``.
+        """One sample's model rows, packed as ``core.rows.pack_rows(D, G, y)``.
 
         The single-sample fast path of :meth:`model_rows` for the on-line blocks
         (``ModelRows`` evaluates one sample per bank update): the same equations
@@ -370,6 +249,7 @@ class Planar2RRows:
         Returns:
             ``[D row-major, G row-major, y]``, length ``2·m·p + m``.
         """
+        kind = check_model_kind(_OWNER, kind)
         q2 = float(q[1])
         v1, v2 = float(v[0]), float(v[1])
         c2, s2 = math.cos(q2), math.sin(q2)
@@ -385,22 +265,18 @@ class Planar2RRows:
             for i, vi in enumerate((v1, v2)):
                 row = 2 * p + i * p + _NUM_INERTIAL + i * width
                 for k, kind_f in enumerate(self.friction):
-                    out[row + k] = _friction_value(kind_f, vi)
+                    out[row + k] = friction_value(kind_f, vi)
             out[4 * p] = float(tau[0])
             out[4 * p + 1] = float(tau[1])
-        elif kind == "power":
+        else:  # power
             out = [0.0] * (2 * p + 1)
             w = v1 * v1 + v1 * v2
             out[0:4] = (0.5 * v1 * v1, 0.5 * (v1 + v2) ** 2, L1 * c2 * w, -L1 * s2 * w)
             for i, vi in enumerate((v1, v2)):
                 row = p + _NUM_INERTIAL + i * width
                 for k, kind_f in enumerate(self.friction):
-                    out[row + k] = vi * _friction_value(kind_f, vi)
+                    out[row + k] = vi * friction_value(kind_f, vi)
             out[2 * p] = v1 * float(tau[0]) + v2 * float(tau[1])
-        else:
-            raise ValueError(
-                f"{_OWNER}: kind must be one of {', '.join(MODEL_KINDS)}; got {kind!r}."
-            )
         return np.array(out)
 
     def model_rows(

@@ -4,7 +4,7 @@ The window holds the last ``capacity`` samples of ``channels`` floats each, olde
 first. It has **value semantics**: :meth:`ChunkRing.push` and :meth:`ChunkRing.extend`
 return a new ring and never change the one they are called on, so every version
 of the window stays valid. That is what a Drake abstract-state slot needs: the
-Simulator deep-copies abstract state twice per step (``notes/drake-facts.md`` §2),
+Simulator deep-copies abstract state twice per step (docs/CONVENTIONS.md §7),
 and copying a 20 000 × 34 numpy window twice per 1 ms step would cost more than the
 identification itself.
 

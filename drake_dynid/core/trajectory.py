@@ -1,4 +1,4 @@
-"""Exciting trajectories: finite Fourier series (Swevers 1997; MATH.md §7).
+"""Exciting trajectories: finite Fourier series (Swevers 1997; docs/MATH.md §7).
 
 Per joint j, with base frequency ω_f [rad/s] and H harmonics::
 
@@ -155,6 +155,17 @@ def _limit(owner: str, name: str, value: Any, n: int) -> np.ndarray | None:
     return np.broadcast_to(out, (n,))
 
 
+def _velocity_limit(owner: str, value: Any, n: int) -> np.ndarray:
+    """The required velocity limit as (n,) [rad/s]; None is a TypeError."""
+    out = _limit(owner, "max_velocity", value, n)
+    if out is None:
+        raise TypeError(
+            f"{owner}: max_velocity must be a real number or an ({n},) array [rad/s]; "
+            "got None."
+        )
+    return out
+
+
 def _scaled(
     trajectory: FourierTrajectory,
     max_velocity: np.ndarray,
@@ -214,7 +225,7 @@ def random_fourier_trajectory(
             f"{owner}: rng must be a numpy.random.Generator; got {type(rng).__name__}."
         )
     q0 = np.zeros(n) if q0 is None else v.array(owner, "q0", q0, shape=(n,))
-    velocity = _limit(owner, "max_velocity", max_velocity, n)
+    velocity = _velocity_limit(owner, max_velocity, n)
     acceleration = _limit(owner, "max_acceleration", max_acceleration, n)
     position = _limit(owner, "max_position", max_position, n)
     a = rng.standard_normal((n, harmonics))
@@ -301,7 +312,7 @@ def optimize_fourier_trajectory(
         max_position=max_position,
     )
     n = start.num_joints
-    velocity = _limit(owner, "max_velocity", max_velocity, n)
+    velocity = _velocity_limit(owner, max_velocity, n)
     acceleration = _limit(owner, "max_acceleration", max_acceleration, n)
     position = _limit(owner, "max_position", max_position, n)
     times = start.period * np.arange(num_samples) / num_samples

@@ -1,14 +1,25 @@
-"""Joint friction (viscous + Coulomb + offset) as an applied generalized force."""
+"""Joint friction (viscous + Coulomb + offset) as an applied generalized force.
+
+The friction law itself lives in :mod:`drake_dynid.core.friction`; this block only
+reads the plant's velocities and applies it.
+"""
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, InputPort, LeafSystem, OutputPort
 
 from drake_dynid.core import _validate
+from drake_dynid.core.friction import (
+    friction_coefficients,
+    friction_force,
+    friction_force_scalar,
+    sign_law,
+)
+
+__all__ = ["JointFriction", "joint_friction_force"]
 
 _OWNER = "JointFriction"
 
@@ -22,14 +33,11 @@ def joint_friction_force(
 ) -> np.ndarray:
     """Friction torque τ_f = FV·v + FC·s(v) + OFF per joint [N·m or N].
 
-    s(v) = tanh(v/ε) when ``smoothing`` ε > 0 [rad/s or m/s], sign(v) when ε = 0.
-    The force applied to the plant is -τ_f (friction opposes the motion).
+    s(v) = tanh(v/ε) when ``smoothing`` ε > 0 [rad/s or m/s], sign(v) when ε = 0
+    (``core.friction.friction_force`` with ``core.friction.sign_law(ε)``). The
+    force applied to the plant is -τ_f (friction opposes the motion).
     """
-    if smoothing > 0.0:
-        s = np.tanh(v / smoothing)
-    else:
-        s = np.sign(v)
-    return viscous * v + coulomb * s + offset
+    return friction_force(v, viscous, coulomb, offset, sign_law(smoothing))
 
 
 class JointFriction(LeafSystem):
@@ -43,8 +51,9 @@ class JointFriction(LeafSystem):
         output_ports:
         - generalized_force
 
-    Computes, per joint j (MATH.md §2, friction τ_f,j = FV_j v_j + FC_j sign(v_j) +
-    OFF_j), the generalized force applied to the plant::
+    Computes, per joint j (docs/MATH.md §2, friction τ_f,j = FV_j v_j + FC_j
+    sign(v_j) + OFF_j; the law of :mod:`drake_dynid.core.friction`), the
+    generalized force applied to the plant::
 
         generalized_force_j = -(FV_j v_j + FC_j s(v_j) + OFF_j)     [N·m or N]
         s(v) = tanh(v / ε)  (smoothing ε > 0, default 1e-2 rad/s),  sign(v) if ε = 0
@@ -53,7 +62,7 @@ class JointFriction(LeafSystem):
     ``generalized_force`` (size n) to the plant's
     ``get_applied_generalized_force_input_port()``.
 
-    Choices (see notes/drake-facts.md §4):
+    Choices (docs/CONVENTIONS.md §7):
 
     * **Smoothing.** Forces through this port are explicit in the plant's step. With a
       discrete plant, exact sign() makes the velocity chatter around zero (a limit
@@ -69,7 +78,9 @@ class JointFriction(LeafSystem):
 
     Direct feedthrough from ``state`` to ``generalized_force`` is inherent (the force
     is a function of the current velocity); it creates no algebraic loop because a
-    plant's state output does not depend on its applied force.
+    plant's state output does not depend on its applied force. The block has no
+    state. Double only (no AutoDiffXd or symbolic scalar conversion: the blocks of
+    this package are plain Python ``LeafSystem`` classes).
 
     Args:
         viscous: FV per joint [N·m·s/rad or N·s/m], shape (n,).
@@ -87,17 +98,10 @@ class JointFriction(LeafSystem):
         smoothing: float = 1e-2,
     ) -> None:
         super().__init__()
-        coulomb = _validate.array(_OWNER, "coulomb", coulomb, shape=(None,))
+        viscous, coulomb, offset = friction_coefficients(
+            _OWNER, viscous, coulomb, offset
+        )
         n = coulomb.size
-        if n == 0:
-            raise ValueError(f"{_OWNER}: coulomb must have at least one joint; got 0.")
-        viscous = _validate.array(_OWNER, "viscous", viscous, shape=(n,))
-        offset = np.zeros(n) if offset is None else offset
-        offset = _validate.array(_OWNER, "offset", offset, shape=(n,))
-        if np.any(coulomb < 0.0):
-            raise ValueError(
-                f"{_OWNER}: coulomb must be >= 0 [N·m or N]; got {coulomb.tolist()}."
-            )
         smoothing = _validate.real(_OWNER, "smoothing", smoothing, "rad/s or m/s")
         if smoothing < 0.0:
             raise ValueError(
@@ -108,12 +112,15 @@ class JointFriction(LeafSystem):
         self._coulomb = coulomb
         self._offset = offset
         self._smoothing = smoothing
+        self._sign = sign_law(smoothing)
         self._coefficients = tuple(
             (float(a), float(b), float(c))
             for a, b, c in zip(viscous, coulomb, offset, strict=True)
         )
-        self.DeclareVectorInputPort("state", 2 * n)
-        self.DeclareVectorOutputPort("generalized_force", n, self._CalcForce)
+        self._state = self.DeclareVectorInputPort("state", 2 * n)
+        self._force = self.DeclareVectorOutputPort(
+            "generalized_force", n, self._CalcForce
+        )
 
     @classmethod
     def from_model(
@@ -147,12 +154,19 @@ class JointFriction(LeafSystem):
         """Smoothing ε [rad/s or m/s] (0: exact sign)."""
         return self._smoothing
 
+    def get_input_port_state(self) -> InputPort:
+        """The input port ``state`` ([q; v], size 2n)."""
+        return self._state
+
+    def get_output_port_generalized_force(self) -> OutputPort:
+        """The output port ``generalized_force`` (size n)."""
+        return self._force
+
     def _CalcForce(self, context: Any, output: BasicVector) -> None:
         # Runs at every plant step: plain floats beat numpy on a few joints (the
-        # same equation as joint_friction_force; a test checks they agree).
-        state = self.get_input_port(0).Eval(context)
-        n, eps = self._num_joints, self._smoothing
+        # same law as joint_friction_force; a test checks they agree).
+        state = self._state.Eval(context)
+        n, sign = self._num_joints, self._sign
         for j, (fv, fc, off) in enumerate(self._coefficients):
-            v = float(state[n + j])
-            s = math.tanh(v / eps) if eps > 0.0 else (v > 0.0) - (v < 0.0)
-            output.SetAtIndex(j, -(fv * v + fc * s + off))
+            force = friction_force_scalar(float(state[n + j]), fv, fc, off, sign)
+            output.SetAtIndex(j, -force)

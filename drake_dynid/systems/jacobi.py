@@ -1,4 +1,4 @@
-"""Drake block for the causal Jacobi derivative estimator (MATH.md §1)."""
+"""Drake block for the causal Jacobi derivative estimator (docs/MATH.md §1)."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, Context, DiscreteValues, LeafSystem
 
 from drake_dynid.core import _validate
-from drake_dynid.core.jacobi import (
-    JacobiFilter,
-    _design_bank,
+from drake_dynid.core.jacobi_design import JacobiFilter, _design_bank
+from drake_dynid.core.jacobi_stream import (
     jacobi_initial_state,
     jacobi_outputs,
     jacobi_ring,
@@ -55,12 +54,15 @@ class CausalJacobiDifferentiator(LeafSystem):
     (docs/CONVENTIONS.md §2). ``valid`` is 0 until N+1 samples have been taken
     (before that, missing samples count as zeros), then 1.
 
-    State (numeric discrete state, in the Context only):
+    State (numeric discrete state, in the Context only): one group, the ring of the
+    last N+1 samples with its position,
     ``[buffer ((N+1)·m, slot-major) | head | count]``
-    (:func:`~drake_dynid.core.jacobi.jacobi_ring`); the FIR is one matrix-vector
-    product with a doubled, age-reversed kernel, without rolling the buffer. The
-    block does not resample or hold values: ``u`` must be meaningful at the update
-    times.
+    (:func:`~drake_dynid.core.jacobi.jacobi_ring`: the core's streaming functions
+    step this one vector in place); the FIR is one matrix-vector product with a
+    doubled, age-reversed kernel, without rolling the buffer. The block does not
+    resample or hold values: ``u`` must be meaningful at the update times. Double
+    only: a plain Python ``LeafSystem`` has no AutoDiffXd or symbolic scalar
+    conversion (differentiate the plant off-line instead).
 
     Args:
         num_signals: Size m >= 1 of ``u``.

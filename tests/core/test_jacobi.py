@@ -1,4 +1,4 @@
-"""Causal Jacobi estimator core (MATH.md §1): design, exactness, oracles, streaming.
+"""Causal Jacobi core (docs/MATH.md §1): design, exactness, oracles, streaming.
 
 Seeds: every random draw uses ``np.random.default_rng(SEED)`` with SEED = 20140701
 (or hypothesis' own reproducible search).
@@ -191,7 +191,7 @@ def test_property_polynomial_exactness(order, kappa, mu, q, n, xi):
 
 
 def independent_kernel(tau, order, kappa, mu, q, xi):
-    """Q(τ) straight from MATH.md: binomial-sum Jacobi polynomials, plain Gamma."""
+    """Q(τ) straight from docs/MATH.md: binomial-sum Jacobi polynomials, plain Gamma."""
 
     def jacobi(m, a, b, t):
         return sum(
@@ -266,7 +266,7 @@ def test_taps_match_scipy_quad(order, kappa, mu, q, xi):
 
 
 def algdiff_taps(order, n, kappa, mu, q, xi):
-    """Taps and discrete delay from AlgDiff with the MATH.md mapping."""
+    """Taps and discrete delay from AlgDiff with the docs/MATH.md mapping."""
     algdiff = pytest.importorskip("AlgDiff")
 
     class Patched(algdiff.AlgebraicDifferentiator):

@@ -170,7 +170,12 @@ def test_argument_errors():
         solve_weighted_least_squares(A, B, np.zeros(80))
     with pytest.raises(ValueError, match=r"weights must have shape \(80\)"):
         solve_weighted_least_squares(A, B, np.ones(3))
-    assert DEFAULT_MAX_CONDITION == 1e6
+    # One default for the whole library: the least squares, the on-line settings,
+    # the identifier step and the off-line IDIM.
+    from drake_dynid.core.online import OnlineSettings
+
+    assert DEFAULT_MAX_CONDITION == 1e4
+    assert OnlineSettings().max_condition == DEFAULT_MAX_CONDITION
 
 
 def _heteroscedastic_problem(seed, rows_per_group=400):

@@ -336,7 +336,7 @@ def test_assemble_equations_row_order_and_dropped_rows():
     np.testing.assert_allclose(B, np.array(expected_rhs))
 
 
-# One joint (MATH.md §3): ZZ q̈ + Fv q̇ + Fc sign(q̇) = τ, with an analytic q(t) whose
+# One joint (docs/MATH.md §3): ZZ q̈ + Fv q̇ + Fc sign(q̇) = τ, with an analytic q(t) whose
 # velocity zero crossings fall on samples (t = 0.5 + m s), where sign(q̇) = 0: the
 # trapezoid rule then stays second order across the Coulomb jumps.
 ZZ, FV, FC = 3.0, 0.4, 0.5

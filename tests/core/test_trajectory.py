@@ -12,7 +12,7 @@ from drake_dynid.core.trajectory import (
 
 
 def _planar_2r_idim_rows(q, v, vdot):
-    """IDIM rows of the paper's 2R arm (MATH.md §2), L1 = 1 m: (N, 2, 8)."""
+    """IDIM rows of the paper's 2R arm (docs/MATH.md §2), L1 = 1 m: (N, 2, 8)."""
     c2, s2 = np.cos(q[:, 1]), np.sin(q[:, 1])
     v1, v2 = v[:, 0], v[:, 1]
     a1, a2 = vdot[:, 0], vdot[:, 1]

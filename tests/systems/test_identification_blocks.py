@@ -111,8 +111,8 @@ def _identifier_context(a, b, window_valid, **kwargs):
 
 
 def _step(block, context):
-    update = block.EvalUniquePeriodicDiscreteUpdate(context)
-    context.SetDiscreteState(0, update.get_value(0))
+    # One periodic solve; every discrete state group (one per quantity) is updated.
+    context.SetDiscreteState(block.EvalUniquePeriodicDiscreteUpdate(context))
 
 
 def test_identifier_solves_like_the_core_and_holds_invalid_windows():
@@ -173,8 +173,185 @@ def test_two_simulators_on_one_bank_block_give_identical_outputs():
 
 
 def test_bank_block_checks_its_design():
-    with pytest.raises(TypeError, match="bank must be a FourierBank"):
+    with pytest.raises(TypeError, match="bank must be a modulating bank design"):
         ModulatingIntegralBank({"window": 1.0}, 1, 2)
     bank = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0])
     with pytest.raises(ValueError, match="num_equations must be >= 1"):
         ModulatingIntegralBank(bank, 0, 2)
+
+
+def test_two_simulators_on_one_identifier_block_give_identical_logs():
+    # Bank -> identifier on random rows (seed 3); two Simulators on the one diagram,
+    # advanced interleaved: state kept on the Python objects would make them differ.
+    from pydrake.systems.primitives import LogVectorOutput
+
+    rng = np.random.default_rng(3)
+    m, p = 1, 2
+    bank = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0, 2.0])
+    samples = rng.normal(size=(60, modulating.num_channels(m, p)))
+    builder = DiagramBuilder()
+    times = H * np.arange(61)
+    source = builder.AddSystem(
+        TrajectorySource(
+            PiecewisePolynomial.ZeroOrderHold(
+                times, np.vstack([samples, samples[-1:]]).T
+            )
+        )
+    )
+    flags = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.ZeroOrderHold(times, np.ones((1, 61))))
+    )
+    block = builder.AddSystem(ModulatingIntegralBank(bank, m, p, offset=H / 2))
+    builder.Connect(source.get_output_port(), block.get_input_port_channels())
+    builder.Connect(flags.get_output_port(), block.get_input_port_sample_valid())
+    identifier = builder.AddSystem(
+        SlidingQRIdentifier(p, block.num_rows, 2 * H, offset=0.75 * H)
+    )
+    builder.Connect(block.get_output_port_A(), identifier.get_input_port_A())
+    builder.Connect(block.get_output_port_B(), identifier.get_input_port_B())
+    builder.Connect(
+        block.get_output_port_valid(), identifier.get_input_port_window_valid()
+    )
+    logs = [
+        LogVectorOutput(port, builder, 2 * H)
+        for port in (
+            identifier.get_output_port_theta(),
+            identifier.get_output_port_status(),
+        )
+    ]
+    diagram = builder.Build()
+    first, second = Simulator(diagram), Simulator(diagram)
+    first.AdvanceTo(0.3)
+    second.AdvanceTo(0.55)
+    first.AdvanceTo(0.55)
+    for sink in logs:
+        one, two = sink.FindLog(first.get_context()), sink.FindLog(second.get_context())
+        np.testing.assert_array_equal(one.data(), two.data())
+    status = logs[1].FindLog(first.get_context()).data()[0]
+    assert status[0] == 1 and status[-1] == 0  # not ready, then solved
+    assert np.abs(logs[0].FindLog(first.get_context()).data()).max() > 0
+
+
+def test_identifier_state_groups_follow_the_core_step():
+    from drake_dynid.core.identifier import Status, identifier_init, identifier_update
+
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(30, 2))
+    b = a @ np.array([0.5, -1.0]) + 0.01 * rng.normal(size=30)
+    block, context = _identifier_context(a, b, 1.0)
+    assert block.num_discrete_state_groups() == 6  # one per quantity
+    assert block.status(context) is Status.WINDOW_NOT_READY
+    _step(block, context)
+    core = identifier_update(identifier_init(2), True, a, b, names=("a", "b"))
+    state = block.state(context)
+    np.testing.assert_array_equal(state.theta, core.theta)
+    np.testing.assert_array_equal(state.std, core.std)
+    assert state.status is Status.OK and block.status(context) == 0
+    assert state.condition_number == core.condition_number
+
+
+def test_port_accessors_name_the_ports():
+    from drake_dynid.systems.friction import JointFriction
+
+    rows = ModelRows(Planar2RRows(L1=1.0), "power")
+    assert [
+        rows.get_input_port_q().get_name(),
+        rows.get_input_port_v().get_name(),
+        rows.get_input_port_tau().get_name(),
+        rows.get_output_port_channels().get_name(),
+    ] == ["q", "v", "tau", "channels"]
+    bank = ModulatingIntegralBank(
+        modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0]), 1, 2
+    )
+    assert bank.get_input_port_channels().get_name() == "channels"
+    assert bank.get_input_port_sample_valid().get_name() == "sample_valid"
+    assert bank.get_output_port_A().get_name() == "A"
+    assert bank.get_output_port_B().get_name() == "B"
+    assert bank.get_output_port_valid().get_name() == "valid"
+    identifier = SlidingQRIdentifier(2, 10, 0.1)
+    for name in ("A", "B", "window_valid"):
+        assert getattr(identifier, f"get_input_port_{name}")().get_name() == name
+    for name in (
+        "theta",
+        "theta_std",
+        "condition_number",
+        "valid",
+        "unidentified",
+        "status",
+    ):
+        assert getattr(identifier, f"get_output_port_{name}")().get_name() == name
+    friction = JointFriction([0.1], [0.2])
+    assert friction.get_input_port_state().get_name() == "state"
+    assert (
+        friction.get_output_port_generalized_force().get_name() == "generalized_force"
+    )
+
+
+def test_model_rows_generic_provider_packs_the_rows():
+    # RobotModel has no single-sample fast path: the block packs its batch rows.
+    from drake_dynid.robot import RobotModel
+    from drake_dynid.urdf import model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    block = ModelRows(robot, "power")
+    context = block.CreateDefaultContext()
+    q, v, tau = np.array([0.3, -0.2]), np.array([1.0, 2.0]), np.array([0.5, -0.1])
+    block.get_input_port_q().FixValue(context, q)
+    block.get_input_port_v().FixValue(context, v)
+    block.get_input_port_tau().FixValue(context, tau)
+    expected = modulating.pack_rows(*robot.model_rows("power", q, v, tau))
+    np.testing.assert_allclose(
+        block.get_output_port_channels().Eval(context), expected, rtol=1e-12
+    )
+
+
+class _WrappedBank:
+    """Another 'family' for the protocol test: delegates to a FourierBank."""
+
+    def __init__(self, bank):
+        self._bank = bank
+        self.window, self.time_step = bank.window, bank.time_step
+        self.num_samples = bank.num_samples
+        self.pushes = 0
+
+    def num_rows(self, m):
+        return self._bank.num_rows(m)
+
+    def row_frequencies(self, m):
+        return self._bank.row_frequencies(m)
+
+    def init_state(self, num_channels):
+        return self._bank.init_state(num_channels)
+
+    def push(self, state, sample, *, valid=True):
+        self.pushes += 1
+        return self._bank.push(state, sample, valid=valid)
+
+    def push_many(self, state, samples, *, valid=None):
+        return self._bank.push_many(state, samples, valid=valid)
+
+    def window_valid(self, state):
+        return self._bank.window_valid(state)
+
+    def equations(self, state, m, p):
+        return self._bank.equations(state, m, p)
+
+
+def test_bank_block_takes_any_modulating_bank_design():
+    from drake_dynid.core.bank import ModulatingBank
+
+    rng = np.random.default_rng(6)
+    m, p = 1, 2
+    fourier = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0])
+    assert isinstance(fourier, ModulatingBank)
+    wrapped = _WrappedBank(fourier)
+    samples = rng.normal(size=(30, modulating.num_channels(m, p)))
+    outputs = []
+    for design in (fourier, wrapped):
+        diagram, block = _bank_diagram(samples, np.ones(30), design, m, p)
+        simulator = Simulator(diagram)
+        simulator.AdvanceTo(29 * H + 1e-9)
+        context = block.GetMyContextFromRoot(simulator.get_context())
+        outputs.append(block.get_output_port_B().Eval(context).copy())
+    np.testing.assert_array_equal(outputs[0], outputs[1])
+    assert wrapped.pushes == 30

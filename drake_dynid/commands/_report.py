@@ -1,0 +1,210 @@
+"""Outputs shared by the ``dynid`` subcommands: tables, JSON documents, CSV and plots.
+
+Not a subcommand. ``dynid identify``, ``dynid offline`` and ``dynid params`` print
+and write their results with these helpers, so every command shows a parameter the
+same way (name, value, Gautier's σ, %σ, ``*`` when %σ > 30: not identified) and
+writes the same JSON keys (the format in the README, "JSON (--json)").
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "NOT_IDENTIFIED_PERCENT",
+    "estimates_table",
+    "json_number",
+    "log_document",
+    "matplotlib_pyplot",
+    "parameters_document",
+    "write_estimates_csv",
+    "write_json",
+    "write_plot",
+]
+
+#: A parameter whose relative standard deviation exceeds this is "not identified".
+NOT_IDENTIFIED_PERCENT = 30.0
+
+
+def json_number(value: Any) -> float | None:
+    """A float for JSON, None for NaN and infinities (JSON has neither)."""
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def _text(value: float, digits: int = 6) -> str:
+    return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
+
+
+def estimates_table(names: Sequence[str], theta: Any, std: Any) -> list[str]:
+    """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30).
+
+    ``theta`` and ``std`` are sequences of p reals (arrays or lists).
+    """
+    rows = []
+    for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(raw_value), float(raw_sigma)
+        if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
+            percent = 100.0 * sigma / abs(value)
+            percent_text = f"{percent:.2f}"
+        else:
+            percent = math.inf
+            percent_text = "inf" if math.isfinite(value) else "nan"
+        flag = "*" if not percent <= NOT_IDENTIFIED_PERCENT else ""
+        rows.append((name, _text(value), _text(sigma, 3), percent_text, flag))
+    headers = ("name", "value", "σ", "%σ", "")
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)]
+    lines = [
+        f"{headers[0]:<{widths[0]}}  {headers[1]:>{widths[1]}}  "
+        f"{headers[2]:>{widths[2]}}  {headers[3]:>{widths[3]}}",
+        f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}  {'-' * widths[3]}",
+    ]
+    for name, value_text, sigma_text, percent_text, flag in rows:
+        lines.append(
+            f"{name:<{widths[0]}}  {value_text:>{widths[1]}}  "
+            f"{sigma_text:>{widths[2]}}  {percent_text:>{widths[3]}}  {flag}".rstrip()
+        )
+    if any(r[4] for r in rows):
+        lines.append(
+            f"* %σ > {NOT_IDENTIFIED_PERCENT:g}: not identified (too little "
+            "excitation of this parameter, or too much noise)"
+        )
+    return lines
+
+
+def parameters_document(
+    robot: Any, names: Sequence[str], theta: Any, std: Any
+) -> list[dict[str, Any]]:
+    """The ``parameters`` list of the JSON format (README.md, "JSON (--json)")."""
+    definitions: Mapping[str, Any] = dict(
+        zip(robot.base.names, robot.base.definitions, strict=True)
+    )
+    out = []
+    for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
+        value, sigma = float(raw_value), float(raw_sigma)
+        percent = (
+            100.0 * sigma / abs(value)
+            if math.isfinite(value) and math.isfinite(sigma) and value != 0.0
+            else math.inf
+        )
+        out.append(
+            {
+                "name": name,
+                "value": json_number(value),
+                "std": json_number(sigma),
+                "relative_std_percent": json_number(percent),
+                "identified": bool(percent <= NOT_IDENTIFIED_PERCENT),
+                "definition": dict(definitions.get(name, {})),
+            }
+        )
+    return out
+
+
+def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
+    """The ``log`` entry of the JSON format."""
+    return {
+        "path": str(args.log),
+        "samples": int(log.num_samples),
+        "bad_samples": int(np.count_nonzero(log.bad_samples)),
+        "time_step": float(log.time_step),
+        "duration": float(log.duration),
+        "warnings": list(log.warnings),
+    }
+
+
+def write_json(path: str, document: Mapping[str, Any]) -> None:
+    """Writes ``document`` as indented JSON (no NaN: invalid JSON)."""
+    Path(path).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n")
+
+
+def matplotlib_pyplot() -> Any:
+    """``matplotlib.pyplot`` with the Agg backend, or a ValueError saying how to fix."""
+    try:
+        import matplotlib
+    except ImportError:
+        raise ValueError(
+            "--plot needs matplotlib, which is not installed (pip install "
+            "matplotlib, or drop --plot)."
+        ) from None
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _invalid_runs(
+    t: np.ndarray, valid: np.ndarray, step: float
+) -> Iterator[tuple[float, float]]:
+    """(start, stop) time spans where ``valid`` is 0."""
+    bad = np.concatenate([[False], valid < 0.5, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(bad))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        yield t[start], t[stop - 1] + step
+
+
+def write_plot(
+    path: str, t: np.ndarray, theta: np.ndarray, std: np.ndarray, valid, names, title
+) -> None:
+    """One subplot per parameter: estimate, ±σ band, invalid periods shaded."""
+    plt = matplotlib_pyplot()
+    p = len(names)
+    columns = 2 if p > 4 else 1
+    rows = math.ceil(p / columns)
+    figure, axes = plt.subplots(
+        rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
+    )
+    axes = np.atleast_1d(axes).ravel()
+    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    # Nothing to show before the first valid solve (the block holds zeros).
+    first = int(np.argmax(np.asarray(valid) > 0.5))
+    theta = np.array(theta, dtype=float)
+    theta[:first] = np.nan
+    finite_std = np.where(np.isfinite(std), std, np.nan)
+    for i, name in enumerate(names):
+        axis = axes[i]
+        axis.plot(t, theta[:, i], color="C0", lw=1.0)
+        axis.fill_between(
+            t,
+            theta[:, i] - finite_std[:, i],
+            theta[:, i] + finite_std[:, i],
+            color="C0",
+            alpha=0.25,
+            lw=0.0,
+        )
+        for start, stop in _invalid_runs(t, valid, step):
+            axis.axvspan(start, stop, color="0.85", lw=0.0, zorder=0)
+        axis.set_ylabel(name)
+        axis.grid(True, alpha=0.3)
+    for axis in axes[p:]:
+        axis.set_visible(False)
+    for axis in axes[max(0, p - columns) : p]:
+        axis.set_xlabel("t [s]")
+    figure.suptitle(f"{title} (grey: invalid window, estimate held; band: ±σ)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+
+
+def write_estimates_csv(
+    path: str, t: Any, valid: Any, theta: Any, names: Sequence[str]
+) -> None:
+    """Writes ``t,valid,<names>``, one row per solve (``dynid identify --out``)."""
+    with open(path, "w", newline="") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["t", "valid", *names])
+        for k in range(len(t)):
+            writer.writerow(
+                [
+                    f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
+                    int(valid[k] > 0.5),
+                    *(f"{x:.17g}" for x in theta[k]),
+                ]
+            )

@@ -1,0 +1,432 @@
+"""Settings, timing and results of the on-line identifier (pure configuration).
+
+One on-line identifier is the chain (docs/CONVENTIONS.md §2-§3)::
+
+    [q; τ] every h ──► matched causal Jacobi filters (orders 0, 1)
+        ──► (q̂, v̂, τ̂) at t - delay ──► model rows (D, G, y) ──► modulating bank
+        (every bank_time_step, window T) ──► sliding least squares (every
+        update_period) ──► θ̂, σ(θ̂), cond, valid, status
+
+Two drivers run it on the same numerics: the Drake blocks
+(``drake_dynid.diagrams.add_online_identifier``) and the vectorised core replay
+(:mod:`drake_dynid.core.replay`). This module holds what both read:
+:class:`OnlineSettings` (with the one ℓ rule and the one construction of the Jacobi
+filters and of the bank), the event offsets :data:`BANK_OFFSET` and
+:data:`SOLVE_OFFSET`, and :class:`OnlineTrace`, the estimates over time.
+
+Periods on the signal grid (:meth:`OnlineSettings.on_grid`, docs/CONVENTIONS.md
+§2): every event period and window must be a whole number of its sample period.
+``bank_time_step`` and ``update_period`` left at None become the multiples of the
+signal period h closest to their nominal values (:data:`NOMINAL_BANK_TIME_STEP`,
+:data:`NOMINAL_UPDATE_PERIOD`; ties go to the smaller one), the bank step at most
+``jacobi_window``/10; the Jacobi window and the modulating window become the
+nearest multiples of h and of the bank step when they are not already. At
+h = 1 ms nothing moves; a 125 Hz log (h = 8 ms) gets a 16 ms bank and a 96 ms
+solve period.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core.fourier_bank import (
+    MIN_FUNCTIONS,
+    FourierBank,
+    band_frequencies,
+    fourier_bank,
+    paper_frequencies,
+)
+from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
+from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.rows import check_model_kind, num_equations
+
+__all__ = [
+    "BANK_OFFSET",
+    "MIN_BANK_SAMPLES_PER_JACOBI_WINDOW",
+    "MIN_FUNCTIONS",
+    "MODEL_DEFAULTS",
+    "NOMINAL_BANK_TIME_STEP",
+    "NOMINAL_UPDATE_PERIOD",
+    "SOLVE_OFFSET",
+    "WEIGHTINGS",
+    "OnlineSettings",
+    "OnlineTrace",
+    "nearest_multiple",
+]
+
+#: Offsets of the bank's and the solver's periodic events, in signal periods h:
+#: the bank updates at t_j + h/2, the solver at t_u + 3h/4 (docs/CONVENTIONS.md §2).
+BANK_OFFSET = 0.5
+SOLVE_OFFSET = 0.75
+
+#: Nominal bank sample period [s]: 20 ms costs no accuracy against 5 ms on the
+#: paper's 2R at 30 dB (0.93 / 2.76 % vs 0.97 / 2.71 % inertial / friction, 8 seeds)
+#: and makes the closed loop about 1.5 times faster.
+NOMINAL_BANK_TIME_STEP = 0.02
+
+#: Nominal period of the least-squares solve [s].
+NOMINAL_UPDATE_PERIOD = 0.1
+
+#: The bank samples the differentiator's output at least this many times per Jacobi
+#: window (its low-pass has a cut-off of a few 1/jacobi_window).
+MIN_BANK_SAMPLES_PER_JACOBI_WINDOW = 10
+
+#: Least-squares weightings of OnlineSettings.weighting.
+WEIGHTINGS = ("frequency", "none")
+
+#: Per-model defaults (benchmarks/bench_accuracy.py, 2R at SNR 30 dB over noise seeds,
+#: geometries and trajectories): κ = μ = q = 1 for both; the Lagrangian model, whose
+#: linear terms the matched differentiator keeps exact, gains from a longer Jacobi
+#: window than the power model, quadratic in the filtered signals. ``bandwidth`` is the
+#: excitation band the default ℓ set covers: measure it on your data with
+#: ``drake_dynid.core.excitation.estimate_bandwidth`` (``dynid identify`` does).
+MODEL_DEFAULTS: dict[str, dict[str, Any]] = {
+    "lagrangian": {"jacobi_window": 0.4, "kappa": 1.0, "mu": 1.0, "bandwidth": 0.6},
+    "power": {"jacobi_window": 0.3, "kappa": 1.0, "mu": 1.0, "bandwidth": 0.6},
+}
+
+_OWNER = "OnlineSettings"
+_GRID_RTOL = 1e-9  # a value within this relative distance of a multiple is one
+
+
+def nearest_multiple(value: float, step: float, *, at_most: int | None = None) -> int:
+    """The count c >= 1 whose multiple c·step is closest to ``value``.
+
+    Ties go to the smaller count; ``at_most`` caps the count (still >= 1).
+    """
+    count = max(1, math.floor(value / step + 0.5 - _GRID_RTOL))
+    if at_most is not None:
+        count = max(1, min(count, at_most))
+    return count
+
+
+def _is_multiple(value: float, step: float) -> bool:
+    ratio = value / step
+    count = round(ratio)
+    return count >= 1 and abs(ratio - count) <= _GRID_RTOL * max(1.0, abs(ratio))
+
+
+def _on_grid(value: float, step: float) -> float:
+    """``value`` if it is a multiple of ``step``, else the nearest multiple."""
+    return value if _is_multiple(value, step) else nearest_multiple(value, step) * step
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """Settings of one on-line identifier (all echoed in the JSON results).
+
+    Attributes:
+        model: ``"lagrangian"`` (n equations per sample, the default) or ``"power"``
+            (the paper's scalar power model).
+        window: sliding window T of the modulating functions [s].
+        order: modulating order k (>= 1).
+        frequencies: indices ℓ of the modulating functions; None uses the default
+            set (:meth:`ell`: the band's integer bins, at least
+            :data:`MIN_FUNCTIONS`), ``"paper"`` the paper's ℓ = 0:0.05:10.
+        bandwidth: highest excitation frequency the default ℓ set covers [Hz].
+        jacobi_window: window Tj of the causal Jacobi differentiator [s].
+        kappa, mu, jacobi_q: Jacobi parameters κ, μ, q of the velocity estimate
+            (q̂, τ̂ use κ+1, μ+1: the matched bank).
+        bank_time_step: sample period of the bank [s], a multiple of the signal
+            period h (the bank decimates after the differentiator's low-pass), at
+            most jacobi_window/10. None (default): the multiple of h closest to
+            :data:`NOMINAL_BANK_TIME_STEP` (20 ms), see :meth:`on_grid`.
+        update_period: period of the least-squares solve [s], a multiple of h.
+            None (default): the multiple of h closest to
+            :data:`NOMINAL_UPDATE_PERIOD` (0.1 s).
+        max_condition: largest accepted condition number of the column-scaled A
+            (default ``core.lsq.DEFAULT_MAX_CONDITION``).
+        weighting: ``"frequency"`` (default): two-step weighted least squares
+            whose row weights follow a fitted noise model σ_j²(ν) = a_j + b_j ν²
+            per equation j (high-ℓ rows carry more velocity-estimate noise;
+            ``lsq.solve_frequency_weighted_least_squares``); ``"none"``: ordinary
+            least squares, as in the paper. On the 2R benchmark at 30 dB the
+            weighting halves the inertial error (benchmarks/bench_accuracy.py).
+    """
+
+    model: str = "lagrangian"
+    window: float = 20.0
+    order: int = 1
+    frequencies: Any = None
+    bandwidth: float = 0.6
+    jacobi_window: float = 0.4
+    kappa: float = 1.0
+    mu: float = 1.0
+    jacobi_q: int = 1
+    bank_time_step: float | None = None
+    update_period: float | None = None
+    max_condition: float = DEFAULT_MAX_CONDITION
+    weighting: str = "frequency"
+
+    def __post_init__(self) -> None:
+        owner = _OWNER
+        check_model_kind(owner, self.model, "model")
+        check.positive(owner, "window", self.window, "s")
+        check.positive(owner, "jacobi_window", self.jacobi_window, "s")
+        if self.bank_time_step is not None:
+            check.positive(owner, "bank_time_step", self.bank_time_step, "s")
+        if self.update_period is not None:
+            check.positive(owner, "update_period", self.update_period, "s")
+        check.positive(owner, "bandwidth", self.bandwidth, "Hz")
+        check.greater_than(owner, "max_condition", self.max_condition, 1.0)
+        if self.weighting not in WEIGHTINGS:
+            check.fail(
+                owner,
+                f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}; got "
+                f"{self.weighting!r}.",
+            )
+        limit = self.jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
+        if self.bank_time_step is not None and self.bank_time_step > limit:
+            check.fail(
+                owner,
+                "bank_time_step must be <= jacobi_window/"
+                f"{MIN_BANK_SAMPLES_PER_JACOBI_WINDOW} [s] (the bank samples the "
+                "differentiator's low-passed output; a coarser step aliases it); got "
+                f"{self.bank_time_step:g} with jacobi_window {self.jacobi_window:g}.",
+            )
+        if isinstance(self.frequencies, str) and self.frequencies != "paper":
+            check.fail(
+                owner,
+                f"frequencies must be None, 'paper' or a list of reals; got "
+                f"{self.frequencies!r}.",
+            )
+
+    @classmethod
+    def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
+        """Default settings of ``model`` (:data:`MODEL_DEFAULTS`), with overrides."""
+        check_model_kind(_OWNER, model, "model")
+        return cls(**{"model": model, **MODEL_DEFAULTS[model], **overrides})
+
+    # ----------------------------------------------------------- the signal grid
+    @property
+    def on_signal_grid(self) -> bool:
+        """True once :meth:`on_grid` has fixed the bank and solve periods."""
+        return self.bank_time_step is not None and self.update_period is not None
+
+    def on_grid(self, time_step: float) -> OnlineSettings:
+        """These settings for signals sampled every ``time_step`` h [s].
+
+        * ``bank_time_step`` None: the multiple of h closest to
+          min(:data:`NOMINAL_BANK_TIME_STEP`, jacobi_window/10), at most
+          jacobi_window/10; given: it must be a multiple of h.
+        * ``update_period`` None: the multiple of h closest to
+          :data:`NOMINAL_UPDATE_PERIOD`; given: it must be a multiple of h.
+        * ``jacobi_window``: the nearest multiple of h when it is not one;
+          ``window``: the nearest multiple of the bank step when it is not one.
+
+        Ties go to the smaller multiple; a value already on the grid is kept
+        exactly. Idempotent.
+
+        Raises:
+            ValueError: a given ``bank_time_step`` or ``update_period`` is not a
+                multiple of h, or ``jacobi_window`` is shorter than 10 h.
+        """
+        h = check.positive(_OWNER, "time_step", time_step, "s")
+        jacobi_window = _on_grid(self.jacobi_window, h)
+        limit = jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
+        if limit < h * (1.0 - _GRID_RTOL):
+            check.fail(
+                _OWNER,
+                f"jacobi_window must be >= {MIN_BANK_SAMPLES_PER_JACOBI_WINDOW} signal "
+                f"periods ({MIN_BANK_SAMPLES_PER_JACOBI_WINDOW * h:g} s) so that the "
+                f"bank samples its output often enough; got {self.jacobi_window:g} "
+                f"with h {h:g}.",
+            )
+        if self.bank_time_step is None:
+            nominal = min(NOMINAL_BANK_TIME_STEP, limit)  # as in bank()
+            if _is_multiple(nominal, h):
+                bank_time_step = nominal
+            else:
+                top = max(1, math.floor(limit / h + _GRID_RTOL))
+                bank_time_step = nearest_multiple(nominal, h, at_most=top) * h
+        else:
+            bank_time_step = self._given_multiple("bank_time_step", h)
+        if self.update_period is None:
+            update_period = _on_grid(NOMINAL_UPDATE_PERIOD, h)
+        else:
+            update_period = self._given_multiple("update_period", h)
+        return dataclasses.replace(
+            self,
+            window=_on_grid(self.window, bank_time_step),
+            jacobi_window=jacobi_window,
+            bank_time_step=bank_time_step,
+            update_period=update_period,
+        )
+
+    def _given_multiple(self, name: str, h: float) -> float:
+        value = getattr(self, name)
+        if not _is_multiple(value, h):
+            check.fail(
+                _OWNER,
+                f"{name} must be a multiple of the signal period h [s]; got "
+                f"{value:g} with h {h:g} (leave it unset for the multiple of h "
+                "closest to the nominal value).",
+            )
+        return float(value)
+
+    def decimation(self, time_step: float) -> int:
+        """Signal samples per bank sample, bank_time_step/h (after :meth:`on_grid`)."""
+        return round(self.resolved("bank_time_step") / time_step)
+
+    def solve_decimation(self, time_step: float) -> int:
+        """Signal samples per solve, update_period/h (after :meth:`on_grid`)."""
+        return round(self.resolved("update_period") / time_step)
+
+    def resolved(self, name: str) -> float:
+        """The period ``name`` (``"bank_time_step"`` or ``"update_period"``) [s].
+
+        Raises:
+            ValueError: it is None (not set and not yet put on a grid).
+        """
+        value = getattr(self, name)
+        if value is None:
+            check.fail(
+                _OWNER,
+                f"{name} is not set; call on_grid(time_step) with the signal period "
+                "first (or give it).",
+            )
+        return float(value)
+
+    # --------------------------------------------------------------- the designs
+    def num_equations(self, num_joints: int) -> int:
+        """m, equations per sample: 1 (power) or n (Lagrangian)."""
+        return num_equations(self.model, num_joints)
+
+    def ell(self) -> np.ndarray:
+        """The modulating indices ℓ of this configuration.
+
+        ``frequencies=None``: the default set, the integers ℓ = 0, 1, ... with
+        (ℓ + k)/T up to ``bandwidth`` (orthogonal rows), extended with the next
+        integers to at least :data:`MIN_FUNCTIONS` when the window is too short
+        (``core.fourier_bank.band_frequencies``, the library's one ℓ rule).
+        """
+        if self.frequencies is None:
+            return band_frequencies(self.window, self.bandwidth, order=self.order)
+        if isinstance(self.frequencies, str):
+            return paper_frequencies()
+        return np.asarray(self.frequencies, dtype=float)
+
+    def bank(self) -> FourierBank:
+        """The modulating-function design.
+
+        Its sample period is ``bank_time_step``; while that is None (before
+        :meth:`on_grid`), the nominal min(:data:`NOMINAL_BANK_TIME_STEP`,
+        jacobi_window/10), for signals whose period divides it.
+        """
+        step = self.bank_time_step
+        if step is None:
+            step = min(
+                NOMINAL_BANK_TIME_STEP,
+                self.jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW,
+            )
+        return fourier_bank(self.window, step, order=self.order, ell=self.ell())
+
+    def row_weighting(
+        self, m: int, bank: Any = None
+    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The solver's ``weighting`` argument (``lsq.solve_window``).
+
+        None for ordinary least squares, else ``(row_frequency, row_group)`` of
+        the bank's rows (``bank.row_frequencies``).
+
+        Args:
+            m: equations per sample of the model rows.
+            bank: this configuration's bank when already built (default: builds
+                ``self.bank()``); any ``core.bank.ModulatingBank``.
+        """
+        if self.weighting == "none":
+            return None
+        return (self.bank() if bank is None else bank).row_frequencies(m)
+
+    def jacobi_parameters(self) -> dict[str, Any]:
+        """Arguments of the matched differentiator (orders 0 and 1) but the period.
+
+        ``window``, ``kappa``, ``mu``, ``q``, ``orders``, ``matched``: the same for
+        ``core.jacobi.jacobi_filters`` and the ``CausalJacobiDifferentiator``
+        block. Identifiers with equal parameters can share one differentiator.
+        """
+        return {
+            "window": self.jacobi_window,
+            "kappa": self.kappa,
+            "mu": self.mu,
+            "q": self.jacobi_q,
+            "orders": (0, 1),
+            "matched": True,
+        }
+
+    def jacobi_filters(self, time_step: float) -> tuple[JacobiFilter, ...]:
+        """The matched Jacobi filters ``(smooth, velocity)`` at period ``time_step``.
+
+        Order 0 smooths q and τ, order 1 estimates q̇; both are the same low-pass
+        D⁰(κ+1, μ+1, q) and refer to the same instant t - delay (docs/MATH.md §1).
+        """
+        parameters = self.jacobi_parameters()
+        return jacobi_filters(
+            parameters.pop("orders"), time_step=time_step, **parameters
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-friendly dict of the settings (ℓ as a list)."""
+        out = asdict(self)
+        out["frequencies"] = self.ell().tolist()
+        return out
+
+
+@dataclass
+class OnlineTrace:
+    """Estimates of one on-line identifier over time (one row per solve).
+
+    Attributes:
+        settings: the identifier's settings (on the signal grid).
+        names: base parameter names (p).
+        t: (M,) times of the solves [s].
+        theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
+        std: (M, p) Gautier standard deviations (inf before the first valid solve).
+        condition_number: (M,) condition number of the column-scaled A.
+        valid: (M,) 1 when the solve at that time was accepted.
+        status: (M,) the identifier's status code (``core.identifier.Status``: 0
+            ok, 1 window not ready or holding a bad sample, 2 not identifiable).
+        unidentified: (M, p) 1 for the parameters found not excited by that solve.
+        delay: latency of the estimate [s]: the differentiator delay plus one sample
+            per block (the window ends at t - delay).
+    """
+
+    settings: OnlineSettings
+    names: tuple[str, ...]
+    t: np.ndarray
+    theta: np.ndarray
+    std: np.ndarray
+    condition_number: np.ndarray
+    valid: np.ndarray
+    delay: float
+    status: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    unidentified: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def final(self) -> dict[str, Any]:
+        """The estimate at the end of the run (last valid estimate held)."""
+        theta = self.theta[-1] if len(self.t) else np.full(len(self.names), np.nan)
+        std = self.std[-1] if len(self.t) else np.full(len(self.names), np.inf)
+        return {
+            "theta": theta,
+            "std": std,
+            "condition_number": float(self.condition_number[-1])
+            if len(self.t)
+            else math.inf,
+            "valid": bool(self.valid[-1]) if len(self.t) else False,
+            "status": int(self.status[-1]) if len(self.status) else None,
+            "unidentified": tuple(
+                name
+                for name, flag in zip(
+                    self.names,
+                    self.unidentified[-1] if len(self.unidentified) else (),
+                    strict=False,
+                )
+                if flag > 0.5
+            ),
+        }

@@ -1,0 +1,229 @@
+"""The ``SlidingQRIdentifier`` block: least squares on the bank's sliding window."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from pydrake.systems.framework import (
+    Context,
+    DiscreteValues,
+    InputPort,
+    LeafSystem,
+    OutputPort,
+)
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core.identifier import (
+    IdentifierState,
+    Status,
+    identifier_init,
+    identifier_update,
+)
+from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+
+__all__ = ["SlidingQRIdentifier"]
+
+# The state groups of the block, in declaration order, and their sizes (p: the
+# parameters); each is also an output port of the same name.
+_GROUPS = (
+    "theta",
+    "theta_std",
+    "condition_number",
+    "valid",
+    "unidentified",
+    "status",
+)
+
+
+class SlidingQRIdentifier(LeafSystem):
+    r"""Least squares on the bank's sliding equations, with Gautier's uncertainty.
+
+    .. pydrake_system::
+
+        name: SlidingQRIdentifier
+        input_ports:
+        - A
+        - B
+        - window_valid
+        output_ports:
+        - theta
+        - theta_std
+        - condition_number
+        - valid
+        - unidentified
+        - status
+
+    Every ``update_period`` seconds, if ``window_valid`` is 1, the block solves
+
+        θ̂ = argmin ‖A θ - B‖₂      by QR (numpy), A: r × p,
+
+    with σ_ρ² = ‖B - Aθ̂‖²/(r - p), C = σ_ρ² (AᵀA)⁻¹ (from R, never a pseudo-inverse),
+    ``theta_std`` = √diag(C) (in the units of θ), and ``condition_number`` of A after
+    scaling its columns to unit norm (docs/MATH.md §4). When the window is not
+    ready, or the system is rank deficient or more ill-conditioned than
+    ``max_condition``, the block **holds the last valid estimate** and its σ, sets
+    ``valid`` = 0, and marks in ``unidentified`` (p, 0/1) the parameters found not
+    excited; ``status`` is ``Status.OK`` (0), ``Status.WINDOW_NOT_READY`` (1: window
+    not full or holding an invalid sample) or ``Status.NOT_IDENTIFIABLE`` (2: rank
+    deficient or ill-conditioned). Before the first valid update ``theta`` is
+    ``initial_theta`` (default zeros) and ``theta_std`` is +inf. The step is
+    ``drake_dynid.core.identifier.identifier_update``, shared with the core replay.
+
+    State: one discrete state group per quantity (theta, theta_std,
+    condition_number, valid, unidentified, status), each exposed by a state output
+    port of the same name (no direct feedthrough). Double only: a plain Python
+    ``LeafSystem`` has no AutoDiffXd or symbolic scalar conversion.
+    """
+
+    def __init__(
+        self,
+        num_parameters: int,
+        num_rows: int,
+        update_period: float,
+        *,
+        max_condition: float = DEFAULT_MAX_CONDITION,
+        names: Sequence[str] | None = None,
+        initial_theta: Sequence[float] | None = None,
+        offset: float = 0.0,
+        row_weighting: tuple[Any, Any] | None = None,
+    ):
+        """Builds the block.
+
+        Args:
+            num_parameters: p, unknowns.
+            num_rows: r, rows of A and B (``ModulatingIntegralBank.num_rows``).
+            update_period: seconds between two solves [s].
+            max_condition: largest accepted condition number of the column-scaled A.
+            names: parameter names (for messages), length p.
+            initial_theta: estimate held before the first valid solve (default 0).
+            offset: time of the first update [s].
+            row_weighting: ``(row_frequency, row_group)``, each (r,): the frequency
+                index ν and noise group (model equation j) of each row
+                (``bank.row_frequencies``). Given, every solve is the two-step
+                frequency-weighted one
+                (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
+                σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
+                None: ordinary least squares.
+        """
+        super().__init__()
+        owner = "SlidingQRIdentifier"
+        p = check.integer(owner, "num_parameters", num_parameters, 1)
+        r = check.integer(owner, "num_rows", num_rows, 1)
+        self._period = check.positive(owner, "update_period", update_period, "s")
+        self._max_condition = check.greater_than(
+            owner, "max_condition", max_condition, 1.0
+        )
+        if names is not None and len(names) != p:
+            check.fail(owner, f"names must have {p} entries; got {len(names)}.")
+        self._names = tuple(names) if names is not None else None
+        if initial_theta is not None:
+            check.array(owner, "initial_theta", initial_theta, (p,))
+        initial = identifier_init(p, initial_theta)
+        self._p, self._r = p, r
+        self._weighting = None
+        if row_weighting is not None:
+            frequency, group = row_weighting
+            self._weighting = (
+                check.array(owner, "row_frequency", frequency, (r,)),
+                check.array(owner, "row_group", group, (r,)).astype(int),
+            )
+        self._a = self.DeclareVectorInputPort("A", r * p)
+        self._b = self.DeclareVectorInputPort("B", r)
+        self._window_valid = self.DeclareVectorInputPort("window_valid", 1)
+        self._groups = {
+            name: self.DeclareDiscreteState(value)
+            for name, value in zip(_GROUPS, self._as_vectors(initial), strict=True)
+        }
+        self.DeclarePeriodicDiscreteUpdateEvent(self._period, offset, self._Solve)
+        self._outputs = {
+            name: self.DeclareStateOutputPort(name, index)
+            for name, index in self._groups.items()
+        }
+
+    @property
+    def update_period(self) -> float:
+        """Seconds between two solves."""
+        return self._period
+
+    def get_input_port_A(self) -> InputPort:
+        """The input port ``A`` (r × p, row-major)."""
+        return self._a
+
+    def get_input_port_B(self) -> InputPort:
+        """The input port ``B`` (r)."""
+        return self._b
+
+    def get_input_port_window_valid(self) -> InputPort:
+        """The input port ``window_valid`` (1: solve this window)."""
+        return self._window_valid
+
+    def get_output_port_theta(self) -> OutputPort:
+        """The output port ``theta`` (p, the estimate held)."""
+        return self._outputs["theta"]
+
+    def get_output_port_theta_std(self) -> OutputPort:
+        """The output port ``theta_std`` (p, Gautier's σ)."""
+        return self._outputs["theta_std"]
+
+    def get_output_port_condition_number(self) -> OutputPort:
+        """The output port ``condition_number`` (1)."""
+        return self._outputs["condition_number"]
+
+    def get_output_port_valid(self) -> OutputPort:
+        """The output port ``valid`` (1: the last solve was accepted)."""
+        return self._outputs["valid"]
+
+    def get_output_port_unidentified(self) -> OutputPort:
+        """The output port ``unidentified`` (p, 1: not excited in the last solve)."""
+        return self._outputs["unidentified"]
+
+    def get_output_port_status(self) -> OutputPort:
+        """The output port ``status`` (1, a ``core.identifier.Status`` code)."""
+        return self._outputs["status"]
+
+    def status(self, context: Context) -> Status:
+        """The status of the last update."""
+        return Status(int(self._value(context, "status")[0]))
+
+    def state(self, context: Context) -> IdentifierState:
+        """The identifier's state in ``context`` (``core.identifier``)."""
+        return IdentifierState(
+            theta=self._value(context, "theta").copy(),
+            std=self._value(context, "theta_std").copy(),
+            condition_number=float(self._value(context, "condition_number")[0]),
+            valid=bool(self._value(context, "valid")[0] > 0.5),
+            unidentified=self._value(context, "unidentified").copy(),
+            status=Status(int(self._value(context, "status")[0])),
+        )
+
+    def _value(self, context: Context, name: str) -> np.ndarray:
+        return context.get_discrete_state(int(self._groups[name])).get_value()
+
+    @staticmethod
+    def _as_vectors(state: IdentifierState) -> tuple[np.ndarray, ...]:
+        return (
+            state.theta,
+            state.std,
+            np.array([state.condition_number]),
+            np.array([1.0 if state.valid else 0.0]),
+            state.unidentified,
+            np.array([float(state.status)]),
+        )
+
+    def _Solve(self, context: Context, discrete_state: DiscreteValues) -> None:
+        ready = self._window_valid.Eval(context)[0] > 0.5
+        a = self._a.Eval(context).reshape(self._r, self._p) if ready else None
+        b = self._b.Eval(context) if ready else None
+        new = identifier_update(
+            self.state(context),
+            ready,
+            a,
+            b,
+            weighting=self._weighting,
+            max_condition=self._max_condition,
+            names=self._names,
+        )
+        for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
+            discrete_state.set_value(int(self._groups[name]), value)

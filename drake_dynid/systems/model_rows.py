@@ -1,0 +1,121 @@
+"""The ``ModelRows`` block: per-sample power or Lagrangian rows, packed."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydrake.systems.framework import (
+    BasicVector,
+    Context,
+    InputPort,
+    LeafSystem,
+    OutputPort,
+)
+
+from drake_dynid.core.rows import (
+    check_model_kind,
+    check_rows,
+    num_channels,
+    num_equations,
+    pack_rows,
+)
+
+__all__ = ["ModelRows"]
+
+
+class ModelRows(LeafSystem):
+    r"""Per-sample rows (D, G, y) of the power or Lagrangian model, packed.
+
+    .. pydrake_system::
+
+        name: ModelRows
+        input_ports:
+        - q
+        - v
+        - tau
+        output_ports:
+        - channels
+
+    For the signals of one instant (already aligned by the differentiator), the
+    output packs the arrays of the modulated equation (docs/CONVENTIONS.md §3)
+
+        -M_ġ(D(q, v))·θ + M_g(G(q, v))·θ = M_g(y(q, v, τ))
+
+    as ``drake_dynid.core.rows.pack_rows(D, G, y)``: ``D``, ``G`` are ``m × p`` and
+    ``y`` is ``m`` (m = 1 for the power model, n for the Lagrangian model; p base
+    parameters). Units follow the base parameters: D·θ is an energy [J] (power
+    model) or a momentum [N·m·s] (Lagrangian model).
+
+    The output is computed from the inputs (direct feedthrough, no state); it is
+    evaluated only when a downstream block reads it, e.g. at the bank's
+    (decimated) update rate. Double only: a plain Python ``LeafSystem`` has no
+    AutoDiffXd or symbolic scalar conversion.
+    """
+
+    def __init__(self, rows: Any, kind: str = "lagrangian"):
+        """Builds the block.
+
+        Args:
+            rows: a row provider (``drake_dynid.core.rows.RowProvider``, e.g. a
+                ``drake_dynid.RobotModel``): ``num_joints``, ``num_parameters``,
+                ``names`` and ``model_rows(kind, q, v, tau) -> (D, G, y)`` on
+                batches (N, n).
+            kind: ``"power"`` (the paper's model, m = 1) or ``"lagrangian"`` (m = n).
+        """
+        super().__init__()
+        self._kind = check_model_kind("ModelRows", kind)
+        n = check_rows("ModelRows", rows)
+        self._rows = rows
+        self._m = num_equations(kind, n)
+        self._p = int(rows.num_parameters)
+        self._num_channels = num_channels(self._m, self._p)
+        # Providers with ``packed_rows(kind, q, v, tau)`` (one sample, packed as
+        # ``pack_rows``) skip numpy's per-call overhead on (1, n) batches.
+        self._packed = getattr(rows, "packed_rows", None)
+        self._q = self.DeclareVectorInputPort("q", n)
+        self._v = self.DeclareVectorInputPort("v", n)
+        self._tau = self.DeclareVectorInputPort("tau", n)
+        self._channels = self.DeclareVectorOutputPort(
+            "channels", self._num_channels, self._CalcChannels
+        )
+
+    @property
+    def kind(self) -> str:
+        """The model kind, ``"power"`` or ``"lagrangian"``."""
+        return self._kind
+
+    @property
+    def num_equations(self) -> int:
+        """m, equations per sample."""
+        return self._m
+
+    @property
+    def num_parameters(self) -> int:
+        """p, base parameters."""
+        return self._p
+
+    def get_input_port_q(self) -> InputPort:
+        """The input port ``q`` (n joint positions)."""
+        return self._q
+
+    def get_input_port_v(self) -> InputPort:
+        """The input port ``v`` (n joint velocities)."""
+        return self._v
+
+    def get_input_port_tau(self) -> InputPort:
+        """The input port ``tau`` (n joint torques)."""
+        return self._tau
+
+    def get_output_port_channels(self) -> OutputPort:
+        """The output port ``channels`` (2·m·p + m packed rows)."""
+        return self._channels
+
+    def _CalcChannels(self, context: Context, output: BasicVector) -> None:
+        q = self._q.Eval(context)
+        v = self._v.Eval(context)
+        tau = self._tau.Eval(context)
+        if self._packed is not None:  # single-sample fast path (Planar2RRows)
+            output.SetFromVector(self._packed(self._kind, q, v, tau))
+            return
+        d, g, y = self._rows.model_rows(self._kind, q[None, :], v[None, :], tau[None])
+        output.SetFromVector(pack_rows(d[0], g[0], y[0]))

@@ -1,0 +1,51 @@
+"""Every benchmark runs with --quick (one test per script; a smoke test, no timing).
+
+Each script is imported from benchmarks/ by path and its ``main(argv)`` called with
+``--quick`` and ``--json`` into a temporary directory. The accuracy benchmark also
+checks its own first line: the core's window solve equals the Drake blocks in the loop.
+"""
+
+import importlib.util
+import json
+import pathlib
+import re
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+def load_benchmark(name, monkeypatch):
+    # The scripts import their shared helper (benchmarks/_timing.py) by name, as
+    # when run from the command line.
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))
+    path = ROOT / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"benchmark_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize(
+    "name", ["bench_bank", "bench_jacobi", "bench_pipeline", "bench_regressors"]
+)
+def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):
+    out = tmp_path / f"{name}.json"
+    assert load_benchmark(name, monkeypatch).main(["--quick", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "|---" in printed  # a markdown table
+    assert json.loads(out.read_text())
+
+
+@pytest.mark.slow
+def test_bench_accuracy_quick_run(tmp_path, capsys, monkeypatch):
+    out = tmp_path / "accuracy.json"
+    bench = load_benchmark("bench_accuracy", monkeypatch)
+    assert bench.main(["--quick", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    check = re.search(r"Lagrangian ([0-9.e+-]+), power ([0-9.e+-]+)", printed)
+    assert float(check.group(1)) < 1e-9 and float(check.group(2)) < 1e-9
+    assert "| on-line Lagrangian |" in printed and "| off-line IDIM-WLS |" in printed
+    assert json.loads(out.read_text())["block_check"] == pytest.approx(
+        [float(check.group(1)), float(check.group(2))], rel=0.1
+    )
