@@ -317,13 +317,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     outputs.add_argument(
         "--out",
         metavar="FILE.csv",
-        help="write the estimates over time: t,valid,<base parameter names>",
+        help="write the estimates over time: t,valid,<base parameter names>,"
+        "std_<names> (empty cells before the first valid estimate)",
     )
     outputs.add_argument(
         "--plot",
         metavar="FILE.png",
         help="plot the estimates over time (needs matplotlib)",
     )
+    from drake_dynid.commands.validate import add_validation_arguments
+
+    add_validation_arguments(parser)
 
 
 def _matplotlib() -> Any:
@@ -391,16 +395,27 @@ def write_plot(
     plt.close(figure)
 
 
-def _write_estimates_csv(path: str, t, valid, theta, names) -> None:
+def _write_estimates_csv(path: str, t, valid, theta, names, std=None) -> None:
+    """``t,valid,<names>[,std_<names>]``, one row per solve.
+
+    Rows before the first valid estimate have empty estimate and σ cells (the
+    identifier holds zeros there, which are not estimates).
+    """
+    valid = np.asarray(valid, dtype=float) > 0.5
+    first = int(np.argmax(valid)) if valid.any() else len(valid)
+    columns = len(names) * (1 if std is None else 2)
     with open(path, "w", newline="") as stream:
         writer = csv.writer(stream)
-        writer.writerow(["t", "valid", *names])
+        stds = [] if std is None else [f"std_{name}" for name in names]
+        writer.writerow(["t", "valid", *names, *stds])
         for k in range(len(t)):
+            values = [] if k < first else [*theta[k], *([] if std is None else std[k])]
             writer.writerow(
                 [
                     f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
-                    int(valid[k] > 0.5),
-                    *(f"{x:.17g}" for x in theta[k]),
+                    int(valid[k]),
+                    *(f"{x:.17g}" for x in values),
+                    *([""] * (columns - len(values))),
                 ]
             )
 
@@ -428,10 +443,15 @@ def _invalid_reason(trace: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Replays the log through the on-line identifier; prints and writes results."""
+    from drake_dynid.commands._model import finish_identify
+    from drake_dynid.commands.validate import check_output_paths, validation_split
+
+    check_output_paths(args)
     settings = online_settings(args)
     if args.plot:
         _matplotlib()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
+    log, held, held_description = validation_split(args, log)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )
@@ -497,8 +517,13 @@ def run(args: argparse.Namespace) -> int:
                 f"  {reason}; the estimates above are the last valid ones "
                 f"(t = {t[last_valid]:.4g} s)."
             )
+    extra = finish_identify(
+        args, robot, held, held_description, {settings.model: theta}
+    )
     if args.out:
-        _write_estimates_csv(args.out, t, trace.valid, trace.theta, trace.names)
+        _write_estimates_csv(
+            args.out, t, trace.valid, trace.theta, trace.names, trace.std
+        )
         if not args.quiet:
             print(f"wrote {args.out}")
     if args.json:
@@ -520,6 +545,7 @@ def run(args: argparse.Namespace) -> int:
             },
             "urdf": str(args.urdf),
             "log": log_document(args, log),
+            **extra,
         }
         write_json(args.json, document)
         if not args.quiet:
