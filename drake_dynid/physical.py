@@ -526,8 +526,9 @@ def _constrained(
             return "non-finite solution"
         smallest = problem.link_min_eigenvalues(xs * problem.scales).min()
         lowest = xs[signed].min() if signed else 0.0
-        if min(smallest, lowest) < -_ACCEPT:
-            return f"inaccurate solution (constraint violated by {-min(smallest, lowest):.2g})"
+        violation = -min(smallest, lowest)
+        if violation > _ACCEPT:
+            return f"inaccurate solution (a constraint violated by {violation:.2g})"
         return None
 
     result, solver, seconds = _solve(owner, prog, accept)

@@ -23,7 +23,8 @@ motion, only torque-sensor noise and the noise of v̇: no model of the dynamics 
 predict it, and counting it would report the sensor's noise as model error (and
 make the figures depend on the sample rate). The raw comparison is reported too
 (``raw_relative_rms_percent``, τ as logged against the unfiltered prediction at
-the same samples): it adds the noise floor.
+the same samples): it adds the noise floor, the torque sensor's noise and the
+noise of v̇ between the motion band and the position cutoff.
 
 Per joint j, over the compared samples (e = τ_f − τ̂_f)::
 
@@ -84,7 +85,7 @@ class TorqueValidation:
         residual_std: (n,) standard deviation of the residual [N·m, N].
         rms_measured: (n,) RMS of the measured (low-passed) torque [N·m, N].
         raw_relative_rms_percent: (n,) the relative RMS error against the raw
-            torques (includes the sensor noise above the band) [%].
+            torques, unfiltered prediction (adds the noise above the band) [%].
         total_relative_rms_percent: all joints together,
             100·‖residual‖/‖measured‖ [%].
         settings: ``cutoff_hz``, ``cutoff_rule``, ``decimation_cutoff_hz``,
