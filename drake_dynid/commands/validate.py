@@ -228,7 +228,10 @@ def validation_document(
 
 
 def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> None:
-    """One panel per joint: measured (low-passed) torque and each prediction."""
+    """One panel per joint: measured (low-passed) torque and each prediction.
+
+    The thin lines on the right axis are the residuals (measured - predicted).
+    """
     from drake_dynid.commands.identify import _matplotlib
 
     plt = _matplotlib()
@@ -249,6 +252,7 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
     t = gapped(first.t)
     for j, name in enumerate(first.joint_names):
         axis = axes[j]
+        residuals = axis.twinx()  # right axis: measured - predicted
         axis.plot(t, gapped(first.measured[:, j]), color="k", lw=1.2, label="measured")
         for k, (label, result) in enumerate(validations.items()):
             axis.plot(
@@ -257,8 +261,16 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
                 color=f"C{k}",
                 lw=0.9,
                 ls="--" if k else "-",
-                label=f"{label} ({result.relative_rms_percent[j]:.1f} %)",
+                label=f"{label} ({result.relative_rms_percent[j]:.2f} %)",
             )
+            residuals.plot(
+                t,
+                gapped(result.measured[:, j] - result.predicted[:, j]),
+                color=f"C{k}",
+                lw=0.5,
+                alpha=0.5,
+            )
+        residuals.tick_params(labelsize=7, colors="0.4")
         axis.set_ylabel(f"{name}\n[N·m]")
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=7, loc="upper right")
@@ -266,7 +278,7 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
         axis.set_visible(False)
     for axis in axes[max(0, n - columns) : n]:
         axis.set_xlabel("t [s]")
-    figure.suptitle(title)
+    figure.suptitle(f"{title}; thin lines: residuals (right axis)")
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)
