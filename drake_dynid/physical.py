@@ -433,8 +433,8 @@ def check_physical(
     s = np.maximum(np.asarray(result.GetSolution(slack), dtype=float), 0.0)
     bad = np.flatnonzero(s > tolerance)
     names = link_names(robot)
-    bad_columns = set()
-    for j in bad:
+    bad_columns: set[int] = set()
+    for j in bad.tolist():
         bad_columns.update(problem.layout.links[j])
         if problem.layout.rotor[j] >= 0:
             bad_columns.add(problem.layout.rotor[j])
