@@ -11,8 +11,10 @@ is not in the span of the columns kept before it::
 
 The test is a QR factorisation *without* pivoting of the column-normalised rows:
 ``|R_kk|`` is the distance of unit column k from the span of columns 0..k-1, so
-column k is independent when ``|R_kk| > tolerance``. With Khalil's column order this
-returns Khalil's base set (e.g. the 2R arm gives ZZ1R = ZZ1 + L1²·M2, ZZ2, MX2, MY2).
+column k is independent when ``|R_kk| > tolerance``. Columns whose norm is below
+``ZERO_COLUMN`` (1e-10) of the largest are zero (round-off) and dropped first.
+With Khalil's column order this returns Khalil's base set (e.g. the 2R arm gives
+ZZ1R = ZZ1 + L1²·M2, ZZ2, MX2, MY2).
 
 Reduce on inverse-dynamics rows or power rows (energy differences), never on raw
 energies: a constant energy column (potential energy along a vertical axis) is not
@@ -30,6 +32,10 @@ import numpy as np
 from drake_dynid.core import _validate
 
 _OWNER = "base_parameters"
+
+ZERO_COLUMN = 1e-10
+"""A column whose norm is below this fraction of the largest column norm is zero
+(round-off, e.g. MZ2 of an arm whose joint 1 is vertical: its column is ~1e-14)."""
 
 
 def _snap(value: float, decimals: int) -> float:
@@ -191,7 +197,9 @@ def base_parameters(
     decimals = _validate.integer(_OWNER, "decimals", decimals, minimum=1)
 
     scale = np.linalg.norm(w, axis=0)
-    nonzero = scale > 0.0
+    # A column of round-off (a parameter that does not enter the model, computed
+    # as 1e-15-sized products) is zero: normalised, it would look independent.
+    nonzero = scale > ZERO_COLUMN * scale.max()
     normalised = np.zeros_like(w)
     normalised[:, nonzero] = w[:, nonzero] / scale[nonzero]
     diagonal = np.abs(np.diag(np.linalg.qr(normalised, mode="r")))
@@ -211,7 +219,7 @@ def base_parameters(
             relative,
             scale_dependent[None, :],
             out=np.zeros_like(relative),
-            where=scale_dependent[None, :] > 0,
+            where=nonzero[dependent][None, :],  # zero columns regroup nowhere
         )
         beta = np.where(relative < 10.0**-decimals, 0.0, beta)
         beta = np.vectorize(lambda b: _snap(b, decimals), otypes=[float])(beta)
