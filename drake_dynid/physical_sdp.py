@@ -28,11 +28,11 @@ __all__ = [
     "INERTIAL",
     "Layout",
     "SdpProblem",
-    "layout",
     "link_names",
     "parameter_scales",
     "pseudo_inertia",
     "solve_program",
+    "standard_layout",
 ]
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -90,7 +90,7 @@ class Layout:
     friction: tuple[int, ...]  # FV, FC (sign-checked as base parameters)
 
 
-def layout(robot: Any) -> Layout:
+def standard_layout(robot: Any) -> Layout:
     """Indices of each link's inertial parameters, of IAj, and of the signed ones."""
     index = {name: k for k, name in enumerate(robot.standard_names)}
     n = robot.num_joints
@@ -114,7 +114,7 @@ def parameter_scales(robot: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     Returns:
         ``(scales (p_std,), mass (n,) [kg], length (n,) [m])``.
     """
-    parts = layout(robot)
+    parts = standard_layout(robot)
     values = np.asarray(robot.standard_values, dtype=float)
     masses = np.array([values[idx[9]] for idx in parts.links])
     positive = masses[masses > 0]
@@ -126,7 +126,7 @@ def parameter_scales(robot: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     known = gyration[gyration > 0]
     length = np.where(gyration > 0, gyration, np.median(known) if known.size else 0.1)
     scales = np.ones(values.size)
-    for j, idx in enumerate(layout.links):
+    for j, idx in enumerate(parts.links):
         scales[list(idx)] = mass[j] * length[j] ** _LENGTH_POWER
         if parts.rotor[j] >= 0:
             scales[parts.rotor[j]] = mass[j] * length[j] ** 2
@@ -161,7 +161,7 @@ class SdpProblem:
     @classmethod
     def of(cls, robot: Any) -> SdpProblem:
         """The layout, scales and scaled LMI matrices of ``robot``."""
-        parts = layout(robot)
+        parts = standard_layout(robot)
         scales, mass, length = parameter_scales(robot)
         lmis = []
         for j, idx in enumerate(parts.links):
