@@ -100,6 +100,18 @@ _LAZY: dict[str, str] = {
     # off-line identification on logs (no pydrake)
     "OfflineResult": "drake_dynid.offline",
     "identify_offline": "drake_dynid.offline",
+    # validation, physical consistency, identified URDF
+    "TorqueValidation": "drake_dynid.validation",
+    "validate_torques": "drake_dynid.validation",
+    "split_log": "drake_dynid.validation",
+    "PhysicalCheck": "drake_dynid.physical",
+    "PhysicalResult": "drake_dynid.physical",
+    "check_physical": "drake_dynid.physical",
+    "solve_physical": "drake_dynid.physical",
+    "project_physical": "drake_dynid.physical",
+    "pseudo_inertia": "drake_dynid.physical",
+    "UrdfExport": "drake_dynid.urdf_writer",
+    "write_identified_urdf": "drake_dynid.urdf_writer",
     # diagrams and the simulated set-up (pydrake)
     "add_online_identifier": "drake_dynid.diagrams",
     "log_source": "drake_dynid.diagrams",

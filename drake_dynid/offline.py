@@ -119,6 +119,9 @@ class OfflineResult:
         num_segments: finite segments in the log.
         num_segments_used: segments long enough to give rows.
         unidentified: names of the parameters that the data does not excite.
+        rows: with ``keep_rows=True``, the stacked decimated rows W (M, n, p)
+            that entered the least squares (unweighted); else None.
+        torques: with ``keep_rows=True``, the matching torques τ (M, n).
     """
 
     names: tuple[str, ...]
@@ -136,6 +139,8 @@ class OfflineResult:
     num_segments: int = 0
     num_segments_used: int = 0
     unidentified: tuple[str, ...] = ()
+    rows: np.ndarray | None = None
+    torques: np.ndarray | None = None
 
     @property
     def model(self) -> str:
@@ -259,6 +264,7 @@ def identify_offline(
     weighted: bool = False,
     filter_order: int = 4,
     max_condition: float = DEFAULT_MAX_CONDITION,
+    keep_rows: bool = False,
 ) -> OfflineResult:
     """Off-line IDIM-LS / IDIM-WLS of the base parameters from a robot log.
 
@@ -287,6 +293,8 @@ def identify_offline(
         weighted: IDIM-WLS (one weight per joint) instead of IDIM-LS.
         filter_order: Butterworth order (>= 1; zero phase doubles it).
         max_condition: largest accepted condition number of the column-scaled W.
+        keep_rows: keep the stacked decimated rows and torques in the result
+            (``rows``, ``torques``), e.g. for ``drake_dynid.physical``.
 
     Returns:
         An :class:`OfflineResult` (check ``valid``).
@@ -383,9 +391,10 @@ def identify_offline(
             f"({minimum * h:g} s: {trim} samples are dropped at each end); record a "
             "longer log or raise the cutoff.",
         )
+    W_all, tau_all = np.concatenate(W_parts), np.concatenate(tau_parts)
     fit = idim_least_squares(
-        np.concatenate(W_parts),
-        np.concatenate(tau_parts),
+        W_all,
+        tau_all,
         weighted=weighted,
         names=names,
         max_condition=max_condition,
@@ -420,4 +429,6 @@ def identify_offline(
         num_segments=len(segments),
         num_segments_used=len(W_parts),
         unidentified=tuple(fit.unidentified),
+        rows=W_all if keep_rows else None,
+        torques=tau_all if keep_rows else None,
     )

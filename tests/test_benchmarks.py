@@ -27,7 +27,14 @@ def load_benchmark(name, monkeypatch):
 
 
 @pytest.mark.parametrize(
-    "name", ["bench_bank", "bench_jacobi", "bench_pipeline", "bench_regressors"]
+    "name",
+    [
+        "bench_bank",
+        "bench_jacobi",
+        "bench_physical",
+        "bench_pipeline",
+        "bench_regressors",
+    ],
 )
 def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):
     out = tmp_path / f"{name}.json"

@@ -85,14 +85,20 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     for name, (value, percent) in table.items():
         assert abs(value - TRUTH[name]) < 0.03 * TRUTH[name], (name, value)
         assert percent < 30.0
-    # CSV: exactly t,valid,<names>, one row per solve (every 0.05 s) from t = 0 to
-    # t = N·h = 3 s (the state after the last sample has been processed).
+    # CSV: exactly t,valid,<names>,std_<names>, one row per solve (every 0.05 s)
+    # from t = 0 to t = N·h = 3 s (the state after the last sample has been
+    # processed); empty cells before the first valid estimate.
     with open(out_csv, newline="") as stream:
         rows = list(csv.reader(stream))
-    assert rows[0] == ["t", "valid", *TRUTH]
+    assert rows[0] == ["t", "valid", *TRUTH, *(f"std_{name}" for name in TRUTH)]
     assert len(rows) - 1 == 61
     assert rows[1][:2] == ["0", "0"] and rows[-1][1] == "1"
+    assert rows[1][2:] == [""] * 16
+    first = next(k for k, row in enumerate(rows[1:], 1) if row[1] == "1")
+    assert all(cell != "" for cell in rows[first][2:])
+    assert all(row[2:] == [""] * 16 for row in rows[1:first])
     assert float(rows[-1][2]) == pytest.approx(table["ZZ1R"][0], rel=1e-5)
+    assert float(rows[-1][10]) > 0.0  # σ of ZZ1R
     # JSON: the keys of the README (JSON (--json)), σ and definitions.
     document = json.loads(out_json.read_text())
     for key in ("parameters", "condition_number", "window", "model", "settings"):

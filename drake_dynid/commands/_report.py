@@ -194,17 +194,32 @@ def write_plot(
 
 
 def write_estimates_csv(
-    path: str, t: Any, valid: Any, theta: Any, names: Sequence[str]
+    path: str,
+    t: Any,
+    valid: Any,
+    theta: Any,
+    names: Sequence[str],
+    std: Any = None,
 ) -> None:
-    """Writes ``t,valid,<names>``, one row per solve (``dynid identify --out``)."""
+    """Writes ``t,valid,<names>[,std_<names>]``, one row per solve (``--out``).
+
+    Rows before the first valid estimate have empty estimate and σ cells (the
+    identifier holds zeros there, which are not estimates).
+    """
+    is_valid = np.asarray(valid, dtype=float) > 0.5
+    first = int(np.argmax(is_valid)) if is_valid.any() else len(is_valid)
+    columns = len(names) * (1 if std is None else 2)
     with open(path, "w", newline="") as stream:
         writer = csv.writer(stream)
-        writer.writerow(["t", "valid", *names])
+        stds = [] if std is None else [f"std_{name}" for name in names]
+        writer.writerow(["t", "valid", *names, *stds])
         for k in range(len(t)):
+            values = [] if k < first else [*theta[k], *([] if std is None else std[k])]
             writer.writerow(
                 [
                     f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
-                    int(valid[k] > 0.5),
-                    *(f"{x:.17g}" for x in theta[k]),
+                    int(is_valid[k]),
+                    *(f"{x:.17g}" for x in values),
+                    *([""] * (columns - len(values))),
                 ]
             )

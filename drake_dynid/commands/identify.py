@@ -212,13 +212,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     outputs.add_argument(
         "--out",
         metavar="FILE.csv",
-        help="write the estimates over time: t,valid,<base parameter names>",
+        help="write the estimates over time: t,valid,<base parameter names>,"
+        "std_<names> (empty cells before the first valid estimate)",
     )
     outputs.add_argument(
         "--plot",
         metavar="FILE.png",
         help="plot the estimates over time (needs matplotlib)",
     )
+    from drake_dynid.commands.validate import add_validation_arguments
+
+    add_validation_arguments(parser)
 
 
 def _invalid_reason(trace: Any) -> str:
@@ -244,10 +248,15 @@ def _invalid_reason(trace: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Replays the log through the on-line identifier; prints and writes results."""
+    from drake_dynid.commands._model import finish_identify
+    from drake_dynid.commands.validate import check_output_paths, validation_split
+
+    check_output_paths(args)
     settings = online_settings(args)
     if args.plot:
         matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
+    log, held, held_description = validation_split(args, log)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )
@@ -313,8 +322,13 @@ def run(args: argparse.Namespace) -> int:
                 f"  {reason}; the estimates above are the last valid ones "
                 f"(t = {t[last_valid]:.4g} s)."
             )
+    extra = finish_identify(
+        args, robot, held, held_description, {settings.model: theta}
+    )
     if args.out:
-        write_estimates_csv(args.out, t, trace.valid, trace.theta, trace.names)
+        write_estimates_csv(
+            args.out, t, trace.valid, trace.theta, trace.names, trace.std
+        )
         if not args.quiet:
             print(f"wrote {args.out}")
     if args.json:
@@ -336,6 +350,7 @@ def run(args: argparse.Namespace) -> int:
             },
             "urdf": str(args.urdf),
             "log": log_document(args, log),
+            **extra,
         }
         write_json(args.json, document)
         if not args.quiet:

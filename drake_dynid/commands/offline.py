@@ -5,13 +5,20 @@ from __future__ import annotations
 import argparse
 
 from drake_dynid.commands._arguments import add_common_arguments, load_robot_and_log
+from drake_dynid.commands._model import (
+    add_model_arguments,
+    finish_offline,
+    wants_rows,
+)
 from drake_dynid.commands._report import (
     estimates_table,
     json_number,
     log_document,
+    matplotlib_pyplot,
     parameters_document,
     write_json,
 )
+from drake_dynid.commands.validate import check_output_paths, validation_split
 
 HELP = "off-line IDIM-LS/WLS (zero-phase filtering, parallel decimation) on a log"
 DESCRIPTION = (
@@ -57,13 +64,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="IDIM-WLS: weight each joint's equations by 1/σ_j",
     )
+    add_model_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Runs IDIM-LS/WLS on the log; prints the table; writes JSON when asked."""
     from drake_dynid.offline import identify_offline
 
+    check_output_paths(args)
+    if args.plot:
+        matplotlib_pyplot()  # fail before the fit
     robot, log = load_robot_and_log(args, "offline")
+    log, held, held_description = validation_split(args, log)
     result = identify_offline(
         log,
         robot,
@@ -71,6 +83,7 @@ def run(args: argparse.Namespace) -> int:
         decimation=args.decimation,
         decimation_cutoff_hz=args.decimation_cutoff,
         weighted=args.weighted,
+        keep_rows=wants_rows(args),
     )
     settings = result.settings
     if not result.valid:
@@ -97,6 +110,9 @@ def run(args: argparse.Namespace) -> int:
         print()
         print(f"condition number: {result.condition_number:.4g}")
         print(f"residual σ: {result.residual_std:.4g}")
+        if args.split is not None:
+            print(f"fitted on the first {100 * args.split:g} % of {args.log}")
+    extra = finish_offline(args, robot, log, held, held_description, result)
     if args.json:
         document = {
             "parameters": parameters_document(
@@ -119,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
             },
             "urdf": str(args.urdf),
             "log": log_document(args, log),
+            **extra,
         }
         write_json(args.json, document)
         if not args.quiet:

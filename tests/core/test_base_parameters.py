@@ -100,6 +100,17 @@ def test_greedy_keeps_the_earliest_columns():
     assert dict(base.definitions[1]) == {"C": 1.0, "D": -1.0}
 
 
+def test_a_column_of_round_off_is_zero_not_independent():
+    # Seed 12. A parameter that does not enter the model can come out of the rows
+    # as 1e-15-sized products (MZ2 of an arm with a vertical joint 1); normalised,
+    # such noise is independent of everything, so it must be dropped as zero.
+    rows = _rows_2r(1.0)
+    noise = 1e-15 * np.random.default_rng(12).normal(size=rows.shape[0])
+    rows[:, NAMES_2R.index("MX1")] = noise
+    base = base_parameters(rows, NAMES_2R)
+    assert base.names == ("ZZ1R", "ZZ2", "MX2", "MY2", "FV1", "FC1", "FV2", "FC2")
+
+
 def test_base_parameters_is_immutable():
     base = base_parameters(_rows_2r(1.0), NAMES_2R)
     with pytest.raises(dataclasses.FrozenInstanceError):

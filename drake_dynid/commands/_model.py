@@ -1,0 +1,261 @@
+"""Model outputs shared by ``dynid offline`` and ``dynid identify`` (not a subcommand).
+
+``offline``: ``--physical`` (identification under physical-consistency
+constraints, ``drake_dynid.physical``), ``--urdf-out`` (identified URDF,
+``drake_dynid.urdf_writer``), ``--out`` / ``--plot`` and the validation options;
+``identify``: the consistency check and validation of the final estimate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.commands.validate import (
+    add_validation_arguments,
+    report_validation,
+    run_validations,
+    write_torque_plot,
+)
+
+
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--physical``, ``--regularization``, ``--urdf-out``, ``--out``, ``--plot``."""
+    group = parser.add_argument_group("physically consistent model and outputs")
+    group.add_argument(
+        "--physical",
+        action="store_true",
+        help="also solve the identification under physical consistency (every "
+        "link's 4x4 pseudo-inertia positive semidefinite, friction >= 0), a "
+        "semidefinite program (Clarabel)",
+    )
+    group.add_argument(
+        "--regularization",
+        type=float,
+        default=None,
+        metavar="LAMBDA",
+        help="weight of the pull towards the URDF values in --physical (default "
+        "1e-3; in residual variances per squared parameter scale)",
+    )
+    group.add_argument(
+        "--urdf-out",
+        metavar="FILE.urdf",
+        help="write a copy of the URDF with the consistent identified parameters "
+        "(implies --physical)",
+    )
+    group.add_argument(
+        "--out",
+        metavar="FILE.csv",
+        help="write the estimate as dynid identify --out does: t,valid,<names>,"
+        "std_<names> (one row, at the end of the fitted log)",
+    )
+    group.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="plot measured and predicted torques per joint (on the validation log "
+        "when --validate/--split is given, else on the fitted log)",
+    )
+    add_validation_arguments(parser)
+
+
+def wants_rows(args: argparse.Namespace) -> bool:
+    """Whether the fit must keep its stacked rows (for the physical solve)."""
+    return bool(args.physical or args.urdf_out)
+
+
+def _parameters(robot: Any, names, theta) -> list[dict[str, Any]]:
+    definitions = dict(zip(robot.base.names, robot.base.definitions, strict=True))
+    return [
+        {"name": name, "value": float(value), "definition": dict(definitions[name])}
+        for name, value in zip(names, theta, strict=True)
+    ]
+
+
+def consistency(robot: Any, theta, quiet: bool, what: str) -> dict[str, Any]:
+    """Prints whether θ is physically consistent; returns the JSON entry."""
+    from drake_dynid.physical import check_physical
+
+    if not np.all(np.isfinite(theta)):
+        return {"consistent": None, "summary": "no finite estimate"}
+    check = check_physical(robot, theta)
+    if not quiet:
+        print(f"physical check of {what}: {check.summary()}")
+    return {
+        "consistent": bool(check.consistent),
+        "negative": list(check.negative),
+        "infeasible_links": list(check.infeasible_links),
+        "involved": list(check.involved),
+        "summary": check.summary(),
+    }
+
+
+def _comparison_lines(result: Any, physical: Any) -> list[str]:
+    rows = []
+    for k, name in enumerate(result.names):
+        fit, value, sigma = result.theta[k], physical.theta[k], result.std[k]
+        shift = (
+            (value - fit) / sigma if sigma > 0 and math.isfinite(sigma) else math.nan
+        )
+        rows.append((name, f"{fit:.6g}", f"{value:.6g}", f"{shift:+.2f}"))
+    headers = ("name", "fit", "physical", "shift/σ")
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)]
+    lines = [
+        "  ".join(
+            h.ljust(w) if k == 0 else h.rjust(w)
+            for k, (h, w) in enumerate(zip(headers, widths, strict=True))
+        ),
+        "  ".join("-" * w for w in widths),
+    ]
+    for row in rows:
+        lines.append(
+            "  ".join(
+                c.ljust(w) if k == 0 else c.rjust(w)
+                for k, (c, w) in enumerate(zip(row, widths, strict=True))
+            )
+        )
+    return lines
+
+
+def _physical(args: argparse.Namespace, robot: Any, result: Any):
+    from drake_dynid.physical import DEFAULT_REGULARIZATION, solve_physical
+
+    regularization = (
+        DEFAULT_REGULARIZATION if args.regularization is None else args.regularization
+    )
+    physical = solve_physical(
+        robot,
+        result.rows,
+        result.torques,
+        weighted=bool(result.settings.get("weighted")),
+        regularization=regularization,
+    )
+    if not args.quiet:
+        active = ", ".join(physical.active) or "none"
+        print()
+        print(
+            f"physically consistent estimate ({physical.solver}, "
+            f"{physical.solve_time:.3g} s; λ = {regularization:g}): data cost "
+            f"+{physical.data_cost:.4g} residual variances; active constraints: "
+            f"{active}"
+        )
+        print()
+        for line in _comparison_lines(result, physical):
+            print(line)
+    entry = {
+        "parameters": _parameters(robot, physical.names, physical.theta),
+        "standard": physical.standard_parameters(),
+        "active": list(physical.active),
+        "link_min_eigenvalues": [float(x) for x in physical.link_min_eigenvalues],
+        "data_cost": float(physical.data_cost),
+        "regularization": float(regularization),
+        "solver": physical.solver,
+        "solve_time": float(physical.solve_time),
+    }
+    return physical, entry
+
+
+def finish_offline(
+    args: argparse.Namespace,
+    robot: Any,
+    fit_log: Any,
+    held: Any,
+    description: str,
+    result: Any,
+) -> dict[str, Any]:
+    """Consistency, --physical, --urdf-out, --out, --plot and validation.
+
+    Prints its sections (unless --quiet) and returns the JSON entries to add.
+    """
+    from drake_dynid.commands._report import write_estimates_csv
+
+    if args.regularization is not None and args.regularization < 0:
+        raise ValueError(f"--regularization must be >= 0; got {args.regularization}.")
+    document: dict[str, Any] = {}
+    if not args.quiet:
+        print()
+    document["physical_check"] = consistency(
+        robot, result.theta, args.quiet, "the estimate"
+    )
+    estimates: dict[str, np.ndarray] = {result.model: result.theta}
+    if wants_rows(args):
+        physical, document["physical"] = _physical(args, robot, result)
+        estimates["physical"] = physical.theta
+        if args.urdf_out:
+            from drake_dynid.urdf_writer import write_identified_urdf
+
+            export = write_identified_urdf(
+                robot, physical.standard_values, args.urdf_out
+            )
+            document["physical"]["urdf"] = export.path
+            if not args.quiet:
+                skipped = (
+                    f" (not written, no URDF field: {', '.join(export.skipped)})"
+                    if export.skipped
+                    else ""
+                )
+                lumped = (
+                    f"; welded links set to mass 0: {', '.join(export.lumped)}"
+                    if export.lumped
+                    else ""
+                )
+                print(f"wrote {export.path}{lumped}{skipped}")
+    if args.out:
+        write_estimates_csv(
+            args.out,
+            [fit_log.t[-1]],
+            [1.0],
+            [result.theta],
+            result.names,
+            [result.std],
+        )
+        if not args.quiet:
+            print(f"wrote {args.out}")
+    if held is not None:
+        document["validation"] = report_validation(
+            args,
+            robot,
+            held,
+            description,
+            estimates,
+            plot_title=f"dynid offline: held-out torques ({description})",
+        )
+    elif args.plot:
+        validations = run_validations(
+            fit_log,
+            robot,
+            estimates,
+            cutoff_hz=args.cutoff,
+            decimation_cutoff_hz=args.decimation_cutoff,
+        )
+        write_torque_plot(
+            args.plot, validations, f"dynid offline: fitted torques ({args.log})"
+        )
+        if not args.quiet:
+            print(f"wrote {args.plot}")
+    return document
+
+
+def finish_identify(
+    args: argparse.Namespace,
+    robot: Any,
+    held: Any,
+    description: str,
+    estimates: Mapping[str, np.ndarray],
+) -> dict[str, Any]:
+    """Consistency of the final estimate and its validation (``dynid identify``)."""
+    document: dict[str, Any] = {}
+    theta = next(iter(estimates.values()))
+    if not args.quiet:
+        print()
+    document["physical_check"] = consistency(
+        robot, theta, args.quiet, "the final estimate"
+    )
+    if held is not None:
+        document["validation"] = report_validation(
+            args, robot, held, description, estimates
+        )
+    return document

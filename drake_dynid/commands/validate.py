@@ -1,0 +1,413 @@
+"""``dynid validate``: predict a log's torques from identified parameters.
+
+Also the validation helpers of ``dynid offline`` and ``dynid identify``
+(``--validate LOG2``, ``--split FRACTION``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.commands._arguments import parse_friction
+
+HELP = "predict a log's joint torques from identified base parameters (validation)"
+DESCRIPTION = (
+    "Held-out validation: predicts the joint torques of a robot log (CSV: t, "
+    "q_<joint>, tau_<joint>) from the base parameters of a results file (the JSON "
+    "of dynid offline/identify --json) with the inverse dynamic model τ = W(q, v, "
+    "v̇)·θ, built exactly as dynid offline builds its equations: zero-phase "
+    "Butterworth q at the automatic position cutoff, central differences for v and "
+    "v̇, and the measured and predicted torques both through the parallel "
+    "decimation's zero-phase low-pass (1.5 x the velocity bandwidth), which removes "
+    "the sensor noise above the motion. Prints per joint the RMS of the measured "
+    "torque, the residual std, the relative RMS error 100·RMS(residual)/RMS(τ), "
+    "R², and the relative error against the raw (unfiltered) torque. A results "
+    "file with a 'physical' section (dynid offline --physical) is validated for "
+    "both estimates."
+)
+
+
+# ------------------------------------------------------------------ shared helpers
+def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--validate LOG2`` and ``--split FRACTION`` (offline and identify)."""
+    group = parser.add_argument_group("validation")
+    group.add_argument(
+        "--validate",
+        metavar="LOG2.csv",
+        help="after the fit, predict the torques of this other log and report the "
+        "errors per joint (see dynid validate)",
+    )
+    group.add_argument(
+        "--split",
+        type=float,
+        metavar="FRACTION",
+        help="fit on the first FRACTION of the log (0 < FRACTION < 1) and validate "
+        "on the rest",
+    )
+
+
+def check_output_paths(args: argparse.Namespace) -> None:
+    """No output option may name an input file, nor two outputs the same file."""
+    inputs = {
+        option: getattr(args, name, None)
+        for option, name in (
+            ("LOG", "log"),
+            ("--urdf", "urdf"),
+            ("--params", "params"),
+            ("--validate", "validate"),
+        )
+    }
+    outputs = {
+        option: getattr(args, name, None)
+        for option, name in (
+            ("--json", "json"),
+            ("--out", "out"),
+            ("--plot", "plot"),
+            ("--urdf-out", "urdf_out"),
+        )
+    }
+    seen: dict[Path, str] = {}
+    for option, path in inputs.items():
+        if path:
+            seen[Path(path).resolve()] = f"the input {option}"
+    for option, path in outputs.items():
+        if not path:
+            continue
+        resolved = Path(path).resolve()
+        if resolved in seen:
+            raise ValueError(
+                f"{option} {path} is also {seen[resolved]}; an output never "
+                "overwrites an input or another output: choose another file."
+            )
+        seen[resolved] = f"the output {option}"
+
+
+def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]:
+    """(log to fit, log to validate or None, its description) from the options."""
+    from drake_dynid.logs import read_log
+    from drake_dynid.validation import split_log
+
+    split = getattr(args, "split", None)
+    other = getattr(args, "validate", None)
+    if split is not None and other:
+        raise ValueError("give --validate LOG2 or --split FRACTION, not both.")
+    if split is not None:
+        if not 0.0 < split < 1.0:
+            raise ValueError(f"--split must be in (0, 1); got {split}.")
+        first, rest = split_log(log, split)
+        return first, rest, f"{args.log} after the first {100 * split:g} %"
+    if other:
+        held = read_log(other, log.joint_names, resample=args.resample)
+        for warning in held.warnings:
+            print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
+        return log, held, str(other)
+    return log, None, ""
+
+
+def run_validations(
+    log: Any,
+    robot: Any,
+    estimates: Mapping[str, np.ndarray],
+    *,
+    cutoff_hz: float | None = None,
+    decimation_cutoff_hz: float | None = None,
+) -> dict[str, Any]:
+    """``{label: TorqueValidation}`` of every estimate on ``log``."""
+    from drake_dynid.validation import validate_torques
+
+    return {
+        label: validate_torques(
+            log,
+            robot,
+            theta,
+            cutoff_hz=cutoff_hz,
+            decimation_cutoff_hz=decimation_cutoff_hz,
+        )
+        for label, theta in estimates.items()
+    }
+
+
+def _cell(value: float, digits: int = 4) -> str:
+    return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
+
+
+def validation_lines(validations: Mapping[str, Any], description: str) -> list[str]:
+    """The printed report: settings line, then one table per estimate."""
+    first = next(iter(validations.values()))
+    settings = first.settings
+    lines = [
+        f"validation on {description} ({first.num_samples} samples): positions "
+        f"filtered at {settings['cutoff_hz']:.4g} Hz ({settings['cutoff_rule']}), "
+        f"torques compared after the {settings['decimation_cutoff_hz']:.4g} Hz "
+        f"low-pass ({settings['decimation_cutoff_rule']}); "
+        f"{first.num_samples_used} samples compared"
+    ]
+    headers = ("joint", "RMS τ", "residual σ", "error %", "R²", "raw error %")
+    for label, result in validations.items():
+        rows = [
+            (
+                name,
+                _cell(result.rms_measured[j]),
+                _cell(result.residual_std[j], 3),
+                f"{result.relative_rms_percent[j]:.2f}",
+                f"{result.r_squared[j]:.4f}",
+                f"{result.raw_relative_rms_percent[j]:.2f}",
+            )
+            for j, name in enumerate(result.joint_names)
+        ]
+        rows.append(
+            ("all joints", "", "", f"{result.total_relative_rms_percent:.2f}", "", "")
+        )
+        widths = [
+            max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)
+        ]
+        lines += ["", f"estimate: {label}"]
+        lines.append(
+            "  ".join(
+                h.ljust(w) if k == 0 else h.rjust(w)
+                for k, (h, w) in enumerate(zip(headers, widths, strict=True))
+            )
+        )
+        lines.append("  ".join("-" * w for w in widths))
+        for row in rows:
+            lines.append(
+                "  ".join(
+                    c.ljust(w) if k == 0 else c.rjust(w)
+                    for k, (c, w) in enumerate(zip(row, widths, strict=True))
+                ).rstrip()
+            )
+    return lines
+
+
+def validation_document(
+    validations: Mapping[str, Any], description: str, log: Any
+) -> dict[str, Any]:
+    """The ``validation`` entry of the JSON outputs."""
+    from drake_dynid.commands._report import json_number
+
+    first = next(iter(validations.values()))
+    estimates = {}
+    for label, result in validations.items():
+        estimates[label] = {
+            "joints": [
+                {
+                    "name": name,
+                    "rms_measured": json_number(result.rms_measured[j]),
+                    "residual_std": json_number(result.residual_std[j]),
+                    "relative_rms_percent": json_number(result.relative_rms_percent[j]),
+                    "r_squared": json_number(result.r_squared[j]),
+                    "raw_relative_rms_percent": json_number(
+                        result.raw_relative_rms_percent[j]
+                    ),
+                }
+                for j, name in enumerate(result.joint_names)
+            ],
+            "total_relative_rms_percent": json_number(
+                result.total_relative_rms_percent
+            ),
+        }
+    return {
+        "log": {
+            "description": description,
+            "samples": int(log.num_samples),
+            "time_step": float(log.time_step),
+            "start": float(log.t[0]),
+            "duration": float(log.duration),
+        },
+        "settings": dict(first.settings),
+        "samples_compared": int(first.num_samples_used),
+        "estimates": estimates,
+    }
+
+
+def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> None:
+    """One panel per joint: measured (low-passed) torque and each prediction.
+
+    The thin lines on the right axis are the residuals (measured - predicted).
+    """
+    from drake_dynid.commands._report import matplotlib_pyplot
+
+    plt = matplotlib_pyplot()
+    first = next(iter(validations.values()))
+    n = len(first.joint_names)
+    columns = 2 if n > 4 else 1
+    rows = math.ceil(n / columns)
+    figure, axes = plt.subplots(
+        rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
+    )
+    axes = np.atleast_1d(axes).ravel()
+    # Break the lines between finite segments.
+    breaks = np.flatnonzero(np.diff(first.segment)) + 1
+
+    def gapped(values):
+        return np.insert(np.asarray(values, dtype=float), breaks, np.nan, axis=0)
+
+    t = gapped(first.t)
+    for j, name in enumerate(first.joint_names):
+        axis = axes[j]
+        residuals = axis.twinx()  # right axis: measured - predicted
+        axis.plot(t, gapped(first.measured[:, j]), color="k", lw=1.2, label="measured")
+        for k, (label, result) in enumerate(validations.items()):
+            axis.plot(
+                t,
+                gapped(result.predicted[:, j]),
+                color=f"C{k}",
+                lw=0.9,
+                ls="--" if k else "-",
+                label=f"{label} ({result.relative_rms_percent[j]:.2f} %)",
+            )
+            residuals.plot(
+                t,
+                gapped(result.measured[:, j] - result.predicted[:, j]),
+                color=f"C{k}",
+                lw=0.5,
+                alpha=0.5,
+            )
+        residuals.tick_params(labelsize=7, colors="0.4")
+        axis.set_ylabel(f"{name}\n[N·m]")
+        axis.grid(True, alpha=0.3)
+        axis.legend(fontsize=7, loc="upper right")
+    for axis in axes[n:]:
+        axis.set_visible(False)
+    for axis in axes[max(0, n - columns) : n]:
+        axis.set_xlabel("t [s]")
+    figure.suptitle(f"{title}; thin lines: residuals (right axis)")
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+
+
+def report_validation(
+    args: argparse.Namespace,
+    robot: Any,
+    log: Any,
+    description: str,
+    estimates: Mapping[str, np.ndarray],
+    *,
+    plot_title: str | None = None,
+) -> dict[str, Any]:
+    """Validates, prints (unless --quiet), plots when --plot; returns the JSON entry.
+
+    The position and comparison cutoffs follow ``--cutoff`` and
+    ``--decimation-cutoff`` when the command has them, else the automatic rules
+    on ``log``.
+    """
+    validations = run_validations(
+        log,
+        robot,
+        estimates,
+        cutoff_hz=getattr(args, "cutoff", None),
+        decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
+    )
+    if not args.quiet:
+        print()
+        for line in validation_lines(validations, description):
+            print(line)
+    if plot_title is not None and args.plot:
+        write_torque_plot(args.plot, validations, plot_title)
+        if not args.quiet:
+            print(f"wrote {args.plot}")
+    return validation_document(validations, description, log)
+
+
+# --------------------------------------------------------------------- validate
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``dynid validate`` arguments."""
+    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    parser.add_argument(
+        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
+    )
+    parser.add_argument(
+        "--params",
+        required=True,
+        metavar="RESULT.json",
+        help="the identified parameters (dynid offline/identify --json)",
+    )
+    parser.add_argument(
+        "--friction",
+        default=None,
+        help="friction columns per joint (default: those of the results file)",
+    )
+    parser.add_argument(
+        "--cutoff",
+        type=float,
+        metavar="HZ",
+        help="position filter cutoff [Hz] (default: automatic, as dynid offline)",
+    )
+    parser.add_argument(
+        "--decimation-cutoff",
+        type=float,
+        metavar="HZ",
+        help="low-pass applied to the measured and predicted torques [Hz] "
+        "(default: 1.5 x the measured velocity bandwidth, at most the cutoff)",
+    )
+    parser.add_argument(
+        "--resample",
+        action="store_true",
+        help="accept a non-uniformly sampled log (linear interpolation)",
+    )
+    parser.add_argument("--json", metavar="FILE", help="write the errors as JSON")
+    parser.add_argument(
+        "--plot", metavar="FILE.png", help="plot measured and predicted torques"
+    )
+    parser.add_argument("--quiet", action="store_true", help="print nothing")
+
+
+def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence[str]:
+    if args.friction is not None:
+        return parse_friction(args.friction)
+    settings = document.get("settings")
+    if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
+        return tuple(str(kind) for kind in settings["friction"])
+    return ("viscous", "coulomb")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validates the results file's estimates on the log."""
+    from drake_dynid.commands._report import write_json
+    from drake_dynid.logs import read_log
+    from drake_dynid.plants import RobotModel
+    from drake_dynid.validation import read_estimates, read_results
+
+    check_output_paths(args)
+    if args.plot:
+        from drake_dynid.commands._report import matplotlib_pyplot
+
+        matplotlib_pyplot()
+    document = read_results(args.params)
+    robot = RobotModel.from_urdf(args.urdf, friction=_friction(args, document))
+    estimates = read_estimates(document, robot, f"results file {args.params}")
+    model = str(document.get("model", "fit"))
+    labels = {"fit": model, "physical": "physical"}
+    estimates = {labels[k]: v for k, v in estimates.items()}
+    log = read_log(args.log, robot.joint_names, resample=args.resample)
+    for warning in log.warnings:
+        print(f"dynid validate: warning: log {args.log}: {warning}", file=sys.stderr)
+    if not args.quiet:
+        print(
+            f"parameters: {args.params} ({model}, {robot.num_parameters} base "
+            f"parameters{', with a physical estimate' if len(estimates) > 1 else ''})"
+        )
+    entry = report_validation(
+        args,
+        robot,
+        log,
+        str(args.log),
+        estimates,
+        plot_title=f"dynid validate: {args.log} with {Path(args.params).name}",
+    )
+    if args.json:
+        write_json(
+            args.json,
+            {**entry, "params": str(args.params), "urdf": str(args.urdf)},
+        )
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    return 0

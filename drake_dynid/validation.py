@@ -1,0 +1,452 @@
+"""Held-out validation: predict a log's joint torques from identified base parameters.
+
+The prediction is the inverse dynamic model with the base regressor,
+τ̂ = W(q_f, v, v̇)·θ̂, computed exactly as ``dynid offline`` builds its equations
+(:mod:`drake_dynid.offline`), so that a fit and its validation see the same
+signals:
+
+1. the log is split into its finite segments (NaN samples cut it);
+2. per segment, q is low-passed by the zero-phase Butterworth at the position
+   cutoff f_c and differentiated by central differences
+   (:func:`drake_dynid.core.idim.offline_derivatives`, same padding and trim);
+   f_c is chosen on the validation log by the same automatic rule
+   (:func:`drake_dynid.offline.auto_cutoff`) unless given;
+3. the predicted and the measured torques both pass through the parallel
+   decimation's zero-phase order-8 low-pass at f_d = min(f_c, 1.5·B) (same rule,
+   :func:`drake_dynid.offline.auto_decimation_cutoff`), without down-sampling.
+
+Why compare after the low-pass (and not against the raw torque). The fit
+minimises exactly this residual (the equation ``τ = W θ`` filtered on both sides,
+which is unbiased because the filter is linear and the same on both sides), so
+in-sample and held-out numbers measure the same thing. Above f_d the log holds no
+motion, only torque-sensor noise and the noise of v̇: no model of the dynamics can
+predict it, and counting it would report the sensor's noise as model error (and
+make the figures depend on the sample rate). The raw comparison is reported too
+(``raw_relative_rms_percent``, τ as logged against the unfiltered prediction at
+the same samples): it adds the noise floor, the torque sensor's noise and the
+noise of v̇ between the motion band and the position cutoff.
+
+Per joint j, over the compared samples (e = τ_f − τ̂_f)::
+
+    relative RMS error = 100·RMS(e)/RMS(τ_f)            [%]
+    R² = 1 − Σ e² / Σ (τ_f − mean τ_f)²
+    residual std = std(e)                               [N·m or N]
+
+Pure numpy/scipy (the rows come from the robot object).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core.idim import (
+    default_padding,
+    default_trim,
+    offline_derivatives,
+    parallel_decimation,
+)
+from drake_dynid.offline import auto_cutoff, auto_decimation_cutoff
+
+__all__ = [
+    "TorqueValidation",
+    "check_parameters",
+    "read_estimates",
+    "read_results",
+    "split_log",
+    "validate_torques",
+]
+
+_DEFINITION_TOLERANCE = 1e-6  # relative, on the regrouping coefficients
+
+
+@dataclass(frozen=True, eq=False)
+class TorqueValidation:
+    """Measured against predicted joint torques of one log (:func:`validate_torques`).
+
+    Attributes:
+        joint_names: the n joints.
+        t: (M,) times of the compared samples [s] (finite segments, trimmed ends
+            dropped).
+        measured: (M, n) measured torques after the comparison low-pass [N·m, N].
+        predicted: (M, n) predicted torques W·θ after the same low-pass.
+        raw_measured: (M, n) torques as logged at the same samples.
+        raw_predicted: (M, n) W·θ before the low-pass.
+        segment: (M,) index of the finite segment each sample comes from.
+        relative_rms_percent: (n,) 100·RMS(residual)/RMS(measured) [%].
+        r_squared: (n,) coefficient of determination (NaN for a constant torque).
+        residual_std: (n,) standard deviation of the residual [N·m, N].
+        rms_measured: (n,) RMS of the measured (low-passed) torque [N·m, N].
+        raw_relative_rms_percent: (n,) the relative RMS error against the raw
+            torques, unfiltered prediction (adds the noise above the band) [%].
+        total_relative_rms_percent: all joints together,
+            100·‖residual‖/‖measured‖ [%].
+        settings: ``cutoff_hz``, ``cutoff_rule``, ``decimation_cutoff_hz``,
+            ``decimation_cutoff_rule``, ``filter_order``, ``trim``, ``padding``,
+            ``time_step``.
+        num_samples: samples in the log.
+    """
+
+    joint_names: tuple[str, ...]
+    t: np.ndarray
+    measured: np.ndarray
+    predicted: np.ndarray
+    raw_measured: np.ndarray
+    raw_predicted: np.ndarray
+    segment: np.ndarray
+    relative_rms_percent: np.ndarray
+    r_squared: np.ndarray
+    residual_std: np.ndarray
+    rms_measured: np.ndarray
+    raw_relative_rms_percent: np.ndarray
+    total_relative_rms_percent: float
+    settings: dict[str, Any] = field(default_factory=dict)
+    num_samples: int = 0
+
+    @property
+    def num_samples_used(self) -> int:
+        """Samples compared (M)."""
+        return int(self.t.shape[0])
+
+
+def _relative_rms(residual: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    rms_e = np.sqrt(np.mean(residual**2, axis=0))
+    rms_ref = np.sqrt(np.mean(reference**2, axis=0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(rms_ref > 0, 100.0 * rms_e / rms_ref, np.inf)
+
+
+def _metrics(measured, predicted, raw_measured, raw_predicted) -> dict[str, Any]:
+    residual = measured - predicted
+    centred = measured - measured.mean(axis=0)
+    total = np.sum(centred**2, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r_squared = np.where(
+            total > 0, 1.0 - np.sum(residual**2, axis=0) / total, np.nan
+        )
+    norm = float(np.linalg.norm(measured))
+    return {
+        "relative_rms_percent": _relative_rms(residual, measured),
+        "r_squared": r_squared,
+        "residual_std": residual.std(axis=0),
+        "rms_measured": np.sqrt(np.mean(measured**2, axis=0)),
+        "raw_relative_rms_percent": _relative_rms(
+            raw_measured - raw_predicted, raw_measured
+        ),
+        "total_relative_rms_percent": (
+            100.0 * float(np.linalg.norm(residual)) / norm if norm > 0 else math.inf
+        ),
+    }
+
+
+def _rows(robot: Any) -> Any:
+    fast = robot.rows_provider() if hasattr(robot, "rows_provider") else robot
+    return fast if hasattr(fast, "idim_rows") else robot
+
+
+def _frequency(owner: str, name: str, value: Any, time_step: float) -> float:
+    value = check.positive(owner, name, value, "Hz")
+    if value >= 0.5 / time_step:
+        check.fail(
+            owner,
+            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
+            f"{value:g}.",
+        )
+    return value
+
+
+def validate_torques(
+    log: Any,
+    robot: Any,
+    theta: Any,
+    *,
+    cutoff_hz: float | None = None,
+    decimation_cutoff_hz: float | None = None,
+    filter_order: int = 4,
+) -> TorqueValidation:
+    """Predicts the torques of ``log`` from base parameters θ and compares them.
+
+    See the module docstring for the filtering (the ``dynid offline`` chain
+    without the down-sampling) and the metrics.
+
+    Args:
+        log: a :class:`~drake_dynid.logs.RobotLog` with the robot's joints.
+        robot: a :class:`~drake_dynid.plants.RobotModel` (or any object with
+            ``names``, ``joint_names`` and ``idim_rows(q, v, vdot)``).
+        theta: (p,) base parameter values in ``robot.names`` order.
+        cutoff_hz: position low-pass f_c [Hz]; None: ``auto_cutoff`` on the
+            longest finite segment of this log.
+        decimation_cutoff_hz: comparison low-pass f_d [Hz]; None:
+            ``auto_decimation_cutoff`` (min(f_c, 1.5·B)) on this log.
+        filter_order: Butterworth order of the position filter.
+
+    Returns:
+        A :class:`TorqueValidation`.
+
+    Raises:
+        ValueError: joints that differ from the robot's, θ of the wrong size, or
+            no finite segment long enough for the filter.
+    """
+    owner = "validate_torques"
+    for attribute in ("t", "q", "tau", "time_step", "joint_names"):
+        if not hasattr(log, attribute):
+            raise TypeError(
+                f"{owner}: log must be a RobotLog; got {type(log).__name__}."
+            )
+    rows = _rows(robot)
+    joints = tuple(getattr(robot, "joint_names", log.joint_names))
+    if tuple(log.joint_names) != joints:
+        check.fail(
+            owner,
+            f"log joints must be the robot's {', '.join(joints)} in that order; got "
+            f"{', '.join(log.joint_names)}.",
+        )
+    p = len(rows.names)
+    theta = check.array(owner, "theta", theta)
+    if theta.shape != (p,):
+        check.fail(owner, f"theta must have shape ({p},); got {theta.shape}.")
+    h = check.positive(owner, "time_step", log.time_step, "s")
+    filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
+    q = np.asarray(log.q, dtype=float)
+    tau = np.asarray(log.tau, dtype=float)
+    segments = log.good_segments()
+    if not segments:
+        check.fail(owner, "the log has no finite sample (every row has a NaN).")
+    longest = max(segments, key=lambda s: s[1] - s[0])
+    q_longest = q[longest[0] : longest[1]]
+    cutoff_rule = "given" if cutoff_hz is not None else "auto"
+    if cutoff_hz is None:
+        if q_longest.shape[0] < 16:
+            check.fail(
+                owner,
+                f"the longest finite segment has {q_longest.shape[0]} samples; at "
+                "least 16 are needed to choose the cutoff.",
+            )
+        cutoff_hz = auto_cutoff(q_longest, h)
+    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h)
+    band_rule = "given" if decimation_cutoff_hz is not None else "auto"
+    if decimation_cutoff_hz is None:
+        decimation_cutoff_hz = auto_decimation_cutoff(q_longest, h, cutoff_hz)
+    decimation_cutoff_hz = _frequency(
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
+    )
+    trim = default_trim(h, cutoff_hz)
+    padding = default_padding(h, cutoff_hz)
+    parts: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("t", "m", "p", "rm", "rp", "s")
+    }
+    for index, (start, stop) in enumerate(segments):
+        if stop - start < 2 * trim + 1:
+            continue
+        q_f, v, vdot = offline_derivatives(
+            q[start:stop],
+            h,
+            cutoff_hz=cutoff_hz,
+            filter_order=filter_order,
+            trim=trim,
+            padding=padding,
+        )
+        predicted = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta
+        measured = tau[start + trim : stop - trim]
+        smooth, smooth_measured = parallel_decimation(
+            predicted[..., None], measured, 1, cutoff=decimation_cutoff_hz * h
+        )
+        parts["t"].append(np.asarray(log.t, dtype=float)[start + trim : stop - trim])
+        parts["m"].append(smooth_measured)
+        parts["p"].append(smooth[..., 0])
+        parts["rm"].append(measured)
+        parts["rp"].append(predicted)
+        parts["s"].append(np.full(measured.shape[0], index))
+    if not parts["t"]:
+        check.fail(
+            owner,
+            f"no finite segment of the log is long enough: the longest has "
+            f"{longest[1] - longest[0]} samples and the cutoff {cutoff_hz:.3g} Hz "
+            f"needs at least {2 * trim + 1} ({trim} are dropped at each end).",
+        )
+    joined = {k: np.concatenate(v) for k, v in parts.items()}
+    metrics = _metrics(joined["m"], joined["p"], joined["rm"], joined["rp"])
+    settings = {
+        "cutoff_hz": float(cutoff_hz),
+        "cutoff_rule": cutoff_rule,
+        "decimation_cutoff_hz": float(decimation_cutoff_hz),
+        "decimation_cutoff_rule": band_rule,
+        "filter_order": int(filter_order),
+        "trim": int(trim),
+        "padding": int(padding),
+        "time_step": float(h),
+    }
+    return TorqueValidation(
+        joint_names=tuple(log.joint_names),
+        t=joined["t"],
+        measured=joined["m"],
+        predicted=joined["p"],
+        raw_measured=joined["rm"],
+        raw_predicted=joined["rp"],
+        segment=joined["s"],
+        settings=settings,
+        num_samples=int(q.shape[0]),
+        **metrics,
+    )
+
+
+def split_log(log: Any, fraction: float) -> tuple[Any, Any]:
+    """Splits a log in time: the first ``fraction`` of its samples, and the rest.
+
+    Args:
+        log: a :class:`~drake_dynid.logs.RobotLog`.
+        fraction: share of the samples in the first part, in (0, 1).
+
+    Returns:
+        ``(first, rest)``, two ``RobotLog``s (the warnings stay with the first).
+    """
+    owner = "split_log"
+    fraction = check.real(owner, "fraction", fraction)
+    if not 0.0 < fraction < 1.0:
+        check.fail(owner, f"fraction must be in (0, 1); got {fraction}.")
+    k = round(fraction * log.num_samples)
+    if k < 2 or log.num_samples - k < 2:
+        check.fail(
+            owner,
+            f"fraction {fraction} of {log.num_samples} samples leaves a part with "
+            "fewer than 2 samples.",
+        )
+    kind = type(log)
+    first = kind(
+        log.t[:k], log.q[:k], log.tau[:k], log.joint_names, log.time_step, log.warnings
+    )
+    rest = kind(log.t[k:], log.q[k:], log.tau[k:], log.joint_names, log.time_step)
+    return first, rest
+
+
+# ----------------------------------------------------------------------------------
+# Results files (the JSON of ``dynid offline/identify --json``).
+
+
+def read_results(path: str | os.PathLike) -> dict[str, Any]:
+    """Reads a results file (``dynid offline/identify --json``) as a dict.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: not JSON, or no ``parameters`` list.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"results file {path}: no such file.")
+    try:
+        with open(path) as stream:
+            document = json.load(stream)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"results file {path}: not valid JSON ({error}).") from None
+    if not isinstance(document, dict) or not isinstance(
+        document.get("parameters"), list
+    ):
+        raise ValueError(
+            f"results file {path}: expected a JSON object with a 'parameters' list "
+            "(written by dynid offline/identify --json)."
+        )
+    return document
+
+
+def _same_definition(a: Mapping[str, Any], b: Mapping[str, float]) -> bool:
+    if set(a) != set(b):
+        return False
+    return all(
+        isinstance(a[k], int | float)
+        and abs(float(a[k]) - b[k]) <= _DEFINITION_TOLERANCE * max(1.0, abs(b[k]))
+        for k in b
+    )
+
+
+def check_parameters(robot: Any, parameters: Any, source: str) -> np.ndarray:
+    """Checks a ``parameters`` list against the robot's base set; returns θ.
+
+    Every entry must have the robot's base parameter name (same order), the same
+    definition (regrouping coefficients within 1e-6) and a finite value.
+
+    Args:
+        robot: the :class:`~drake_dynid.plants.RobotModel`.
+        parameters: list of ``{"name", "value", "definition"}`` dicts.
+        source: what to call the list in messages (e.g. the file name).
+
+    Raises:
+        ValueError: naming the first mismatch.
+    """
+    base = robot.base
+    expected = tuple(base.names)
+    if not isinstance(parameters, list) or not all(
+        isinstance(p, dict) and "name" in p for p in parameters
+    ):
+        raise ValueError(
+            f"{source}: 'parameters' must be a list of objects with a name."
+        )
+    names = tuple(str(p["name"]) for p in parameters)
+    where = f"{robot.path or 'the URDF'} (friction {','.join(robot.friction) or 'none'}"
+    where += ", rotor inertia)" if robot.rotor_inertia else ")"
+    if names != expected:
+        first = next(
+            (
+                k
+                for k, (a, b) in enumerate(zip(names, expected, strict=False))
+                if a != b
+            ),
+            min(len(names), len(expected)),
+        )
+        got = names[first] if first < len(names) else "(none)"
+        want = expected[first] if first < len(expected) else "(none)"
+        raise ValueError(
+            f"{source} holds {len(names)} base parameters but {where} has "
+            f"{len(expected)}; they differ at position {first + 1}: {got!r} in the "
+            f"file, {want!r} expected. Were they identified on another robot or with "
+            "other --friction?"
+        )
+    theta = np.empty(len(names))
+    for k, (entry, definition) in enumerate(
+        zip(parameters, base.definitions, strict=True)
+    ):
+        given = entry.get("definition")
+        if given is not None and not (
+            isinstance(given, dict) and _same_definition(given, definition)
+        ):
+            raise ValueError(
+                f"{source}: parameter {names[k]} is defined as {given} in the file but "
+                f"as {dict(definition)} by {where}: the base parameters belong to "
+                "another model (other link geometry or URDF)."
+            )
+        value = entry.get("value")
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not (math.isfinite(value))
+        ):
+            raise ValueError(
+                f"{source}: parameter {names[k]} has no finite value ({value!r}); the "
+                "estimate in the file is not valid."
+            )
+        theta[k] = float(value)
+    return theta
+
+
+def read_estimates(
+    document: Mapping[str, Any], robot: Any, source: str
+) -> dict[str, np.ndarray]:
+    """The estimates held by a results document, checked against the robot.
+
+    Returns:
+        ``{"fit": θ}`` (the ``parameters`` list), plus ``{"physical": θ}`` when
+        the file holds a ``physical`` section (``dynid offline --physical``).
+    """
+    out = {"fit": check_parameters(robot, document.get("parameters"), source)}
+    physical = document.get("physical")
+    if isinstance(physical, dict) and "parameters" in physical:
+        out["physical"] = check_parameters(
+            robot, physical["parameters"], f"{source} (physical)"
+        )
+    return out

@@ -1,0 +1,165 @@
+"""Identified URDF: Drake's inverse dynamics of the written file reproduce W·θ.
+
+Truth: Drake's ``CalcInverseDynamics`` (with the force elements: gravity and joint
+damping) on the written URDF, plus Coulomb friction FCj·sign(vj), against the
+identified model's W·θ at random states (default_rng(0), (1), (4)).
+"""
+
+import xml.etree.ElementTree as ElementTree
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from drake_dynid.physical import pseudo_inertia
+from drake_dynid.plants import RobotModel, model_path, read_urdf_friction
+from drake_dynid.urdf_writer import write_identified_urdf
+
+
+def _consistent_values(robot, rng):
+    """URDF standard values with each link moved to a random consistent body."""
+    values = np.array(robot.standard_values, dtype=float)
+    index = {name: k for k, name in enumerate(robot.standard_names)}
+    for j in range(1, robot.num_joints + 1):
+        masses = rng.uniform(0.2, 1.5, 3)
+        points = 0.2 * rng.normal(size=(3, 3)) + [0.1, 0.05, 0.0]
+        inertia = sum(
+            m * (p @ p * np.eye(3) - np.outer(p, p))
+            for m, p in zip(masses, points, strict=True)
+        )
+        first = masses @ points
+        for name, value in zip(
+            ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M"),
+            (
+                *inertia[0],
+                inertia[1, 1],
+                inertia[1, 2],
+                inertia[2, 2],
+                *first,
+                masses.sum(),
+            ),
+            strict=True,
+        ):
+            values[index[f"{name}{j}"]] = value
+        if f"IA{j}" in index:
+            values[index[f"IA{j}"]] = rng.uniform(0.01, 0.3)
+        values[index[f"FV{j}"]] = rng.uniform(0.05, 1.0)
+        values[index[f"FC{j}"]] = rng.uniform(0.05, 1.0)
+    return values
+
+
+def _drake_torques(path, robot, q, v, vdot):
+    from pydrake.multibody.tree import MultibodyForces
+
+    plant = RobotModel.from_urdf(path, rotor_inertia=robot.rotor_inertia).plant
+    context = plant.CreateDefaultContext()
+    coulomb = read_urdf_friction(path)
+    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
+    out = []
+    for k in range(q.shape[0]):
+        plant.SetPositions(context, q[k])
+        plant.SetVelocities(context, v[k])
+        forces = MultibodyForces(plant)
+        plant.CalcForceElementsContribution(context, forces)
+        tau = plant.CalcInverseDynamics(context, vdot[k], forces)
+        out.append(tau + fc * np.sign(v[k]))
+    return np.array(out)
+
+
+@pytest.mark.parametrize(
+    ("name", "rotor_inertia", "seed"),
+    [("planar_2r", True, 0), ("iiwa7", False, 1)],
+)
+def test_written_urdf_reproduces_the_identified_torques(
+    tmp_path, name, rotor_inertia, seed
+):
+    robot = RobotModel.from_urdf(model_path(name), rotor_inertia=rotor_inertia)
+    rng = np.random.default_rng(seed)
+    values = _consistent_values(robot, rng)
+    theta = robot.base.values(values)
+    out = tmp_path / f"{name}_identified.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert export.path == str(out) and len(export.links) == robot.num_joints
+    assert export.lumped == () and export.skipped == ()
+    q = rng.uniform(-np.pi, np.pi, (6, robot.num_joints))
+    v, vdot = rng.normal(size=(2, 6, robot.num_joints))
+    expected = robot.idim_rows(q, v, vdot) @ theta
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
+    # Read back by drake_dynid: the same standard parameters.
+    again = RobotModel.from_urdf(out, rotor_inertia=rotor_inertia)
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+    text = out.read_text()
+    assert "Identified by drake_dynid" in text
+    if rotor_inertia:
+        assert "drake:rotor_inertia" in text and 'xmlns:drake="http' in text
+    # The input's comments before <robot> survive.
+    assert text.count("<!--") >= 2
+
+
+def test_welded_links_are_lumped_with_mass_zero(tmp_path):
+    # The 2R with a 0.5 kg tool welded to link2 at 1 m: drake_dynid lumps it into
+    # link 2; the written file carries the lumped inertia on link2 and mass 0 on
+    # the tool, and Drake computes the same torques.
+    source = tmp_path / "with_tool.urdf"
+    text = Path(model_path("planar_2r")).read_text()
+    tool = """
+  <link name="tool">
+    <inertial>
+      <origin xyz="0.05 0 0" rpy="0 0 0"/>
+      <mass value="0.5"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.002"/>
+    </inertial>
+    <visual><geometry><mesh filename="meshes/tool.obj"/></geometry></visual>
+  </link>
+  <joint name="tool_weld" type="fixed">
+    <parent link="link2"/>
+    <child link="tool"/>
+    <origin xyz="1 0 0" rpy="0 0 0"/>
+  </joint>
+</robot>"""
+    source.write_text(text.replace("</robot>", tool))
+    robot = RobotModel.from_urdf(source)
+    assert robot.standard_parameters()["M2"] == pytest.approx(1.5)
+    values = np.array(robot.standard_values)
+    (tmp_path / "out").mkdir()
+    out = tmp_path / "out" / "identified.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert export.lumped == ("tool",)
+    root = ElementTree.parse(out).getroot()
+    tool_link = next(link for link in root.iter("link") if link.get("name") == "tool")
+    assert float(tool_link.find("inertial/mass").get("value")) == 0.0
+    # A relative mesh name is made absolute (the output is in another directory).
+    mesh = tool_link.find("visual/geometry/mesh").get("filename")
+    assert mesh == str((tmp_path / "meshes" / "tool.obj").resolve())
+    again = RobotModel.from_urdf(out)
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+    rng = np.random.default_rng(4)
+    q = rng.uniform(-np.pi, np.pi, (4, 2))
+    v, vdot = rng.normal(size=(2, 4, 2))
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot),
+        robot.idim_rows(q, v, vdot, columns="standard") @ values,
+        rtol=1e-9,
+        atol=1e-9,
+    )
+
+
+def test_refuses_to_overwrite_the_input_or_write_impossible_links(tmp_path):
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    values = np.array(robot.standard_values)
+    with pytest.raises(ValueError, match="path must differ from the input URDF"):
+        write_identified_urdf(robot, values, model_path("planar_2r"))
+    bad = values.copy()
+    bad[robot.standard_names.index("ZZ2")] = -1.0
+    assert np.linalg.eigvalsh(pseudo_inertia(bad[10:20])).min() < 0
+    with pytest.raises(ValueError, match=r"link 'link2' .* not physically consistent"):
+        write_identified_urdf(robot, bad, tmp_path / "bad.urdf")
+    bad = values.copy()
+    bad[robot.standard_names.index("FV1")] = -0.1
+    with pytest.raises(ValueError, match="FV1 must be >= 0"):
+        write_identified_urdf(robot, bad, tmp_path / "bad.urdf")
+    with pytest.raises(ValueError, match=r"standard_values must have shape \(24\)"):
+        write_identified_urdf(robot, values[:5], tmp_path / "bad.urdf")
+    assert not (tmp_path / "bad.urdf").exists()

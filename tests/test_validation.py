@@ -1,0 +1,316 @@
+"""Held-out validation (library and ``dynid validate``) on independent 2R logs.
+
+The logs come from Pinocchio's inverse dynamics (``pin.rnea``) plus the URDF's
+viscous and Coulomb friction along Fourier trajectories (seeds 4 and 5), never from
+drake_dynid's regressor.
+"""
+
+import csv
+import json
+import re
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.logs import RobotLog, write_log
+from drake_dynid.plants import RobotModel, model_path
+from drake_dynid.validation import (
+    check_parameters,
+    read_estimates,
+    read_results,
+    split_log,
+    validate_torques,
+)
+
+pin = pytest.importorskip("pinocchio")
+
+URDF = model_path("planar_2r")
+FV = np.array([0.3, 0.15])
+FC = np.array([0.4, 0.25])
+H = 1e-3
+
+
+def _pinocchio_log(seed, duration, noise=0.0):
+    model = pin.buildModelFromUrdf(URDF)
+    data = model.createData()
+    rng = np.random.default_rng(seed)
+    trajectory = random_fourier_trajectory(
+        2, harmonics=3, base_frequency=2 * np.pi * 0.5, max_velocity=3.0, rng=rng
+    )
+    t = H * np.arange(round(duration / H) + 1)
+    q, v, a = trajectory.evaluate(t)
+    # Continuous joints: Pinocchio's configuration is (cos q, sin q).
+    config = np.stack([np.cos(q), np.sin(q)], axis=-1).reshape(t.size, -1)
+    tau = np.array(
+        [pin.rnea(model, data, config[k], v[k], a[k]) for k in range(t.size)]
+    )
+    tau += FV * v + FC * np.sign(v)
+    q = q + noise * 0.01 * rng.normal(size=q.shape)
+    tau = tau + noise * 0.2 * rng.normal(size=tau.shape)
+    return RobotLog(t, q, tau, ("joint1", "joint2"), H)
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return RobotModel.from_urdf(URDF)
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("validation")
+    out = {}
+    for name, seed in (("fit", 4), ("held", 5)):
+        log = _pinocchio_log(seed, 4.0, noise=1.0)
+        path = folder / f"{name}.csv"
+        write_log(path, log.t, log.q, log.tau, log.joint_names)
+        out[name] = (str(path), log)
+    return out
+
+
+def test_true_parameters_predict_an_independent_log(robot):
+    log = _pinocchio_log(5, 4.0)
+    result = validate_torques(log, robot, robot.base_values)
+    assert result.joint_names == ("joint1", "joint2")
+    # Noise-free: only the filters' bias remains (nonlinear W of filtered q).
+    assert np.all(result.relative_rms_percent < 0.2), result.relative_rms_percent
+    assert np.all(result.r_squared > 0.99999)
+    assert np.all(result.raw_relative_rms_percent < 1.0)
+    settings = result.settings
+    assert (
+        settings["cutoff_rule"] == "auto"
+        and settings["decimation_cutoff_rule"] == "auto"
+    )
+    assert 0.5 < settings["decimation_cutoff_hz"] <= settings["cutoff_hz"]
+    assert result.num_samples == log.num_samples
+    assert result.num_samples_used == log.num_samples - 2 * settings["trim"]
+    # A wrong model is seen: ZZ2 10 % too large.
+    wrong = robot.base_values.copy()
+    wrong[1] *= 1.1
+    worse = validate_torques(log, robot, wrong)
+    assert worse.relative_rms_percent[1] > 10 * result.relative_rms_percent[1]
+
+
+def test_reported_errors_follow_their_definitions(robot, logs):
+    log = logs["held"][1]
+    result = validate_torques(log, robot, robot.base_values, cutoff_hz=5.0)
+    assert (
+        result.settings["cutoff_hz"] == 5.0
+        and result.settings["cutoff_rule"] == "given"
+    )
+    residual = result.measured - result.predicted
+    rms = np.sqrt(np.mean(result.measured**2, axis=0))
+    np.testing.assert_allclose(result.rms_measured, rms)
+    np.testing.assert_allclose(
+        result.relative_rms_percent, 100 * np.sqrt(np.mean(residual**2, axis=0)) / rms
+    )
+    centred = result.measured - result.measured.mean(axis=0)
+    np.testing.assert_allclose(
+        result.r_squared,
+        1 - np.sum(residual**2, axis=0) / np.sum(centred**2, axis=0),
+    )
+    np.testing.assert_allclose(result.residual_std, residual.std(axis=0))
+    # The raw comparison holds the torque noise (0.2 N·m) and the noise of v̇
+    # between the band and the 5 Hz cutoff; the low-pass removes most of both.
+    raw = result.raw_measured - result.raw_predicted
+    assert np.all(raw.std(axis=0) > 0.18)
+    assert np.all(result.residual_std < 0.25 * raw.std(axis=0))
+    # The compared samples are the logged ones, in order.
+    k = np.searchsorted(log.t, result.t[0])
+    np.testing.assert_array_equal(result.raw_measured[:10], log.tau[k : k + 10])
+    # θ = 0 predicts nothing: 100 % error.
+    zero = validate_torques(log, robot, np.zeros(robot.num_parameters))
+    np.testing.assert_allclose(zero.relative_rms_percent, 100.0)
+    assert zero.total_relative_rms_percent == pytest.approx(100.0)
+
+
+def test_bad_samples_split_the_log_into_segments(robot):
+    log = _pinocchio_log(5, 4.0)
+    q = log.q.copy()
+    q[2000:2010] = np.nan
+    gappy = RobotLog(log.t, q, log.tau, log.joint_names, H)
+    result = validate_torques(gappy, robot, robot.base_values)
+    assert set(result.segment.tolist()) == {0, 1}
+    assert np.all(np.isfinite(result.predicted))
+    assert np.all(result.relative_rms_percent < 0.3)
+    first, rest = split_log(log, 0.25)
+    assert first.num_samples == 1000 and rest.num_samples == 3001
+    assert rest.t[0] == log.t[1000]
+    with pytest.raises(ValueError, match=r"fraction must be in \(0, 1\)"):
+        split_log(log, 1.0)
+    with pytest.raises(ValueError, match="log joints must be the robot's"):
+        validate_torques(
+            RobotLog(log.t, log.q, log.tau, ("a", "b"), H), robot, robot.base_values
+        )
+    with pytest.raises(ValueError, match=r"theta must have shape \(8,\)"):
+        validate_torques(log, robot, np.zeros(3))
+    with pytest.raises(ValueError, match="no finite segment of the log is long enough"):
+        validate_torques(log, robot, robot.base_values, cutoff_hz=0.05)
+
+
+def test_results_files_of_another_model_are_refused(robot, tmp_path):
+    document = {
+        "parameters": [
+            {"name": name, "value": float(value), "definition": dict(definition)}
+            for name, value, definition in zip(
+                robot.base.names, robot.base_values, robot.base.definitions, strict=True
+            )
+        ]
+    }
+    estimates = read_estimates(document, robot, "r.json")
+    np.testing.assert_array_equal(estimates["fit"], robot.base_values)
+    other = json.loads(json.dumps(document))
+    other["parameters"][0]["definition"]["M2"] = 0.49  # L1 = 0.7 m
+    with pytest.raises(ValueError, match="parameter ZZ1R is defined as"):
+        check_parameters(robot, other["parameters"], "r.json")
+    with pytest.raises(
+        ValueError, match="differ at position 5: 'FC1' in the file, 'FV1' expected"
+    ):
+        check_parameters(
+            robot, document["parameters"][:4] + document["parameters"][5:], "r.json"
+        )
+    other = json.loads(json.dumps(document))
+    other["parameters"][2]["value"] = None
+    with pytest.raises(ValueError, match="parameter MX2 has no finite value"):
+        check_parameters(robot, other["parameters"], "r.json")
+    iiwa = RobotModel.from_urdf(model_path("iiwa7"))
+    with pytest.raises(ValueError, match=r"holds 8 base parameters but .*iiwa7.urdf"):
+        read_estimates(document, iiwa, "r.json")
+    path = tmp_path / "broken.json"
+    path.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        read_results(path)
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        read_results(tmp_path / "missing.json")
+
+
+def _error(capsys):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+def test_offline_fits_validates_and_writes(logs, tmp_path, capsys):
+    fit_path, held_path = logs["fit"][0], logs["held"][0]
+    out_json, out_csv, out_png = (
+        tmp_path / "r.json",
+        tmp_path / "e.csv",
+        tmp_path / "t.png",
+    )
+    argv = ["offline", fit_path, "--urdf", URDF, "--validate", held_path, "--physical"]
+    argv += ["--json", str(out_json), "--out", str(out_csv), "--plot", str(out_png)]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "physical check of the estimate: physically consistent" in out
+    assert re.search(r"^physically consistent estimate \(Clarabel", out, re.M)
+    assert f"validation on {held_path} (4001 samples)" in out
+    assert re.search(r"^estimate: idim-ls$", out, re.M)
+    assert re.search(r"^estimate: physical$", out, re.M)
+    assert re.search(
+        r"^joint\s+RMS τ\s+residual σ\s+error %\s+R²\s+raw error %$", out, re.M
+    )
+    document = json.loads(out_json.read_text())
+    validation = document["validation"]
+    assert set(validation["estimates"]) == {"idim-ls", "physical"}
+    joints = validation["estimates"]["idim-ls"]["joints"]
+    assert [j["name"] for j in joints] == ["joint1", "joint2"]
+    assert all(j["relative_rms_percent"] < 2.0 for j in joints)
+    assert document["physical_check"]["consistent"] is True
+    assert document["physical"]["solver"] == "Clarabel"
+    with open(out_csv, newline="") as stream:
+        rows = list(csv.reader(stream))
+    names = [p["name"] for p in document["parameters"]]
+    assert rows[0] == ["t", "valid", *names, *(f"std_{n}" for n in names)]
+    assert len(rows) == 2 and rows[1][:2] == ["4", "1"]
+    assert float(rows[1][2]) == document["parameters"][0]["value"]
+    assert float(rows[1][10]) == document["parameters"][0]["std"]
+    assert out_png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # dynid validate on the same file reports the same numbers.
+    out_val = tmp_path / "v.json"
+    argv = ["validate", held_path, "--urdf", URDF, "--params", str(out_json)]
+    assert cli.main([*argv, "--json", str(out_val), "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+    again = json.loads(out_val.read_text())
+    assert again["estimates"] == validation["estimates"]
+    # --split: fit on 60 %, validate on the rest.
+    argv = [
+        "offline",
+        fit_path,
+        "--urdf",
+        URDF,
+        "--split",
+        "0.6",
+        "--json",
+        str(out_json),
+    ]
+    assert cli.main([*argv, "--quiet"]) == 0
+    document = json.loads(out_json.read_text())
+    assert document["log"]["samples"] == 2401
+    assert document["validation"]["log"]["samples"] == 1600
+    assert document["validation"]["log"]["description"].endswith("after the first 60 %")
+
+
+def test_identify_validates_its_final_estimate(logs, tmp_path, capsys):
+    out_json = tmp_path / "i.json"
+    argv = ["identify", logs["fit"][0], "--urdf", URDF, "--window", "2"]
+    argv += ["--validate", logs["held"][0], "--json", str(out_json)]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^estimate: lagrangian$", out, re.M)
+    document = json.loads(out_json.read_text())
+    joints = document["validation"]["estimates"]["lagrangian"]["joints"]
+    assert all(j["relative_rms_percent"] < 3.0 for j in joints)
+    assert document["physical_check"]["consistent"] is True
+
+
+def test_bad_validation_input_exits_2(logs, tmp_path, capsys):
+    fit_path, held_path = logs["fit"][0], logs["held"][0]
+    result = tmp_path / "r.json"
+    assert (
+        cli.main(
+            ["offline", fit_path, "--urdf", URDF, "--json", str(result), "--quiet"]
+        )
+        == 0
+    )
+    base = ["validate", held_path, "--urdf", URDF, "--params", str(result)]
+    # Another robot's URDF, other friction columns, other definitions.
+    assert cli.main([*base[:2], "--urdf", model_path("iiwa7"), *base[4:]]) == 2
+    assert "holds 8 base parameters but" in _error(capsys)
+    assert cli.main([*base, "--friction", "viscous"]) == 2
+    assert "other --friction" in _error(capsys)
+    document = json.loads(result.read_text())
+    document["parameters"][0]["definition"] = {"ZZ1": 1.0, "M2": 0.49}
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps(document))
+    assert cli.main([*base[:4], "--params", str(other)]) == 2
+    assert "parameter ZZ1R is defined as" in _error(capsys)
+    # A log without the torque of joint 2.
+    short = tmp_path / "short.csv"
+    short.write_text("t,q_joint1,q_joint2,tau_joint1\n0,0,0,0\n0.001,0,0,0\n")
+    assert cli.main(["validate", str(short), *base[2:]]) == 2
+    assert "missing column(s) tau_joint2" in _error(capsys)
+    # Outputs never overwrite inputs.
+    assert cli.main([*base, "--json", held_path]) == 2
+    assert "--json" in _error(capsys)
+    argv = ["offline", fit_path, "--urdf", URDF, "--urdf-out", URDF]
+    assert cli.main(argv) == 2
+    assert "--urdf-out" in _error(capsys)
+    argv = [
+        "offline",
+        fit_path,
+        "--urdf",
+        URDF,
+        "--split",
+        "0.5",
+        "--validate",
+        held_path,
+    ]
+    assert cli.main(argv) == 2
+    assert "not both" in _error(capsys)
+    assert cli.main(["offline", fit_path, "--urdf", URDF, "--split", "1.5"]) == 2
+    assert "--split must be in (0, 1)" in _error(capsys)
+    assert cli.main([*base[:4], "--params", str(tmp_path / "none.json")]) == 2
+    assert "no such file" in _error(capsys)
