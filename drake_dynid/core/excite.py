@@ -45,6 +45,12 @@ import numpy as np
 from scipy import optimize
 
 from drake_dynid.core import _validate as v
+from drake_dynid.core.excite_problem import (
+    ExcitationProblem,
+    RowsFunction,
+    batched_rows,
+    condition_number,
+)
 from drake_dynid.core.joint_limits import (
     JointLimits,
     Margins,
@@ -54,16 +60,10 @@ from drake_dynid.core.trajectory import FourierTrajectory, random_fourier_trajec
 
 __all__ = ["ExcitationDesign", "ExcitationSettings", "design_excitation"]
 
-RowsFunction = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 ClearanceFunction = Callable[[np.ndarray], np.ndarray]
 
-_STEP_Q = 1e-6  # forward-difference steps [rad], [rad/s]; v̇ is exact (linear)
-_STEP_V = 1e-6
-_STEP_CLEARANCE = 1e-5  # [rad]: signed distances are smooth at this scale
 _FEASIBLE = 1e-6  # tolerance on the normalised constraints
-_MAX_BATCH = 4096  # samples per regressor call
 _DENSE = 4  # verification grid: this many times the optimisation grid
-SOFTNESS = 20.0  # r of the smooth condition number (see _soft_log_condition)
 
 
 @dataclass(frozen=True)
@@ -77,8 +77,11 @@ class ExcitationSettings:
         samples_per_period: N, optimisation grid (0: max(64, 16H)); >= 4H.
         iterations: SLSQP iterations.
         seed: seed of the random start (and of the default random trajectory).
-        rest_start: impose v(0) = v̇(0) = 0 (the robot starts and ends each period
-            at rest, so the trajectory can be started from a standstill).
+        rest_start: impose v(0) = v̇(0) = 0 (each period starts and ends at rest,
+            so the trajectory can be started from a standstill). Off by default:
+            all joints then dwell near zero velocity at every period boundary,
+            where Coulomb friction is least like sign(v), and the simulated
+            friction estimates degrade (benchmarks/bench_excite.py).
     """
 
     duration: float = 60.0
@@ -87,7 +90,7 @@ class ExcitationSettings:
     samples_per_period: int = 0
     iterations: int = 100
     seed: int = 0
-    rest_start: bool = True
+    rest_start: bool = False
 
     def __post_init__(self) -> None:
         owner = "ExcitationSettings"
@@ -150,6 +153,9 @@ class ExcitationDesign:
             denser than the optimisation's (position: |q - mid|/half range).
         clearance: smallest signed distance on that grid [m] (inf without
             collision geometry).
+        unexcitable: indices of the base parameters whose regressor column
+            vanishes at random states (no motion excites them; left out of the
+            condition numbers).
     """
 
     trajectory: FourierTrajectory
@@ -162,233 +168,10 @@ class ExcitationDesign:
     message: str
     usage: dict[str, np.ndarray] = field(default_factory=dict)
     clearance: float = math.inf
+    unexcitable: tuple[int, ...] = ()
 
 
-def _condition(W: np.ndarray) -> float:
-    Wf = W.reshape(-1, W.shape[-1])
-    norms = np.linalg.norm(Wf, axis=0)
-    if not (np.all(np.isfinite(Wf)) and np.all(norms > 0.0)):
-        return math.inf
-    s = np.linalg.svd(Wf / norms, compute_uv=False)
-    return float(s[0] / s[-1]) if s[-1] > 0.0 else math.inf
-
-
-def _soft_log_condition(s: np.ndarray) -> tuple[float, np.ndarray]:
-    """Smooth log10 condition number and its gradient with respect to σ.
-
-    ``log10(‖σ‖_r · ‖1/σ‖_r)`` with r = SOFTNESS: an upper bound of log10 cond that
-    tends to it as r grows, and is differentiable where σ_max or σ_min repeat
-    (the plain condition number is not, which stalls SLSQP at the optimum, where
-    the extreme singular values cluster).
-    """
-    if not s[-1] > 0.0:
-        return 20.0, np.zeros_like(s)
-    r = SOFTNESS
-    top = (s / s[0]) ** r
-    bottom = (s[-1] / s) ** r
-    cost = (
-        math.log10(s[0] / s[-1])
-        + (math.log10(top.sum()) + math.log10(bottom.sum())) / r
-    )
-    weights = (top / top.sum() - bottom / bottom.sum()) / (s * math.log(10.0))
-    return cost, weights
-
-
-def _rows(rows_fn: RowsFunction, q, qd, qdd) -> np.ndarray:
-    """rows_fn over a batch, in chunks of at most _MAX_BATCH samples."""
-    parts = [
-        np.asarray(
-            rows_fn(
-                q[i : i + _MAX_BATCH], qd[i : i + _MAX_BATCH], qdd[i : i + _MAX_BATCH]
-            ),
-            dtype=float,
-        )
-        for i in range(0, q.shape[0], _MAX_BATCH)
-    ]
-    return parts[0] if len(parts) == 1 else np.concatenate(parts)
-
-
-class _Problem:
-    """Grid, basis and limit bounds of one design (private, built once)."""
-
-    def __init__(self, rows_fn, theta, limits, settings, margins, clearance_fn):
-        self.rows_fn = rows_fn
-        self.theta = theta
-        self.limits = limits
-        self.settings = settings
-        self.margins = margins
-        self.clearance_fn = clearance_fn
-        self.n = n = limits.num_joints
-        self.H = H = settings.harmonics
-        self.N = N = settings.num_samples
-        self.omega = 2.0 * math.pi * settings.base_frequency
-        self.t = (np.arange(N) + 0.5) * settings.period / N
-        self.basis = self._basis(self.t)
-        self.rho = 1.0 - 0.5 * (math.pi * H / N) ** 2
-        self.mid = 0.5 * (limits.lower + limits.upper)
-        self.half = 0.5 * (limits.upper - limits.lower) - margins.position
-        self.vmax = (1.0 - margins.velocity) * limits.velocity
-        self.amax = (1.0 - margins.acceleration) * limits.acceleration
-        self.emax = (1.0 - margins.effort) * limits.effort
-        self.size = n * (2 * H + 1)
-        self.evaluations = 0
-        self._values: dict[bytes, tuple] = {}
-        self._gradients: dict[bytes, tuple] = {}
-        self._clearances: dict[bytes, tuple] = {}
-
-    def _basis(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        wl = self.omega * np.arange(1, self.H + 1)
-        S, C = np.sin(np.outer(t, wl)), np.cos(np.outer(t, wl))
-        return (
-            np.hstack([S / wl, -C / wl]),  # q - q0
-            np.hstack([C, S]),  # v
-            np.hstack([-S * wl, C * wl]),  # v̇
-        )
-
-    # --------------------------------------------------------------- parametrisation
-    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return x[: self.n], x[self.n :].reshape(self.n, 2 * self.H)
-
-    def pack(self, trajectory: FourierTrajectory) -> np.ndarray:
-        ab = np.hstack([trajectory.a, trajectory.b])
-        return np.concatenate([trajectory.q0, ab.ravel()])
-
-    def trajectory(self, x: np.ndarray) -> FourierTrajectory:
-        q0, ab = self.unpack(x)
-        return FourierTrajectory(q0, ab[:, : self.H], ab[:, self.H :], self.omega)
-
-    def kinematics(self, x: np.ndarray, basis=None):
-        q0, ab = self.unpack(x)
-        Bq, Bv, Ba = self.basis if basis is None else basis
-        return q0 + Bq @ ab.T, Bv @ ab.T, Ba @ ab.T
-
-    # ------------------------------------------------------------------- cost, torque
-    def values(self, x: np.ndarray) -> tuple:
-        """(cost, W, τ, svd pieces) at x, cached."""
-        key = x.tobytes()
-        if key not in self._values:
-            q, qd, qdd = self.kinematics(x)
-            W = _rows(self.rows_fn, q, qd, qdd)
-            self.evaluations += 1
-            Wf = W.reshape(-1, W.shape[-1])
-            norms = np.linalg.norm(Wf, axis=0)
-            if np.all(np.isfinite(Wf)) and np.all(norms > 0.0):
-                A = Wf / norms
-                U, s, Vt = np.linalg.svd(A, full_matrices=False)
-                cost, weights = _soft_log_condition(s)
-                svd = (A, norms, U, weights, Vt)
-            else:
-                cost, svd = 20.0, None
-            self._values = {key: (cost, W, W @ self.theta, svd, (q, qd, qdd))}
-        return self._values[key]
-
-    def gradients(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(∂cost/∂x (size,), ∂τ/∂x (N, n, size)), cached."""
-        key = x.tobytes()
-        if key in self._gradients:
-            return self._gradients[key]
-        _, W, _, svd, (q, qd, qdd) = self.values(x)
-        n, N, p = self.n, self.N, W.shape[-1]
-        if svd is None:
-            G = np.zeros_like(W)
-        else:
-            A, norms, U, weights, Vt = svd
-            GA = (U * weights) @ Vt
-            G = ((GA - A * np.sum(A * GA, axis=0)) / norms).reshape(N, n, p)
-        eye = np.eye(n)
-        step_v = np.where(qd >= 0.0, _STEP_V, -_STEP_V)  # away from zero
-        steps = [np.full((N, n), _STEP_Q), step_v, np.ones((N, n))]
-        Q = np.concatenate([q + _STEP_Q * eye[j] for j in range(n)] + [q] * 2 * n)
-        V = np.concatenate(
-            [qd] * n + [qd + step_v * eye[j] for j in range(n)] + [qd] * n
-        )
-        Ac = np.concatenate([qdd] * 2 * n + [qdd + eye[j] for j in range(n)])
-        Wb = _rows(self.rows_fn, Q, V, Ac).reshape(3, n, N, n, p)
-        self.evaluations += 1
-        g = np.empty((3, N, n))  # ∂cost/∂(q, v, v̇)_kj
-        dtau = np.empty((3, n, N, n))  # ∂τ_ki/∂(q, v, v̇)_kj, [kind, j, k, i]
-        for kind in range(3):
-            for j in range(n):
-                dW = (Wb[kind, j] - W) / steps[kind][:, j, None, None]
-                g[kind, :, j] = np.einsum("kic,kic->k", G, dW)
-                dtau[kind, j] = dW @ self.theta
-        Bq, Bv, Ba = self.basis
-        grad_ab = g[0].T @ Bq + g[1].T @ Bv + g[2].T @ Ba
-        grad = np.concatenate([g[0].sum(axis=0), grad_ab.ravel()])
-        J_q0 = np.transpose(dtau[0], (1, 2, 0))  # (N, n_i, n_j)
-        J_ab = (
-            np.einsum("jki,km->kijm", dtau[0], Bq)
-            + np.einsum("jki,km->kijm", dtau[1], Bv)
-            + np.einsum("jki,km->kijm", dtau[2], Ba)
-        ).reshape(N, n, -1)
-        self._gradients = {key: (grad, np.concatenate([J_q0, J_ab], axis=2))}
-        return self._gradients[key]
-
-    # ------------------------------------------------------------------ clearance
-    def clearance(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(d (N,), ∂d/∂x (N, size)) [m], cached."""
-        key = x.tobytes()
-        if key not in self._clearances:
-            q, _, _ = self.kinematics(x)
-            n, N = self.n, self.N
-            Q = np.concatenate([q] + [q + _STEP_CLEARANCE * e for e in np.eye(n)])
-            d = np.asarray(self.clearance_fn(Q), dtype=float).reshape(n + 1, N)
-            dd = (d[1:] - d[0]) / _STEP_CLEARANCE  # (n_j, N)
-            J_ab = np.einsum("jk,km->kjm", dd, self.basis[0]).reshape(N, -1)
-            self._clearances = {key: (d[0], np.hstack([dd.T, J_ab]))}
-        return self._clearances[key]
-
-    # ---------------------------------------------------------------- constraints
-    def linear(self) -> tuple[np.ndarray, np.ndarray, list[tuple[str, int, int]]]:
-        """(M, h, labels): normalised linear inequalities M x + h >= 0."""
-        n, H, N = self.n, self.H, self.N
-        rows, offsets, labels = [], [], []
-        Bq, Bv, Ba = self.basis
-        for kind, B, bound in (
-            ("position", Bq, self.half),
-            ("velocity", Bv, self.vmax),
-            ("acceleration", Ba, self.amax),
-        ):
-            for j in range(n):
-                if not np.isfinite(bound[j]):
-                    continue
-                # block @ x = (q_j - q0_j) + q0_j for positions, v_j or v̇_j otherwise.
-                block = np.zeros((N, self.size))
-                block[:, n + j * 2 * H : n + (j + 1) * 2 * H] = B
-                centre = 0.0
-                if kind == "position":
-                    block[:, j] = 1.0
-                    centre = self.mid[j]
-                # ρ·bound - (value - centre) >= 0 and ρ·bound + (value - centre) >= 0
-                for sign in (-1.0, 1.0):
-                    rows.append(sign * block / bound[j])
-                    offsets.append(np.full(N, self.rho - sign * centre / bound[j]))
-                    labels.append((kind, j, int(sign)))
-        return np.vstack(rows), np.concatenate(offsets), labels
-
-    def equality(self) -> np.ndarray:
-        """Rows E with E x = 0: v_j(0) = Σ a_jl = 0, v̇_j(0) ∝ Σ l b_jl = 0."""
-        n, H = self.n, self.H
-        E = np.zeros((2 * n, self.size))
-        for j in range(n):
-            start = n + j * 2 * H
-            E[2 * j, start : start + H] = 1.0
-            E[2 * j + 1, start + H : start + 2 * H] = np.arange(1, H + 1)
-        return E
-
-    def effort(self, x: np.ndarray) -> np.ndarray:
-        finite = np.isfinite(self.emax)
-        tau = self.values(x)[2][:, finite] / self.emax[finite]
-        return np.concatenate([(1.0 - tau).ravel(), (1.0 + tau).ravel()])
-
-    def effort_jacobian(self, x: np.ndarray) -> np.ndarray:
-        finite = np.isfinite(self.emax)
-        J = self.gradients(x)[1][:, finite] / self.emax[finite][None, :, None]
-        J = J.reshape(-1, self.size)
-        return np.vstack([-J, J])
-
-
-def _start(problem: _Problem) -> np.ndarray:
+def _start(problem: ExcitationProblem) -> np.ndarray:
     """The seed's random coefficients, at rest at t = 0, scaled into the limits."""
     n, H = problem.n, problem.H
     rng = np.random.default_rng(problem.settings.seed)
@@ -413,7 +196,70 @@ def _start(problem: _Problem) -> np.ndarray:
     return np.concatenate([problem.mid, (ab * ratio[:, None]).ravel()])
 
 
-def _baseline(problem: _Problem) -> FourierTrajectory:
+def _constraints(problem: ExcitationProblem) -> list[dict]:
+    """SLSQP constraints: kinematic limits (linear), rest start, effort."""
+    lin_M, lin_h, _ = problem.linear()
+    out = [{"type": "ineq", "fun": lambda x: lin_M @ x + lin_h, "jac": lambda x: lin_M}]
+    if problem.settings.rest_start:
+        E = problem.equality()
+        out.append({"type": "eq", "fun": lambda x: E @ x, "jac": lambda x: E})
+    if np.any(np.isfinite(problem.emax)):
+        out.append(
+            {"type": "ineq", "fun": problem.effort, "jac": problem.effort_jacobian}
+        )
+    return out
+
+
+def _collision_constraint(problem: ExcitationProblem) -> dict | None:
+    """The clearance constraint 10·(d - margin) >= 0 (per 0.1 m), or None."""
+    if problem.clearance_fn is None:
+        return None
+    margin = problem.margins.collision
+    return {
+        "type": "ineq",
+        "fun": lambda x: 10.0 * (problem.clearance(x)[0] - margin),
+        "jac": lambda x: 10.0 * problem.clearance(x)[1],
+    }
+
+
+def _shrink(problem: ExcitationProblem, x: np.ndarray, feasible) -> np.ndarray:
+    """Scales the motion of x down (about q0) until ``feasible``, if that helps.
+
+    Bisection on the factor s of the Fourier coefficients (the effort and the
+    clearance are not monotonic in s, but a start near the feasible set keeps
+    SLSQP's first steps small); x itself when feasible or when s = 0 is not.
+    """
+    n = problem.n
+
+    def scaled(factor: float) -> np.ndarray:
+        return np.concatenate([x[:n], factor * x[n:]])
+
+    if feasible(x) or not feasible(scaled(0.0)):
+        return x
+    low, high = 0.0, 1.0
+    for _ in range(12):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if feasible(scaled(middle)) else (low, middle)
+    return scaled(low)
+
+
+def _bounds(problem: ExcitationProblem) -> list[tuple[float, float]]:
+    """Box bounds that contain every feasible x (they keep SLSQP's steps physical).
+
+    q0 within the position limits and |a_jl|, |b_jl| <= 2 v_max,j (a Fourier
+    coefficient of v_j is at most twice max |v_j|).
+    """
+    out = [
+        (float(lo), float(hi))
+        for lo, hi in zip(problem.limits.lower, problem.limits.upper, strict=True)
+    ]
+    for j in range(problem.n):
+        bound = 2.0 * float(problem.vmax[j])
+        out += [(-bound, bound)] * (2 * problem.H)
+    return out
+
+
+def _baseline(problem: ExcitationProblem) -> FourierTrajectory:
     """The default random trajectory: same seed, H, f0 and kinematic limits."""
     finite = np.isfinite(problem.amax)
     return random_fourier_trajectory(
@@ -430,13 +276,15 @@ def _baseline(problem: _Problem) -> FourierTrajectory:
     )
 
 
-def _usage(problem: _Problem, trajectory: FourierTrajectory) -> tuple[dict, float]:
+def _usage(
+    problem: ExcitationProblem, trajectory: FourierTrajectory
+) -> tuple[dict, float]:
     """Fractions of the raw limits used on the dense grid, and the clearance."""
     limits = problem.limits
     N = _DENSE * problem.N
     t = (np.arange(N) + 0.5) * problem.settings.period / N
     q, qd, qdd = trajectory.evaluate(t)
-    tau = _rows(problem.rows_fn, q, qd, qdd) @ problem.theta
+    tau = batched_rows(problem.rows_fn, q, qd, qdd) @ problem.theta
     with np.errstate(divide="ignore", invalid="ignore"):
         half = 0.5 * (limits.upper - limits.lower)
         usage = {
@@ -451,7 +299,7 @@ def _usage(problem: _Problem, trajectory: FourierTrajectory) -> tuple[dict, floa
     return usage, clearance
 
 
-def _most_violated(problem: _Problem, x: np.ndarray) -> str:
+def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
     trajectory = problem.trajectory(x)
     q, qd, qdd = trajectory.evaluate(problem.t)
     tau = problem.values(x)[2]
@@ -526,7 +374,7 @@ def design_excitation(
             f"position and velocity limits are needed for every joint; missing for "
             f"{'; '.join(missing)}.",
         )
-    problem = _Problem(rows_fn, theta, limits, settings, margins, clearance_fn)
+    problem = ExcitationProblem(rows_fn, theta, limits, settings, margins, clearance_fn)
     tight = np.flatnonzero(problem.half <= 0.0)
     if tight.size:
         j = int(tight[0])
@@ -538,68 +386,70 @@ def design_excitation(
         )
     x0 = _start(problem)
     baseline = _baseline(problem)
-    baseline_condition = _condition(_rows(rows_fn, *baseline.evaluate(problem.t)))
+    baseline_condition = condition_number(
+        batched_rows(rows_fn, *baseline.evaluate(problem.t))
+    )
 
-    lin_M, lin_h, _ = problem.linear()
-    constraints = [
-        {"type": "ineq", "fun": lambda x: lin_M @ x + lin_h, "jac": lambda x: lin_M}
-    ]
-    if settings.rest_start:
-        E = problem.equality()
-        constraints.append({"type": "eq", "fun": lambda x: E @ x, "jac": lambda x: E})
-    if np.any(np.isfinite(problem.emax)):
-        constraints.append(
-            {"type": "ineq", "fun": problem.effort, "jac": problem.effort_jacobian}
-        )
-    if clearance_fn is not None:
-        scale = 10.0  # per 0.1 m
+    constraints = _constraints(problem)
+    collision = _collision_constraint(problem)
 
-        def collision(x):
-            return scale * (problem.clearance(x)[0] - margins.collision)
-
-        def collision_jacobian(x):
-            return scale * problem.clearance(x)[1]
-
-        constraints.append(
-            {"type": "ineq", "fun": collision, "jac": collision_jacobian}
-        )
-
-    def feasible(x: np.ndarray) -> bool:
+    def feasible(x: np.ndarray, checked: list[dict]) -> bool:
         return all(
             np.all(c["fun"](x) >= -_FEASIBLE)
             if c["type"] == "ineq"
             else np.all(np.abs(c["fun"](x)) <= _FEASIBLE)
-            for c in constraints
+            for c in checked
         )
 
-    best = {"x": None, "cost": math.inf}
+    def solve(x_start: np.ndarray, checked: list[dict]) -> dict:
+        """SLSQP from x_start; the best iterate feasible for ``checked``."""
+        best: dict = {"x": None, "cost": math.inf, "last": x_start}
 
-    def track(x: np.ndarray) -> None:
-        x = np.array(x, dtype=float)
-        cost = _condition(problem.values(x)[1])
-        if cost < best["cost"] and feasible(x):
-            best.update(x=x, cost=cost)
+        def track(x: np.ndarray) -> None:
+            x = np.array(x, dtype=float)
+            cost = condition_number(problem.values(x)[1][..., problem.active])
+            if cost < best["cost"] and feasible(x, checked):
+                best.update(x=x, cost=cost)
 
-    track(x0)
-    result = optimize.minimize(
-        lambda x: problem.values(x)[0],
-        x0,
-        jac=lambda x: problem.gradients(x)[0],
-        method="SLSQP",
-        constraints=constraints,
-        callback=track,
-        options={"maxiter": settings.iterations, "ftol": 1e-7},
-    )
-    track(result.x)
+        track(x_start)
+        result = optimize.minimize(
+            lambda x: problem.values(x)[0],
+            x_start,
+            jac=lambda x: problem.gradients(x)[0],
+            method="SLSQP",
+            bounds=_bounds(problem),
+            constraints=checked,
+            callback=track,
+            options={"maxiter": settings.iterations, "ftol": 1e-7},
+        )
+        track(result.x)
+        best.update(last=result.x, nit=int(result.nit), message=str(result.message))
+        return best
+
+    # Without self-collision first; if that motion collides, continue from it with
+    # the clearance constraint, and from a start shrunk out of collision.
+    best = solve(_shrink(problem, x0, lambda x: feasible(x, constraints)), constraints)
+    iterations = best["nit"]
+    if collision is not None:
+        everything = [*constraints, collision]
+        if best["x"] is None or not feasible(best["x"], everything):
+            runs = [solve(best["x"] if best["x"] is not None else x0, everything)]
+            runs.append(
+                solve(
+                    _shrink(problem, x0, lambda x: feasible(x, everything)), everything
+                )
+            )
+            iterations += sum(run["nit"] for run in runs)
+            best = min(runs, key=lambda run: run["cost"])
     if best["x"] is None:
         v.fail(
             owner,
             f"no trajectory meets the limits (after the margins): "
-            f"{_most_violated(problem, result.x)}. Raise the limits, lower the "
+            f"{_most_violated(problem, best['last'])}. Raise the limits, lower the "
             "margins (--margin), or lower f0/harmonics.",
         )
     x = best["x"]
-    condition = best["cost"]
+    condition = float(best["cost"])
     if not condition <= max_condition:
         v.fail(
             owner,
@@ -616,9 +466,10 @@ def design_excitation(
         baseline=baseline,
         baseline_condition_number=float(baseline_condition),
         settings=settings,
-        iterations=int(result.nit),
+        iterations=int(iterations),
         evaluations=int(problem.evaluations),
-        message=str(result.message),
+        message=best["message"],
         usage=usage,
         clearance=clearance,
+        unexcitable=tuple(int(i) for i in np.flatnonzero(~problem.active)),
     )
