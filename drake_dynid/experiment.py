@@ -225,8 +225,9 @@ def simulate_experiment(
             f"{plant.num_actuators()} actuators.",
         )
     controller_context = controller_plant.CreateDefaultContext()
-    _set_friction(controller_plant, controller_context, names,
-                  "viscous" in settings.friction)  # fmt: skip
+    _set_friction(
+        controller_plant, controller_context, names, "viscous" in settings.friction
+    )
     t_ref = reference.t - reference.t[0]
     source = builder.AddSystem(
         TrajectorySource(
@@ -264,9 +265,14 @@ def simulate_experiment(
     control = controller.get_output_port_control()
     if "coulomb" in settings.friction:
         control = _add_coulomb(
-            builder, plant, desired_state.get_output_port(), control, urdf, names,
+            builder,
+            plant,
+            desired_state.get_output_port(),
+            control,
+            urdf,
+            names,
             settings.coulomb_smoothing,
-        )  # fmt: skip
+        )
     builder.Connect(control, plant.get_actuation_input_port())
     state_log = LogVectorOutput(plant.get_state_output_port(), builder, h)
     command_log = LogVectorOutput(control, builder, h)

@@ -122,4 +122,3 @@ def extract_tree(plant: Any) -> tuple[KinematicTree, list[Any], np.ndarray]:
     for array in (parent, x_parent_f, x_m_b, axis, prismatic, ancestors):
         array.setflags(write=False)
     return tree, moving, inertial
-

@@ -335,9 +335,7 @@ class RobotModel:
 
     def _lagrangian_standard(self, q, v):
         n = self.num_joints
-        dhe_dv, dhe_dq, dhu_dq = lagrangian_blocks(
-            self._terms(q, v, derivatives=True)
-        )
+        dhe_dv, dhe_dq, dhu_dq = lagrangian_blocks(self._terms(q, v, derivatives=True))
         zero = np.zeros((*v.shape, n))
         return (
             self._assemble(dhe_dv, np.eye(n)[None] * v[:, None, :]),

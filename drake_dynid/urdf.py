@@ -218,4 +218,3 @@ def load_plant(
 
 # ----------------------------------------------------------------------------------
 # Numeric kinematic structure and vectorised spatial algebra.
-

@@ -39,6 +39,42 @@ def _number(value: float) -> str:
     return f"{value:.6g}" if math.isfinite(value) else str(value)
 
 
+def params_document(model, urdf) -> dict:
+    """The ``dynid params --json`` document of a ``RobotModel``.
+
+    Base parameters (name, value, definition), standard parameters, joints, URDF
+    path and settings; ``dynid simulate`` writes it as the log's truth.
+    """
+    return {
+        "parameters": [
+            {
+                "name": name,
+                "value": float(value),
+                "std": None,
+                "definition": dict(definition),
+            }
+            for name, value, definition in zip(
+                model.base.names, model.base_values, model.base.definitions, strict=True
+            )
+        ],
+        "standard_parameters": [
+            {"name": name, "value": float(value)}
+            for name, value in zip(
+                model.standard_names, model.standard_values, strict=True
+            )
+        ],
+        "num_standard": model.base.num_standard,
+        "num_base": model.base.num_base,
+        "joints": list(model.joint_names),
+        "urdf": str(urdf),
+        "settings": {
+            "friction": list(model.friction),
+            "rotor_inertia": model.rotor_inertia,
+            "gravity": model.gravity.tolist(),
+        },
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     """Prints the base-parameter table; writes JSON when asked. Returns 0."""
     from drake_dynid.robot import RobotModel
@@ -70,34 +106,7 @@ def run(args: argparse.Namespace) -> int:
     for name, value, definition in rows:
         print(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
     if args.json:
-        document = {
-            "parameters": [
-                {
-                    "name": name,
-                    "value": float(value),
-                    "std": None,
-                    "definition": dict(definition),
-                }
-                for name, value, definition in zip(
-                    base.names, values, base.definitions, strict=True
-                )
-            ],
-            "standard_parameters": [
-                {"name": name, "value": float(value)}
-                for name, value in zip(
-                    model.standard_names, model.standard_values, strict=True
-                )
-            ],
-            "num_standard": base.num_standard,
-            "num_base": base.num_base,
-            "joints": list(model.joint_names),
-            "urdf": str(args.urdf),
-            "settings": {
-                "friction": list(model.friction),
-                "rotor_inertia": model.rotor_inertia,
-                "gravity": model.gravity.tolist(),
-            },
-        }
+        document = params_document(model, args.urdf)
         Path(args.json).write_text(json.dumps(document, indent=2) + "\n")
         print(f"\nwrote {args.json}")
     return 0
