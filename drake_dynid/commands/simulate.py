@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
     unchecked = [
         name
         for j, name in enumerate(limits.joint_names)
-        if not np.isfinite(limits.lower[j] + limits.upper[j])
+        if not (np.isfinite(limits.lower[j]) and np.isfinite(limits.upper[j]))
     ]
     if unchecked:
         say(f"note: no position limits for {', '.join(unchecked)}: not checked")

@@ -103,7 +103,10 @@ class JointLimits:
             kinds = [
                 kind
                 for kind, ok in (
-                    ("position", np.isfinite(self.lower[j] + self.upper[j])),
+                    (
+                        "position",
+                        np.isfinite(self.lower[j]) and np.isfinite(self.upper[j]),
+                    ),
                     ("velocity", np.isfinite(self.velocity[j])),
                     ("effort", np.isfinite(self.effort[j])),
                 )
