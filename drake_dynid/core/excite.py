@@ -86,7 +86,7 @@ class ExcitationSettings:
 
     duration: float = 60.0
     harmonics: int = 5
-    base_frequency: float = 0.1
+    base_frequency: float = 0.2
     samples_per_period: int = 0
     iterations: int = 100
     seed: int = 0
