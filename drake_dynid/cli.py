@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from drake_dynid import __version__
 
 # Order shown in ``dynid --help``. A name whose module does not exist yet is skipped.
-SUBCOMMANDS = ("params", "identify", "offline", "validate")
+SUBCOMMANDS = ("params", "excite", "simulate", "identify", "offline", "validate")
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1

@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import Any
 
 from drake_dynid.commands._arguments import (
     add_friction_argument,
@@ -89,6 +90,52 @@ def _rank_json(base) -> dict:
     }
 
 
+def params_document(model: Any, urdf: Any) -> dict[str, Any]:
+    """The ``dynid params --json`` document of a ``RobotModel``.
+
+    Base parameters (name, value, definition), standard parameters, the rank
+    decision, joints (identified, locked, mimic), notes, URDF path and settings;
+    ``dynid simulate`` writes it as the log's truth.
+    """
+    base = model.base
+    return {
+        "parameters": [
+            {
+                "name": name,
+                "value": float(value),
+                "std": None,
+                "definition": dict(definition),
+            }
+            for name, value, definition in zip(
+                base.names, model.base_values, base.definitions, strict=True
+            )
+        ],
+        "standard_parameters": [
+            {"name": name, "value": float(value)}
+            for name, value in zip(
+                model.standard_names, model.standard_values, strict=True
+            )
+        ],
+        "num_standard": base.num_standard,
+        "num_base": base.num_base,
+        "rank": _rank_json(base),
+        "joints": list(model.joint_names),
+        "links": list(model.links),
+        "locked": dict(model.locked),
+        "mimic": {
+            name: {"leader": leader, "multiplier": a, "offset": b}
+            for name, (leader, a, b) in model.mimic.items()
+        },
+        "notes": list(model.notes),
+        "urdf": str(urdf),
+        "settings": {
+            "friction": list(model.friction),
+            "rotor_inertia": model.rotor_inertia,
+            "gravity": model.gravity.tolist(),
+        },
+    }
+
+
 def run(args: argparse.Namespace) -> int:
     """Prints the base-parameter table; writes JSON when asked. Returns 0."""
     model = robot_from_args(args, "params")
@@ -122,42 +169,7 @@ def run(args: argparse.Namespace) -> int:
     for name, value, definition in rows:
         print(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
     if args.json:
-        document = {
-            "parameters": [
-                {
-                    "name": name,
-                    "value": float(value),
-                    "std": None,
-                    "definition": dict(definition),
-                }
-                for name, value, definition in zip(
-                    base.names, values, base.definitions, strict=True
-                )
-            ],
-            "standard_parameters": [
-                {"name": name, "value": float(value)}
-                for name, value in zip(
-                    model.standard_names, model.standard_values, strict=True
-                )
-            ],
-            "num_standard": base.num_standard,
-            "num_base": base.num_base,
-            "rank": _rank_json(base),
-            "joints": list(model.joint_names),
-            "links": list(model.links),
-            "locked": dict(model.locked),
-            "mimic": {
-                name: {"leader": leader, "multiplier": a, "offset": b}
-                for name, (leader, a, b) in model.mimic.items()
-            },
-            "notes": list(model.notes),
-            "urdf": str(args.urdf),
-            "settings": {
-                "friction": list(model.friction),
-                "rotor_inertia": model.rotor_inertia,
-                "gravity": model.gravity.tolist(),
-            },
-        }
+        document = params_document(model, args.urdf)
         Path(args.json).write_text(json.dumps(document, indent=2) + "\n")
         print(f"\nwrote {args.json}")
     return 0

@@ -155,4 +155,3 @@ class KinematicTree:
             rotation[:, j] = rm @ xmb[:3, :3]
             position[:, j] = pm + rm @ xmb[:3, 3]
         return rotation, position, screws
-

@@ -119,10 +119,10 @@ def _run_phases(bank: FourierBank, first: int, count: int) -> np.ndarray:
     starts = np.arange(0, count, _TABLE)
     origins = _phases(bank, first + starts)  # (K, runs)
     for run, start in enumerate(starts):
-        stop = min(start + _TABLE, count)
+        stop = min(int(start) + _TABLE, count)
         np.multiply(
             origins[:, run, None],
-            bank.phase_table[:, : stop - start],
+            bank.phase_table[:, : stop - int(start)],
             out=out[:, start:stop],
         )
     return out

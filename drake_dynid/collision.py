@@ -1,0 +1,113 @@
+"""Self-collision clearance of a URDF robot, from Drake's SceneGraph.
+
+``SelfCollision.from_urdf`` loads the robot with a SceneGraph (its ``<collision>``
+geometry) and answers, for a batch of configurations, the smallest signed distance
+between two collision geometries of the robot::
+
+    d(q) = min over checked pairs (A, B) of signed_distance(A, B)   [m]
+
+(negative when they penetrate), from ``QueryObject.
+ComputeSignedDistancePairwiseClosestPoints``. Pairs the plant filters (bodies
+connected by a joint) are never reported; pairs already in contact at the reference
+configuration (the middle of the position limits; coarse meshes of neighbouring
+links often overlap there) are ignored, as MoveIt's "default in collision" pairs.
+A URDF without collision geometry gives None (nothing to check).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SelfCollision"]
+
+#: Distances beyond this are not computed [m]; d(q) is capped at it.
+MAX_DISTANCE = 1.0
+
+
+class SelfCollision:
+    """Callable ``q (M, n) -> d (M,)``: smallest signed distance per configuration.
+
+    Holds a Drake diagram (plant + SceneGraph) and one Context, so it is not
+    thread-safe. Build it with :meth:`from_urdf`.
+
+    Attributes:
+        num_geometries: collision geometries of the robot.
+        ignored: names of the pairs ignored (in contact at the reference).
+    """
+
+    def __init__(self, diagram: Any, plant: Any, scene_graph: Any, q_reference):
+        self._diagram = diagram
+        self._plant = plant
+        self._scene_graph = scene_graph
+        self._context = diagram.CreateDefaultContext()
+        self._plant_context = plant.GetMyMutableContextFromRoot(self._context)
+        self._sg_context = scene_graph.GetMyContextFromRoot(self._context)
+        inspector = scene_graph.model_inspector()
+        self.num_geometries = len(inspector.GetAllGeometryIds())
+        self._ignored: set[tuple[Any, Any]] = set()
+        for pair in self._pairs(np.asarray(q_reference, dtype=float)):
+            if pair.distance < 0.0:
+                self._ignored.add(self._key(pair))
+        self.ignored = tuple(sorted(self._describe(a, b) for a, b in self._ignored))
+
+    @classmethod
+    def from_urdf(cls, path: str | Path, q_reference: Any) -> SelfCollision | None:
+        """Loads the URDF with a SceneGraph; None if it has no collision geometry.
+
+        Args:
+            path: the URDF.
+            q_reference: (n,) configuration whose contacts are ignored [rad or m].
+        """
+        from pydrake.geometry import Role
+        from pydrake.systems.framework import DiagramBuilder
+
+        from drake_dynid.urdf import load_plant
+
+        builder = DiagramBuilder()
+        plant = load_plant(path, builder=builder, geometry=True)
+        scene_graph = next(
+            s for s in builder.GetSystems() if s.get_name() == "scene_graph"
+        )
+        inspector = scene_graph.model_inspector()
+        if inspector.NumGeometriesWithRole(Role.kProximity) == 0:
+            return None
+        return cls(builder.Build(), plant, scene_graph, q_reference)
+
+    @staticmethod
+    def _key(pair: Any) -> tuple[Any, Any]:
+        a, b = pair.id_A, pair.id_B
+        return (a, b) if a.get_value() < b.get_value() else (b, a)
+
+    def _pairs(self, q: np.ndarray) -> list[Any]:
+        self._plant.SetPositions(self._plant_context, q)
+        query = self._scene_graph.get_query_output_port().Eval(self._sg_context)
+        return query.ComputeSignedDistancePairwiseClosestPoints(MAX_DISTANCE)
+
+    def _describe(self, a: Any, b: Any) -> str:
+        inspector = self._scene_graph.model_inspector()
+        bodies = [
+            self._plant.GetBodyFromFrameId(inspector.GetFrameId(g)).name()
+            for g in (a, b)
+        ]
+        return f"{bodies[0]}-{bodies[1]}"
+
+    def __call__(self, q: Any) -> np.ndarray:
+        """Smallest signed distance [m] (capped at MAX_DISTANCE) for each row of q."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        out = np.full(q.shape[0], MAX_DISTANCE)
+        for k in range(q.shape[0]):
+            for pair in self._pairs(q[k]):
+                if pair.distance < out[k] and self._key(pair) not in self._ignored:
+                    out[k] = pair.distance
+        return out
+
+    def closest(self, q: Any) -> tuple[float, str]:
+        """(distance [m], "bodyA-bodyB") of the closest checked pair at one q."""
+        best, name = MAX_DISTANCE, ""
+        for pair in self._pairs(np.asarray(q, dtype=float)):
+            if pair.distance < best and self._key(pair) not in self._ignored:
+                best, name = pair.distance, self._describe(pair.id_A, pair.id_B)
+        return float(best), name

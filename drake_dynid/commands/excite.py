@@ -1,0 +1,431 @@
+"""``dynid excite``: design an exciting trajectory for a URDF robot."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import functools
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+from drake_dynid.commands._paths import check_outputs
+
+HELP = "design an exciting trajectory (optimal Fourier series within the limits)"
+DESCRIPTION = (
+    "Optimises a periodic finite Fourier series per joint (base frequency f0, H "
+    "harmonics, repeated over the duration) for the condition number of the "
+    "column-scaled base regressor of the URDF robot, within its position, velocity "
+    "and effort limits (with margins; the torques from the URDF's inverse dynamics) "
+    "and free of self-collision where the URDF has collision geometry. Writes the "
+    "sampled trajectory (CSV: t, q_<joint>, v_<joint>, a_<joint>) and optionally its "
+    "Fourier coefficients (JSON) and a figure; prints the condition number (and the "
+    "default random trajectory's), the limits used and the base parameters that "
+    "stay weakly excited (predicted relative σ of a noisy log)."
+)
+
+MARGIN_KINDS = ("position", "velocity", "acceleration", "effort", "collision")
+WELL_EXCITED_PERCENT = 0.1
+"""Predicted %σ (torque noise only) at or below which a parameter is well excited:
+10 times below a 1 % target, leaving room for the position noise, the filters and
+model mismatch that the prediction does not include (benchmarks/bench_excite.py)."""
+WEAK_PERCENT = 1.0
+"""Predicted %σ above which a parameter is reported as weakly excited."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``dynid excite`` arguments."""
+    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="experiment length [s], whole periods 1/f0 (default 60)",
+    )
+    parser.add_argument(
+        "--harmonics",
+        type=int,
+        default=5,
+        metavar="H",
+        help="harmonics per joint (default 5)",
+    )
+    parser.add_argument(
+        "--f0",
+        type=float,
+        default=0.2,
+        metavar="HZ",
+        help="base frequency [Hz]; band H·f0 (default 0.2)",
+    )
+    parser.add_argument(
+        "--margin",
+        default="",
+        metavar="KIND=V[,...]",
+        help="margins kept from the limits: position=RAD (default 0.1), "
+        "velocity=FRAC (0.2), acceleration=FRAC (0.2), effort=FRAC (0.2), "
+        "collision=M (0.01)",
+    )
+    parser.add_argument(
+        "--limits",
+        metavar="FILE",
+        help="JSON (or TOML) of per-joint limits overriding or completing the "
+        'URDF\'s: {"joint": {"lower": .., "upper": .., "velocity": .., "effort": '
+        '.., "acceleration": ..}}',
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        metavar="S",
+        help="seed of the random start (default 0)",
+    )
+    parser.add_argument(
+        "--iterations",
+        type=int,
+        default=100,
+        metavar="N",
+        help="SLSQP iterations (default 100)",
+    )
+    parser.add_argument(
+        "--rest-start",
+        action="store_true",
+        help="start and end every period at rest (v = v̇ = 0); costs friction "
+        "accuracy in identification",
+    )
+    add_friction_argument(parser)
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="TRAJ.csv",
+        help="write the sampled trajectory (CSV)",
+    )
+    parser.add_argument(
+        "--json",
+        metavar="COEFFS.json",
+        help="write the Fourier coefficients and the report (JSON)",
+    )
+    parser.add_argument(
+        "--plot",
+        metavar="FILE.png",
+        help="figure of the motion against the limits and of %%σ",
+    )
+    parser.add_argument(
+        "--sample-rate",
+        type=float,
+        default=100.0,
+        metavar="HZ",
+        help="sample rate of TRAJ.csv [Hz] (default 100)",
+    )
+    parser.add_argument(
+        "--online-window",
+        type=float,
+        metavar="T",
+        help="also report the condition number of the on-line (Lagrangian, "
+        "modulating-function) equations over windows of T seconds",
+    )
+    parser.add_argument(
+        "--noise-tau",
+        type=float,
+        default=0.01,
+        metavar="FRAC",
+        help="torque noise of the predicted %%σ, as a fraction of each joint's "
+        "torque std (default 0.01, as dynid simulate)",
+    )
+    parser.add_argument(
+        "--log-rate",
+        type=float,
+        default=1000.0,
+        metavar="HZ",
+        help="log rate of the predicted %%σ [Hz] (default 1000)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="print nothing")
+
+
+def parse_margins(text: str) -> Any:
+    """``"position=0.05,effort=0.3"`` -> ``Margins``."""
+    from drake_dynid.core.joint_limits import Margins
+
+    values: dict[str, float] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        kind, _, value = item.partition("=")
+        kind = kind.strip()
+        if kind not in MARGIN_KINDS or not value:
+            raise ValueError(
+                f"--margin: expected KIND=VALUE with KIND among "
+                f"{', '.join(MARGIN_KINDS)}; got {item!r}."
+            )
+        try:
+            values[kind] = float(value)
+        except ValueError:
+            raise ValueError(
+                f"--margin: {kind} must be a number; got {value!r}."
+            ) from None
+    return Margins(**values)
+
+
+def _limits(robot: Any, args: argparse.Namespace) -> Any:
+    from drake_dynid.limits import joint_limits
+
+    limits = joint_limits(robot, args.limits)
+    missing = limits.missing()
+    if missing:
+        source = f"{args.urdf} and {args.limits}" if args.limits else args.urdf
+        raise ValueError(
+            f"{source} lack(s) limits that the design needs: {'; '.join(missing)}. "
+            'Give them in a limits file, --limits FILE (JSON: {"<joint>": '
+            '{"lower": -2.9, "upper": 2.9, "velocity": 1.5, "effort": 100}}).'
+        )
+    return limits
+
+
+def _percent(value: float) -> str:
+    return f"{value:.2g}" if math.isfinite(value) else "inf"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Designs the trajectory, prints the report, writes the files. Returns 0."""
+    from drake_dynid.collision import SelfCollision
+    from drake_dynid.core.excite import ExcitationSettings, design_excitation
+    from drake_dynid.core.excite_report import excitation_report
+    from drake_dynid.robot import RobotModel
+    from drake_dynid.trajectory_file import (
+        SampledTrajectory,
+        write_coefficients,
+        write_trajectory,
+    )
+
+    check_outputs(
+        {"--out": args.out, "--json": args.json, "--plot": args.plot},
+        [args.urdf, args.limits],
+    )
+    margins = parse_margins(args.margin)
+    settings = ExcitationSettings(
+        duration=args.duration,
+        harmonics=args.harmonics,
+        base_frequency=args.f0,
+        iterations=args.iterations,
+        seed=args.seed,
+        rest_start=args.rest_start,
+    )
+    if not args.sample_rate > 0.0:
+        raise ValueError(f"--sample-rate must be > 0 [Hz]; got {args.sample_rate}.")
+    robot = RobotModel.from_urdf(args.urdf, friction=parse_friction(args.friction))
+    rows = robot.rows_provider()
+    limits = _limits(robot, args)
+    say = (lambda *a: None) if args.quiet else print
+    mid = 0.5 * (limits.lower + limits.upper)
+    collision = SelfCollision.from_urdf(args.urdf, mid)
+    say(
+        f"robot: {args.urdf} ({robot.num_joints} joints, "
+        f"{robot.num_parameters} base parameters)"
+    )
+    say(
+        f"limits: {'URDF + ' + args.limits if args.limits else 'URDF'}; margins: "
+        f"position {margins.position:g} rad, velocity {margins.velocity:.0%}, "
+        f"effort {margins.effort:.0%}, collision {margins.collision:g} m"
+    )
+    if collision is None:
+        say("self-collision: not checked (the URDF has no collision geometry)")
+    else:
+        ignored = f"; ignored (in contact at mid-range): {', '.join(collision.ignored)}"
+        say(
+            f"self-collision: {collision.num_geometries} collision geometries"
+            f"{ignored if collision.ignored else ''}"
+        )
+    start = time.perf_counter()
+    design = design_excitation(
+        rows.idim_rows,
+        robot.base_values,
+        limits,
+        settings,
+        margins,
+        clearance_fn=collision,
+    )
+    elapsed = time.perf_counter() - start
+    report = excitation_report(
+        rows.idim_rows,
+        design.trajectory,
+        robot.base_values,
+        robot.base_names,
+        duration=settings.duration,
+        rate=args.log_rate,
+        noise_fraction=args.noise_tau,
+        threshold_percent=WEAK_PERCENT,
+    )
+    periods = round(settings.duration * settings.base_frequency)
+    say(
+        f"trajectory: {periods} period(s) of {settings.period:g} s (f0 = "
+        f"{settings.base_frequency:g} Hz), {settings.harmonics} harmonics (band "
+        f"{settings.harmonics * settings.base_frequency:g} Hz), "
+        f"{'starts at rest' if settings.rest_start else 'periodic, v(0) != 0'}"
+    )
+    say(
+        f"condition number: {design.condition_number:.4g} (default random "
+        f"trajectory, seed {settings.seed}: {design.baseline_condition_number:.4g}); "
+        f"{design.iterations} SLSQP iterations, {elapsed:.1f} s"
+    )
+    say("")
+    say("joint            position  velocity  effort   (max % of the limit)")
+    for j, name in enumerate(limits.joint_names):
+        usage = [100 * design.usage[k][j] for k in ("position", "velocity", "effort")]
+        say(f"{name:<16} {usage[0]:8.1f}  {usage[1]:8.1f}  {usage[2]:6.1f}")
+    if math.isfinite(design.clearance):
+        say(f"smallest self-collision clearance: {design.clearance:.3g} m")
+    say("")
+    _print_report(say, robot, design, report, args)
+    if args.online_window is not None:
+        _online(say, robot, design, args.online_window)
+    sampled = SampledTrajectory.from_fourier(
+        design.trajectory, robot.joint_names, settings.duration, args.sample_rate
+    )
+    write_trajectory(args.out, sampled)
+    written = [f"{args.out} ({sampled.t.size} samples at {args.sample_rate:g} Hz)"]
+    if args.json:
+        write_coefficients(
+            args.json,
+            design.trajectory,
+            robot.joint_names,
+            settings.duration,
+            _json_extra(args, robot, limits, margins, design, report),
+        )
+        written.append(args.json)
+    if args.plot:
+        _plot(args.plot, robot, limits, design, report)
+        written.append(args.plot)
+    say(f"\nwrote {', '.join(written)}")
+    return 0
+
+
+def _print_report(say, robot, design, report, args) -> None:
+    relative = report.relative_std_percent
+    names = robot.base_names
+    finite = relative[np.isfinite(relative)]
+    well = int(np.count_nonzero(relative <= WELL_EXCITED_PERCENT))
+    say(
+        f"predicted %σ (τ noise {args.noise_tau:g} × each joint's torque std, "
+        f"{args.log_rate:g} Hz, {report.num_samples} samples): median "
+        f"{_percent(float(np.median(finite)))}, "
+        f"well excited (%σ <= {WELL_EXCITED_PERCENT:g}): {well} of {len(names)}"
+    )
+    unexcitable = {names[i] for i in design.unexcitable}
+    weak_names = [name for name in report.weak if name not in unexcitable]
+    if weak_names:
+        weak = ", ".join(
+            f"{name} ({_percent(relative[names.index(name)])})" for name in weak_names
+        )
+        say(f"weakly excited (%σ > {WEAK_PERCENT:g}): {weak}")
+    if report.zero:
+        say(f"zero in the model (relative %σ undefined): {', '.join(report.zero)}")
+    if design.unexcitable:
+        say(
+            "not excitable by any motion (zero regressor column; left out of the "
+            f"condition numbers): {', '.join(names[i] for i in design.unexcitable)}"
+        )
+    terms = " ".join(f"{c:+.2f} {n}" for n, c in report.weakest)
+    say(f"weakest direction: {terms}")
+
+
+def _online(say, robot, design, window: float) -> None:
+    from drake_dynid.core.excite_report import modulated_condition_numbers
+    from drake_dynid.diagrams import OnlineSettings
+
+    trajectory = design.trajectory
+    band = trajectory.harmonics * trajectory.base_frequency / (2 * math.pi)
+    settings = OnlineSettings(window=window, bandwidth=band)
+    bank = settings.bank()
+    starts = trajectory.period * np.arange(4) / 4
+    conditions = modulated_condition_numbers(
+        functools.partial(robot.model_rows, "lagrangian"),
+        robot.idim_rows,
+        robot.base_values,
+        trajectory,
+        bank,
+        starts,
+    )
+    say(
+        f"on-line window {window:g} s (Lagrangian model, {bank.num_functions} "
+        f"modulating functions up to {band:g} Hz): condition number "
+        f"{conditions.min():.4g}-{conditions.max():.4g} over {len(starts)} window "
+        "positions"
+    )
+
+
+def _json_extra(args, robot, limits, margins, design, report) -> dict:
+    def number(value: float) -> float | None:
+        return float(value) if math.isfinite(value) else None
+
+    return {
+        "urdf": str(args.urdf),
+        "seed": int(args.seed),
+        "rest_start": bool(args.rest_start),
+        "condition_number": design.condition_number,
+        "baseline_condition_number": design.baseline_condition_number,
+        "margins": dataclasses.asdict(margins),
+        "limits": {
+            name: {
+                key: number(getattr(limits, key)[j])
+                for key in ("lower", "upper", "velocity", "acceleration", "effort")
+            }
+            for j, name in enumerate(limits.joint_names)
+        },
+        "usage": {k: v.tolist() for k, v in design.usage.items()},
+        "predicted": [
+            {
+                "name": name,
+                "value": float(value),
+                "std": float(std),
+                "relative_std_percent": number(rel),
+            }
+            for name, value, std, rel in zip(
+                robot.base_names,
+                robot.base_values,
+                report.std,
+                report.relative_std_percent,
+                strict=True,
+            )
+        ],
+        "noise_tau": float(args.noise_tau),
+        "log_rate": float(args.log_rate),
+    }
+
+
+def _plot(path, robot, limits, design, report) -> None:
+    from drake_dynid.commands._report import matplotlib_pyplot
+
+    plt = matplotlib_pyplot()
+    trajectory = design.trajectory
+    t = np.linspace(0.0, trajectory.period, 400)
+    q, v, vdot = trajectory.evaluate(t)
+    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    mid = 0.5 * (limits.lower + limits.upper)
+    half = 0.5 * (limits.upper - limits.lower)
+    figure, axes = plt.subplots(4, 1, figsize=(9, 10), constrained_layout=True)
+    panels = [
+        ((q - mid) / half, "position (-1, 1 = limits)"),
+        (v / limits.velocity, "velocity / limit"),
+        (tau / limits.effort, "torque / effort limit"),
+    ]
+    for axis, (values, label) in zip(axes, panels, strict=False):
+        axis.plot(t, values)
+        axis.axhline(1.0, color="k", lw=0.8)
+        axis.axhline(-1.0, color="k", lw=0.8)
+        axis.set_ylabel(label)
+        axis.set_xlim(0.0, trajectory.period)
+    axes[0].legend(limits.joint_names, fontsize=7, ncol=4)
+    axes[2].set_xlabel("time in one period [s]")
+    relative = np.where(
+        np.isfinite(report.relative_std_percent), report.relative_std_percent, np.nan
+    )
+    relative[list(design.unexcitable)] = np.nan
+    axes[3].bar(np.arange(len(robot.base_names)), relative)
+    axes[3].set_yscale("log")
+    axes[3].axhline(WEAK_PERCENT, color="r", lw=0.8)
+    axes[3].set_xticks(np.arange(len(robot.base_names)))
+    axes[3].set_xticklabels(robot.base_names, rotation=90, fontsize=6)
+    axes[3].set_ylabel("predicted %σ")
+    figure.suptitle(f"exciting trajectory, cond = {design.condition_number:.3g}")
+    figure.savefig(path, dpi=110)
+    plt.close(figure)

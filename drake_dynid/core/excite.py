@@ -1,0 +1,475 @@
+"""Optimal exciting trajectories under joint limits (Swevers; Presse & Gautier).
+
+A finite Fourier series per joint (``core.trajectory.FourierTrajectory``, period
+P = 1/f0, H harmonics) is chosen to minimise the condition number of the
+column-scaled base regressor stacked over one period::
+
+    min_x log10 cond(W(x) S⁻¹),  W = [W(q_k, v_k, v̇_k)]_k (N·n × p),  S = diag ‖W_:,i‖
+
+    x = (q0, a, b) ∈ R^{n(2H+1)},  t_k = (k + ½) P/N,  k = 0..N-1
+
+subject to, for every joint j and sample k (limits with the user's margins)::
+
+    |q_j(t_k) - mid_j| <= ρ (half_range_j - margin_q)        position   [rad or m]
+    |v_j(t_k)|         <= ρ (1 - margin_v) v_max,j           velocity   [rad/s]
+    |v̇_j(t_k)|         <= ρ (1 - margin_a) a_max,j           acceleration (if given)
+    |τ_j(t_k)|         <= (1 - margin_τ) τ_max,j, τ = W θ    effort (URDF model)
+    d(q(t_k))          >= margin_d                           self-collision [m]
+    v(0) = 0, v̇(0) = 0                                       start (and end) at rest
+
+q, v and v̇ are linear in x, so the first three are linear constraints, and
+ρ = 1 - (πH/N)²/2 makes them hold between the samples too (Bernstein: a degree-H
+trigonometric polynomial exceeds its maximum on N uniform samples by at most that
+factor). The effort and the clearance d (a callable, e.g. Drake's signed distance)
+are checked on the samples, and again on a 4× denser grid afterwards.
+
+Gradients without differentiating the dynamics twice: W at sample k depends only on
+(q_k, v_k, v̇_k), so one forward difference per joint and kind (3n + 1 batched
+regressor evaluations, velocity steps taken away from zero so that sign(v) in the
+Coulomb columns never flips, v̇ exact since W is linear in it) gives ∂W_k/∂(q, v, v̇)
+for every sample at once; the chain rule through the (linear) Fourier basis and the
+derivative of log cond with respect to W (singular vectors of the column-scaled
+matrix) give the exact gradient of the cost and the Jacobian of the torques.
+Optimiser: SLSQP (``scipy.optimize.minimize``) from the random trajectory of the
+seed, keeping the best feasible iterate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+from drake_dynid.core import _validate as v
+from drake_dynid.core.excite_problem import (
+    ExcitationProblem,
+    RowsFunction,
+    batched_rows,
+    condition_number,
+)
+from drake_dynid.core.joint_limits import (
+    JointLimits,
+    Margins,
+    limit_violations,
+)
+from drake_dynid.core.trajectory import FourierTrajectory, random_fourier_trajectory
+
+__all__ = ["ExcitationDesign", "ExcitationSettings", "design_excitation"]
+
+ClearanceFunction = Callable[[np.ndarray], np.ndarray]
+
+_FEASIBLE = 1e-6  # tolerance on the normalised constraints
+_DENSE = 4  # verification grid: this many times the optimisation grid
+
+
+@dataclass(frozen=True)
+class ExcitationSettings:
+    """The trajectory family and the optimiser's budget.
+
+    Attributes:
+        duration: experiment length [s], a whole number of periods 1/f0.
+        harmonics: H >= 1 (band H·f0).
+        base_frequency: f0 [Hz].
+        samples_per_period: N, optimisation grid (0: max(64, 16H)); >= 4H.
+        iterations: SLSQP iterations.
+        seed: seed of the random start (and of the default random trajectory).
+        rest_start: impose v(0) = v̇(0) = 0 (each period starts and ends at rest,
+            so the trajectory can be started from a standstill). Off by default:
+            all joints then dwell near zero velocity at every period boundary,
+            where Coulomb friction is least like sign(v), and the simulated
+            friction estimates degrade (benchmarks/bench_excite.py).
+    """
+
+    duration: float = 60.0
+    harmonics: int = 5
+    base_frequency: float = 0.2
+    samples_per_period: int = 0
+    iterations: int = 100
+    seed: int = 0
+    rest_start: bool = False
+
+    def __post_init__(self) -> None:
+        owner = "ExcitationSettings"
+        duration = v.positive(owner, "duration", self.duration, "s")
+        harmonics = v.integer(owner, "harmonics", self.harmonics, minimum=1)
+        f0 = v.positive(owner, "base_frequency", self.base_frequency, "Hz")
+        v.integer(owner, "iterations", self.iterations, minimum=1)
+        v.integer(owner, "seed", self.seed, minimum=0)
+        samples = v.integer(owner, "samples_per_period", self.samples_per_period, 0)
+        if 0 < samples < 4 * harmonics:
+            v.fail(
+                owner,
+                f"samples_per_period must be >= 4·harmonics = {4 * harmonics}; got "
+                f"{samples}.",
+            )
+        period = 1.0 / f0
+        if duration < period * (1.0 - 1e-9):
+            v.fail(
+                owner,
+                f"duration must be at least one period 1/f0 = {period:g} s [s]; got "
+                f"{duration:g} (raise the duration or f0).",
+            )
+        periods = duration / period
+        if abs(periods - round(periods)) > 1e-6 * periods:
+            v.fail(
+                owner,
+                f"duration must be a whole number of periods 1/f0 = {period:g} s [s] "
+                f"(the trajectory repeats so that periods can be averaged); got "
+                f"{duration:g} ({periods:.3g} periods).",
+            )
+
+    @property
+    def period(self) -> float:
+        """1/f0 [s]."""
+        return 1.0 / self.base_frequency
+
+    @property
+    def num_samples(self) -> int:
+        """N, samples per period of the optimisation grid."""
+        return self.samples_per_period or max(64, 16 * self.harmonics)
+
+
+@dataclass(frozen=True, eq=False)
+class ExcitationDesign:
+    """Outcome of :func:`design_excitation`.
+
+    Attributes:
+        trajectory: the optimised trajectory.
+        condition_number: its cond(W S⁻¹) over one period (the optimisation grid).
+        baseline: the default random trajectory of the same seed, H, f0 and
+            position/velocity/acceleration limits
+            (:func:`~drake_dynid.core.trajectory.random_fourier_trajectory`).
+        baseline_condition_number: its condition number on the same grid.
+        settings: the settings used.
+        iterations: SLSQP iterations run.
+        evaluations: regressor evaluations (batched calls of rows_fn).
+        message: the optimiser's message.
+        usage: per kind ("position", "velocity", "acceleration", "effort"), the
+            largest fraction of the raw limit used by each joint (n,) on a grid 4×
+            denser than the optimisation's (position: |q - mid|/half range).
+        clearance: smallest signed distance on that grid [m] (inf without
+            collision geometry).
+        unexcitable: indices of the base parameters whose regressor column
+            vanishes at random states (no motion excites them; left out of the
+            condition numbers).
+    """
+
+    trajectory: FourierTrajectory
+    condition_number: float
+    baseline: FourierTrajectory
+    baseline_condition_number: float
+    settings: ExcitationSettings
+    iterations: int
+    evaluations: int
+    message: str
+    usage: dict[str, np.ndarray] = field(default_factory=dict)
+    clearance: float = math.inf
+    unexcitable: tuple[int, ...] = ()
+
+
+def _start(problem: ExcitationProblem) -> np.ndarray:
+    """The seed's random coefficients, at rest at t = 0, scaled into the limits."""
+    n, H = problem.n, problem.H
+    rng = np.random.default_rng(problem.settings.seed)
+    a = rng.standard_normal((n, H))
+    b = rng.standard_normal((n, H))
+    if problem.settings.rest_start:
+        a -= a.mean(axis=1, keepdims=True)
+        ell = np.arange(1, H + 1)
+        b -= np.outer(b @ ell, ell) / (ell @ ell)
+    x = np.concatenate([problem.mid, np.hstack([a, b]).ravel()])
+    q, qd, qdd = problem.kinematics(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.minimum.reduce(
+            [
+                problem.rho * problem.half / np.abs(q - problem.mid).max(axis=0),
+                problem.rho * problem.vmax / np.abs(qd).max(axis=0),
+                problem.rho * problem.amax / np.abs(qdd).max(axis=0),
+            ]
+        )
+    ratio = np.where(np.isfinite(ratio), ratio, 0.0)
+    _, ab = problem.unpack(x)
+    return np.concatenate([problem.mid, (ab * ratio[:, None]).ravel()])
+
+
+def _constraints(problem: ExcitationProblem) -> list[dict]:
+    """SLSQP constraints: kinematic limits (linear), rest start, effort."""
+    lin_M, lin_h, _ = problem.linear()
+    out = [{"type": "ineq", "fun": lambda x: lin_M @ x + lin_h, "jac": lambda x: lin_M}]
+    if problem.settings.rest_start:
+        E = problem.equality()
+        out.append({"type": "eq", "fun": lambda x: E @ x, "jac": lambda x: E})
+    if np.any(np.isfinite(problem.emax)):
+        out.append(
+            {"type": "ineq", "fun": problem.effort, "jac": problem.effort_jacobian}
+        )
+    return out
+
+
+def _collision_constraint(problem: ExcitationProblem) -> dict | None:
+    """The clearance constraint 10·(d - margin) >= 0 (per 0.1 m), or None."""
+    if problem.clearance_fn is None:
+        return None
+    margin = problem.margins.collision
+    return {
+        "type": "ineq",
+        "fun": lambda x: 10.0 * (problem.clearance(x)[0] - margin),
+        "jac": lambda x: 10.0 * problem.clearance(x)[1],
+    }
+
+
+def _shrink(problem: ExcitationProblem, x: np.ndarray, feasible) -> np.ndarray:
+    """Scales the motion of x down (about q0) until ``feasible``, if that helps.
+
+    Bisection on the factor s of the Fourier coefficients (the effort and the
+    clearance are not monotonic in s, but a start near the feasible set keeps
+    SLSQP's first steps small); x itself when feasible or when s = 0 is not.
+    """
+    n = problem.n
+
+    def scaled(factor: float) -> np.ndarray:
+        return np.concatenate([x[:n], factor * x[n:]])
+
+    if feasible(x) or not feasible(scaled(0.0)):
+        return x
+    low, high = 0.0, 1.0
+    for _ in range(12):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if feasible(scaled(middle)) else (low, middle)
+    return scaled(low)
+
+
+def _bounds(problem: ExcitationProblem) -> list[tuple[float, float]]:
+    """Box bounds that contain every feasible x (they keep SLSQP's steps physical).
+
+    q0 within the position limits and |a_jl|, |b_jl| <= 2 v_max,j (a Fourier
+    coefficient of v_j is at most twice max |v_j|).
+    """
+    out = [
+        (float(lo), float(hi))
+        for lo, hi in zip(problem.limits.lower, problem.limits.upper, strict=True)
+    ]
+    for j in range(problem.n):
+        bound = 2.0 * float(problem.vmax[j])
+        out += [(-bound, bound)] * (2 * problem.H)
+    return out
+
+
+def _baseline(problem: ExcitationProblem) -> FourierTrajectory:
+    """The default random trajectory: same seed, H, f0 and kinematic limits."""
+    finite = np.isfinite(problem.amax)
+    return random_fourier_trajectory(
+        problem.n,
+        harmonics=problem.H,
+        base_frequency=problem.omega,
+        max_velocity=problem.vmax,
+        max_acceleration=np.where(finite, problem.amax, 1e300)
+        if finite.any()
+        else None,
+        max_position=problem.half,
+        q0=problem.mid,
+        rng=np.random.default_rng(problem.settings.seed),
+    )
+
+
+def _usage(
+    problem: ExcitationProblem, trajectory: FourierTrajectory
+) -> tuple[dict, float]:
+    """Fractions of the raw limits used on the dense grid, and the clearance."""
+    limits = problem.limits
+    N = _DENSE * problem.N
+    t = (np.arange(N) + 0.5) * problem.settings.period / N
+    q, qd, qdd = trajectory.evaluate(t)
+    tau = batched_rows(problem.rows_fn, q, qd, qdd) @ problem.theta
+    with np.errstate(divide="ignore", invalid="ignore"):
+        half = 0.5 * (limits.upper - limits.lower)
+        usage = {
+            "position": np.abs(q - problem.mid).max(axis=0) / half,
+            "velocity": np.abs(qd).max(axis=0) / limits.velocity,
+            "acceleration": np.abs(qdd).max(axis=0) / limits.acceleration,
+            "effort": np.abs(tau).max(axis=0) / limits.effort,
+        }
+    clearance = math.inf
+    if problem.clearance_fn is not None:
+        clearance = float(np.min(problem.clearance_fn(q)))
+    return usage, clearance
+
+
+def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
+    trajectory = problem.trajectory(x)
+    q, qd, qdd = trajectory.evaluate(problem.t)
+    tau = problem.values(x)[2]
+    clearance = problem.clearance(x)[0] if problem.clearance_fn is not None else None
+    found = limit_violations(
+        problem.t,
+        q,
+        qd,
+        qdd,
+        tau,
+        problem.limits,
+        problem.margins,
+        clearance=clearance,
+        tolerance=1e-3,
+    )
+    if not found:
+        return "the constraints could not be met together"
+    worst = max(
+        found,
+        key=lambda f: abs(f.value - f.limit) / max(abs(f.limit), 1e-9),
+    )
+    return str(worst)
+
+
+def design_excitation(
+    rows_fn: RowsFunction,
+    theta: Any,
+    limits: JointLimits,
+    settings: ExcitationSettings | None = None,
+    margins: Margins | None = None,
+    *,
+    clearance_fn: ClearanceFunction | None = None,
+    max_condition: float = 1e6,
+) -> ExcitationDesign:
+    """Optimises a periodic Fourier trajectory for the regressor's condition number.
+
+    See the module docstring for the problem. Deterministic for given inputs.
+
+    Args:
+        rows_fn: base-parameter IDIM rows, (N, n) q, v, v̇ -> (N, n, p)
+            (``RobotModel.idim_rows``); the torque is ``rows_fn(q, v, v̇) @ theta``.
+        theta: (p,) base parameter values of the model (for the torques) [SI].
+        limits: joint limits; position, velocity and effort limits must be finite
+            (:meth:`JointLimits.missing`), an infinite effort is not constrained.
+        settings: duration, H, f0, grid, budget, seed (default
+            ``ExcitationSettings()``).
+        margins: margins kept from the limits (default ``Margins()``).
+        clearance_fn: optional (M, n) q -> (M,) smallest signed distance between
+            collision geometries [m] (self-collision constraint).
+        max_condition: a result above this condition number is an error (no
+            trajectory within the limits excites every base parameter).
+
+    Returns:
+        The :class:`ExcitationDesign`.
+
+    Raises:
+        ValueError: missing limits, margins that leave no room, or no feasible
+            trajectory (the message names the limiting constraint).
+    """
+    owner = "design_excitation"
+    if not callable(rows_fn):
+        raise TypeError(f"{owner}: rows_fn must be callable.")
+    if not isinstance(limits, JointLimits):
+        raise TypeError(f"{owner}: limits must be a JointLimits.")
+    theta = v.array(owner, "theta", theta)
+    settings = ExcitationSettings() if settings is None else settings
+    margins = Margins() if margins is None else margins
+    missing = [m for m in limits.missing() if "position" in m or "velocity" in m]
+    if missing:
+        v.fail(
+            owner,
+            f"position and velocity limits are needed for every joint; missing for "
+            f"{'; '.join(missing)}.",
+        )
+    problem = ExcitationProblem(rows_fn, theta, limits, settings, margins, clearance_fn)
+    tight = np.flatnonzero(problem.half <= 0.0)
+    if tight.size:
+        j = int(tight[0])
+        v.fail(
+            owner,
+            f"joint {limits.joint_names[j]}: the position margin {margins.position:g} "
+            f"leaves no room within [{limits.lower[j]:g}, {limits.upper[j]:g}] "
+            f"{limits.units(j)[0]}.",
+        )
+    x0 = _start(problem)
+    baseline = _baseline(problem)
+    baseline_condition = condition_number(
+        batched_rows(rows_fn, *baseline.evaluate(problem.t))
+    )
+
+    constraints = _constraints(problem)
+    collision = _collision_constraint(problem)
+
+    def feasible(x: np.ndarray, checked: list[dict]) -> bool:
+        return all(
+            np.all(c["fun"](x) >= -_FEASIBLE)
+            if c["type"] == "ineq"
+            else np.all(np.abs(c["fun"](x)) <= _FEASIBLE)
+            for c in checked
+        )
+
+    def solve(x_start: np.ndarray, checked: list[dict]) -> dict:
+        """SLSQP from x_start; the best iterate feasible for ``checked``."""
+        best: dict = {"x": None, "cost": math.inf, "last": x_start}
+
+        def track(x: np.ndarray) -> None:
+            x = np.array(x, dtype=float)
+            cost = condition_number(problem.values(x)[1][..., problem.active])
+            if cost < best["cost"] and feasible(x, checked):
+                best.update(x=x, cost=cost)
+
+        track(x_start)
+        result = optimize.minimize(
+            lambda x: problem.values(x)[0],
+            x_start,
+            jac=lambda x: problem.gradients(x)[0],
+            method="SLSQP",
+            bounds=_bounds(problem),
+            constraints=checked,
+            callback=track,
+            options={"maxiter": settings.iterations, "ftol": 1e-7},
+        )
+        track(result.x)
+        best.update(last=result.x, nit=int(result.nit), message=str(result.message))
+        return best
+
+    # Without self-collision first; if that motion collides, continue from it with
+    # the clearance constraint, and from a start shrunk out of collision.
+    best = solve(_shrink(problem, x0, lambda x: feasible(x, constraints)), constraints)
+    iterations = best["nit"]
+    if collision is not None:
+        everything = [*constraints, collision]
+        if best["x"] is None or not feasible(best["x"], everything):
+            runs = [solve(best["x"] if best["x"] is not None else x0, everything)]
+            runs.append(
+                solve(
+                    _shrink(problem, x0, lambda x: feasible(x, everything)), everything
+                )
+            )
+            iterations += sum(run["nit"] for run in runs)
+            best = min(runs, key=lambda run: run["cost"])
+    if best["x"] is None:
+        v.fail(
+            owner,
+            f"no trajectory meets the limits (after the margins): "
+            f"{_most_violated(problem, best['last'])}. Raise the limits, lower the "
+            "margins (--margin), or lower f0/harmonics.",
+        )
+    x = best["x"]
+    condition = float(best["cost"])
+    if not condition <= max_condition:
+        v.fail(
+            owner,
+            f"the best trajectory within the limits has condition number "
+            f"{condition:.3g} > {max_condition:g}: the limits leave too little "
+            "motion to excite every base parameter; widen the limits or margins, or "
+            "raise the duration, harmonics or f0.",
+        )
+    trajectory = problem.trajectory(x)
+    usage, clearance = _usage(problem, trajectory)
+    return ExcitationDesign(
+        trajectory=trajectory,
+        condition_number=float(condition),
+        baseline=baseline,
+        baseline_condition_number=float(baseline_condition),
+        settings=settings,
+        iterations=int(iterations),
+        evaluations=int(problem.evaluations),
+        message=best["message"],
+        usage=usage,
+        clearance=clearance,
+        unexcitable=tuple(int(i) for i in np.flatnonzero(~problem.active)),
+    )

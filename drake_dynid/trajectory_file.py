@@ -1,0 +1,196 @@
+"""Trajectory files: the sampled CSV of ``dynid excite`` and its coefficient JSON.
+
+CSV (one row per sample, header row, column order free)::
+
+    t,q_<joint 1>,...,q_<joint n>,v_<joint 1>,...,v_<joint n>,a_<joint 1>,...
+
+``t`` [s] strictly increasing; ``q_`` [rad or m], ``v_`` [rad/s or m/s], ``a_``
+[rad/s² or m/s²] per joint. ``q_`` and ``v_`` are required (a reader interpolates
+with cubic Hermite polynomials through q and v); ``a_`` is optional.
+
+JSON: the Fourier coefficients (``FourierTrajectory``: q0, a, b, base frequency)
+and what produced them, so that the exact series can be rebuilt.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core.trajectory import FourierTrajectory
+
+__all__ = [
+    "SampledTrajectory",
+    "read_coefficients",
+    "read_trajectory",
+    "write_coefficients",
+    "write_trajectory",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class SampledTrajectory:
+    """Joint trajectory samples.
+
+    Attributes:
+        t: (N,) strictly increasing times [s].
+        q: (N, n) positions [rad or m].
+        v: (N, n) velocities [rad/s or m/s].
+        a: (N, n) accelerations [rad/s² or m/s²] (NaN where not given).
+        joint_names: the n joints.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    joint_names: tuple[str, ...]
+
+    @property
+    def duration(self) -> float:
+        """t[-1] - t[0] [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    @classmethod
+    def from_fourier(
+        cls,
+        trajectory: FourierTrajectory,
+        joint_names: Sequence[str],
+        duration: float,
+        rate: float,
+    ) -> SampledTrajectory:
+        """Samples ``trajectory`` at ``rate`` [Hz] on [0, duration], both ends."""
+        count = round(duration * rate)
+        t = np.arange(count + 1) / rate
+        q, v, a = trajectory.evaluate(t)
+        return cls(t, q, v, a, tuple(joint_names))
+
+
+def write_trajectory(path: str | os.PathLike, trajectory: SampledTrajectory) -> None:
+    """Writes the CSV above (17 significant digits)."""
+    names = trajectory.joint_names
+    header = ["t"] + [f"{kind}_{j}" for kind in ("q", "v", "a") for j in names]
+    data = np.column_stack([trajectory.t, trajectory.q, trajectory.v, trajectory.a])
+    with open(path, "w", newline="") as stream:
+        stream.write(",".join(header) + "\n")
+        np.savetxt(stream, data, delimiter=",", fmt="%.17g")
+
+
+def read_trajectory(
+    path: str | os.PathLike, joint_names: Sequence[str]
+) -> SampledTrajectory:
+    """Reads a trajectory CSV (or a coefficient JSON, sampled at 100 Hz).
+
+    Raises:
+        ValueError: missing file or column, non-numeric or non-finite values,
+            times not strictly increasing, fewer than 2 samples.
+    """
+    file = Path(path)
+    if not file.is_file():
+        raise ValueError(f"trajectory {file}: no such file.")
+    if file.suffix.lower() == ".json":
+        trajectory, names, duration = read_coefficients(file)
+        if tuple(names) != tuple(joint_names):
+            raise ValueError(
+                f"trajectory {file}: its joints {', '.join(names)} are not the "
+                f"robot's {', '.join(joint_names)}."
+            )
+        return SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)
+    with open(file) as stream:
+        header = [cell.strip() for cell in stream.readline().strip().split(",")]
+    wanted = ["t", *(f"{k}_{j}" for k in ("q", "v") for j in joint_names)]
+    missing = [name for name in wanted if name not in header]
+    if missing:
+        raise ValueError(
+            f"trajectory {file}: missing column(s) {', '.join(missing)}; the header "
+            f"must hold t, q_<joint> and v_<joint> for the joints "
+            f"{', '.join(joint_names)} (a_<joint> optional)."
+        )
+    try:
+        data = np.loadtxt(file, delimiter=",", skiprows=1, ndmin=2, dtype=float)
+    except ValueError as error:
+        raise ValueError(f"trajectory {file}: not a numeric CSV: {error}.") from None
+    if data.shape[0] < 2 or data.shape[1] != len(header):
+        raise ValueError(
+            f"trajectory {file}: needs at least 2 rows of {len(header)} numbers; "
+            f"got shape {data.shape}."
+        )
+
+    def columns(kind: str) -> np.ndarray:
+        names = [f"{kind}_{j}" for j in joint_names]
+        if kind == "a" and any(name not in header for name in names):
+            return np.full((data.shape[0], len(joint_names)), np.nan)
+        return data[:, [header.index(name) for name in names]]
+
+    t, q, v = data[:, header.index("t")], columns("q"), columns("v")
+    for name, values in (("t", t[:, None]), ("q", q), ("v", v)):
+        bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+        if bad.size:
+            raise ValueError(
+                f"trajectory {file}: row {int(bad[0]) + 2} has an empty or "
+                f"non-finite {name} value."
+            )
+    if np.any(np.diff(t) <= 0.0):
+        row = int(np.flatnonzero(np.diff(t) <= 0.0)[0]) + 3
+        raise ValueError(
+            f"trajectory {file}: time is not strictly increasing at row {row}."
+        )
+    return SampledTrajectory(t, q, v, columns("a"), tuple(joint_names))
+
+
+def write_coefficients(
+    path: str | os.PathLike,
+    trajectory: FourierTrajectory,
+    joint_names: Sequence[str],
+    duration: float,
+    extra: dict[str, Any] | None = None,
+) -> None:
+    """Writes the Fourier coefficients (and ``extra`` keys) as JSON.
+
+    Keys: ``joints``, ``base_frequency_hz``, ``harmonics``, ``duration``, ``q0``
+    (n), ``a`` and ``b`` (n × H) [rad/s], the series of
+    ``drake_dynid.core.trajectory.FourierTrajectory``.
+    """
+    document = {
+        "joints": list(joint_names),
+        "base_frequency_hz": trajectory.base_frequency / (2.0 * math.pi),
+        "harmonics": trajectory.harmonics,
+        "duration": float(duration),
+        "q0": trajectory.q0.tolist(),
+        "a": trajectory.a.tolist(),
+        "b": trajectory.b.tolist(),
+        "series": (
+            "q_j(t) = q0_j + sum_l [a_jl/(l w) sin(l w t) - b_jl/(l w) cos(l w t)], "
+            "w = 2 pi base_frequency_hz"
+        ),
+        **(extra or {}),
+    }
+    Path(path).write_text(json.dumps(document, indent=2) + "\n")
+
+
+def read_coefficients(
+    path: str | os.PathLike,
+) -> tuple[FourierTrajectory, tuple[str, ...], float]:
+    """Reads :func:`write_coefficients` JSON: (trajectory, joint names, duration)."""
+    file = Path(path)
+    try:
+        document = json.loads(file.read_text())
+        trajectory = FourierTrajectory(
+            np.asarray(document["q0"], dtype=float),
+            np.asarray(document["a"], dtype=float),
+            np.asarray(document["b"], dtype=float),
+            2.0 * math.pi * float(document["base_frequency_hz"]),
+        )
+        return trajectory, tuple(document["joints"]), float(document["duration"])
+    except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as error:
+        raise ValueError(
+            f"trajectory coefficients {file}: unreadable ({error}); expected the "
+            "JSON written by dynid excite --json."
+        ) from None

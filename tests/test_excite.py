@@ -1,0 +1,291 @@
+"""Exciting-trajectory design (core.excite) and ``dynid excite``.
+
+Done-when checks: on the iiwa7 and the UR5 (datasheet limits shipped next to the
+URDFs) the optimised trajectory's condition number is at least 3x below the default
+random trajectory's (the same seed, and the median of 10 seeds), and it stays within
+every limit, checked with Drake's own inverse dynamics; a URDF with collision
+geometry gets a collision-free motion; bad input exits 2 naming the constraint.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.excite import ExcitationSettings, _baseline, design_excitation
+from drake_dynid.core.excite_problem import (
+    ExcitationProblem,
+    batched_rows,
+    condition_number,
+)
+from drake_dynid.core.joint_limits import JointLimits, Margins, limit_violations
+from drake_dynid.limits import joint_limits, read_limits_file
+from drake_dynid.robot import RobotModel
+from drake_dynid.trajectory_file import read_coefficients, read_trajectory
+from drake_dynid.urdf import MODELS_DIR, model_path, read_urdf_friction
+
+# A 3R arm on a cylindrical base whose links hit the base when joint 2 folds down.
+FOLDING_3R = """<robot name="folding3r">
+  <link name="world"/>
+  <link name="base"><collision><origin xyz="0 0 0.15"/>
+    <geometry><cylinder radius="0.3" length="0.3"/></geometry></collision></link>
+  <joint name="fix" type="fixed"><parent link="world"/><child link="base"/></joint>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.3"/><axis xyz="0 0 1"/>
+    <limit lower="-3" upper="3" velocity="3" effort="100"/></joint>
+  <link name="l1"><inertial><origin xyz="0 0 0.07"/><mass value="2"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.005"/></inertial>
+    <collision><origin xyz="0 0 0.075"/>
+    <geometry><cylinder radius="0.04" length="0.08"/></geometry></collision></link>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <origin xyz="0 0 0.15"/><axis xyz="0 1 0"/>
+    <limit lower="0.3" upper="2.8" velocity="3" effort="100"/></joint>
+  <link name="l2"><inertial><origin xyz="0 0 0.2"/><mass value="1.5"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.003"/></inertial>
+    <collision><origin xyz="0 0 0.21"/>
+    <geometry><cylinder radius="0.04" length="0.32"/></geometry></collision></link>
+  <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/>
+    <origin xyz="0 0 0.4"/><axis xyz="0 1 0"/>
+    <limit lower="-2.8" upper="2.8" velocity="3" effort="100"/></joint>
+  <link name="l3"><inertial><origin xyz="0 0 0.15"/><mass value="1"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.002"/></inertial>
+    <collision><origin xyz="0 0 0.16"/>
+    <geometry><cylinder radius="0.04" length="0.24"/></geometry></collision></link>
+  {transmissions}
+</robot>"""
+TRANSMISSION = (
+    '<transmission name="t{j}"><type>transmission_interface/SimpleTransmission'
+    '</type><joint name="j{j}"><hardwareInterface>EffortJointInterface'
+    '</hardwareInterface></joint><actuator name="a{j}"/></transmission>'
+)
+
+
+def folding_urdf(tmp_path, limits=True):
+    text = FOLDING_3R.format(
+        transmissions="".join(TRANSMISSION.format(j=j) for j in (1, 2, 3))
+    )
+    if not limits:
+        text = text.replace(' velocity="3" effort="100"', "")
+    path = tmp_path / "folding3r.urdf"
+    path.write_text(text)
+    return str(path)
+
+
+def drake_torques(robot, q, v, vdot):
+    """τ from Drake's CalcInverseDynamics (gravity, damping) + FC·sign(v)."""
+    from pydrake.multibody.tree import MultibodyForces
+
+    plant = robot.plant
+    context = plant.CreateDefaultContext()
+    coulomb = read_urdf_friction(robot.path)
+    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
+    out = np.empty_like(q)
+    for k in range(q.shape[0]):
+        plant.SetPositions(context, q[k])
+        plant.SetVelocities(context, v[k])
+        forces = MultibodyForces(plant)
+        plant.CalcForceElementsContribution(context, forces)
+        out[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
+    return out + fc * np.sign(v)
+
+
+@pytest.mark.parametrize(
+    ("name", "harmonics", "f0"), [("iiwa7", 3, 0.2), ("ur5", 5, 0.25)]
+)
+def test_design_beats_random_trajectories_within_the_limits(name, harmonics, f0):
+    robot = RobotModel.from_urdf(model_path(name))
+    limits = joint_limits(robot, MODELS_DIR / f"{name}_limits.json")
+    settings = ExcitationSettings(
+        duration=2.0 / f0, harmonics=harmonics, base_frequency=f0, iterations=30
+    )
+    design = design_excitation(robot.idim_rows, robot.base_values, limits, settings)
+    assert design.condition_number * 3.0 <= design.baseline_condition_number
+    # The median of the default random trajectories of 10 seeds (same H, f0,
+    # duration and kinematic limits).
+    baselines = []
+    for seed in range(10):
+        problem = ExcitationProblem(
+            robot.idim_rows,
+            robot.base_values,
+            limits,
+            ExcitationSettings(
+                duration=2.0 / f0, harmonics=harmonics, base_frequency=f0, seed=seed
+            ),
+            Margins(),
+            None,
+        )
+        rows = batched_rows(robot.idim_rows, *_baseline(problem).evaluate(problem.t))
+        baselines.append(condition_number(rows[..., problem.active]))
+    assert design.condition_number * 3.0 <= np.median(baselines)
+    # Within every limit (with the margins) on a dense 1 ms grid over the whole
+    # duration, torques from Drake's inverse dynamics (independent of the rows).
+    t = np.arange(0.0, settings.duration, 1e-3)[::7]
+    q, v, vdot = design.trajectory.evaluate(t)
+    tau = drake_torques(robot, q, v, vdot)
+    assert limit_violations(t, q, v, vdot, tau, limits, Margins()) == []
+    # The reported condition number holds on the dense grid too.
+    active = [i for i in range(robot.num_parameters) if i not in design.unexcitable]
+    dense = condition_number(robot.idim_rows(q, v, vdot)[..., active])
+    assert dense == pytest.approx(design.condition_number, rel=0.05)
+
+
+def test_gradients_match_central_differences():
+    robot = RobotModel.from_urdf(model_path("ur5"))
+    limits = joint_limits(robot, MODELS_DIR / "ur5_limits.json")
+    settings = ExcitationSettings(duration=5.0, harmonics=3, base_frequency=0.2)
+    problem = ExcitationProblem(
+        robot.idim_rows, robot.base_values, limits, settings, Margins(), None
+    )
+    rng = np.random.default_rng(7)  # seed 7
+    x = problem.pack(_baseline(problem))
+    grad, jacobian = problem.gradients(x)
+    for _ in range(3):
+        step = rng.normal(size=x.size) * 1e-5
+        plus, minus = problem.values(x + step), problem.values(x - step)
+        assert (plus[0] - minus[0]) / 2 == pytest.approx(grad @ step, rel=1e-4)
+        np.testing.assert_allclose(
+            (plus[2] - minus[2]) / 2, jacobian @ step, atol=1e-8 * np.abs(plus[2]).max()
+        )
+
+
+def test_self_collision_constraint_keeps_the_links_apart(tmp_path):
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.collision import SelfCollision
+    from drake_dynid.urdf import load_plant
+
+    urdf = folding_urdf(tmp_path)
+    robot = RobotModel.from_urdf(urdf)
+    limits = joint_limits(robot)
+    settings = ExcitationSettings(
+        duration=5.0, harmonics=3, base_frequency=0.2, iterations=40
+    )
+    mid = 0.5 * (limits.lower + limits.upper)
+    clearance = SelfCollision.from_urdf(urdf, mid)
+    free = design_excitation(robot.idim_rows, robot.base_values, limits, settings)
+    safe = design_excitation(
+        robot.idim_rows, robot.base_values, limits, settings, clearance_fn=clearance
+    )
+    # Independent check: Drake's HasCollisions along a dense grid.
+    builder = DiagramBuilder()
+    plant = load_plant(urdf, builder=builder, geometry=True)
+    scene_graph = next(s for s in builder.GetSystems() if s.get_name() == "scene_graph")
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    sg_context = scene_graph.GetMyContextFromRoot(context)
+
+    def collides(trajectory):
+        for q in trajectory.evaluate(np.arange(0.0, 5.0, 0.01))[0]:
+            plant.SetPositions(plant_context, q)
+            if scene_graph.get_query_output_port().Eval(sg_context).HasCollisions():
+                return True
+        return False
+
+    assert collides(free.trajectory)
+    assert not collides(safe.trajectory)
+    # The margin (0.01 m) holds at the grid samples; between them it may dip a bit.
+    assert safe.clearance >= 0.9 * 0.01
+    assert np.isfinite(safe.condition_number)
+
+
+def test_limits_file_overrides_and_bad_files(tmp_path):
+    robot = RobotModel.from_urdf(model_path("ur5"))
+    limits = joint_limits(robot, MODELS_DIR / "ur5_limits.json")
+    assert limits.velocity[0] == pytest.approx(3.1416)
+    assert limits.effort[5] == 28.0 and limits.lower[0] == pytest.approx(-2 * np.pi)
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"no_such_joint": {"velocity": 1}}')
+    with pytest.raises(ValueError, match="unknown joint 'no_such_joint'"):
+        joint_limits(robot, bad)
+    bad.write_text('{"elbow_joint": {"speed": 1}}')
+    with pytest.raises(ValueError, match="unknown limit 'speed'"):
+        joint_limits(robot, bad)
+    bad.write_text('{"elbow_joint": {"velocity": "fast"}}')
+    with pytest.raises(ValueError, match="must be a number"):
+        read_limits_file(bad)
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="not valid JSON"):
+        read_limits_file(bad)
+    with pytest.raises(ValueError, match="velocity limit of joint a must be > 0"):
+        JointLimits(("a",), [-1.0], [1.0], [0.0], [1.0])
+
+
+def test_cli_excite_writes_the_trajectory_and_report(tmp_path, capsys):
+    out, coefficients = tmp_path / "traj.csv", tmp_path / "traj.json"
+    argv = [
+        "excite", model_path("ur5"), "--limits", str(MODELS_DIR / "ur5_limits.json"),
+        "--duration", "8", "--harmonics", "3", "--f0", "0.25", "--iterations", "20",
+        "--out", str(out), "--json", str(coefficients), "--online-window", "4",
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "self-collision: not checked" in printed
+    assert "condition number:" in printed and "default random trajectory" in printed
+    assert "on-line window 4 s" in printed
+    robot = RobotModel.from_urdf(model_path("ur5"))
+    sampled = read_trajectory(out, robot.joint_names)
+    assert sampled.t[0] == 0.0 and sampled.t[-1] == pytest.approx(8.0)
+    trajectory, names, duration = read_coefficients(coefficients)
+    assert names == robot.joint_names and duration == 8.0
+    q, v, _ = trajectory.evaluate(sampled.t)
+    np.testing.assert_allclose(sampled.q, q, atol=1e-12)
+    np.testing.assert_allclose(sampled.v, v, atol=1e-12)
+    document = json.loads(coefficients.read_text())
+    assert document["condition_number"] < document["baseline_condition_number"]
+    # Periodic: the trajectory repeats after 1/f0.
+    later = trajectory.evaluate(sampled.t[:50] + 4.0)[0]
+    np.testing.assert_allclose(later, sampled.q[:50], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--duration", "3", "--f0", "0.2"], "duration must be at least one period"),
+        (["--duration", "7", "--f0", "0.2"], "whole number of periods"),
+        (["--margin", "position=2.5"], "leaves no room"),
+        (["--margin", "speed=0.1"], "--margin: expected KIND=VALUE"),
+    ],
+)
+def test_cli_excite_infeasible_requests_exit_2(tmp_path, capsys, extra, message):
+    argv = ["excite", model_path("iiwa7"), "--out", str(tmp_path / "t.csv"), *extra]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_cli_excite_effort_too_tight_names_the_joint(tmp_path, capsys):
+    limits = tmp_path / "tight.json"
+    limits.write_text(json.dumps({"shoulder_lift_joint": {"effort": 5.0}}))
+    argv = [
+        "excite", model_path("ur5"), "--limits", str(limits), "--duration", "5",
+        "--harmonics", "2", "--iterations", "15", "--out", str(tmp_path / "t.csv"),
+    ]  # fmt: skip
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "no trajectory meets the limits" in err
+    assert "shoulder_lift_joint: effort" in err and "N·m" in err
+
+
+def test_cli_excite_missing_limits_and_never_overwrites(tmp_path, capsys):
+    urdf = folding_urdf(tmp_path, limits=False)
+    out = str(tmp_path / "t.csv")
+    assert cli.main(["excite", urdf, "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert "lack(s) limits" in err and "j1 (velocity, effort)" in err
+    assert "--limits FILE" in err
+    limits = tmp_path / "limits.json"
+    limits.write_text(
+        json.dumps({f"j{j}": {"velocity": 3.0, "effort": 100.0} for j in (1, 2, 3)})
+    )
+    argv = ["excite", urdf, "--limits", str(limits), "--out", str(limits)]
+    assert cli.main(argv) == 2
+    assert "is an input of this command" in capsys.readouterr().err
+    argv = [
+        "excite", urdf, "--limits", str(limits), "--duration", "5", "--harmonics",
+        "2", "--iterations", "10", "--out", out,
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    assert "collision geometries" in capsys.readouterr().out
