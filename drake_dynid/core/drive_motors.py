@@ -100,6 +100,7 @@ class _Builder:
         self.owner = owner
         self.joint_names = joint_names
         self.index = {name: j for j, name in enumerate(joint_names)}
+        self.notes: list[str] = []
 
     def fail(self, message: str):
         raise ValueError(f"{self.owner}: {message}")
@@ -264,9 +265,20 @@ class _Builder:
         for name, entry in urdf_motors.items():
             if name in drive:
                 merged = {**entry, **drive.pop(name), "source": "URDF + drive"}
+                if merged["row"] != entry["row"]:
+                    self.notes.append(
+                        f"URDF actuator {name} {_row_text(entry['row'])} gets the "
+                        f"drive file's row {_row_text(merged['row'])}."
+                    )
                 sequence.append((name, merged))
             elif not taken & set(entry["row"]):
                 sequence.append((name, entry))
+            else:
+                self.notes.append(
+                    f"URDF actuator {name} {_row_text(entry['row'])} is replaced by "
+                    f"the drive file, which describes joint(s) "
+                    f"{', '.join(sorted(taken & set(entry['row'])))}."
+                )
         sequence += [
             (name, {**entry, "source": "drive"}) for name, entry in drive.items()
         ]
@@ -313,7 +325,7 @@ def resolve_motors(
     joint_names: tuple[str, ...],
     prismatic: tuple[bool, ...],
     urdf: Mapping[str, Any] | None = None,
-) -> tuple[Motor, ...]:
+) -> tuple[tuple[Motor, ...], tuple[str, ...]]:
     """Validates ``[motors]``/``[coupling]`` (and the URDF motors) and resolves them.
 
     Args:
@@ -326,8 +338,10 @@ def resolve_motors(
             Ia}}}`` from the URDF transmissions, or None.
 
     Returns:
-        The m motors, numbered by the first joint they drive (ties: URDF, then
-        ``[motors]`` tables in file order, then ``[coupling].motors``); R has rank n.
+        ``(motors, notes)``: the m motors, numbered by the first joint they drive
+        (ties: URDF, then ``[motors]`` tables in file order, then
+        ``[coupling].motors``), R of rank n; and one sentence per URDF motor that
+        the drive file replaced.
     """
     builder = _Builder(owner, joint_names)
     motors = []
@@ -349,4 +363,4 @@ def resolve_motors(
             )
         )
     _check_rank(builder, np.array([motor.row for motor in motors]), motors)
-    return tuple(motors)
+    return tuple(motors), tuple(builder.notes)
