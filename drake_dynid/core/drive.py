@@ -15,12 +15,13 @@ k_t [N·m/A] (negative allowed).
 ``DriveChain.from_dict`` builds the chain from a parsed TOML drive file (format in
 docs/DRIVE.md), validating every field against the joint names; ``read_drive`` reads
 the file. Joints without a motor get an implicit direct drive (ratio 1, named after
-the joint). Motors are numbered by the first joint they drive, in URDF order (ties:
-URDF transmissions, then ``[motors.NAME]`` tables in file order, then
-``[coupling].motors``), so that the k of the coupled-motor columns ``IAmk`` is the
-usual motor number. ``DriveChain.convert`` maps raw named log columns to joint space;
-the motor regressor columns are in ``drake_dynid.core.drive_columns``. Pure numpy and
-the standard library (tomllib).
+the joint). Motors are numbered by the joints they drive (their sorted joint indices,
+compared lexicographically, so a simple motor of joint 5 comes before a motor of
+joints 5 and 6; ties: URDF transmissions, then ``[motors.NAME]`` tables in file
+order, then ``[coupling].motors``), so that the k of the coupled-motor columns
+``IAmk`` is the usual motor number. ``DriveChain.convert`` maps raw named log
+columns to joint space; the motor regressor columns are in
+``drake_dynid.core.drive_columns``. Pure numpy and the standard library (tomllib).
 """
 
 from __future__ import annotations
@@ -64,9 +65,11 @@ class DriveChain:
     Attributes:
         joint_names: the n identified joints, in the order of q and τ.
         prismatic: (n,) True for a prismatic joint (length units), else revolute.
-        motors: the m motors, numbered by the first joint they drive.
+        motors: the m motors, numbered by the joints they drive (module docstring).
         log: the log format (columns, units, sides, position offsets).
         source: the owner named in error messages (e.g. ``drive file robot.toml``).
+        notes: what the resolution decided that a user should know, one sentence
+            each (URDF motors replaced by the drive file, URDF warnings).
     """
 
     joint_names: tuple[str, ...]
@@ -74,6 +77,7 @@ class DriveChain:
     motors: tuple[Motor, ...]
     log: LogFormat
     source: str = "DriveChain"
+    notes: tuple[str, ...] = ()
 
     # ---------------------------------------------------------------- building
     @classmethod
@@ -119,21 +123,14 @@ class DriveChain:
             )
         check_table(source, "the drive file", data, _TOP_KEYS)
         prismatic = tuple(name in set(prismatic_joints) for name in names)
-        motors = resolve_motors(source, data, names, prismatic, urdf)
+        motors, notes = resolve_motors(source, data, names, prismatic, urdf)
         log = parse_log(source, data.get("log", {}), names, prismatic, motors)
-        chain = cls(names, prismatic, motors, log, source)
+        chain = cls(names, prismatic, motors, log, source, notes)
         chain._check_log()
         return chain
 
     def _check_log(self) -> None:
         log, owner = self.log, self.source
-        if log.position_side == "motor":
-            m, n = self.coupling.shape
-            if m != n:
-                raise ValueError(
-                    f"{owner}: log.position_side = 'motor' needs as many motors as "
-                    f"joints (q = R⁻¹(q_m - offset)); got {m} motors for {n} joints."
-                )
         if log.current_scale is not None:
             missing = [mo.name for mo in self.motors if mo.torque_constant is None]
             if missing:
@@ -180,12 +177,21 @@ class DriveChain:
 
     @property
     def identity(self) -> bool:
-        """True when R = I and the log is joint-side SI: no conversion at all."""
+        """True when :meth:`convert` changes no number (only picks columns).
+
+        R = I, joint-side positions and torques in SI units, no position offsets,
+        time in seconds kept as logged.
+        """
+        log = self.log
         return (
             self.num_motors == self.num_joints
             and np.array_equal(self.coupling, np.eye(self.num_joints))
-            and self.log.position_side == "joint"
-            and self.log.torque_side == "joint"
+            and log.position_side == log.torque_side == "joint"
+            and log.current_scale is None
+            and log.time_scale == 1.0
+            and log.time_origin == "log"
+            and bool(np.all(log.position_scale == 1.0))
+            and not np.any(log.position_offset)
         )
 
     # ------------------------------------------------------- a-priori values

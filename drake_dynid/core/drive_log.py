@@ -278,6 +278,12 @@ def parse_log(
             "torque_side = 'motor' (a current is a motor quantity, τ_m = k_t i); "
             f"got torque_side = {torque_side!r}."
         )
+    if position_side == "motor" and len(motors) != len(joint_names):
+        raise ValueError(
+            f"{owner}: log.position_side = 'motor' needs as many motors as joints "
+            f"(q = R⁻¹(q_m - offset)); got {len(motors)} motors for "
+            f"{len(joint_names)} joints."
+        )
     position_entities = _entities(position_side, joint_names, motors)
     torque_entities = _entities(torque_side, joint_names, motors)
     if position_side == "joint":

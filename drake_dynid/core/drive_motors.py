@@ -293,8 +293,8 @@ class _Builder:
                 f"motor name(s) {', '.join(duplicated)} also name an implicit direct "
                 "drive of a joint without a motor; rename the motor(s)."
             )
-        first = [min(self.index[j] for j in entry["row"]) for _, entry in sequence]
-        order = sorted(range(len(sequence)), key=lambda k: first[k])
+        driven = [sorted(self.index[j] for j in entry["row"]) for _, entry in sequence]
+        order = sorted(range(len(sequence)), key=lambda k: driven[k])
         return [sequence[k] for k in order]
 
 
@@ -338,10 +338,10 @@ def resolve_motors(
             Ia}}}`` from the URDF transmissions, or None.
 
     Returns:
-        ``(motors, notes)``: the m motors, numbered by the first joint they drive
-        (ties: URDF, then ``[motors]`` tables in file order, then
-        ``[coupling].motors``), R of rank n; and one sentence per URDF motor that
-        the drive file replaced.
+        ``(motors, notes)``: the m motors, sorted by their sorted joint indices
+        (lexicographically; ties: URDF, then ``[motors]`` tables in file order,
+        then ``[coupling].motors``), R of rank n; and one sentence per URDF motor
+        whose row the drive file replaced.
     """
     builder = _Builder(owner, joint_names)
     motors = []
