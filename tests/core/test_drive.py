@@ -9,6 +9,7 @@ import pathlib
 
 import numpy as np
 import pytest
+import tomllib
 
 from drake_dynid.core.drive import DriveChain, read_drive
 
@@ -431,3 +432,25 @@ def test_nan_cells_stay_bad_samples_and_spread_through_coupling():
         }
     )
     assert np.all(np.isnan(out.q[0])) and np.all(np.isfinite(out.q[1]))
+
+
+def test_every_toml_example_of_the_drive_documentation_is_valid():
+    # Each ```toml block of docs/DRIVE.md starts with "# joints: a b* c" (* prismatic).
+    text = (MODELS.parents[1] / "docs" / "DRIVE.md").read_text()
+    blocks = [part.split("```", 1)[0] for part in text.split("```toml\n")[1:]]
+    assert len(blocks) == 3
+    for block in blocks:
+        first = block.splitlines()[0]
+        assert first.startswith("# joints: ")
+        names = first.removeprefix("# joints: ").split()
+        joints = [name.rstrip("*") for name in names]
+        prismatic = [name.rstrip("*") for name in names if name.endswith("*")]
+        chain = DriveChain.from_dict(
+            tomllib.loads(block), joints, prismatic_joints=prismatic
+        )
+        assert chain.num_motors == len(joints)
+    tiago = read_drive(MODELS / "tiago.toml", joints, prismatic_joints=prismatic)
+    np.testing.assert_array_equal(chain.coupling, tiago.coupling)
+    assert [m.torque_constant for m in chain.motors] == [
+        m.torque_constant for m in tiago.motors
+    ]
