@@ -97,15 +97,19 @@ class _Reader:
             return None
         return self.number(where, found.attrib.get("value"), f"drake:{tag} value")
 
-    def reduction(self, where: str, element, required: bool) -> float | None:
+    def reduction(self, where: str, element) -> float | None:
         found = element.find("mechanicalReduction")
         if found is None:
-            if required:
-                self.fail(where, "missing <mechanicalReduction>")
             return None
         value = self.number(where, found.text, "mechanicalReduction")
         if value == 0.0:
             self.fail(where, "mechanicalReduction must be non-zero; got 0")
+        return value
+
+    def required_reduction(self, where: str, element) -> float:
+        value = self.reduction(where, element)
+        if value is None:
+            self.fail(where, "missing <mechanicalReduction>")
         return value
 
     def by_role(self, where: str, elements, roles: tuple[str, str]):
@@ -163,10 +167,10 @@ class _Reader:
         actuators = self.by_role(where, actuators, ("actuator1", "actuator2"))
         joints = self.by_role(where, joints, ("joint1", "joint2"))
         na = [
-            self.reduction(f"{where}, actuator {a.attrib.get('name')}", a, True)
+            self.required_reduction(f"{where}, actuator {a.attrib.get('name')}", a)
             for a in actuators
         ]
-        nj = [self.reduction(where, j, False) or 1.0 for j in joints]
+        nj = [self.reduction(where, j) or 1.0 for j in joints]
         j1, j2 = (j.attrib["name"] for j in joints)
         if short == "DifferentialTransmission":
             rows = [
@@ -187,9 +191,9 @@ class _Reader:
     def simple(self, where: str, element, joint, actuator) -> None:
         actuator_where = f"{where}, actuator {actuator.attrib.get('name')}"
         gear = self.drake_value(actuator_where, actuator, "gear_ratio")
-        reduction = self.reduction(actuator_where, actuator, False)
+        reduction = self.reduction(actuator_where, actuator)
         if reduction is None:
-            reduction = self.reduction(where, element, False)  # old PR2 format
+            reduction = self.reduction(where, element)  # old PR2 format
         if gear is not None and gear == 0.0:
             self.fail(actuator_where, "drake:gear_ratio must be non-zero; got 0")
         if gear is not None and reduction is not None and gear != reduction:
