@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -101,8 +101,9 @@ class _Builder:
         self.joint_names = joint_names
         self.index = {name: j for j, name in enumerate(joint_names)}
         self.notes: list[str] = []
+        self.locked: set[str] = set()
 
-    def fail(self, message: str):
+    def fail(self, message: str) -> NoReturn:
         raise ValueError(f"{self.owner}: {message}")
 
     def joint(self, field: str, name: Any) -> int:
@@ -199,7 +200,8 @@ class _Builder:
             row = {str(j): float(r) for j, r in dict(table["joints"]).items() if r}
             inside = [j for j in row if j in self.index]
             if not inside:
-                continue  # drives only joints that are not identified (locked)
+                self.locked.add(name)  # drives only non-identified (locked) joints
+                continue
             if len(inside) != len(row):
                 outside = sorted(set(row) - set(inside))
                 self.fail(
@@ -248,10 +250,15 @@ class _Builder:
             elif name in coupled:
                 entry["row"] = coupled[name]
             elif name not in urdf_motors:
+                why = (
+                    "the URDF actuator of that name drives only joints that are not "
+                    "identified"
+                    if name in self.locked
+                    else "no URDF transmission has an actuator of that name"
+                )
                 self.fail(
                     f"{field} must give joint = NAME (and gear_ratio), joints = "
-                    "{a = Na, ...}, or appear in [coupling].motors (no URDF "
-                    "transmission has an actuator of that name)."
+                    f"{{a = Na, ...}}, or appear in [coupling].motors ({why})."
                 )
             drive[name] = entry
         for name, row in coupled.items():

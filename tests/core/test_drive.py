@@ -390,6 +390,10 @@ def test_urdf_merge_errors():
         DriveChain.from_dict(
             {"motors": {"wrist": {"gear_ratio": 2.0}}}, ("j2", "j3"), urdf=URDF_MOTORS
         )
+    with pytest.raises(ValueError, match="of that name drives only joints that"):
+        DriveChain.from_dict(
+            {"motors": {"head": {"torque_constant": 1.0}}}, ("j1",), urdf=URDF_MOTORS
+        )
     with pytest.raises(ValueError, match="drives identified joints j2 and non"):
         DriveChain.from_dict({}, ("j1", "j2"), urdf=URDF_MOTORS)
 
