@@ -194,6 +194,39 @@ class DriveChain:
             and not np.any(log.position_offset)
         )
 
+    def summary(self) -> dict[str, Any]:
+        """A JSON-ready description (for result files and ``--json`` settings)."""
+        log = self.log
+        motors = []
+        names = self.joint_names
+        for k, motor in enumerate(self.motors):
+            entry: dict[str, Any] = {
+                "number": k + 1,
+                "name": motor.name,
+                "joints": {names[j]: float(motor.row[j]) for j in motor.joints},
+                "source": motor.source,
+            }
+            for key in ("torque_constant", "rotor_inertia", "viscous", "coulomb"):
+                value = getattr(motor, key)
+                if value is not None:
+                    entry[key] = value
+            motors.append(entry)
+        return {
+            "source": self.source,
+            "joints": list(self.joint_names),
+            "motors": motors,
+            "log": {
+                "time": log.time,
+                "time_unit": log.time_unit,
+                "position_side": log.position_side,
+                "angle_unit": log.angle_unit,
+                "length_unit": log.length_unit,
+                "torque_side": log.torque_side,
+                "torque_unit": log.torque_unit,
+            },
+            "notes": list(self.notes),
+        }
+
     # ------------------------------------------------------- a-priori values
     def reflected_inertia(self) -> np.ndarray:
         """A-priori IAj [kg·m² or kg], (n,): Σ_k R_kj² Ia_k over simple motors.

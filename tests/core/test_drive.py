@@ -161,6 +161,9 @@ def test_tx40_coupled_wrist_motor_side_inverse(tmp_path):
     np.testing.assert_allclose(out.q[:, 5], qm[:, 5] / 32 - qm[:, 4] / 45)
     np.testing.assert_allclose(out.tau[:, 4], 45 * tau_m[:, 4] + 32 * tau_m[:, 5])
     np.testing.assert_allclose(out.tau[:, 5], 32 * tau_m[:, 5])
+    summary = chain.summary()
+    assert summary["motors"][5]["joints"] == {"j5": 32.0, "j6": 32.0}
+    assert summary["log"]["torque_unit"] == "mA"
     back = chain.to_columns(out.t, out.q, out.tau)
     for name, array in columns.items():
         np.testing.assert_allclose(back[name], array, atol=1e-9)
