@@ -443,7 +443,7 @@ def test_nan_cells_stay_bad_samples_and_spread_through_coupling():
 
 def test_every_toml_example_of_the_drive_documentation_is_valid():
     # Each ```toml block of docs/DRIVE.md starts with "# joints: a b* c" (* prismatic).
-    text = (MODELS.parents[1] / "docs" / "DRIVE.md").read_text()
+    text = (MODELS.parents[1] / "docs/DRIVE.md").read_text()
     blocks = [part.split("```", 1)[0] for part in text.split("```toml\n")[1:]]
     assert len(blocks) == 3
     for block in blocks:
