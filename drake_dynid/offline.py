@@ -14,12 +14,22 @@ The inverse dynamic model (docs/MATH.md §5) is linear in the p base parameters 
    padding of four cutoff periods, ``trim = 1 + ceil(2/(f_c·h))`` samples dropped
    at each end of the segment, so also next to every gap);
 3. rows ``W = robot.idim_rows(q_f, v, v̇)``, torques τ of the same samples;
-4. parallel decimation of W and τ (:func:`drake_dynid.core.idim.parallel_decimation`:
-   the same zero-phase order-8 Butterworth low-pass at f_d on every column, then
-   one sample in D); it removes the equation noise above the dynamics band and
-   keeps ``τ = W X``;
+4. parallel decimation of W and τ: the same zero-phase low-pass at f_d on every
+   column, then one sample in D; it removes the equation noise above the dynamics
+   band and keeps ``τ = W X``;
 5. stack all segments and solve ``min ‖τ - W X‖`` by QR (IDIM-LS), or with one
    weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (docs/MATH.md §4).
+
+Steps 2-4 are streamed (:mod:`drake_dynid.core.idim_stream`): the friction
+columns and τ are decimated at the full rate, while the rigid-body columns, the
+expensive ones, are evaluated only every D1-th sample, D = D1·D2, with the
+decimation in two stages (an anti-alias FIR to f_s/D1 on τ and friction, then
+the order-8 Butterworth at f_d on every column at f_s/D1). Memory does not grow
+with the log length beyond the decimated rows (:func:`offline_rows`), and on a
+7-DOF arm the regressor runs on about one sample in 40 instead of all of them.
+``regressor_decimation=1`` evaluates every sample: the one-stage parallel
+decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
+The estimates of the two agree to a small fraction of their σ (tests/test_offline.py).
 
 Two cutoffs, two jobs. f_c (position filter) must leave the motion undistorted:
 W is nonlinear in q, so a distorted q would bias W; f_c sits well above the
@@ -32,66 +42,46 @@ of v̇ (which grows like f² times the position noise): on the paper's 2R at SNR
 30 dB, f_d = f_c gave 1.1 / 7.5 % mean inertial / friction error, f_d = 1.5·B
 0.9 / 4.1 % (60 seeds; benchmarks/bench_accuracy.py).
 
-Automatic cutoff (:func:`auto_cutoff`, used when ``cutoff_hz`` is None). The
-Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
-4 s segments) gives
+The automatic settings (``cutoff_hz``, ``decimation_cutoff_hz``, ``decimation``
+None) are those of :mod:`drake_dynid.core.idim_auto`: f_c where the position
+spectrum meets its noise floor, f_d = min(f_c, 1.5·B), D = floor(0.25·fs/f_d)
+rounded down to a multiple of D1.
 
-* its noise floor N_j: the median of S_j over [fs/4, fs/2] (white measurement
-  noise is flat; a rigid robot's motion has no power there);
-* its noise crossover f_x: the highest frequency where some S_j > 100·N_j (20 dB
-  above the floor): beyond it the filter would only pass noise, whose second
-  difference grows like f⁵ and biases W (errors in variables);
-* its excitation bandwidth f_99: the frequency below which 99 % of the power
-  of (S_j - N_j)⁺ up to f_x lies (largest over the joints; above f_x the noise's
-  fluctuations would add up);
-
-and ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)``. The factor 2 keeps the
-zero-phase Butterworth (|H|² = 1/(1+(f/f_c)^(2·order))) above 0.996 in the
-excitation band. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
-(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. On the paper's 2R arm at
-1 kHz this gives about 1.5 Hz at SNR 30 dB and 40 Hz without noise.
-
-Automatic decimation (``decimation`` None): ``D = max(1, floor(0.25·fs/f_d))``,
-so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
-order-8 Butterworth is below 1.5e-5 there: no aliasing).
+The work runs with one BLAS thread (:func:`drake_dynid._threads.thread_limit`;
+``DYNID_THREADS`` changes it).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
+from drake_dynid._threads import thread_limit
 from drake_dynid.core import _validate as check
-from drake_dynid.core.excitation import estimate_bandwidth
-from drake_dynid.core.idim import (
-    default_padding,
-    default_trim,
-    idim_least_squares,
-    offline_derivatives,
-    parallel_decimation,
+from drake_dynid.core import idim_stream
+from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
+from drake_dynid.core.idim_auto import (
+    DECIMATION_BAND_FACTOR,
+    MAX_AUTO_CUTOFF_HZ,
+    auto_cutoff,
+    auto_decimation,
+    auto_decimation_cutoff,
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 
 __all__ = [
+    "DECIMATION_BAND_FACTOR",
+    "MAX_AUTO_CUTOFF_HZ",
     "OfflineResult",
+    "OfflineRows",
     "auto_cutoff",
     "auto_decimation",
     "auto_decimation_cutoff",
     "identify_offline",
+    "offline_rows",
 ]
-
-MAX_AUTO_CUTOFF_HZ = 40.0
-"""Cap of the automatic cutoff [Hz] (ten times a 4 Hz position loop bandwidth)."""
-
-_FLOOR_MARGIN = 100.0  # 20 dB above the noise floor
-_POWER_SHARE = 0.99  # excitation bandwidth: 99 % of the noise-corrected power
-_SPECTRUM_SEGMENT = 4.0  # Welch segment length [s]
-DECIMATION_BAND_FACTOR = 1.5
-"""Automatic decimation low-pass f_d = min(f_c, 1.5·B), B the velocity bandwidth."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,8 +101,11 @@ class OfflineResult:
         reason: empty when valid; otherwise what is wrong.
         settings: the settings used: ``cutoff_hz``, ``cutoff_rule`` ("auto" or
             "given"), ``decimation``, ``decimation_rule``, ``decimation_cutoff_hz``,
-            ``decimation_cutoff_rule``, ``weighted``, ``filter_order``, ``trim`` and
-            ``padding`` [samples per segment end], ``max_condition``.
+            ``decimation_cutoff_rule``, ``regressor_decimation`` (D1: the
+            rigid-body columns are evaluated every D1-th sample),
+            ``regressor_decimation_rule``, ``weighted``, ``filter_order``,
+            ``trim`` and ``padding`` [samples per segment end],
+            ``max_condition``, ``time_step``.
         num_samples: samples in the log (N).
         num_samples_used: samples whose rows entered the least squares, before
             decimation (finite segments minus the trimmed ends).
@@ -148,94 +141,6 @@ class OfflineResult:
         return "idim-wls" if self.settings.get("weighted") else "idim-ls"
 
 
-def auto_cutoff(q: Any, time_step: float) -> float:
-    """Automatic Butterworth cutoff f_c [Hz] from the spectrum of the positions.
-
-    ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)`` with f_x the highest frequency
-    where a joint's Welch spectrum is 20 dB above its noise floor (median over
-    [fs/4, fs/2]) and f_99 the frequency holding 99 % of the floor-corrected power
-    (see the module docstring). Both are the largest over the joints.
-
-    Args:
-        q: (N, n) finite positions sampled every ``time_step`` [rad or m].
-        time_step: sample period h [s].
-
-    Returns:
-        The cutoff [Hz], at least the Welch resolution fs/N_seg.
-    """
-    owner = "auto_cutoff"
-    time_step = check.positive(owner, "time_step", time_step, "s")
-    q = check.array(owner, "q", q)
-    if q.ndim == 1:
-        q = q[:, None]
-    if q.ndim != 2 or q.shape[0] < 16:
-        check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
-    fs = 1.0 / time_step
-    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power = signal.welch(
-        q,
-        fs=fs,
-        window="blackmanharris",
-        nperseg=segment,
-        detrend="linear",
-        axis=0,
-    )
-    resolution = f[1]
-    high = f >= 0.25 * fs
-    crossover = resolution
-    bandwidth = resolution
-    for j in range(q.shape[1]):
-        spectrum = power[:, j]
-        floor = float(np.median(spectrum[high]))
-        above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
-        if above.size == 0:
-            continue
-        top = int(above[-1])
-        crossover = max(crossover, float(f[top]))
-        # Excitation bandwidth: only below the crossover, where the spectrum is
-        # signal (above it, the noise's fluctuations would add up).
-        excess = np.clip(spectrum[: top + 1] - floor, 0.0, None)
-        total = float(excess.sum())
-        if total > 0.0:
-            share = np.cumsum(excess) / total
-            bandwidth = max(bandwidth, float(f[np.argmax(share >= _POWER_SHARE)]))
-    cutoff = min(max(crossover, 2.0 * bandwidth), MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
-    return float(max(cutoff, resolution))
-
-
-def auto_decimation(time_step: float, cutoff_hz: float) -> int:
-    """``max(1, floor(0.25·fs/f_d))``: the decimated Nyquist frequency is >= 2·f_d.
-
-    Args:
-        time_step: sample period h [s].
-        cutoff_hz: the decimation low-pass f_d [Hz].
-    """
-    owner = "auto_decimation"
-    time_step = check.positive(owner, "time_step", time_step, "s")
-    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    return max(1, math.floor(0.25 / (time_step * cutoff_hz)))
-
-
-def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
-    """The decimation low-pass ``f_d = min(f_c, 1.5·B)`` [Hz].
-
-    B is the velocity bandwidth of the positions
-    (:func:`~drake_dynid.core.excitation.estimate_bandwidth`); when it cannot be
-    measured (no joint moves above the noise, or fewer than 64 samples), f_d = f_c
-    (the least squares then reports the unexcited parameters).
-
-    Args:
-        q: (N, n) finite positions [rad or m].
-        time_step: sample period h [s].
-        cutoff_hz: the position filter's cutoff f_c [Hz].
-    """
-    try:
-        band = estimate_bandwidth(q, time_step)
-    except ValueError:
-        return float(cutoff_hz)
-    return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
-
-
 def _below_nyquist(owner: str, name: str, value: Any, time_step: float) -> float:
     """A frequency [Hz] in (0, 1/(2h)), or a ValueError naming it."""
     value = check.positive(owner, name, value, "Hz")
@@ -254,6 +159,196 @@ def _provider(robot: Any) -> Any:
     return fast if hasattr(fast, "idim_rows") else robot
 
 
+@dataclass(frozen=True, eq=False)
+class OfflineRows:
+    """The decimated equations ``tau = W X`` of a log (:func:`offline_rows`).
+
+    Attributes:
+        names: (p,) column names (base parameters).
+        W: (K, n, p) decimated rows, all segments stacked [N·m or N per unit].
+        tau: (K, n) decimated torques [N·m or N].
+        settings: the filter settings (see :class:`OfflineResult`).
+        num_samples: samples in the log.
+        num_samples_used: samples of the finite segments minus the trimmed ends.
+        num_segments: finite segments in the log.
+        num_segments_used: segments long enough to give rows.
+    """
+
+    names: tuple[str, ...]
+    W: np.ndarray
+    tau: np.ndarray
+    settings: dict[str, Any]
+    num_samples: int
+    num_samples_used: int
+    num_segments: int
+    num_segments_used: int
+
+
+def _check_log(owner: str, log: Any, robot: Any, rows: Any) -> float:
+    for attribute in ("t", "q", "tau", "time_step", "joint_names"):
+        if not hasattr(log, attribute):
+            raise TypeError(
+                f"{owner}: log must be a RobotLog; got {type(log).__name__}."
+            )
+    robot_joints = tuple(getattr(robot, "joint_names", log.joint_names))
+    if tuple(log.joint_names) != robot_joints:
+        check.fail(
+            owner,
+            f"log joints must be the robot's {', '.join(robot_joints)} in that "
+            f"order; got {', '.join(log.joint_names)}.",
+        )
+    return check.positive(owner, "time_step", log.time_step, "s")
+
+
+def offline_rows(
+    log: Any,
+    robot: Any,
+    *,
+    cutoff_hz: float | None = None,
+    decimation: int | None = None,
+    decimation_cutoff_hz: float | None = None,
+    filter_order: int = 4,
+    regressor_decimation: int | None = None,
+) -> OfflineRows:
+    """Steps 1-4 of the chain: the decimated rows and torques of every segment.
+
+    Arguments as :func:`identify_offline`. Memory: the decimated rows
+    (K·n·p floats, K ≈ N/D) plus a few blocks, whatever the log length.
+    """
+    owner = "identify_offline"
+    rows = _provider(robot)
+    h = _check_log(owner, log, robot, rows)
+    names = tuple(rows.names)
+    filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
+    q = np.asarray(log.q, dtype=float)
+    tau = np.asarray(log.tau, dtype=float)
+    n = q.shape[1]
+    segments = log.good_segments()
+    if not segments:
+        check.fail(owner, "the log has no finite sample (every row has a NaN).")
+    longest = max(segments, key=lambda s: s[1] - s[0])
+    longest_q = q[longest[0] : longest[1]]
+    cutoff_rule = "given" if cutoff_hz is not None else "auto"
+    if cutoff_hz is None:
+        if longest[1] - longest[0] < 16:
+            check.fail(
+                owner,
+                f"the longest finite segment has {longest[1] - longest[0]} samples; "
+                "at least 16 are needed to choose the cutoff.",
+            )
+        cutoff_hz = auto_cutoff(longest_q, h)
+    cutoff_hz = _below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
+    decimation_rule = "given" if decimation is not None else "auto"
+    if decimation is not None:
+        decimation = check.integer(owner, "decimation", decimation, minimum=1)
+    decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
+    if decimation_cutoff_hz is None:
+        decimation_cutoff_hz = auto_decimation_cutoff(longest_q, h, cutoff_hz)
+        if decimation is not None:
+            decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
+    decimation_cutoff_hz = _below_nyquist(
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
+    )
+    trim = default_trim(h, cutoff_hz)
+    padding = default_padding(h, cutoff_hz)
+    minimum = 2 * trim + 1
+
+    # Friction columns go through the decimation at the full rate; the others
+    # (rigid body) are evaluated every D1-th sample.
+    layout = idim_stream.friction_layout(names, rows.idim_rows, n)
+    factor_rule = "given" if regressor_decimation is not None else "auto"
+    if regressor_decimation is not None:
+        regressor_decimation = check.integer(
+            owner, "regressor_decimation", regressor_decimation, minimum=1
+        )
+        if layout is None and regressor_decimation > 1:
+            check.fail(
+                owner,
+                "regressor_decimation must be 1 for this row provider: its columns "
+                "named FVj/FCj/OFFj are not the friction columns v_j, sign v_j, 1.",
+            )
+    if layout is None:
+        regressor_decimation, layout = 1, ()
+    if decimation is None:
+        decimation = auto_decimation(h, decimation_cutoff_hz)
+        factor = regressor_decimation or idim_stream.regressor_decimation(
+            h, cutoff_hz, decimation, decimation_cutoff_hz, trim, divides=False
+        )
+        if factor > decimation:
+            check.fail(
+                owner,
+                f"regressor_decimation must be <= the decimation {decimation}; got "
+                f"{factor}.",
+            )
+        decimation = factor * (decimation // factor)
+    plan = idim_stream.stream_plan(
+        h,
+        cutoff_hz=cutoff_hz,
+        filter_order=filter_order,
+        trim=trim,
+        padding=padding,
+        decimation=decimation,
+        decimation_cutoff_hz=decimation_cutoff_hz,
+        factor=regressor_decimation,
+    )
+    friction = [(kind, joint) for _, kind, joint in layout]
+    friction_columns = {column for column, _, _ in layout}
+    rigid_index = [c for c in range(len(names)) if c not in friction_columns]
+
+    def rigid(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
+        return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)[..., rigid_index]
+
+    W_parts: list[np.ndarray] = []
+    tau_parts: list[np.ndarray] = []
+    used_samples = 0
+    for start, stop in segments:
+        if stop - start < minimum:
+            continue
+        W_rigid, F, tau_d = idim_stream.decimated_segment(
+            q[start:stop], tau[start:stop], plan, rigid, friction
+        )
+        W = np.zeros((tau_d.shape[0], n, len(names)))
+        W[..., rigid_index] = W_rigid
+        for c, (column, _, joint) in enumerate(layout):
+            W[:, joint, column] = F[:, c]
+        W_parts.append(W)
+        tau_parts.append(tau_d)
+        used_samples += stop - start - 2 * trim
+    if not W_parts:
+        check.fail(
+            owner,
+            f"no finite segment of the log is long enough: the longest has "
+            f"{longest[1] - longest[0]} samples ({(longest[1] - longest[0]) * h:g} s) "
+            f"and the cutoff {cutoff_hz:.3g} Hz needs at least {minimum} "
+            f"({minimum * h:g} s: {trim} samples are dropped at each end); record a "
+            "longer log or raise the cutoff.",
+        )
+    settings = {
+        "cutoff_hz": float(cutoff_hz),
+        "cutoff_rule": cutoff_rule,
+        "decimation": int(decimation),
+        "decimation_rule": decimation_rule,
+        "decimation_cutoff_hz": float(decimation_cutoff_hz),
+        "decimation_cutoff_rule": decimation_cutoff_rule,
+        "regressor_decimation": int(plan.factor),
+        "regressor_decimation_rule": factor_rule,
+        "padding": int(padding),
+        "filter_order": int(filter_order),
+        "trim": int(trim),
+        "time_step": float(h),
+    }
+    return OfflineRows(
+        names=names,
+        W=np.concatenate(W_parts),
+        tau=np.concatenate(tau_parts),
+        settings=settings,
+        num_samples=int(q.shape[0]),
+        num_samples_used=int(used_samples),
+        num_segments=len(segments),
+        num_segments_used=len(W_parts),
+    )
+
+
 def identify_offline(
     log: Any,
     robot: Any,
@@ -265,6 +360,7 @@ def identify_offline(
     filter_order: int = 4,
     max_condition: float = DEFAULT_MAX_CONDITION,
     keep_rows: bool = False,
+    regressor_decimation: int | None = None,
 ) -> OfflineResult:
     """Off-line IDIM-LS / IDIM-WLS of the base parameters from a robot log.
 
@@ -282,11 +378,13 @@ def identify_offline(
         log: a :class:`~drake_dynid.logs.RobotLog` whose joints are the robot's.
         robot: a :class:`~drake_dynid.robot.RobotModel` (its ``rows_provider()``
             is used when it has ``idim_rows``: the analytic 2R rows are much
-            faster), or any object with ``names`` and ``idim_rows(q, v, vdot)``.
+            faster), or any object with ``names`` and ``idim_rows(q, v, vdot)``
+            whose columns other than ``FVj``/``FCj``/``OFFj`` are smooth in
+            (q, v, v̇).
         cutoff_hz: Butterworth cutoff f_c [Hz]; None: :func:`auto_cutoff` on the
             longest finite segment.
         decimation: parallel decimation factor D (>= 1); None:
-            :func:`auto_decimation` of f_d.
+            :func:`auto_decimation` of f_d, rounded down to a multiple of D1.
         decimation_cutoff_hz: low-pass f_d of the parallel decimation [Hz]; None:
             :func:`auto_decimation_cutoff` (``min(f_c, 1.5·B)``), lowered to
             0.4·fs/D when D is given.
@@ -295,6 +393,10 @@ def identify_offline(
         max_condition: largest accepted condition number of the column-scaled W.
         keep_rows: keep the stacked decimated rows and torques in the result
             (``rows``, ``torques``), e.g. for ``drake_dynid.physical``.
+        regressor_decimation: D1, the rigid-body columns are evaluated every
+            D1-th sample (a divisor of D); 1: every sample (the one-stage parallel
+            decimation); None: the largest allowed
+            (:func:`~drake_dynid.core.idim_stream.regressor_decimation`).
 
     Returns:
         An :class:`OfflineResult` (check ``valid``).
@@ -304,117 +406,35 @@ def identify_offline(
             without any finite segment long enough for the filter.
     """
     owner = "identify_offline"
-    for attribute in ("t", "q", "tau", "time_step", "joint_names"):
-        if not hasattr(log, attribute):
-            raise TypeError(
-                f"{owner}: log must be a RobotLog; got {type(log).__name__}."
-            )
-    rows = _provider(robot)
-    names = tuple(rows.names)
-    robot_joints = tuple(getattr(robot, "joint_names", log.joint_names))
-    if tuple(log.joint_names) != robot_joints:
-        check.fail(
-            owner,
-            f"log joints must be the robot's {', '.join(robot_joints)} in that "
-            f"order; got {', '.join(log.joint_names)}.",
-        )
-    h = check.positive(owner, "time_step", log.time_step, "s")
-    filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
     max_condition = check.greater_than(owner, "max_condition", max_condition, 1.0)
     if not isinstance(weighted, bool | np.bool_):
         raise TypeError(
             f"{owner}: weighted must be a bool; got {type(weighted).__name__}."
         )
-    q = np.asarray(log.q, dtype=float)
-    tau = np.asarray(log.tau, dtype=float)
-    segments = log.good_segments()
-    if not segments:
-        check.fail(owner, "the log has no finite sample (every row has a NaN).")
-    longest = max(segments, key=lambda s: s[1] - s[0])
-    cutoff_rule = "given" if cutoff_hz is not None else "auto"
-    if cutoff_hz is None:
-        if longest[1] - longest[0] < 16:
-            check.fail(
-                owner,
-                f"the longest finite segment has {longest[1] - longest[0]} samples; "
-                "at least 16 are needed to choose the cutoff.",
-            )
-        cutoff_hz = auto_cutoff(q[longest[0] : longest[1]], h)
-    cutoff_hz = _below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
-    decimation_rule = "given" if decimation is not None else "auto"
-    if decimation is not None:
-        decimation = check.integer(owner, "decimation", decimation, minimum=1)
-    decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
-    if decimation_cutoff_hz is None:
-        decimation_cutoff_hz = auto_decimation_cutoff(
-            q[longest[0] : longest[1]], h, cutoff_hz
-        )
-        if decimation is not None:
-            decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
-    decimation_cutoff_hz = _below_nyquist(
-        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
-    )
-    if decimation is None:
-        decimation = auto_decimation(h, decimation_cutoff_hz)
-    trim = default_trim(h, cutoff_hz)
-    padding = default_padding(h, cutoff_hz)
-    minimum = 2 * trim + 1
-
-    W_parts: list[np.ndarray] = []
-    tau_parts: list[np.ndarray] = []
-    used_samples = 0
-    for start, stop in segments:
-        if stop - start < minimum:
-            continue
-        q_f, v, vdot = offline_derivatives(
-            q[start:stop],
-            h,
+    with thread_limit():
+        rows = offline_rows(
+            log,
+            robot,
             cutoff_hz=cutoff_hz,
+            decimation=decimation,
+            decimation_cutoff_hz=decimation_cutoff_hz,
             filter_order=filter_order,
-            trim=trim,
-            padding=padding,
+            regressor_decimation=regressor_decimation,
         )
-        W = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)
-        tau_segment = tau[start + trim : stop - trim]
-        used_samples += tau_segment.shape[0]
-        W, tau_segment = parallel_decimation(
-            W, tau_segment, decimation, cutoff=decimation_cutoff_hz * h
+        fit = idim_least_squares(
+            rows.W,
+            rows.tau,
+            weighted=weighted,
+            names=rows.names,
+            max_condition=max_condition,
         )
-        W_parts.append(W)
-        tau_parts.append(tau_segment)
-    if not W_parts:
-        check.fail(
-            owner,
-            f"no finite segment of the log is long enough: the longest has "
-            f"{longest[1] - longest[0]} samples ({(longest[1] - longest[0]) * h:g} s) "
-            f"and the cutoff {cutoff_hz:.3g} Hz needs at least {minimum} "
-            f"({minimum * h:g} s: {trim} samples are dropped at each end); record a "
-            "longer log or raise the cutoff.",
-        )
-    W_all, tau_all = np.concatenate(W_parts), np.concatenate(tau_parts)
-    fit = idim_least_squares(
-        W_all,
-        tau_all,
-        weighted=weighted,
-        names=names,
-        max_condition=max_condition,
-    )
     settings = {
-        "cutoff_hz": float(cutoff_hz),
-        "cutoff_rule": cutoff_rule,
-        "decimation": int(decimation),
-        "decimation_rule": decimation_rule,
-        "decimation_cutoff_hz": float(decimation_cutoff_hz),
-        "decimation_cutoff_rule": decimation_cutoff_rule,
-        "padding": int(padding),
+        **rows.settings,
         "weighted": bool(weighted),
-        "filter_order": int(filter_order),
-        "trim": int(trim),
         "max_condition": float(max_condition),
-        "time_step": float(h),
     }
     return OfflineResult(
-        names=names,
+        names=rows.names,
         theta=fit.theta,
         std=fit.std,
         relative_std_percent=fit.relative_std_percent,
@@ -424,11 +444,11 @@ def identify_offline(
         valid=bool(fit.valid),
         reason=fit.reason,
         settings=settings,
-        num_samples=int(q.shape[0]),
-        num_samples_used=int(used_samples),
-        num_segments=len(segments),
-        num_segments_used=len(W_parts),
+        num_samples=rows.num_samples,
+        num_samples_used=rows.num_samples_used,
+        num_segments=rows.num_segments,
+        num_segments_used=rows.num_segments_used,
         unidentified=tuple(fit.unidentified),
-        rows=W_all if keep_rows else None,
-        torques=tau_all if keep_rows else None,
+        rows=rows.W if keep_rows else None,
+        torques=rows.tau if keep_rows else None,
     )

@@ -76,7 +76,16 @@ def test_noise_free_log_recovers_the_base_parameters(robot, clean_log, weighted)
     band_cut = result.settings["decimation_cutoff_hz"]
     assert result.settings["decimation_cutoff_rule"] == "auto"
     assert 0.6 <= band_cut <= 1.0
-    assert result.settings["decimation"] == auto_decimation(H, band_cut)
+    # D = floor(0.25·fs/f_d) rounded down to a multiple of the intermediate
+    # decimation D1 of the rigid-body columns (f_s/D1 >= 4·f_c: a handful here).
+    decimation = result.settings["decimation"]
+    factor = result.settings["regressor_decimation"]
+    assert result.settings["regressor_decimation_rule"] == "auto"
+    assert 2 <= factor <= 1.0 / (H * 4.0 * cutoff)
+    assert decimation % factor == 0
+    assert auto_decimation(H, band_cut) - factor < decimation <= auto_decimation(
+        H, band_cut
+    )
     trim = default_trim(H, cutoff)
     assert result.settings["trim"] == trim
     assert result.num_samples == clean_log.num_samples

@@ -1,0 +1,195 @@
+"""Automatic settings of the off-line IDIM: position cutoff, decimation low-pass.
+
+Used by :func:`drake_dynid.offline.identify_offline` when ``cutoff_hz``,
+``decimation_cutoff_hz`` or ``decimation`` is None (pure numpy/scipy).
+
+Automatic cutoff (:func:`auto_cutoff`, used when ``cutoff_hz`` is None). The
+Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
+4 s segments) gives
+
+* its noise floor N_j: the median of S_j over [fs/4, fs/2] (white measurement
+  noise is flat; a rigid robot's motion has no power there);
+* its noise crossover f_x: the highest frequency where some S_j > 100·N_j (20 dB
+  above the floor): beyond it the filter would only pass noise, whose second
+  difference grows like f⁵ and biases W (errors in variables);
+* its excitation bandwidth f_99: the frequency below which 99 % of the power
+  of (S_j - N_j)⁺ up to f_x lies (largest over the joints; above f_x the noise's
+  fluctuations would add up);
+
+and ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)``. The factor 2 keeps the
+zero-phase Butterworth (|H|² = 1/(1+(f/f_c)^(2·order))) above 0.996 in the
+excitation band. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
+(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. On the paper's 2R arm at
+1 kHz this gives about 1.5 Hz at SNR 30 dB and 40 Hz without noise.
+
+Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
+so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
+order-8 Butterworth is below 1.5e-5 there: no aliasing), rounded down to a
+multiple of the intermediate decimation D1
+(:func:`~drake_dynid.core.idim_stream.regressor_decimation`), at least D_0/2.
+
+The spectra behind the automatic choices use bounded memory too: Welch's average
+in pieces (the same result), and for a segment longer than 2^18 samples the
+velocity bandwidth from the velocity spectra of equal pieces of at most 2^18
+samples, averaged (on shorter ones, the periodogram of the whole segment).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core.excitation import estimate_bandwidth, velocity_spectrum
+
+__all__ = [
+    "DECIMATION_BAND_FACTOR",
+    "MAX_AUTO_CUTOFF_HZ",
+    "auto_cutoff",
+    "auto_decimation",
+    "auto_decimation_cutoff",
+]
+
+MAX_AUTO_CUTOFF_HZ = 40.0
+"""Cap of the automatic cutoff [Hz] (ten times a 4 Hz position loop bandwidth)."""
+
+_FLOOR_MARGIN = 100.0  # 20 dB above the noise floor
+_POWER_SHARE = 0.99  # excitation bandwidth: 99 % of the noise-corrected power
+_SPECTRUM_SEGMENT = 4.0  # Welch segment length [s]
+DECIMATION_BAND_FACTOR = 1.5
+"""Automatic decimation low-pass f_d = min(f_c, 1.5·B), B the velocity bandwidth."""
+_WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
+_SPECTRUM_PIECE = 1 << 18  # longest segment whose bandwidth is one periodogram
+
+
+def auto_cutoff(q: Any, time_step: float) -> float:
+    """Automatic Butterworth cutoff f_c [Hz] from the spectrum of the positions.
+
+    ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)`` with f_x the highest frequency
+    where a joint's Welch spectrum is 20 dB above its noise floor (median over
+    [fs/4, fs/2]) and f_99 the frequency holding 99 % of the floor-corrected power
+    (see the module docstring). Both are the largest over the joints.
+
+    Args:
+        q: (N, n) finite positions sampled every ``time_step`` [rad or m].
+        time_step: sample period h [s].
+
+    Returns:
+        The cutoff [Hz], at least the Welch resolution fs/N_seg.
+    """
+    owner = "auto_cutoff"
+    time_step = check.positive(owner, "time_step", time_step, "s")
+    q = check.array(owner, "q", q)
+    if q.ndim == 1:
+        q = q[:, None]
+    if q.ndim != 2 or q.shape[0] < 16:
+        check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
+    fs = 1.0 / time_step
+    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
+    f, power = _welch(q, fs, segment)
+    resolution = f[1]
+    high = f >= 0.25 * fs
+    crossover = resolution
+    bandwidth = resolution
+    for j in range(q.shape[1]):
+        spectrum = power[:, j]
+        floor = float(np.median(spectrum[high]))
+        above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
+        if above.size == 0:
+            continue
+        top = int(above[-1])
+        crossover = max(crossover, float(f[top]))
+        # Excitation bandwidth: only below the crossover, where the spectrum is
+        # signal (above it, the noise's fluctuations would add up).
+        excess = np.clip(spectrum[: top + 1] - floor, 0.0, None)
+        total = float(excess.sum())
+        if total > 0.0:
+            share = np.cumsum(excess) / total
+            bandwidth = max(bandwidth, float(f[np.argmax(share >= _POWER_SHARE)]))
+    cutoff = min(max(crossover, 2.0 * bandwidth), MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
+    return float(max(cutoff, resolution))
+
+
+def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarray]:
+    """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
+
+    The average over all segments, computed over consecutive runs of whole
+    segments so that the memory stays bounded on long logs.
+    """
+    step = segment - segment // 2
+    total = (q.shape[0] - segment) // step + 1
+    per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
+    f, power = np.empty(0), 0.0
+    for first in range(0, total, per_piece):
+        count = min(per_piece, total - first)
+        piece = q[first * step : (first + count - 1) * step + segment]
+        f, part = signal.welch(
+            piece,
+            fs=fs,
+            window="blackmanharris",
+            nperseg=segment,
+            detrend="linear",
+            axis=0,
+        )
+        power = power + part * (count / total)
+    return f, np.asarray(power)
+
+
+def auto_decimation(time_step: float, cutoff_hz: float) -> int:
+    """``max(1, floor(0.25·fs/f_d))``: the decimated Nyquist frequency is >= 2·f_d.
+
+    Args:
+        time_step: sample period h [s].
+        cutoff_hz: the decimation low-pass f_d [Hz].
+    """
+    owner = "auto_decimation"
+    time_step = check.positive(owner, "time_step", time_step, "s")
+    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
+    return max(1, math.floor(0.25 / (time_step * cutoff_hz)))
+
+
+def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
+    """The decimation low-pass ``f_d = min(f_c, 1.5·B)`` [Hz].
+
+    B is the velocity bandwidth of the positions
+    (:func:`~drake_dynid.core.excitation.estimate_bandwidth`; beyond 2^18 samples,
+    from the average velocity spectrum of equal pieces); when it cannot be
+    measured (no joint moves above the noise, or fewer than 64 samples), f_d = f_c
+    (the least squares then reports the unexcited parameters).
+
+    Args:
+        q: (N, n) finite positions [rad or m].
+        time_step: sample period h [s].
+        cutoff_hz: the position filter's cutoff f_c [Hz].
+    """
+    try:
+        band = _bandwidth(np.asarray(q, dtype=float), time_step)
+    except ValueError:
+        return float(cutoff_hz)
+    return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
+
+
+def _bandwidth(q: np.ndarray, time_step: float) -> float:
+    """``estimate_bandwidth`` (99 % of the velocity power), pieces' spectra averaged."""
+    if q.shape[0] <= _SPECTRUM_PIECE:
+        return estimate_bandwidth(q, time_step)
+    count = -(-q.shape[0] // _SPECTRUM_PIECE)
+    length = q.shape[0] // count
+    f, first = velocity_spectrum(q[:length], time_step)
+    power = np.array(first, dtype=float)  # summed piece by piece: bounded memory
+    for k in range(1, count):
+        power += velocity_spectrum(q[k * length : (k + 1) * length], time_step)[1]
+    power = power.reshape(len(f), -1)
+    total = power.sum(axis=0)
+    moving = np.flatnonzero(total > 0.0)
+    if moving.size == 0:
+        check.fail("auto_decimation_cutoff", "q shows no motion above the noise.")
+    return float(
+        max(
+            f[int(np.searchsorted(np.cumsum(power[:, j]) / total[j], 0.99 - 1e-12))]
+            for j in moving
+        )
+    )
