@@ -89,11 +89,23 @@ _LAZY: dict[str, str] = {
     "replay_log_core": "drake_dynid.core.replay",
     "BaseParameters": "drake_dynid.core.base_parameters",
     "base_parameters": "drake_dynid.core.base_parameters",
+    "JointMap": "drake_dynid.core.joint_map",
+    "joint_map": "drake_dynid.core.joint_map",
+    # drive chains: motors, gears, currents, coupled joints (no pydrake)
+    "DriveChain": "drake_dynid.core.drive",
+    "read_drive": "drake_dynid.core.drive",
+    "MotorColumns": "drake_dynid.core.drive_columns",
+    "motor_columns": "drake_dynid.core.drive_columns",
     # URDF loading and the robot description (pydrake)
     "RobotModel": "drake_dynid.robot",
     "load_plant": "drake_dynid.urdf",
     "model_path": "drake_dynid.urdf",
     "read_urdf_friction": "drake_dynid.urdf",
+    "read_urdf_mimic": "drake_dynid.urdf",
+    "load_urdf": "drake_dynid.urdf",
+    "UrdfDrive": "drake_dynid.drive_urdf",
+    "load_drive": "drake_dynid.drive_urdf",
+    "read_urdf_drive": "drake_dynid.drive_urdf",
     "joint_limits": "drake_dynid.limits",
     "SelfCollision": "drake_dynid.collision",
     # experiment rehearsal: trajectory files and the simulated log (pydrake)
