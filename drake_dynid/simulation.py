@@ -171,6 +171,13 @@ def simulate_identification(
             "simulate_identification",
             f"trajectory has {trajectory.num_joints} joints; the robot has {n}.",
         )
+    if getattr(robot, "locked", None) or getattr(robot, "mimic", None):
+        check.fail(
+            "simulate_identification",
+            "robot has locked or mimic joints; the simulation drives every movable "
+            "joint of its URDF, so load the RobotModel without joints=/locked= (or "
+            "simulate with dynid simulate, which takes the full URDF).",
+        )
     rows = robot.rows_provider() if rows is None else rows
     builder = DiagramBuilder()
     plant = builder.AddSystem(load_plant(robot.path, h, gravity=robot.gravity))

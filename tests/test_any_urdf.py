@@ -208,3 +208,23 @@ def test_floating_base_is_refused_and_a_mobile_base_is_welded(gripper):
         load_urdf(gripper, weld_root=False)
     plant = load_urdf(model_path("tiago_no_hand")).plant
     assert plant.num_positions() == 12  # base_footprint welded: no floating joint
+
+
+def test_simulated_setup_refuses_a_model_with_locked_joints(gripper):
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.simulation import SimulationSettings, simulate_identification
+
+    model = RobotModel.from_urdf(gripper, joints=["j2", "fa"], locked={"j1": 0.4})
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=2,
+        base_frequency=1.0,
+        max_velocity=1.0,
+        max_position=1.0,
+        rng=np.random.default_rng(0),
+    )
+    with pytest.raises(ValueError, match="locked or mimic joints"):
+        simulate_identification(
+            model, trajectory, SimulationSettings(duration=1.0), [OnlineSettings()]
+        )
