@@ -211,8 +211,8 @@ def test_floating_base_is_refused_and_a_mobile_base_is_welded(gripper):
 
 
 def test_simulated_setup_refuses_a_model_with_locked_joints(gripper):
-    from drake_dynid.core.trajectory import random_fourier_trajectory
     from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.trajectory import random_fourier_trajectory
     from drake_dynid.simulation import SimulationSettings, simulate_identification
 
     model = RobotModel.from_urdf(gripper, joints=["j2", "fa"], locked={"j1": 0.4})
