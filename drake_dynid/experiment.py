@@ -192,11 +192,11 @@ def simulate_experiment(
             (the message names the joint, the time and the limit).
     """
     from pydrake.systems.analysis import Simulator
-    from pydrake.systems.controllers import InverseDynamicsController
     from pydrake.systems.framework import DiagramBuilder, EventStatus
-    from pydrake.systems.primitives import LogVectorOutput, MatrixGain, TrajectorySource
+    from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
+    from drake_dynid.simulation import add_tracking_controller
     from drake_dynid.urdf import load_plant
 
     owner = "simulate_experiment"
@@ -235,39 +235,21 @@ def simulate_experiment(
             output_derivative_order=2,
         )
     )
-    eye, zero = np.eye(n), np.zeros((n, n))
-    desired_state = builder.AddSystem(
-        MatrixGain(np.block([[eye, zero, zero], [zero, eye, zero]]))
-    )
-    desired_acceleration = builder.AddSystem(MatrixGain(np.hstack([zero, zero, eye])))
-    builder.Connect(source.get_output_port(), desired_state.get_input_port())
-    builder.Connect(source.get_output_port(), desired_acceleration.get_input_port())
-    controller = builder.AddSystem(
-        InverseDynamicsController(
-            controller_plant,
-            kp=np.full(n, settings.kp),
-            ki=np.zeros(n),
-            kd=np.full(n, settings.kd),
-            has_reference_acceleration=True,
-            plant_context=controller_context,
-        )
-    )
-    builder.Connect(
-        plant.get_state_output_port(), controller.get_input_port_estimated_state()
-    )
-    builder.Connect(
-        desired_state.get_output_port(), controller.get_input_port_desired_state()
-    )
-    builder.Connect(
-        desired_acceleration.get_output_port(),
-        controller.get_input_port_desired_acceleration(),
+    controller, desired_state = add_tracking_controller(
+        builder,
+        plant,
+        controller_plant,
+        source.get_output_port(),
+        kp=settings.kp,
+        kd=settings.kd,
+        controller_context=controller_context,
     )
     control = controller.get_output_port_control()
     if "coulomb" in settings.friction:
         control = _add_coulomb(
             builder,
             plant,
-            desired_state.get_output_port(),
+            desired_state,
             control,
             urdf,
             names,

@@ -141,18 +141,6 @@ class OfflineResult:
         return "idim-wls" if self.settings.get("weighted") else "idim-ls"
 
 
-def _below_nyquist(owner: str, name: str, value: Any, time_step: float) -> float:
-    """A frequency [Hz] in (0, 1/(2h)), or a ValueError naming it."""
-    value = check.positive(owner, name, value, "Hz")
-    if value >= 0.5 / time_step:
-        check.fail(
-            owner,
-            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
-            f"{value:g}.",
-        )
-    return value
-
-
 def _provider(robot: Any) -> Any:
     """The fastest object with ``idim_rows`` and ``names`` for this robot."""
     fast = robot.rows_provider() if hasattr(robot, "rows_provider") else robot
@@ -237,7 +225,7 @@ def offline_rows(
                 "at least 16 are needed to choose the cutoff.",
             )
         cutoff_hz = auto_cutoff(longest_q, h)
-    cutoff_hz = _below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
+    cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     decimation_rule = "given" if decimation is not None else "auto"
     if decimation is not None:
         decimation = check.integer(owner, "decimation", decimation, minimum=1)
@@ -246,7 +234,7 @@ def offline_rows(
         decimation_cutoff_hz = auto_decimation_cutoff(longest_q, h, cutoff_hz)
         if decimation is not None:
             decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
-    decimation_cutoff_hz = _below_nyquist(
+    decimation_cutoff_hz = check.below_nyquist(
         owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
     )
     trim = default_trim(h, cutoff_hz)

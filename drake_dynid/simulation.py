@@ -150,7 +150,6 @@ def simulate_identification(
         The logs and one estimate trace per identifier.
     """
     from pydrake.systems.analysis import Simulator
-    from pydrake.systems.controllers import InverseDynamicsController
     from pydrake.systems.framework import DiagramBuilder
     from pydrake.systems.primitives import (
         Adder,
@@ -209,27 +208,13 @@ def simulate_identification(
             output_derivative_order=2,
         )
     )
-    # [q; v; v̇] of the reference -> desired state [q; v] and acceleration v̇.
-    reference_parts = builder.AddSystem(Demultiplexer([2 * n, n]))
-    builder.Connect(reference.get_output_port(), reference_parts.get_input_port())
-    controller = builder.AddSystem(
-        InverseDynamicsController(
-            controller_plant,
-            kp=np.full(n, simulation.kp),
-            ki=np.zeros(n),
-            kd=np.full(n, simulation.kd),
-            has_reference_acceleration=True,
-        )
-    )
-    builder.Connect(
-        plant.get_state_output_port(), controller.get_input_port_estimated_state()
-    )
-    builder.Connect(
-        reference_parts.get_output_port(0), controller.get_input_port_desired_state()
-    )
-    builder.Connect(
-        reference_parts.get_output_port(1),
-        controller.get_input_port_desired_acceleration(),
+    controller, _ = add_tracking_controller(
+        builder,
+        plant,
+        controller_plant,
+        reference.get_output_port(),
+        kp=simulation.kp,
+        kd=simulation.kd,
     )
     builder.Connect(
         controller.get_output_port_control(), plant.get_actuation_input_port()
@@ -296,3 +281,55 @@ def simulate_identification(
         simulator=simulator,
         chains=chains,
     )
+
+
+def add_tracking_controller(
+    builder: Any,
+    plant: Any,
+    controller_plant: Any,
+    reference: Any,
+    *,
+    kp: float,
+    kd: float,
+    controller_context: Any = None,
+) -> tuple[Any, Any]:
+    """Adds Drake's ``InverseDynamicsController`` tracking a reference [q; v; v̇].
+
+    ``reference`` is an output port of size 3n (a ``TrajectorySource`` with
+    ``output_derivative_order=2``); a ``Demultiplexer`` splits it into the desired
+    state [q; v] and the reference acceleration v̇. The control law is
+    τ = M(q)(v̇_ref + kp (q_ref - q) + kd (v_ref - v)) + c(q, v) - g(q) of
+    ``controller_plant`` (gains [1/s²], [1/s], the same on every joint). The
+    controller's state input is wired to ``plant``; its control output is left to
+    the caller (feedforward terms may be added before the actuation port).
+
+    Returns:
+        ``(controller, desired_state_port)``.
+    """
+    from pydrake.systems.controllers import InverseDynamicsController
+    from pydrake.systems.primitives import Demultiplexer
+
+    n = plant.num_velocities()
+    parts = builder.AddSystem(Demultiplexer([2 * n, n]))
+    builder.Connect(reference, parts.get_input_port())
+    options = (
+        {} if controller_context is None else {"plant_context": controller_context}
+    )
+    controller = builder.AddSystem(
+        InverseDynamicsController(
+            controller_plant,
+            kp=np.full(n, kp),
+            ki=np.zeros(n),
+            kd=np.full(n, kd),
+            has_reference_acceleration=True,
+            **options,
+        )
+    )
+    builder.Connect(
+        plant.get_state_output_port(), controller.get_input_port_estimated_state()
+    )
+    builder.Connect(parts.get_output_port(0), controller.get_input_port_desired_state())
+    builder.Connect(
+        parts.get_output_port(1), controller.get_input_port_desired_acceleration()
+    )
+    return controller, parts.get_output_port(0)

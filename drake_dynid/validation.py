@@ -151,17 +151,6 @@ def _rows(robot: Any) -> Any:
     return fast if hasattr(fast, "idim_rows") else robot
 
 
-def _frequency(owner: str, name: str, value: Any, time_step: float) -> float:
-    value = check.positive(owner, name, value, "Hz")
-    if value >= 0.5 / time_step:
-        check.fail(
-            owner,
-            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
-            f"{value:g}.",
-        )
-    return value
-
-
 def validate_torques(
     log: Any,
     robot: Any,
@@ -230,11 +219,11 @@ def validate_torques(
                 "least 16 are needed to choose the cutoff.",
             )
         cutoff_hz = auto_cutoff(q_longest, h)
-    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h)
+    cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(q_longest, h, cutoff_hz)
-    decimation_cutoff_hz = _frequency(
+    decimation_cutoff_hz = check.below_nyquist(
         owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
     )
     trim = default_trim(h, cutoff_hz)

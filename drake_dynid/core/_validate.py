@@ -49,6 +49,18 @@ def positive(owner: str, name: str, value: Any, unit: str | None = None) -> floa
     return out
 
 
+def below_nyquist(owner: str, name: str, value: Any, time_step: float) -> float:
+    """A frequency [Hz] in (0, 1/(2h)), or a ValueError naming it."""
+    value = positive(owner, name, value, "Hz")
+    if value >= 0.5 / time_step:
+        fail(
+            owner,
+            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
+            f"{value:g}.",
+        )
+    return value
+
+
 def greater_than(
     owner: str, name: str, value: Any, bound: float, unit: str | None = None
 ) -> float:
