@@ -27,6 +27,7 @@ FILL_GAPS = 5  # [samples] default longest interpolated run
 MAX_FILLED_FRACTION = 0.05  # more filled samples than this is an error
 NANOSECONDS = 1e17  # integer stamps from here on: nanoseconds since the epoch
 MAX_SECONDS = 1e11  # |t| beyond (year 5000) cannot be seconds
+RESAMPLE_ROUNDING = 1e-2  # a resampling grid takes a round step within 1 %
 REPORTED_JITTER = 1e-3  # [steps] smaller deviations are round-off, not reported
 
 
@@ -49,9 +50,9 @@ class Options:
                 f"{owner}: jitter_tolerance must be a real number [steps]; got "
                 f"{jitter_tolerance!r}."
             )
-        if not 0.0 < jitter_tolerance < 0.5:
+        if not 0.0 < jitter_tolerance <= 0.25:
             raise ValueError(
-                f"{owner}: jitter_tolerance must be in (0, 0.5) [steps]; got "
+                f"{owner}: jitter_tolerance must be in (0, 0.25] [steps]; got "
                 f"{jitter_tolerance}."
             )
         if isinstance(fill_gaps, bool) or not isinstance(fill_gaps, (int, np.integer)):
@@ -160,7 +161,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
     bad_t = np.flatnonzero(~np.isfinite(t))
     if bad_t.size:
         first = int(bad_t[0])
-        if bad_t.size > 1 + t.size // 1000 or t.size - bad_t.size < 10:
+        if bad_t.size > 3 + t.size // 1000 or t.size - bad_t.size < 10:
             raise ValueError(
                 f"{owner}: the time stamp of {noun} {labels[first]} is empty or not "
                 f"finite (got {shown[first]})."
@@ -191,7 +192,13 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
 
     grid: TimeGrid | None = None
     try:
-        grid = fit_time_grid(t, options.jitter_tolerance, owner=owner, where=where)
+        grid = fit_time_grid(
+            t,
+            options.jitter_tolerance,
+            edge_gap=options.fill_gaps,
+            owner=owner,
+            where=where,
+        )
     except NonUniformSampling as error:
         if not options.resample:
             raise
@@ -320,7 +327,8 @@ def _snapped(owner, noun, grid, q, tau, labels, shown, options, warnings):
         g = int(np.argmax(gaps))
         warnings.append(
             f"{count} dropped sample(s) (missing time stamps) in "
-            f"{int(np.count_nonzero(gaps))} gap(s) (the longest: {int(gaps[g])} samples "
+            f"{int(np.count_nonzero(gaps))} gap(s) (the longest: {int(gaps[g])} "
+            "samples "
             f"between {noun} {labels[g]} and {noun} {labels[g + 1]}, t = "
             f"{shown[g]:.10g} to {shown[g + 1]:.10g}): {done} filled by interpolation "
             f"(gaps of up to {options.fill_gaps} samples: cubic for q, linear for "
@@ -339,7 +347,7 @@ def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, re
         origin, h = grid.origin - zero, grid.step
     else:
         span = float(s[-1])
-        h = nominal_step(span / max(1, round(span / step)))
+        h = nominal_step(span / max(1, round(span / step)), RESAMPLE_ROUNDING)
         origin = 0.0
     k0 = math.ceil((s[0] - origin) / h - 1e-9)
     k1 = math.floor((s[-1] - origin) / h + 1e-9)
@@ -368,7 +376,7 @@ def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, re
         inside = (times >= xs[0]) & (times <= xs[-1])
         ok = inside & (skipped <= options.fill_gaps) & (span <= longest * (1 + 1e-9))
         out[ok, j] = np.interp(times[ok], xs, values[finite, j])
-        bridged |= ok & ((skipped > 0) | (span > 2.0 * h))
+        bridged |= ok & ((skipped > 0) | (span > 1.5 * h))
     if bridged.sum() > MAX_FILLED_FRACTION * count:
         raise ValueError(
             f"{owner}: {int(bridged.sum())} of {count} resampled samples bridge gaps "

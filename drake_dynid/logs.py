@@ -13,18 +13,20 @@ time of sample 0).
 
 Time stamps (``drake_dynid.core.timestamps``): the uniform grid t0 + h·k is fitted by
 least squares on the sample slots read from the local steps, so jitter never drifts
-over long logs. Stamps within ``jitter_tolerance``·h (default 0.25: ROS loggers jitter
-by ±20 %) are snapped to the grid; with ``resample=True`` the samples are instead
-interpolated linearly from their stamps onto the grid (for samples really taken at
-the jittered times), and a non-uniformly sampled log is accepted. A few outlier
-stamps (going back, or far beyond the others: at most 1 + N/1000 rows, in runs of
-at most 3) are dropped with a warning naming the rows. Missing slots (dropped
-samples) and runs of empty/NaN/inf cells of up to ``fill_gaps`` samples (default 5)
-are interpolated (cubic for q, linear for tau) and flagged in ``RobotLog.filled``;
-longer runs stay bad (NaN) samples. The gaps may insert at most as many samples as
-the rows read (checked before any allocation); filling more than 5 % of the samples
-is an error. Every repair is a warning on the log; every problem a ``ValueError``
-(``OSError`` for an unreadable file) naming the file, the rows and what to do.
+over long logs. Stamps within ``jitter_tolerance``·h (default and largest 0.25: ROS
+loggers jitter by ±20 %) are snapped to the grid; with ``resample=True`` the samples
+are instead interpolated linearly from their stamps onto the grid (for samples really
+taken at the jittered times), and a non-uniformly sampled log is accepted. Outlier
+stamps are dropped with a warning naming the rows: at most 3 + N/1000 rows, in runs
+of at most 3, whose stamps go back, jump beyond the other rows or lie off the grid
+between good neighbours, and up to 3 first or last rows cut off by a gap longer than
+``fill_gaps``. Missing slots (dropped samples) and runs of empty/NaN/inf cells of up
+to ``fill_gaps`` samples (default 5) are interpolated (cubic for q, linear for tau)
+and flagged in ``RobotLog.filled``; longer runs stay bad (NaN) samples. The gaps may
+insert at most as many samples as the rows read (checked before any allocation);
+filling more than 5 % of the samples is an error. Every repair is a warning on the
+log; every problem a ``ValueError`` (``OSError`` for an unreadable file) naming the
+file, the rows and what to do.
 """
 
 from __future__ import annotations
@@ -216,7 +218,7 @@ def read_log(
         path: CSV file (UTF-8, a byte-order mark is accepted).
         joint_names: the actuated joints of the robot, in the order wanted for q, tau.
         jitter_tolerance: largest deviation of a time stamp from the fitted uniform
-            grid that is snapped, as a fraction of the step h, in (0, 0.5)
+            grid that is snapped, as a fraction of the step h, in (0, 0.25]
             (default 0.25).
         resample: interpolate linearly from the stamps onto the fitted grid instead
             of snapping; accepts non-uniform sampling (off by default: it changes

@@ -18,10 +18,11 @@ Missing slots (k_{j+1} - k_j > 1) are dropped samples. The fit (``fit_time_grid`
 3. t0 and h by least squares over the accepted samples, slots re-read from the fitted
    grid, fit repeated; the deviations e_j/h [steps] must be within ``tolerance``,
    except for a few isolated rows (outliers, dropped);
-4. the nominal step is the fitted one rounded to a round number (a decimal with few
-   digits, or 1/f with f an integer rate in Hz) when they agree within 10⁻⁵ (a clock
-   rate error no identification can see), so that the step divides the periods of
-   the on-line blocks exactly.
+4. the nominal step is the simplest round number (a decimal with few digits, or 1/f
+   with f an integer rate in Hz) within 10⁻⁴ of the fitted step (a clock-rate error
+   no identification can see) on which every kept stamp is still within the
+   tolerance (origin refitted), else the fitted step: the step then divides the
+   periods of the on-line blocks exactly.
 
 A gap would insert missing slots: their total is bounded by ``max_inserted`` and
 checked before anything is allocated. Pure numpy; no file or row notions: the caller
@@ -44,7 +45,8 @@ __all__ = [
     "nominal_step",
 ]
 
-STEP_AGREEMENT = 1e-5  # relative: fitted and nominal steps agree within 10 ppm
+STEP_AGREEMENT = 1e-5  # nominal_step: relative agreement (10 ppm)
+MAX_RATE_ERROR = 1e-4  # fit_time_grid: largest clock-rate change of the nominal step
 
 
 class NonUniformSampling(ValueError):
@@ -91,22 +93,47 @@ def _default_where(i: int) -> str:
     return f"sample {i}"
 
 
-def nominal_step(h: float, agreement: float = STEP_AGREEMENT) -> float:
-    """The round step closest to ``h`` within ``agreement`` (relative), else ``h``.
+def _step_candidates(h: float):
+    """Round steps near ``h``, simplest first.
 
-    Candidates: ``h`` rounded to 1..6 significant digits, then 1/f for the integer
-    rate f = round(1/h) [Hz]; the first that agrees is returned.
+    1-4 significant digits, 1/f with f an integer rate [Hz], then 5-6 digits.
+    """
+    for digits in range(1, 5):
+        yield float(f"{h:.{digits}g}")
+    rate = round(1.0 / h)
+    if rate >= 1:
+        yield 1.0 / rate
+    for digits in (5, 6):
+        yield float(f"{h:.{digits}g}")
+
+
+def nominal_step(h: float, agreement: float = STEP_AGREEMENT) -> float:
+    """The simplest round step within ``agreement`` (relative) of ``h``, else ``h``.
+
+    Candidates, in order: ``h`` rounded to 1-4 significant digits, 1/f for the
+    integer rate f = round(1/h) [Hz], ``h`` rounded to 5-6 digits.
     """
     if not (math.isfinite(h) and h > 0.0):
         return h
-    for digits in range(1, 7):
-        candidate = float(f"{h:.{digits}g}")
+    for candidate in _step_candidates(h):
         if abs(candidate / h - 1.0) <= agreement:
             return candidate
-    rate = round(1.0 / h)
-    if rate >= 1 and abs(h * rate - 1.0) <= agreement:
-        return 1.0 / rate
     return h
+
+
+def _nominal(s, slots, h, c, deviation, tolerance):
+    """(step, origin, deviation) on the simplest round step fitting the stamps.
+
+    The step is within ``MAX_RATE_ERROR`` of h and every deviation within tolerance.
+    """
+    for step in _step_candidates(h):
+        if abs(step / h - 1.0) > MAX_RATE_ERROR:
+            continue
+        origin = float(np.mean(s - step * slots))
+        fresh = (s - origin) / step - slots
+        if np.all(np.abs(fresh) <= tolerance):
+            return step, origin, fresh
+    return h, c, deviation
 
 
 def _fit(s: np.ndarray, k: np.ndarray) -> tuple[float, float]:
@@ -122,13 +149,20 @@ def _fit(s: np.ndarray, k: np.ndarray) -> tuple[float, float]:
     return h, float(s_mean - h * k_mean)
 
 
-def _drop_outliers(t, h0, max_gap, max_outliers, run, owner, where) -> np.ndarray:
-    """Stage 1: rows whose stamps break the chain of steps in (0, max_gap·h₀]."""
+def _drop_outliers(t, h0, gaps, max_outliers, run, owner, where) -> np.ndarray:
+    """Stage 1: rows whose stamps break the chain of steps in (0, gap·h₀].
+
+    ``gaps`` = (longest gap, longest gap next to the first or last ``run`` rows)
+    [missing samples].
+    """
     n = t.size
-    d_max = (max_gap + 1.5) * h0
+    d_max = (gaps[0] + 1.5) * h0
+    d_edge = (min(gaps) + 1.5) * h0
     with np.errstate(over="ignore", invalid="ignore"):
         dt = np.diff(t)
-    good = (dt > 0.0) & (dt <= d_max)
+    edge = np.zeros(dt.size, bool)
+    edge[:run] = edge[-run:] = True
+    good = (dt > 0.0) & (dt <= np.where(edge, d_edge, d_max))
     broken = np.flatnonzero(~good)
     keep = np.ones(n, bool)
     if broken.size == 0:
@@ -137,7 +171,8 @@ def _drop_outliers(t, h0, max_gap, max_outliers, run, owner, where) -> np.ndarra
     def ok(a: int, b: int) -> bool:
         with np.errstate(over="ignore", invalid="ignore"):
             d = t[b] - t[a]
-        return bool(0.0 < d <= d_max)
+        near_edge = a < run or b >= n - run
+        return bool(0.0 < d <= (d_edge if near_edge else d_max))
 
     def fail(p: int, b: int) -> None:
         with np.errstate(over="ignore", invalid="ignore"):
@@ -147,10 +182,17 @@ def _drop_outliers(t, h0, max_gap, max_outliers, run, owner, where) -> np.ndarra
                 f"{owner}: time stamps are not increasing at {where(b)} after "
                 f"{where(p)}; sort the log by time."
             )
+        if d > d_max:
+            raise ValueError(
+                f"{owner}: a gap of {d:.6g} s between {where(p)} and {where(b)} would "
+                f"insert about {d / h0 - 1:.0f} missing samples of {h0:.6g} s, more "
+                f"than the {gaps[0]} allowed (the number of rows read); split the log "
+                "there."
+            )
         raise ValueError(
-            f"{owner}: a gap of {d:.6g} s between {where(p)} and {where(b)} would "
-            f"insert about {d / h0 - 1:.0f} missing samples of {h0:.6g} s, more than "
-            f"the {max_gap} allowed (the number of rows read); split the log there."
+            f"{owner}: more than {max_outliers} time stamps off the grid of the "
+            f"others (outliers), the last between {where(p)} and {where(b)}; repair "
+            "the time stamps or split the log."
         )
 
     if broken.size > 2 * max_outliers + 2:
@@ -190,6 +232,7 @@ def fit_time_grid(
     max_inserted: int | None = None,
     max_outliers: int | None = None,
     max_outlier_run: int = 3,
+    edge_gap: int | None = None,
     owner: str = "fit_time_grid",
     where: Callable[[int], str] | None = None,
 ) -> TimeGrid:
@@ -197,12 +240,17 @@ def fit_time_grid(
 
     Args:
         t: (N,) finite time stamps [s], N >= 2, no two equal.
-        tolerance: largest accepted |e_j|/h of a kept stamp [steps], in (0, 0.5).
+        tolerance: largest accepted |e_j|/h of a kept stamp [steps], in (0, 0.25]
+            (the slots are read from the local steps, which must be within ±50 %
+            of h).
         max_inserted: largest total number of missing slots (dropped samples) the
             grid may hold; default N (the grid is at most twice the rows read).
         max_outliers: largest number of rows dropped as outlier stamps; default
-            1 + N // 1000.
+            3 + N // 1000.
         max_outlier_run: longest run of consecutive outlier rows.
+        edge_gap: longest gap [missing samples] accepted after the first or before
+            the last ``max_outlier_run`` rows; those rows are dropped as outliers
+            beyond it (default ``max_inserted``).
         owner: prefix of the error messages.
         where: names sample i in messages (default ``"sample i"``).
 
@@ -217,7 +265,8 @@ def fit_time_grid(
     t = np.asarray(t, dtype=float)
     n = t.size
     max_inserted = n if max_inserted is None else int(max_inserted)
-    max_outliers = 1 + n // 1000 if max_outliers is None else int(max_outliers)
+    max_outliers = 3 + n // 1000 if max_outliers is None else int(max_outliers)
+    gaps = (max_inserted, max_inserted if edge_gap is None else int(edge_gap))
     with np.errstate(over="ignore", invalid="ignore"):
         dt = np.diff(t)
         h0 = float(np.median(dt))
@@ -227,9 +276,7 @@ def fit_time_grid(
             f"{owner}: time stamps are not increasing at {where(b)} after "
             f"{where(b - 1)}; sort the log by time."
         )
-    keep = _drop_outliers(
-        t, h0, max_inserted, max_outliers, max_outlier_run, owner, where
-    )
+    keep = _drop_outliers(t, h0, gaps, max_outliers, max_outlier_run, owner, where)
     for attempt in range(2):
         rows = np.flatnonzero(keep)
         if rows.size < 2:
@@ -284,7 +331,10 @@ def fit_time_grid(
             f"read); the longest is {int(slots[gap + 1] - slots[gap]) - 1} samples "
             f"between {where(a)} and {where(b)}; split the log there."
         )
-    return TimeGrid(nominal_step(h), h, float(t[rows[0]] + c), keep, slots, deviation)
+    step, c, deviation = _nominal(s, slots, h, c, deviation, tolerance)
+    if abs(c) <= 1e-6 * step:  # round-off: the first stamp is the origin
+        c = 0.0
+    return TimeGrid(step, h, float(t[rows[0]] + c), keep, slots, deviation)
 
 
 def fill_short_runs(
