@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-_BLANK_LINE = re.compile(r"(?:^|\n)[ \t\r]*(?:\n|$)")
-_LEADING_BLANK = re.compile(r"(?:[ \t\r]*\n)*")
+_BLANK_LINE = re.compile(r"(?:^|\n)[ \t]*(?:\n|$)")
+_LEADING_BLANK = re.compile(r"(?:[ \t]*\n)*")
 
 
 @dataclass
@@ -65,6 +65,8 @@ def decode(path: str, raw: bytes) -> str:
             f"log {path}: not a text file: byte {nul} (line {line}) is NUL; expected "
             "a UTF-8 CSV file."
         )
+    if "\r" in text:  # Windows and old Mac line ends
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     return text
 
 
@@ -78,7 +80,7 @@ def _split_header(path: str, text: str) -> tuple[list[str], str, int]:
     end = text.find("\n", start)
     end = len(text) if end < 0 else end
     try:
-        header = next(csv.reader([text[start:end].rstrip("\r")]))
+        header = next(csv.reader([text[start:end]]))
     except (csv.Error, StopIteration) as error:
         raise ValueError(
             f"log {path}: row {header_line}: the header is not valid CSV ({error})."
@@ -88,7 +90,7 @@ def _split_header(path: str, text: str) -> tuple[list[str], str, int]:
 
 def _fast(body: str, width: int, index: list[int]) -> np.ndarray | None:
     """Numbers of a clean body with numpy's C parser, else None."""
-    if '"' in body or _BLANK_LINE.search(body.rstrip("\n\r \t")):
+    if '"' in body or _BLANK_LINE.search(body.rstrip("\n \t")):
         return None
     try:
         with warnings_module.catch_warnings():
@@ -128,7 +130,7 @@ def _slow(path, body, first_line, header, index, wanted, notes):
             line = first_line + reader.line_num
     except csv.Error as error:
         raise ValueError(f"log {path}: row {line}: not valid CSV ({error}).") from None
-    truncated = not body.endswith(("\n", "\r"))  # no line end after the last row
+    truncated = not body.endswith("\n")  # no line end after the last row
     if truncated and len(records) >= 3 and len(records[-1][1]) < len(header):
         row, record = records.pop()
         notes.append(
