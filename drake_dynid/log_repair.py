@@ -183,12 +183,12 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
     if same.size:
         i = int(same[0]) + 1
         raise ValueError(
-            f"{owner}: duplicated time stamp at {noun} {labels[i]} (t = {shown[i]:.10g}"
+            f"{owner}: duplicated time stamp at {noun} {labels[i]} (t = {shown[i]:.16g}"
             f", the same as {noun} {labels[i - 1]})."
         )
 
     def where(i: int) -> str:
-        return f"{noun} {labels[i]} (t = {shown[i]:.10g})"
+        return f"{noun} {labels[i]} (t = {shown[i]:.16g})"
 
     grid: TimeGrid | None = None
     try:
@@ -208,7 +208,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
         reason = "jittered time stamps"
     if kept.sum() < kept.size:
         out = np.flatnonzero(~kept)
-        times = ", ".join(f"{shown[i]:.10g}" for i in out[:3])
+        times = ", ".join(f"{shown[i]:.16g}" for i in out[:3])
         warnings.append(
             f"dropped {rows_text(noun, labels[out])} (t = {times}"
             f"{', ...' if out.size > 3 else ''}): time stamp(s) off the grid of the "
@@ -328,9 +328,9 @@ def _snapped(owner, noun, grid, q, tau, labels, shown, options, warnings):
         warnings.append(
             f"{count} dropped sample(s) (missing time stamps) in "
             f"{int(np.count_nonzero(gaps))} gap(s) (the longest: {int(gaps[g])} "
-            "samples "
+            f"sample{'s' if gaps[g] > 1 else ''} "
             f"between {noun} {labels[g]} and {noun} {labels[g + 1]}, t = "
-            f"{shown[g]:.10g} to {shown[g + 1]:.10g}): {done} filled by interpolation "
+            f"{shown[g]:.16g} to {shown[g + 1]:.16g}): {done} filled by interpolation "
             f"(gaps of up to {options.fill_gaps} samples: cubic for q, linear for "
             f"tau), {count - done} inserted as bad samples (the windows containing "
             "them are flagged invalid)."

@@ -130,10 +130,13 @@ class RobotLog:
                     f"of dtype {array.dtype}."
                 )
             arrays.append(array.astype(float))
-        exact = [int(v) for v in raw_t] if raw_t.dtype.kind in "iu" else None
+        exact = None
+        if raw_t.dtype.kind in "iu" and raw_t.size and raw_t.min() >= NANOSECONDS:
+            exact = [int(v) for v in raw_t]  # exact nanoseconds
         labels = np.arange(raw_t.size, dtype=np.int64)
+        q_, tau_ = arrays
         repaired = repair(
-            owner, "sample", raw_t.astype(float), exact, *arrays, labels, options
+            owner, "sample", raw_t.astype(float), exact, q_, tau_, labels, options
         )
         return cls._named(repaired, names)
 
