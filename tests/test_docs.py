@@ -21,9 +21,7 @@ SOURCES = [
 CITATION = re.compile(r"(?<![\w/.-])((?:[\w.-]+/)*[\w-]+\.md)(?:,? §\s?(\d+))?")
 # Files the program writes (not documents): examples/paper_table2.py's table.
 OUTPUTS = {"table2.md", "out/table2.md"}
-# Citations in files another branch owns, fixed when it merges (logs.py: the log
-# format is the README's "Log format").
-PENDING = {("drake_dynid/logs.py", "DESIGN.md")}
+PENDING: set[tuple[str, str]] = set()
 
 
 def _sections(document: pathlib.Path) -> set[str]:

@@ -137,8 +137,9 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--resample",
         action="store_true",
-        help="accept a non-uniformly sampled log by linear interpolation onto the "
-        "grid of its median step (off by default: it changes the data)",
+        help="interpolate linearly from the time stamps onto the fitted uniform grid "
+        "instead of snapping stamps to it (for samples really taken at jittered "
+        "times; accepts non-uniform sampling; off by default: it changes the data)",
     )
     parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
     parser.add_argument(

@@ -1,0 +1,401 @@
+"""The repair layer of the log reader: time stamps → uniform grid → filled samples.
+
+Shared by :func:`drake_dynid.logs.read_log` (file rows) and
+:meth:`drake_dynid.logs.RobotLog.from_arrays` (array samples); the policy is described
+in the ``drake_dynid.logs`` docstring and the README "Bad data" table. The grid fit and
+the interpolation of short runs are in ``drake_dynid.core.timestamps``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_dynid.core.timestamps import (
+    NonUniformSampling,
+    TimeGrid,
+    fill_short_runs,
+    fit_time_grid,
+    nominal_step,
+)
+
+JITTER_TOLERANCE = 0.25  # [steps] default snapping tolerance
+FILL_GAPS = 5  # [samples] default longest interpolated run
+MAX_FILLED_FRACTION = 0.05  # more filled samples than this is an error
+NANOSECONDS = 1e17  # integer stamps from here on: nanoseconds since the epoch
+MAX_SECONDS = 1e11  # |t| beyond (year 5000) cannot be seconds
+RESAMPLE_ROUNDING = 1e-2  # a resampling grid takes a round step within 1 %
+REPORTED_JITTER = 1e-3  # [steps] smaller deviations are round-off, not reported
+
+
+@dataclass(frozen=True)
+class Options:
+    """The reader's options, checked (see ``read_log``)."""
+
+    jitter_tolerance: float
+    resample: bool
+    fill_gaps: int
+    min_duration: float | None
+
+    @classmethod
+    def checked(cls, owner, jitter_tolerance, resample, fill_gaps, min_duration):
+        """The options, or a TypeError/ValueError naming the bad one."""
+        if isinstance(jitter_tolerance, bool) or not isinstance(
+            jitter_tolerance, (int, float, np.integer, np.floating)
+        ):
+            raise TypeError(
+                f"{owner}: jitter_tolerance must be a real number [steps]; got "
+                f"{jitter_tolerance!r}."
+            )
+        if not 0.0 < jitter_tolerance <= 0.25:
+            raise ValueError(
+                f"{owner}: jitter_tolerance must be in (0, 0.25] [steps]; got "
+                f"{jitter_tolerance}."
+            )
+        if isinstance(fill_gaps, bool) or not isinstance(fill_gaps, (int, np.integer)):
+            raise TypeError(
+                f"{owner}: fill_gaps must be an integer [samples]; got {fill_gaps!r}."
+            )
+        if fill_gaps < 0:
+            raise ValueError(
+                f"{owner}: fill_gaps must be >= 0 [samples]; got {fill_gaps}."
+            )
+        if min_duration is not None and not (
+            isinstance(min_duration, (int, float, np.integer, np.floating))
+            and not isinstance(min_duration, bool)
+            and math.isfinite(min_duration)
+            and min_duration >= 0
+        ):
+            raise ValueError(
+                f"{owner}: min_duration must be None or a finite number >= 0 [s]; got "
+                f"{min_duration!r}."
+            )
+        return cls(
+            float(jitter_tolerance), bool(resample), int(fill_gaps), min_duration
+        )
+
+
+@dataclass(frozen=True)
+class Repaired:
+    """A uniformly sampled log before it gets its joint names.
+
+    Attributes: as :class:`drake_dynid.logs.RobotLog`.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    tau: np.ndarray
+    time_step: float
+    warnings: tuple[str, ...]
+    time_offset: float
+    filled: np.ndarray
+
+
+def rows_text(noun: str, labels: Sequence[int], limit: int = 4) -> str:
+    """'row 12', 'rows 3, 8', 'rows 101 to 30001, every 100', 'rows 3, 9, ... (40)'."""
+    labels = sorted(int(x) for x in labels)
+    if len(labels) == 1:
+        return f"{noun} {labels[0]}"
+    steps = set(np.diff(labels).tolist())
+    if len(labels) > limit and len(steps) == 1:
+        step = steps.pop()
+        every = "" if step == 1 else f", every {step}"
+        return f"{noun}s {labels[0]} to {labels[-1]}{every}"
+    if len(labels) <= limit:
+        return f"{noun}s {', '.join(map(str, labels))}"
+    head = ", ".join(map(str, labels[: limit - 1]))
+    return f"{noun}s {head}, ..., {labels[-1]} ({len(labels)} in all)"
+
+
+def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
+    """Time stamps in seconds relative to a base, the base [s], and a note."""
+    finite = np.isfinite(t)
+    if not finite.any():
+        return t, 0.0, []
+    big = float(np.max(np.abs(t[finite])))
+    if big < MAX_SECONDS:
+        return t, 0.0, []
+    if float(t[finite].min()) < NANOSECONDS:
+        raise ValueError(
+            f"{owner}: time stamps up to {big:.6g} cannot be seconds (year > 5000); "
+            "t must be in seconds (integers >= 1e17 are read as nanoseconds since "
+            "the epoch)."
+        )
+    first = int(np.flatnonzero(finite)[0])
+    s = np.full(t.size, np.nan)
+    if exact is not None and exact[first] is not None:
+        base = int(exact[first])
+        rel = [0 if v is None else v - base for v in exact]
+        s[finite] = np.asarray(rel, dtype=float)[finite] * 1e-9
+    else:
+        base = int(t[first])
+        s[finite] = (t[finite] - t[first]) * 1e-9
+    note = (
+        f"time stamps read as integer nanoseconds since the epoch (t = {base}); "
+        "converted to seconds."
+    )
+    return s, base * 1e-9, [note]
+
+
+def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired:
+    """Time stamps → uniform grid → filled or bad samples.
+
+    Args:
+        owner: prefix of the messages (``log PATH``).
+        noun: what a label counts (``row`` of a file, ``sample`` of arrays).
+        t: (N,) time stamps as read [s, or ns when >= 1e17].
+        exact: the stamps as exact integers (nanoseconds), or None.
+        q: (N, n) joint positions [rad or m].
+        tau: (N, n) joint torques [N·m or N].
+        labels: (N,) int label of each sample in messages.
+        options: the checked options.
+        notes: warnings of the earlier layers.
+    """
+    warnings = list(notes)
+    shown = t.copy()
+    t, base, note = _seconds(owner, t, exact)
+    warnings += note
+    bad_t = np.flatnonzero(~np.isfinite(t))
+    if bad_t.size:
+        first = int(bad_t[0])
+        if bad_t.size > 3 + t.size // 1000 or t.size - bad_t.size < 10:
+            raise ValueError(
+                f"{owner}: the time stamp of {noun} {labels[first]} is empty or not "
+                f"finite (got {shown[first]})."
+            )
+        warnings.append(
+            f"dropped {rows_text(noun, labels[bad_t])}: time stamp empty or not finite."
+        )
+        keep = np.isfinite(t)
+        t, shown, q, tau, labels = (
+            t[keep],
+            shown[keep],
+            q[keep],
+            tau[keep],
+            labels[keep],
+        )
+    if t.size < 2:
+        raise ValueError(f"{owner}: needs at least 2 samples; got {t.size}.")
+    same = np.flatnonzero(np.diff(t) == 0.0)
+    if same.size:
+        i = int(same[0]) + 1
+        raise ValueError(
+            f"{owner}: duplicated time stamp at {noun} {labels[i]} (t = {shown[i]:.16g}"
+            f", the same as {noun} {labels[i - 1]})."
+        )
+
+    def where(i: int) -> str:
+        return f"{noun} {labels[i]} (t = {shown[i]:.16g})"
+
+    grid: TimeGrid | None = None
+    try:
+        grid = fit_time_grid(
+            t,
+            options.jitter_tolerance,
+            edge_gap=options.fill_gaps,
+            owner=owner,
+            where=where,
+        )
+    except NonUniformSampling as error:
+        if not options.resample:
+            raise
+        kept, step, reason = error.kept, error.step, "non-uniform sampling"
+    if grid is not None:
+        kept, step = grid.kept, grid.fitted_step
+        reason = "jittered time stamps"
+    if kept.sum() < kept.size:
+        out = np.flatnonzero(~kept)
+        times = ", ".join(f"{shown[i]:.16g}" for i in out[:3])
+        warnings.append(
+            f"dropped {rows_text(noun, labels[out])} (t = {times}"
+            f"{', ...' if out.size > 3 else ''}): time stamp(s) off the grid of the "
+            "other samples (outliers)."
+        )
+    jitter = 0.0 if grid is None else float(np.max(np.abs(grid.deviation)))
+    if options.resample and (grid is None or jitter > REPORTED_JITTER):
+        log = _resampled(
+            owner,
+            noun,
+            t[kept],
+            q[kept],
+            tau[kept],
+            labels[kept],
+            step,
+            grid,
+            options,
+            warnings,
+            reason,
+        )
+    else:
+        assert grid is not None
+        log = _snapped(
+            owner,
+            noun,
+            grid,
+            q[kept],
+            tau[kept],
+            labels[kept],
+            shown[kept],
+            options,
+            warnings,
+        )
+    samples = log.t.size
+    duration = (samples - 1) * log.time_step
+    if options.min_duration is not None and duration < options.min_duration:
+        raise ValueError(
+            f"{owner}: the log lasts {duration:.6g} s ({samples} samples of "
+            f"{log.time_step:.6g} s); at least {options.min_duration:.6g} s are needed."
+        )
+    return Repaired(
+        log.t,
+        log.q,
+        log.tau,
+        log.time_step,
+        tuple(warnings),
+        base + log.time_offset,
+        log.filled,
+    )
+
+
+def _fill(owner, noun, q, tau, options, what):
+    """Short runs of bad values filled; the filled mask; error beyond 5 %."""
+    q, filled_q = fill_short_runs(q, options.fill_gaps, cubic=True)
+    tau, filled_tau = fill_short_runs(tau, options.fill_gaps)
+    filled = np.any(filled_q, axis=1) | np.any(filled_tau, axis=1)
+    count = int(filled.sum())
+    if count > MAX_FILLED_FRACTION * filled.size:
+        raise ValueError(
+            f"{owner}: {count} of {filled.size} samples "
+            f"({100 * count / filled.size:.3g} %) would be interpolated ({what}); "
+            "filling more than "
+            f"{100 * MAX_FILLED_FRACTION:g} % would invent data: repair the log, or "
+            "read it with fill_gaps=0 to keep them as bad samples."
+        )
+    return q, tau, filled
+
+
+def _bad_cells_note(noun, labels, bad_before, bad_after, fill_gaps) -> str:
+    count = int(bad_before.sum())
+    kept_bad = int((bad_before & bad_after).sum())
+    where = rows_text(noun, labels[bad_before])
+    return (
+        f"{count} sample(s) with an empty, NaN or infinite q/tau cell ({where}): "
+        f"{count - kept_bad} filled by interpolation (runs of up to {fill_gaps} "
+        f"samples), {kept_bad} kept as bad samples (longer runs; the windows "
+        "containing them are flagged invalid)."
+    )
+
+
+def _bad(q, tau):
+    return ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1))
+
+
+def _snapped(owner, noun, grid, q, tau, labels, shown, options, warnings):
+    """Samples placed on their grid slots; dropped samples and bad cells filled."""
+    total, slots = grid.num_slots, grid.slots
+    h = grid.step
+    jitter = float(np.max(np.abs(grid.deviation)))
+    if jitter > REPORTED_JITTER:
+        warnings.append(
+            f"time stamp jitter up to {jitter * h:.3g} s ({100 * jitter:.3g} % of the "
+            f"step {h:.6g} s); time stamps snapped to the uniform grid fitted by least "
+            f"squares (tolerance {100 * options.jitter_tolerance:g} %)."
+        )
+    bad_before = _bad(q, tau)
+    full_q = np.full((total, q.shape[1]), np.nan)
+    full_tau = np.full((total, tau.shape[1]), np.nan)
+    full_q[slots] = q
+    full_tau[slots] = tau
+    q, tau, filled = _fill(
+        owner, noun, full_q, full_tau, options, "dropped samples and bad cells"
+    )
+    if bad_before.any():
+        warnings.append(
+            _bad_cells_note(
+                noun, labels, bad_before, _bad(q[slots], tau[slots]), options.fill_gaps
+            )
+        )
+    gaps = np.diff(slots) - 1
+    if gaps.any():
+        missing = np.ones(total, bool)
+        missing[slots] = False
+        count = int(missing.sum())
+        done = int((missing & filled).sum())
+        g = int(np.argmax(gaps))
+        warnings.append(
+            f"{count} dropped sample(s) (missing time stamps) in "
+            f"{int(np.count_nonzero(gaps))} gap(s) (the longest: {int(gaps[g])} "
+            f"sample{'s' if gaps[g] > 1 else ''} "
+            f"between {noun} {labels[g]} and {noun} {labels[g + 1]}, t = "
+            f"{shown[g]:.16g} to {shown[g + 1]:.16g}): {done} filled by interpolation "
+            f"(gaps of up to {options.fill_gaps} samples: cubic for q, linear for "
+            f"tau), {count - done} inserted as bad samples (the windows containing "
+            "them are flagged invalid)."
+        )
+    t = h * np.arange(total)
+    return Repaired(t, q, tau, h, (), grid.origin, filled)
+
+
+def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, reason):
+    """Linear interpolation from the stamps onto the fitted uniform grid."""
+    zero = float(s[0])
+    s = s - zero  # precision with epoch stamps
+    if grid is not None:
+        origin, h = grid.origin - zero, grid.step
+    else:
+        span = float(s[-1])
+        h = nominal_step(span / max(1, round(span / step)), RESAMPLE_ROUNDING)
+        origin = 0.0
+    k0 = math.ceil((s[0] - origin) / h - 1e-9)
+    k1 = math.floor((s[-1] - origin) / h + 1e-9)
+    count = k1 - k0 + 1
+    if count > 2 * s.size or count < 2:
+        raise ValueError(
+            f"{owner}: resampling onto a grid of step {h:.6g} s would give {count} "
+            f"samples from {s.size} rows; the time stamps are too irregular to "
+            "resample."
+        )
+    times = origin + h * np.arange(k0, k1 + 1)
+    values = np.column_stack([q, tau])
+    bad_before = ~np.all(np.isfinite(values), axis=1)
+    out = np.full((count, values.shape[1]), np.nan)
+    bridged = np.zeros(count, bool)
+    longest = (options.fill_gaps + 1) * h
+    for j in range(values.shape[1]):
+        finite = np.flatnonzero(np.isfinite(values[:, j]))
+        if finite.size < 2:
+            continue
+        xs = s[finite]
+        right = np.clip(np.searchsorted(xs, times, side="right"), 1, xs.size - 1)
+        left = right - 1
+        skipped = finite[right] - finite[left] - 1
+        span = xs[right] - xs[left]
+        inside = (times >= xs[0]) & (times <= xs[-1])
+        ok = inside & (skipped <= options.fill_gaps) & (span <= longest * (1 + 1e-9))
+        out[ok, j] = np.interp(times[ok], xs, values[finite, j])
+        bridged |= ok & ((skipped > 0) | (span > 1.5 * h))
+    if bridged.sum() > MAX_FILLED_FRACTION * count:
+        raise ValueError(
+            f"{owner}: {int(bridged.sum())} of {count} resampled samples bridge gaps "
+            f"or bad cells; more than {100 * MAX_FILLED_FRACTION:g} % would invent "
+            "data: repair the log."
+        )
+    n = q.shape[1]
+    q_grid, tau_grid = out[:, :n], out[:, n:]
+    if bad_before.any():
+        warnings.append(
+            f"{int(bad_before.sum())} sample(s) with an empty, NaN or infinite q/tau "
+            f"cell ({rows_text(noun, labels[bad_before])}): interpolated over when "
+            f"in runs of up to {options.fill_gaps} samples, else the resampled "
+            "samples around them are bad."
+        )
+    warnings.append(
+        f"{reason}: resampled by linear interpolation onto a uniform grid of step "
+        f"{h:.6g} s ({count} samples); {int(_bad(q_grid, tau_grid).sum())} bad, "
+        f"{int(bridged.sum())} bridging a gap."
+    )
+    t = h * np.arange(count)
+    return Repaired(t, q_grid, tau_grid, h, (), float(times[0]) + zero, bridged)
