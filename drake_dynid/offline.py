@@ -82,6 +82,7 @@ __all__ = [
     "auto_decimation",
     "auto_decimation_cutoff",
     "identify_offline",
+    "standstill_widths",
 ]
 
 MAX_AUTO_CUTOFF_HZ = 40.0
@@ -234,6 +235,46 @@ def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
     except ValueError:
         return float(cutoff_hz)
     return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
+
+
+def standstill_widths(
+    log: Any,
+    *,
+    cutoff_hz: float | None = None,
+    decimation_cutoff_hz: float | None = None,
+) -> np.ndarray:
+    """Coulomb dead-zone half-widths per joint measured on a log [rad/s or m/s].
+
+    ``w_j = 3 σ_v,j`` with σ_v,j the velocity noise of the off-line equations
+    (``drake_dynid.core.standstill``, docs/MATH.md §2): the MAD of the part of
+    the velocity that the parallel decimation's low-pass removes. The cutoffs
+    default to this module's automatic rules on the longest finite segment.
+
+    Args:
+        log: a :class:`~drake_dynid.logs.RobotLog`.
+        cutoff_hz: position cutoff f_c [Hz]; None: :func:`auto_cutoff`.
+        decimation_cutoff_hz: f_d [Hz]; None: :func:`auto_decimation_cutoff`.
+
+    Returns:
+        (n,) widths, in the log's joint order.
+    """
+    from drake_dynid.core.standstill import dead_zone_widths
+
+    h = log.time_step
+    segments = [log.q[a:b] for a, b in log.good_segments()]
+    if not segments or max(len(s) for s in segments) < 16:
+        check.fail(
+            "standstill_widths",
+            "needs a run of at least 16 finite samples to measure the velocity noise.",
+        )
+    longest = max(segments, key=len)
+    fc = auto_cutoff(longest, h) if cutoff_hz is None else cutoff_hz
+    fc = _below_nyquist("standstill_widths", "cutoff_hz", fc, h)
+    if decimation_cutoff_hz is None:
+        decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
+    return dead_zone_widths(
+        segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
+    )
 
 
 def _below_nyquist(owner: str, name: str, value: Any, time_step: float) -> float:

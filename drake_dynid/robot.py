@@ -356,6 +356,11 @@ class RobotModel(RobotRows):
         return self.base.names
 
     @property
+    def prismatic(self) -> tuple[bool, ...]:
+        """(n,) True for a prismatic identified joint [m], False for revolute [rad]."""
+        return tuple(bool(p) for p in self._chain.prismatic[: self.num_joints])
+
+    @property
     def plant_joint_names(self) -> tuple[str, ...]:
         """Every movable joint of ``plant``, in its position order."""
         return self._map.movable

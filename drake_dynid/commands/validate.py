@@ -15,7 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.commands._arguments import parse_friction
+from drake_dynid.commands._arguments import (
+    LogFiles,
+    add_dead_zone_argument,
+    add_drive_arguments,
+    add_joint_arguments,
+    add_log_argument,
+    dead_zone_line,
+    log_files,
+    parse_dead_zone,
+    parse_friction,
+    read_robot_log,
+)
 
 HELP = "predict a log's joint torques from identified base parameters (validation)"
 DESCRIPTION = (
@@ -40,9 +51,12 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("validation")
     group.add_argument(
         "--validate",
+        nargs="+",
+        action=LogFiles,
         metavar="LOG2.csv",
-        help="after the fit, predict the torques of this other log and report the "
-        "errors per joint (see dynid validate)",
+        help="after the fit, predict the torques of this other log (one file or "
+        "several joined on time, read like LOG) and report the errors per joint "
+        "(see dynid validate)",
     )
     group.add_argument(
         "--split",
@@ -51,17 +65,25 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
         help="fit on the first FRACTION of the log (0 < FRACTION < 1) and validate "
         "on the rest",
     )
+    group.add_argument(
+        "--compare-urdf",
+        action="store_true",
+        help="with --validate or --split: also predict the held-out torques with "
+        "the URDF's a-priori parameters (inertias, <dynamics damping friction>, the "
+        "drive file's motor values)",
+    )
 
 
 def check_output_paths(args: argparse.Namespace) -> None:
     """No output option may name an input file, nor two outputs the same file."""
-    inputs = {
-        option: getattr(args, name, None)
+    inputs: dict[str, list[str]] = {
+        option: log_files(args, name)
         for option, name in (
             ("LOG", "log"),
             ("--urdf", "urdf"),
             ("--params", "params"),
             ("--validate", "validate"),
+            ("--drive", "drive"),
         )
     }
     outputs = {
@@ -74,9 +96,10 @@ def check_output_paths(args: argparse.Namespace) -> None:
         )
     }
     seen: dict[Path, str] = {}
-    for option, path in inputs.items():
-        if path:
-            seen[Path(path).resolve()] = f"the input {option}"
+    for option, paths in inputs.items():
+        for path in paths:
+            if path:
+                seen[Path(path).resolve()] = f"the input {option}"
     for option, path in outputs.items():
         if not path:
             continue
@@ -89,9 +112,13 @@ def check_output_paths(args: argparse.Namespace) -> None:
         seen[resolved] = f"the output {option}"
 
 
-def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]:
-    """(log to fit, log to validate or None, its description) from the options."""
-    from drake_dynid.logs import read_log
+def validation_split(
+    args: argparse.Namespace, log: Any, robot: Any = None
+) -> tuple[Any, Any, str]:
+    """(log to fit, log to validate or None, its description) from the options.
+
+    ``--validate`` files are read like the fitted log (``robot``'s drive chain).
+    """
     from drake_dynid.validation import split_log
 
     split = getattr(args, "split", None)
@@ -104,9 +131,19 @@ def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]
         first, rest = split_log(log, split)
         return first, rest, f"{args.log} after the first {100 * split:g} %"
     if other:
-        held = read_log(other, log.joint_names, resample=args.resample)
-        for warning in held.warnings:
-            print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
+        if robot is None:
+            from drake_dynid.logs import read_log
+
+            held = read_log(other, log.joint_names, resample=args.resample)
+            for warning in held.warnings:
+                print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
+        else:
+            held = read_robot_log(
+                log_files(args, "validate"),
+                robot,
+                resample=args.resample,
+                command=getattr(args, "command", "dynid"),
+            )
         return log, held, str(other)
     return log, None, ""
 
@@ -320,7 +357,7 @@ def report_validation(
 # --------------------------------------------------------------------- validate
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid validate`` arguments."""
-    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    add_log_argument(parser)
     parser.add_argument(
         "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
     )
@@ -328,13 +365,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--params",
         required=True,
         metavar="RESULT.json",
-        help="the identified parameters (dynid offline/identify --json)",
+        help="the identified parameters (dynid offline/identify --json, or dynid "
+        "params --json for the URDF's a-priori values)",
     )
     parser.add_argument(
         "--friction",
         default=None,
         help="friction columns per joint (default: those of the results file)",
     )
+    add_joint_arguments(parser)
+    add_drive_arguments(parser)
+    add_dead_zone_argument(parser, None)
     parser.add_argument(
         "--cutoff",
         type=float,
@@ -369,11 +410,62 @@ def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence
     return ("viscous", "coulomb")
 
 
+def _from_results(document: Mapping[str, Any], key: str) -> Any:
+    """``settings[key]`` of a results file, else its top-level ``key``, else None."""
+    settings = document.get("settings")
+    if isinstance(settings, dict) and key in settings:
+        return settings[key]
+    return document.get(key)
+
+
+def _robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
+    """The model of the results file: its joints, locks, rotor inertia, drive.
+
+    Options given on the command line win; the others come from the results file
+    (``dynid offline/identify --json`` settings, or ``dynid params --json``).
+    """
+    from drake_dynid.commands._arguments import robot_from_args
+
+    joints = _from_results(document, "joints")
+    locked = _from_results(document, "locked")
+    options: dict[str, Any] = {"friction": _friction(args, document)}
+    if args.joints is None and isinstance(joints, list):
+        options["joints"] = [str(name) for name in joints]
+    if args.lock is None and isinstance(locked, dict):
+        options["locked"] = {str(k): float(v) for k, v in locked.items()}
+    if not args.rotor_inertia:
+        options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
+    drive = _from_results(document, "drive")
+    if not args.drive and isinstance(drive, str) and Path(drive).is_file():
+        options["drive"] = drive
+    return robot_from_args(args, "validate", **options)
+
+
+def _sign(args: argparse.Namespace, document: Mapping[str, Any], robot, log) -> Any:
+    """The Coulomb sign: ``--dead-zone``, else the results file's widths."""
+    from drake_dynid.commands._arguments import apply_dead_zone
+    from drake_dynid.core.friction import DeadZoneSign
+
+    if args.dead_zone is not None:
+        parse_dead_zone(args.dead_zone)
+        return apply_dead_zone(args, robot, log)
+    widths = _from_results(document, "coulomb_dead_zone")
+    if not isinstance(widths, dict) or "coulomb" not in robot.friction:
+        return robot
+    missing = [name for name in robot.joint_names if name not in widths]
+    if missing:
+        raise ValueError(
+            f"results file {args.params}: settings.coulomb_dead_zone has no width "
+            f"for {', '.join(missing)}; give --dead-zone."
+        )
+    return robot.with_sign(
+        DeadZoneSign(tuple(float(widths[name]) for name in robot.joint_names))
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._report import write_json
-    from drake_dynid.logs import read_log
-    from drake_dynid.plants import RobotModel
     from drake_dynid.validation import read_estimates, read_results
 
     check_output_paths(args)
@@ -382,19 +474,23 @@ def run(args: argparse.Namespace) -> int:
 
         matplotlib_pyplot()
     document = read_results(args.params)
-    robot = RobotModel.from_urdf(args.urdf, friction=_friction(args, document))
+    robot = _robot(args, document)
     estimates = read_estimates(document, robot, f"results file {args.params}")
     model = str(document.get("model", "fit"))
     labels = {"fit": model, "physical": "physical"}
     estimates = {labels[k]: v for k, v in estimates.items()}
-    log = read_log(args.log, robot.joint_names, resample=args.resample)
-    for warning in log.warnings:
-        print(f"dynid validate: warning: log {args.log}: {warning}", file=sys.stderr)
+    log = read_robot_log(
+        log_files(args), robot, resample=args.resample, command="validate"
+    )
+    robot = _sign(args, document, robot, log)
     if not args.quiet:
         print(
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "
             f"parameters{', with a physical estimate' if len(estimates) > 1 else ''})"
         )
+        line = dead_zone_line(robot)
+        if line:
+            print(line)
     entry = report_validation(
         args,
         robot,
