@@ -242,7 +242,7 @@ def standstill_widths(
     *,
     cutoff_hz: float | None = None,
     decimation_cutoff_hz: float | None = None,
-) -> np.ndarray:
+) -> np.ndarray | None:
     """Coulomb dead-zone half-widths per joint measured on a log [rad/s or m/s].
 
     ``w_j = 3 σ_v,j`` with σ_v,j the velocity noise of the off-line equations
@@ -256,20 +256,29 @@ def standstill_widths(
         decimation_cutoff_hz: f_d [Hz]; None: :func:`auto_decimation_cutoff`.
 
     Returns:
-        (n,) widths, in the log's joint order.
-    """
-    from drake_dynid.core.standstill import dead_zone_widths
+        (n,) widths, in the log's joint order; None when no finite segment is
+        long enough to measure the noise (2·trim + 32 samples).
 
+    Raises:
+        ValueError: a cutoff that is not in (0, Nyquist).
+    """
+    from drake_dynid.core.standstill import MIN_RUN, dead_zone_widths
+
+    owner = "standstill_widths"
     h = log.time_step
+    if cutoff_hz is not None:
+        cutoff_hz = _below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
+    if decimation_cutoff_hz is not None:
+        decimation_cutoff_hz = _below_nyquist(
+            owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
+        )
     segments = [log.q[a:b] for a, b in log.good_segments()]
     if not segments or max(len(s) for s in segments) < 16:
-        check.fail(
-            "standstill_widths",
-            "needs a run of at least 16 finite samples to measure the velocity noise.",
-        )
+        return None
     longest = max(segments, key=len)
     fc = auto_cutoff(longest, h) if cutoff_hz is None else cutoff_hz
-    fc = _below_nyquist("standstill_widths", "cutoff_hz", fc, h)
+    if len(longest) < 2 * default_trim(h, fc) + MIN_RUN:
+        return None
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
     return dead_zone_widths(

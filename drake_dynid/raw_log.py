@@ -276,11 +276,10 @@ def read_raw_log(
     warnings = list(table.warnings)
     if table.extra:
         listed = ", ".join(table.extra[:_LISTED])
-        more = len(table.extra) - _LISTED
-        more = f" and {more} more" if more > 0 else ""
+        left = len(table.extra) - _LISTED
+        more = f" and {left} more" if left > 0 else ""
         warnings.append(
-            f"{len(table.extra)} column(s) not used by the drive chain: {listed}"
-            f"{more}."
+            f"{len(table.extra)} column(s) not used by the drive chain: {listed}{more}."
         )
     t, q, tau = chain.convert(table.columns)
     if isinstance(paths, (str, os.PathLike)):

@@ -154,18 +154,16 @@ def drive_table(
         for j in np.flatnonzero(known):
             values[names.index(f"IA{j + 1}")] = reflected[j]
     else:
-        given = [
-            mo.name for mo in chain.motors if mo.rotor_inertia is not None
-        ]
+        given = [mo.name for mo in chain.motors if mo.rotor_inertia is not None]
         if given:
             notes.append(
                 f"the drive's rotor inertia of {', '.join(given)} is not modelled "
                 "without rotor inertia columns (--rotor-inertia)"
             )
     extra = chain.reflected_friction()
-    for k, kind in enumerate(friction):
-        for j in range(n):
-            values[start + j * len(friction) + k] += extra[kind][j]
+    for index, kind in enumerate(friction):
+        for joint in range(n):
+            values[start + joint * len(friction) + index] += extra[kind][joint]
     columns = None
     if chain.coupled_motors:
         columns = motor_columns(chain, inertia=rotor_inertia, friction=friction)
@@ -180,8 +178,9 @@ def drive_table(
     if columns is not None:
         rho = np.max(np.abs(columns.rows), axis=1)
         c_inertia = len(columns.inertia_names)
-        inertia_values = columns.values[:c_inertia]
-        friction_values = columns.values[c_inertia:]
+        motor_values = np.asarray(columns.values, dtype=float)
+        inertia_values = motor_values[:c_inertia]
+        friction_values = motor_values[c_inertia:]
         friction_scales = [
             rho[i] ** 2 if kind == "viscous" else rho[i]
             for i in range(len(rho))
@@ -248,7 +247,4 @@ def rescale_base(base: BaseParameters, scales: Any) -> BaseParameters:
                 definition[names[k]] = value
         definitions.append(definition)
     matrix[np.arange(len(lead)), list(base.independent)] = 1.0
-    return dataclasses.replace(
-        base, matrix=matrix, definitions=tuple(definitions)
-    )
-
+    return dataclasses.replace(base, matrix=matrix, definitions=tuple(definitions))

@@ -295,6 +295,14 @@ def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
             cutoff_hz=getattr(args, "cutoff", None),
             decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
         )
+        if widths is None:
+            # Too short for the noise measurement (the fit says so in its own
+            # terms when it cannot run either); dead_zone_line reports it.
+            args.dead_zone_note = (
+                "exact sign(v): no finite run of the log is long enough to measure "
+                "the velocity noise (--dead-zone auto)"
+            )
+            return robot
         return robot.with_sign(DeadZoneSign(tuple(float(w) for w in widths)))
     return robot.with_sign(DeadZoneSign((float(choice),) * robot.num_joints))
 
@@ -312,11 +320,15 @@ def dead_zone_widths(robot: Any) -> dict[str, float] | None:
     return dict(zip(robot.joint_names, map(float, widths), strict=True))
 
 
-def dead_zone_line(robot: Any) -> str | None:
-    """One printed line with the dead-zone widths (None with the exact sign)."""
+def dead_zone_line(robot: Any, args: Any = None) -> str | None:
+    """One printed line with the dead-zone widths (None with the exact sign).
+
+    When ``--dead-zone auto`` could not measure the noise, the line says so.
+    """
     widths = dead_zone_widths(robot)
     if widths is None:
-        return None
+        note = getattr(args, "dead_zone_note", None)
+        return f"Coulomb columns: {note}" if note else None
     prismatic = getattr(robot, "prismatic", (False,) * robot.num_joints)
     text = ", ".join(
         f"{name} {w:.2g} {'m' if p else 'rad'}/s"

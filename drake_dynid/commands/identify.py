@@ -303,7 +303,7 @@ def run(args: argparse.Namespace) -> int:
     condition = float(trace.condition_number[last_valid])
     if not args.quiet:
         print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
-        line = dead_zone_line(robot)
+        line = dead_zone_line(robot, args)
         if line:
             print(line)
         print(

@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if not args.quiet:
         print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
-        line = dead_zone_line(robot)
+        line = dead_zone_line(robot, args)
         if line:
             print(line)
         print(

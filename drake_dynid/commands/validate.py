@@ -97,9 +97,9 @@ def check_output_paths(args: argparse.Namespace) -> None:
     }
     seen: dict[Path, str] = {}
     for option, paths in inputs.items():
-        for path in paths:
-            if path:
-                seen[Path(path).resolve()] = f"the input {option}"
+        for name in paths:
+            if name:
+                seen[Path(name).resolve()] = f"the input {option}"
     for option, path in outputs.items():
         if not path:
             continue
@@ -438,6 +438,15 @@ def _robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     drive = _from_results(document, "drive")
     if not args.drive and isinstance(drive, str) and Path(drive).is_file():
         options["drive"] = drive
+    try:
+        return robot_from_args(args, "validate", **options)
+    except ValueError:
+        if "joints" not in options and "locked" not in options:
+            raise
+    # The file's joints are not this URDF's (another robot): load the default
+    # joints; the parameter check then names the mismatch.
+    options.pop("joints", None)
+    options.pop("locked", None)
     return robot_from_args(args, "validate", **options)
 
 

@@ -41,9 +41,9 @@ from drake_dynid.core import _validate
 __all__ = [
     "DEFAULT_FRICTION",
     "EXACT_SIGN",
-    "DeadZoneSign",
     "FRICTION_KINDS",
     "FRICTION_PREFIX",
+    "DeadZoneSign",
     "ExactSign",
     "SignLaw",
     "TanhSign",

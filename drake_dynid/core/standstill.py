@@ -43,12 +43,21 @@ from drake_dynid.core.idim import (
     offline_derivatives,
 )
 
-__all__ = ["DEAD_ZONE_FACTOR", "combined_widths", "dead_zone_widths", "velocity_noise"]
+__all__ = [
+    "DEAD_ZONE_FACTOR",
+    "MIN_RUN",
+    "combined_widths",
+    "dead_zone_widths",
+    "velocity_noise",
+]
 
 #: The dead-zone half-width in multiples of the measured velocity noise σ_v.
 DEAD_ZONE_FACTOR = 3.0
 _MAD_TO_STD = 1.4826  # 1/Φ⁻¹(3/4): the MAD of a Gaussian variable times this is σ
 _OWNER = "velocity_noise"
+#: Velocity samples a run needs beyond the edge trims (the order-8 zero-phase
+#: low-pass pads 27 samples).
+MIN_RUN = 32
 
 
 def velocity_noise(
@@ -94,15 +103,15 @@ def velocity_noise(
         q = check.array(_OWNER, "segments", run)
         if q.ndim == 1:
             q = q[:, None]
-        if q.shape[0] < 4 * trim + 16:
+        if q.shape[0] < 2 * trim + MIN_RUN:
             continue
         _, v, _ = offline_derivatives(q, time_step, cutoff_hz=cutoff_hz, trim=trim)
         residuals.append(v - signal.sosfiltfilt(sos, v, axis=0))
     if not residuals:
         check.fail(
             _OWNER,
-            f"needs a finite run of at least {4 * trim + 16} samples to measure the "
-            "velocity noise; got none.",
+            f"needs a finite run of at least {2 * trim + MIN_RUN} samples to "
+            "measure the velocity noise; got none.",
         )
     r = np.concatenate(residuals, axis=0)
     return _MAD_TO_STD * np.median(np.abs(r - np.median(r, axis=0)), axis=0)
