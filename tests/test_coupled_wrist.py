@@ -19,6 +19,7 @@ their own time columns in epoch nanoseconds, read with the drive file only
 (``drake_dynid.raw_log``). About 3 s.
 """
 
+import pathlib
 import re
 
 import numpy as np
@@ -34,38 +35,7 @@ from drake_dynid.robot import RobotModel
 from drake_dynid.validation import split_log, validate_torques
 
 JOINTS = ("j1", "j2", "j3", "j4")
-URDF = """<?xml version="1.0"?>
-<robot name="wrist4">
- <link name="world"/>
- <link name="l1"><inertial><mass value="4.0"/><origin xyz="0.02 0.01 0.15"/>
-  <inertia ixx="0.05" ixy="0.002" ixz="0.001" iyy="0.045" iyz="0.003" izz="0.02"/>
- </inertial></link>
- <link name="l2"><inertial><mass value="3.0"/><origin xyz="0.2 0.01 0.02"/>
-  <inertia ixx="0.01" ixy="0.001" ixz="0.002" iyy="0.06" iyz="0.001" izz="0.055"/>
- </inertial></link>
- <link name="l3"><inertial><mass value="1.2"/><origin xyz="0.05 0.02 0.01"/>
-  <inertia ixx="0.004" ixy="0.0005" ixz="0.0003" iyy="0.006" iyz="0.0004" izz="0.005"/>
- </inertial></link>
- <link name="l4"><inertial><mass value="0.8"/><origin xyz="0.06 0.01 0.03"/>
-  <inertia ixx="0.003" ixy="0.0002" ixz="0.0004" iyy="0.002" iyz="0.0001" izz="0.0025"/>
- </inertial></link>
- <joint name="j1" type="revolute"><parent link="world"/><child link="l1"/>
-  <axis xyz="0 0 1"/><limit effort="1e3" lower="-9" upper="9" velocity="99"/>
-  <dynamics damping="0.8" friction="1.5"/></joint>
- <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
-  <origin xyz="0 0 0.3"/><axis xyz="0 1 0"/>
-  <limit effort="1e3" lower="-9" upper="9" velocity="99"/>
-  <dynamics damping="0.6" friction="1.2"/></joint>
- <joint name="j3" type="revolute"><parent link="l2"/><child link="l3"/>
-  <origin xyz="0.4 0 0"/><axis xyz="0 1 0"/>
-  <limit effort="1e3" lower="-9" upper="9" velocity="99"/>
-  <dynamics damping="0.3" friction="0.6"/></joint>
- <joint name="j4" type="revolute"><parent link="l3"/><child link="l4"/>
-  <origin xyz="0.1 0 0"/><axis xyz="1 0 0"/>
-  <limit effort="1e3" lower="-9" upper="9" velocity="99"/>
-  <dynamics damping="0.2" friction="0.4"/></joint>
-</robot>
-"""
+URDF = (pathlib.Path(__file__).parent / "data" / "wrist4.urdf").read_text()
 # Motors: gear ratio N, torque constant k_t [N*m/A], rotor inertia Ia [kg*m^2],
 # motor-side viscous Fv [N*m*s/rad] and Coulomb Fc [N*m] friction.
 N = np.array([60.0, 80.0, 40.0, 32.0])
