@@ -39,6 +39,7 @@ from scipy import signal
 from drake_dynid.core import _validate as check
 from drake_dynid.core.idim import (
     DECIMATION_FILTER_ORDER,
+    default_padding,
     default_trim,
     offline_derivatives,
 )
@@ -92,12 +93,10 @@ def velocity_noise(
         )
     runs = [segments] if isinstance(segments, np.ndarray) else list(segments)
     trim = default_trim(time_step, cutoff_hz)
-    sos = signal.butter(
-        DECIMATION_FILTER_ORDER,
-        min(band_cutoff_hz, cutoff_hz),
-        fs=1.0 / time_step,
-        output="sos",
-    )
+    band = min(band_cutoff_hz, cutoff_hz)
+    sos = signal.butter(DECIMATION_FILTER_ORDER, band, fs=1.0 / time_step, output="sos")
+    padding = default_padding(time_step, band)
+    edge = default_trim(time_step, band) - 1  # two periods of the band's cutoff
     residuals = []
     for run in runs:
         q = check.array(_OWNER, "segments", run)
@@ -106,7 +105,16 @@ def velocity_noise(
         if q.shape[0] < 2 * trim + MIN_RUN:
             continue
         _, v, _ = offline_derivatives(q, time_step, cutoff_hz=cutoff_hz, trim=trim)
-        residuals.append(v - signal.sosfiltfilt(sos, v, axis=0))
+        # Odd padding of four periods (value and slope continuous) and two
+        # periods dropped at each end, as the off-line filters do: the low-pass's
+        # edge transient on the motion is not noise.
+        low = signal.sosfiltfilt(
+            sos, v, axis=0, padtype="odd", padlen=min(padding, v.shape[0] - 1)
+        )
+        residual = v - low
+        if residual.shape[0] - 2 * edge >= MIN_RUN:
+            residual = residual[edge : residual.shape[0] - edge]
+        residuals.append(residual)
     if not residuals:
         check.fail(
             _OWNER,
