@@ -1,4 +1,6 @@
-"""RobotModel with a drive chain and a Coulomb sign law (docs/DRIVE.md §3, MATH.md §2).
+"""RobotModel with a drive chain and a Coulomb sign law.
+
+See docs/DRIVE.md §3 (motor columns) and docs/MATH.md §2 (the dead zone).
 
 Truths: Drake's inverse dynamics and energies of the URDF (rigid bodies, gravity)
 plus the motors written out in numpy through R (Ia ⊙ R v̇, Fv ⊙ R v, Fc ⊙ sign R v),
