@@ -218,3 +218,14 @@ def test_bad_options_exit_2(files, tmp_path, capsys):
     missing = tmp_path / "none.toml"
     assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(missing)]) == 2
     assert "none.toml: no such file" in _error(capsys)
+
+
+def test_excite_designs_for_the_motor_columns(files, tmp_path, capsys):
+    _, _, drive = files
+    limits = tmp_path / "limits.json"
+    limits.write_text(json.dumps({f"j{k}": {"effort": 300.0} for k in range(1, 5)}))
+    argv = ["excite", URDF, "--drive", str(drive), "--rotor-inertia", "--limits"]
+    argv += [str(limits), "--duration", "5", "--iterations", "2"]
+    assert cli.main([*argv, "--out", str(tmp_path / "traj.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "base parameters)" in out and "FCm4" in out
