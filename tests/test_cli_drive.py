@@ -229,3 +229,21 @@ def test_excite_designs_for_the_motor_columns(files, tmp_path, capsys):
     assert cli.main([*argv, "--out", str(tmp_path / "traj.csv")]) == 0
     out = capsys.readouterr().out
     assert "base parameters)" in out and "FCm4" in out
+
+
+def test_physical_fit_and_urdf_with_coupled_motor_columns(files, tmp_path, capsys):
+    _, raw, drive = files
+    argv = ["offline", *raw, "--urdf", URDF, "--drive", str(drive)]
+    fit = tmp_path / "fit.json"
+    assert cli.main([*argv, "--rotor-inertia", "--physical", "--json", str(fit)]) == 0
+    physical = json.loads(fit.read_text())["physical"]
+    values = {p["name"]: p["value"] for p in physical["parameters"]}
+    # The motor's inertia stays near the truth (drive file: Ia = 5e-5), and its
+    # friction (0 in the data) is not negative.
+    assert values["IAm4"] == pytest.approx(5e-5, rel=0.05)
+    assert values["FVm4"] >= -1e-12 and values["FCm4"] >= -1e-12
+    capsys.readouterr()
+    urdf_out = tmp_path / "identified.urdf"
+    assert cli.main([*argv, "--urdf-out", str(urdf_out)]) == 0
+    assert "(not written, no URDF field: FVm4, FCm4)" in capsys.readouterr().out
+    assert urdf_out.is_file()
