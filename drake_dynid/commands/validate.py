@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +23,6 @@ from drake_dynid.commands._arguments import (
     add_log_argument,
     dead_zone_line,
     log_files,
-    parse_dead_zone,
-    parse_friction,
     read_robot_log,
 )
 
@@ -401,80 +399,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing")
 
 
-def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence[str]:
-    if args.friction is not None:
-        return parse_friction(args.friction)
-    settings = document.get("settings")
-    if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
-        return tuple(str(kind) for kind in settings["friction"])
-    return ("viscous", "coulomb")
-
-
-def _from_results(document: Mapping[str, Any], key: str) -> Any:
-    """``settings[key]`` of a results file, else its top-level ``key``, else None."""
-    settings = document.get("settings")
-    if isinstance(settings, dict) and key in settings:
-        return settings[key]
-    return document.get(key)
-
-
-def _robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
-    """The model of the results file: its joints, locks, rotor inertia, drive.
-
-    Options given on the command line win; the others come from the results file
-    (``dynid offline/identify --json`` settings, or ``dynid params --json``).
-    """
-    from drake_dynid.commands._arguments import robot_from_args
-
-    joints = _from_results(document, "joints")
-    locked = _from_results(document, "locked")
-    options: dict[str, Any] = {"friction": _friction(args, document)}
-    if args.joints is None and isinstance(joints, list):
-        options["joints"] = [str(name) for name in joints]
-    if args.lock is None and isinstance(locked, dict):
-        options["locked"] = {str(k): float(v) for k, v in locked.items()}
-    if not args.rotor_inertia:
-        options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
-    drive = _from_results(document, "drive")
-    if not args.drive and isinstance(drive, str) and Path(drive).is_file():
-        options["drive"] = drive
-    try:
-        return robot_from_args(args, "validate", **options)
-    except ValueError:
-        if "joints" not in options and "locked" not in options:
-            raise
-    # The file's joints are not this URDF's (another robot): load the default
-    # joints; the parameter check then names the mismatch.
-    options.pop("joints", None)
-    options.pop("locked", None)
-    return robot_from_args(args, "validate", **options)
-
-
-def _sign(args: argparse.Namespace, document: Mapping[str, Any], robot, log) -> Any:
-    """The Coulomb sign: ``--dead-zone``, else the results file's widths."""
-    from drake_dynid.commands._arguments import apply_dead_zone
-    from drake_dynid.core.friction import DeadZoneSign
-
-    if args.dead_zone is not None:
-        parse_dead_zone(args.dead_zone)
-        return apply_dead_zone(args, robot, log)
-    widths = _from_results(document, "coulomb_dead_zone")
-    if not isinstance(widths, dict) or "coulomb" not in robot.friction:
-        return robot
-    missing = [name for name in robot.joint_names if name not in widths]
-    if missing:
-        raise ValueError(
-            f"results file {args.params}: settings.coulomb_dead_zone has no width "
-            f"for {', '.join(missing)}; give --dead-zone."
-        )
-    return robot.with_sign(
-        DeadZoneSign(tuple(float(widths[name]) for name in robot.joint_names))
-    )
-
-
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._report import write_json
+    from drake_dynid.commands._results import results_robot, results_sign
     from drake_dynid.validation import read_estimates, read_results
 
     check_output_paths(args)
@@ -483,7 +411,7 @@ def run(args: argparse.Namespace) -> int:
 
         matplotlib_pyplot()
     document = read_results(args.params)
-    robot = _robot(args, document)
+    robot = results_robot(args, document)
     estimates = read_estimates(document, robot, f"results file {args.params}")
     model = str(document.get("model", "fit"))
     labels = {"fit": model, "physical": "physical"}
@@ -491,7 +419,7 @@ def run(args: argparse.Namespace) -> int:
     log = read_robot_log(
         log_files(args), robot, resample=args.resample, command="validate"
     )
-    robot = _sign(args, document, robot, log)
+    robot = results_sign(args, document, robot, log)
     if not args.quiet:
         print(
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "
