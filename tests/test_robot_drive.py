@@ -202,6 +202,32 @@ def test_a_differential_regroups_and_the_base_map_stays_exact():
     for kind in ("power", "lagrangian"):
         _, G, _ = coupled.model_rows(kind, q, v, np.zeros((5, 3)))
         assert G.shape[-1] == coupled.num_parameters
+    # The same differential with ratios ±30: the rank decision runs on columns
+    # scaled by 1/ρ² and the coefficients come back in motor-side units (2·30²).
+    scaled = DriveChain.from_dict(
+        {
+            "coupling": {
+                "motors": ["a", "b"],
+                "joints": ["arm_6_joint", "arm_7_joint"],
+                "matrix": [[-30.0, 30.0], [30.0, 30.0]],
+            }
+        },
+        robot.joint_names,
+    )
+    geared = RobotModel.from_urdf(path, joints=joints, rotor_inertia=True, drive=scaled)
+    definitions = dict(zip(geared.base.names, geared.base.definitions, strict=True))
+    assert definitions["IA3R"] == {"IA3": 1.0, "IAm3": 1800.0}
+    assert definitions["IAm2R"] == {"IAm2": 1.0, "IAm3": -1.0}
+    assert definitions["FV2R"] == {"FV2": 1.0, "FVm3": 1800.0}
+    assert geared.base.clear
+    theta = rng.normal(size=len(geared.standard_names))
+    full = geared.idim_rows(q, v, vdot, columns="standard") @ theta
+    np.testing.assert_allclose(
+        geared.idim_rows(q, v, vdot) @ geared.base.values(theta),
+        full,
+        rtol=1e-10,
+        atol=1e-10 * np.abs(full).max(),
+    )
 
 
 def test_a_drive_file_for_other_joints_is_an_error(urdf):

@@ -23,9 +23,9 @@ once on the log. A coupled motor k (Coulomb sign of u_k/ρ_k = Σ_j (R_kj/ρ_k) 
 ``core.drive_columns``) gets the width of that combination for independent joint
 noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½ (:func:`combined_widths`).
 
-Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 0.7-3e-3
-rad/s (0.7e-3 m/s for the torso), against moving speeds of order 0.1 rad/s; at
-rest the velocity is exactly 0 most of the time with encoder-dither spikes up to
+Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 1.3-3.7e-3
+rad/s on the arm (0.9e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
+at rest the velocity is almost 0 most of the time, with encoder-dither spikes up to
 7.5e-3 rad/s. Pure numpy/scipy.
 """
 
