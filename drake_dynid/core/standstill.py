@@ -13,6 +13,7 @@ the log::
     r_j        v_j minus its zero-phase low-pass at f_d (the parallel decimation's
                filter, order 8, f_d = min(f_c, 1.5 B), B the velocity bandwidth):
                what the dynamics band does not explain, i.e. the velocity noise
+               (odd padding of four f_d periods, two periods dropped at each end)
     σ_v,j      1.4826 · median|r_j - median r_j|   (MAD: robust to the motion's
                own outliers; = the std for Gaussian noise)       [rad/s or m/s]
     w_j        3 σ_v,j
