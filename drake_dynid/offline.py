@@ -81,6 +81,7 @@ __all__ = [
     "auto_decimation_cutoff",
     "identify_offline",
     "offline_rows",
+    "standstill_widths",
 ]
 
 
@@ -334,6 +335,56 @@ def offline_rows(
         num_samples_used=int(used_samples),
         num_segments=len(segments),
         num_segments_used=len(W_parts),
+    )
+
+
+def standstill_widths(
+    log: Any,
+    *,
+    cutoff_hz: float | None = None,
+    decimation_cutoff_hz: float | None = None,
+) -> np.ndarray | None:
+    """Coulomb dead-zone half-widths per joint measured on a log [rad/s or m/s].
+
+    ``w_j = 3 σ_v,j`` with σ_v,j the velocity noise of the off-line equations
+    (``drake_dynid.core.standstill``, docs/MATH.md §2): the MAD of the part of
+    the velocity that the parallel decimation's low-pass removes. The cutoffs
+    default to the automatic rules (``drake_dynid.core.idim_auto``) on the
+    longest finite segment.
+
+    Args:
+        log: a :class:`~drake_dynid.logs.RobotLog`.
+        cutoff_hz: position cutoff f_c [Hz]; None: :func:`auto_cutoff`.
+        decimation_cutoff_hz: f_d [Hz]; None: :func:`auto_decimation_cutoff`.
+
+    Returns:
+        (n,) widths, in the log's joint order; None when no finite segment is
+        long enough to measure the noise (2·trim + 32 samples).
+
+    Raises:
+        ValueError: a cutoff that is not in (0, Nyquist).
+    """
+    from drake_dynid.core.standstill import MIN_RUN, dead_zone_widths
+
+    owner = "standstill_widths"
+    h = log.time_step
+    if cutoff_hz is not None:
+        cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
+    if decimation_cutoff_hz is not None:
+        decimation_cutoff_hz = check.below_nyquist(
+            owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
+        )
+    segments = [log.q[a:b] for a, b in log.good_segments()]
+    if not segments or max(len(s) for s in segments) < 16:
+        return None
+    longest = max(segments, key=len)
+    fc = auto_cutoff(longest, h) if cutoff_hz is None else cutoff_hz
+    if len(longest) < 2 * default_trim(h, fc) + MIN_RUN:
+        return None
+    if decimation_cutoff_hz is None:
+        decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
+    return dead_zone_widths(
+        segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
     )
 
 

@@ -16,6 +16,7 @@ T_j J_j T_j, T_j = diag(1/L_j, 1/L_j, 1/L_j, 1)/√m_j, whose entries are of ord
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -97,7 +98,9 @@ def standard_layout(robot: Any) -> Layout:
     links = tuple(tuple(index[f"{name}{j + 1}"] for name in INERTIAL) for j in range(n))
     rotor = tuple(index.get(f"IA{j + 1}", -1) for j in range(n))
     friction = tuple(k for name, k in index.items() if name.startswith(("FV", "FC")))
-    nonnegative = tuple(sorted((*friction, *(k for k in rotor if k >= 0))))
+    # Coupled motors' rotor inertias IAmk (docs/DRIVE.md §3) store energy too.
+    motors = tuple(k for name, k in index.items() if name.startswith("IAm"))
+    nonnegative = tuple(sorted((*friction, *(k for k in rotor if k >= 0), *motors)))
     return Layout(links, rotor, nonnegative, friction)
 
 
@@ -141,7 +144,33 @@ def parameter_scales(robot: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         scales[friction] = np.maximum(
             magnitude, nonzero.mean() if nonzero.size else 1.0
         )
+    _motor_scales(robot, scales, mass * length**2)
     return scales, mass, length
+
+
+def _motor_scales(robot: Any, scales: np.ndarray, link_inertia: np.ndarray) -> None:
+    """Scales of coupled-motor columns (motor side), in place.
+
+    ``IAmk`` and ``FVmk`` act through ρ_k² (ρ_k = max_j |R_kj|), ``FCmk`` and
+    ``OFFmk`` through ρ_k (docs/DRIVE.md §3): their scales are the joint-side ones
+    (the mean m_j·L_j² of the joints motor k drives, the friction scale computed
+    above) divided by ρ_k² or ρ_k.
+    """
+    chain = getattr(robot, "drive", None)
+    if chain is None:
+        return
+    coupling = np.asarray(chain.coupling, dtype=float)
+    for k, name in enumerate(robot.standard_names):
+        match = re.fullmatch(r"(IA|FV|FC|OFF)m(\d+)", name)
+        if match is None:
+            continue
+        row = coupling[int(match.group(2)) - 1]
+        rho = float(np.max(np.abs(row)))
+        if match.group(1) == "IA":
+            driven = np.flatnonzero(row)
+            scales[k] = float(np.mean(link_inertia[driven])) / rho**2
+        else:
+            scales[k] /= rho ** (2 if match.group(1) == "FV" else 1)
 
 
 # ----------------------------------------------------------------------------------

@@ -23,6 +23,17 @@ Rows are computed on the tree of moving joints (identified + mimic) with
 q_tree = P q + c, v_tree = P v, v̇_tree = P v̇, and every per-joint row is reduced
 by Pᵀ (τ = Pᵀ τ_tree, virtual work; ``drake_dynid.core.joint_map``).
 
+Drive chain (``drive=``, docs/DRIVE.md): motors, gears and coupled joints. Motors
+that drive one joint are folded into its ``IAj`` and friction columns; a coupled
+motor k adds ``IAmk`` (with rotor inertia) and ``FVmk FCmk OFFmk`` (the friction
+kinds), after the links and after the joint friction respectively
+(``drake_dynid.robot_drive``).
+
+Coulomb sign (``sign``, ``with_sign``): the friction columns use a pluggable
+``drake_dynid.core.friction.SignLaw``, the exact sign by default; on real logs the
+commands use a standstill dead zone whose width follows from the log's velocity
+noise (``drake_dynid.core.standstill``, docs/MATH.md §2).
+
 The kinematics (poses and screws) come from the joint geometry read from the plant
 (``drake_dynid.plant_tree``), either evaluated in numpy over the whole batch
 (``kinematics="numpy"``, the default, fast) or from Drake per sample
@@ -31,6 +42,7 @@ The kinematics (poses and screws) come from the joint geometry read from the pla
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Mapping, Sequence
@@ -42,11 +54,19 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
-from drake_dynid.core.friction import check_friction
+from drake_dynid.core.drive import DriveChain
+from drake_dynid.core.drive_columns import MotorColumns
+from drake_dynid.core.friction import EXACT_SIGN, ExactSign, SignLaw, check_friction
 from drake_dynid.core.joint_map import JointMap
 from drake_dynid.core.kinematics import KinematicTree
 from drake_dynid.core.planar2r import Planar2RRows
 from drake_dynid.plant_tree import INERTIAL_NAMES, describe_plant
+from drake_dynid.robot_drive import (
+    drive_table,
+    motor_sign,
+    rescale_base,
+    resolve_drive,
+)
 from drake_dynid.robot_rows import RobotRows
 from drake_dynid.urdf import load_urdf, read_urdf_friction, read_urdf_mimic
 
@@ -90,7 +110,12 @@ class RobotModel(RobotRows):
         mimic: ``{joint: (leader, multiplier, offset)}`` for the mimic joints that
             move with an identified leader (q = multiplier·q_leader + offset).
         notes: one-line remarks made while loading (joints treated as actuated,
-            Drake's parser warnings summarised, an unclear rank decision).
+            Drake's parser warnings summarised, an unclear rank decision, drive
+            values not modelled).
+        drive: the drive chain (``drake_dynid.core.drive.DriveChain``: motors,
+            coupling R, log format), or None.
+        sign: the Coulomb sign law of every friction column (joints and motors):
+            the exact sign by default; see :meth:`with_sign`.
     """
 
     plant: Any
@@ -109,6 +134,9 @@ class RobotModel(RobotRows):
         default_factory=lambda: MappingProxyType({})
     )
     notes: tuple[str, ...] = ()
+    drive: DriveChain | None = None
+    sign: SignLaw = EXACT_SIGN
+    _motors: MotorColumns | None = field(repr=False, default=None)
     _map: JointMap = field(repr=False, default=None)  # type: ignore[assignment]
     _chain: KinematicTree = field(repr=False, default=None)  # type: ignore[assignment]
     _link_bodies: tuple[Any, ...] = field(repr=False, default=())
@@ -128,6 +156,7 @@ class RobotModel(RobotRows):
         seed: int = 0,
         joints: Sequence[str] | None = None,
         locked: Mapping[str, float] | None = None,
+        drive: Any = None,
     ) -> RobotModel:
         """Loads a URDF (see :func:`drake_dynid.urdf.load_plant`) and its parameters.
 
@@ -153,11 +182,16 @@ class RobotModel(RobotRows):
             locked: ``{joint: position [rad or m]}`` for joints that are not
                 identified; the other ones are locked at 0. A mimic joint follows
                 its leader (``<mimic>``: q = multiplier·q_leader + offset).
+            drive: the drive chain: a TOML drive file (resolved against the URDF's
+                ``<transmission>`` elements, docs/DRIVE.md) or a ``DriveChain``
+                of the identified joints; None (default): no motor model (the URDF
+                transmissions give only the ``IAj`` values).
 
         Raises:
             ValueError: the loader's errors, an unknown joint name (the message
                 lists the movable joints), a joint both identified and locked, a
-                mimic joint identified or locked on its own.
+                mimic joint identified or locked on its own, a drive file that does
+                not match the URDF (the message names the field).
         """
         loaded = load_urdf(path, time_step, gravity=gravity)
         for note in loaded.notes:
@@ -174,6 +208,7 @@ class RobotModel(RobotRows):
             locked=locked,
             mimic=read_urdf_mimic(path),
             notes=loaded.notes,
+            drive=drive,
         )
 
     @classmethod
@@ -191,6 +226,7 @@ class RobotModel(RobotRows):
         locked: Mapping[str, float] | None = None,
         mimic: Mapping[str, tuple[str, float, float]] | None = None,
         notes: Sequence[str] = (),
+        drive: Any = None,
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -218,6 +254,29 @@ class RobotModel(RobotRows):
             coulomb=coulomb,
         )
         jmap, moving = tree.joint_map, tree.moving
+        n = len(jmap.names)
+        chain = resolve_drive(
+            drive,
+            path,
+            jmap.names,
+            [bool(p) for p in tree.chain.prismatic[:n]],
+        )
+        names, values = tree.standard_names, tree.standard_values
+        scales = None
+        notes = tuple(notes)
+        motors = None
+        if chain is not None:
+            table = drive_table(
+                chain,
+                names,
+                values,
+                num_joints=n,
+                rotor_inertia=bool(rotor_inertia),
+                friction=friction,
+            )
+            names, values, scales = table.names, table.values, table.scales
+            motors = table.columns
+            notes += tuple(chain.notes) + table.notes
         gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
         gravity.setflags(write=False)
         model = cls(
@@ -227,20 +286,22 @@ class RobotModel(RobotRows):
             gravity=gravity,
             friction=friction,
             rotor_inertia=bool(rotor_inertia),
-            standard_names=tree.standard_names,
-            standard_values=tree.standard_values,
+            standard_names=names,
+            standard_values=values,
             base=None,  # type: ignore[arg-type]
             kinematics=kinematics,
             links=jmap.moving,
             locked=jmap.locked,
             mimic=jmap.mimic,
-            notes=tuple(notes),
+            notes=notes,
+            drive=chain,
+            _motors=motors,
             _map=jmap,
             _chain=tree.chain,
             _link_bodies=tuple(joint.child_body() for joint in moving),
             _joint_frames=tuple(joint.frame_on_child() for joint in moving),
         )
-        base = model._reduce(seed)
+        base = model._reduce(seed, scales)
         object.__setattr__(model, "base", base)
         if not base.clear:
             note = (
@@ -253,13 +314,15 @@ class RobotModel(RobotRows):
             object.__setattr__(model, "notes", (*model.notes, note))
         return model
 
-    def _reduce(self, seed: int) -> BaseParameters:
+    def _reduce(self, seed: int, scales: Any = None) -> BaseParameters:
         """Base parameters from IDIM rows at random states (seeded).
 
         Rows: inverse dynamics with gravity and friction at ``max(20, 4 p_std / n)``
         states, q uniform in ±π rad (prismatic: ±1 m), q̇ and q̈ standard normal
         [rad/s, rad/s², m/s, m/s²], no row weighting; the rank decision is
         relative to the largest column (``drake_dynid.core.base_parameters``).
+        Motor columns are divided by ``scales`` for the decision and mapped back
+        (``drake_dynid.robot_drive.rescale_base``).
         """
         rng = np.random.default_rng(seed)
         n = self.num_joints
@@ -271,7 +334,10 @@ class RobotModel(RobotRows):
         v = rng.normal(size=(num_samples, n))
         vdot = rng.normal(size=(num_samples, n))
         rows = self._idim_standard(q, v, vdot).reshape(-1, p_std)
-        return base_parameters(rows, self.standard_names)
+        if scales is None:
+            return base_parameters(rows, self.standard_names)
+        base = base_parameters(rows / scales, self.standard_names)
+        return rescale_base(base, scales)
 
     # ---------------------------------------------------------------- properties
     @property
@@ -290,6 +356,11 @@ class RobotModel(RobotRows):
         return self.base.names
 
     @property
+    def prismatic(self) -> tuple[bool, ...]:
+        """(n,) True for a prismatic identified joint [m], False for revolute [rad]."""
+        return tuple(bool(p) for p in self._chain.prismatic[: self.num_joints])
+
+    @property
     def plant_joint_names(self) -> tuple[str, ...]:
         """Every movable joint of ``plant``, in its position order."""
         return self._map.movable
@@ -299,6 +370,25 @@ class RobotModel(RobotRows):
         return dict(
             zip(self.standard_names, self.standard_values.tolist(), strict=True)
         )
+
+    def with_sign(self, sign: SignLaw | None) -> RobotModel:
+        """A copy whose friction columns use the Coulomb law ``sign``.
+
+        ``sign`` is a ``drake_dynid.core.friction.SignLaw`` (``DeadZoneSign`` with
+        one width per joint for real logs, see ``drake_dynid.core.standstill``);
+        None is the exact sign. Coupled motors use it on u_k/ρ_k (per-joint
+        dead-zone widths combine per motor). The base parameters are unchanged.
+        """
+        sign = EXACT_SIGN if sign is None else sign
+        if not isinstance(sign, SignLaw):
+            raise TypeError(
+                "RobotModel: sign must be a SignLaw (a vectorised __call__ and a "
+                f"scalar method) or None; got {type(sign).__name__}."
+            )
+        motors = self._motors
+        if motors is not None:
+            motors = dataclasses.replace(motors, sign=motor_sign(sign, motors))
+        return dataclasses.replace(self, sign=sign, _motors=motors)
 
     # ------------------------------------------------------------ fast 2R provider
     def rows_provider(self, *, tolerance: float = 1e-9) -> Any:
@@ -313,6 +403,8 @@ class RobotModel(RobotRows):
         v, tau)``.
         """
         if self.num_joints != 2 or self.rotor_inertia or self.mimic:
+            return self
+        if self.drive is not None or not isinstance(self.sign, ExactSign):
             return self
         if self.base.names[:4] != ("ZZ1R", "ZZ2", "MX2", "MY2"):
             return self

@@ -7,7 +7,9 @@ on the tree of moving links (``drake_dynid.core.rigid_body``) at q_tree = P q + 
 v_tree = P v, v̇_tree = P v̇ (identified joints, then moving mimic joints;
 ``drake_dynid.core.joint_map``), and every per-joint row is reduced by Pᵀ:
 τ = Pᵀ τ_tree by virtual work. Rotor inertia (IAj) and friction (FVj, FCj, OFFj)
-columns exist only for the n identified joints.
+columns exist only for the n identified joints. The coupled motors of a drive chain
+add ``IAmk`` (after the links) and ``FVmk FCmk OFFmk`` (after the joint friction),
+``drake_dynid.core.drive_columns``; every Coulomb column uses the model's ``sign``.
 """
 
 from __future__ import annotations
@@ -48,8 +50,10 @@ class RobotRows:
     mimic: Any
     plant: Any
     rotor_inertia: bool
+    sign: Any
     standard_names: tuple[str, ...]
     _chain: Any
+    _motors: Any
     _joint_frames: tuple[Any, ...]
     _link_bodies: tuple[Any, ...]
     _map: Any
@@ -153,18 +157,29 @@ class RobotRows:
             )
         return out
 
+    def _motor_inertia_slice(self) -> slice:
+        """Standard columns ``IAmk`` of the coupled motors (empty without)."""
+        start = self.num_joints * self._block + 10 * (self.num_links - self.num_joints)
+        width = 0 if self._motors is None else len(self._motors.inertia_names)
+        return slice(start, start + width)
+
     def _friction_slice(self) -> slice:
-        return slice(
-            self.num_joints * self._block + 10 * (self.num_links - self.num_joints),
-            None,
-        )
+        """Standard columns of the joint friction (n·len(friction))."""
+        start = self._motor_inertia_slice().stop
+        return slice(start, start + self.num_joints * len(self.friction))
+
+    def _motor_friction_slice(self) -> slice:
+        """Standard columns ``FVmk FCmk OFFmk`` of the coupled motors (to the end)."""
+        return slice(self._friction_slice().stop, len(self.standard_names))
 
     def _energy_standard(self, q, v):
         kinetic, potential = energy_blocks(self._terms(q, v), self.gravity)
-        return (
-            self._assemble(kinetic, 0.5 * v * v),
-            self._assemble(potential, np.zeros_like(v)),
-        )
+        kinetic = self._assemble(kinetic, 0.5 * v * v)
+        if self._motors is not None:
+            inertia = self._motor_inertia_slice()
+            width = inertia.stop - inertia.start
+            kinetic[..., inertia] = self._motors.energy_columns(v)[..., :width]
+        return kinetic, self._assemble(potential, np.zeros_like(v))
 
     def _lagrangian_standard(self, q, v):
         n = self.num_joints
@@ -173,8 +188,13 @@ class RobotRows:
             for a in lagrangian_blocks(self._terms(q, v, derivatives=True))
         )
         zero = np.zeros((*v.shape, n))
+        momentum = self._assemble(dhe_dv, np.eye(n)[None] * v[:, None, :])
+        if self._motors is not None:
+            inertia = self._motor_inertia_slice()
+            width = inertia.stop - inertia.start
+            momentum[..., inertia] = self._motors.momentum_columns(v)[..., :width]
         return (
-            self._assemble(dhe_dv, np.eye(n)[None] * v[:, None, :]),
+            momentum,
             self._assemble(dhe_dq, zero),
             self._assemble(dhu_dq, zero),
         )
@@ -187,7 +207,15 @@ class RobotRows:
             self._reduce_joints(rows),
             np.eye(self.num_joints)[None] * vdot[:, None, :],
         )
-        out[..., self._friction_slice()] = friction_idim_columns(v, self.friction)
+        out[..., self._friction_slice()] = friction_idim_columns(
+            v, self.friction, self.sign
+        )
+        if self._motors is not None:
+            inertia = self._motor_inertia_slice()
+            width = inertia.stop - inertia.start
+            motors = self._motors.idim_columns(v, vdot)
+            out[..., inertia] = motors[..., :width]
+            out[..., self._motor_friction_slice()] = motors[..., width:]
         return out
 
     def _columns(self, rows: np.ndarray, columns: str) -> np.ndarray:
@@ -280,12 +308,11 @@ class RobotRows:
             (no sample axis for a single sample).
         """
         q, v, tau, single = self._batches(q=q, v=v, tau=tau)
-        fslice = slice(
-            self.base.independent.index(self._friction_slice().start)
-            if self.friction
-            else self.num_parameters,
-            None,
-        )
+        if self.friction:
+            first = self.base.independent.index(self._friction_slice().start)
+            fslice = slice(first, first + self.num_joints * len(self.friction))
+        else:
+            fslice = slice(self.num_parameters, None)
 
         def energy():
             kinetic, potential = self._energy_standard(q, v)
@@ -309,13 +336,31 @@ class RobotRows:
             fslice,
             self.friction,
             self.num_parameters,
+            self.sign,
         )
+        if self._motors is not None:
+            self._add_motor_friction(kind, v, out[1])
         return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
 
+    def _add_motor_friction(self, kind: str, v: np.ndarray, g_rows: np.ndarray):
+        """Adds the kept motor friction columns to G (base columns), in place.
+
+        A motor friction column that the reduction regrouped (e.g. both motors of a
+        differential with the joint friction of both joints) is dropped: its
+        model rows are the same combination of the kept ones as its IDIM rows.
+        """
+        friction = self._motor_friction_slice()
+        width = self._motor_inertia_slice().stop - self._motor_inertia_slice().start
+        index = {column: k for k, column in enumerate(self.base.independent)}
+        _, g_motors = self._motors.model_columns(kind, v)
+        for offset, column in enumerate(range(friction.start, friction.stop)):
+            if column in index:
+                g_rows[..., index[column]] += g_motors[..., width + offset]
+
     def _check_friction_columns(self) -> None:
-        start = self._friction_slice().start
-        kept = [i for i in self.base.independent if i >= start]
-        if kept != list(range(start, len(self.standard_names))):
+        friction = self._friction_slice()
+        kept = [i for i in self.base.independent if friction.start <= i < friction.stop]
+        if kept != list(range(friction.start, friction.stop)):
             raise ValueError(
                 "RobotModel: a friction column is not identifiable (all must be); "
                 "check the friction kinds."

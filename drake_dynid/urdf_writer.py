@@ -63,7 +63,8 @@ class UrdfExport:
         path: the written file.
         links: the links whose ``<inertial>`` holds identified values.
         lumped: welded links set to mass 0 (lumped into an identified link).
-        skipped: identified parameters with no URDF field (``OFFj``).
+        skipped: identified parameters with no URDF field (``OFFj``, the coupled
+            motors' ``IAmk``, ``FVmk``, ``FCmk``, ``OFFmk``).
     """
 
     path: str
@@ -260,6 +261,8 @@ def write_identified_urdf(
             skipped.append(f"OFF{j}")
         if f"IA{j}" in values:
             _set_rotor_inertia(root, joint_name, values[f"IA{j}"])
+    # Coupled motors' parameters (IAmk, FVmk, FCmk, OFFmk) have no URDF field.
+    skipped += [name for name in names if re.fullmatch(r"(IA|FV|FC|OFF)m\d+", name)]
     for body, k in groups.items():
         if k < 0 or body in written or body not in links_by_name:
             continue

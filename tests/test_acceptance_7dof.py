@@ -7,10 +7,11 @@ harmonics of 0.2 Hz, |v| <= 1.5 rad/s, |q - q0| <= 1.5 rad) at 500 Hz, with nois
 
 ``dynid offline --physical --urdf-out`` fits; ``dynid validate`` predicts the
 held-out torques. The test recomputes the per-joint errors directly: the same
-position filter and comparison low-pass (settings echoed by ``validate``), but the
-torques predicted by Pinocchio: its own regressor for the unconstrained base
-parameters, and its inverse dynamics of the written URDF for the consistent ones.
-About 4 s.
+position filter and comparison low-pass (settings echoed by ``validate``), the
+Coulomb sign with the fit's standstill dead zone (widths echoed in the results
+file, docs/MATH.md §2), but the torques predicted by Pinocchio: its own regressor
+for the unconstrained base parameters, and its inverse dynamics of the written URDF
+for the consistent ones. About 4 s.
 """
 
 import json
@@ -92,7 +93,12 @@ def run(tmp_path_factory):
     }
 
 
-def _regressor_prediction(q, v, vdot, parameters):
+def _sign(v, widths):
+    """The dead-zone Coulomb sign: 0 for |v_j| <= w_j, else sign(v_j)."""
+    return np.where(np.abs(v) <= widths, 0.0, np.sign(v))
+
+
+def _regressor_prediction(q, v, vdot, parameters, widths):
     """τ̂ = W_std[:, leading column of each base parameter]·θ, W from Pinocchio."""
     model = pin.buildModelFromUrdf(URDF)
     data = model.createData()
@@ -111,18 +117,18 @@ def _regressor_prediction(q, v, vdot, parameters):
                 out[k, j] += value * v[k, j]
             elif leading.startswith("FC"):
                 j = int(leading[2:]) - 1
-                out[k, j] += value * np.sign(v[k, j])
+                out[k, j] += value * _sign(v[k, j], widths[j])
             else:
                 out[k] += value * rows[:, column[leading]]
     return out
 
 
-def _urdf_prediction(path, q, v, vdot):
+def _urdf_prediction(path, q, v, vdot, widths):
     model = pin.buildModelFromUrdf(str(path))
     data = model.createData()
     damping, friction = _urdf_friction(path)
     tau = np.array([pin.rnea(model, data, q[k], v[k], vdot[k]) for k in range(len(q))])
-    return tau + damping * v + friction * np.sign(v)
+    return tau + damping * v + friction * _sign(v, widths)
 
 
 def _errors(measured, predicted):
@@ -150,9 +156,14 @@ def test_validate_reports_the_directly_computed_errors(run):
         padding=settings["padding"],
     )
     measured = log.tau[trim:-trim]
+    zone = run["result"]["settings"]["coulomb_dead_zone"]
+    widths = np.array([zone[name] for name in log.joint_names])
+    assert np.all((widths > 0.0) & (widths < 0.05))  # 3 x the velocity noise
     predictions = {
-        "idim-ls": _regressor_prediction(q, v, vdot, run["result"]["parameters"]),
-        "physical": _urdf_prediction(run["urdf_out"], q, v, vdot),
+        "idim-ls": _regressor_prediction(
+            q, v, vdot, run["result"]["parameters"], widths
+        ),
+        "physical": _urdf_prediction(run["urdf_out"], q, v, vdot, widths),
     }
     assert set(validation["estimates"]) == set(predictions)
     assert validation["samples_compared"] == measured.shape[0]

@@ -182,8 +182,11 @@ def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
     assert "samples used" in out and "of 3001 in 1 of 1 segment(s)" in out
     table = _table(out)
     assert list(table) == list(TRUTH)
-    for name, (value, _) in table.items():
-        assert abs(value - TRUTH[name]) < 0.01 * TRUTH[name], (name, value)
+    for name, (value, percent) in table.items():
+        # Within 1 % or 3 σ (FV1: about 1 % off at %σ 0.5-1, depending on the
+        # dead zone measured on the log).
+        tolerance = max(0.01, 0.03 * percent) * TRUTH[name]
+        assert abs(value - TRUTH[name]) < tolerance, (name, value, percent)
     document = json.loads(out_json.read_text())
     assert document["model"] == "idim-wls" and document["valid"] is True
     assert document["window"] == pytest.approx(3.0)

@@ -5,7 +5,87 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Sequence
 from typing import Any
+
+
+class LogFiles(argparse.Action):
+    """``LOG [LOG ...]``: stores the list in ``<dest>_files`` and a label in ``dest``.
+
+    The label (the file, or the files joined by `` + ``) names the log in messages
+    and outputs; the list is what the readers open.
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        files = [values] if isinstance(values, str) else list(values)
+        setattr(namespace, f"{self.dest}_files", files)
+        setattr(namespace, self.dest, " + ".join(files))
+
+
+def log_files(args: argparse.Namespace, name: str = "log") -> list[str]:
+    """The files of the ``LOG`` positional (or of ``--validate`` with ``name``)."""
+    files = getattr(args, f"{name}_files", None)
+    if files is not None:
+        return list(files)
+    value = getattr(args, name, None)
+    return [value] if value else []
+
+
+def add_drive_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--drive`` (drive file) and ``--rotor-inertia``."""
+    parser.add_argument(
+        "--drive",
+        metavar="FILE.toml",
+        help="drive file (docs/DRIVE.md): log column names and units, motor-side "
+        "positions, currents and torque constants, zero offsets, gear ratios and "
+        "coupled joints; it overrides the URDF's <transmission> elements; coupled "
+        "motors get their own friction (and, with --rotor-inertia, inertia) "
+        "parameters",
+    )
+    parser.add_argument(
+        "--rotor-inertia",
+        action="store_true",
+        help="add the rotor inertia columns: IAj per joint (a-priori value: the "
+        "drive file's rotor_inertia x gear ratio squared, else the URDF's "
+        "actuators) and IAmk per coupled motor",
+    )
+
+
+def add_dead_zone_argument(parser: argparse.ArgumentParser, default: Any) -> None:
+    """Adds ``--dead-zone`` (the Coulomb columns at standstill)."""
+    parser.add_argument(
+        "--dead-zone",
+        default=default,
+        metavar="auto|none|W",
+        help="Coulomb columns at standstill: s(v) = 0 for |v| <= w, else sign(v). "
+        "auto: w_j = 3 x the velocity noise measured on the log, per joint "
+        "(docs/MATH.md section 2); none: the exact sign(v) (the paper's model); W: "
+        "one width for every joint [rad/s or m/s]"
+        + (" (default: auto)" if default == "auto" else ""),
+    )
+
+
+def parse_dead_zone(text: str | None) -> Any:
+    """``"auto"`` -> ``"auto"``; ``"none"`` -> None; ``"0.01"`` -> 0.01 [rad/s].
+
+    Raises:
+        ValueError: anything else, or a negative or non-finite width.
+    """
+    if text is None:
+        return None
+    value = text.strip().lower()
+    if value in ("auto", "none"):
+        return None if value == "none" else "auto"
+    try:
+        width = float(value)
+    except ValueError:
+        width = math.nan
+    if not math.isfinite(width) or width < 0.0:
+        raise ValueError(
+            "--dead-zone must be auto, none or a width >= 0 [rad/s or m/s]; got "
+            f"{text!r}."
+        )
+    return width
 
 
 def add_friction_argument(parser: argparse.ArgumentParser) -> None:
@@ -113,12 +193,16 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
     from drake_dynid.robot import RobotModel
 
     options: dict[str, Any] = {
-        "friction": parse_friction(getattr(args, "friction", "viscous,coulomb")),
+        "friction": parse_friction(
+            getattr(args, "friction", None) or "viscous,coulomb"
+        ),
         "joints": parse_joints(getattr(args, "joints", None)),
         "locked": parse_locked(getattr(args, "lock", None)),
     }
     if hasattr(args, "rotor_inertia"):
         options["rotor_inertia"] = bool(args.rotor_inertia)
+    if getattr(args, "drive", None):
+        options["drive"] = args.drive
     options.update(kwargs)
     robot = RobotModel.from_urdf(args.urdf, **options)
     for note in robot.notes:
@@ -126,14 +210,29 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
     return robot
 
 
+def add_log_argument(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``LOG`` positional: one CSV file or several joined on time."""
+    parser.add_argument(
+        "log",
+        nargs="+",
+        action=LogFiles,
+        metavar="LOG.csv",
+        help="the robot log (CSV); several files (e.g. positions and efforts "
+        "recorded apart) are joined on their time column: the other files are "
+        "interpolated onto the first file's time stamps over the common span",
+    )
+
+
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``dynid identify`` and ``dynid offline``."""
-    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    add_log_argument(parser)
     parser.add_argument(
         "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
     )
     add_friction_argument(parser)
     add_joint_arguments(parser)
+    add_drive_arguments(parser)
+    add_dead_zone_argument(parser, "auto")
     parser.add_argument(
         "--resample",
         action="store_true",
@@ -149,12 +248,123 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def load_robot_and_log(args: argparse.Namespace, command: str):
-    """Loads the URDF model and the log; prints the reader's warnings on stderr."""
-    from drake_dynid.logs import read_log
+def read_robot_log(
+    files: Sequence[str], robot: Any, *, resample: bool, command: str
+) -> Any:
+    """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
-    robot = robot_from_args(args, command)
-    log = read_log(args.log, robot.joint_names, resample=args.resample)
+    One file and no drive chain: the plain CSV format (``drake_dynid.logs``).
+    Otherwise the files are joined on time and converted by the robot's drive
+    chain (``drake_dynid.raw_log``; an identity chain without ``--drive``).
+    """
+    label = " + ".join(files)
+    if robot.drive is None and len(files) == 1:
+        from drake_dynid.logs import read_log
+
+        log = read_log(files[0], robot.joint_names, resample=resample)
+    else:
+        from drake_dynid.core.drive import DriveChain
+        from drake_dynid.raw_log import read_raw_log
+
+        chain = robot.drive
+        if chain is None:
+            chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
+        log = read_raw_log(files, chain, resample=resample)
     for warning in log.warnings:
-        print(f"dynid {command}: warning: log {args.log}: {warning}", file=sys.stderr)
-    return robot, log
+        print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
+    return log
+
+
+def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
+    """``robot`` with the Coulomb sign of ``--dead-zone`` (measured on ``log``).
+
+    ``auto`` measures one width per joint (``drake_dynid.offline.
+    standstill_widths``, with ``--cutoff``/``--decimation-cutoff`` when given);
+    ``none`` keeps the exact sign; a number is one width for every joint. A model
+    without Coulomb columns is returned unchanged.
+    """
+    from drake_dynid.core.friction import DeadZoneSign
+
+    choice = parse_dead_zone(getattr(args, "dead_zone", None))
+    if choice is None or "coulomb" not in robot.friction:
+        return robot
+    if choice == "auto":
+        from drake_dynid.offline import standstill_widths
+
+        widths = standstill_widths(
+            log,
+            cutoff_hz=getattr(args, "cutoff", None),
+            decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
+        )
+        if widths is None:
+            # Too short for the noise measurement (the fit says so in its own
+            # terms when it cannot run either); dead_zone_line reports it.
+            args.dead_zone_note = (
+                "exact sign(v): no finite run of the log is long enough to measure "
+                "the velocity noise (--dead-zone auto)"
+            )
+            return robot
+        return robot.with_sign(DeadZoneSign(tuple(float(w) for w in widths)))
+    return robot.with_sign(DeadZoneSign((float(choice),) * robot.num_joints))
+
+
+def dead_zone_widths(robot: Any) -> dict[str, float] | None:
+    """``{joint: width}`` of the robot's dead zone, or None (exact sign)."""
+    from drake_dynid.core.friction import DeadZoneSign
+
+    sign = getattr(robot, "sign", None)
+    if not isinstance(sign, DeadZoneSign):
+        return None
+    widths = sign.width
+    if isinstance(widths, float):
+        widths = (widths,) * robot.num_joints
+    return dict(zip(robot.joint_names, map(float, widths), strict=True))
+
+
+def dead_zone_line(robot: Any, args: Any = None) -> str | None:
+    """One printed line with the dead-zone widths (None with the exact sign).
+
+    When ``--dead-zone auto`` could not measure the noise, the line says so.
+    """
+    widths = dead_zone_widths(robot)
+    if widths is None:
+        note = getattr(args, "dead_zone_note", None)
+        return f"Coulomb columns: {note}" if note else None
+    prismatic = getattr(robot, "prismatic", (False,) * robot.num_joints)
+    text = ", ".join(
+        f"{name} {w:.2g} {'m' if p else 'rad'}/s"
+        for (name, w), p in zip(widths.items(), prismatic, strict=True)
+    )
+    return f"Coulomb dead zone (|v| <= w: sign(v) = 0): {text}"
+
+
+def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
+    """The model entries of a results file's ``settings`` (read back by validate).
+
+    Identified and locked joints, rotor inertia, the drive file and its chain,
+    and the Coulomb dead zone (``--dead-zone`` and the widths used).
+    """
+    out: dict[str, Any] = {
+        "joints": list(robot.joint_names),
+        "locked": dict(robot.locked),
+        "rotor_inertia": bool(robot.rotor_inertia),
+        "drive": getattr(args, "drive", None),
+        "dead_zone": getattr(args, "dead_zone", None),
+        "coulomb_dead_zone": dead_zone_widths(robot),
+    }
+    if robot.drive is not None:
+        out["drive_chain"] = robot.drive.summary()
+    return out
+
+
+def load_robot_and_log(args: argparse.Namespace, command: str):
+    """Loads the URDF model (with its drive chain) and the log.
+
+    Prints the reader's warnings on stderr and applies ``--dead-zone`` (measured
+    on the whole log, before any ``--split``).
+    """
+    robot = robot_from_args(args, command)
+    log = read_robot_log(
+        log_files(args), robot, resample=args.resample, command=command
+    )
+    return apply_dead_zone(args, robot, log), log

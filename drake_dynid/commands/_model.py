@@ -220,7 +220,7 @@ def finish_offline(
             robot,
             held,
             description,
-            estimates,
+            with_apriori(args, robot, estimates),
             plot_title=f"dynid offline: held-out torques ({description})",
         )
     elif args.plot:
@@ -256,6 +256,25 @@ def finish_identify(
     )
     if held is not None:
         document["validation"] = report_validation(
-            args, robot, held, description, estimates
+            args, robot, held, description, with_apriori(args, robot, estimates)
         )
     return document
+
+
+#: Label of the a-priori model in the validation tables (``--compare-urdf``).
+APRIORI_LABEL = "URDF a-priori"
+
+
+def with_apriori(
+    args: argparse.Namespace, robot: Any, estimates: Mapping[str, np.ndarray]
+) -> dict[str, np.ndarray]:
+    """``estimates`` plus the URDF's a-priori base values with ``--compare-urdf``.
+
+    The a-priori values are the model's ``base_values``: the URDF's inertial
+    parameters, ``<dynamics damping friction>``, the actuators' rotor inertia and
+    the drive file's motor values.
+    """
+    out = dict(estimates)
+    if getattr(args, "compare_urdf", False):
+        out[APRIORI_LABEL] = np.asarray(robot.base_values, dtype=float)
+    return out

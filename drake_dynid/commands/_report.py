@@ -111,7 +111,10 @@ def parameters_document(
 def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
     """The ``log`` entry of the JSON format."""
     return {
-        "path": str(args.log),
+        "path": (
+            str(args.log) if len(getattr(args, "log_files", [0])) == 1
+            else list(args.log_files)
+        ),
         "samples": int(log.num_samples),
         "bad_samples": int(np.count_nonzero(log.bad_samples)),
         "time_step": float(log.time_step),

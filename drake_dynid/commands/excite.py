@@ -11,7 +11,11 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+from drake_dynid.commands._arguments import (
+    add_drive_arguments,
+    add_friction_argument,
+    robot_from_args,
+)
 from drake_dynid.commands._paths import check_outputs
 
 HELP = "design an exciting trajectory (optimal Fourier series within the limits)"
@@ -39,6 +43,7 @@ WEAK_PERCENT = 1.0
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid excite`` arguments."""
     parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    add_drive_arguments(parser)
     parser.add_argument(
         "--duration",
         type=float,
@@ -190,7 +195,6 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.collision import SelfCollision
     from drake_dynid.core.excite import ExcitationSettings, design_excitation
     from drake_dynid.core.excite_report import excitation_report
-    from drake_dynid.robot import RobotModel
     from drake_dynid.trajectory_file import (
         SampledTrajectory,
         write_coefficients,
@@ -199,7 +203,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_outputs(
         {"--out": args.out, "--json": args.json, "--plot": args.plot},
-        [args.urdf, args.limits],
+        [args.urdf, args.limits, args.drive],
     )
     margins = parse_margins(args.margin)
     settings = ExcitationSettings(
@@ -212,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
     )
     if not args.sample_rate > 0.0:
         raise ValueError(f"--sample-rate must be > 0 [Hz]; got {args.sample_rate}.")
-    robot = RobotModel.from_urdf(args.urdf, friction=parse_friction(args.friction))
+    robot = robot_from_args(args, "excite")
     rows = robot.rows_provider()
     limits = _limits(robot, args)
     say = (lambda *a: None) if args.quiet else print

@@ -9,7 +9,12 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.commands._arguments import add_common_arguments, load_robot_and_log
+from drake_dynid.commands._arguments import (
+    add_common_arguments,
+    dead_zone_line,
+    load_robot_and_log,
+    model_settings,
+)
 from drake_dynid.commands._report import (
     estimates_table,
     json_number,
@@ -256,7 +261,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
-    log, held, held_description = validation_split(args, log)
+    log, held, held_description = validation_split(args, log, robot)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )
@@ -298,6 +303,9 @@ def run(args: argparse.Namespace) -> int:
     condition = float(trace.condition_number[last_valid])
     if not args.quiet:
         print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+        line = dead_zone_line(robot, args)
+        if line:
+            print(line)
         print(
             f"model: {settings.model}; window: {settings.window:g} s; "
             f"{len(settings.ell())} modulating functions; latency "
@@ -345,6 +353,7 @@ def run(args: argparse.Namespace) -> int:
                 **settings.as_dict(),
                 "friction": list(robot.friction),
                 "resample": bool(args.resample),
+                **model_settings(args, robot),
                 "bandwidth_measured": band_measured,
                 "engine": args.engine,
             },

@@ -4,7 +4,12 @@ from __future__ import annotations
 
 import argparse
 
-from drake_dynid.commands._arguments import add_common_arguments, load_robot_and_log
+from drake_dynid.commands._arguments import (
+    add_common_arguments,
+    dead_zone_line,
+    load_robot_and_log,
+    model_settings,
+)
 from drake_dynid.commands._model import (
     add_model_arguments,
     finish_offline,
@@ -75,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         matplotlib_pyplot()  # fail before the fit
     robot, log = load_robot_and_log(args, "offline")
-    log, held, held_description = validation_split(args, log)
+    log, held, held_description = validation_split(args, log, robot)
     result = identify_offline(
         log,
         robot,
@@ -94,6 +99,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if not args.quiet:
         print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+        line = dead_zone_line(robot, args)
+        if line:
+            print(line)
         print(
             f"model: {result.model}; cutoff {settings['cutoff_hz']:.4g} Hz "
             f"({settings['cutoff_rule']}); decimation {settings['decimation']} "
@@ -132,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
                 **settings,
                 "friction": list(robot.friction),
                 "resample": bool(args.resample),
+                **model_settings(args, robot),
             },
             "urdf": str(args.urdf),
             "log": log_document(args, log),

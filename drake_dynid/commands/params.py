@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.commands._arguments import (
+    add_drive_arguments,
     add_friction_argument,
     add_joint_arguments,
     robot_from_args,
@@ -34,11 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
     add_friction_argument(parser)
     add_joint_arguments(parser)
-    parser.add_argument(
-        "--rotor-inertia",
-        action="store_true",
-        help="add the rotor inertia columns IAj (values from the URDF's actuators)",
-    )
+    add_drive_arguments(parser)
     parser.add_argument(
         "--json", metavar="FILE", help="also write the parameters as JSON to FILE"
     )
@@ -90,11 +87,12 @@ def _rank_json(base) -> dict:
     }
 
 
-def params_document(model: Any, urdf: Any) -> dict[str, Any]:
+def params_document(model: Any, urdf: Any, drive: Any = None) -> dict[str, Any]:
     """The ``dynid params --json`` document of a ``RobotModel``.
 
     Base parameters (name, value, definition), standard parameters, the rank
-    decision, joints (identified, locked, mimic), notes, URDF path and settings;
+    decision, joints (identified, locked, mimic), notes, URDF path and settings
+    (with the drive file path ``drive`` and, with a drive chain, its summary);
     ``dynid simulate`` writes it as the log's truth.
     """
     base = model.base
@@ -132,8 +130,32 @@ def params_document(model: Any, urdf: Any) -> dict[str, Any]:
             "friction": list(model.friction),
             "rotor_inertia": model.rotor_inertia,
             "gravity": model.gravity.tolist(),
+            "drive": drive,
         },
+        **({"drive_chain": model.drive.summary()} if model.drive is not None else {}),
     }
+
+
+def drive_lines(chain: Any) -> list[str]:
+    """The drive chain in a few lines: motors (rows of R), torque constants, log."""
+    lines = [f"drive: {chain.source}; {chain.num_motors} motors (v_m = R v)"]
+    names = chain.joint_names
+    for k, motor in enumerate(chain.motors):
+        row = " + ".join(f"{motor.row[j]:g} {names[j]}" for j in motor.joints)
+        extra = []
+        if motor.torque_constant is not None:
+            extra.append(f"k_t {motor.torque_constant:g}")
+        if motor.rotor_inertia is not None:
+            extra.append(f"Ia {motor.rotor_inertia:g}")
+        kind = "coupled" if motor.coupled else "simple"
+        more = f"; {', '.join(extra)}" if extra else ""
+        lines.append(f"  m{k + 1} {motor.name} ({kind}, {motor.source}): {row}{more}")
+    log = chain.log
+    lines.append(
+        f"  log: time '{log.time}' [{log.time_unit}], positions {log.position_side} "
+        f"side, torques {log.torque_side} side [{log.torque_unit}]"
+    )
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -150,6 +172,9 @@ def run(args: argparse.Namespace) -> int:
     for k, (name, (leader, a, b)) in enumerate(model.mimic.items()):
         link = model.num_joints + k + 1
         print(f"mimic: {name} = {a:g} x {leader} + {b:g} (link {link})")
+    if model.drive is not None:
+        for line in drive_lines(model.drive):
+            print(line)
     print(
         f"standard parameters: {base.num_standard}; base parameters: "
         f"{base.num_base} (friction: {friction}; rotor inertia: "
@@ -169,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
     for name, value, definition in rows:
         print(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
     if args.json:
-        document = params_document(model, args.urdf)
+        document = params_document(model, args.urdf, args.drive)
         Path(args.json).write_text(json.dumps(document, indent=2) + "\n")
         print(f"\nwrote {args.json}")
     return 0

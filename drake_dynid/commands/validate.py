@@ -9,13 +9,22 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from drake_dynid.commands._arguments import parse_friction
+from drake_dynid.commands._arguments import (
+    LogFiles,
+    add_dead_zone_argument,
+    add_drive_arguments,
+    add_joint_arguments,
+    add_log_argument,
+    dead_zone_line,
+    log_files,
+    read_robot_log,
+)
 
 HELP = "predict a log's joint torques from identified base parameters (validation)"
 DESCRIPTION = (
@@ -40,9 +49,12 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("validation")
     group.add_argument(
         "--validate",
+        nargs="+",
+        action=LogFiles,
         metavar="LOG2.csv",
-        help="after the fit, predict the torques of this other log and report the "
-        "errors per joint (see dynid validate)",
+        help="after the fit, predict the torques of this other log (one file or "
+        "several joined on time, read like LOG) and report the errors per joint "
+        "(see dynid validate)",
     )
     group.add_argument(
         "--split",
@@ -51,17 +63,25 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
         help="fit on the first FRACTION of the log (0 < FRACTION < 1) and validate "
         "on the rest",
     )
+    group.add_argument(
+        "--compare-urdf",
+        action="store_true",
+        help="with --validate or --split: also predict the held-out torques with "
+        "the URDF's a-priori parameters (inertias, <dynamics damping friction>, the "
+        "drive file's motor values)",
+    )
 
 
 def check_output_paths(args: argparse.Namespace) -> None:
     """No output option may name an input file, nor two outputs the same file."""
-    inputs = {
-        option: getattr(args, name, None)
+    inputs: dict[str, list[str]] = {
+        option: log_files(args, name)
         for option, name in (
             ("LOG", "log"),
             ("--urdf", "urdf"),
             ("--params", "params"),
             ("--validate", "validate"),
+            ("--drive", "drive"),
         )
     }
     outputs = {
@@ -74,9 +94,10 @@ def check_output_paths(args: argparse.Namespace) -> None:
         )
     }
     seen: dict[Path, str] = {}
-    for option, path in inputs.items():
-        if path:
-            seen[Path(path).resolve()] = f"the input {option}"
+    for option, paths in inputs.items():
+        for name in paths:
+            if name:
+                seen[Path(name).resolve()] = f"the input {option}"
     for option, path in outputs.items():
         if not path:
             continue
@@ -89,9 +110,13 @@ def check_output_paths(args: argparse.Namespace) -> None:
         seen[resolved] = f"the output {option}"
 
 
-def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]:
-    """(log to fit, log to validate or None, its description) from the options."""
-    from drake_dynid.logs import read_log
+def validation_split(
+    args: argparse.Namespace, log: Any, robot: Any = None
+) -> tuple[Any, Any, str]:
+    """(log to fit, log to validate or None, its description) from the options.
+
+    ``--validate`` files are read like the fitted log (``robot``'s drive chain).
+    """
     from drake_dynid.validation import split_log
 
     split = getattr(args, "split", None)
@@ -104,9 +129,19 @@ def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]
         first, rest = split_log(log, split)
         return first, rest, f"{args.log} after the first {100 * split:g} %"
     if other:
-        held = read_log(other, log.joint_names, resample=args.resample)
-        for warning in held.warnings:
-            print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
+        if robot is None:
+            from drake_dynid.logs import read_log
+
+            held = read_log(other, log.joint_names, resample=args.resample)
+            for warning in held.warnings:
+                print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
+        else:
+            held = read_robot_log(
+                log_files(args, "validate"),
+                robot,
+                resample=args.resample,
+                command=getattr(args, "command", "dynid"),
+            )
         return log, held, str(other)
     return log, None, ""
 
@@ -320,7 +355,7 @@ def report_validation(
 # --------------------------------------------------------------------- validate
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid validate`` arguments."""
-    parser.add_argument("log", metavar="LOG.csv", help="the robot log (CSV)")
+    add_log_argument(parser)
     parser.add_argument(
         "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
     )
@@ -328,13 +363,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--params",
         required=True,
         metavar="RESULT.json",
-        help="the identified parameters (dynid offline/identify --json)",
+        help="the identified parameters (dynid offline/identify --json, or dynid "
+        "params --json for the URDF's a-priori values)",
     )
     parser.add_argument(
         "--friction",
         default=None,
         help="friction columns per joint (default: those of the results file)",
     )
+    add_joint_arguments(parser)
+    add_drive_arguments(parser)
+    add_dead_zone_argument(parser, None)
     parser.add_argument(
         "--cutoff",
         type=float,
@@ -360,20 +399,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing")
 
 
-def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence[str]:
-    if args.friction is not None:
-        return parse_friction(args.friction)
-    settings = document.get("settings")
-    if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
-        return tuple(str(kind) for kind in settings["friction"])
-    return ("viscous", "coulomb")
-
-
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._report import write_json
-    from drake_dynid.logs import read_log
-    from drake_dynid.plants import RobotModel
+    from drake_dynid.commands._results import results_robot, results_sign
     from drake_dynid.validation import read_estimates, read_results
 
     check_output_paths(args)
@@ -382,19 +411,23 @@ def run(args: argparse.Namespace) -> int:
 
         matplotlib_pyplot()
     document = read_results(args.params)
-    robot = RobotModel.from_urdf(args.urdf, friction=_friction(args, document))
+    robot = results_robot(args, document)
     estimates = read_estimates(document, robot, f"results file {args.params}")
     model = str(document.get("model", "fit"))
     labels = {"fit": model, "physical": "physical"}
     estimates = {labels[k]: v for k, v in estimates.items()}
-    log = read_log(args.log, robot.joint_names, resample=args.resample)
-    for warning in log.warnings:
-        print(f"dynid validate: warning: log {args.log}: {warning}", file=sys.stderr)
+    log = read_robot_log(
+        log_files(args), robot, resample=args.resample, command="validate"
+    )
+    robot = results_sign(args, document, robot, log)
     if not args.quiet:
         print(
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "
             f"parameters{', with a physical estimate' if len(estimates) > 1 else ''})"
         )
+        line = dead_zone_line(robot)
+        if line:
+            print(line)
     entry = report_validation(
         args,
         robot,

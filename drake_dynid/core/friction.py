@@ -8,7 +8,10 @@ with ``s`` the Coulomb sign function, a pluggable :class:`SignLaw`:
 
 * :class:`ExactSign`, ``s(v) = sign(v)``: the identification models (the paper's);
 * :class:`TanhSign`, ``s(v) = tanh(v/width)``: the simulated friction (a discrete
-  plant chatters around v = 0 with an exact sign).
+  plant chatters around v = 0 with an exact sign);
+* :class:`DeadZoneSign`, ``s(v) = 0`` for ``|v| <= width``, else ``sign(v)``: the
+  standstill treatment of real logs (docs/MATH.md §2: the width follows from the
+  velocity noise measured on the log, ``drake_dynid.core.standstill``).
 
 Every consumer reads the law from here: the inverse-dynamics (IDIM) and Lagrangian
 rows take the columns ``[v_j, s(v_j), 1]`` (:func:`friction_idim_columns`), the power
@@ -40,6 +43,7 @@ __all__ = [
     "EXACT_SIGN",
     "FRICTION_KINDS",
     "FRICTION_PREFIX",
+    "DeadZoneSign",
     "ExactSign",
     "SignLaw",
     "TanhSign",
@@ -118,6 +122,50 @@ class TanhSign:
     def scalar(self, v: float) -> float:
         """tanh(v/width) of one velocity."""
         return math.tanh(v / self.width)
+
+
+@dataclass(frozen=True)
+class DeadZoneSign:
+    """``s(v) = 0`` for ``|v| <= width``, else ``sign(v)`` (NaN for NaN).
+
+    The standstill treatment of the Coulomb columns (docs/MATH.md §2): at rest the
+    estimated velocity is noise and ``sign`` of it is ±1 noise; inside the dead
+    zone the Coulomb column is 0 (static friction is not modelled).
+
+    Attributes:
+        width: the half-width [rad/s or m/s], >= 0: one number for every joint, or
+            a tuple with one width per column of the velocities it is applied to
+            (broadcast on the last axis). Only a scalar width has a ``scalar``
+            form.
+    """
+
+    width: float | tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        width = np.asarray(self.width, dtype=float)
+        if width.ndim > 1 or not np.all(np.isfinite(width)) or np.any(width < 0.0):
+            raise ValueError(
+                "DeadZoneSign: width must be a finite number >= 0 [rad/s or m/s] or "
+                f"a 1-D sequence of them; got {self.width!r}."
+            )
+        value = float(width) if width.ndim == 0 else tuple(width.tolist())
+        object.__setattr__(self, "width", value)
+
+    def __call__(self, v: np.ndarray) -> np.ndarray:
+        """0 inside the zone, sign(v) outside, elementwise."""
+        v = np.asarray(v, dtype=float)
+        return np.where(np.abs(v) <= np.asarray(self.width), 0.0, np.sign(v))
+
+    def scalar(self, v: float) -> float:
+        """s(v) of one velocity (scalar width only)."""
+        if not isinstance(self.width, float):
+            raise TypeError(
+                "DeadZoneSign: a per-joint width has no scalar form; call it on "
+                "an array of velocities."
+            )
+        if abs(v) <= self.width:
+            return 0.0
+        return EXACT_SIGN.scalar(v)
 
 
 #: The exact sign shared by the identification models.

@@ -488,6 +488,11 @@ def friction_layout(
     joint j - 1 (:data:`~drake_dynid.core.planar2r.FRICTION_PREFIX`). The provider's
     rows at seeded random states must hold ``v_j``, ``sign v_j`` or 1 in joint j's
     row and 0 in the others there; otherwise None (the columns cannot be split).
+    The states include velocities of 1e-9 [rad/s or m/s], so a Coulomb column
+    with another sign law (a dead zone, tanh) is not split: it would be computed
+    with the exact sign. A motor friction column (``FVmk``, ``FCmk``, ``OFFmk``:
+    a coupled motor's friction, spread over several joints' rows) gives None too:
+    nonlinear in v, it must not be evaluated at the intermediate rate.
 
     Args:
         names: the p column names.
@@ -495,6 +500,8 @@ def friction_layout(
         num_joints: n.
     """
     kinds = {prefix: kind for kind, prefix in FRICTION_PREFIX.items()}
+    if any(re.fullmatch(r"(FV|FC|OFF)m[0-9]+", name) for name in names):
+        return None
     layout = []
     for column, name in enumerate(names):
         match = re.fullmatch(r"(FV|FC|OFF)([1-9][0-9]*)", name)
@@ -504,6 +511,7 @@ def friction_layout(
         return ()
     rng = np.random.default_rng(20150)
     q, v, vdot = rng.normal(size=(3, 4, num_joints))
+    v[0] *= 1e-9  # near standstill: tells sign(v) from other sign laws
     rows = np.asarray(idim_rows(q, v, vdot), dtype=float)
     values = _friction_series(v, [(kind, joint) for _, kind, joint in layout])
     for c, (column, _, joint) in enumerate(layout):

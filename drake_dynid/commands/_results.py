@@ -1,0 +1,89 @@
+"""The model a results file was identified with (``dynid validate``; not a subcommand).
+
+A results file (``dynid offline/identify --json``, or ``dynid params --json`` for the
+URDF's a-priori model) records the friction kinds, identified joints, locks, rotor
+inertia, drive file and Coulomb dead-zone widths in ``settings``; ``dynid validate``
+rebuilds the same model from them, command-line options winning.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from drake_dynid.commands._arguments import parse_dead_zone, parse_friction
+
+
+def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence[str]:
+    if args.friction is not None:
+        return parse_friction(args.friction)
+    settings = document.get("settings")
+    if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
+        return tuple(str(kind) for kind in settings["friction"])
+    return ("viscous", "coulomb")
+
+
+def _from_results(document: Mapping[str, Any], key: str) -> Any:
+    """``settings[key]`` of a results file, else its top-level ``key``, else None."""
+    settings = document.get("settings")
+    if isinstance(settings, dict) and key in settings:
+        return settings[key]
+    return document.get(key)
+
+
+def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
+    """The model of the results file: its joints, locks, rotor inertia, drive.
+
+    Options given on the command line win; the others come from the results file
+    (``dynid offline/identify --json`` settings, or ``dynid params --json``).
+    """
+    from drake_dynid.commands._arguments import robot_from_args
+
+    joints = _from_results(document, "joints")
+    locked = _from_results(document, "locked")
+    options: dict[str, Any] = {"friction": _friction(args, document)}
+    if args.joints is None and isinstance(joints, list):
+        options["joints"] = [str(name) for name in joints]
+    if args.lock is None and isinstance(locked, dict):
+        options["locked"] = {str(k): float(v) for k, v in locked.items()}
+    if not args.rotor_inertia:
+        options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
+    drive = _from_results(document, "drive")
+    if not args.drive and isinstance(drive, str) and Path(drive).is_file():
+        options["drive"] = drive
+    try:
+        return robot_from_args(args, "validate", **options)
+    except ValueError:
+        if "joints" not in options and "locked" not in options:
+            raise
+    # The file's joints are not this URDF's (another robot): load the default
+    # joints; the parameter check then names the mismatch.
+    options.pop("joints", None)
+    options.pop("locked", None)
+    return robot_from_args(args, "validate", **options)
+
+
+def results_sign(
+    args: argparse.Namespace, document: Mapping[str, Any], robot, log
+) -> Any:
+    """The Coulomb sign: ``--dead-zone``, else the results file's widths."""
+    from drake_dynid.commands._arguments import apply_dead_zone
+    from drake_dynid.core.friction import DeadZoneSign
+
+    if args.dead_zone is not None:
+        parse_dead_zone(args.dead_zone)
+        return apply_dead_zone(args, robot, log)
+    widths = _from_results(document, "coulomb_dead_zone")
+    if not isinstance(widths, dict) or "coulomb" not in robot.friction:
+        return robot
+    missing = [name for name in robot.joint_names if name not in widths]
+    if missing:
+        raise ValueError(
+            f"results file {args.params}: settings.coulomb_dead_zone has no width "
+            f"for {', '.join(missing)}; give --dead-zone."
+        )
+    return robot.with_sign(
+        DeadZoneSign(tuple(float(widths[name]) for name in robot.joint_names))
+    )

@@ -1,0 +1,162 @@
+"""Standstill and Coulomb friction: the dead-zone width from the log (docs/MATH.md §2).
+
+At rest the estimated velocity v̂ is noise, and sign(v̂) of the Coulomb column is ±1
+noise: a joint at rest then pulls its FCj towards whatever its torque does there
+(gravity compensation, the controller's dither), and the two engines, whose
+differentiators differ, disagree. The treatment (Swevers-style dead zone): the
+Coulomb column is s(v) = 0 for |v| <= w_j, sign(v) outside
+(``drake_dynid.core.friction.DeadZoneSign``), with one width per joint measured on
+the log::
+
+    v_j        velocity of the off-line equations (zero-phase Butterworth of q_j at
+               the position cutoff f_c, central differences; core.idim)
+    r_j        v_j minus its zero-phase low-pass at f_d (the parallel decimation's
+               filter, order 8, f_d = min(f_c, 1.5 B), B the velocity bandwidth):
+               what the dynamics band does not explain, i.e. the velocity noise
+               (odd padding of four f_d periods, two periods dropped at each end)
+    σ_v,j      1.4826 · median|r_j - median r_j|   (MAD: robust to the motion's
+               own outliers; = the std for Gaussian noise)       [rad/s or m/s]
+    w_j        3 σ_v,j
+
+For Gaussian noise a joint at rest then has s = 0 on 99.7 % of its samples. Both
+engines (on-line replay and blocks, off-line IDIM) use the same widths, computed
+once on the log. A coupled motor k (Coulomb sign of u_k/ρ_k = Σ_j (R_kj/ρ_k) v_j,
+``core.drive_columns``) gets the width of that combination for independent joint
+noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½ (:func:`combined_widths`).
+
+Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 1.3-3.7e-3
+rad/s on the arm (0.9e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
+at rest the velocity is almost 0 most of the time, with encoder-dither spikes up to
+7.5e-3 rad/s. Pure numpy/scipy.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core.idim import (
+    DECIMATION_FILTER_ORDER,
+    default_padding,
+    default_trim,
+    offline_derivatives,
+)
+
+__all__ = [
+    "DEAD_ZONE_FACTOR",
+    "MIN_RUN",
+    "combined_widths",
+    "dead_zone_widths",
+    "velocity_noise",
+]
+
+#: The dead-zone half-width in multiples of the measured velocity noise σ_v.
+DEAD_ZONE_FACTOR = 3.0
+_MAD_TO_STD = 1.4826  # 1/Φ⁻¹(3/4): the MAD of a Gaussian variable times this is σ
+_OWNER = "velocity_noise"
+#: Velocity samples a run needs beyond the edge trims (the order-8 zero-phase
+#: low-pass pads 27 samples).
+MIN_RUN = 32
+
+
+def velocity_noise(
+    segments: Any, time_step: float, *, cutoff_hz: float, band_cutoff_hz: float
+) -> np.ndarray:
+    """Velocity noise σ_v per joint [rad/s or m/s] (module docstring).
+
+    Args:
+        segments: a list of (N_i, n) finite position runs [rad or m] (the finite
+            segments of a log), or one (N, n) array. Runs shorter than the
+            filter's edge trims are skipped.
+        time_step: sample period h [s].
+        cutoff_hz: position cutoff f_c [Hz] (``drake_dynid.offline.auto_cutoff``).
+        band_cutoff_hz: the low-pass f_d [Hz] that keeps the dynamics band
+            (``drake_dynid.offline.auto_decimation_cutoff``); at most f_c.
+
+    Returns:
+        (n,) σ_v; 0 for a joint whose residual is exactly zero.
+
+    Raises:
+        ValueError: no run long enough, or a cutoff not in (0, Nyquist).
+    """
+    time_step = check.positive(_OWNER, "time_step", time_step, "s")
+    cutoff_hz = check.positive(_OWNER, "cutoff_hz", cutoff_hz, "Hz")
+    band_cutoff_hz = check.positive(_OWNER, "band_cutoff_hz", band_cutoff_hz, "Hz")
+    nyquist = 0.5 / time_step
+    if cutoff_hz >= nyquist or band_cutoff_hz >= nyquist:
+        check.fail(
+            _OWNER,
+            f"cutoff_hz and band_cutoff_hz must be < the Nyquist frequency "
+            f"{nyquist:g} [Hz]; got {cutoff_hz:g} and {band_cutoff_hz:g}.",
+        )
+    runs = [segments] if isinstance(segments, np.ndarray) else list(segments)
+    trim = default_trim(time_step, cutoff_hz)
+    band = min(band_cutoff_hz, cutoff_hz)
+    sos = signal.butter(DECIMATION_FILTER_ORDER, band, fs=1.0 / time_step, output="sos")
+    padding = default_padding(time_step, band)
+    edge = default_trim(time_step, band) - 1  # two periods of the band's cutoff
+    residuals = []
+    for run in runs:
+        q = check.array(_OWNER, "segments", run)
+        if q.ndim == 1:
+            q = q[:, None]
+        if q.shape[0] < 2 * trim + MIN_RUN:
+            continue
+        _, v, _ = offline_derivatives(q, time_step, cutoff_hz=cutoff_hz, trim=trim)
+        # Odd padding of four periods (value and slope continuous) and two
+        # periods dropped at each end, as the off-line filters do: the low-pass's
+        # edge transient on the motion is not noise.
+        low = signal.sosfiltfilt(
+            sos, v, axis=0, padtype="odd", padlen=min(padding, v.shape[0] - 1)
+        )
+        residual = v - low
+        if residual.shape[0] - 2 * edge >= MIN_RUN:
+            residual = residual[edge : residual.shape[0] - edge]
+        residuals.append(residual)
+    if not residuals:
+        check.fail(
+            _OWNER,
+            f"needs a finite run of at least {2 * trim + MIN_RUN} samples to "
+            "measure the velocity noise; got none.",
+        )
+    r = np.concatenate(residuals, axis=0)
+    return _MAD_TO_STD * np.median(np.abs(r - np.median(r, axis=0)), axis=0)
+
+
+def dead_zone_widths(
+    segments: Any,
+    time_step: float,
+    *,
+    cutoff_hz: float,
+    band_cutoff_hz: float,
+    factor: float = DEAD_ZONE_FACTOR,
+) -> np.ndarray:
+    """Dead-zone half-widths w_j = factor·σ_v,j [rad/s or m/s], (n,).
+
+    See :func:`velocity_noise` for the arguments; ``factor`` > 0 (default 3).
+    """
+    factor = check.positive("dead_zone_widths", "factor", factor, "")
+    return factor * velocity_noise(
+        segments, time_step, cutoff_hz=cutoff_hz, band_cutoff_hz=band_cutoff_hz
+    )
+
+
+def combined_widths(widths: Any, rows: Any) -> np.ndarray:
+    """Widths of the motor signs u_k/ρ_k: (Σ_j (R_kj/ρ_k)² w_j²)^½, (c,).
+
+    Args:
+        widths: (n,) joint widths w_j [rad/s or m/s].
+        rows: (c, n) rows R_k of the motors (ρ_k = max_j |R_kj| > 0).
+    """
+    widths = check.array("combined_widths", "widths", widths, shape=(None,))
+    rows = check.array("combined_widths", "rows", rows, shape=(None, widths.size))
+    if rows.shape[0] == 0:
+        return np.zeros(0)
+    scale = np.max(np.abs(rows), axis=1)
+    if np.any(scale == 0.0):
+        check.fail("combined_widths", "rows must not be all zeros.")
+    unit = rows / scale[:, None]
+    return np.sqrt((unit**2) @ (widths**2))

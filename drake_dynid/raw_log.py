@@ -1,0 +1,318 @@
+"""Raw robot logs: one or several CSV files read through a drive chain (docs/DRIVE.md).
+
+A real recording is rarely one file of joint angles and torques: ROS gives positions
+and efforts in separate files, with their own time stamps, motor-side units and
+currents. :func:`read_raw_log` reads such a log:
+
+1. every file's header (a CSV header row; a UTF-8 byte-order mark is dropped) and
+   the columns the drive chain needs (``DriveChain.required_columns()``: time,
+   positions, torques; extra columns are not parsed, one warning counts them);
+2. with several files, joins them on their time column (the drive file's
+   ``[log] time``, the same name and unit in every file): the first file's stamps
+   are the time base; each other file's columns are interpolated linearly onto
+   the first file's stamps inside the common time span (rows of the first file
+   outside it are dropped), with a warning naming the file; a file whose stamps
+   equal the first file's is taken as is;
+3. ``DriveChain.convert``: units, motor side, currents, offsets, time origin;
+4. the uniform-grid checks and repairs of ``drake_dynid.logs`` (jitter, dropped
+   samples, ``resample``) on the converted arrays (:func:`_robot_log`, the one
+   call into ``drake_dynid.logs``).
+
+Errors are ``ValueError`` (``OSError`` for a missing file) whose message names the
+file, the column and the row: a needed column found in no file (naming the drive
+file's ``[log]`` key to fix), or in two files, a file without the time column, a
+non-numeric cell, unsorted time stamps, files that do not overlap in time.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import warnings as warnings_module
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_dynid.core.drive import DriveChain
+from drake_dynid.log_repair import JITTER_TOLERANCE
+
+__all__ = ["RawTable", "read_raw_log", "read_raw_table"]
+
+_BOM = "\ufeff"
+_LISTED = 6  # extra column names listed in the warning
+
+
+@dataclass(frozen=True)
+class RawTable:
+    """Named columns of one or several joined files.
+
+    Attributes:
+        columns: ``{name: (N,) array}``: the requested columns, on the first file's
+            (common-span) time stamps.
+        warnings: what was joined, interpolated or not read, one sentence each.
+        extra: names of the columns present in the files and not requested.
+    """
+
+    columns: dict[str, np.ndarray]
+    warnings: tuple[str, ...] = ()
+    extra: tuple[str, ...] = ()
+
+
+def _header(path: str) -> list[str]:
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"log {path}: no such file.")
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"log {path}: is a directory, expected a CSV file.")
+    with open(path, newline="", encoding="utf-8") as stream:
+        for row in csv.reader(stream):
+            if any(cell.strip() for cell in row):
+                header = [cell.strip() for cell in row]
+                if header and header[0].startswith(_BOM):
+                    header[0] = header[0][len(_BOM) :].strip()
+                duplicated = sorted({h for h in header if header.count(h) > 1})
+                if duplicated:
+                    raise ValueError(
+                        f"log {path}: duplicated column(s) {', '.join(duplicated)}."
+                    )
+                return header
+    raise ValueError(f"log {path}: the file is empty; expected a header row.")
+
+
+def _cell(text: str, path: str, row: int, column: str) -> float:
+    text = text.strip()
+    if text == "":
+        return np.nan
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(
+            f"log {path}: row {row}, column '{column}': '{text}' is not a number."
+        ) from None
+
+
+def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:
+    """(N, len(names)) numbers of the named columns; fast path, then cell by cell."""
+    index = [header.index(name) for name in names]
+    try:
+        with warnings_module.catch_warnings():
+            warnings_module.simplefilter("error")  # "input contained no data"
+            data = np.loadtxt(
+                path,
+                delimiter=",",
+                skiprows=1,
+                usecols=index,
+                ndmin=2,
+                dtype=float,
+                encoding="utf-8",
+            )
+        if data.shape[1] == len(names) and data.shape[0] > 0:
+            return data
+    except (ValueError, UserWarning, IndexError):
+        pass
+    with open(path, newline="", encoding="utf-8") as stream:
+        rows = [r for r in csv.reader(stream) if any(cell.strip() for cell in r)]
+    body = rows[1:]
+    if not body:
+        raise ValueError(f"log {path}: the header has no data rows below it.")
+    out = np.empty((len(body), len(names)))
+    for r, row in enumerate(body):
+        line = r + 2  # 1-based, after the header
+        if len(row) != len(header):
+            raise ValueError(
+                f"log {path}: row {line} has {len(row)} cells; the header has "
+                f"{len(header)}."
+            )
+        for c, i in enumerate(index):
+            out[r, c] = _cell(row[i], path, line, names[c])
+    return out
+
+
+def _check_stamps(path: str, t: np.ndarray, time: str) -> None:
+    bad = np.flatnonzero(~np.isfinite(t))
+    if bad.size:
+        raise ValueError(
+            f"log {path}: time stamp ('{time}') of row {bad[0] + 2} is empty or not "
+            "finite."
+        )
+    steps = np.diff(t)
+    if np.any(steps <= 0.0):
+        row = int(np.flatnonzero(steps <= 0.0)[0]) + 3
+        raise ValueError(
+            f"log {path}: time stamps ('{time}') are not increasing at row {row}; "
+            "sort the file by time and remove duplicated rows."
+        )
+
+
+def read_raw_table(
+    paths: str | os.PathLike | Sequence[str | os.PathLike],
+    columns: Sequence[str],
+    time: str,
+) -> RawTable:
+    """Reads the named columns of one or several CSV files, joined on ``time``.
+
+    Args:
+        paths: one file or several (module docstring, step 2).
+        columns: the columns to read (``time`` among them or not).
+        time: the name of the time column (raw units, the same in every file).
+
+    Returns:
+        The :class:`RawTable`.
+
+    Raises:
+        FileNotFoundError: a missing file. ValueError: a column in no file or in
+            two, a file without the time column, bad cells, unsorted stamps, files
+            without a common time span.
+    """
+    if isinstance(paths, (str, os.PathLike)):
+        paths = [paths]
+    files = [os.fspath(p) for p in paths]
+    if not files:
+        raise ValueError("log: no file given.")
+    if len(set(files)) != len(files):
+        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
+    headers = {path: _header(path) for path in files}
+    wanted = [name for name in dict.fromkeys([time, *columns])]
+    owner: dict[str, str] = {}
+    for name in wanted:
+        holders = [path for path in files if name in headers[path]]
+        if name != time and len(holders) > 1:
+            raise ValueError(
+                f"log: column '{name}' is in several files ({', '.join(holders)}); "
+                "keep it in one."
+            )
+        if holders:
+            owner[name] = holders[0]
+    missing = [name for name in wanted if name not in owner]
+    if missing:
+        found = "; ".join(f"{p}: {', '.join(headers[p])}" for p in files)
+        raise ValueError(
+            f"log {', '.join(files)}: no column(s) {', '.join(map(repr, missing))} "
+            f"(found: {found})."
+        )
+    if len(files) > 1:
+        lacking = [path for path in files if time not in headers[path]]
+        if lacking:
+            raise ValueError(
+                f"log {lacking[0]}: no time column '{time}'; every file of a "
+                "multi-file log needs it (the files are joined on it)."
+            )
+    warnings: list[str] = []
+    data: dict[str, np.ndarray] = {}
+    stamps: dict[str, np.ndarray] = {}
+    for path in files:
+        names = [time] + [n for n in wanted if n != time and owner[n] == path]
+        if len(names) == 1 and path != files[0]:
+            warnings.append(f"file {path}: holds no needed column; not used.")
+            continue
+        block = _read_columns(path, headers[path], names)
+        _check_stamps(path, block[:, 0], time)
+        stamps[path] = block[:, 0]
+        for k, name in enumerate(names[1:], start=1):
+            data[name] = block[:, k]
+    base = files[0]
+    t = stamps[base]
+    keep = np.ones(t.size, dtype=bool)
+    for path, other in stamps.items():
+        if path == base:
+            continue
+        keep &= (t >= other[0]) & (t <= other[-1])
+    if not keep.any():
+        raise ValueError(
+            f"log {', '.join(files)}: the files have no common time span "
+            f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
+        )
+    out = {time: t[keep]}
+    for path, other in stamps.items():
+        names = [n for n in wanted if n != time and owner[n] == path]
+        same = other.shape == t.shape and np.array_equal(other, t)
+        for name in names:
+            values = data[name]
+            if path == base or same:
+                out[name] = values[keep]
+            else:
+                out[name] = np.interp(t[keep], other, values)
+        if path != base and not same and names:
+            warnings.append(
+                f"file {path}: {len(names)} column(s) interpolated linearly onto "
+                f"the time stamps of {base} over the common span "
+                f"{t[keep][0]:.9g} .. {t[keep][-1]:.9g} ('{time}')."
+            )
+    dropped = int(t.size - keep.sum())
+    if dropped:
+        warnings.append(
+            f"{dropped} row(s) of {base} outside the common time span of the files "
+            "dropped."
+        )
+    extra = tuple(
+        dict.fromkeys(
+            name for path in files for name in headers[path] if name not in owner
+        )
+    )
+    return RawTable(out, tuple(warnings), extra)
+
+
+def read_raw_log(
+    paths: str | os.PathLike | Sequence[str | os.PathLike],
+    chain: DriveChain,
+    *,
+    jitter_tolerance: float = JITTER_TOLERANCE,
+    resample: bool = False,
+):
+    """Reads a raw log through a drive chain into a ``drake_dynid.logs.RobotLog``.
+
+    Args:
+        paths: one CSV file or several joined on the time column (module
+            docstring).
+        chain: the drive chain (``RobotModel.drive``, or an identity chain for the
+            plain ``t, q_<joint>, tau_<joint>`` format split over several files).
+        jitter_tolerance: as ``drake_dynid.logs.read_log``.
+        resample: as ``drake_dynid.logs.read_log``.
+
+    Returns:
+        The uniformly sampled log in joint space (SI units, ``chain.joint_names``
+        order), with the warnings of the join, the conversion and the grid.
+    """
+    table = read_raw_table(paths, chain.required_columns(), chain.log.time)
+    warnings = list(table.warnings)
+    if table.extra:
+        listed = ", ".join(table.extra[:_LISTED])
+        left = len(table.extra) - _LISTED
+        more = f" and {left} more" if left > 0 else ""
+        warnings.append(
+            f"{len(table.extra)} column(s) not used by the drive chain: {listed}{more}."
+        )
+    t, q, tau = chain.convert(table.columns)
+    if isinstance(paths, (str, os.PathLike)):
+        label = os.fspath(paths)
+    else:
+        label = " + ".join(os.fspath(p) for p in paths)
+    return _robot_log(
+        label, t, q, tau, chain.joint_names, jitter_tolerance, resample, warnings
+    )
+
+
+def _robot_log(label, t, q, tau, joint_names, jitter_tolerance, resample, warnings):
+    """The one call into ``drake_dynid.logs`` for converted arrays.
+
+    ``RobotLog.from_arrays`` checks the stamps and puts the samples on a uniform
+    grid (least-squares grid, jitter snapped, outlier stamps dropped, short gaps
+    filled, or ``resample``), as ``read_log`` does for a file; the raw reader's
+    warnings come first, and an error names the files.
+    """
+    from dataclasses import replace
+
+    from drake_dynid.logs import RobotLog
+
+    try:
+        log = RobotLog.from_arrays(
+            np.asarray(t, dtype=float),
+            np.asarray(q, dtype=float),
+            np.asarray(tau, dtype=float),
+            tuple(joint_names),
+            jitter_tolerance=jitter_tolerance,
+            resample=resample,
+        )
+    except ValueError as error:
+        raise ValueError(f"log {label}: {error}") from None
+    return replace(log, warnings=(*warnings, *log.warnings))

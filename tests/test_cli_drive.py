@@ -1,0 +1,249 @@
+"""dynid with --drive: raw motor-side logs in several files, coupled motors, bad input.
+
+The robot is tests/data/wrist4.urdf with a coupled wrist (motor 4 turns with
+q3 + q4). The raw files are written with ``DriveChain.to_columns`` (the inverse of
+the conversion) from a joint-space log, so the same data exists in both formats:
+the CLI must give the same estimates from either.
+"""
+
+import json
+import pathlib
+import re
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.logs import write_log
+from drake_dynid.robot import RobotModel
+
+DATA = pathlib.Path(__file__).parent / "data"
+URDF = str(DATA / "wrist4.urdf")
+DRIVE = """
+[log]
+time = "stamp"
+time_unit = "ms"
+position = "enc_{motor}"
+position_side = "motor"
+angle_unit = "deg"
+torque = "cur_{motor}"
+torque_side = "motor"
+torque_unit = "A"
+
+[log.position_offset]
+m4 = 90.0
+
+[motors.m1]
+joint = "j1"
+gear_ratio = 50
+torque_constant = 0.1
+[motors.m2]
+joint = "j2"
+gear_ratio = 60
+torque_constant = 0.1
+[motors.m3]
+joint = "j3"
+gear_ratio = 30
+torque_constant = -0.05
+[motors.m4]
+joints = { j3 = 25, j4 = 25 }
+torque_constant = 0.05
+rotor_inertia = 5e-5
+"""
+
+
+def _error(capsys):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = [line for line in err.strip().splitlines() if ": note: " not in line]
+    assert len(lines) == 1, lines
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """(plain joint-space log, [raw encoders, raw currents], drive file)."""
+    folder = tmp_path_factory.mktemp("cli_drive")
+    drive = folder / "wrist4.toml"
+    drive.write_text(DRIVE)
+    robot = RobotModel.from_urdf(URDF, drive=drive, rotor_inertia=True)
+    trajectory = random_fourier_trajectory(
+        4,
+        harmonics=4,
+        base_frequency=2 * np.pi / 8.0,
+        max_velocity=1.0,
+        max_position=1.2,
+        rng=np.random.default_rng(11),
+    )
+    h = 0.01
+    t = h * np.arange(int(32.0 / h) + 1)
+    q, v, vdot = trajectory.evaluate(t)
+    rng = np.random.default_rng(12)
+    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    tau = tau + 0.02 * rng.normal(size=tau.shape)
+    q = q + 1e-5 * rng.normal(size=q.shape)
+    plain = folder / "plain.csv"
+    write_log(plain, t, q, tau, robot.joint_names)
+    columns = robot.drive.to_columns(t, q, tau)
+    stamp = columns["stamp"]
+    encoders, currents = folder / "enc.csv", folder / "cur.csv"
+    names = [f"m{k}" for k in range(1, 5)]
+    np.savetxt(
+        encoders,
+        np.column_stack([stamp, *(columns[f"enc_{m}"] for m in names)]),
+        delimiter=",",
+        header="stamp," + ",".join(f"enc_{m}" for m in names),
+        comments="",
+        fmt="%.17g",
+    )
+    np.savetxt(
+        currents,
+        np.column_stack([stamp, *(columns[f"cur_{m}"] for m in names)]),
+        delimiter=",",
+        header="stamp," + ",".join(f"cur_{m}" for m in names),
+        comments="",
+        fmt="%.17g",
+    )
+    return plain, [str(encoders), str(currents)], drive
+
+
+def _run(argv, tmp_path, name):
+    out = tmp_path / f"{name}.json"
+    assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0
+    return json.loads(out.read_text())
+
+
+def test_raw_files_with_a_drive_give_the_plain_log_estimates(files, tmp_path):
+    plain, raw, drive = files
+    common = ["--urdf", URDF, "--rotor-inertia", "--split", "0.7"]
+    # The plain log is joint side: the same motors without the [log] table.
+    joint_drive = tmp_path / "joint_side.toml"
+    joint_drive.write_text(DRIVE[DRIVE.index("[motors.m1]") :])
+    want = _run(
+        ["offline", str(plain), *common, "--drive", str(joint_drive)], tmp_path, "plain"
+    )
+    got = _run(["offline", *raw, *common, "--drive", str(drive)], tmp_path, "raw")
+    names = [p["name"] for p in got["parameters"]]
+    assert names == [p["name"] for p in want["parameters"]]
+    assert {"IAm4", "FVm4", "FCm4"} <= set(names)
+    np.testing.assert_allclose(
+        [p["value"] for p in got["parameters"]],
+        [p["value"] for p in want["parameters"]],
+        rtol=1e-6,
+        atol=1e-9,
+    )
+    settings = got["settings"]
+    assert settings["drive"] == str(drive) and settings["rotor_inertia"] is True
+    assert settings["drive_chain"]["motors"][3]["joints"] == {"j3": 25.0, "j4": 25.0}
+    assert set(settings["coulomb_dead_zone"]) == {"j1", "j2", "j3", "j4"}
+    assert got["log"]["path"] == raw
+    # dynid validate reads the drive, rotor inertia and dead zone from the file.
+    check = _run(
+        ["validate", *raw, "--urdf", URDF, "--params", str(tmp_path / "raw.json")],
+        tmp_path,
+        "check",
+    )
+    errors = [
+        j["relative_rms_percent"] for j in check["estimates"]["idim-ls"]["joints"]
+    ]
+    assert max(errors) < 5.0
+
+
+def test_params_prints_the_drive(files, capsys):
+    _, _, drive = files
+    assert cli.main(["params", URDF, "--drive", str(drive), "--rotor-inertia"]) == 0
+    out = capsys.readouterr().out
+    assert "drive: drive file" in out and "4 motors (v_m = R v)" in out
+    assert "m4 m4 (coupled, drive): 25 j3 + 25 j4; k_t 0.05, Ia 5e-05" in out
+    assert "IAm4" in out and "FVm4" in out
+
+
+def test_identify_reads_raw_files_through_the_drive(files, tmp_path):
+    _, raw, drive = files
+    got = _run(
+        ["identify", *raw, "--urdf", URDF, "--drive", str(drive), "--window", "20"],
+        tmp_path,
+        "online",
+    )
+    assert got["valid"] and "FCm4" in [p["name"] for p in got["parameters"]]
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (('joint = "j2"', 'joint = "j9"'), "motors.m2.joint: unknown joint 'j9'"),
+        (
+            ('joint = "j3"\ngear_ratio = 30', "joints = { j3 = 30, j4 = 30 }"),
+            "must have rank 4 .* singular coupling",
+        ),
+        (
+            ('position = "enc_{motor}"', 'position = "pos_{motor}"'),
+            r"no column\(s\) 'pos_m1'",
+        ),
+        (
+            ('angle_unit = "deg"', 'angle_unit = "degree"'),
+            "log.angle_unit must be one of rad, deg, rev; got 'degree'",
+        ),
+        (
+            ('torque_unit = "A"', 'torque_units = "A"'),
+            r"unknown key\(s\) torque_units in log",
+        ),
+    ],
+)
+def test_bad_drive_input_exits_2_naming_the_field(
+    files, tmp_path, capsys, edit, message
+):
+    _, raw, _ = files
+    bad = tmp_path / "bad.toml"
+    assert edit[0] in DRIVE
+    bad.write_text(DRIVE.replace(*edit))
+    assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(bad)]) == 2
+    line = _error(capsys)
+    assert line.startswith("dynid offline: error: ")
+    assert re.search(message, line), line
+
+
+def test_bad_options_exit_2(files, tmp_path, capsys):
+    plain, raw, drive = files
+    base = ["offline", *raw, "--urdf", URDF, "--drive", str(drive)]
+    assert cli.main([*base, "--dead-zone", "wide"]) == 2
+    assert "--dead-zone must be auto, none or a width >= 0" in _error(capsys)
+    assert cli.main([*base, "--json", raw[1]]) == 2
+    assert "--json " + raw[1] + " is also the input LOG" in _error(capsys)
+    assert cli.main([*base, "--json", str(drive)]) == 2
+    assert "is also the input --drive" in _error(capsys)
+    assert cli.main(["offline", str(plain), raw[0], "--urdf", URDF]) == 2
+    assert "enc.csv: no time column 't'; every file of a multi-file" in _error(capsys)
+    missing = tmp_path / "none.toml"
+    assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(missing)]) == 2
+    assert "none.toml: no such file" in _error(capsys)
+
+
+def test_excite_designs_for_the_motor_columns(files, tmp_path, capsys):
+    _, _, drive = files
+    limits = tmp_path / "limits.json"
+    limits.write_text(json.dumps({f"j{k}": {"effort": 300.0} for k in range(1, 5)}))
+    argv = ["excite", URDF, "--drive", str(drive), "--rotor-inertia", "--limits"]
+    argv += [str(limits), "--duration", "5", "--iterations", "2"]
+    assert cli.main([*argv, "--out", str(tmp_path / "traj.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "base parameters)" in out and "FCm4" in out
+
+
+def test_physical_fit_and_urdf_with_coupled_motor_columns(files, tmp_path, capsys):
+    _, raw, drive = files
+    argv = ["offline", *raw, "--urdf", URDF, "--drive", str(drive)]
+    fit = tmp_path / "fit.json"
+    assert cli.main([*argv, "--rotor-inertia", "--physical", "--json", str(fit)]) == 0
+    physical = json.loads(fit.read_text())["physical"]
+    values = {p["name"]: p["value"] for p in physical["parameters"]}
+    # The motor's inertia stays near the truth (drive file: Ia = 5e-5), and its
+    # friction (0 in the data) is not negative.
+    assert values["IAm4"] == pytest.approx(5e-5, rel=0.05)
+    assert values["FVm4"] >= -1e-12 and values["FCm4"] >= -1e-12
+    capsys.readouterr()
+    urdf_out = tmp_path / "identified.urdf"
+    assert cli.main([*argv, "--urdf-out", str(urdf_out)]) == 0
+    assert "(not written, no URDF field: FVm4, FCm4)" in capsys.readouterr().out
+    assert urdf_out.is_file()

@@ -1,0 +1,173 @@
+"""drake_dynid.raw_log: several raw CSV files joined on time, read through a drive."""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.drive import DriveChain
+from drake_dynid.raw_log import read_raw_log, read_raw_table
+
+JOINTS = ("a", "b")
+DRIVE = {
+    "log": {
+        "time": "stamp",
+        "time_unit": "ms",
+        "position": "- {joint}_position",
+        "angle_unit": "deg",
+        "torque": "- {joint}_effort",
+        "torque_side": "motor",
+        "torque_unit": "A",
+    },
+    "motors": {
+        "ma": {"joint": "a", "gear_ratio": 10.0, "torque_constant": 0.5},
+        "mb": {"joint": "b", "gear_ratio": -20.0, "torque_constant": 0.1},
+    },
+}
+
+
+def _write(path, header, rows, bom=False):
+    text = ",".join(header) + "\n"
+    text += "".join(",".join(str(x) for x in row) + "\n" for row in rows)
+    path.write_text(("\ufeff" if bom else "") + text, encoding="utf-8")
+    return path
+
+
+@pytest.fixture
+def chain():
+    return DriveChain.from_dict(DRIVE, JOINTS, source="drive file test.toml")
+
+
+def _signals(t):
+    return np.column_stack([np.sin(t), np.cos(2 * t)]), np.column_stack(
+        [0.3 + t, -0.2 * t]
+    )
+
+
+def test_two_files_with_the_same_stamps_join_exactly(tmp_path, chain):
+    t = 0.01 * np.arange(50)
+    q, current = _signals(t)
+    stamp = 1000.0 * t + 5e5  # ms, not starting at 0
+    positions = _write(
+        tmp_path / "pos.csv",
+        ["stamp", "- a_position", "- b_position", "- a_velocity"],
+        [(s, *np.rad2deg(x), 0.0) for s, x in zip(stamp, q, strict=True)],
+        bom=True,
+    )
+    efforts = _write(
+        tmp_path / "eff.csv",
+        ["stamp", "- a_effort", "- b_effort"],
+        [(s, *x) for s, x in zip(stamp, current, strict=True)],
+    )
+    log = read_raw_log([positions, efforts], chain)
+    assert log.joint_names == JOINTS and log.num_samples == 50
+    # Time re-based to 0; the first stamp is kept as time_offset [s].
+    np.testing.assert_allclose(log.t, t, atol=1e-9)
+    assert log.time_offset == pytest.approx(500.0)
+    np.testing.assert_allclose(log.q, q, atol=1e-12)
+    # τ = Rᵀ k_t i: gear ratio times torque constant times current.
+    np.testing.assert_allclose(log.tau, current * [10 * 0.5, -20 * 0.1], atol=1e-12)
+    assert any("not used by the drive chain: - a_velocity" in w for w in log.warnings)
+    assert not any("interpolated" in w for w in log.warnings)
+
+
+def test_other_stamps_are_interpolated_over_the_common_span(tmp_path, chain):
+    t = 0.01 * np.arange(100)
+    q, _ = _signals(t)
+    shifted = t[::2] + 0.003  # efforts at 50 Hz, 3 ms late
+    effort = np.column_stack([2 * shifted, 1 - shifted])  # linear: exact interp
+    positions = _write(
+        tmp_path / "pos.csv",
+        ["stamp", "- a_position", "- b_position"],
+        [(1000 * s, *np.rad2deg(x)) for s, x in zip(t, q, strict=True)],
+    )
+    efforts = _write(
+        tmp_path / "eff.csv",
+        ["stamp", "- a_effort", "- b_effort"],
+        [(1000 * s, *x) for s, x in zip(shifted, effort, strict=True)],
+    )
+    table = read_raw_table([positions, efforts], chain.required_columns(), "stamp")
+    kept = (t >= shifted[0] - 1e-12) & (t <= shifted[-1] + 1e-12)
+    np.testing.assert_allclose(table.columns["stamp"], 1000 * t[kept])
+    np.testing.assert_allclose(table.columns["- a_effort"], 2 * t[kept], atol=1e-12)
+    text = " ".join(table.warnings)
+    assert f"file {efforts}: 2 column(s) interpolated linearly" in text
+    assert f"{int((~kept).sum())} row(s) of {positions} outside the common" in text
+    log = read_raw_log([positions, efforts], chain)
+    assert log.num_samples == int(kept.sum())
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("missing", r"no column\(s\) '- b_effort' \(found: "),
+        ("twice", "column '- a_effort' is in several files"),
+        ("no_time", "no time column 'stamp'; every file of a multi-file log"),
+        ("cell", r"row 3, column '- a_effort': 'x' is not a number"),
+        ("unsorted", r"time stamps \('stamp'\) are not increasing at row 4"),
+        ("apart", "the files have no common time span"),
+        ("empty", "the file is empty"),
+        ("same", "a file is given twice"),
+    ],
+)
+def test_bad_raw_logs_name_the_file_and_the_column(tmp_path, chain, case, message):
+    positions = _write(
+        tmp_path / "pos.csv",
+        ["stamp", "- a_position", "- b_position"],
+        [(k, 0.1 * k, 0.2) for k in range(6)],
+    )
+    rows = [(k, 0.5, 0.25) for k in range(6)]
+    header = ["stamp", "- a_effort", "- b_effort"]
+    files = [positions]
+    if case == "missing":
+        files.append(_write(tmp_path / "e.csv", header[:2], [r[:2] for r in rows]))
+    elif case == "twice":
+        files.append(_write(tmp_path / "e.csv", header, rows))
+        files.append(_write(tmp_path / "f.csv", header[:2], [r[:2] for r in rows]))
+    elif case == "no_time":
+        files.append(_write(tmp_path / "e.csv", header[1:], [r[1:] for r in rows]))
+    elif case == "cell":
+        rows[1] = (1, "x", 0.25)
+        files.append(_write(tmp_path / "e.csv", header, rows))
+    elif case == "unsorted":
+        rows[2], rows[1] = rows[1], rows[2]
+        files.append(_write(tmp_path / "e.csv", header, rows))
+    elif case == "apart":
+        files.append(
+            _write(tmp_path / "e.csv", header, [(k + 100, 1, 1) for k in range(6)])
+        )
+    elif case == "empty":
+        empty = tmp_path / "e.csv"
+        empty.write_text("\n")
+        files.append(empty)
+    else:
+        files.append(positions)
+    with pytest.raises(ValueError, match=message):
+        read_raw_log(files, chain)
+
+
+def test_a_missing_file_is_an_os_error(tmp_path, chain):
+    with pytest.raises(FileNotFoundError, match=r"no_such\.csv: no such file"):
+        read_raw_log([tmp_path / "no_such.csv"], chain)
+
+
+def test_jittered_stamps_go_through_the_log_checks(tmp_path, chain):
+    # ROS-like stamps (±20 % jitter): snapped to the fitted grid with a warning
+    # by default; refused with a tighter tolerance (naming --resample); or
+    # resampled with a warning (drake_dynid.logs).
+    rng = np.random.default_rng(1)
+    t = 0.01 * np.arange(200) + 0.002 * rng.uniform(-1, 1, 200)
+    q, current = _signals(t)
+    rows = [
+        (1000 * s, *np.rad2deg(x), *c) for s, x, c in zip(t, q, current, strict=True)
+    ]
+    path = _write(
+        tmp_path / "one.csv",
+        ["stamp", "- a_position", "- b_position", "- a_effort", "- b_effort"],
+        rows,
+    )
+    snapped = read_raw_log(path, chain)
+    assert snapped.num_samples == 200 and snapped.time_step == pytest.approx(0.01)
+    assert any("jitter" in w for w in snapped.warnings), snapped.warnings
+    with pytest.raises(ValueError, match=r"non-uniform sampling.*--resample"):
+        read_raw_log(path, chain, jitter_tolerance=0.1)
+    log = read_raw_log(path, chain, resample=True)
+    assert any("resampled by linear interpolation" in w for w in log.warnings)
