@@ -344,6 +344,17 @@ class OnlineSettings:
             return None
         return (self.bank() if bank is None else bank).row_frequencies(m)
 
+    def row_noise(self, m: int, bank: Any = None) -> Any:
+        """The rows' noise structure for the honest σ (``core.row_noise``).
+
+        ``core.row_noise.row_noise(bank, m)``: row frequencies, noise groups and
+        the correlation of one equation's rows (docs/MATH.md §4). Both drivers
+        pass it to the identifier step, whatever the weighting.
+        """
+        from drake_dynid.core.row_noise import row_noise
+
+        return row_noise(self.bank() if bank is None else bank, m)
+
     def jacobi_parameters(self) -> dict[str, Any]:
         """Arguments of the matched differentiator (orders 0 and 1) but the period.
 

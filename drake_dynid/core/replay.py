@@ -101,6 +101,7 @@ def _replay_one(
     p = int(rows.num_parameters)
     names = tuple(rows.names)
     weighting = entry.row_weighting(m, bank)
+    noise = entry.row_noise(m, bank)
 
     # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
     bank_times = np.arange(0, count, decimation)
@@ -150,6 +151,7 @@ def _replay_one(
             weighting=weighting,
             max_condition=entry.max_condition,
             names=names,
+            noise=noise,
         )
     return OnlineTrace(
         settings=entry,
@@ -252,4 +254,5 @@ def window_estimate(
         s.row_weighting(m, bank),
         max_condition=s.max_condition,
         names=rows.names,
+        noise=s.row_noise(m, bank),
     )
