@@ -296,7 +296,8 @@ def test_identify_engines_agree(log_file, tmp_path):
     for engine in ("core", "blocks"):
         out = tmp_path / f"{engine}.json"
         args = ["identify", str(log_file), "--urdf", model_path("planar_2r")]
-        args += ["--window", "2", "--quiet", "--engine", engine, "--json", str(out)]
+        args += ["--window", "2", "--jacobi-window", "0.1", "--quiet"]
+        args += ["--engine", engine, "--json", str(out)]
         assert cli.main(args) == 0
         documents.append(json.loads(out.read_text()))
     core, blocks = documents
@@ -326,6 +327,7 @@ def test_identify_measures_the_excitation_band_unless_given(log_file, tmp_path):
     assert measured_bandwidth(gappy, 2.0) == pytest.approx(band, rel=0.3)
     out = tmp_path / "band.json"
     base = ["identify", str(log_file), "--urdf", URDF, "--window", "2", "--quiet"]
+    base += ["--jacobi-window", "0.1"]  # its pass band holds the 8 functions' 4 Hz
     assert cli.main([*base, "--json", str(out)]) == 0
     settings = json.loads(out.read_text())["settings"]
     assert settings["bandwidth_measured"] is True

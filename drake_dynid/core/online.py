@@ -44,6 +44,7 @@ from drake_dynid.core.fourier_bank import (
 )
 from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.online_checks import check_log, check_values
 from drake_dynid.core.rows import check_model_kind, num_equations
 
 __all__ = [
@@ -165,37 +166,9 @@ class OnlineSettings:
     weighting: str = "frequency"
 
     def __post_init__(self) -> None:
-        owner = _OWNER
-        check_model_kind(owner, self.model, "model")
-        check.positive(owner, "window", self.window, "s")
-        check.positive(owner, "jacobi_window", self.jacobi_window, "s")
-        if self.bank_time_step is not None:
-            check.positive(owner, "bank_time_step", self.bank_time_step, "s")
-        if self.update_period is not None:
-            check.positive(owner, "update_period", self.update_period, "s")
-        check.positive(owner, "bandwidth", self.bandwidth, "Hz")
-        check.greater_than(owner, "max_condition", self.max_condition, 1.0)
-        if self.weighting not in WEIGHTINGS:
-            check.fail(
-                owner,
-                f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}; got "
-                f"{self.weighting!r}.",
-            )
-        limit = self.jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
-        if self.bank_time_step is not None and self.bank_time_step > limit:
-            check.fail(
-                owner,
-                "bank_time_step must be <= jacobi_window/"
-                f"{MIN_BANK_SAMPLES_PER_JACOBI_WINDOW} [s] (the bank samples the "
-                "differentiator's low-passed output; a coarser step aliases it); got "
-                f"{self.bank_time_step:g} with jacobi_window {self.jacobi_window:g}.",
-            )
-        if isinstance(self.frequencies, str) and self.frequencies != "paper":
-            check.fail(
-                owner,
-                f"frequencies must be None, 'paper' or a list of reals; got "
-                f"{self.frequencies!r}.",
-            )
+        # Types, ranges and the hard ceilings on the work per value
+        # (core.online_checks), before anything is allocated.
+        check_values({f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
 
     @classmethod
     def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
@@ -257,6 +230,45 @@ class OnlineSettings:
             jacobi_window=jacobi_window,
             bank_time_step=bank_time_step,
             update_period=update_period,
+        )
+
+    def for_log(
+        self,
+        time_step: float,
+        duration: float,
+        *,
+        num_joints: int | None = None,
+        num_parameters: int | None = None,
+        owner: str | None = _OWNER,
+        names: dict[str, str] | None = None,
+    ) -> OnlineSettings:
+        """These settings on a log's grid, checked against the log first.
+
+        :meth:`on_grid` plus the checks of ``core.online_checks.check_log``, all
+        before anything is allocated: the log is longer than window +
+        jacobi_window, every modulating frequency is below the bank's Nyquist
+        frequency and inside the differentiator's pass band, the differentiator
+        and (with the robot's n and p) the window's samples stay within their
+        ceilings, and the ℓ set gives enough independent equations for an honest
+        σ. ``owner`` and ``names`` (field -> name shown) set the messages' words
+        (the ``dynid identify`` command shows its option names).
+
+        Args:
+            time_step: the log's sample period h [s].
+            duration: the log's duration [s].
+            num_joints: n (optional, with ``num_parameters``).
+            num_parameters: p, the base parameters (optional).
+            owner: message prefix (None: none).
+            names: field -> name shown in the messages.
+        """
+        return check_log(
+            self,
+            time_step,
+            duration,
+            num_joints=num_joints,
+            num_parameters=num_parameters,
+            owner=owner,
+            names=names,
         )
 
     def _given_multiple(self, name: str, h: float) -> float:
