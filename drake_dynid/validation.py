@@ -151,15 +151,13 @@ def _rows(robot: Any) -> Any:
     return fast if hasattr(fast, "idim_rows") else robot
 
 
-def _frequency(owner: str, name: str, value: Any, time_step: float) -> float:
-    value = check.positive(owner, name, value, "Hz")
-    if value >= 0.5 / time_step:
-        check.fail(
-            owner,
-            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
-            f"{value:g}.",
-        )
-    return value
+def _frequency(
+    owner: str, name: str, value: Any, time_step: float, longest: int
+) -> float:
+    """A cutoff below Nyquist whose filter fits in the longest segment."""
+    from drake_dynid.core.idim_checks import check_filter_frequency
+
+    return check_filter_frequency(f"{owner}: ", name, value, time_step, longest)
 
 
 def validate_torques(
@@ -230,12 +228,13 @@ def validate_torques(
                 "least 16 are needed to choose the cutoff.",
             )
         cutoff_hz = auto_cutoff(q_longest, h)
-    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h)
+    length = longest[1] - longest[0]
+    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h, length)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(q_longest, h, cutoff_hz)
     decimation_cutoff_hz = _frequency(
-        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h, length
     )
     trim = default_trim(h, cutoff_hz)
     padding = default_padding(h, cutoff_hz)

@@ -263,13 +263,13 @@ def test_identify_bad_options_exit_2(log_file, capsys):
 def test_offline_bad_options_exit_2(log_file, capsys):
     base = ["offline", log_file, "--urdf", URDF]
     assert cli.main([*base, "--cutoff", "600"]) == 2
-    assert "cutoff_hz must be < the Nyquist frequency 500" in _error(capsys)
+    assert "--cutoff must be in (0, 500) [Hz]" in _error(capsys)
     assert cli.main([*base, "--decimation", "0"]) == 2
-    assert "decimation must be >= 1" in _error(capsys)
+    assert "--decimation must be >= 1" in _error(capsys)
     assert cli.main([*base, "--decimation-cutoff", "-1"]) == 2
-    assert "decimation_cutoff_hz must be > 0" in _error(capsys)
+    assert "--decimation-cutoff must be in (0, 500) [Hz]" in _error(capsys)
     assert cli.main([*base, "--cutoff", "0.5"]) == 2
-    assert "no finite segment of the log is long enough" in _error(capsys)
+    assert "--cutoff must be >= 1.33 Hz on this log" in _error(capsys)
 
 
 def test_installed_entry_point_runs_offline(log_file, tmp_path):

@@ -299,13 +299,19 @@ def report_validation(
     ``--decimation-cutoff`` when the command has them, else the automatic rules
     on ``log``.
     """
-    validations = run_validations(
-        log,
-        robot,
-        estimates,
-        cutoff_hz=getattr(args, "cutoff", None),
-        decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
-    )
+    from drake_dynid.commands._options import FILTER_OPTIONS, option_message
+
+    try:
+        validations = run_validations(
+            log,
+            robot,
+            estimates,
+            cutoff_hz=getattr(args, "cutoff", None),
+            decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
+        )
+    except ValueError as error:
+        message = option_message(str(error), FILTER_OPTIONS, ("validate_torques",))
+        raise ValueError(f"validation on {description}: {message}") from None
     if not args.quiet:
         print()
         for line in validation_lines(validations, description):
