@@ -21,10 +21,21 @@ def add_friction_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def parse_friction(text: str) -> tuple[str, ...]:
-    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``."""
+    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``.
+
+    Raises:
+        ValueError: an empty item (``",,"``, ``"viscous,"``): a typo must not
+            silently mean fewer friction columns.
+    """
     if text.strip().lower() in ("", "none"):
         return ()
-    return tuple(item.strip() for item in text.split(",") if item.strip())
+    items = tuple(item.strip() for item in text.split(","))
+    if not all(items):
+        raise ValueError(
+            "--friction must be comma-separated names among viscous, coulomb, "
+            f"offset, or 'none'; got {text!r} (an empty name)."
+        )
+    return items
 
 
 def add_joint_arguments(parser: argparse.ArgumentParser) -> None:

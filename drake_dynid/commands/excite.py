@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import add_friction_argument, parse_friction
-from drake_dynid.commands._paths import check_outputs
+from drake_dynid.commands._paths import check_output_paths
 
 HELP = "design an exciting trajectory (optimal Fourier series within the limits)"
 DESCRIPTION = (
@@ -197,10 +197,7 @@ def run(args: argparse.Namespace) -> int:
         write_trajectory,
     )
 
-    check_outputs(
-        {"--out": args.out, "--json": args.json, "--plot": args.plot},
-        [args.urdf, args.limits],
-    )
+    check_output_paths(args)
     margins = parse_margins(args.margin)
     settings = ExcitationSettings(
         duration=args.duration,

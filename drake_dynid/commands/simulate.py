@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from drake_dynid.commands._arguments import add_friction_argument, parse_friction
-from drake_dynid.commands._paths import check_outputs
+from drake_dynid.commands._paths import check_output_paths
 
 HELP = "simulate a robot log (the URDF arm tracking a trajectory, with noise)"
 DESCRIPTION = (
@@ -113,10 +113,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.trajectory_file import read_trajectory
 
     truth = truth_path(args.out)
-    check_outputs(
-        {"--out": args.out, "truth file": truth},
-        [args.urdf, args.trajectory, args.limits],
-    )
+    check_output_paths(args, outputs={"the truth file": truth})
     if args.snr is not None and (
         args.noise_q is not None or args.noise_tau is not None
     ):

@@ -16,6 +16,15 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import parse_friction
+from drake_dynid.commands._paths import check_output_paths
+
+__all__ = [
+    "add_validation_arguments",
+    "check_output_paths",
+    "report_validation",
+    "run_validations",
+    "validation_split",
+]
 
 HELP = "predict a log's joint torques from identified base parameters (validation)"
 DESCRIPTION = (
@@ -51,42 +60,6 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
         help="fit on the first FRACTION of the log (0 < FRACTION < 1) and validate "
         "on the rest",
     )
-
-
-def check_output_paths(args: argparse.Namespace) -> None:
-    """No output option may name an input file, nor two outputs the same file."""
-    inputs = {
-        option: getattr(args, name, None)
-        for option, name in (
-            ("LOG", "log"),
-            ("--urdf", "urdf"),
-            ("--params", "params"),
-            ("--validate", "validate"),
-        )
-    }
-    outputs = {
-        option: getattr(args, name, None)
-        for option, name in (
-            ("--json", "json"),
-            ("--out", "out"),
-            ("--plot", "plot"),
-            ("--urdf-out", "urdf_out"),
-        )
-    }
-    seen: dict[Path, str] = {}
-    for option, path in inputs.items():
-        if path:
-            seen[Path(path).resolve()] = f"the input {option}"
-    for option, path in outputs.items():
-        if not path:
-            continue
-        resolved = Path(path).resolve()
-        if resolved in seen:
-            raise ValueError(
-                f"{option} {path} is also {seen[resolved]}; an output never "
-                "overwrites an input or another output: choose another file."
-            )
-        seen[resolved] = f"the output {option}"
 
 
 def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]:
