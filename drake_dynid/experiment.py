@@ -200,7 +200,14 @@ def simulate_experiment(
     from drake_dynid.urdf import load_plant
 
     owner = "simulate_experiment"
+    check.having(
+        owner, "reference", reference, ("t", "q", "joint_names"), "a SampledTrajectory"
+    )
+    check.instance(owner, "limits", limits, JointLimits, "a JointLimits (joint_limits)")
     settings = ExperimentSettings() if settings is None else settings
+    check.instance(
+        owner, "settings", settings, ExperimentSettings, "ExperimentSettings"
+    )
     names = tuple(limits.joint_names)
     if tuple(reference.joint_names) != names:
         check.fail(owner, "the reference's joints must be the limits' joints.")

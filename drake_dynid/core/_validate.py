@@ -144,3 +144,33 @@ def array(
             f"{owner}: {name} must be finite; got {bad} NaN or infinite value(s)."
         )
     return out
+
+
+def instance(owner: str, name: str, value: Any, types: Any, what: str) -> Any:
+    """Returns ``value`` if it is an instance of ``types``, else raises TypeError.
+
+    ``what`` describes the expected object (e.g. ``"a FourierBank (fourier_bank)"``).
+    """
+    if not isinstance(value, types):
+        raise TypeError(
+            f"{owner}: {name} must be {what}; got {value!r:.60} of type "
+            f"{type(value).__name__}."
+        )
+    return value
+
+
+def having(
+    owner: str, name: str, value: Any, attributes: Sequence[str], what: str
+) -> Any:
+    """Returns ``value`` if it has every attribute of ``attributes``, else TypeError.
+
+    For duck-typed arguments (a robot model, a log): ``what`` names the expected
+    object (e.g. ``"a RobotModel"``).
+    """
+    missing = [attribute for attribute in attributes if not hasattr(value, attribute)]
+    if missing:
+        raise TypeError(
+            f"{owner}: {name} must be {what}; got {value!r:.60} of type "
+            f"{type(value).__name__} (no {missing[0]})."
+        )
+    return value

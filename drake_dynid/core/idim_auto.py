@@ -156,7 +156,14 @@ def auto_decimation(time_step: float, cutoff_hz: float) -> int:
     owner = "auto_decimation"
     time_step = check.positive(owner, "time_step", time_step, "s")
     cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    return max(1, math.floor(0.25 / (time_step * cutoff_hz)))
+    ratio = 0.25 / time_step / cutoff_hz
+    if not math.isfinite(ratio):
+        check.fail(
+            owner,
+            f"0.25/(time_step·cutoff_hz) must be finite; got time_step {time_step:g} "
+            f"s and cutoff_hz {cutoff_hz:g} Hz.",
+        )
+    return max(1, math.floor(ratio))
 
 
 def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:

@@ -445,6 +445,9 @@ def jacobi_frequency_response(filt: JacobiFilter, omega: Any) -> np.ndarray:
     ``H(ω) = Σ_j taps[j] e^{-iωjh}`` for angular frequencies ``omega`` [rad/s];
     the ideal (delayed differentiator) response is ``(iω)^k e^{-iω·delay}``.
     """
+    _validate.instance(
+        "jacobi_frequency_response", "filt", filt, JacobiFilter, "a JacobiFilter"
+    )
     omega = _validate.array("jacobi_frequency_response", "omega", omega)
     lags = np.arange(filt.num_taps) * filt.time_step
     return np.exp(-1j * np.multiply.outer(omega, lags)) @ filt.taps
@@ -457,6 +460,9 @@ def jacobi_sinusoid_error(filt: JacobiFilter, omega: Any) -> np.ndarray:
     error of amplitude ``A·jacobi_sinusoid_error(filt, ω)`` [unit·s^-k]: the bias
     part of the error budget (the noise part is ``σ·filt.noise_gain``).
     """
+    _validate.instance(
+        "jacobi_sinusoid_error", "filt", filt, JacobiFilter, "a JacobiFilter"
+    )
     omega = _validate.array("jacobi_sinusoid_error", "omega", omega)
     ideal = (1j * omega) ** filt.order * np.exp(-1j * omega * filt.delay)
     return np.abs(jacobi_frequency_response(filt, omega) - ideal)

@@ -101,7 +101,15 @@ def nearest_multiple(value: float, step: float, *, at_most: int | None = None) -
 
     Ties go to the smaller count; ``at_most`` caps the count (still >= 1).
     """
-    count = max(1, math.floor(value / step + 0.5 - _GRID_RTOL))
+    value = check.real("nearest_multiple", "value", value)
+    step = check.positive("nearest_multiple", "step", step)
+    ratio = value / step
+    if not np.isfinite(ratio):
+        check.fail(
+            "nearest_multiple",
+            f"value / step must be finite; got {value:g} / {step:g}.",
+        )
+    count = max(1, math.floor(ratio + 0.5 - _GRID_RTOL))
     if at_most is not None:
         count = max(1, min(count, at_most))
     return count
@@ -284,11 +292,13 @@ class OnlineSettings:
 
     def decimation(self, time_step: float) -> int:
         """Signal samples per bank sample, bank_time_step/h (after :meth:`on_grid`)."""
-        return round(self.resolved("bank_time_step") / time_step)
+        h = check.positive(_OWNER, "time_step", time_step, "s")
+        return round(self.resolved("bank_time_step") / h)
 
     def solve_decimation(self, time_step: float) -> int:
         """Signal samples per solve, update_period/h (after :meth:`on_grid`)."""
-        return round(self.resolved("update_period") / time_step)
+        h = check.positive(_OWNER, "time_step", time_step, "s")
+        return round(self.resolved("update_period") / h)
 
     def resolved(self, name: str) -> float:
         """The period ``name`` (``"bank_time_step"`` or ``"update_period"``) [s].

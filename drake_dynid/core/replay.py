@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core import _validate as check
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
 from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
@@ -196,6 +197,13 @@ def replay_log_core(
         times relative to the first sample of the log.
     """
     del progress
+    check.having(
+        "replay_log_core",
+        "log",
+        log,
+        ("q", "tau", "time_step", "num_samples"),
+        "a RobotLog",
+    )
     n = check_rows("replay_log_core", rows)
     if log.q.shape[1] != n or log.tau.shape[1] != n:
         raise ValueError(

@@ -179,6 +179,7 @@ def sliding_init(
         chunk_size: rows per frozen block of the ring (default: see ChunkRing).
     """
     owner = "sliding_init"
+    v.instance(owner, "bank", bank, FourierBank, "a FourierBank (fourier_bank)")
     num_channels = v.integer(owner, "num_channels", num_channels, minimum=1)
     if resync_every is None:
         resync_every = 100 * bank.num_samples
@@ -199,6 +200,7 @@ def sliding_init(
 
 def is_full(state: SlidingState) -> bool:
     """True once the window holds N + 1 samples."""
+    _check("is_full", None, state)
     return state.ring.is_full
 
 
@@ -209,6 +211,7 @@ def window_valid(state: SlidingState) -> bool:
     stored as zeros and keeps the window invalid until it has left it, N + 1
     pushes later.
     """
+    _check("window_valid", None, state)
     return state.ring.is_full and state.last_invalid < state.count - len(state.ring)
 
 
@@ -217,6 +220,7 @@ def sliding_resync(bank: FourierBank, state: SlidingState) -> SlidingState:
 
     Removes accumulated round-off; costs K·(N+1)·c complex multiply-adds.
     """
+    _check("sliding_resync", bank, state)
     window = state.ring.window()
     first = state.count - len(window)
     sums = _absolute_sums(bank, window, first)
@@ -232,6 +236,24 @@ def sliding_resync(bank: FourierBank, state: SlidingState) -> SlidingState:
         peak=peak,
         peak_index=peak_index,
     )
+
+
+def _check(owner: str, bank: Any, state: Any = None) -> None:
+    """TypeError/ValueError unless ``bank`` is a FourierBank and ``state`` its state.
+
+    ``bank`` None: only the state is checked; ``state`` None: only the bank.
+    """
+    if bank is not None:
+        v.instance(owner, "bank", bank, FourierBank, "a FourierBank (fourier_bank)")
+    if state is None:
+        return
+    v.instance(owner, "state", state, SlidingState, "a SlidingState (sliding_init)")
+    if bank is not None and state.ring.capacity != bank.num_samples:
+        v.fail(
+            owner,
+            f"state must belong to this bank ({bank.num_samples} samples per "
+            f"window); got a state of {state.ring.capacity}.",
+        )
 
 
 def _window_peaks(window: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
@@ -311,6 +333,7 @@ def sliding_push(
         The new state (O(K·c) work, plus a resynchronisation every
         ``resync_every`` pushes).
     """
+    _check("sliding_push", bank, state)
     x = np.asarray(sample, dtype=float)
     if x.shape != (state.num_channels,):
         v.fail(
@@ -375,6 +398,7 @@ def sliding_push_many(
             zeros (see :func:`sliding_push`).
     """
     owner = "sliding_push_many"
+    _check(owner, bank, state)
     x = check_samples(owner, samples, None, finite=False)
     if x.shape[1] != state.num_channels:
         v.fail(
@@ -437,6 +461,7 @@ def sliding_fourier_integrals(bank: FourierBank, state: SlidingState) -> np.ndar
     index: equal to :func:`direct_fourier_integrals` on the window. Before the
     window is full the missing older samples count as zeros.
     """
+    _check("sliding_fourier_integrals", bank, state)
     ring = state.ring
     if ring.size == 0:
         return np.zeros((bank.num_frequencies, state.num_channels), dtype=complex)
