@@ -223,6 +223,7 @@ def offline_rows(
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
     q = np.asarray(log.q, dtype=float)
     tau = np.asarray(log.tau, dtype=float)
+    check.log_magnitudes(owner, q, tau)
     n = q.shape[1]
     segments = log.good_segments()
     if not segments:

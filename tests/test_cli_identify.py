@@ -343,5 +343,5 @@ def test_measured_bandwidth_of_a_log_without_finite_samples_is_a_clear_error():
 
     nan = np.full((100, 2), np.nan)
     log = RobotLog(np.arange(100) * 1e-3, nan, nan, ("joint1", "joint2"), 1e-3)
-    with pytest.raises(ValueError, match="no run of 16 finite samples"):
+    with pytest.raises(ValueError, match="no run of 64 finite samples"):
         measured_bandwidth(log, 2.0)

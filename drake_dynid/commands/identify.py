@@ -185,15 +185,49 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     q = log.q[start:stop]
-    if q.shape[0] < 16:
+    run = q.shape[0]
+    if run < 64:
         raise ValueError(
-            "cannot measure the excitation band: no run of 16 finite samples in the "
-            "log; give --bandwidth or --frequencies."
+            f"cannot measure the excitation band: no run of 64 finite samples in the "
+            f"log (the longest has {run}, {run * log.time_step:g} s); give "
+            "--bandwidth or --frequencies."
         )
-    band = max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
+    try:
+        measured = float(estimate_bandwidth(q, log.time_step))
+    except ValueError:
+        bad = int(np.count_nonzero(log.bad_samples))
+        where = (
+            f"the longest run of finite samples ({(run - 1) * log.time_step:g} s of "
+            f"{log.duration:g} s: {bad} bad samples split the log)"
+            if bad
+            else "the log"
+        )
+        raise ValueError(
+            "cannot measure the excitation band: the positions show no motion above "
+            f"their noise floor on {where}: the robot did not move, or too little to "
+            "identify anything (give --bandwidth or --frequencies to try anyway)."
+        ) from None
+    band = max(measured, 2.0 / window)
     if settings is not None:
         band = min(band, usable_band(settings, log.time_step))
     return band
+
+
+def check_log_values(args: argparse.Namespace, log: Any, settings: Any) -> None:
+    """The log's magnitudes and length, before anything is measured on it."""
+    from drake_dynid.core._validate import log_magnitudes
+
+    try:
+        log_magnitudes("identify", log.q, log.tau)
+    except ValueError as error:
+        raise ValueError(f"log {args.log}: {str(error).split(': ', 1)[1]}") from None
+    needed = settings.window + settings.jacobi_window
+    if log.duration <= needed:
+        raise ValueError(
+            f"log {args.log} lasts {log.duration:g} s; the on-line identifier needs "
+            f"more than --window + --jacobi-window = {needed:g} s before its first "
+            "estimate: record a longer log or shorten --window."
+        )
 
 
 def usable_band(settings: Any, time_step: float) -> float:
@@ -332,6 +366,7 @@ def run(args: argparse.Namespace) -> int:
         matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
     log, held, held_description = validation_split(args, log)
+    check_log_values(args, log, settings)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )

@@ -93,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
     settings = result.settings
     if not result.valid:
         raise ValueError(
-            f"the least squares on log {args.log} failed: {result.reason}. Use a log "
+            f"the least squares on log {args.log} failed: "
+            f"{result.reason.rstrip('.')}. Use a log "
             "with more excitation (every joint moving, velocity reversals), fewer "
             "friction columns (--friction), or another --cutoff."
         )

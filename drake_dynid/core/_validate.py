@@ -174,3 +174,26 @@ def having(
             f"{type(value).__name__} (no {missing[0]})."
         )
     return value
+
+
+#: Largest |q| or |τ| of a log (any unit): the identification squares and
+#: multiplies samples (v², v·τ, products with 1/h² in v̇), which overflows float64
+#: beyond ~1e154; 1e100 is far beyond any physical value in SI units.
+MAX_LOG_MAGNITUDE = 1e100
+
+
+def log_magnitudes(owner: str, q: Any, tau: Any) -> None:
+    """Raises ValueError when a finite |q| or |τ| of a log exceeds 1e100.
+
+    Non-finite samples are not checked here (they are bad samples).
+    """
+    for name, values, unit in (("q", q, "rad or m"), ("tau", tau, "N·m or N")):
+        array = np.asarray(values, dtype=float)
+        finite = np.abs(array[np.isfinite(array)])
+        top = float(finite.max()) if finite.size else 0.0
+        if top > MAX_LOG_MAGNITUDE:
+            raise ValueError(
+                f"{owner}: |{name}| must be <= {MAX_LOG_MAGNITUDE:g} [{unit}] (the "
+                "identification squares and multiplies the samples, which overflows "
+                f"beyond about 1e154); got {top:.3g}: check the log's units."
+            )

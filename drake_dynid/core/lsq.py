@@ -343,12 +343,16 @@ def frequency_noise_weights(
     weights = np.ones_like(residual)
     for g in np.unique(group):
         rows = group == g
+        # Residuals scaled by their largest magnitude: squares never overflow.
+        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
+        if scale == 0.0:
+            continue
         model = np.stack([np.ones(rows.sum()), frequency[rows] ** 2], axis=1)
-        coefficients, _ = nnls(model, residual[rows] ** 2)
+        coefficients, _ = nnls(model, (residual[rows] / scale) ** 2)
         variance = model @ coefficients
         top = float(variance.max())
         if top > 0.0:
-            weights[rows] = 1.0 / np.sqrt(np.maximum(variance, floor * top))
+            weights[rows] = 1.0 / (scale * np.sqrt(np.maximum(variance, floor * top)))
     return weights
 
 

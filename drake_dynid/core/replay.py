@@ -204,6 +204,7 @@ def replay_log_core(
         ("q", "tau", "time_step", "num_samples"),
         "a RobotLog",
     )
+    check.log_magnitudes("replay_log_core", log.q, log.tau)
     n = check_rows("replay_log_core", rows)
     if log.q.shape[1] != n or log.tau.shape[1] != n:
         raise ValueError(
