@@ -430,7 +430,11 @@ def solve_window(
         return solve_frequency_weighted_least_squares(
             A, B, frequency, group, max_condition=max_condition, names=names
         )
-    from drake_dynid.core.row_noise import MIN_RESIDUAL_DOF, honest_std
+    from drake_dynid.core.row_noise import (
+        MIN_RESIDUAL_DOF,
+        honest_std,
+        noise_model_std,
+    )
 
     first = solve_least_squares(A, B, max_condition=max_condition, names=names)
     if not first.valid:
@@ -453,7 +457,8 @@ def solve_window(
         )
         if not result.valid:
             return result
-    honest = honest_std(A, B, result.theta, weights, 1.0 / model, noise)
+    relative = noise_model_std(B - A @ result.theta, noise.frequency, noise.group)
+    honest = honest_std(A, B, result.theta, weights, relative, noise)
     if not honest.dof >= MIN_RESIDUAL_DOF:
         nan = np.full(A.shape[1], np.nan)
         nan.flags.writeable = False

@@ -7,9 +7,12 @@ independent row about twenty times, and Gautier's σ comes out 5-10 times too
 small), and rows of higher frequency carry more velocity-estimate noise. With the
 row noise modelled as ``Σ = σ² S C S`` per equation (``C`` the correlation of the
 rows of one equation under white noise, ``FourierBank.row_correlation``; ``S`` the
-relative noise std of each row from the fitted model ``a_j + b_j ν²``,
-``core.lsq.frequency_noise_weights``), the estimate ``X̂ = (ÃᵀÃ)⁻¹ Ãᵀ B̃`` of the
-(weighted) rows ``Ã = W A`` has the sandwich covariance::
+relative noise std of each row from :func:`noise_model_std`, the variance model
+``a_j + b_j ν² + c_j ν⁴`` fitted to the residuals of equation j: torque noise
+enters every row alike, the velocity estimate's noise through ġ (∝ ν) in the
+friction and Coriolis terms and, with its spectrum ∝ f², through ġ·v̂ (∝ ν²) in
+the inertial ones), the estimate ``X̂ = (ÃᵀÃ)⁻¹ Ãᵀ B̃`` of the (weighted) rows
+``Ã = W A`` has the sandwich covariance::
 
     C_X = σ̂² (ÃᵀÃ)⁻¹ M (ÃᵀÃ)⁻¹,      M = Σ_j Ã_jᵀ S_j C S_j Ã_j
     σ̂²  = ‖W (B - A X̂)‖² / (tr(S C S) - tr((ÃᵀÃ)⁻¹ M))     (E‖ρ̃‖² = σ² tr((I-H)SCS))
@@ -34,7 +37,14 @@ import numpy as np
 
 from drake_dynid.core import _validate as v
 
-__all__ = ["MIN_RESIDUAL_DOF", "HonestStd", "RowNoise", "honest_std", "row_noise"]
+__all__ = [
+    "MIN_RESIDUAL_DOF",
+    "HonestStd",
+    "RowNoise",
+    "honest_std",
+    "noise_model_std",
+    "row_noise",
+]
 
 #: Fewest effective residual degrees of freedom of a window reported valid: with
 #: ν_eff = 4 the estimated σ is within a factor 0.5-1.4 of the true one in 80 %
@@ -98,6 +108,45 @@ def row_noise(bank: Any, m: int) -> RowNoise:
     return RowNoise(
         frequency=frequency, group=group, correlation=correlation, factor=factor
     )
+
+
+def noise_model_std(
+    residual: np.ndarray, frequency: np.ndarray, group: np.ndarray
+) -> np.ndarray:
+    """Modelled noise std of every row, from its equation's residuals.
+
+    Per equation j, ``σ_j²(ν) = a_j + b_j ν² + c_j ν⁴`` (a, b, c >= 0, non-negative
+    least squares on the squared residuals, scaled so that no square overflows),
+    floored at 1e-3 of the equation's largest variance. A model with one term
+    less (the weights' a + bν²) leaves σ of the inertial parameters up to 2.5
+    times too large on 5 s windows (benchmarks/bench_sigma.py).
+
+    Args:
+        residual: (r,) residuals ``B - A X̂`` [unit of B].
+        frequency: (r,) frequency index ν of each row.
+        group: (r,) equation of each row.
+
+    Returns:
+        (r,) σ_i [unit of B] (ones for an equation whose residuals are all 0).
+    """
+    from scipy.optimize import nnls
+
+    out = np.ones_like(residual)
+    for j in np.unique(group):
+        rows = group == j
+        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
+        if scale == 0.0:
+            continue
+        nu2 = frequency[rows] ** 2
+        model = np.stack([np.ones_like(nu2), nu2, nu2 * nu2], axis=1)
+        top = np.max(model, axis=0)
+        top[top == 0.0] = 1.0
+        coefficients, _ = nnls(model / top, (residual[rows] / scale) ** 2)
+        variance = (model / top) @ coefficients
+        peak = float(variance.max())
+        if peak > 0.0:
+            out[rows] = scale * np.sqrt(np.maximum(variance, 1e-3 * peak))
+    return out
 
 
 @dataclass(frozen=True)
