@@ -70,6 +70,7 @@ def _frequencies(text: str | None) -> Any:
     ``core.fourier_bank.MAX_FUNCTIONS``) before the list is built.
     """
     from drake_dynid.core.fourier_bank import MAX_FUNCTIONS
+    from drake_dynid.core.online_checks import MAX_INDEX
 
     if text is None:
         return "default"
@@ -97,6 +98,10 @@ def _frequencies(text: str | None) -> Any:
             raise ValueError(
                 "--frequencies start:step:stop must have finite start >= 0, step > 0 "
                 f"and stop >= start; got {text!r}."
+            )
+        if stop > MAX_INDEX:
+            raise ValueError(
+                f"--frequencies must hold indices ℓ <= {MAX_INDEX:g}; got {text!r}."
             )
         count = (stop - start) / step + 1.0
         if not count <= MAX_FUNCTIONS:

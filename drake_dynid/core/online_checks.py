@@ -41,6 +41,7 @@ from drake_dynid.core.rows import MODEL_KINDS, num_channels
 
 __all__ = [
     "MAX_CONDITION",
+    "MAX_INDEX",
     "MAX_JACOBI_EXPONENT",
     "MAX_JACOBI_Q",
     "MAX_JACOBI_TAPS",
@@ -58,6 +59,9 @@ MAX_JACOBI_Q = MAX_Q
 MAX_JACOBI_EXPONENT = MAX_EXPONENT
 #: Most taps of the differentiator (``core.jacobi_design.MAX_TAPS``).
 MAX_JACOBI_TAPS = MAX_TAPS
+#: Largest |ℓ| of a given ℓ set: ℓ/T Hz is then above the Nyquist frequency of
+#: any bank the other ceilings allow.
+MAX_INDEX = 1e6
 #: Largest accepted max_condition: the QR's relative round-off, about cond·1e-16,
 #: stays far below any σ.
 MAX_CONDITION = 1e8
@@ -145,6 +149,12 @@ def _frequencies(prefix: str, name: str, value: Any) -> np.ndarray | None:
         _fail(prefix, f"{name} must be a non-empty list of reals; got {value!r}.")
     if not np.all(np.isfinite(ell)):
         _fail(prefix, f"{name} must hold finite indices ℓ; got {value!r}.")
+    if np.max(np.abs(ell)) > MAX_INDEX:  # (beyond any bank's Nyquist frequency)
+        _fail(
+            prefix,
+            f"{name} must hold indices |ℓ| <= {MAX_INDEX:g}; got "
+            f"{float(np.max(np.abs(ell))):g}.",
+        )
     if np.unique(np.round(ell, 12)).size != ell.size:
         _fail(prefix, f"{name} must not repeat an index ℓ; got {value!r}.")
     return ell
