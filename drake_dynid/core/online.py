@@ -117,6 +117,8 @@ def nearest_multiple(value: float, step: float, *, at_most: int | None = None) -
 
 def _is_multiple(value: float, step: float) -> bool:
     ratio = value / step
+    if not math.isfinite(ratio):
+        return False
     count = round(ratio)
     return count >= 1 and abs(ratio - count) <= _GRID_RTOL * max(1.0, abs(ratio))
 

@@ -45,6 +45,7 @@ __all__ = [
     "MAX_JACOBI_EXPONENT",
     "MAX_JACOBI_Q",
     "MAX_JACOBI_TAPS",
+    "MAX_SECONDS",
     "MAX_WINDOW_BYTES",
     "PASS_BAND_GAIN",
     "check_log",
@@ -59,6 +60,8 @@ MAX_JACOBI_Q = MAX_Q
 MAX_JACOBI_EXPONENT = MAX_EXPONENT
 #: Most taps of the differentiator (``core.jacobi_design.MAX_TAPS``).
 MAX_JACOBI_TAPS = MAX_TAPS
+#: Largest window, Jacobi window, bank step or solve period [s] (about 11 days).
+MAX_SECONDS = 1e6
 #: Largest |ℓ| of a given ℓ set: ℓ/T Hz is then above the Nyquist frequency of
 #: any bank the other ceilings allow.
 MAX_INDEX = 1e6
@@ -101,6 +104,14 @@ def _positive(prefix: str, name: str, value: Any, unit: str | None) -> float:
     out = _real(prefix, name, value, unit)
     if out <= 0.0:
         _fail(prefix, f"{name} must be > 0{f' [{unit}]' if unit else ''}; got {out}.")
+    return out
+
+
+def _duration(prefix: str, name: str, value: Any) -> float:
+    """A time setting in (0, :data:`MAX_SECONDS`] [s]."""
+    out = _positive(prefix, name, value, "s")
+    if out > MAX_SECONDS:
+        _fail(prefix, f"{name} must be <= {MAX_SECONDS:g} [s]; got {out:g}.")
     return out
 
 
@@ -184,7 +195,7 @@ def check_values(
             prefix,
             f"{say('model')} must be one of {', '.join(MODEL_KINDS)}; got {model!r}.",
         )
-    window = _positive(prefix, say("window"), get("window", 20.0), "s")
+    window = _duration(prefix, say("window"), get("window", 20.0))
     order = _integer(prefix, say("order"), get("order", 1), 1, MAX_ORDER)
     ell = _frequencies(prefix, say("frequencies"), get("frequencies"))
     bandwidth = _positive(prefix, say("bandwidth"), get("bandwidth", 0.6), "Hz")
@@ -199,9 +210,7 @@ def check_values(
                 f"{bandwidth:g} Hz ({count:.3g} functions).",
             )
     del ell
-    jacobi_window = _positive(
-        prefix, say("jacobi_window"), get("jacobi_window", 0.4), "s"
-    )
+    jacobi_window = _duration(prefix, say("jacobi_window"), get("jacobi_window", 0.4))
     for field in ("kappa", "mu"):
         value = _real(prefix, say(field), get(field, 1.0), None)
         if not -1.0 < value <= MAX_JACOBI_EXPONENT:
@@ -213,7 +222,7 @@ def check_values(
     _integer(prefix, say("jacobi_q"), get("jacobi_q", 1), 0, MAX_JACOBI_Q)
     for field in ("bank_time_step", "update_period"):
         if get(field) is not None:
-            _positive(prefix, say(field), get(field), "s")
+            _duration(prefix, say(field), get(field))
     condition = _real(prefix, say("max_condition"), get("max_condition", 1e4), None)
     if not 1.0 < condition <= MAX_CONDITION:
         _fail(
