@@ -235,14 +235,13 @@ def _row_correlation(bank: FourierBank) -> np.ndarray:
                 * np.conj(w[None, :, k])
                 * _window_integral(a - b, bank.window)
             )
-    gram = np.empty((count, 2, count, 2))
-    gram[:, 0, :, 0] = 0.5 * (S.real + H.real)
-    gram[:, 1, :, 1] = 0.5 * (H.real - S.real)
-    gram[:, 0, :, 1] = 0.5 * (S.imag - H.imag)
-    gram[:, 1, :, 0] = gram[:, 0, :, 1].T
-    gram = gram.reshape(2 * count, 2 * count)
+    blocks = np.empty((count, 2, count, 2))
+    blocks[:, 0, :, 0] = 0.5 * (S.real + H.real)
+    blocks[:, 1, :, 1] = 0.5 * (H.real - S.real)
+    blocks[:, 0, :, 1] = 0.5 * (S.imag - H.imag)
+    blocks[:, 1, :, 0] = blocks[:, 0, :, 1].T
     keep = bank.row_mask.ravel()
-    gram = gram[np.ix_(keep, keep)]
+    gram = blocks.reshape(2 * count, 2 * count)[np.ix_(keep, keep)]
     scale = np.sqrt(np.clip(np.diag(gram), np.finfo(float).tiny, None))
     out = gram / np.outer(scale, scale)
     np.fill_diagonal(out, 1.0)
