@@ -240,3 +240,59 @@ def test_for_log_checks_against_the_log_with_the_names_given():
         power.for_log(1e-3, 30.0, num_joints=6, num_parameters=40)
     grid = OnlineSettings().for_log(1e-3, 30.0, num_joints=2, num_parameters=8)
     assert grid == OnlineSettings().on_grid(1e-3)
+
+
+@pytest.fixture(scope="module")
+def trajectory_file(tmp_path_factory):
+    # A 1 s rest trajectory of the 2R arm at 100 Hz (t, q_*, v_*, a_* columns).
+    path = tmp_path_factory.mktemp("traj") / "traj.csv"
+    t = np.arange(101) * 0.01
+    zeros = np.zeros(t.size)
+    columns = [t] + [zeros] * 6
+    header = "t,q_joint1,q_joint2,v_joint1,v_joint2,a_joint1,a_joint2"
+    np.savetxt(
+        path,
+        np.column_stack(columns),
+        delimiter=",",
+        header=header,
+        comments="",
+        fmt="%.6g",
+    )
+    return str(path)
+
+
+EXCITE_CASES = [
+    (["--duration", "1e9"], "--duration must be <= 1e+06 [s]"),
+    (["--harmonics", "1000000"], "--harmonics must be <= 50"),
+    (["--sample-rate", "1e12"], "--sample-rate x --duration must give at most 1e+07"),
+    (["--log-rate", "nan"], "--log-rate must be finite and > 0 [Hz]"),
+    (["--online-window", "1e9"], "--online-window must be <= 1e+06 [s]"),
+    (["--online-window", "100"], "--online-window must be <= --duration 60 s"),
+]
+
+
+@pytest.mark.parametrize(("options", "message"), EXCITE_CASES)
+def test_excite_refuses_bad_values_before_the_design(
+    tmp_path, capsys, options, message
+):
+    out = str(tmp_path / "traj.csv")
+    line = _refused(["excite", URDF, "--out", out, *options], capsys)
+    assert message in line, line
+
+
+SIMULATE_CASES = [
+    (["--time-step", "1e-12", "--rate", "1e12"], "at most 1e+07 simulation steps"),
+    (["--snr=-1e308"], "--snr must be in [-100.0, 400.0] [dB]"),
+    (["--noise-q", "1e300"], "--noise-q must be in [0, 1e+99]"),
+    (["--rate", "333"], "--rate must divide 1/--time-step = 1000 Hz"),
+]
+
+
+@pytest.mark.parametrize(("options", "message"), SIMULATE_CASES)
+def test_simulate_refuses_bad_values_before_simulating(
+    tmp_path, capsys, trajectory_file, options, message
+):
+    argv = ["simulate", URDF, "--trajectory", trajectory_file]
+    argv += ["--out", str(tmp_path / "sim.csv"), *options]
+    line = _refused(argv, capsys)
+    assert message in line, line
