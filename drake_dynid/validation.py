@@ -53,6 +53,7 @@ from drake_dynid.core.idim import (
     offline_derivatives,
     parallel_decimation,
 )
+from drake_dynid.core.idim_checks import check_filter_frequency
 from drake_dynid.offline import auto_cutoff, auto_decimation_cutoff
 
 __all__ = [
@@ -151,13 +152,15 @@ def _rows(robot: Any) -> Any:
     return fast if hasattr(fast, "idim_rows") else robot
 
 
-def _frequency(
-    owner: str, name: str, value: Any, time_step: float, longest: int
-) -> float:
-    """A cutoff below Nyquist whose filter fits in the longest segment."""
-    from drake_dynid.core.idim_checks import check_filter_frequency
-
-    return check_filter_frequency(f"{owner}: ", name, value, time_step, longest)
+def _frequency(owner: str, name: str, value: Any, time_step: float) -> float:
+    value = check.positive(owner, name, value, "Hz")
+    if value >= 0.5 / time_step:
+        check.fail(
+            owner,
+            f"{name} must be < the Nyquist frequency {0.5 / time_step:g} [Hz]; got "
+            f"{value:g}.",
+        )
+    return value
 
 
 def validate_torques(
@@ -219,6 +222,15 @@ def validate_torques(
         check.fail(owner, "the log has no finite sample (every row has a NaN).")
     longest = max(segments, key=lambda s: s[1] - s[0])
     q_longest = q[longest[0] : longest[1]]
+    # Given cutoffs against the log before any filter (core/idim_checks.py): below
+    # Nyquist and long enough for two periods at each end of the longest segment.
+    given = (("cutoff_hz", cutoff_hz), ("decimation_cutoff_hz", decimation_cutoff_hz))
+    for name, value in given:
+        if value is not None:
+            check_filter_frequency(
+                f"{owner}: ", name, value, h, longest[1] - longest[0]
+            )
+
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
         if q_longest.shape[0] < 16:
@@ -228,13 +240,12 @@ def validate_torques(
                 "least 16 are needed to choose the cutoff.",
             )
         cutoff_hz = auto_cutoff(q_longest, h)
-    length = longest[1] - longest[0]
-    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h, length)
+    cutoff_hz = _frequency(owner, "cutoff_hz", cutoff_hz, h)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(q_longest, h, cutoff_hz)
     decimation_cutoff_hz = _frequency(
-        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h, length
+        owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
     )
     trim = default_trim(h, cutoff_hz)
     padding = default_padding(h, cutoff_hz)
