@@ -23,6 +23,13 @@ signal period h closest to their nominal values (:data:`NOMINAL_BANK_TIME_STEP`,
 nearest multiples of h and of the bank step when they are not already. At
 h = 1 ms nothing moves; a 125 Hz log (h = 8 ms) gets a 16 ms bank and a 96 ms
 solve period.
+
+Checks before any allocation (``core.online_checks``): the constructor checks every
+value and its hard ceiling; :meth:`OnlineSettings.for_log` puts the settings on a
+log's grid and checks them against the log and the robot (length, Nyquist, the
+differentiator's pass band, window memory, enough independent equations for an
+honest σ), with the messages in the caller's names (``dynid identify`` shows its
+options).
 """
 
 from __future__ import annotations
