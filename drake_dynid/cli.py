@@ -15,6 +15,7 @@ import importlib
 import importlib.util
 import sys
 import traceback
+import warnings
 from collections.abc import Sequence
 
 from drake_dynid import __version__
@@ -70,7 +71,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return EXIT_OK
     try:
-        return int(run(args) or EXIT_OK)
+        with warnings.catch_warnings():
+            # numpy/scipy numeric warnings (overflow, invalid value, ill-conditioned
+            # solves) never reach the user as Python warnings: every result they
+            # could affect is checked for finiteness and rank, and reported in the
+            # command's own words (an invalid window, a non-finite input).
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return int(run(args) or EXIT_OK)
     except (ValueError, OSError) as error:
         # Bad input: the message names the problem; no traceback.
         print(f"dynid {args.command}: error: {error}", file=sys.stderr)

@@ -39,6 +39,15 @@ class SelfCollision:
     """
 
     def __init__(self, diagram: Any, plant: Any, scene_graph: Any, q_reference):
+        for name, value in (("diagram", diagram), ("scene_graph", scene_graph)):
+            if not hasattr(
+                value,
+                "CreateDefaultContext" if name == "diagram" else "model_inspector",
+            ):
+                raise TypeError(
+                    f"SelfCollision: {name} must be a Drake {name}; got "
+                    f"{type(value).__name__} (use SelfCollision.from_urdf)."
+                )
         self._diagram = diagram
         self._plant = plant
         self._scene_graph = scene_graph

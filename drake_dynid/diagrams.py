@@ -220,6 +220,7 @@ def add_online_identifier(
             names=names,
             offset=SOLVE_OFFSET * time_step,
             row_weighting=settings.row_weighting(model_rows.num_equations, design),
+            row_noise=settings.row_noise(model_rows.num_equations, design),
         )
     )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())
@@ -311,6 +312,9 @@ def log_source(log: Any) -> Any:
     from pydrake.systems.primitives import TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
+    check.having(
+        "log_source", "log", log, ("q", "tau", "time_step", "num_samples"), "a RobotLog"
+    )
     values = np.hstack([log.q, log.tau]).T
     return TrajectorySource(
         PiecewisePolynomial.ZeroOrderHold(
@@ -349,6 +353,9 @@ def replay_log(
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
 
+    check.having(
+        "replay_log", "log", log, ("q", "tau", "time_step", "num_samples"), "a RobotLog"
+    )
     n = check_rows("replay_log", rows)
     if log.q.shape[1] != n or log.tau.shape[1] != n:
         check.fail(

@@ -36,6 +36,10 @@ __all__ = ["ExperimentLog", "ExperimentSettings", "simulate_experiment"]
 FRICTION_KINDS = ("viscous", "coulomb", "offset")
 
 
+#: Most plant steps of one simulated experiment (duration / time_step).
+MAX_STEPS = 1e7
+
+
 @dataclass(frozen=True)
 class ExperimentSettings:
     """Settings of a simulated experiment.
@@ -84,11 +88,13 @@ class ExperimentSettings:
                 f"friction kinds must be among {', '.join(FRICTION_KINDS)}; got "
                 f"{', '.join(unknown)}.",
             )
-        for name in ("noise_q", "noise_tau"):
-            if check.real(owner, name, getattr(self, name)) < 0.0:
-                check.fail(owner, f"{name} must be >= 0; got {getattr(self, name)}.")
+        for name, top in (("noise_q", 1e99), ("noise_tau", 1e6)):
+            if not 0.0 <= check.real(owner, name, getattr(self, name)) <= top:
+                check.fail(
+                    owner, f"{name} must be in [0, {top:g}]; got {getattr(self, name)}."
+                )
         if self.snr_db is not None:
-            check.real(owner, "snr_db", self.snr_db, "dB")
+            check.in_range(owner, "snr_db", self.snr_db, -100.0, 400.0, "dB")
         check.positive(owner, "rate", self.rate, "Hz")
         check.integer(owner, "seed", self.seed, minimum=0)
         if self.duration is not None:
@@ -98,8 +104,8 @@ class ExperimentSettings:
         if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
             check.fail(
                 owner,
-                f"rate must divide the simulation rate {1.0 / h:g} Hz [Hz] (the log "
-                f"is decimated from it); got {self.rate:g}.",
+                f"rate must divide 1/time_step = {1.0 / h:g} Hz [Hz] (the log is "
+                f"decimated from the simulation); got {self.rate:g}.",
             )
         check.positive(owner, "kp", self.kp, "1/s²")
         check.positive(owner, "kd", self.kd, "1/s")
@@ -200,7 +206,14 @@ def simulate_experiment(
     from drake_dynid.urdf import load_plant
 
     owner = "simulate_experiment"
+    check.having(
+        owner, "reference", reference, ("t", "q", "joint_names"), "a SampledTrajectory"
+    )
+    check.instance(owner, "limits", limits, JointLimits, "a JointLimits (joint_limits)")
     settings = ExperimentSettings() if settings is None else settings
+    check.instance(
+        owner, "settings", settings, ExperimentSettings, "ExperimentSettings"
+    )
     names = tuple(limits.joint_names)
     if tuple(reference.joint_names) != names:
         check.fail(owner, "the reference's joints must be the limits' joints.")
@@ -212,6 +225,13 @@ def simulate_experiment(
             owner,
             f"duration must be <= the trajectory's {available:g} s [s]; got "
             f"{duration:g}.",
+        )
+    steps = duration / h
+    if steps > MAX_STEPS:
+        check.fail(
+            owner,
+            f"duration / time_step must be at most {MAX_STEPS:g} simulation steps; got "
+            f"{duration:g} s / {h:g} s = {steps:.3g}.",
         )
     _reference_checks(reference, limits, duration)
 
@@ -407,15 +427,35 @@ def _step_failures(t: float, q: np.ndarray, limits: JointLimits, names) -> list[
 
 
 def _noise_std(q: np.ndarray, tau: np.ndarray, settings: ExperimentSettings):
-    """σ of the noise on [q; τ]: from the SNR, or noise_q and noise_tau·std(τ)."""
+    """σ of the noise on [q; τ]: from the SNR, or noise_q and noise_tau·std(τ).
+
+    Raises:
+        ValueError: a σ that is not finite or exceeds the largest log value the
+            identification accepts (``core._validate.MAX_LOG_MAGNITUDE``).
+    """
     if settings.snr_db is not None:
-        return np.concatenate(
-            [
-                noise_std_for_snr(q, settings.snr_db),
-                noise_std_for_snr(tau, settings.snr_db),
-            ]
+        with np.errstate(over="ignore"):
+            out = np.concatenate(
+                [
+                    noise_std_for_snr(q, settings.snr_db),
+                    noise_std_for_snr(tau, settings.snr_db),
+                ]
+            )
+    else:
+        n = q.shape[1]
+        out = np.concatenate(
+            [np.full(n, settings.noise_q), settings.noise_tau * np.std(tau, axis=0)]
         )
-    n = q.shape[1]
-    return np.concatenate(
-        [np.full(n, settings.noise_q), settings.noise_tau * np.std(tau, axis=0)]
-    )
+    top = float(np.max(out, initial=0.0))
+    if not top <= check.MAX_LOG_MAGNITUDE / 10.0:
+        source = (
+            f"snr_db {settings.snr_db:g}"
+            if settings.snr_db is not None
+            else f"noise_q {settings.noise_q:g} and noise_tau {settings.noise_tau:g}"
+        )
+        check.fail(
+            "simulate_experiment",
+            f"the noise std must be <= {check.MAX_LOG_MAGNITUDE / 10.0:g} (a log the "
+            f"identification can read); {source} give {top:.3g}.",
+        )
+    return out

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core import _validate as check
 from drake_dynid.core.joint_limits import JointLimits
 
 __all__ = ["joint_limits", "read_limits_file", "urdf_limits"]
@@ -33,6 +34,9 @@ def urdf_limits(robot: Any) -> JointLimits:
     """
     from pydrake.multibody.tree import JointActuatorIndex
 
+    check.having(
+        "urdf_limits", "robot", robot, ("plant", "joint_names"), "a RobotModel"
+    )
     plant = robot.plant
     names = tuple(robot.joint_names)
     lower, upper, velocity, prismatic = [], [], [], []

@@ -69,6 +69,7 @@ from drake_dynid.core.idim_auto import (
     auto_decimation,
     auto_decimation_cutoff,
 )
+from drake_dynid.core.idim_checks import check_offline_settings
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 
 __all__ = [
@@ -211,10 +212,23 @@ def offline_rows(
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
     q = np.asarray(log.q, dtype=float)
     tau = np.asarray(log.tau, dtype=float)
+    check.log_magnitudes(owner, q, tau)
     n = q.shape[1]
     segments = log.good_segments()
     if not segments:
         check.fail(owner, "the log has no finite sample (every row has a NaN).")
+    # The given settings against the log, before any filter or row (hard limits).
+    check_offline_settings(
+        q,
+        h,
+        segments,
+        cutoff_hz=cutoff_hz,
+        decimation=decimation,
+        decimation_cutoff_hz=decimation_cutoff_hz,
+        num_joints=n,
+        num_parameters=len(names),
+        owner=owner,
+    )
     longest = max(segments, key=lambda s: s[1] - s[0])
     longest_q = q[longest[0] : longest[1]]
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
@@ -368,6 +382,17 @@ def standstill_widths(
 
     owner = "standstill_widths"
     h = log.time_step
+    check_offline_settings(
+        log.q,
+        h,
+        log.good_segments(),
+        cutoff_hz=cutoff_hz,
+        decimation=None,
+        decimation_cutoff_hz=decimation_cutoff_hz,
+        num_joints=log.q.shape[1],
+        num_parameters=0,
+        owner=owner,
+    )
     if cutoff_hz is not None:
         cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     if decimation_cutoff_hz is not None:

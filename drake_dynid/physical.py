@@ -100,6 +100,7 @@ FEASIBILITY_TOLERANCE = 1e-6
 
 
 def _theta(owner: str, robot: Any, theta: Any, name: str = "theta") -> np.ndarray:
+    check.having(owner, "robot", robot, ("num_parameters", "base"), "a RobotModel")
     out = check.array(owner, name, theta)
     if out.shape != (robot.num_parameters,):
         check.fail(
@@ -396,6 +397,7 @@ def solve_physical(
             failure.
     """
     owner = "solve_physical"
+    check.having(owner, "robot", robot, ("num_parameters", "base"), "a RobotModel")
     W = check.array(owner, "W", W)
     tau = check.array(owner, "tau", tau)
     p = robot.num_parameters

@@ -75,6 +75,11 @@ class SampledTrajectory:
 
 def write_trajectory(path: str | os.PathLike, trajectory: SampledTrajectory) -> None:
     """Writes the CSV above (17 significant digits)."""
+    if not isinstance(trajectory, SampledTrajectory):
+        raise TypeError(
+            "write_trajectory: trajectory must be a SampledTrajectory; got "
+            f"{type(trajectory).__name__}."
+        )
     names = trajectory.joint_names
     header = ["t"] + [f"{kind}_{j}" for kind in ("q", "v", "a") for j in names]
     data = np.column_stack([trajectory.t, trajectory.q, trajectory.v, trajectory.a])

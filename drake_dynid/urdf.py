@@ -385,8 +385,10 @@ def load_urdf(
     if time_step < 0.0:
         raise ValueError(f"{owner}: time_step must be >= 0 [s]; got {time_step}.")
     mimic: dict[str, Any] = {}
+    root = None
     if file.suffix.lower() == ".urdf":
-        for joint in _read_urdf(owner, file).iter("joint"):
+        root = _read_urdf(owner, file)
+        for joint in root.iter("joint"):
             kind = joint.attrib.get("type", "")
             if joint.find("parent") is not None and kind not in _URDF_JOINTS:
                 raise ValueError(
@@ -444,5 +446,10 @@ def load_urdf(
         )
     actuated = _actuate_all(plant, mimic)
     plant.Finalize()
-    notes = tuple(note for note in (actuated, summary) if note)
+    inertia = None
+    if root is not None:
+        from drake_dynid.urdf_inertia import inertia_note
+
+        inertia = inertia_note(root, plant, file.name)
+    notes = tuple(note for note in (actuated, summary, inertia) if note)
     return LoadedUrdf(plant=plant, notes=notes)

@@ -215,6 +215,13 @@ def write_identified_urdf(
             the wrong size, or a link, friction or rotor inertia that is not
             physically consistent.
     """
+    check.having(
+        _OWNER,
+        "robot",
+        robot,
+        ("path", "standard_names", "joint_names"),
+        "a RobotModel",
+    )
     if not robot.path or not Path(robot.path).is_file():
         check.fail(_OWNER, "robot must be built from a URDF file (robot.path).")
     source = Path(robot.path)

@@ -53,6 +53,7 @@ from drake_dynid.core.idim import (
     offline_derivatives,
     parallel_decimation,
 )
+from drake_dynid.core.idim_checks import check_filter_frequency
 from drake_dynid.offline import auto_cutoff, auto_decimation_cutoff
 
 __all__ = [
@@ -210,6 +211,15 @@ def validate_torques(
         check.fail(owner, "the log has no finite sample (every row has a NaN).")
     longest = max(segments, key=lambda s: s[1] - s[0])
     q_longest = q[longest[0] : longest[1]]
+    # Given cutoffs against the log before any filter (core/idim_checks.py): below
+    # Nyquist and long enough for two periods at each end of the longest segment.
+    given = (("cutoff_hz", cutoff_hz), ("decimation_cutoff_hz", decimation_cutoff_hz))
+    for name, value in given:
+        if value is not None:
+            check_filter_frequency(
+                f"{owner}: ", name, value, h, longest[1] - longest[0]
+            )
+
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
         if q_longest.shape[0] < 16:

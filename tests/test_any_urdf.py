@@ -170,10 +170,18 @@ def test_tiago_arm_with_wheels_and_head_locked():
     assert len(model.standard_names) == 8 * 10 + 8 * 2
     assert model.num_parameters == 44 + 16  # independent ranks: test_real_robots
     assert model.base.clear
-    assert len(model.notes) == 2  # actuated arm_6/arm_7; one parser summary
+    # Actuated arm_6/arm_7; one parser summary; the links Drake's parser gave
+    # another inertia (issue 14: named, with the file's and Drake's values).
+    assert len(model.notes) == 3
     assert "arm_6_joint, arm_7_joint" in model.notes[0]
     assert re.search(
         r"Drake's parser: 15 warnings .*3 non-physical inertia", model.notes[1]
+    )
+    assert re.search(
+        r"non-physical <inertial> .*'base_antenna_left_link'.*'base_antenna_right_"
+        r"link'.*'arm_1_link': principal moments 0.00191, 0.00846, 0.01059 kg·m² "
+        r"break the triangle inequality; Drake holds mass 2.083 kg",
+        model.notes[2],
     )
     # The provenance comment of the shipped copy.
     head = Path(model_path("tiago_no_hand")).read_text()[:600]

@@ -34,6 +34,7 @@ def load_benchmark(name, monkeypatch):
         "bench_physical",
         "bench_pipeline",
         "bench_regressors",
+        "bench_sigma",
     ],
 )
 def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):

@@ -210,9 +210,9 @@ def test_bad_options_exit_2(files, tmp_path, capsys):
     assert cli.main([*base, "--dead-zone", "wide"]) == 2
     assert "--dead-zone must be auto, none or a width >= 0" in _error(capsys)
     assert cli.main([*base, "--json", raw[1]]) == 2
-    assert "--json " + raw[1] + " is also the input LOG" in _error(capsys)
+    assert f"--json {raw[1]} is an input of this command (the log" in _error(capsys)
     assert cli.main([*base, "--json", str(drive)]) == 2
-    assert "is also the input --drive" in _error(capsys)
+    assert "is an input of this command (--drive" in _error(capsys)
     assert cli.main(["offline", str(plain), raw[0], "--urdf", URDF]) == 2
     assert "enc.csv: no time column 't'; every file of a multi-file" in _error(capsys)
     missing = tmp_path / "none.toml"

@@ -38,12 +38,13 @@ def test_joints_and_lock_on_tiago(tmp_path, capsys):
     )
     assert "standard parameters: 96; base parameters: 60" in captured.out
     notes = captured.err.strip().splitlines()
-    assert len(notes) == 2 and all(n.startswith("dynid params: note: ") for n in notes)
+    assert len(notes) == 3 and all(n.startswith("dynid params: note: ") for n in notes)
     assert "treated as actuated" in notes[0] and "Drake's parser: 15" in notes[1]
+    assert "link 'arm_1_link': principal moments" in notes[2]
     document = json.loads(out_file.read_text())
     assert document["locked"]["head_1_joint"] == 0.3 and document["mimic"] == {}
     assert document["joints"] == TIAGO_ARM.split(",") == document["links"]
-    assert len(document["notes"]) == 2
+    assert len(document["notes"]) == 3
 
 
 def test_lock_alone_identifies_the_other_joints(capsys):

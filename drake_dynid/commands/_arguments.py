@@ -101,10 +101,21 @@ def add_friction_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def parse_friction(text: str) -> tuple[str, ...]:
-    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``."""
+    """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``.
+
+    Raises:
+        ValueError: an empty item (``",,"``, ``"viscous,"``): a typo must not
+            silently mean fewer friction columns.
+    """
     if text.strip().lower() in ("", "none"):
         return ()
-    return tuple(item.strip() for item in text.split(",") if item.strip())
+    items = tuple(item.strip() for item in text.split(","))
+    if not all(items):
+        raise ValueError(
+            "--friction must be comma-separated names among viscous, coulomb, "
+            f"offset, or 'none'; got {text!r} (an empty name)."
+        )
+    return items
 
 
 def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
@@ -289,13 +300,18 @@ def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
     if choice is None or "coulomb" not in robot.friction:
         return robot
     if choice == "auto":
+        from drake_dynid.commands._options import FILTER_OPTIONS, option_message
         from drake_dynid.offline import standstill_widths
 
-        widths = standstill_widths(
-            log,
-            cutoff_hz=getattr(args, "cutoff", None),
-            decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
-        )
+        try:
+            widths = standstill_widths(
+                log,
+                cutoff_hz=getattr(args, "cutoff", None),
+                decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
+            )
+        except ValueError as error:
+            message = option_message(str(error), FILTER_OPTIONS, ("standstill_widths",))
+            raise ValueError(f"log {args.log}: {message}") from None
         if widths is None:
             # Too short for the noise measurement (the fit says so in its own
             # terms when it cannot run either); dead_zone_line reports it.

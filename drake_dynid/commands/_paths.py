@@ -1,40 +1,134 @@
-"""Output-path checks shared by subcommands (not a subcommand itself)."""
+"""Output-path checks shared by every subcommand (not a subcommand itself).
+
+An output never overwrites an input (docs/CONVENTIONS.md §5): every ``dynid``
+subcommand calls :func:`check_output_paths` first, before it reads or computes
+anything. It compares every output option of the command (:data:`OUTPUTS`, plus
+derived files such as ``dynid simulate``'s truth file) with every input
+(:data:`INPUTS`: logs, URDF, results, trajectory, limits and drive files) by
+resolved path, and by ``os.path.samefile`` where both exist (hard links and
+symbolic links included), and two outputs with each other. A new input or output
+option of any command is one entry in these tables.
+"""
 
 from __future__ import annotations
 
+import argparse
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
+
+__all__ = ["INPUTS", "OUTPUTS", "check_output_paths", "check_outputs"]
+
+#: Attribute of the parsed arguments -> how a message names that input. A value
+#: may be one path or a list of paths (several raw logs).
+INPUTS: dict[str, str] = {
+    "log": "the log",
+    "logs": "a log",
+    "raw": "a raw log",
+    "raw_logs": "a raw log",
+    "urdf": "the URDF",
+    "params": "--params",
+    "validate": "--validate",
+    "trajectory": "--trajectory",
+    "limits": "--limits",
+    "drive": "--drive",
+}
+
+#: Attribute of the parsed arguments -> its output option.
+OUTPUTS: dict[str, str] = {
+    "out": "--out",
+    "json": "--json",
+    "plot": "--plot",
+    "urdf_out": "--urdf-out",
+}
 
 
 def _same(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     first, second = Path(a), Path(b)
-    if first.exists() and second.exists():
-        return os.path.samefile(first, second)
+    try:
+        if first.exists() and second.exists():
+            return os.path.samefile(first, second)
+    except OSError:
+        pass
     return first.resolve() == second.resolve()
+
+
+def _paths(value: Any) -> list[str]:
+    if value is None or value == "":
+        return []
+    if isinstance(value, (str, os.PathLike)):
+        return [os.fspath(value)]
+    if isinstance(value, Iterable):
+        return [os.fspath(item) for item in value if item]
+    return []
 
 
 def check_outputs(
     outputs: Mapping[str, str | os.PathLike | None],
-    inputs: Sequence[str | os.PathLike | None],
+    inputs: Sequence[str | os.PathLike | None] | Mapping[str, Any],
 ) -> None:
     """Raises ValueError if an output would overwrite an input or another output.
 
     Args:
         outputs: option name (e.g. ``"--out"``) -> path (None: not written).
-        inputs: the paths read by the command (None entries ignored).
+        inputs: the paths read by the command (None entries ignored), or a mapping
+            description -> path(s) (the description names the input in the
+            message).
     """
-    given = [(name, path) for name, path in outputs.items() if path is not None]
-    for name, path in given:
-        for source in inputs:
-            if source is not None and _same(path, source):
+    if isinstance(inputs, Mapping):
+        named = [
+            (name, path) for name, value in inputs.items() for path in _paths(value)
+        ]
+    else:
+        named = [("an input", path) for path in _paths(inputs)]
+    given = [(name, os.fspath(path)) for name, path in outputs.items() if path]
+    for option, path in given:
+        for description, source in named:
+            if _same(path, source):
                 raise ValueError(
-                    f"{name} {path} is an input of this command; choose another "
-                    "output path (inputs are never overwritten)."
+                    f"{option} {path} is an input of this command ({description} "
+                    f"{source}): an output never overwrites an input; choose another "
+                    "file."
                 )
         if Path(path).is_dir():
-            raise ValueError(f"{name} {path} is a directory; give a file path.")
-    for i, (name, path) in enumerate(given):
+            raise ValueError(f"{option} {path} is a directory; give a file path.")
+    for i, (option, path) in enumerate(given):
         for other, other_path in given[i + 1 :]:
             if _same(path, other_path):
-                raise ValueError(f"{name} and {other} are the same file {path}.")
+                raise ValueError(
+                    f"{option} and {other} are the same file {path}; give each "
+                    "output its own file."
+                )
+
+
+def check_output_paths(
+    args: argparse.Namespace,
+    *,
+    outputs: Mapping[str, str | os.PathLike | None] | None = None,
+    inputs: Mapping[str, Any] | None = None,
+) -> None:
+    """No output of the command may be one of its inputs, nor two outputs one file.
+
+    Reads every attribute of ``args`` listed in :data:`INPUTS` and
+    :data:`OUTPUTS` (absent or None ones are skipped), plus the extra ``outputs``
+    (name shown -> path, e.g. a derived truth file) and ``inputs`` (description
+    -> path(s)).
+
+    Raises:
+        ValueError: naming the output option, its path and the input it would
+            overwrite (or the other output).
+    """
+    found_outputs = {
+        option: getattr(args, attribute, None) for attribute, option in OUTPUTS.items()
+    }
+    found_outputs.update(outputs or {})
+    # A LOG positional of several files stores the list in ``<name>_files``
+    # (``commands._arguments.LogFiles``) and a label in ``<name>``.
+    found_inputs = {
+        description: getattr(args, f"{attribute}_files", None)
+        or getattr(args, attribute, None)
+        for attribute, description in INPUTS.items()
+    }
+    found_inputs.update(inputs or {})
+    check_outputs(found_outputs, found_inputs)

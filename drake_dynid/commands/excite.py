@@ -16,7 +16,8 @@ from drake_dynid.commands._arguments import (
     add_friction_argument,
     robot_from_args,
 )
-from drake_dynid.commands._paths import check_outputs
+from drake_dynid.commands._options import option_message
+from drake_dynid.commands._paths import check_output_paths
 
 HELP = "design an exciting trajectory (optimal Fourier series within the limits)"
 DESCRIPTION = (
@@ -32,6 +33,8 @@ DESCRIPTION = (
 )
 
 MARGIN_KINDS = ("position", "velocity", "acceleration", "effort", "collision")
+#: Most samples of the written trajectory or of the predicted-σ log (rate x duration).
+MAX_SAMPLES = 1e7
 WELL_EXCITED_PERCENT = 0.1
 """Predicted %σ (torque noise only) at or below which a parameter is well excited:
 10 times below a 1 % target, leaving room for the position noise, the filters and
@@ -201,22 +204,43 @@ def run(args: argparse.Namespace) -> int:
         write_trajectory,
     )
 
-    check_outputs(
-        {"--out": args.out, "--json": args.json, "--plot": args.plot},
-        [args.urdf, args.limits, args.drive],
-    )
+    check_output_paths(args)
     margins = parse_margins(args.margin)
-    settings = ExcitationSettings(
-        duration=args.duration,
-        harmonics=args.harmonics,
-        base_frequency=args.f0,
-        iterations=args.iterations,
-        seed=args.seed,
-        rest_start=args.rest_start,
-    )
-    if not args.sample_rate > 0.0:
-        raise ValueError(f"--sample-rate must be > 0 [Hz]; got {args.sample_rate}.")
+    try:
+        settings = ExcitationSettings(
+            duration=args.duration,
+            harmonics=args.harmonics,
+            base_frequency=args.f0,
+            iterations=args.iterations,
+            seed=args.seed,
+            rest_start=args.rest_start,
+        )
+    except ValueError as error:
+        names = {
+            "duration": "--duration",
+            "harmonics": "--harmonics",
+            "base_frequency": "--f0",
+            "iterations": "--iterations",
+            "seed": "--seed",
+        }
+        raise ValueError(
+            option_message(str(error), names, ("ExcitationSettings",))
+        ) from None
+    for option, rate in (
+        ("--sample-rate", args.sample_rate),
+        ("--log-rate", args.log_rate),
+    ):
+        if not (math.isfinite(rate) and rate > 0.0):
+            raise ValueError(f"{option} must be finite and > 0 [Hz]; got {rate}.")
+        samples = rate * settings.duration
+        if samples > MAX_SAMPLES:
+            raise ValueError(
+                f"{option} x --duration must give at most {MAX_SAMPLES:g} samples; "
+                f"got {rate:g} Hz x {settings.duration:g} s = {samples:.3g}."
+            )
     robot = robot_from_args(args, "excite")
+    if args.online_window is not None:
+        _check_online_window(args, robot)  # before the (long) design
     rows = robot.rows_provider()
     limits = _limits(robot, args)
     say = (lambda *a: None) if args.quiet else print
@@ -330,6 +354,32 @@ def _print_report(say, robot, design, report, args) -> None:
         )
     terms = " ".join(f"{c:+.2f} {n}" for n, c in report.weakest)
     say(f"weakest direction: {terms}")
+
+
+def _check_online_window(args: argparse.Namespace, robot: Any) -> None:
+    """Checks ``--online-window`` before the design.
+
+    A valid window for the designed band, within the experiment and the on-line
+    identifier's window memory ceiling.
+    """
+    from drake_dynid.core.online import NOMINAL_BANK_TIME_STEP
+    from drake_dynid.core.online_checks import MAX_WINDOW_BYTES, check_values
+    from drake_dynid.core.rows import num_channels
+
+    window, band = args.online_window, args.harmonics * args.f0
+    names = {"window": "--online-window", "bandwidth": "--harmonics x --f0"}
+    check_values({"window": window, "bandwidth": band}, owner=None, names=names)
+    size = (
+        (window / NOMINAL_BANK_TIME_STEP + 1.0)
+        * num_channels(robot.num_joints, robot.num_parameters)
+        * 8.0
+    )
+    if window > args.duration or size > MAX_WINDOW_BYTES:
+        raise ValueError(
+            f"--online-window must be <= --duration {args.duration:g} s and keep the "
+            f"window's samples within {MAX_WINDOW_BYTES / 2**30:g} GiB; got "
+            f"{window:g} s ({size / 2**30:.3g} GiB)."
+        )
 
 
 def _online(say, robot, design, window: float) -> None:

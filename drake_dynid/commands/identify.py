@@ -60,9 +60,23 @@ _SETTING_OPTIONS = {
 }
 
 
+#: OnlineSettings field -> the option that sets it (the names the messages show).
+OPTION_NAMES = {
+    field: f"--{option.replace('_', '-')}" for option, field in _SETTING_OPTIONS.items()
+}
+OPTION_NAMES["frequencies"] = "--frequencies"
+
+
 # --------------------------------------------------------------------- identify
 def _frequencies(text: str | None) -> Any:
-    """``paper`` | ``auto`` | ``LIST`` (comma-separated ℓ, or ``start:step:stop``)."""
+    """``paper`` | ``auto`` | ``LIST`` (comma-separated ℓ, or ``start:step:stop``).
+
+    The count of a ``start:step:stop`` range is checked (at most
+    ``core.fourier_bank.MAX_FUNCTIONS``) before the list is built.
+    """
+    from drake_dynid.core.fourier_bank import MAX_FUNCTIONS
+    from drake_dynid.core.online_checks import MAX_INDEX
+
     if text is None:
         return "default"
     text = text.strip()
@@ -70,19 +84,42 @@ def _frequencies(text: str | None) -> Any:
         return "paper"
     if text == "auto":
         return None
+    syntax = (
+        "--frequencies must be 'paper', 'auto', a comma-separated list of indices "
+        f"ℓ >= 0 or start:step:stop; got {text!r}."
+    )
+    if ":" in text and "," not in text:
+        parts = text.split(":")
+        try:
+            start, step, stop = (float(x) for x in parts)
+        except ValueError:
+            raise ValueError(syntax) from None
+        if not (
+            all(map(math.isfinite, (start, step, stop)))
+            and start >= 0.0
+            and step > 0.0
+            and stop >= start
+        ):
+            raise ValueError(
+                "--frequencies start:step:stop must have finite start >= 0, step > 0 "
+                f"and stop >= start; got {text!r}."
+            )
+        if stop > MAX_INDEX:
+            raise ValueError(
+                f"--frequencies must hold indices ℓ <= {MAX_INDEX:g}; got {text!r}."
+            )
+        count = (stop - start) / step + 1.0
+        if not count <= MAX_FUNCTIONS:
+            raise ValueError(
+                f"--frequencies must give at most {MAX_FUNCTIONS} indices ℓ; got "
+                f"{text!r} ({count:.3g} indices)."
+            )
+        count = math.floor((stop - start) / step + 1e-9) + 1
+        return np.round(start + step * np.arange(count), 9).tolist()
     try:
-        if ":" in text and "," not in text:
-            start, step, stop = (float(x) for x in text.split(":"))
-            if step <= 0.0 or stop < start:
-                raise ValueError
-            count = math.floor((stop - start) / step + 1e-9) + 1
-            return np.round(start + step * np.arange(count), 9).tolist()
         values = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise ValueError(
-            f"--frequencies must be 'paper', 'auto', a comma-separated list of "
-            f"indices ℓ >= 0 or start:step:stop; got {text!r}."
-        ) from None
+        raise ValueError(syntax) from None
     if not values or any(not math.isfinite(x) or x < 0.0 for x in values):
         raise ValueError(
             f"--frequencies must hold finite indices ℓ >= 0; got {text!r}."
@@ -90,20 +127,8 @@ def _frequencies(text: str | None) -> Any:
     return values
 
 
-def online_settings(
-    args: argparse.Namespace,
-    bandwidth: float | None = None,
-    time_step: float | None = None,
-) -> Any:
-    """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
-
-    ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
-    ``--bandwidth`` nor ``--frequencies`` is given. With the log's ``time_step``
-    [s] the settings are put on its grid (``OnlineSettings.on_grid``) and the bank
-    design is checked.
-    """
-    from drake_dynid.core.online import OnlineSettings
-
+def _setting_values(args: argparse.Namespace, bandwidth: float | None) -> dict:
+    """The OnlineSettings keyword arguments of the options (unset ones left out)."""
     kwargs: dict[str, Any] = {}
     for option, name in _SETTING_OPTIONS.items():
         value = getattr(args, option)
@@ -114,32 +139,121 @@ def online_settings(
         kwargs["frequencies"] = frequencies
     if bandwidth is not None and "bandwidth" not in kwargs:
         kwargs["bandwidth"] = bandwidth
+    return kwargs
+
+
+def online_settings(
+    args: argparse.Namespace,
+    bandwidth: float | None = None,
+    time_step: float | None = None,
+    duration: float | None = None,
+    robot: Any = None,
+) -> Any:
+    """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
+
+    Every value is checked first, with the option names in the messages
+    (``core.online_checks.check_values``), before anything is allocated.
+    ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
+    ``--bandwidth`` nor ``--frequencies`` is given. With the log's ``time_step``
+    [s] and ``duration`` [s] (and the ``robot``: its joints and base parameters)
+    the settings are put on the log's grid and checked against it
+    (``OnlineSettings.for_log``: Nyquist, the differentiator's pass band, the
+    log's length, an honest σ), still before any allocation.
+    """
+    from drake_dynid.core.online import MODEL_DEFAULTS, OnlineSettings
+    from drake_dynid.core.online_checks import check_values
+
+    kwargs = _setting_values(args, bandwidth)
     model = kwargs.pop("model", "lagrangian")
+    if model in MODEL_DEFAULTS:
+        values = {**MODEL_DEFAULTS[model], **kwargs}
+        check_values(values, owner=None, names=OPTION_NAMES)
     settings = OnlineSettings.for_model(model, **kwargs)
-    settings.ell()  # check the ℓ set now, with its message
     if time_step is not None:
-        settings = settings.on_grid(time_step)
-        settings.bank()  # check the window and the bank step, with their message
+        settings = settings.for_log(
+            time_step,
+            math.inf if duration is None else duration,
+            num_joints=None if robot is None else robot.num_joints,
+            num_parameters=None if robot is None else robot.num_parameters,
+            owner=None,
+            names=OPTION_NAMES,
+        )
     return settings
 
 
-def measured_bandwidth(log: Any, window: float) -> float:
+def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
     """The excitation band of the log's positions [Hz] (99 % of the velocity power).
 
     Measured on the longest run of finite samples with
-    ``core.excitation.estimate_bandwidth``; at least 1/window (the bank's lowest
-    non-zero frequency) so that the default ℓ set is never empty.
+    ``core.excitation.estimate_bandwidth``; at least 2/window (the default ℓ set is
+    never empty). With ``settings`` it is capped at what the identifier can use:
+    the differentiator's pass band (``core.online_checks.pass_band``), the bank's
+    Nyquist frequency and ``core.fourier_bank.MAX_FUNCTIONS`` functions; a noisy or
+    unexcited log measures a wide band that only noise fills.
     """
     from drake_dynid.core.excitation import estimate_bandwidth
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     q = log.q[start:stop]
-    if q.shape[0] < 16:
+    run = q.shape[0]
+    if run < 64:
         raise ValueError(
-            "cannot measure the excitation band: no run of 16 finite samples in the "
-            "log; give --bandwidth or --frequencies."
+            f"cannot measure the excitation band: no run of 64 finite samples in the "
+            f"log (the longest has {run}, {run * log.time_step:g} s); give "
+            "--bandwidth or --frequencies."
         )
-    return max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
+    try:
+        measured = float(estimate_bandwidth(q, log.time_step))
+    except ValueError:
+        bad = int(np.count_nonzero(log.bad_samples))
+        where = (
+            f"the longest run of finite samples ({(run - 1) * log.time_step:g} s of "
+            f"{log.duration:g} s: {bad} bad samples split the log)"
+            if bad
+            else "the log"
+        )
+        raise ValueError(
+            "cannot measure the excitation band: the positions show no motion above "
+            f"their noise floor on {where}: the robot did not move, or too little to "
+            "identify anything (give --bandwidth or --frequencies to try anyway)."
+        ) from None
+    band = max(measured, 2.0 / window)
+    if settings is not None:
+        band = min(band, usable_band(settings, log.time_step))
+    return band
+
+
+def check_log_values(args: argparse.Namespace, log: Any, settings: Any) -> None:
+    """The log's magnitudes and length, before anything is measured on it."""
+    from drake_dynid.core._validate import log_magnitudes
+
+    try:
+        log_magnitudes("identify", log.q, log.tau)
+    except ValueError as error:
+        raise ValueError(f"log {args.log}: {str(error).split(': ', 1)[1]}") from None
+    needed = settings.window + settings.jacobi_window
+    if log.duration <= needed:
+        raise ValueError(
+            f"log {args.log} lasts {log.duration:g} s; the on-line identifier needs "
+            f"more than --window + --jacobi-window = {needed:g} s before its first "
+            "estimate: record a longer log or shorten --window."
+        )
+
+
+def usable_band(settings: Any, time_step: float) -> float:
+    """The widest band [Hz] the default ℓ set of ``settings`` may cover on this log.
+
+    min(differentiator's pass band, bank Nyquist, MAX_FUNCTIONS functions) [Hz].
+    """
+    from drake_dynid.core.fourier_bank import MAX_FUNCTIONS
+    from drake_dynid.core.online_checks import on_grid, pass_band
+
+    grid = on_grid(settings, time_step, owner=None, names=OPTION_NAMES)
+    return min(
+        pass_band(grid, time_step),
+        0.5 / grid.resolved("bank_time_step"),
+        (MAX_FUNCTIONS - 1 + grid.order) / grid.window,
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -257,23 +371,24 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.commands.validate import check_output_paths, validation_split
 
     check_output_paths(args)
-    settings = online_settings(args)
+    settings = online_settings(args)  # every value checked, nothing allocated
     if args.plot:
         matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
     log, held, held_description = validation_split(args, log, robot)
+    check_log_values(args, log, settings)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"
     )
-    bandwidth = measured_bandwidth(log, settings.window) if band_measured else None
-    settings = online_settings(args, bandwidth, log.time_step)
-    needed = settings.window + settings.jacobi_window
-    if log.duration <= needed:
-        raise ValueError(
-            f"log {args.log} lasts {log.duration:g} s; the on-line identifier needs "
-            f"more than window + jacobi_window = {needed:g} s before its first "
-            "estimate: record a longer log or shorten --window."
+    try:
+        bandwidth = (
+            measured_bandwidth(log, settings.window, settings)
+            if band_measured
+            else None
         )
+        settings = online_settings(args, bandwidth, log.time_step, log.duration, robot)
+    except ValueError as error:
+        raise ValueError(f"log {args.log}: {error}") from None
     if args.engine == "blocks":
         from drake_dynid.diagrams import replay_log as replay
     else:

@@ -15,6 +15,7 @@ from drake_dynid.commands._model import (
     finish_offline,
     wants_rows,
 )
+from drake_dynid.commands._options import FILTER_OPTIONS, option_message
 from drake_dynid.commands._report import (
     estimates_table,
     json_number,
@@ -81,19 +82,24 @@ def run(args: argparse.Namespace) -> int:
         matplotlib_pyplot()  # fail before the fit
     robot, log = load_robot_and_log(args, "offline")
     log, held, held_description = validation_split(args, log, robot)
-    result = identify_offline(
-        log,
-        robot,
-        cutoff_hz=args.cutoff,
-        decimation=args.decimation,
-        decimation_cutoff_hz=args.decimation_cutoff,
-        weighted=args.weighted,
-        keep_rows=wants_rows(args),
-    )
+    try:
+        result = identify_offline(
+            log,
+            robot,
+            cutoff_hz=args.cutoff,
+            decimation=args.decimation,
+            decimation_cutoff_hz=args.decimation_cutoff,
+            weighted=args.weighted,
+            keep_rows=wants_rows(args),
+        )
+    except ValueError as error:
+        message = option_message(str(error), FILTER_OPTIONS, ("identify_offline",))
+        raise ValueError(f"log {args.log}: {message}") from None
     settings = result.settings
     if not result.valid:
         raise ValueError(
-            f"the least squares on log {args.log} failed: {result.reason}. Use a log "
+            f"the least squares on log {args.log} failed: "
+            f"{result.reason.rstrip('.')}. Use a log "
             "with more excitation (every joint moving, velocity reversals), fewer "
             "friction columns (--friction), or another --cutoff."
         )

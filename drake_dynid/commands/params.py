@@ -160,6 +160,9 @@ def drive_lines(chain: Any) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Prints the base-parameter table; writes JSON when asked. Returns 0."""
+    from drake_dynid.commands._paths import check_output_paths
+
+    check_output_paths(args)  # --json never overwrites the URDF
     model = robot_from_args(args, "params")
     base = model.base
     values = model.base_values

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import time
 from pathlib import Path
@@ -10,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from drake_dynid.commands._arguments import add_friction_argument, parse_friction
-from drake_dynid.commands._paths import check_outputs
+from drake_dynid.commands._paths import check_output_paths
 
 HELP = "simulate a robot log (the URDF arm tracking a trajectory, with noise)"
 DESCRIPTION = (
@@ -97,6 +98,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing")
 
 
+#: ExperimentSettings field -> the option that sets it.
+OPTION_NAMES = {
+    "noise_q": "--noise-q",
+    "noise_tau": "--noise-tau",
+    "snr_db": "--snr",
+    "rate": "--rate",
+    "seed": "--seed",
+    "duration": "--duration",
+    "time_step": "--time-step",
+    "max_tracking_error": "--max-tracking-error",
+}
+
+
+@contextlib.contextmanager
+def _in_option_names():
+    """ValueErrors of the settings and the simulation in the command's options."""
+    from drake_dynid.commands._options import option_message
+
+    try:
+        yield
+    except ValueError as error:
+        owners = ("ExperimentSettings", "simulate_experiment")
+        raise ValueError(option_message(str(error), OPTION_NAMES, owners)) from None
+
+
 def truth_path(out: str) -> Path:
     """``LOG.csv`` -> ``LOG.truth.json``."""
     path = Path(out)
@@ -113,26 +139,24 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.trajectory_file import read_trajectory
 
     truth = truth_path(args.out)
-    check_outputs(
-        {"--out": args.out, "truth file": truth},
-        [args.urdf, args.trajectory, args.limits],
-    )
+    check_output_paths(args, outputs={"the truth file": truth})
     if args.snr is not None and (
         args.noise_q is not None or args.noise_tau is not None
     ):
         raise ValueError("give either --snr or --noise-q/--noise-tau, not both.")
     friction = parse_friction(args.friction)
-    settings = ExperimentSettings(
-        friction=friction,
-        noise_q=1e-4 if args.noise_q is None else args.noise_q,
-        noise_tau=0.01 if args.noise_tau is None else args.noise_tau,
-        snr_db=args.snr,
-        rate=args.rate,
-        seed=args.seed,
-        duration=args.duration,
-        time_step=args.time_step,
-        max_tracking_error=args.max_tracking_error,
-    )
+    with _in_option_names():
+        settings = ExperimentSettings(
+            friction=friction,
+            noise_q=1e-4 if args.noise_q is None else args.noise_q,
+            noise_tau=0.01 if args.noise_tau is None else args.noise_tau,
+            snr_db=args.snr,
+            rate=args.rate,
+            seed=args.seed,
+            duration=args.duration,
+            time_step=args.time_step,
+            max_tracking_error=args.max_tracking_error,
+        )
     robot = RobotModel.from_urdf(args.urdf, friction=friction)
     limits = joint_limits(robot, args.limits)
     reference = read_trajectory(args.trajectory, robot.joint_names)
@@ -145,9 +169,10 @@ def run(args: argparse.Namespace) -> int:
     if unchecked:
         say(f"note: no position limits for {', '.join(unchecked)}: not checked")
     start = time.perf_counter()
-    log = simulate_experiment(
-        args.urdf, reference, limits, settings, gravity=robot.gravity
-    )
+    with _in_option_names():
+        log = simulate_experiment(
+            args.urdf, reference, limits, settings, gravity=robot.gravity
+        )
     elapsed = time.perf_counter() - start
     write_log(args.out, log.t, log.q, log.tau, robot.joint_names)
     document = params_document(robot, args.urdf)

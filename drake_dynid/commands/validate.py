@@ -25,6 +25,15 @@ from drake_dynid.commands._arguments import (
     log_files,
     read_robot_log,
 )
+from drake_dynid.commands._paths import check_output_paths
+
+__all__ = [
+    "add_validation_arguments",
+    "check_output_paths",
+    "report_validation",
+    "run_validations",
+    "validation_split",
+]
 
 HELP = "predict a log's joint torques from identified base parameters (validation)"
 DESCRIPTION = (
@@ -70,44 +79,6 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
         "the URDF's a-priori parameters (inertias, <dynamics damping friction>, the "
         "drive file's motor values)",
     )
-
-
-def check_output_paths(args: argparse.Namespace) -> None:
-    """No output option may name an input file, nor two outputs the same file."""
-    inputs: dict[str, list[str]] = {
-        option: log_files(args, name)
-        for option, name in (
-            ("LOG", "log"),
-            ("--urdf", "urdf"),
-            ("--params", "params"),
-            ("--validate", "validate"),
-            ("--drive", "drive"),
-        )
-    }
-    outputs = {
-        option: getattr(args, name, None)
-        for option, name in (
-            ("--json", "json"),
-            ("--out", "out"),
-            ("--plot", "plot"),
-            ("--urdf-out", "urdf_out"),
-        )
-    }
-    seen: dict[Path, str] = {}
-    for option, paths in inputs.items():
-        for name in paths:
-            if name:
-                seen[Path(name).resolve()] = f"the input {option}"
-    for option, path in outputs.items():
-        if not path:
-            continue
-        resolved = Path(path).resolve()
-        if resolved in seen:
-            raise ValueError(
-                f"{option} {path} is also {seen[resolved]}; an output never "
-                "overwrites an input or another output: choose another file."
-            )
-        seen[resolved] = f"the output {option}"
 
 
 def validation_split(
@@ -334,13 +305,19 @@ def report_validation(
     ``--decimation-cutoff`` when the command has them, else the automatic rules
     on ``log``.
     """
-    validations = run_validations(
-        log,
-        robot,
-        estimates,
-        cutoff_hz=getattr(args, "cutoff", None),
-        decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
-    )
+    from drake_dynid.commands._options import FILTER_OPTIONS, option_message
+
+    try:
+        validations = run_validations(
+            log,
+            robot,
+            estimates,
+            cutoff_hz=getattr(args, "cutoff", None),
+            decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
+        )
+    except ValueError as error:
+        message = option_message(str(error), FILTER_OPTIONS, ("validate_torques",))
+        raise ValueError(f"validation on {description}: {message}") from None
     if not args.quiet:
         print()
         for line in validation_lines(validations, description):

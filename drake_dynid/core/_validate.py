@@ -156,3 +156,56 @@ def array(
             f"{owner}: {name} must be finite; got {bad} NaN or infinite value(s)."
         )
     return out
+
+
+def instance(owner: str, name: str, value: Any, types: Any, what: str) -> Any:
+    """Returns ``value`` if it is an instance of ``types``, else raises TypeError.
+
+    ``what`` describes the expected object (e.g. ``"a FourierBank (fourier_bank)"``).
+    """
+    if not isinstance(value, types):
+        raise TypeError(
+            f"{owner}: {name} must be {what}; got {value!r:.60} of type "
+            f"{type(value).__name__}."
+        )
+    return value
+
+
+def having(
+    owner: str, name: str, value: Any, attributes: Sequence[str], what: str
+) -> Any:
+    """Returns ``value`` if it has every attribute of ``attributes``, else TypeError.
+
+    For duck-typed arguments (a robot model, a log): ``what`` names the expected
+    object (e.g. ``"a RobotModel"``).
+    """
+    missing = [attribute for attribute in attributes if not hasattr(value, attribute)]
+    if missing:
+        raise TypeError(
+            f"{owner}: {name} must be {what}; got {value!r:.60} of type "
+            f"{type(value).__name__} (no {missing[0]})."
+        )
+    return value
+
+
+#: Largest |q| or |τ| of a log (any unit): the identification squares and
+#: multiplies samples (v², v·τ, products with 1/h² in v̇), which overflows float64
+#: beyond ~1e154; 1e100 is far beyond any physical value in SI units.
+MAX_LOG_MAGNITUDE = 1e100
+
+
+def log_magnitudes(owner: str, q: Any, tau: Any) -> None:
+    """Raises ValueError when a finite |q| or |τ| of a log exceeds 1e100.
+
+    Non-finite samples are not checked here (they are bad samples).
+    """
+    for name, values, unit in (("q", q, "rad or m"), ("tau", tau, "N·m or N")):
+        array = np.asarray(values, dtype=float)
+        finite = np.abs(array[np.isfinite(array)])
+        top = float(finite.max()) if finite.size else 0.0
+        if top > MAX_LOG_MAGNITUDE:
+            raise ValueError(
+                f"{owner}: |{name}| must be <= {MAX_LOG_MAGNITUDE:g} [{unit}] (the "
+                "identification squares and multiplies the samples, which overflows "
+                f"beyond about 1e154); got {top:.3g}: check the log's units."
+            )

@@ -36,7 +36,12 @@ __all__ = [
 _BLOCK = 2048  # samples per block in the direct sums (bounds memory to K × _BLOCK)
 
 
+def _bank(owner: str, bank: Any) -> FourierBank:
+    return v.instance(owner, "bank", bank, FourierBank, "a FourierBank (fourier_bank)")
+
+
 def _integrals(owner: str, bank: FourierBank, F: Any) -> np.ndarray:
+    _bank(owner, bank)
     F = np.asarray(F)
     if F.ndim not in (1, 2) or F.shape[0] != bank.num_frequencies:
         v.fail(
@@ -59,6 +64,7 @@ def direct_fourier_integrals(bank: FourierBank, samples: Any) -> np.ndarray:
     Returns:
         (K, c) complex [unit of f · s].
     """
+    _bank("direct_fourier_integrals", bank)
     x = check_samples("direct_fourier_integrals", samples, bank.num_samples)
     intervals = bank.num_intervals
     weights = np.ones(bank.num_samples)
@@ -84,6 +90,7 @@ def modulated_integrals(bank: FourierBank, F: Any, derivative: int = 0) -> np.nd
     Returns:
         (L, c) or (L,) complex [unit of f · s^-r].
     """
+    _bank("modulated_integrals", bank)
     derivative = _derivative(bank, derivative)
     F = _integrals("modulated_integrals", bank, F)
     weights = bank.weights[derivative]
@@ -159,6 +166,7 @@ def row_frequencies(bank: FourierBank, m: int) -> tuple[np.ndarray, np.ndarray]:
     Returns:
         ``(frequency, group)``, each (``bank.num_rows(m)``,): float ν and int j.
     """
+    _bank("row_frequencies", bank)
     m = v.integer("row_frequencies", "m", m, minimum=1)
     L = bank.num_functions
     frequency = np.repeat(np.abs(bank.ell + (bank.order + 1) / 2.0), 2 * m)

@@ -63,6 +63,8 @@ def velocity_spectrum(
         [(unit/s)²/Hz].
     """
     h = v.positive(_OWNER, "time_step", time_step, "s")
+    if not 1e-9 <= h <= 1e5:  # (2πf)² of the spectrum stays finite
+        v.fail(_OWNER, f"time_step must be in [1e-09, 1e+05] [s]; got {h:g}.")
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     x = v.array(_OWNER, "q", q)
     if x.ndim == 1:

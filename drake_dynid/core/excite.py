@@ -63,6 +63,11 @@ __all__ = ["ExcitationDesign", "ExcitationSettings", "design_excitation"]
 ClearanceFunction = Callable[[np.ndarray], np.ndarray]
 
 _FEASIBLE = 1e-6  # tolerance on the normalised constraints
+#: Hard ceilings on the design's work: harmonics per joint (the optimiser has
+#: 2·n·H variables), grid samples per period, and the experiment's length [s].
+MAX_HARMONICS = 50
+MAX_SAMPLES_PER_PERIOD = 1 << 16
+MAX_DURATION = 1e6
 _DENSE = 4  # verification grid: this many times the optimisation grid
 
 
@@ -97,9 +102,21 @@ class ExcitationSettings:
         duration = v.positive(owner, "duration", self.duration, "s")
         harmonics = v.integer(owner, "harmonics", self.harmonics, minimum=1)
         f0 = v.positive(owner, "base_frequency", self.base_frequency, "Hz")
+        if duration > MAX_DURATION:
+            v.fail(
+                owner, f"duration must be <= {MAX_DURATION:g} [s]; got {duration:g}."
+            )
+        if harmonics > MAX_HARMONICS:
+            v.fail(owner, f"harmonics must be <= {MAX_HARMONICS}; got {harmonics}.")
         v.integer(owner, "iterations", self.iterations, minimum=1)
         v.integer(owner, "seed", self.seed, minimum=0)
         samples = v.integer(owner, "samples_per_period", self.samples_per_period, 0)
+        if samples > MAX_SAMPLES_PER_PERIOD:
+            v.fail(
+                owner,
+                f"samples_per_period must be <= {MAX_SAMPLES_PER_PERIOD}; got "
+                f"{samples}.",
+            )
         if 0 < samples < 4 * harmonics:
             v.fail(
                 owner,

@@ -41,6 +41,8 @@ import numpy as np
 from drake_dynid.core import _validate as v
 
 __all__ = [
+    "MAX_FUNCTIONS",
+    "MAX_ORDER",
     "MIN_FUNCTIONS",
     "FourierBank",
     "band_frequencies",
@@ -57,6 +59,13 @@ _TABLE = 256  # columns of FourierBank.phase_table
 #: 2·8 rows per equation, enough for the power model's single equation with the
 #: 2R arm's p = 8 parameters (benchmarks/bench_accuracy.py, T = 7 s).
 MIN_FUNCTIONS = 8
+
+#: Most modulating functions of one bank (a hard ceiling on the work per window:
+#: the bank's state and every solve grow with it). The paper's set has 201.
+MAX_FUNCTIONS = 500
+
+#: Highest modulating order k (a hard ceiling; the paper uses k = 1 and 2).
+MAX_ORDER = 8
 
 
 def _frozen(array: np.ndarray) -> np.ndarray:
@@ -139,6 +148,20 @@ class FourierBank:
         np.add.at(out, (rows, self.index.ravel()), self.weights[derivative].ravel())
         return out
 
+    def row_correlation(self) -> np.ndarray:
+        """Correlation of the rows of one equation under white noise (R1, R1).
+
+        Row ``(ℓ, part)`` of an equation is ``part(∫_0^T g_ℓ(s) e(s) ds)`` (real
+        or imaginary part, the rows of ``bank.row_mask`` in the order of
+        ``core.equations.assemble_equations``). For white noise e the covariance of
+        two rows is the inner product of their functions,
+        ``Γ_ab = ∫_0^T part_a(g_a) part_b(g_b) ds``; this returns
+        ``Γ_ab / √(Γ_aa Γ_bb)`` (dimensionless). Integer ℓ give nearly
+        uncorrelated rows; the paper's dense ℓ = 0:0.05:10 gives strongly
+        correlated ones (docs/MATH.md §4: the honest σ).
+        """
+        return _row_correlation(self)
+
     # -- the ModulatingBank protocol (core.bank): streaming and equations ---------
 
     def row_frequencies(self, m: int) -> tuple[np.ndarray, np.ndarray]:
@@ -182,6 +205,49 @@ class FourierBank:
         return assemble_equations(self, sliding_fourier_integrals(self, state), m, p)
 
 
+def _window_integral(x: np.ndarray, window: float) -> np.ndarray:
+    """``∫_0^T e^{-jxω0 s} ds = T (1 - e^{-j2πx})/(j2πx)`` (T at x = 0), ω0 = 2π/T."""
+    small = np.abs(x) < 1e-12
+    safe = np.where(small, 1.0, x)
+    out = window * (1.0 - np.exp(-2j * np.pi * safe)) / (2j * np.pi * safe)
+    return np.where(small, window + 0j, out)
+
+
+def _row_correlation(bank: FourierBank) -> np.ndarray:
+    """:meth:`FourierBank.row_correlation`, in closed form.
+
+    With ``g_a = Σ_i w_ai e^{-jν_ai ω0 s}``, ``S = ∫ g_a g_b`` and
+    ``H = ∫ g_a conj(g_b)``: Re·Re = (Re S + Re H)/2, Im·Im = (Re H - Re S)/2,
+    Re_a·Im_b = (Im S - Im H)/2.
+    """
+    nu = bank.nu[bank.index]  # (L, k+1)
+    w = bank.weights[0]  # (L, k+1)
+    count = bank.num_functions
+    S = np.zeros((count, count), dtype=complex)
+    H = np.zeros((count, count), dtype=complex)
+    for i in range(bank.order + 1):
+        for k in range(bank.order + 1):
+            a, b = nu[:, i, None], nu[None, :, k]
+            weight = w[:, i, None] * w[None, :, k]
+            S += weight * _window_integral(a + b, bank.window)
+            H += (
+                w[:, i, None]
+                * np.conj(w[None, :, k])
+                * _window_integral(a - b, bank.window)
+            )
+    blocks = np.empty((count, 2, count, 2))
+    blocks[:, 0, :, 0] = 0.5 * (S.real + H.real)
+    blocks[:, 1, :, 1] = 0.5 * (H.real - S.real)
+    blocks[:, 0, :, 1] = 0.5 * (S.imag - H.imag)
+    blocks[:, 1, :, 0] = blocks[:, 0, :, 1].T
+    keep = bank.row_mask.ravel()
+    gram = blocks.reshape(2 * count, 2 * count)[np.ix_(keep, keep)]
+    scale = np.sqrt(np.clip(np.diag(gram), np.finfo(float).tiny, None))
+    out = gram / np.outer(scale, scale)
+    np.fill_diagonal(out, 1.0)
+    return _frozen(out)
+
+
 def num_equation_rows(bank: FourierBank, m: int) -> int:
     """Rows of :func:`assemble_equations`: ``2·L·m`` minus identically zero rows."""
     return bank.num_rows(v.integer("num_equation_rows", "m", m, minimum=1))
@@ -210,9 +276,26 @@ def fourier_bank(
     time_step = v.positive(owner, "time_step", time_step, "s")
     intervals = v.multiple_of(owner, "window", window, "time_step", time_step)
     order = v.integer(owner, "order", order, minimum=1)
+    if order > MAX_ORDER:
+        v.fail(owner, f"order must be <= {MAX_ORDER}; got {order}.")
     ell_in = v.array(owner, "ell", ell)
     if ell_in.ndim != 1 or ell_in.size == 0:
         v.fail(owner, f"ell must be a non-empty 1-D array; got shape {ell_in.shape}.")
+    if ell_in.size > MAX_FUNCTIONS:
+        v.fail(
+            owner,
+            f"ell must hold at most {MAX_FUNCTIONS} modulating functions; got "
+            f"{ell_in.size}.",
+        )
+    top = float(np.max(np.abs(ell_in))) + order
+    if top > intervals / 2.0:
+        v.fail(
+            owner,
+            f"ell must keep every frequency |ℓ + i|/window (i = 0..order) at most "
+            f"the bank's Nyquist frequency 1/(2·time_step) = {0.5 / time_step:g} "
+            f"[Hz]; got {top / window:g} Hz (window {window:g} s, time_step "
+            f"{time_step:g} s).",
+        )
     ell_r = np.round(ell_in, _DECIMALS)
     if np.unique(ell_r).size != ell_r.size:
         v.fail(owner, "ell must not repeat a value (after rounding to 1e-12).")
@@ -284,7 +367,15 @@ def default_frequencies(
             f"bandwidth_hz must be >= order/window = {order / window:g} [Hz]; "
             f"got {bandwidth_hz:g}.",
         )
-    count = math.floor(top / spacing + 1e-9) + 1
+    exact = top / spacing + 1e-9
+    if not exact < MAX_FUNCTIONS:  # also inf: checked before any allocation
+        v.fail(
+            owner,
+            f"bandwidth_hz·window must give at most {MAX_FUNCTIONS} modulating "
+            f"functions (ℓ spacing {spacing:g}); got bandwidth_hz {bandwidth_hz:g} Hz "
+            f"with window {window:g} s ({exact:.3g} functions).",
+        )
+    count = math.floor(exact) + 1
     return np.round(spacing * np.arange(count), _DECIMALS)
 
 

@@ -112,6 +112,7 @@ def identifier_update(
     weighting: tuple[Any, Any] | None = None,
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
+    noise: Any = None,
 ) -> IdentifierState:
     """One solve of the sliding identifier: the new state (the old is unchanged).
 
@@ -129,10 +130,15 @@ def identifier_update(
         weighting: None, or ``(row_frequency, row_group)`` of the rows.
         max_condition: largest accepted scaled condition number.
         names: p parameter names (for the solver's messages).
+        noise: the rows' ``core.row_noise.RowNoise`` for the honest σ
+            (``OnlineSettings.row_noise``; ``core.lsq.solve_window``); None:
+            Gautier's σ.
     """
     if not window_valid:
         return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
-    result = solve_window(A, B, weighting, max_condition=max_condition, names=names)
+    result = solve_window(
+        A, B, weighting, max_condition=max_condition, names=names, noise=noise
+    )
     unidentified = np.zeros(state.num_parameters)
     if result.valid:
         return IdentifierState(

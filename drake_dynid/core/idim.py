@@ -75,7 +75,14 @@ def _cutoff_periods(owner: str, periods: float, time_step: Any, cutoff_hz: Any) 
     """``ceil(periods / (cutoff_hz · h))``: samples in ``periods`` cutoff periods."""
     time_step = v.positive(owner, "time_step", time_step, "s")
     cutoff_hz = v.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
-    return math.ceil(periods / (cutoff_hz * time_step))
+    samples = periods / time_step / cutoff_hz
+    if not samples < 2**53:
+        v.fail(
+            owner,
+            f"cutoff_hz must give fewer than 2^53 samples per {periods:g} periods; "
+            f"got cutoff_hz {cutoff_hz:g} Hz with time_step {time_step:g} s.",
+        )
+    return math.ceil(samples)
 
 
 def offline_derivatives(

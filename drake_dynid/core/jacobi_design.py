@@ -44,6 +44,9 @@ from scipy import special
 from drake_dynid.core import _validate
 
 __all__ = [
+    "MAX_EXPONENT",
+    "MAX_Q",
+    "MAX_TAPS",
     "JacobiFilter",
     "jacobi_filter",
     "jacobi_filters",
@@ -52,6 +55,15 @@ __all__ = [
     "jacobi_minimum_delay_xi",
     "jacobi_sinusoid_error",
 ]
+
+
+#: Largest q (extra polynomial degree): at q = 10 the velocity filter's noise gain
+#: is already 20-100 times that of q = 1, and the design's cost grows like q².
+MAX_Q = 10
+#: Largest κ and μ (weight exponents): up to it the taps are exact to ~1e-12.
+MAX_EXPONENT = 100.0
+#: Most taps of one filter (window / time_step + 1): a hard ceiling on the design.
+MAX_TAPS = 1 << 17
 
 
 def _read_only(value: np.ndarray) -> np.ndarray:
@@ -126,13 +138,25 @@ def _check_integer(owner: str, name: str, value: Any, minimum: int) -> int:
 def _check_shape(owner: str, kappa: Any, mu: Any, q: Any) -> tuple[float, float, int]:
     kappa = _validate.greater_than(owner, "kappa", kappa, -1.0)
     mu = _validate.greater_than(owner, "mu", mu, -1.0)
+    for name, value in (("kappa", kappa), ("mu", mu)):
+        if value > MAX_EXPONENT:
+            _validate.fail(owner, f"{name} must be <= {MAX_EXPONENT:g}; got {value:g}.")
     q = _check_integer(owner, "q", q, 0)
+    if q > MAX_Q:
+        _validate.fail(owner, f"q must be an integer in [0, {MAX_Q}]; got {q}.")
     return kappa, mu, q
 
 
 def _check_grid(owner: str, window: Any, time_step: Any) -> tuple[float, float, int]:
     time_step = _validate.positive(owner, "time_step", time_step, "s")
     window = _validate.positive(owner, "window", window, "s")
+    ratio = window / time_step
+    if not ratio < MAX_TAPS:
+        _validate.fail(
+            owner,
+            f"window / time_step must be < {MAX_TAPS} (the filter's taps); got "
+            f"{window:g} / {time_step:g} = {ratio:.3g}.",
+        )
     intervals = _validate.multiple_of(owner, "window", window, "time_step", time_step)
     return window, time_step, intervals
 
@@ -421,6 +445,9 @@ def jacobi_frequency_response(filt: JacobiFilter, omega: Any) -> np.ndarray:
     ``H(ω) = Σ_j taps[j] e^{-iωjh}`` for angular frequencies ``omega`` [rad/s];
     the ideal (delayed differentiator) response is ``(iω)^k e^{-iω·delay}``.
     """
+    _validate.instance(
+        "jacobi_frequency_response", "filt", filt, JacobiFilter, "a JacobiFilter"
+    )
     omega = _validate.array("jacobi_frequency_response", "omega", omega)
     lags = np.arange(filt.num_taps) * filt.time_step
     return np.exp(-1j * np.multiply.outer(omega, lags)) @ filt.taps
@@ -433,6 +460,9 @@ def jacobi_sinusoid_error(filt: JacobiFilter, omega: Any) -> np.ndarray:
     error of amplitude ``A·jacobi_sinusoid_error(filt, ω)`` [unit·s^-k]: the bias
     part of the error budget (the noise part is ``σ·filt.noise_gain``).
     """
+    _validate.instance(
+        "jacobi_sinusoid_error", "filt", filt, JacobiFilter, "a JacobiFilter"
+    )
     omega = _validate.array("jacobi_sinusoid_error", "omega", omega)
     ideal = (1j * omega) ** filt.order * np.exp(-1j * omega * filt.delay)
     return np.abs(jacobi_frequency_response(filt, omega) - ideal)

@@ -38,8 +38,16 @@ def jacobi_apply(taps: Any, newest_first: Any) -> np.ndarray:
     (K, L); ``newest_first`` is (L,) or (L, m). Returns shape ``taps.shape[:-1] +
     newest_first.shape[1:]``.
     """
-    taps = np.asarray(taps, dtype=float)
-    samples = np.asarray(newest_first, dtype=float)
+    taps = _validate.array("jacobi_apply", "taps", taps)
+    samples = _validate.array(
+        "jacobi_apply", "newest_first", newest_first, finite=False
+    )
+    if taps.ndim not in (1, 2) or samples.ndim not in (1, 2):
+        _validate.fail(
+            "jacobi_apply",
+            f"taps must be (L,) or (K, L) and newest_first (L,) or (L, m); got "
+            f"shapes {taps.shape} and {samples.shape}.",
+        )
     if samples.shape[:1] != taps.shape[-1:]:
         _validate.fail(
             "jacobi_apply",
@@ -57,6 +65,9 @@ def jacobi_batch(filt: JacobiFilter, samples: Any) -> np.ndarray:
     :func:`jacobi_initial_state` (and of the Drake block). ``y[n]`` estimates
     ``x^(k)(t_n - delay)`` once n >= N. ``samples`` is (T,) or (T, m) along time.
     """
+    _validate.instance(
+        "jacobi_batch", "filt", filt, JacobiFilter, "a JacobiFilter (jacobi_filter)"
+    )
     samples = _validate.array("jacobi_batch", "samples", samples)
     if samples.ndim not in (1, 2):
         _validate.fail(
@@ -136,6 +147,7 @@ def jacobi_ring(filters: Any, num_signals: int) -> JacobiRing:
 
 def jacobi_initial_state(ring: JacobiRing) -> np.ndarray:
     """Empty ring: zero buffer, ``head = L-1`` (first sample to slot 0), count 0."""
+    _check_ring("jacobi_initial_state", ring)
     state = np.zeros(ring.state_size)
     state[-2] = ring.num_taps - 1
     return state
@@ -151,6 +163,7 @@ def jacobi_step(
     ``out`` (which may be ``state`` itself) to write in place, as the Drake block
     does with its mutable discrete state.
     """
+    _check_ring("jacobi_step", ring, state)
     length, m = ring.num_taps, ring.num_signals
     if out is None:
         out = np.array(state, dtype=float)
@@ -172,6 +185,7 @@ def jacobi_outputs(
     Returns (K, m), or (m,) for one filter when ``index`` is given. Refers to
     ``t_n - delay`` where ``t_n`` is the time of the newest sample.
     """
+    _check_ring("jacobi_outputs", ring, state)
     length, m = ring.num_taps, ring.num_signals
     head = int(state[-2])
     buffer = state[: length * m].reshape(length, m)
@@ -183,4 +197,16 @@ def jacobi_outputs(
 
 def jacobi_valid(ring: JacobiRing, state: np.ndarray) -> bool:
     """True once the ring holds L = N+1 real samples (the transient is over)."""
+    _check_ring("jacobi_valid", ring, state)
     return bool(state[-1] >= ring.num_taps)
+
+
+def _check_ring(owner: str, ring: Any, state: Any = None) -> None:
+    """TypeError/ValueError unless ``ring`` is a JacobiRing and ``state`` its state."""
+    _validate.instance(owner, "ring", ring, JacobiRing, "a JacobiRing (jacobi_ring)")
+    if state is not None and np.shape(state) != (ring.state_size,):
+        _validate.fail(
+            owner,
+            f"state must have shape ({ring.state_size},) (jacobi_initial_state); "
+            f"got {np.shape(state)}.",
+        )

@@ -21,6 +21,7 @@ malformed arguments (shapes, types) raise.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -192,7 +193,11 @@ def solve_least_squares(
         return invalid(
             f"too few rows: {rows} rows for {p} parameters (need more than {p})."
         )
-    norms = np.sqrt(np.einsum("ij,ij->j", A, A))
+    # Column norms scaled by the column's largest entry: no overflow for entries
+    # up to the largest float (squares of 1e160 would overflow).
+    peak = np.max(np.abs(A), axis=0)
+    safe = np.where(peak > 0.0, peak, 1.0)
+    norms = peak * np.sqrt(np.einsum("ij,ij->j", A / safe, A / safe))
     zero = np.flatnonzero(norms <= np.finfo(float).tiny)
     if zero.size:
         return invalid(
@@ -206,7 +211,8 @@ def solve_least_squares(
     # R, z = QᵀB and the residual norm ρ = ‖B - A X̂‖ in its last column.
     augmented = np.empty((rows, p + 1))
     np.divide(A, norms, out=augmented[:, :p])
-    augmented[:, p] = B
+    b_scale = float(np.max(np.abs(B))) or 1.0
+    np.divide(B, b_scale, out=augmented[:, p])
     # (numpy's stubs type mode="r" as a tuple; it is the array R.)
     R_aug = np.asarray(np.linalg.qr(augmented, mode="r"))
     R = R_aug[:p, :p]
@@ -234,9 +240,9 @@ def solve_least_squares(
             indices=weak,
         )
     R_inv = np.linalg.inv(R)
-    theta = (R_inv @ R_aug[:p, p]) / norms
-    sigma2 = float(R_aug[p, p] ** 2) / (rows - p)
-    std = np.sqrt(sigma2 * np.einsum("ij,ij->i", R_inv, R_inv)) / norms
+    theta = (R_inv @ R_aug[:p, p]) * b_scale / norms
+    residual_std = abs(float(R_aug[p, p])) / np.sqrt(rows - p) * b_scale
+    std = residual_std * np.sqrt(np.einsum("ij,ij->i", R_inv, R_inv)) / norms
     magnitude = np.abs(theta)
     relative = np.full(p, np.inf)
     np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
@@ -248,7 +254,7 @@ def solve_least_squares(
         relative_std_percent=relative,
         condition_number=float(condition),
         rank=rank,
-        residual_std=float(np.sqrt(sigma2)),
+        residual_std=float(residual_std),
         num_rows=rows,
         valid=True,
         reason="",
@@ -337,12 +343,16 @@ def frequency_noise_weights(
     weights = np.ones_like(residual)
     for g in np.unique(group):
         rows = group == g
+        # Residuals scaled by their largest magnitude: squares never overflow.
+        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
+        if scale == 0.0:
+            continue
         model = np.stack([np.ones(rows.sum()), frequency[rows] ** 2], axis=1)
-        coefficients, _ = nnls(model, residual[rows] ** 2)
+        coefficients, _ = nnls(model, (residual[rows] / scale) ** 2)
         variance = model @ coefficients
         top = float(variance.max())
         if top > 0.0:
-            weights[rows] = 1.0 / np.sqrt(np.maximum(variance, floor * top))
+            weights[rows] = 1.0 / (scale * np.sqrt(np.maximum(variance, floor * top)))
     return weights
 
 
@@ -394,6 +404,7 @@ def solve_window(
     *,
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
+    noise: Any = None,
 ) -> LeastSquaresResult:
     """The on-line identifier's solve of one window (block and core replay alike).
 
@@ -405,10 +416,74 @@ def solve_window(
             :func:`solve_frequency_weighted_least_squares`.
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
+        noise: the rows' ``core.row_noise.RowNoise`` (their frequencies, groups
+            and correlation): σ is then the honest sandwich σ of
+            ``core.row_noise.honest_std`` (correlated rows, noise growing with the
+            frequency), and a window whose residual has fewer than
+            ``core.row_noise.MIN_RESIDUAL_DOF`` effective degrees of freedom is
+            not valid. None: Gautier's σ (independent rows of equal noise).
     """
+    if noise is None:
+        if weighting is None:
+            return solve_least_squares(A, B, max_condition=max_condition, names=names)
+        frequency, group = weighting
+        return solve_frequency_weighted_least_squares(
+            A, B, frequency, group, max_condition=max_condition, names=names
+        )
+    from drake_dynid.core.row_noise import (
+        MIN_RESIDUAL_DOF,
+        honest_std,
+        noise_model_std,
+    )
+
+    first = solve_least_squares(A, B, max_condition=max_condition, names=names)
+    if not first.valid:
+        return first
+    A = np.asarray(A, dtype=float)
+    B = np.asarray(B, dtype=float)
+    if A.shape[0] != noise.num_rows:
+        v.fail(
+            "solve_window",
+            f"noise must describe the {A.shape[0]} rows of A; got {noise.num_rows}.",
+        )
+    model = frequency_noise_weights(B - A @ first.theta, noise.frequency, noise.group)
     if weighting is None:
-        return solve_least_squares(A, B, max_condition=max_condition, names=names)
-    frequency, group = weighting
-    return solve_frequency_weighted_least_squares(
-        A, B, frequency, group, max_condition=max_condition, names=names
+        weights = np.ones_like(B)
+        result = first
+    else:
+        weights = model
+        result = solve_weighted_least_squares(
+            A, B, weights, max_condition=max_condition, names=names
+        )
+        if not result.valid:
+            return result
+    relative = noise_model_std(B - A @ result.theta, noise.frequency, noise.group)
+    honest = honest_std(A, B, result.theta, weights, relative, noise)
+    if not honest.dof >= MIN_RESIDUAL_DOF:
+        nan = np.full(A.shape[1], np.nan)
+        nan.flags.writeable = False
+        return dataclasses.replace(
+            result,
+            theta=nan,
+            std=nan,
+            relative_std_percent=nan,
+            residual_std=np.nan,
+            valid=False,
+            reason=(
+                f"too few independent equations for an honest σ: the residual has "
+                f"{honest.dof:.3g} effective degrees of freedom (< "
+                f"{MIN_RESIDUAL_DOF:g}) for {A.shape[1]} parameters; use a longer "
+                "window or more modulating functions within the excitation band."
+            ),
+        )
+    std = honest.std
+    magnitude = np.abs(result.theta)
+    relative = np.full(A.shape[1], np.inf)
+    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
+    relative.flags.writeable = False
+    return dataclasses.replace(
+        result,
+        std=std,
+        relative_std_percent=relative,
+        residual_std=honest.residual_std,
     )

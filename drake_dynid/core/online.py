@@ -23,6 +23,13 @@ signal period h closest to their nominal values (:data:`NOMINAL_BANK_TIME_STEP`,
 nearest multiples of h and of the bank step when they are not already. At
 h = 1 ms nothing moves; a 125 Hz log (h = 8 ms) gets a 16 ms bank and a 96 ms
 solve period.
+
+Checks before any allocation (``core.online_checks``): the constructor checks every
+value and its hard ceiling; :meth:`OnlineSettings.for_log` puts the settings on a
+log's grid and checks them against the log and the robot (length, Nyquist, the
+differentiator's pass band, window memory, enough independent equations for an
+honest σ), with the messages in the caller's names (``dynid identify`` shows its
+options).
 """
 
 from __future__ import annotations
@@ -44,6 +51,7 @@ from drake_dynid.core.fourier_bank import (
 )
 from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.online_checks import check_log, check_values
 from drake_dynid.core.rows import check_model_kind, num_equations
 
 __all__ = [
@@ -100,7 +108,15 @@ def nearest_multiple(value: float, step: float, *, at_most: int | None = None) -
 
     Ties go to the smaller count; ``at_most`` caps the count (still >= 1).
     """
-    count = max(1, math.floor(value / step + 0.5 - _GRID_RTOL))
+    value = check.real("nearest_multiple", "value", value)
+    step = check.positive("nearest_multiple", "step", step)
+    ratio = value / step
+    if not np.isfinite(ratio):
+        check.fail(
+            "nearest_multiple",
+            f"value / step must be finite; got {value:g} / {step:g}.",
+        )
+    count = max(1, math.floor(ratio + 0.5 - _GRID_RTOL))
     if at_most is not None:
         count = max(1, min(count, at_most))
     return count
@@ -108,6 +124,8 @@ def nearest_multiple(value: float, step: float, *, at_most: int | None = None) -
 
 def _is_multiple(value: float, step: float) -> bool:
     ratio = value / step
+    if not math.isfinite(ratio):
+        return False
     count = round(ratio)
     return count >= 1 and abs(ratio - count) <= _GRID_RTOL * max(1.0, abs(ratio))
 
@@ -165,37 +183,9 @@ class OnlineSettings:
     weighting: str = "frequency"
 
     def __post_init__(self) -> None:
-        owner = _OWNER
-        check_model_kind(owner, self.model, "model")
-        check.positive(owner, "window", self.window, "s")
-        check.positive(owner, "jacobi_window", self.jacobi_window, "s")
-        if self.bank_time_step is not None:
-            check.positive(owner, "bank_time_step", self.bank_time_step, "s")
-        if self.update_period is not None:
-            check.positive(owner, "update_period", self.update_period, "s")
-        check.positive(owner, "bandwidth", self.bandwidth, "Hz")
-        check.greater_than(owner, "max_condition", self.max_condition, 1.0)
-        if self.weighting not in WEIGHTINGS:
-            check.fail(
-                owner,
-                f"weighting must be one of {', '.join(map(repr, WEIGHTINGS))}; got "
-                f"{self.weighting!r}.",
-            )
-        limit = self.jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
-        if self.bank_time_step is not None and self.bank_time_step > limit:
-            check.fail(
-                owner,
-                "bank_time_step must be <= jacobi_window/"
-                f"{MIN_BANK_SAMPLES_PER_JACOBI_WINDOW} [s] (the bank samples the "
-                "differentiator's low-passed output; a coarser step aliases it); got "
-                f"{self.bank_time_step:g} with jacobi_window {self.jacobi_window:g}.",
-            )
-        if isinstance(self.frequencies, str) and self.frequencies != "paper":
-            check.fail(
-                owner,
-                f"frequencies must be None, 'paper' or a list of reals; got "
-                f"{self.frequencies!r}.",
-            )
+        # Types, ranges and the hard ceilings on the work per value
+        # (core.online_checks), before anything is allocated.
+        check_values({f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
 
     @classmethod
     def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
@@ -259,6 +249,45 @@ class OnlineSettings:
             update_period=update_period,
         )
 
+    def for_log(
+        self,
+        time_step: float,
+        duration: float,
+        *,
+        num_joints: int | None = None,
+        num_parameters: int | None = None,
+        owner: str | None = _OWNER,
+        names: dict[str, str] | None = None,
+    ) -> OnlineSettings:
+        """These settings on a log's grid, checked against the log first.
+
+        :meth:`on_grid` plus the checks of ``core.online_checks.check_log``, all
+        before anything is allocated: the log is longer than window +
+        jacobi_window, every modulating frequency is below the bank's Nyquist
+        frequency and inside the differentiator's pass band, the differentiator
+        and (with the robot's n and p) the window's samples stay within their
+        ceilings, and the ℓ set gives enough independent equations for an honest
+        σ. ``owner`` and ``names`` (field -> name shown) set the messages' words
+        (the ``dynid identify`` command shows its option names).
+
+        Args:
+            time_step: the log's sample period h [s].
+            duration: the log's duration [s].
+            num_joints: n (optional, with ``num_parameters``).
+            num_parameters: p, the base parameters (optional).
+            owner: message prefix (None: none).
+            names: field -> name shown in the messages.
+        """
+        return check_log(
+            self,
+            time_step,
+            duration,
+            num_joints=num_joints,
+            num_parameters=num_parameters,
+            owner=owner,
+            names=names,
+        )
+
     def _given_multiple(self, name: str, h: float) -> float:
         value = getattr(self, name)
         if not _is_multiple(value, h):
@@ -272,11 +301,13 @@ class OnlineSettings:
 
     def decimation(self, time_step: float) -> int:
         """Signal samples per bank sample, bank_time_step/h (after :meth:`on_grid`)."""
-        return round(self.resolved("bank_time_step") / time_step)
+        h = check.positive(_OWNER, "time_step", time_step, "s")
+        return round(self.resolved("bank_time_step") / h)
 
     def solve_decimation(self, time_step: float) -> int:
         """Signal samples per solve, update_period/h (after :meth:`on_grid`)."""
-        return round(self.resolved("update_period") / time_step)
+        h = check.positive(_OWNER, "time_step", time_step, "s")
+        return round(self.resolved("update_period") / h)
 
     def resolved(self, name: str) -> float:
         """The period ``name`` (``"bank_time_step"`` or ``"update_period"``) [s].
@@ -343,6 +374,17 @@ class OnlineSettings:
         if self.weighting == "none":
             return None
         return (self.bank() if bank is None else bank).row_frequencies(m)
+
+    def row_noise(self, m: int, bank: Any = None) -> Any:
+        """The rows' noise structure for the honest σ (``core.row_noise``).
+
+        ``core.row_noise.row_noise(bank, m)``: row frequencies, noise groups and
+        the correlation of one equation's rows (docs/MATH.md §4). Both drivers
+        pass it to the identifier step, whatever the weighting.
+        """
+        from drake_dynid.core.row_noise import row_noise
+
+        return row_noise(self.bank() if bank is None else bank, m)
 
     def jacobi_parameters(self) -> dict[str, Any]:
         """Arguments of the matched differentiator (orders 0 and 1) but the period.

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core import _validate as check
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
 from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
@@ -101,6 +102,7 @@ def _replay_one(
     p = int(rows.num_parameters)
     names = tuple(rows.names)
     weighting = entry.row_weighting(m, bank)
+    noise = entry.row_noise(m, bank)
 
     # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
     bank_times = np.arange(0, count, decimation)
@@ -150,6 +152,7 @@ def _replay_one(
             weighting=weighting,
             max_condition=entry.max_condition,
             names=names,
+            noise=noise,
         )
     return OnlineTrace(
         settings=entry,
@@ -194,6 +197,14 @@ def replay_log_core(
         times relative to the first sample of the log.
     """
     del progress
+    check.having(
+        "replay_log_core",
+        "log",
+        log,
+        ("q", "tau", "time_step", "num_samples"),
+        "a RobotLog",
+    )
+    check.log_magnitudes("replay_log_core", log.q, log.tau)
     n = check_rows("replay_log_core", rows)
     if log.q.shape[1] != n or log.tau.shape[1] != n:
         raise ValueError(
@@ -252,4 +263,5 @@ def window_estimate(
         s.row_weighting(m, bank),
         max_condition=s.max_condition,
         names=rows.names,
+        noise=s.row_noise(m, bank),
     )

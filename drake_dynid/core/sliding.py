@@ -18,8 +18,15 @@ is one rotation away::
 
 The phase is computed from the integer index as ``νa + νb/N (mod 1)`` with
 ``n = aN + b``, so it does not drift over hours. Round-off in the running sums is
-removed by a periodic resynchronisation (recomputing ``P`` from the stored window).
-The state is immutable and cheap to deep-copy (a persistent chunked ring).
+removed by a periodic resynchronisation (recomputing ``P`` from the stored window),
+and at once when a sample much larger than the rest of the window leaves it: a
+finite glitch (τ = 1e20 at one sample) would otherwise leave ~1e20·1e-16 of
+cancellation error in ``P`` after it has gone. The state tracks, per channel, the
+largest magnitude since the last check and the index of its sample; when that
+sample leaves the window and exceeds :data:`RESYNC_RATIO` times the window's
+largest remaining magnitude, the sums are recomputed from the window (exact: the
+glitch is no longer in it). The state is immutable and cheap to deep-copy (a
+persistent chunked ring).
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ from drake_dynid.core.fourier_bank import _TABLE, FourierBank, _frozen, check_sa
 from drake_dynid.core.ring import ChunkRing
 
 __all__ = [
+    "RESYNC_RATIO",
     "SlidingState",
     "is_full",
     "sliding_fourier_integrals",
@@ -47,6 +55,11 @@ __all__ = [
 
 _BLOCK = 2048  # samples per block of the phase sums (bounds memory to K × _BLOCK)
 _PHASE_REFRESH = 1024  # recompute the absolute phase from the index every this many
+
+#: A sample leaving the window with a magnitude above this many times the largest
+#: one left in its channel triggers a resynchronisation of the running sums (the
+#: cancellation error it leaves is ~1e-16 of its magnitude).
+RESYNC_RATIO = 100.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +76,10 @@ class SlidingState:
         since_resync: pushes since ``sums`` was last recomputed from the window.
         resync_every: recompute ``sums`` from the window every this many pushes
             (0: never).
+        peak: (c,) read-only, the largest |sample| per channel since the last
+            check (a glitch leaving the window triggers a resynchronisation).
+        peak_index: (c,) read-only, the absolute index of the newest sample with
+            that magnitude.
 
     ``copy.deepcopy`` shares ``sums`` and ``phase`` (read-only: every push makes new
     arrays) and the frozen chunks of the ring, and copies only the ring's partially
@@ -76,6 +93,8 @@ class SlidingState:
     last_invalid: int
     since_resync: int
     resync_every: int
+    peak: np.ndarray
+    peak_index: np.ndarray
 
     @property
     def num_channels(self) -> int:
@@ -91,6 +110,8 @@ class SlidingState:
             last_invalid=self.last_invalid,
             since_resync=self.since_resync,
             resync_every=self.resync_every,
+            peak=self.peak,
+            peak_index=self.peak_index,
         )
         memo[id(self)] = out
         return out
@@ -158,6 +179,7 @@ def sliding_init(
         chunk_size: rows per frozen block of the ring (default: see ChunkRing).
     """
     owner = "sliding_init"
+    v.instance(owner, "bank", bank, FourierBank, "a FourierBank (fourier_bank)")
     num_channels = v.integer(owner, "num_channels", num_channels, minimum=1)
     if resync_every is None:
         resync_every = 100 * bank.num_samples
@@ -171,11 +193,14 @@ def sliding_init(
         last_invalid=-1,
         since_resync=0,
         resync_every=resync_every,
+        peak=_frozen(np.zeros(num_channels)),
+        peak_index=_frozen(np.full(num_channels, -1, dtype=np.int64)),
     )
 
 
 def is_full(state: SlidingState) -> bool:
     """True once the window holds N + 1 samples."""
+    _check("is_full", None, state)
     return state.ring.is_full
 
 
@@ -186,6 +211,7 @@ def window_valid(state: SlidingState) -> bool:
     stored as zeros and keeps the window invalid until it has left it, N + 1
     pushes later.
     """
+    _check("window_valid", None, state)
     return state.ring.is_full and state.last_invalid < state.count - len(state.ring)
 
 
@@ -194,8 +220,11 @@ def sliding_resync(bank: FourierBank, state: SlidingState) -> SlidingState:
 
     Removes accumulated round-off; costs K·(N+1)·c complex multiply-adds.
     """
+    _check("sliding_resync", bank, state)
     window = state.ring.window()
-    sums = _absolute_sums(bank, window, state.count - len(window))
+    first = state.count - len(window)
+    sums = _absolute_sums(bank, window, first)
+    peak, peak_index = _window_peaks(window, first)
     return SlidingState(
         ring=state.ring,
         sums=_frozen(sums),
@@ -204,6 +233,82 @@ def sliding_resync(bank: FourierBank, state: SlidingState) -> SlidingState:
         last_invalid=state.last_invalid,
         since_resync=0,
         resync_every=state.resync_every,
+        peak=peak,
+        peak_index=peak_index,
+    )
+
+
+def _check(owner: str, bank: Any, state: Any = None) -> None:
+    """TypeError/ValueError unless ``bank`` is a FourierBank and ``state`` its state.
+
+    ``bank`` None: only the state is checked; ``state`` None: only the bank.
+    """
+    if bank is not None:
+        v.instance(owner, "bank", bank, FourierBank, "a FourierBank (fourier_bank)")
+    if state is None:
+        return
+    v.instance(owner, "state", state, SlidingState, "a SlidingState (sliding_init)")
+    if bank is not None and state.ring.capacity != bank.num_samples:
+        v.fail(
+            owner,
+            f"state must belong to this bank ({bank.num_samples} samples per "
+            f"window); got a state of {state.ring.capacity}.",
+        )
+
+
+def _window_peaks(window: np.ndarray, first: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per channel, the largest |sample| of ``window`` and where it is.
+
+    Returns the magnitudes (c,) and the absolute index of the newest sample with
+    each (``first``: the index of the window's first row).
+    """
+    if len(window) == 0:
+        c = window.shape[1]
+        return _frozen(np.zeros(c)), _frozen(np.full(c, -1, dtype=np.int64))
+    magnitude = np.abs(window)
+    newest = len(window) - 1 - np.argmax(magnitude[::-1], axis=0)
+    peak = magnitude[newest, np.arange(window.shape[1])]
+    return _frozen(peak), _frozen(first + newest.astype(np.int64))
+
+
+def _track(
+    state: SlidingState, x: np.ndarray, first: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``state``'s peaks updated with the block ``x`` (b, c) of indices first..."""
+    block_peak, block_index = _window_peaks(x, first)
+    newer = block_peak >= state.peak
+    if not newer.any():
+        return state.peak, state.peak_index
+    return (
+        _frozen(np.where(newer, block_peak, state.peak)),
+        _frozen(np.where(newer, block_index, state.peak_index)),
+    )
+
+
+def _check_departures(bank: FourierBank, state: SlidingState) -> SlidingState:
+    """Resynchronises when a channel's peak has left the window and was large.
+
+    Otherwise, the peaks of the channels whose peak left are re-read from the
+    window (O(N·c), once per departure).
+    """
+    oldest = state.count - len(state.ring)
+    gone = (state.peak_index >= 0) & (state.peak_index < oldest)
+    if not gone.any():
+        return state
+    window = state.ring.window()
+    peak, peak_index = _window_peaks(window, oldest)
+    if np.any(state.peak[gone] > RESYNC_RATIO * peak[gone]):
+        return sliding_resync(bank, state)
+    return SlidingState(
+        ring=state.ring,
+        sums=state.sums,
+        phase=state.phase,
+        count=state.count,
+        last_invalid=state.last_invalid,
+        since_resync=state.since_resync,
+        resync_every=state.resync_every,
+        peak=_frozen(np.where(gone, peak, state.peak)),
+        peak_index=_frozen(np.where(gone, peak_index, state.peak_index)),
     )
 
 
@@ -228,6 +333,7 @@ def sliding_push(
         The new state (O(K·c) work, plus a resynchronisation every
         ``resync_every`` pushes).
     """
+    _check("sliding_push", bank, state)
     x = np.asarray(sample, dtype=float)
     if x.shape != (state.num_channels,):
         v.fail(
@@ -256,6 +362,7 @@ def sliding_push(
         next_phase = phase * bank.phase_step
     else:
         next_phase = _phases(bank, n + 1)
+    peak, peak_index = _track(state, x[None, :], n)
     new = SlidingState(
         ring=ring.push(x),
         sums=_frozen(sums),
@@ -264,10 +371,12 @@ def sliding_push(
         last_invalid=last_invalid,
         since_resync=state.since_resync + 1,
         resync_every=state.resync_every,
+        peak=peak,
+        peak_index=peak_index,
     )
     if state.resync_every and new.since_resync >= state.resync_every:
         return sliding_resync(bank, new)
-    return new
+    return _check_departures(bank, new)
 
 
 def sliding_push_many(
@@ -289,6 +398,7 @@ def sliding_push_many(
             zeros (see :func:`sliding_push`).
     """
     owner = "sliding_push_many"
+    _check(owner, bank, state)
     x = check_samples(owner, samples, None, finite=False)
     if x.shape[1] != state.num_channels:
         v.fail(
@@ -308,6 +418,7 @@ def sliding_push_many(
     ring = state.ring.extend(x)
     new_count = state.count + count
     since = state.since_resync + count
+    peak, peak_index = _track(state, x, state.count)
     if count >= bank.num_samples or (
         state.resync_every and since >= state.resync_every
     ):
@@ -319,6 +430,8 @@ def sliding_push_many(
             last_invalid,
             since,
             state.resync_every,
+            peak,
+            peak_index,
         )
         return sliding_resync(bank, new)
     sums = _absolute_sums(bank, x, state.count)
@@ -327,7 +440,7 @@ def sliding_push_many(
         first = state.count - state.ring.size
         sums -= _absolute_sums(bank, state.ring.head(leaving), first)
     sums += state.sums
-    return SlidingState(
+    new = SlidingState(
         ring=ring,
         sums=_frozen(sums),
         phase=_frozen(_phases(bank, new_count)),
@@ -335,7 +448,10 @@ def sliding_push_many(
         last_invalid=last_invalid,
         since_resync=since,
         resync_every=state.resync_every,
+        peak=peak,
+        peak_index=peak_index,
     )
+    return _check_departures(bank, new)
 
 
 def sliding_fourier_integrals(bank: FourierBank, state: SlidingState) -> np.ndarray:
@@ -345,6 +461,7 @@ def sliding_fourier_integrals(bank: FourierBank, state: SlidingState) -> np.ndar
     index: equal to :func:`direct_fourier_integrals` on the window. Before the
     window is full the missing older samples count as zeros.
     """
+    _check("sliding_fourier_integrals", bank, state)
     ring = state.ring
     if ring.size == 0:
         return np.zeros((bank.num_frequencies, state.num_channels), dtype=complex)

@@ -88,6 +88,7 @@ class SlidingQRIdentifier(LeafSystem):
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
         row_weighting: tuple[Any, Any] | None = None,
+        row_noise: Any = None,
     ):
         """Builds the block.
 
@@ -106,12 +107,20 @@ class SlidingQRIdentifier(LeafSystem):
                 (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
                 σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
                 None: ordinary least squares.
+            row_noise: the rows' ``core.row_noise.RowNoise``
+                (``OnlineSettings.row_noise``): σ is the honest sandwich σ
+                (correlated rows, noise growing with frequency, docs/MATH.md §4)
+                and windows with too few effective degrees of freedom are not
+                valid; None: Gautier's σ.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
         p = check.integer(owner, "num_parameters", num_parameters, 1)
         r = check.integer(owner, "num_rows", num_rows, 1)
         self._period = check.positive(owner, "update_period", update_period, "s")
+        offset = check.real(owner, "offset", offset, "s")
+        if offset < 0.0:
+            check.fail(owner, f"offset must be >= 0 [s]; got {offset}.")
         self._max_condition = check.greater_than(
             owner, "max_condition", max_condition, 1.0
         )
@@ -128,6 +137,11 @@ class SlidingQRIdentifier(LeafSystem):
             self._weighting = (
                 check.array(owner, "row_frequency", frequency, (r,)),
                 check.array(owner, "row_group", group, (r,)).astype(int),
+            )
+        self._noise = row_noise
+        if row_noise is not None and row_noise.num_rows != r:
+            check.fail(
+                owner, f"row_noise must describe {r} rows; got {row_noise.num_rows}."
             )
         self._a = self.DeclareVectorInputPort("A", r * p)
         self._b = self.DeclareVectorInputPort("B", r)
@@ -224,6 +238,7 @@ class SlidingQRIdentifier(LeafSystem):
             weighting=self._weighting,
             max_condition=self._max_condition,
             names=self._names,
+            noise=self._noise,
         )
         for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)

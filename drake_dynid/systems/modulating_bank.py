@@ -87,6 +87,9 @@ class ModulatingIntegralBank(LeafSystem):
                 f"drake_dynid.core.modulating.fourier_bank); got {type(bank).__name__}."
             )
         self._bank = bank
+        offset = check.real(owner, "offset", offset, "s")
+        if offset < 0.0:
+            check.fail(owner, f"offset must be >= 0 [s]; got {offset}.")
         self._m = check.integer(owner, "num_equations", num_equations, 1)
         self._p = check.integer(owner, "num_parameters", num_parameters, 1)
         self._c = num_channels(self._m, self._p)

@@ -1,0 +1,445 @@
+"""Checks of the on-line identifier's settings: their values, then against a log.
+
+Two stages, both before anything is allocated (docs/CONVENTIONS.md §5):
+
+* :func:`check_values` (``OnlineSettings.__post_init__``): types, ranges and the
+  hard ceilings that do not depend on the log: at most
+  ``core.fourier_bank.MAX_FUNCTIONS`` modulating functions (``frequencies``, or
+  ``bandwidth``·``window`` for the default set), Jacobi ``jacobi_q`` <=
+  :data:`MAX_JACOBI_Q` and ``kappa``, ``mu`` <= :data:`MAX_JACOBI_EXPONENT` (beyond
+  them the filter's noise gain exceeds 1e3 and its design loses digits),
+  ``max_condition`` <= :data:`MAX_CONDITION` (beyond it the QR's round-off can
+  exceed σ), ``jacobi_window`` < ``window``.
+* :func:`check_log` (``OnlineSettings.for_log``): the settings put on the log's
+  grid (``OnlineSettings.on_grid``) and checked against it: the log is longer than
+  ``window`` + ``jacobi_window``; the differentiator has at most
+  :data:`MAX_JACOBI_TAPS` taps; every modulating frequency (|ℓ| + k)/T is below
+  the bank's Nyquist frequency 1/(2·bank_time_step) and inside the
+  differentiator's pass band (its low-pass gain >= 1/√2 there: above it the
+  filtered signals no longer satisfy the model's nonlinear terms and the window
+  gives precise wrong values); with the robot's size, the window's samples fit in
+  :data:`MAX_WINDOW_BYTES` and the ℓ set gives more independent equations than
+  parameters plus ``core.row_noise.MIN_RESIDUAL_DOF`` (else no window can give an
+  honest σ).
+
+Every message names the setting through ``names`` (field -> name shown), so the
+``dynid identify`` command reports its option names (``--window``) and the API
+its field names (``window``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core.fourier_bank import MAX_FUNCTIONS, MAX_ORDER, MIN_FUNCTIONS
+from drake_dynid.core.jacobi_design import MAX_EXPONENT, MAX_Q, MAX_TAPS
+from drake_dynid.core.rows import MODEL_KINDS, num_channels
+
+__all__ = [
+    "MAX_CONDITION",
+    "MAX_INDEX",
+    "MAX_JACOBI_EXPONENT",
+    "MAX_JACOBI_Q",
+    "MAX_JACOBI_TAPS",
+    "MAX_SECONDS",
+    "MAX_WINDOW_BYTES",
+    "PASS_BAND_GAIN",
+    "check_log",
+    "check_values",
+    "on_grid",
+    "pass_band",
+]
+
+#: Largest Jacobi q (``core.jacobi_design.MAX_Q``).
+MAX_JACOBI_Q = MAX_Q
+#: Largest Jacobi κ and μ (``core.jacobi_design.MAX_EXPONENT``).
+MAX_JACOBI_EXPONENT = MAX_EXPONENT
+#: Most taps of the differentiator (``core.jacobi_design.MAX_TAPS``).
+MAX_JACOBI_TAPS = MAX_TAPS
+#: Largest window, Jacobi window, bank step or solve period [s] (about 11 days).
+MAX_SECONDS = 1e6
+#: Largest |ℓ| of a given ℓ set: ℓ/T Hz is then above the Nyquist frequency of
+#: any bank the other ceilings allow.
+MAX_INDEX = 1e6
+#: Largest accepted max_condition: the QR's relative round-off, about cond·1e-16,
+#: stays far below any σ.
+MAX_CONDITION = 1e8
+#: Largest memory of the bank's window (its samples times channels, float64) [B].
+MAX_WINDOW_BYTES = 1 << 30
+#: The differentiator's low-pass gain at the highest modulating frequency must be
+#: at least this (-3 dB).
+PASS_BAND_GAIN = 1.0 / math.sqrt(2.0)
+
+Say = Callable[[str], str]
+
+
+def _namer(owner: str | None, names: Mapping[str, str] | None) -> tuple[str, Say]:
+    prefix = f"{owner}: " if owner else ""
+    return prefix, (lambda field: (names or {}).get(field, field))
+
+
+def _fail(prefix: str, message: str) -> None:
+    raise ValueError(f"{prefix}{message}")
+
+
+def _real(prefix: str, name: str, value: Any, unit: str | None) -> float:
+    numeric = (int, float, np.integer, np.floating)
+    unit_text = f" [{unit}]" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, numeric):
+        raise TypeError(
+            f"{prefix}{name} must be a real number{unit_text}; got {value!r} of "
+            f"type {type(value).__name__}."
+        )
+    out = float(value)
+    if not math.isfinite(out):
+        _fail(prefix, f"{name} must be finite{unit_text}; got {out}.")
+    return out
+
+
+def _positive(prefix: str, name: str, value: Any, unit: str | None) -> float:
+    out = _real(prefix, name, value, unit)
+    if out <= 0.0:
+        _fail(prefix, f"{name} must be > 0{f' [{unit}]' if unit else ''}; got {out}.")
+    return out
+
+
+def _duration(prefix: str, name: str, value: Any) -> float:
+    """A time setting in (0, :data:`MAX_SECONDS`] [s]."""
+    out = _positive(prefix, name, value, "s")
+    if out > MAX_SECONDS:
+        _fail(prefix, f"{name} must be <= {MAX_SECONDS:g} [s]; got {out:g}.")
+    return out
+
+
+def _integer(prefix: str, name: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, (float, np.floating)) and float(value).is_integer():
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise TypeError(
+            f"{prefix}{name} must be an integer in [{low}, {high}]; got {value!r} "
+            f"of type {type(value).__name__}."
+        )
+    if not low <= int(value) <= high:
+        _fail(prefix, f"{name} must be an integer in [{low}, {high}]; got {value}.")
+    return int(value)
+
+
+def _frequencies(prefix: str, name: str, value: Any) -> np.ndarray | None:
+    """None (default set), the paper's set, or a checked 1-D array of ℓ."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        if value != "paper":
+            _fail(
+                prefix,
+                f"{name} must be None, 'paper' or a list of reals; got {value!r}.",
+            )
+        return None
+    if isinstance(value, bytes) or not hasattr(value, "__len__"):
+        raise TypeError(
+            f"{prefix}{name} must be None, 'paper' or a list of reals; got "
+            f"{value!r} of type {type(value).__name__}."
+        )
+    if len(value) > MAX_FUNCTIONS:
+        _fail(
+            prefix,
+            f"{name} must hold at most {MAX_FUNCTIONS} modulating indices ℓ; got "
+            f"{len(value)}.",
+        )
+    try:
+        ell = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"{prefix}{name} must be None, 'paper' or a list of reals; got {value!r}."
+        ) from None
+    if ell.ndim != 1 or ell.size == 0:
+        _fail(prefix, f"{name} must be a non-empty list of reals; got {value!r}.")
+    if not np.all(np.isfinite(ell)):
+        _fail(prefix, f"{name} must hold finite indices ℓ; got {value!r}.")
+    if np.max(np.abs(ell)) > MAX_INDEX:  # (beyond any bank's Nyquist frequency)
+        _fail(
+            prefix,
+            f"{name} must hold indices |ℓ| <= {MAX_INDEX:g}; got "
+            f"{float(np.max(np.abs(ell))):g}.",
+        )
+    if np.unique(np.round(ell, 12)).size != ell.size:
+        _fail(prefix, f"{name} must not repeat an index ℓ; got {value!r}.")
+    return ell
+
+
+def check_values(
+    values: Mapping[str, Any],
+    *,
+    owner: str | None = "OnlineSettings",
+    names: Mapping[str, str] | None = None,
+) -> None:
+    """Checks the settings' values (types, ranges, hard ceilings), no log needed.
+
+    Args:
+        values: the ``OnlineSettings`` fields (missing ones are not checked).
+        owner: the message prefix (None: none, as the CLI's messages).
+        names: field -> name shown in the messages (default: the field names).
+
+    Raises:
+        ValueError: a bad value. TypeError: a bad type.
+    """
+    prefix, say = _namer(owner, names)
+    get = values.get
+    model = get("model", "lagrangian")
+    if not isinstance(model, str) or model not in MODEL_KINDS:
+        _fail(
+            prefix,
+            f"{say('model')} must be one of {', '.join(MODEL_KINDS)}; got {model!r}.",
+        )
+    window = _duration(prefix, say("window"), get("window", 20.0))
+    order = _integer(prefix, say("order"), get("order", 1), 1, MAX_ORDER)
+    ell = _frequencies(prefix, say("frequencies"), get("frequencies"))
+    bandwidth = _positive(prefix, say("bandwidth"), get("bandwidth", 0.6), "Hz")
+    if get("frequencies") is None:
+        count = bandwidth * window - order + 1.0
+        if not count <= MAX_FUNCTIONS:
+            _fail(
+                prefix,
+                f"{say('window')} x {say('bandwidth')} must give at most "
+                f"{MAX_FUNCTIONS} modulating functions (ℓ = 0, 1, ... while "
+                f"(ℓ + k)/T <= {say('bandwidth')}); got {window:g} s x "
+                f"{bandwidth:g} Hz ({count:.3g} functions).",
+            )
+    del ell
+    jacobi_window = _duration(prefix, say("jacobi_window"), get("jacobi_window", 0.4))
+    for field in ("kappa", "mu"):
+        value = _real(prefix, say(field), get(field, 1.0), None)
+        if not -1.0 < value <= MAX_JACOBI_EXPONENT:
+            _fail(
+                prefix,
+                f"{say(field)} must be in (-1, {MAX_JACOBI_EXPONENT:g}]; got "
+                f"{value:g}.",
+            )
+    _integer(prefix, say("jacobi_q"), get("jacobi_q", 1), 0, MAX_JACOBI_Q)
+    for field in ("bank_time_step", "update_period"):
+        if get(field) is not None:
+            _duration(prefix, say(field), get(field))
+    condition = _real(prefix, say("max_condition"), get("max_condition", 1e4), None)
+    if not 1.0 < condition <= MAX_CONDITION:
+        _fail(
+            prefix,
+            f"{say('max_condition')} must be in (1, {MAX_CONDITION:g}] (beyond it "
+            f"the solve's round-off can exceed σ); got {condition:g}.",
+        )
+    weighting = get("weighting", "frequency")
+    if not isinstance(weighting, str) or weighting not in ("frequency", "none"):
+        _fail(
+            prefix,
+            f"{say('weighting')} must be one of 'frequency', 'none'; got "
+            f"{weighting!r}.",
+        )
+    step = get("bank_time_step")
+    if step is not None and step > jacobi_window / 10:
+        _fail(
+            prefix,
+            f"{say('bank_time_step')} must be <= {say('jacobi_window')}/10 [s] (the "
+            "bank samples the differentiator's low-passed output; a coarser step "
+            f"aliases it); got {step:g} with {say('jacobi_window')} "
+            f"{jacobi_window:g}.",
+        )
+    if not jacobi_window < window:
+        _fail(
+            prefix,
+            f"{say('jacobi_window')} must be < {say('window')} [s] (the "
+            "differentiator's low-pass would remove the modulating frequencies); got "
+            f"{jacobi_window:g} with {say('window')} {window:g}.",
+        )
+
+
+def pass_band(settings: Any, time_step: float) -> float:
+    """Upper edge of the differentiator's pass band [Hz] (gain 1/√2, -3 dB).
+
+    The smoothing filter of ``settings.jacobi_filters(time_step)`` (the same
+    low-pass acts on q, q̇ and τ), by bisection on |H(2πf)| below its first dip.
+    """
+    from drake_dynid.core.jacobi_design import jacobi_frequency_response
+
+    smooth = settings.jacobi_filters(time_step)[0]
+
+    def gain(f: float) -> float:
+        return float(np.abs(jacobi_frequency_response(smooth, [2 * math.pi * f])[0]))
+
+    nyquist = 0.5 / time_step
+    low, high = 0.0, min(nyquist, 4.0 / smooth.window)
+    while gain(high) >= PASS_BAND_GAIN and high < nyquist:
+        low, high = high, min(nyquist, 2.0 * high)
+    if gain(high) >= PASS_BAND_GAIN:
+        return nyquist
+    for _ in range(40):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if gain(middle) >= PASS_BAND_GAIN else (low, middle)
+    return low
+
+
+def on_grid(
+    settings: Any,
+    time_step: float,
+    *,
+    owner: str | None = "OnlineSettings",
+    names: Mapping[str, str] | None = None,
+) -> Any:
+    """``settings.on_grid(time_step)``, its messages with the names of ``names``."""
+    prefix, say = _namer(owner, names)
+    taps = settings.jacobi_window / time_step + 1.0
+    if not taps < MAX_JACOBI_TAPS:
+        _fail(
+            prefix,
+            f"{say('jacobi_window')} must span fewer than {MAX_JACOBI_TAPS} samples "
+            f"of the log ({(MAX_JACOBI_TAPS - 1) * time_step:g} s at h = "
+            f"{time_step:g} s); got {settings.jacobi_window:g} s ({taps:.3g} "
+            "samples).",
+        )
+    try:
+        return settings.on_grid(time_step)
+    except ValueError as error:
+        raise ValueError(f"{prefix}{_renamed(str(error), say)}") from None
+
+
+def _highest_frequency(settings: Any) -> float:
+    """(max|ℓ| + k)/T [Hz], the highest frequency of the modulating functions."""
+    ell = settings.ell()
+    return (float(np.max(np.abs(ell))) + settings.order) / settings.window
+
+
+def check_log(
+    settings: Any,
+    time_step: float,
+    duration: float,
+    *,
+    num_joints: int | None = None,
+    num_parameters: int | None = None,
+    owner: str | None = "OnlineSettings",
+    names: Mapping[str, str] | None = None,
+) -> Any:
+    """``settings`` on the log's grid, checked against the log (module docstring).
+
+    Args:
+        settings: an ``OnlineSettings``.
+        time_step: the log's sample period h [s].
+        duration: the log's duration [s].
+        num_joints: n, with ``num_parameters``: also check the window's memory and
+            that the ℓ set can give an honest σ for this robot.
+        num_parameters: p, the base parameters.
+        owner: message prefix (None: none).
+        names: field -> name shown in the messages.
+
+    Returns:
+        ``settings.on_grid(time_step)``.
+    """
+    prefix, say = _namer(owner, names)
+    h = _positive(prefix, "the log's time step", time_step, "s")
+    duration = _real(prefix, "the log's duration", duration, "s")
+    needed = settings.window + settings.jacobi_window
+    if duration <= needed:  # before the grid: the Jacobi design scales with it
+        _fail(
+            prefix,
+            f"the log lasts {duration:g} s; the on-line identifier needs more than "
+            f"{say('window')} + {say('jacobi_window')} = {needed:g} s before its "
+            f"first estimate: record a longer log or shorten {say('window')}.",
+        )
+    grid = on_grid(settings, h, owner=owner, names=names)
+    needed = grid.window + grid.jacobi_window
+    if not duration > needed:
+        _fail(
+            prefix,
+            f"the log lasts {duration:g} s; the on-line identifier needs more than "
+            f"{say('window')} + {say('jacobi_window')} = {needed:g} s before its "
+            f"first estimate: record a longer log or shorten {say('window')}.",
+        )
+    period = grid.resolved("update_period")
+    if math.isfinite(duration) and not math.floor(duration / period) * period > needed:
+        _fail(
+            prefix,
+            f"{say('update_period')} must leave a solve between the first full "
+            f"window ({needed:g} s) and the end of the log ({duration:g} s); got "
+            f"{period:g} s.",
+        )
+    top = _highest_frequency(grid)
+    bank_step = grid.resolved("bank_time_step")
+    nyquist = 0.5 / bank_step
+    which = say("frequencies") if grid.frequencies is not None else say("bandwidth")
+    if top > nyquist * (1.0 + 1e-9):
+        _fail(
+            prefix,
+            f"{which} must keep every modulating frequency (|ℓ| + k)/T at most the "
+            f"bank's Nyquist frequency 1/(2·{say('bank_time_step')}) = {nyquist:g} "
+            f"[Hz]; got {top:g} Hz with {say('window')} {grid.window:g} s.",
+        )
+    band = pass_band(grid, h)
+    if top > band:
+        subject, remedy = f"{which} must keep", f"lower {which}, "
+        if grid.frequencies is None and top > grid.bandwidth * (1.0 + 1e-9):
+            subject = (
+                f"the default ℓ set (at least {MIN_FUNCTIONS} functions over "
+                f"{say('window')} {grid.window:g} s) must keep"
+            )
+            remedy = ""
+        _fail(
+            prefix,
+            f"{subject} every modulating frequency (|ℓ| + k)/T inside the "
+            f"differentiator's pass band, <= {band:.3g} Hz with "
+            f"{say('jacobi_window')} {grid.jacobi_window:g} s (above it the filtered "
+            f"signals break the model and the estimates are precise but wrong); got "
+            f"{top:.3g} Hz with {say('window')} {grid.window:g} s: {remedy}"
+            f"lengthen {say('window')} or shorten {say('jacobi_window')}.",
+        )
+    if num_joints is not None and num_parameters is not None:
+        _check_robot(prefix, say, grid, num_joints, num_parameters)
+    return grid
+
+
+def _check_robot(prefix: str, say: Say, grid: Any, n: int, p: int) -> None:
+    from drake_dynid.core.row_noise import MIN_RESIDUAL_DOF
+
+    m = grid.num_equations(n)
+    samples = grid.window / grid.resolved("bank_time_step") + 1.0
+    size = samples * num_channels(m, p) * 8.0
+    if size > MAX_WINDOW_BYTES:
+        _fail(
+            prefix,
+            f"{say('window')} / {say('bank_time_step')} must keep the window's "
+            f"samples within {MAX_WINDOW_BYTES / 2**30:g} GiB for {p} parameters; "
+            f"got {grid.window:g} s / {grid.resolved('bank_time_step'):g} s "
+            f"({size / 2**30:.3g} GiB).",
+        )
+    correlation = grid.bank().row_correlation()
+    eigenvalues = np.linalg.eigvalsh(correlation)
+    independent = int(np.count_nonzero(eigenvalues > 1e-3 * eigenvalues.max()))
+    if m * independent < p + MIN_RESIDUAL_DOF:
+        which = say("frequencies") if grid.frequencies is not None else say("window")
+        _fail(
+            prefix,
+            f"{which} gives {m * independent} independent equations ({independent} "
+            f"per equation of the {grid.model} model, {len(grid.ell())} modulating "
+            f"functions over {say('window')} {grid.window:g} s) for {p} parameters; "
+            f"an honest σ needs at least {p + MIN_RESIDUAL_DOF:g}: lengthen "
+            f"{say('window')}, widen {say('bandwidth')} or {say('frequencies')} "
+            f"(integer ℓ; at least {MIN_FUNCTIONS} functions), or use the lagrangian "
+            "model.",
+        )
+
+
+def _renamed(message: str, say: Say) -> str:
+    """An ``OnlineSettings: ...`` message with the field names shown by ``say``."""
+    import re
+
+    owner = "OnlineSettings: "
+    text = message[len(owner) :] if message.startswith(owner) else message
+    fields = (
+        "bank_time_step",
+        "update_period",
+        "jacobi_window",
+        "window",
+        "time_step",
+    )
+    pattern = re.compile(r"\b(" + "|".join(fields) + r")\b")
+    return pattern.sub(lambda match: say(match.group(1)), text)

@@ -1,0 +1,233 @@
+r"""Honest standard deviations of a window's solve: correlated, unequal row noise.
+
+Gautier's ``C_X = σ_ρ² (AᵀA)⁻¹`` (``core.lsq``) assumes independent rows of equal
+noise. The rows of a modulated window are neither (docs/MATH.md §4): rows of
+nearby modulating functions share noise (the paper's ℓ = 0:0.05:10 repeats each
+independent row about twenty times, and Gautier's σ comes out 5-10 times too
+small), and rows of higher frequency carry more velocity-estimate noise. With the
+row noise modelled as ``Σ = σ² S C S`` per equation (``C`` the correlation of the
+rows of one equation under white noise, ``FourierBank.row_correlation``; ``S`` the
+relative noise std of each row from :func:`noise_model_std`, the variance model
+``a_j + b_j ν² + c_j ν⁴`` fitted to the residuals of equation j: torque noise
+enters every row alike, the velocity estimate's noise through ġ (∝ ν) in the
+friction and Coriolis terms and, with its spectrum ∝ f², through ġ·v̂ (∝ ν²) in
+the inertial ones), the estimate ``X̂ = (ÃᵀÃ)⁻¹ Ãᵀ B̃`` of the (weighted) rows
+``Ã = W A`` has the sandwich covariance::
+
+    C_X = σ̂² (ÃᵀÃ)⁻¹ M (ÃᵀÃ)⁻¹,      M = Σ_j Ã_jᵀ S_j C S_j Ã_j
+    σ̂²  = ‖W (B - A X̂)‖² / (tr(S C S) - tr((ÃᵀÃ)⁻¹ M))     (E‖ρ̃‖² = σ² tr((I-H)SCS))
+
+and the residual's effective degrees of freedom (Satterthwaite)::
+
+    ν_eff = tr((I-H) SCS)² / tr(((I-H) SCS)²)
+
+which measure how well σ̂ itself is known: a window with ν_eff below
+:data:`MIN_RESIDUAL_DOF` cannot give an honest σ and is reported invalid. With
+independent equal rows (C = S = 1) this is Gautier's formula and ν_eff = r - p.
+Everything is computed from p × p matrices and a factor of C (R1 × k, k its
+numerical rank) per equation: the cost is small beside the solve.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as v
+
+__all__ = [
+    "MIN_RESIDUAL_DOF",
+    "HonestStd",
+    "RowNoise",
+    "honest_std",
+    "noise_model_std",
+    "row_noise",
+]
+
+#: Fewest effective residual degrees of freedom of a window reported valid: with
+#: ν_eff = 4 the estimated σ is within a factor 0.5-1.4 of the true one in 80 %
+#: of the windows (χ² quantiles) and its median within 10 %; below it σ itself is
+#: a guess (ν_eff = 1: a factor 0.16-1.6).
+MIN_RESIDUAL_DOF = 4.0
+
+
+@dataclass(frozen=True, eq=False)
+class RowNoise:
+    """The noise structure of the rows of a window (see the module docstring).
+
+    Attributes:
+        frequency: (r,) frequency index ν of each row (``bank.row_frequencies``).
+        group: (r,) equation j of each row (its noise group).
+        correlation: (R1, R1) correlation of the rows of one equation, in their
+            order (the same for every group; R1 = r / m).
+        factor: (R1, k) with ``factor @ factor.T == correlation`` (eigenvalues
+            below 1e-12 of the largest dropped): the sandwich costs R1·k·p per
+            equation (k ≈ 27 for the paper's 402 correlated rows).
+    """
+
+    frequency: np.ndarray
+    group: np.ndarray
+    correlation: np.ndarray
+    factor: np.ndarray
+
+    @property
+    def num_rows(self) -> int:
+        """r, the rows of the window."""
+        return int(self.frequency.shape[0])
+
+
+def row_noise(bank: Any, m: int) -> RowNoise:
+    """The :class:`RowNoise` of ``bank``'s rows for ``m`` equations per sample.
+
+    A bank without ``row_correlation`` (another modulating family) gets C = 1
+    (independent rows).
+    """
+    owner = "row_noise"
+    m = v.integer(owner, "m", m, minimum=1)
+    frequency, group = bank.row_frequencies(m)
+    frequency = np.asarray(frequency, dtype=float)
+    group = np.asarray(group, dtype=int)
+    per_group = frequency.shape[0] // m
+    if hasattr(bank, "row_correlation"):
+        correlation = np.asarray(bank.row_correlation(), dtype=float)
+    else:
+        correlation = np.eye(per_group)
+    if correlation.shape != (per_group, per_group):
+        v.fail(
+            owner,
+            f"the bank's row_correlation must have shape ({per_group}, {per_group}); "
+            f"got {correlation.shape}.",
+        )
+    values, vectors = np.linalg.eigh(correlation)
+    keep = values > 1e-12 * values.max()
+    factor = vectors[:, keep] * np.sqrt(values[keep])
+    for array in (frequency, group, correlation, factor):
+        array.flags.writeable = False
+    return RowNoise(
+        frequency=frequency, group=group, correlation=correlation, factor=factor
+    )
+
+
+def noise_model_std(
+    residual: np.ndarray, frequency: np.ndarray, group: np.ndarray
+) -> np.ndarray:
+    """Modelled noise std of every row, from its equation's residuals.
+
+    Per equation j, ``σ_j²(ν) = a_j + b_j ν² + c_j ν⁴`` (a, b, c >= 0, non-negative
+    least squares on the squared residuals, scaled so that no square overflows),
+    floored at 1e-3 of the equation's largest variance. A model with one term
+    less (the weights' a + bν²) leaves σ of the inertial parameters up to 2.5
+    times too large on 5 s windows (benchmarks/bench_sigma.py).
+
+    Args:
+        residual: (r,) residuals ``B - A X̂`` [unit of B].
+        frequency: (r,) frequency index ν of each row.
+        group: (r,) equation of each row.
+
+    Returns:
+        (r,) σ_i [unit of B] (ones for an equation whose residuals are all 0).
+    """
+    from scipy.optimize import nnls
+
+    out = np.ones_like(residual)
+    for j in np.unique(group):
+        rows = group == j
+        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
+        if scale == 0.0:
+            continue
+        nu2 = frequency[rows] ** 2
+        model = np.stack([np.ones_like(nu2), nu2, nu2 * nu2], axis=1)
+        top = np.max(model, axis=0)
+        top[top == 0.0] = 1.0
+        coefficients, _ = nnls(model / top, (residual[rows] / scale) ** 2)
+        variance = (model / top) @ coefficients
+        peak = float(variance.max())
+        if peak > 0.0:
+            out[rows] = scale * np.sqrt(np.maximum(variance, 1e-3 * peak))
+    return out
+
+
+@dataclass(frozen=True)
+class HonestStd:
+    """Outcome of :func:`honest_std`.
+
+    Attributes:
+        std: (p,) standard deviations of X̂ [units of X].
+        residual_std: σ̂, the noise scale of the weighted rows.
+        dof: effective residual degrees of freedom ν_eff.
+    """
+
+    std: np.ndarray
+    residual_std: float
+    dof: float
+
+
+def honest_std(
+    A: np.ndarray,
+    B: np.ndarray,
+    theta: np.ndarray,
+    weights: np.ndarray,
+    relative_std: np.ndarray,
+    noise: RowNoise,
+) -> HonestStd:
+    """Sandwich standard deviations of ``X̂ = argmin ‖W (B - A X)‖`` (module doc).
+
+    Args:
+        A: (r, p) regressor (unweighted).
+        B: (r,) observations.
+        theta: (p,) the estimate.
+        weights: (r,) row weights W of the solve (ones for ordinary LS).
+        relative_std: (r,) modelled noise std of each row, up to one scale (e.g.
+            ``1/frequency_noise_weights``).
+        noise: the rows' :class:`RowNoise`.
+
+    Returns:
+        :class:`HonestStd` (std NaN and dof 0 when the residual has no degree of
+        freedom left).
+    """
+    Aw = A * weights[:, None]
+    scale = np.max(np.abs(Aw), axis=0)
+    scale[scale == 0.0] = 1.0
+    norms = scale * np.sqrt(np.einsum("ij,ij->j", Aw / scale, Aw / scale))
+    As = Aw / norms
+    R = np.asarray(np.linalg.qr(As, mode="r"))
+    R_inv = np.linalg.inv(R)
+    inverse = R_inv @ R_inv.T
+    s = weights * relative_std
+    s = s / np.sqrt(np.mean(s * s))  # one overall scale, fitted below
+    p = A.shape[1]
+    meat = np.zeros((p, p))
+    meat_sq = np.zeros((p, p))
+    trace_s = 0.0
+    trace_s2 = 0.0
+    # Σ_j = S_j C S_j = (S_j F)(S_j F)ᵀ with F the correlation's factor (R1 × k):
+    # Ãᵀ Σ Ã = YᵀY with Y = (S F)ᵀ Ã, (Σ Ã)ᵀ(Σ Ã) = Yᵀ G Y with G = (S F)ᵀ(S F).
+    F = noise.factor
+    for j in np.unique(noise.group):
+        rows = noise.group == j
+        sj = s[rows]
+        SF = sj[:, None] * F
+        Y = SF.T @ As[rows]
+        G = SF.T @ SF
+        meat += Y.T @ Y
+        meat_sq += Y.T @ (G @ Y)
+        trace_s += float(np.sum(sj * sj))
+        trace_s2 += float(np.sum(G * G))
+    hat = inverse @ meat
+    dof_num = trace_s - float(np.trace(hat))
+    nan = np.full(p, np.nan)
+    if not dof_num > 0.0:
+        return HonestStd(std=nan, residual_std=np.nan, dof=0.0)
+    denominator = (
+        trace_s2 - 2.0 * float(np.trace(inverse @ meat_sq)) + float(np.sum(hat * hat.T))
+    )
+    dof = dof_num**2 / denominator if denominator > 0.0 else 0.0
+    residual = (B - A @ theta) * weights
+    r_scale = float(np.max(np.abs(residual))) or 1.0
+    sigma2 = r_scale**2 * float(np.sum((residual / r_scale) ** 2)) / dof_num
+    covariance = sigma2 * (hat @ inverse)
+    std = np.sqrt(np.clip(np.diag(covariance), 0.0, None)) / norms
+    std.flags.writeable = False
+    return HonestStd(std=std, residual_std=float(np.sqrt(sigma2)), dof=float(dof))

@@ -1,0 +1,109 @@
+"""An output never overwrites an input, in every subcommand (issue 14).
+
+Each case names an output option and an input of one subcommand; the command
+exits 2 with one line naming both, before reading anything, and every input file
+is left byte for byte as it was (also through a hard link and a ./ prefix).
+"""
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.plants import model_path
+
+
+@pytest.fixture
+def files(tmp_path):
+    urdf = tmp_path / "robot.urdf"
+    shutil.copy(model_path("planar_2r"), urdf)
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n")
+    held = tmp_path / "held.csv"
+    held.write_text(log.read_text())
+    params = tmp_path / "fit.json"
+    params.write_text("{}")
+    limits = tmp_path / "limits.json"
+    limits.write_text("{}")
+    trajectory = tmp_path / "traj.csv"
+    trajectory.write_text("t,q_joint1,q_joint2\n0,0,0\n")
+    link = tmp_path / "link.csv"
+    os.link(log, link)
+    return {
+        "urdf": str(urdf),
+        "log": str(log),
+        "held": str(held),
+        "params": str(params),
+        "limits": str(limits),
+        "trajectory": str(trajectory),
+        "link": str(link),
+        "dot_log": os.path.join(str(tmp_path), ".", "log.csv"),
+    }
+
+
+CASES = [
+    ("params {urdf} --json {urdf}", "--json", "the URDF"),
+    ("identify {log} --urdf {urdf} --out {log}", "--out", "the log"),
+    ("identify {log} --urdf {urdf} --json {log}", "--json", "the log"),
+    ("identify {log} --urdf {urdf} --json {urdf}", "--json", "the URDF"),
+    ("identify {log} --urdf {urdf} --plot {dot_log}", "--plot", "the log"),
+    ("identify {log} --urdf {urdf} --json {link}", "--json", "the log"),
+    (
+        "identify {log} --urdf {urdf} --validate {held} --out {held}",
+        "--out",
+        "--validate",
+    ),
+    ("offline {log} --urdf {urdf} --urdf-out {urdf}", "--urdf-out", "the URDF"),
+    ("offline {log} --urdf {urdf} --out {log}", "--out", "the log"),
+    ("offline {log} --urdf {urdf} --plot {urdf}", "--plot", "the URDF"),
+    (
+        "validate {log} --urdf {urdf} --params {params} --json {params}",
+        "--json",
+        "--params",
+    ),
+    (
+        "validate {log} --urdf {urdf} --params {params} --plot {log}",
+        "--plot",
+        "the log",
+    ),
+    ("excite {urdf} --out {urdf}", "--out", "the URDF"),
+    (
+        "excite {urdf} --limits {limits} --out t.csv --json {limits}",
+        "--json",
+        "--limits",
+    ),
+    (
+        "simulate {urdf} --trajectory {trajectory} --out {trajectory}",
+        "--out",
+        "--trajectory",
+    ),
+    ("simulate {urdf} --trajectory {trajectory} --out {urdf}", "--out", "the URDF"),
+]
+
+
+@pytest.mark.parametrize(("command", "option", "input_name"), CASES)
+def test_an_output_never_overwrites_an_input(
+    files, capsys, command, option, input_name
+):
+    before = {
+        name: Path(path).read_bytes()
+        for name, path in files.items()
+        if name not in ("dot_log",)
+    }
+    argv = command.format(**files).split()
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"{option} " in err and "is an input of this command" in err, err
+    assert f"({input_name} " in err, err
+    after = {name: Path(files[name]).read_bytes() for name in before}
+    assert after == before
+
+
+def test_two_outputs_are_never_one_file(files, capsys):
+    argv = ["identify", files["log"], "--urdf", files["urdf"]]
+    argv += ["--json", "same.json", "--out", "./same.json"]
+    assert cli.main(argv) == 2
+    assert "are the same file" in capsys.readouterr().err
