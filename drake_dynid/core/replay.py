@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
 from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
@@ -177,7 +178,8 @@ def replay_log_core(
     Same arguments and result as ``drake_dynid.diagrams.replay_log`` (the
     reference, equal to round-off: see the module docstring for the timing it
     reproduces); ``progress`` is accepted for the same signature and ignored (the
-    replay takes a fraction of a second per minute of log).
+    replay takes a fraction of a second per minute of log). Runs with BLAS/OpenMP
+    pools of one thread (``DYNID_THREADS`` changes it; ``core._threads``).
 
     Args:
         log: a ``drake_dynid.logs.RobotLog`` (``q``, ``tau`` (N, n),
@@ -207,12 +209,13 @@ def replay_log_core(
             )
     shared: dict[tuple, Signals] = {}
     traces = []
-    for raw in settings:
-        entry = raw.on_grid(log.time_step)
-        key = tuple(entry.jacobi_parameters().values())
-        if key not in shared:
-            shared[key] = filtered_signals(log.q, log.tau, entry, log.time_step)
-        traces.append(_replay_one(log, rows, entry, shared[key]))
+    with thread_limit():  # BLAS/OpenMP pools of one thread (core._threads)
+        for raw in settings:
+            entry = raw.on_grid(log.time_step)
+            key = tuple(entry.jacobi_parameters().values())
+            if key not in shared:
+                shared[key] = filtered_signals(log.q, log.tau, entry, log.time_step)
+            traces.append(_replay_one(log, rows, entry, shared[key]))
     return traces
 
 
