@@ -92,7 +92,6 @@ def check_output_paths(args: argparse.Namespace) -> None:
 def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]:
     """(log to fit, log to validate or None, its description) from the options."""
     from drake_dynid.logs import read_log
-    from drake_dynid.validation import split_log
 
     split = getattr(args, "split", None)
     other = getattr(args, "validate", None)
@@ -101,6 +100,8 @@ def validation_split(args: argparse.Namespace, log: Any) -> tuple[Any, Any, str]
     if split is not None:
         if not 0.0 < split < 1.0:
             raise ValueError(f"--split must be in (0, 1); got {split}.")
+        from drake_dynid.validation import split_log  # scipy.signal: only here
+
         first, rest = split_log(log, split)
         return first, rest, f"{args.log} after the first {100 * split:g} %"
     if other:
