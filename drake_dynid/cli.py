@@ -27,7 +27,15 @@ from drake_dynid import __version__
 from drake_dynid.core._threads import configure_process
 
 # Order shown in ``dynid --help``. A name whose module does not exist yet is skipped.
-SUBCOMMANDS = ("params", "excite", "simulate", "identify", "offline", "validate")
+SUBCOMMANDS = (
+    "params",
+    "excite",
+    "simulate",
+    "identify",
+    "offline",
+    "validate",
+    "fleet",
+)
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
