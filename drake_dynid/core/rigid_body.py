@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.core.kinematics import KinematicTree
+from drake_dynid.core.kinematics import KinematicTree, ad
 
 __all__ = ["energy_blocks", "idim_blocks", "lagrangian_blocks", "link_terms"]
 
@@ -97,8 +97,7 @@ def link_terms(
     if derivatives:
         # ∂S_j/∂q_i = ad(S_i) S_j: d/dt S_i = ad(V_parent(i)) S_i.
         parent_twist = (plan.strict_ancestors * v[:, None, :]) @ screws
-        adjoint = (parent_twist @ plan.ad).reshape(num_samples, n, 6, 6)
-        out["dscrews"] = (adjoint @ screws[..., None])[..., 0]
+        out["dscrews"] = ad(parent_twist, screws)
     return out
 
 
