@@ -54,7 +54,7 @@ elif case["kind"] == "reference":
 elif case["kind"] == "api":
     sys.path.insert(0, case["benchmarks"])
     from _arm7 import api_offline
-    out = api_offline(case["duration"])
+    out = api_offline(case["duration"], case["step"])
 out["seconds"] = time.perf_counter() - start
 out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 try:  # Linux keeps the parent's high-water mark in ru_maxrss across exec
@@ -111,27 +111,67 @@ def run_case(case: dict) -> dict:
     return out
 
 
-def api_offline(duration: float) -> dict:
-    """identify_offline on a log built in memory (the long-log memory case)."""
+def _memory(field: str) -> float:
+    """``VmRSS``/``VmHWM`` of this process [MB] (NaN where /proc is missing)."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith(field + ":"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def _reset_peak() -> bool:
+    """Resets VmHWM to the current RSS (Linux >= 4.0: clear_refs 5)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as handle:
+            handle.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def api_offline(duration: float, step: str) -> dict:
+    """identify_offline or the core replay on a long log built in memory.
+
+    The peak of the step is the resident high-water mark after a reset, with the
+    log's arrays resident; ``working_mb`` is that peak minus the resident size
+    before the step (what the step itself adds).
+    """
+    import gc
+
+    from drake_dynid.commands.identify import measured_bandwidth
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.replay import replay_log_core
+    from drake_dynid.logs import RobotLog
     from drake_dynid.offline import identify_offline
     from drake_dynid.plants import RobotModel, model_path
 
     robot = RobotModel.from_urdf(model_path("iiwa7"))
     t, q, tau = arm_samples(robot, duration)
-    from drake_dynid.logs import RobotLog
-
     log = RobotLog(t, q, tau, robot.joint_names, H)
-    import resource
-
-    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    out: dict = {"log_mb": (t.nbytes + q.nbytes + tau.nbytes) / 1e6}
+    gc.collect()
+    before = _memory("VmRSS")
+    reset = _reset_peak()
     start = time.perf_counter()
-    result = identify_offline(log, robot)
-    return {
-        "offline_seconds": time.perf_counter() - start,
-        "log_mb": (t.nbytes + q.nbytes + tau.nbytes) / 1e6,
-        "peak_before_mb": before,
-        "valid": bool(result.valid),
-    }
+    if step == "offline":
+        valid = identify_offline(log, robot).valid
+    else:
+        settings = OnlineSettings.for_model(
+            "lagrangian", bandwidth=measured_bandwidth(log, 20.0)
+        )
+        (trace,) = replay_log_core(log, robot, [settings])
+        valid = bool(trace.valid[-1] > 0.5)
+    out["step_seconds"] = time.perf_counter() - start
+    out["valid"] = bool(valid)
+    out["rss_before_mb"] = before
+    if reset:
+        out["step_peak_mb"] = _memory("VmHWM")
+        out["working_mb"] = out["step_peak_mb"] - before
+    return out
 
 
 def reference_offline(

@@ -501,7 +501,12 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
                     "residual_std": runs[0]["residual_std"],
                     "offline_residual_std": offline_residual,
                 }
-    hour = None if quick else run_case({"kind": "api", "duration": 3600.0})
+    hour = None
+    if not quick:
+        hour = {
+            step: run_case({"kind": "api", "duration": 3600.0, "step": step})
+            for step in ("offline", "identify")
+        }
     first, last = durations[0], durations[-1]
     ratios = {
         "offline_over_reference": cases[f"offline {first:g} s"]["wall"]
@@ -542,13 +547,15 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
         f"{ratios['identify_cost_ratio_seconds']:.3g} in process",
     ]
     if hour is not None:
-        lines.append(
-            f"- off-line API, 1-hour log in memory: {hour['offline_seconds']:.3g} s; "
-            f"peak {hour['peak_mb']:.0f} MB with the log's own arrays "
-            f"({hour['log_mb']:.0f} MB) and the process before the fit "
-            f"({hour['peak_before_mb']:.0f} MB): "
-            f"{hour['peak_mb'] - hour['peak_before_mb']:.0f} MB for the fit"
-        )
+        for step, case in hour.items():
+            lines.append(
+                f"- {step}, 1-hour log in memory ({case['log_mb']:.0f} MB of arrays), "
+                f"API: {case['step_seconds']:.3g} s "
+                f"({3600.0 / case['step_seconds']:.0f}× real time); peak "
+                f"{case.get('step_peak_mb', float('nan')):.0f} MB resident, "
+                f"{case.get('working_mb', float('nan')):.0f} MB above the process "
+                "holding its log"
+            )
     return "\n".join(lines)
 
 

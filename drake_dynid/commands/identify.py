@@ -122,10 +122,11 @@ def measured_bandwidth(log: Any, window: float) -> float:
     """The excitation band of the log's positions [Hz] (99 % of the velocity power).
 
     Measured on the longest run of finite samples with
-    ``core.excitation.estimate_bandwidth``; at least 1/window (the bank's lowest
+    ``core.excitation.estimate_bandwidth`` (in bounded memory on long logs:
+    ``core.idim_auto.velocity_bandwidth``); at least 1/window (the bank's lowest
     non-zero frequency) so that the default ℓ set is never empty.
     """
-    from drake_dynid.core.excitation import estimate_bandwidth
+    from drake_dynid.core.idim_auto import velocity_bandwidth
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     q = log.q[start:stop]
@@ -134,7 +135,7 @@ def measured_bandwidth(log: Any, window: float) -> float:
             "cannot measure the excitation band: no run of 16 finite samples in the "
             "log; give --bandwidth or --frequencies."
         )
-    return max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
+    return max(float(velocity_bandwidth(q, log.time_step)), 2.0 / window)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
