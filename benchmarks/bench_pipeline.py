@@ -16,6 +16,16 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
    1 kHz log, real-time factor.
 5. Per block: µs per 1 kHz step and state size; the sliding integrals against a
    direct quadrature of the whole window at every bank step.
+6. 7-DOF iiwa7 logs (60 s and 600 s, 1 kHz; benchmarks/_arm7.py): ``dynid offline``
+   and ``dynid identify`` end to end, each run in a fresh process (start, imports,
+   URDF, CSV, compute, JSON) with its own peak memory, beside a Pinocchio + scipy
+   off-line reference of the same algorithm (60 s); the off-line API on a 1-hour
+   log built in memory (peak memory with and without the log's own arrays).
+7. Regressor rows of the iiwa7: one sample (the blocks' path), batches (the
+   replay and off-line paths) and Pinocchio's regressor, µs per sample.
+
+The process runs with ``dynid``'s settings (``configure_process``: BLAS pools of
+one thread, glibc's allocator tuned), as the ``dynid`` command does.
 
 Logs are synthetic: a random Fourier trajectory (numpy default_rng(4), 2R; rng(5),
 7-DOF) and τ from the inverse-dynamics rows with the URDF's base values, plus
@@ -35,8 +45,11 @@ import tempfile
 import time
 
 import numpy as np
+from _arm7 import arm_log, run_case
+from _timing import time_call
 
 from drake_dynid.core import modulating
+from drake_dynid.core._threads import configure_process
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.diagrams import (
     OnlineSettings,
@@ -128,6 +141,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
+    configure_process()
     quick = args.quick
     repeats = 1 if quick else args.repeats
     window = 2.0 if quick else 20.0
@@ -308,6 +322,9 @@ def main(argv: list[str] | None = None) -> int:
 
     # 5. Per block and sliding vs direct quadrature.
     out.append(_block_table(results, window, repeats, quick))
+    # 6-7. 7-DOF logs end to end, the Pinocchio + scipy reference, rows.
+    out.append(_arm_table(results, arm, repeats, quick))
+    out.append(_rows_table(results, arm, repeats, quick))
     text = "\n".join(out)
     print(text)
     if args.json:
@@ -425,6 +442,182 @@ def _block_table(results: dict, window: float, repeats: int, quick: bool) -> str
         f"Per block (T = {window:g} s, 2R Lagrangian, c = {channels} channels)",
         ("block", "µs per call", "period", "state"),
         rows_out,
+    )
+
+
+def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
+    """Section 6: dynid offline/identify on 7-DOF logs, the reference, 1 hour."""
+    urdf = str(model_path("iiwa7"))
+    durations = (25.0,) if quick else (60.0, 600.0)
+    window = ["--window", "5"] if quick else []
+    cases: dict[str, dict] = {}
+    with tempfile.TemporaryDirectory() as folder:
+        for duration in durations:
+            log = os.path.join(folder, f"arm{duration:g}.csv")
+            arm_log(arm, duration, log)
+            count = repeats if duration <= 60.0 else 1
+            for command in ("offline", "identify"):
+                json_path = os.path.join(folder, f"{command}{duration:g}.json")
+                argv = [command, log, "--urdf", urdf, "--json", json_path, "--quiet"]
+                argv += window if command == "identify" else []
+                runs = [run_case({"kind": "cli", "argv": argv}) for _ in range(count)]
+                with open(json_path, encoding="utf-8") as stream:
+                    document = json.load(stream)
+                cases[f"{command} {duration:g} s"] = {
+                    "duration": duration,
+                    "wall": statistics.median(r["wall"] for r in runs),
+                    "seconds": statistics.median(r["seconds"] for r in runs),
+                    "peak_mb": max(r["peak_mb"] for r in runs),
+                    "valid": bool(document["valid"]),
+                }
+                if command == "offline" and duration == durations[0]:
+                    settings = document["settings"]
+                    reference = {
+                        "path": log,
+                        "urdf": urdf,
+                        **{
+                            key: settings[key]
+                            for key in (
+                                "cutoff_hz",
+                                "decimation_cutoff_hz",
+                                "decimation",
+                                "trim",
+                            )
+                        },
+                    }
+                    offline_residual = document["residual_std"]
+            runs = []
+            if duration == durations[0]:
+                runs = [
+                    run_case({"kind": "reference", "args": reference})
+                    for _ in range(count)
+                ]
+                cases[f"reference {duration:g} s"] = {
+                    "duration": duration,
+                    "wall": statistics.median(r["wall"] for r in runs),
+                    "seconds": statistics.median(r["seconds"] for r in runs),
+                    "peak_mb": max(r["peak_mb"] for r in runs),
+                    "rows_seconds": statistics.median(r["rows_seconds"] for r in runs),
+                    "residual_std": runs[0]["residual_std"],
+                    "offline_residual_std": offline_residual,
+                }
+    hour = None
+    if not quick:
+        hour = {
+            step: run_case({"kind": "api", "duration": 3600.0, "step": step})
+            for step in ("offline", "identify")
+        }
+    first, last = durations[0], durations[-1]
+    ratios = {
+        "offline_over_reference": cases[f"offline {first:g} s"]["wall"]
+        / cases[f"reference {first:g} s"]["wall"],
+    }
+    for command in ("offline", "identify"):
+        for key in ("wall", "seconds"):
+            ratios[f"{command}_cost_ratio_{key}"] = (
+                cases[f"{command} {last:g} s"][key]
+                / cases[f"{command} {first:g} s"][key]
+            )
+    results["arm7_pipeline"] = {"cases": cases, "ratios": ratios, "hour": hour}
+    rows = [
+        (
+            name,
+            case["wall"],
+            case["duration"] / case["wall"],
+            case["seconds"],
+            case["peak_mb"],
+        )
+        for name, case in cases.items()
+    ]
+    text = _table(
+        "7-DOF iiwa7 logs, 1 kHz, end to end in a fresh process (median of "
+        f"{repeats} at {first:g} s)",
+        ("case", "wall [s]", "× real time", "in process [s]", "peak memory [MB]"),
+        rows,
+    )
+    lines = [
+        text,
+        "",
+        f"- offline / Pinocchio + scipy reference ({first:g} s, wall): "
+        f"{ratios['offline_over_reference']:.3g}",
+        f"- cost({last:g} s)/cost({first:g} s): offline "
+        f"{ratios['offline_cost_ratio_wall']:.3g} wall, "
+        f"{ratios['offline_cost_ratio_seconds']:.3g} in process; identify "
+        f"{ratios['identify_cost_ratio_wall']:.3g} wall, "
+        f"{ratios['identify_cost_ratio_seconds']:.3g} in process",
+    ]
+    if hour is not None:
+        for step, case in hour.items():
+            lines.append(
+                f"- {step}, 1-hour log in memory ({case['log_mb']:.0f} MB of arrays), "
+                f"API: {case['step_seconds']:.3g} s "
+                f"({3600.0 / case['step_seconds']:.0f}× real time); peak "
+                f"{case.get('step_peak_mb', float('nan')):.0f} MB resident, "
+                f"{case.get('working_mb', float('nan')):.0f} MB above the process "
+                "holding its log"
+            )
+    return "\n".join(lines)
+
+
+def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
+    """Section 7: µs per sample of the iiwa7 rows, one sample and batches."""
+    from drake_dynid.core.rows import pack_rows
+
+    rng = np.random.default_rng(3)
+    n = arm.num_joints
+    q, v, tau = rng.normal(size=(3, n))
+    batch = 256
+    Q, V, A = rng.normal(size=(3, batch, n))
+    minimum = 0.05 if quick else 0.5
+    rows = {
+        "one sample, Lagrangian (ModelRows: packed_rows)": time_call(
+            lambda: arm.packed_rows("lagrangian", q, v, tau), repeats, minimum
+        ),
+        "one sample, power (ModelRows: packed_rows)": time_call(
+            lambda: arm.packed_rows("power", q, v, tau), repeats, minimum
+        ),
+        "one sample, batch code with N = 1 (model_rows)": time_call(
+            lambda: pack_rows(*arm.model_rows("lagrangian", q, v, tau)),
+            repeats,
+            minimum,
+        ),
+        f"batch of {batch}, Lagrangian model_rows, per sample": time_call(
+            lambda: arm.model_rows("lagrangian", Q, V, A), repeats, minimum
+        )
+        / batch,
+        f"batch of {batch}, inverse-dynamics idim_rows, per sample": time_call(
+            lambda: arm.idim_rows(Q, V, A), repeats, minimum
+        )
+        / batch,
+    }
+    try:
+        import pinocchio as pin
+    except ImportError:  # a test-only oracle
+        pin = None
+    if pin is not None:
+        model = pin.buildModelFromUrdf(str(model_path("iiwa7")))
+        data = model.createData()
+
+        def pinocchio_rows():
+            for k in range(batch):
+                pin.computeJointTorqueRegressor(model, data, Q[k], V[k], A[k])
+
+        rows["Pinocchio computeJointTorqueRegressor, per sample (Python loop)"] = (
+            time_call(pinocchio_rows, repeats, minimum) / batch
+        )
+    table = [(name, 1e6 * value) for name, value in rows.items()]
+    results["rows"] = {name: 1e6 * value for name, value in rows.items()}
+    if pin is not None:
+        ratio = (
+            rows[f"batch of {batch}, inverse-dynamics idim_rows, per sample"]
+            / (rows["Pinocchio computeJointTorqueRegressor, per sample (Python loop)"])
+        )
+        results["rows"]["idim_batch_over_pinocchio"] = ratio
+        table.append(("batch idim_rows / Pinocchio", ratio))
+    return _table(
+        f"Regressor rows, iiwa7 ({arm.num_parameters} base parameters)",
+        ("rows", "µs per sample"),
+        table,
     )
 
 

@@ -6,6 +6,11 @@ only inside ``run`` so that ``dynid --help`` stays fast.
 
 Exit codes: 0 success, 2 bad input (a one-line message on stderr, no traceback),
 1 internal error (a traceback: please report it).
+
+Before anything else, :func:`main` sets the process up
+(``drake_dynid.core._threads.configure_process``): BLAS/OpenMP pools of one thread
+(``--threads N`` or ``DYNID_THREADS`` to change it) and glibc's allocator
+thresholds (README "Performance").
 """
 
 from __future__ import annotations
@@ -13,15 +18,25 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import os
 import sys
 import traceback
 import warnings
 from collections.abc import Sequence
 
 from drake_dynid import __version__
+from drake_dynid.core._threads import configure_process
 
 # Order shown in ``dynid --help``. A name whose module does not exist yet is skipped.
-SUBCOMMANDS = ("params", "excite", "simulate", "identify", "offline", "validate")
+SUBCOMMANDS = (
+    "params",
+    "excite",
+    "simulate",
+    "identify",
+    "offline",
+    "validate",
+    "fleet",
+)
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -52,6 +67,14 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Exit codes: 0 success, 2 bad input, 1 internal error.",
     )
     parser.add_argument("--version", action="version", version=f"dynid {__version__}")
+    parser.add_argument(
+        "--threads",
+        type=_thread_count,
+        metavar="N",
+        help="threads per BLAS/OpenMP pool (default 1, or the DYNID_THREADS "
+        "environment variable; 0 or auto: the libraries' defaults). The small "
+        "least squares of identification only lose time with more",
+    )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in _available():
         module = importlib.import_module(f"drake_dynid.commands.{name}")
@@ -62,8 +85,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _thread_count(text: str) -> int:
+    """``--threads``: an integer >= 0 or ``auto`` (0: the libraries' defaults)."""
+    value = text.strip().lower()
+    if value == "auto":
+        return 0
+    if not value.isdigit():
+        raise argparse.ArgumentTypeError(
+            f"must be an integer >= 0 or 'auto'; got {text!r}"
+        )
+    return int(value)
+
+
+def _configure(argv: list[str]) -> None:
+    """Process settings before any numerical import (``--threads`` read early)."""
+    early = argparse.ArgumentParser(add_help=False)
+    early.add_argument("--threads", type=_thread_count)
+    try:
+        known, _ = early.parse_known_args(argv)
+    except SystemExit:  # a bad value: the full parser reports it
+        known = argparse.Namespace(threads=None)
+    if known.threads == 0:  # the libraries' own defaults
+        os.environ["DYNID_THREADS"] = "auto"
+        configure_process()
+    else:
+        configure_process(known.threads)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``dynid`` on ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    _configure(argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     run = getattr(args, "_run", None)

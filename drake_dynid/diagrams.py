@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.online import (
     BANK_OFFSET,
     MIN_BANK_SAMPLES_PER_JACOBI_WINDOW,
@@ -349,6 +350,9 @@ def replay_log(
     Returns:
         One :class:`OnlineTrace` per settings entry, with times relative to the
         first sample of the log.
+
+    The Simulator runs with BLAS/OpenMP pools of one thread (``DYNID_THREADS``
+    changes it; ``drake_dynid.core._threads``).
     """
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
@@ -369,9 +373,11 @@ def replay_log(
         builder, rows, source.get_output_port(), h, settings
     )
     simulator = Simulator(builder.Build())
-    simulator.Initialize()
-    # Run to t_N = N·h: the updates at times < N·h process every sample (the bank's
-    # and the solver's offset events included), the loggers publish up to N·h.
-    advance(simulator, float(h * log.num_samples), progress, "dynid identify")
+    with thread_limit():  # BLAS/OpenMP pools of one thread (core._threads)
+        simulator.Initialize()
+        # Run to t_N = N·h: the updates at times < N·h process every sample (the
+        # bank's and the solver's offset events included), the loggers publish up
+        # to N·h.
+        advance(simulator, float(h * log.num_samples), progress, "dynid identify")
     context = simulator.get_context()
     return [chain_trace(chain, context, h) for chain in chains]

@@ -14,6 +14,7 @@ add ``IAmk`` (after the links) and ``FVmk FCmk OFFmk`` (after the joint friction
 
 from __future__ import annotations
 
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -25,7 +26,17 @@ from drake_dynid.core.rigid_body import (
     lagrangian_blocks,
     link_terms,
 )
-from drake_dynid.core.rows import as_batches, check_model_kind, model_rows_from_parts
+from drake_dynid.core.rows import (
+    as_batches,
+    check_model_kind,
+    model_rows_from_parts,
+    pack_rows,
+)
+from drake_dynid.core.sample_rows import (
+    SampleRowsPlan,
+    packed_sample_rows,
+    sample_rows_plan,
+)
 from drake_dynid.plant_tree import drake_forward
 
 __all__ = ["RobotRows"]
@@ -356,6 +367,59 @@ class RobotRows:
         for offset, column in enumerate(range(friction.start, friction.stop)):
             if column in index:
                 g_rows[..., index[column]] += g_motors[..., width + offset]
+
+    def packed_rows(self, kind: str, q, v, tau) -> np.ndarray:
+        """One sample's rows, packed: ``pack_rows(*model_rows(kind, q, v, tau))``.
+
+        The ``ModelRows`` block's per-sample path: q, v, τ of shape (n,), no
+        sample axis and no input checks beyond numpy's; computed by the
+        precomputed single-sample plan (``drake_dynid.core.sample_rows``) with
+        numpy kinematics and the model's Coulomb sign law, else by
+        :meth:`model_rows` (Drake kinematics, mimic joints, coupled motors).
+        Equal to round-off.
+        """
+        plan = self._sample_plan
+        if plan is None or self._motors is not None:
+            d_rows, g_rows, y = self.model_rows(kind, q, v, tau)
+            return pack_rows(d_rows, g_rows, y)
+        return packed_sample_rows(plan, kind, q, v, tau, self.sign)
+
+    @cached_property
+    def _sample_plan(self) -> SampleRowsPlan | None:
+        """The single-sample plan, or None (Drake kinematics, mimic joints).
+
+        None also when a friction column is not identifiable: ``model_rows``
+        then raises with its message.
+        """
+        if self.kinematics != "numpy" or self.mimic:
+            return None
+        links, n = self.num_links, self.num_joints
+        # Where _assemble puts each link parameter and IAj: probe it with labels.
+        labels = 1.0 + np.arange(links * 10.0).reshape(1, links, 10)
+        placed = self._assemble(labels, np.zeros((1, n)))[0]
+        inertial = np.full(links * 10, -1)
+        for column in np.flatnonzero(placed):
+            inertial[int(placed[column]) - 1] = column
+        rotor = np.full(n, -1)
+        if self.rotor_inertia:
+            placed = self._assemble(np.zeros((1, links, 10)), 1.0 + np.arange(n)[None])
+            for column in np.flatnonzero(placed[0]):
+                rotor[int(placed[0, column]) - 1] = column
+        width = len(self.friction)
+        start = self._friction_slice().start
+        friction = start + np.arange(n * width).reshape(n, width)
+        try:
+            return sample_rows_plan(
+                self._chain.plan,
+                self.gravity,
+                self.base.independent,
+                inertial,
+                rotor,
+                self.friction,
+                friction,
+            )
+        except ValueError:  # model_rows reports it with its own message
+            return None
 
     def _check_friction_columns(self) -> None:
         friction = self._friction_slice()

@@ -15,10 +15,12 @@ def test_rank_decision_and_round_off_columns(tmp_path, capsys):
     captured = capsys.readouterr()
     assert "standard parameters: 84; base parameters: 57" in captured.out
     assert "rank: 57 of 84 columns, clear: |R_kk| of unit columns kept" in captured.out
+    # M2 is zero or round-off depending on the order of the products.
     assert "round-off, not exactly zero: MZ2" in captured.out
     assert captured.err == ""  # a clean description: no note
     rank = json.loads(out_file.read_text())["rank"]
-    assert rank["round_off_columns"] == ["MZ2"] and rank["clear"] is True
+    assert rank["round_off_columns"] in (["MZ2"], ["MZ2", "M2"])
+    assert rank["clear"] is True
     assert rank["smallest_kept"] > 0.1 and rank["largest_dropped"] < 1e-12
     assert rank["gap"] > 1e8 and rank["singular_gap"] > 1e8
     assert rank["margin_kept"] > 1e4 and rank["margin_dropped"] < 1e-2

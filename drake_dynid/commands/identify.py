@@ -185,13 +185,14 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
     """The excitation band of the log's positions [Hz] (99 % of the velocity power).
 
     Measured on the longest run of finite samples with
-    ``core.excitation.estimate_bandwidth``; at least 2/window (the default ℓ set is
+    ``core.excitation.estimate_bandwidth`` (in bounded memory on long logs:
+    ``core.idim_auto.velocity_bandwidth``); at least 2/window (the default ℓ set is
     never empty). With ``settings`` it is capped at what the identifier can use:
     the differentiator's pass band (``core.online_checks.pass_band``), the bank's
     Nyquist frequency and ``core.fourier_bank.MAX_FUNCTIONS`` functions; a noisy or
     unexcited log measures a wide band that only noise fills.
     """
-    from drake_dynid.core.excitation import estimate_bandwidth
+    from drake_dynid.core.idim_auto import velocity_bandwidth
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     q = log.q[start:stop]
@@ -203,7 +204,7 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
             "--bandwidth or --frequencies."
         )
     try:
-        measured = float(estimate_bandwidth(q, log.time_step))
+        measured = float(velocity_bandwidth(q, log.time_step))
     except ValueError:
         bad = int(np.count_nonzero(log.bad_samples))
         where = (

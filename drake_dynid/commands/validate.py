@@ -97,6 +97,8 @@ def validation_split(
     if split is not None:
         if not 0.0 < split < 1.0:
             raise ValueError(f"--split must be in (0, 1); got {split}.")
+        from drake_dynid.validation import split_log  # scipy.signal: only here
+
         first, rest = split_log(log, split)
         return first, rest, f"{args.log} after the first {100 * split:g} %"
     if other:

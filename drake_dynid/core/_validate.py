@@ -201,8 +201,13 @@ def log_magnitudes(owner: str, q: Any, tau: Any) -> None:
     """
     for name, values, unit in (("q", q, "rad or m"), ("tau", tau, "N·m or N")):
         array = np.asarray(values, dtype=float)
-        finite = np.abs(array[np.isfinite(array)])
-        top = float(finite.max()) if finite.size else 0.0
+        top = 0.0
+        for start in range(0, array.shape[0] if array.ndim else 1, 1 << 16):
+            # In blocks of rows: memory independent of the log's length.
+            block = np.abs(array[start : start + (1 << 16)])
+            block[~np.isfinite(block)] = 0.0
+            if block.size:
+                top = max(top, float(block.max()))
         if top > MAX_LOG_MAGNITUDE:
             raise ValueError(
                 f"{owner}: |{name}| must be <= {MAX_LOG_MAGNITUDE:g} [{unit}] (the "

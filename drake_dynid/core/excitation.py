@@ -11,7 +11,8 @@ velocity band and no more::
 Bandwidth estimate (noise-robust, no tuning):
 
 1. one Hann-windowed periodogram S_j(f) of each detrended position channel q_j over the
-   whole record (resolution 1/duration, no segment averaging needed);
+   whole record (resolution 1/duration, no segment averaging needed; numpy's FFT,
+   :func:`periodogram`, equal to ``scipy.signal.periodogram``);
 2. the white-noise floor N_j = median of S_j over the upper half of the spectrum
    (f > f_s/4, where a robot's motion carries no power at kHz sampling) divided by ln 2
    (the median of an exponential variable is ln 2 times its mean);
@@ -34,14 +35,51 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as v
 from drake_dynid.core.fourier_bank import band_frequencies
 
-__all__ = ["estimate_bandwidth", "frequencies_for", "velocity_spectrum"]
+__all__ = [
+    "detrend_linear",
+    "estimate_bandwidth",
+    "frequencies_for",
+    "periodogram",
+    "velocity_spectrum",
+]
 
 _OWNER = "estimate_bandwidth"
+
+
+def detrend_linear(x: np.ndarray) -> np.ndarray:
+    """``x`` minus its least-squares line along axis 0 (as ``scipy.signal.detrend``).
+
+    ``x_k - (a·(k+1)/N + b)`` per column, with (a, b) the least-squares fit; numpy
+    only (no ``scipy.signal`` import on the ``dynid identify`` path).
+    """
+    count = x.shape[0]
+    design = np.ones((count, 2))
+    design[:, 0] = np.arange(1, count + 1) / count
+    coefficients, *_ = np.linalg.lstsq(design, x, rcond=None)
+    return x - design @ coefficients
+
+
+def periodogram(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """One-sided Hann-windowed periodogram of the detrended columns of ``x``.
+
+    ``S(f_k) = c |Σ_j w_j x̃_j e^{-2πi jk/N}|² / (fs Σ w²)`` with the periodic
+    Hann window w_j = ½ - ½ cos(2πj/N), x̃ = :func:`detrend_linear` (x) and c = 2
+    except at f = 0 (and at fs/2 for even N): ``scipy.signal.periodogram(x, fs,
+    window="hann", detrend="linear", axis=0)`` with numpy's FFT [unit²/Hz].
+
+    Returns:
+        ``(f, S)``: frequencies (F,) [Hz] and densities (F, n).
+    """
+    count = x.shape[0]
+    window = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(count) / count)
+    spectrum = np.fft.rfft(window[:, None] * detrend_linear(x), axis=0)
+    density = (spectrum.real**2 + spectrum.imag**2) / (fs * np.sum(window**2))
+    density[1 : None if count % 2 else -1] *= 2.0
+    return np.fft.rfftfreq(count, 1.0 / fs), density
 
 
 def velocity_spectrum(
@@ -75,14 +113,12 @@ def velocity_spectrum(
             "q must have shape (N,) or (N, n) with N >= 64 samples; "
             f"got {np.shape(q)}.",
         )
-    f, s = signal.periodogram(
-        x, fs=1.0 / h, window="hann", detrend="linear", axis=0, scaling="density"
-    )
+    f, s = periodogram(x, 1.0 / h)
     upper = f > 0.25 / h
     floor = np.median(s[upper], axis=0) / math.log(2.0)
     keep = s > threshold * floor
     # A constant (or exactly linear) channel only leaves round-off: no motion.
-    residual = signal.detrend(x, axis=0, type="linear")
+    residual = detrend_linear(x)
     scale = np.maximum(1.0, np.abs(x).max(axis=0))
     keep &= np.ptp(residual, axis=0) > 1e-9 * scale
     clean = np.where(keep, s - floor, 0.0)

@@ -27,7 +27,6 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as v
 from drake_dynid.core.lsq import (
@@ -150,6 +149,8 @@ def offline_derivatives(
             f"q must have at least {minimum} samples for trim {trim}; "
             f"got {q.shape[0]}.",
         )
+    from scipy import signal  # lazily: a slow import, not needed by dynid identify
+
     sos = signal.butter(filter_order, cutoff_hz, fs=1.0 / time_step, output="sos")
     q_f = signal.sosfiltfilt(
         sos, q, axis=0, padtype="odd", padlen=min(padding, q.shape[0] - 1)
@@ -226,6 +227,8 @@ def parallel_decimation(
     columns = np.concatenate(
         [W.reshape(W.shape[0], -1), tau.reshape(tau.shape[0], -1)], axis=1
     )
+    from scipy import signal
+
     sos = signal.butter(DECIMATION_FILTER_ORDER, 2.0 * cutoff, output="sos")
     filtered = signal.sosfiltfilt(
         sos, columns, axis=0, padtype="even", padlen=min(padding, W.shape[0] - 1)

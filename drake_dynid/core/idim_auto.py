@@ -40,7 +40,6 @@ import math
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core.excitation import estimate_bandwidth, velocity_spectrum
@@ -53,6 +52,7 @@ __all__ = [
     "auto_decimation",
     "auto_decimation_cutoff",
     "noise_limited_cutoff",
+    "velocity_bandwidth",
 ]
 
 MAX_AUTO_CUTOFF_HZ = 40.0
@@ -130,6 +130,8 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
+    from scipy import signal  # lazily: dynid identify does not need it
+
     f, power = np.empty(0), 0.0
     for first in range(0, total, per_piece):
         count = min(per_piece, total - first)
@@ -181,14 +183,22 @@ def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
         cutoff_hz: the position filter's cutoff f_c [Hz].
     """
     try:
-        band = _bandwidth(np.asarray(q, dtype=float), time_step)
+        band = velocity_bandwidth(np.asarray(q, dtype=float), time_step)
     except ValueError:
         return float(cutoff_hz)
     return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
 
 
-def _bandwidth(q: np.ndarray, time_step: float) -> float:
-    """``estimate_bandwidth`` (99 % of the velocity power), pieces' spectra averaged."""
+def velocity_bandwidth(q: np.ndarray, time_step: float) -> float:
+    """``estimate_bandwidth`` (99 % of the velocity power) in bounded memory [Hz].
+
+    Up to 2^18 samples, :func:`~drake_dynid.core.excitation.estimate_bandwidth`
+    itself; beyond, from the sum of the velocity spectra of equal pieces of at
+    most 2^18 samples (memory: one piece, whatever the log's length).
+
+    Raises:
+        ValueError: no joint moves above the noise (or fewer than 64 samples).
+    """
     if q.shape[0] <= _SPECTRUM_PIECE:
         return estimate_bandwidth(q, time_step)
     count = -(-q.shape[0] // _SPECTRUM_PIECE)

@@ -16,8 +16,13 @@ standard parameters θ_b = [XX XY XZ YY YZ ZZ MX MY MZ M] as M(θ_b)·V = K(V)·
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from drake_dynid.core.tree_plan import TreePlan
 
 __all__ = [
     "KinematicTree",
@@ -124,34 +129,43 @@ class KinematicTree:
     ancestors: np.ndarray
     order: tuple[int, ...]
 
+    @cached_property
+    def plan(self) -> TreePlan:
+        """The tree's precomputed constants (:mod:`drake_dynid.core.tree_plan`)."""
+        from drake_dynid.core.tree_plan import tree_plan
+
+        return tree_plan(self)
+
     def forward(self, q: np.ndarray):
-        """Link poses and world joint screws: R (N,n,3,3), p (N,n,3), S (N,n,6)."""
+        """Link poses and world joint screws: R (N,n,3,3), p (N,n,3), S (N,n,6).
+
+        X_WB,b = X_WB,parent(b) · A_b(q_b), with each joint's pose A_j affine in
+        (cos q_j, sin q_j, q_j) (``plan.pose_terms``); S_j = Ad(X_WB,j) s_j with s_j
+        the joint's constant screw in its child link's frame.
+        """
+        plan = self.plan
         num_samples, n = q.shape
-        rotation = np.empty((num_samples, n, 3, 3))
-        position = np.empty((num_samples, n, 3))
-        screws = np.empty((num_samples, n, 6))
-        for j in self.order:
-            xpf = self.X_parent_F[j]
-            parent = self.parent[j]
-            if parent < 0:
-                rf = np.broadcast_to(xpf[:3, :3], (num_samples, 3, 3))
-                pf = np.broadcast_to(xpf[:3, 3], (num_samples, 3))
-            else:
-                rp, pp = rotation[:, parent], position[:, parent]
-                rf = rp @ xpf[:3, :3]
-                pf = pp + rp @ xpf[:3, 3]
-            axis = rf @ self.axis[j]
-            if self.prismatic[j]:
-                rm = rf
-                pm = pf + axis * q[:, j, None]
-                screws[:, j, :3] = 0.0
-                screws[:, j, 3:] = axis
-            else:
-                rm = rf @ rotation_about(self.axis[j], q[:, j])
-                pm = pf
-                screws[:, j, :3] = axis
-                screws[:, j, 3:] = cross(pm, axis)
-            xmb = self.X_M_B[j]
-            rotation[:, j] = rm @ xmb[:3, :3]
-            position[:, j] = pm + rm @ xmb[:3, 3]
-        return rotation, position, screws
+        terms = plan.pose_terms
+        pose = terms[0] + np.cos(q)[..., None] * terms[1]
+        pose += np.sin(q)[..., None] * terms[2]
+        if plan.has_prismatic:
+            pose += q[..., None] * terms[3]
+        local = pose.reshape(num_samples, n, 4, 4)
+        world = np.empty_like(local)
+        roots = list(plan.roots)
+        world[:, roots] = local[:, roots]
+        for j, parent in plan.chain:
+            np.matmul(world[:, parent], local[:, j], out=world[:, j])
+        rotation = world[..., :3, :3]
+        position = world[..., :3, 3]
+        # [R s_ω, R s_v] for every link: one product (einsum's BLAS path pays off
+        # on batches, a stacked matmul on a few samples).
+        if num_samples >= 32:
+            rotated = np.einsum(
+                "nbij,bjk->nbik", rotation, plan.screw_pairs, optimize=True
+            )
+        else:
+            rotated = rotation @ plan.screw_pairs
+        angular = rotated[..., 0]
+        linear = rotated[..., 1] + cross(position, angular)
+        return rotation, position, np.concatenate((angular, linear), -1)

@@ -112,34 +112,38 @@ def _weak_columns(R: np.ndarray, limit: float) -> tuple[int, ...]:
     return tuple(int(i) for i in np.flatnonzero(share >= _WEAK_SHARE))
 
 
-def solve_least_squares(
+@dataclass(frozen=True, eq=False)
+class _Factor:
+    """The QR of a valid problem: R of [A S⁻¹ | B], the column norms S, R⁻¹.
+
+    ``condition`` is NaN when only a bound showed it below ``max_condition``.
+    """
+
+    R_aug: np.ndarray
+    norms: np.ndarray
+    condition: float
+    rank: int
+    rows: int
+    names: tuple[str, ...]
+    R_inv: np.ndarray | None = None
+    b_scale: float = 1.0  # B is divided by it in R_aug (no overflow)
+
+
+def _decompose(
     A: Any,
     B: Any,
+    max_condition: float,
+    names: Sequence[str] | None,
     *,
-    max_condition: float = DEFAULT_MAX_CONDITION,
-    names: Sequence[str] | None = None,
-) -> LeastSquaresResult:
-    """Least squares ``X̂ = argmin ‖B - A X‖`` by QR, with Gautier's σ.
+    bound_first: bool = False,
+) -> tuple[np.ndarray, np.ndarray, LeastSquaresResult | _Factor]:
+    """Checks and factors ``A X ≈ B``: (A, B as arrays, an invalid result or the QR).
 
-    ``σ_ρ² = ‖B - A X̂‖²/(r - p)``, ``C_X = σ_ρ² (AᵀA)⁻¹`` from the QR's R,
-    ``σ_Xi = √C_X[i,i]``; condition number of A after scaling its columns to unit
-    norm (docs/MATH.md §4).
-
-    Args:
-        A: (r, p) regressor [unit of B / unit of X].
-        B: (r,) observations.
-        max_condition: largest accepted scaled condition number (> 1).
-        names: p parameter names used in ``reason`` and ``unidentified``.
-
-    Returns:
-        A :class:`LeastSquaresResult`; ``valid`` is False (with NaN estimates and a
-        ``reason``) for too few rows, non-finite input, a rank-deficient or an
-        ill-conditioned A.
-
-    Raises:
-        ValueError: A is not 2-D with p >= 1, B does not have r entries, names do
-            not have p entries, or max_condition <= 1.
-        TypeError: A or B are not arrays of real numbers.
+    Every validity decision of :func:`solve_least_squares` is taken here. With
+    ``bound_first`` (a first pass that needs X̂ only), R⁻¹ is formed first and the
+    SVD skipped when ``‖R‖_F ‖R⁻¹‖_F``, an upper bound of the condition number,
+    already shows the problem valid (full rank and cond <= ``max_condition``):
+    the same decision, without the condition number's value.
     """
     owner = "solve_least_squares"
     A = v.array(owner, "A", A, finite=False)
@@ -183,15 +187,23 @@ def solve_least_squares(
         bad_a = int(A.size - np.count_nonzero(finite_a))
         bad_b = int(B.size - np.count_nonzero(finite_b))
         columns = np.flatnonzero(~finite_a.all(axis=0))
-        return invalid(
-            f"non-finite input: {bad_a} NaN or infinite value(s) in A"
-            + (f" (columns: {_describe(names, columns)})" if columns.size else "")
-            + f", {bad_b} in B.",
-            indices=columns,
+        return (
+            A,
+            B,
+            invalid(
+                f"non-finite input: {bad_a} NaN or infinite value(s) in A"
+                + (f" (columns: {_describe(names, columns)})" if columns.size else "")
+                + f", {bad_b} in B.",
+                indices=columns,
+            ),
         )
     if rows <= p:
-        return invalid(
-            f"too few rows: {rows} rows for {p} parameters (need more than {p})."
+        return (
+            A,
+            B,
+            invalid(
+                f"too few rows: {rows} rows for {p} parameters (need more than {p})."
+            ),
         )
     # Column norms scaled by the column's largest entry: no overflow for entries
     # up to the largest float (squares of 1e160 would overflow).
@@ -200,12 +212,16 @@ def solve_least_squares(
     norms = peak * np.sqrt(np.einsum("ij,ij->j", A / safe, A / safe))
     zero = np.flatnonzero(norms <= np.finfo(float).tiny)
     if zero.size:
-        return invalid(
-            f"rank deficient: zero column(s), parameter(s) not excited: "
-            f"{_describe(names, zero)}.",
-            condition=np.inf,
-            rank=p - zero.size,
-            indices=zero,
+        return (
+            A,
+            B,
+            invalid(
+                f"rank deficient: zero column(s), parameter(s) not excited: "
+                f"{_describe(names, zero)}.",
+                condition=np.inf,
+                rank=p - zero.size,
+                indices=zero,
+            ),
         )
     # One QR of the scaled, augmented [A S⁻¹ | B] (R only, Q never formed) gives
     # R, z = QᵀB and the residual norm ρ = ‖B - A X̂‖ in its last column.
@@ -216,32 +232,68 @@ def solve_least_squares(
     # (numpy's stubs type mode="r" as a tuple; it is the array R.)
     R_aug = np.asarray(np.linalg.qr(augmented, mode="r"))
     R = R_aug[:p, :p]
+    R_inv = None
+    if bound_first:
+        with np.errstate(all="ignore"):
+            try:
+                R_inv = np.linalg.inv(R)
+            except np.linalg.LinAlgError:  # exactly singular: the SVD reports it
+                R_inv = None
+            if R_inv is not None:
+                bound = np.linalg.norm(R) * np.linalg.norm(R_inv)
+                # cond <= bound < 1/(max(r, p)·eps): full rank as well.
+                limit = min(max_condition, 1.0 / (max(rows, p) * np.finfo(float).eps))
+                if bound <= limit:
+                    return (
+                        A,
+                        B,
+                        _Factor(R_aug, norms, np.nan, p, rows, names, R_inv, b_scale),
+                    )
     singular = np.linalg.svd(R, compute_uv=False)
     tolerance = singular[0] * max(rows, p) * np.finfo(float).eps
     rank = int(np.count_nonzero(singular > tolerance))
     condition = singular[0] / singular[-1] if singular[-1] > 0 else np.inf
     if rank < p:
         weak = _weak_columns(R, tolerance)
-        return invalid(
-            f"rank deficient: rank {rank} < {p} parameters; dependent or not "
-            f"excited: {_describe(names, weak)}.",
-            condition=np.inf,
-            rank=rank,
-            indices=weak,
+        return (
+            A,
+            B,
+            invalid(
+                f"rank deficient: rank {rank} < {p} parameters; dependent or not "
+                f"excited: {_describe(names, weak)}.",
+                condition=np.inf,
+                rank=rank,
+                indices=weak,
+            ),
         )
     if condition > max_condition:
         weak = _weak_columns(R, singular[0] / max_condition)
-        return invalid(
-            f"ill-conditioned: condition number {condition:.3g} > max_condition "
-            f"{max_condition:.3g} (columns scaled to unit norm); poorly excited: "
-            f"{_describe(names, weak)}.",
-            condition=condition,
-            rank=rank,
-            indices=weak,
+        return (
+            A,
+            B,
+            invalid(
+                f"ill-conditioned: condition number {condition:.3g} > max_condition "
+                f"{max_condition:.3g} (columns scaled to unit norm); poorly excited: "
+                f"{_describe(names, weak)}.",
+                condition=condition,
+                rank=rank,
+                indices=weak,
+            ),
         )
-    R_inv = np.linalg.inv(R)
-    theta = (R_inv @ R_aug[:p, p]) * b_scale / norms
-    residual_std = abs(float(R_aug[p, p])) / np.sqrt(rows - p) * b_scale
+    return (
+        A,
+        B,
+        _Factor(R_aug, norms, float(condition), rank, rows, names, R_inv, b_scale),
+    )
+
+
+def _estimate(factor: _Factor) -> LeastSquaresResult:
+    """X̂ and Gautier's σ from the QR of a valid problem."""
+    R_aug, norms, rows = factor.R_aug, factor.norms, factor.rows
+    p = norms.size
+    R_inv = factor.R_inv if factor.R_inv is not None else np.linalg.inv(R_aug[:p, :p])
+    theta = (R_inv @ R_aug[:p, p]) * factor.b_scale / norms
+    residual_std = abs(float(R_aug[p, p])) / np.sqrt(rows - p) * factor.b_scale
     std = residual_std * np.sqrt(np.einsum("ij,ij->i", R_inv, R_inv)) / norms
     magnitude = np.abs(theta)
     relative = np.full(p, np.inf)
@@ -252,16 +304,49 @@ def solve_least_squares(
         theta=theta,
         std=std,
         relative_std_percent=relative,
-        condition_number=float(condition),
-        rank=rank,
+        condition_number=factor.condition,
+        rank=factor.rank,
         residual_std=float(residual_std),
         num_rows=rows,
         valid=True,
         reason="",
-        names=names,
+        names=factor.names,
         unidentified=(),
         unidentified_indices=(),
     )
+
+
+def solve_least_squares(
+    A: Any,
+    B: Any,
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+) -> LeastSquaresResult:
+    """Least squares ``X̂ = argmin ‖B - A X‖`` by QR, with Gautier's σ.
+
+    ``σ_ρ² = ‖B - A X̂‖²/(r - p)``, ``C_X = σ_ρ² (AᵀA)⁻¹`` from the QR's R,
+    ``σ_Xi = √C_X[i,i]``; condition number of A after scaling its columns to unit
+    norm (docs/MATH.md §4).
+
+    Args:
+        A: (r, p) regressor [unit of B / unit of X].
+        B: (r,) observations.
+        max_condition: largest accepted scaled condition number (> 1).
+        names: p parameter names used in ``reason`` and ``unidentified``.
+
+    Returns:
+        A :class:`LeastSquaresResult`; ``valid`` is False (with NaN estimates and a
+        ``reason``) for too few rows, non-finite input, a rank-deficient or an
+        ill-conditioned A.
+
+    Raises:
+        ValueError: A is not 2-D with p >= 1, B does not have r entries, names do
+            not have p entries, or max_condition <= 1.
+        TypeError: A or B are not arrays of real numbers.
+    """
+    _, _, factor = _decompose(A, B, max_condition, names)
+    return factor if isinstance(factor, LeastSquaresResult) else _estimate(factor)
 
 
 def solve_weighted_least_squares(
@@ -299,6 +384,41 @@ def solve_weighted_least_squares(
     )
 
 
+def _nonnegative_lines(
+    x: np.ndarray, y: np.ndarray, index: np.ndarray, count: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per group g: ``argmin ‖a + b x - y‖²`` over rows of g with a, b >= 0.
+
+    A two-column non-negative least squares in closed form, vectorised over the
+    groups (``index`` (r,) in 0..count-1): the unconstrained line when both
+    coefficients are >= 0, else the best of the one-coefficient fits a = max(0,
+    ȳ), b = max(0, Σxy/Σx²) and a = b = 0 (the optimum of a convex problem lies
+    on one of these faces). The fitted values a + b x are unique: those of
+    scipy's ``nnls`` to round-off.
+    """
+    member = (index == np.arange(count)[:, None]).astype(float)
+    moments = np.stack((np.ones_like(x), x, y, x * x, x * y), axis=1)
+    rows, sx, sy, sxx, sxy = (member @ moments).T
+    mean_x, mean_y = sx / rows, sy / rows
+    # Centred moments (a well-conditioned 2×2 system).
+    spread = sxx - sx * mean_x
+    slope = np.divide(sxy - sx * mean_y, spread, out=np.zeros(count), where=spread > 0)
+    free = (mean_y - slope * mean_x, slope)
+    only_b = np.divide(sxy, sxx, out=np.zeros(count), where=sxx > 0)
+    zero = np.zeros(count)
+    faces = ((np.maximum(mean_y, 0.0), zero), (zero, np.maximum(only_b, 0.0)))
+    # ‖a + b x - y‖² - Σy² from the group sums, for each face.
+    costs = [
+        a * (a * rows + 2 * b * sx - 2 * sy) + b * (b * sxx - 2 * sxy) for a, b in faces
+    ]
+    use_b = costs[1] < np.minimum(costs[0], 0.0)
+    use_a = ~use_b & (costs[0] < 0.0)
+    best_a = np.where(use_a, faces[0][0], 0.0)
+    best_b = np.where(use_b, faces[1][1], 0.0)
+    feasible = (spread > 0) & (free[0] >= 0.0) & (free[1] >= 0.0)
+    return np.where(feasible, free[0], best_a), np.where(feasible, free[1], best_b)
+
+
 def frequency_noise_weights(
     residual: Any, frequency: Any, group: Any, *, floor: float = 1e-3
 ) -> np.ndarray:
@@ -314,6 +434,7 @@ def frequency_noise_weights(
     by the function itself (∝ 1) for the torque: ``a`` is the torque-noise floor,
     ``b ν²`` the velocity-noise share. σ_i² is floored at ``floor`` times the group's
     largest value (a fit that is zero somewhere must not give an infinite weight).
+    The non-negative fits are in closed form for all groups at once (no scipy).
 
     Args:
         residual: (r,) first-pass residuals ``B - A X̂`` [unit of B].
@@ -325,8 +446,6 @@ def frequency_noise_weights(
         (r,) weights ``1/σ_i`` [1/unit of B] (all ones for a group whose residuals
         are all zero).
     """
-    from scipy.optimize import nnls
-
     owner = "frequency_noise_weights"
     residual = v.array(owner, "residual", residual)
     frequency = v.array(owner, "frequency", frequency, shape=residual.shape)
@@ -340,19 +459,21 @@ def frequency_noise_weights(
     floor = v.positive(owner, "floor", floor)
     if floor > 1.0:
         v.fail(owner, f"floor must be in (0, 1]; got {floor:g}.")
+    # Residuals scaled by their largest magnitude: squares never overflow.
+    scale = float(np.max(np.abs(residual), initial=0.0))
+    if scale == 0.0:
+        return np.ones_like(residual)
+    labels, index = np.unique(group, return_inverse=True)
+    index = index.reshape(-1)
+    squared = frequency**2
+    a, b = _nonnegative_lines(squared, (residual / scale) ** 2, index, labels.size)
+    variance = a[index] + b[index] * squared
+    top = np.zeros(labels.size)
+    np.maximum.at(top, index, variance)
+    bottom = floor * top[index]
     weights = np.ones_like(residual)
-    for g in np.unique(group):
-        rows = group == g
-        # Residuals scaled by their largest magnitude: squares never overflow.
-        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
-        if scale == 0.0:
-            continue
-        model = np.stack([np.ones(rows.sum()), frequency[rows] ** 2], axis=1)
-        coefficients, _ = nnls(model, (residual[rows] / scale) ** 2)
-        variance = model @ coefficients
-        top = float(variance.max())
-        if top > 0.0:
-            weights[rows] = 1.0 / (scale * np.sqrt(np.maximum(variance, floor * top)))
+    fitted = top[index] > 0.0
+    weights[fitted] = 1.0 / (scale * np.sqrt(np.maximum(variance, bottom)[fitted]))
     return weights
 
 
@@ -367,7 +488,8 @@ def solve_frequency_weighted_least_squares(
 ) -> LeastSquaresResult:
     """Two-step weighted least squares for rows whose noise grows with frequency.
 
-    1. ``X̂₀ = argmin ‖B - A X‖`` (:func:`solve_least_squares`);
+    1. ``X̂₀ = argmin ‖B - A X‖`` (the QR and validity checks of
+       :func:`solve_least_squares`; X̂₀ from R, without its σ);
     2. weights ``w = 1/σ`` from :func:`frequency_noise_weights` of its residuals;
     3. ``X̂ = argmin ‖w (B - A X)‖`` (:func:`solve_weighted_least_squares`), with
        Gautier's σ from the weighted problem (C_X = σ_ρ² (Aᵀ W² A)⁻¹).
@@ -375,8 +497,8 @@ def solve_frequency_weighted_least_squares(
     A feasible generalised least squares: with the modulated equations of the
     on-line identifier (docs/MATH.md §3), whose high-ℓ rows carry most of the
     velocity-estimate noise, it halved the inertial error on the 2R benchmark
-    (benchmarks/bench_accuracy.py). When step 1 is not valid, its result is
-    returned unchanged.
+    (benchmarks/bench_accuracy.py). When step 1 is not valid, its result (that of
+    :func:`solve_least_squares`) is returned unchanged.
 
     Args:
         A: (r, p) regressor.
@@ -386,15 +508,14 @@ def solve_frequency_weighted_least_squares(
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
     """
-    first = solve_least_squares(A, B, max_condition=max_condition, names=names)
-    if not first.valid:
+    A, B, first = _decompose(A, B, max_condition, names, bound_first=True)
+    if isinstance(first, LeastSquaresResult):
         return first
-    A = np.asarray(A, dtype=float)
-    B = np.asarray(B, dtype=float)
-    weights = frequency_noise_weights(B - A @ first.theta, frequency, group)
-    return solve_weighted_least_squares(
-        A, B, weights, max_condition=max_condition, names=names
-    )
+    p = first.norms.size
+    theta = (first.R_inv @ first.R_aug[:p, p]) * first.b_scale / first.norms
+    weights = frequency_noise_weights(B - A @ theta, frequency, group)
+    _, _, second = _decompose(A * weights[:, None], B * weights, max_condition, names)
+    return second if isinstance(second, LeastSquaresResult) else _estimate(second)
 
 
 def solve_window(

@@ -27,15 +27,24 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.core.kinematics import (
-    KinematicTree,
-    ad,
-    ad_inverse,
-    ad_transpose_momentum,
-    momentum_matrix,
-)
+from drake_dynid.core.kinematics import KinematicTree, ad
 
 __all__ = ["energy_blocks", "idim_blocks", "lagrangian_blocks", "link_terms"]
+
+
+def _frames(rotation: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """Ad(X_WB⁻¹) = [[Rᵀ, 0], [-Rᵀ[p]×, Rᵀ]] of every link, (N, b, 6, 6)."""
+    rt = np.swapaxes(rotation, -1, -2)
+    out = np.zeros((*rotation.shape[:-2], 6, 6))
+    out[..., :3, :3] = rt
+    out[..., 3:, 3:] = rt
+    # Column k of -Rᵀ[p]× is Rᵀ(e_k × p), r_k = Rᵀe_k.
+    px, py, pz = position[..., 0, None], position[..., 1, None], position[..., 2, None]
+    r0, r1, r2 = rt[..., 0], rt[..., 1], rt[..., 2]
+    out[..., 3:, 0] = r2 * py - r1 * pz
+    out[..., 3:, 1] = r0 * pz - r2 * px
+    out[..., 3:, 2] = r1 * px - r0 * py
+    return out
 
 
 def link_terms(
@@ -48,48 +57,63 @@ def link_terms(
 ) -> dict[str, Any]:
     """Per-link spatial quantities shared by the rows.
 
+    The rows are formed in the world frame, J_b,iᵀ F = S_iᵀ (Ad(X_WB⁻¹)ᵀ F): one
+    product per link moves a link's 6×10 block to the world, one product per
+    sample applies every screw to every link (masked by the ancestors).
+
     Args:
         tree: the kinematic tree.
         forward: ``tree.forward(q)``: link rotations (N, n, 3, 3), positions (N, n, 3)
             and world joint screws (N, n, 6).
         v: joint velocities (N, n) [rad/s, m/s].
         gravity: gravity in the world (3,) [m/s²].
-        derivatives: also return ``dtwist`` = ∂V_b/∂q_i · (per unit v_i), needed by
-            the Lagrangian and inverse-dynamics rows.
+        derivatives: also return ``dscrews`` = ad(V_parent(i)) S_i (world), the
+            rate of the screw per unit velocity, needed by the Lagrangian and
+            inverse-dynamics rows.
 
     Returns:
-        dict with ``rotation``, ``position``, ``jac`` (N, b, i, 6), ``twist``
-        (N, b, 6), ``k`` = K(V_b) (N, b, 6, 10), ``gravity_body`` (N, b, 3) and,
-        with ``derivatives``, ``dtwist`` (N, b, i, 6).
+        dict with ``rotation``, ``position``, ``screws`` (N, i, 6), ``frames`` =
+        Ad(X_WB⁻¹) (N, b, 6, 6), ``twist`` (body frame, N, b, 6), ``k`` = K(V_b)
+        (N, b, 6, 10), ``gravity_body`` = Rᵀg (N, b, 3), ``plan`` (the tree's
+        :class:`~drake_dynid.core.tree_plan.TreePlan`) and, with ``derivatives``,
+        ``dscrews`` (N, i, 6).
     """
     rotation, position, screws = forward
-    anc = tree.ancestors.astype(float)
-    # World twists of the links and of each joint's parent link.
-    twist_world = np.einsum("bi,nis,ni->nbs", anc, screws, v)
-    parent_twist = np.zeros_like(screws)
-    has_parent = tree.parent >= 0
-    parent_twist[:, has_parent] = twist_world[:, tree.parent[has_parent]]
-    # Body-frame Jacobians J[n, b, i] (zero unless i is an ancestor of b).
-    jac = ad_inverse(rotation[:, :, None], position[:, :, None], screws[:, None, :, :])
-    jac *= anc[None, :, :, None]
-    twist = np.einsum("nbis,ni->nbs", jac, v)
+    plan = tree.plan
+    num_samples, n = v.shape
+    frames = _frames(rotation, position)
+    twist_world = (plan.ancestors * v[:, None, :]) @ screws
+    twist = (frames @ twist_world[..., None])[..., 0]
     out: dict[str, Any] = {
         "rotation": rotation,
         "position": position,
-        "jac": jac,
+        "screws": screws,
+        "frames": frames,
         "twist": twist,
-        "k": momentum_matrix(twist),
-        "gravity_body": np.einsum("nbji,j->nbi", rotation, gravity),
+        "k": (twist @ plan.momentum).reshape(num_samples, n, 6, 10),
+        "gravity_body": gravity @ rotation,
+        "plan": plan,
     }
     if derivatives:
-        # ∂V_b/∂q_i = Ad(X_WB⁻¹) ad(V_parent(i)) S_i for i ancestor of b.
-        dscrew = ad(parent_twist, screws)
-        dtwist = ad_inverse(
-            rotation[:, :, None], position[:, :, None], dscrew[:, None, :, :]
-        )
-        dtwist *= anc[None, :, :, None]
-        out["dtwist"] = dtwist
+        # ∂S_j/∂q_i = ad(S_i) S_j: d/dt S_i = ad(V_parent(i)) S_i.
+        parent_twist = (plan.strict_ancestors * v[:, None, :]) @ screws
+        out["dscrews"] = ad(parent_twist, screws)
     return out
+
+
+def _joint_rows(terms: dict[str, Any], columns: np.ndarray, blocks: np.ndarray):
+    """``rows[n, i, b, :] = columns[n, i]ᵀ Ad(X_WB⁻¹)ᵀ blocks[n, b]`` for i anc b.
+
+    ``columns`` (N, r, 6) are world screws (r a multiple of the joints), ``blocks``
+    (N, b, 6, w) body-frame blocks; returns (N, r, b, w), zero where joint i does
+    not move link b.
+    """
+    num_samples, links, _, width = blocks.shape
+    world = np.swapaxes(terms["frames"], -1, -2) @ blocks
+    world = np.swapaxes(world, 1, 2).reshape(num_samples, 6, links * width)
+    rows = (columns @ world).reshape(num_samples, -1, links, links, width)
+    rows *= terms["plan"].ancestors.T[:, :, None]
+    return rows.reshape(num_samples, columns.shape[1], links, width)
 
 
 def energy_blocks(
@@ -99,7 +123,7 @@ def energy_blocks(
     kinetic = 0.5 * np.einsum("nbs,nbsk->nbk", terms["twist"], terms["k"])
     potential = np.zeros_like(kinetic)
     potential[..., 6:9] = -terms["gravity_body"]
-    potential[..., 9] = -np.einsum("nbi,i->nb", terms["position"], gravity)
+    potential[..., 9] = -(terms["position"] @ gravity)
     return kinetic, potential
 
 
@@ -108,14 +132,18 @@ def lagrangian_blocks(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(∂h_E/∂v, ∂h_E/∂q, ∂h_U/∂q)``, each (N, n, n_links, 10).
 
-    ``terms`` must come from :func:`link_terms` with ``derivatives=True``.
+    ``terms`` must come from :func:`link_terms` with ``derivatives=True``. One
+    product ``[S | ad(V_parent) S]ᵀ Ad(X_WB⁻¹)ᵀ [K(V_b) | -K([0; Rᵀg])]`` gives
+    all three.
     """
-    dhe_dv = np.einsum("nbis,nbsk->nibk", terms["jac"], terms["k"])
-    dhe_dq = np.einsum("nbis,nbsk->nibk", terms["dtwist"], terms["k"])
-    gravity_twist = np.zeros_like(terms["twist"])
-    gravity_twist[..., 3:] = terms["gravity_body"]
-    dhu_dq = -np.einsum("nbis,nbsk->nibk", terms["jac"], momentum_matrix(gravity_twist))
-    return dhe_dv, dhe_dq, dhu_dq
+    screws = terms["screws"]
+    n = screws.shape[1]
+    gravity = -terms["gravity_body"] @ terms["plan"].momentum[3:]
+    blocks = np.concatenate((terms["k"], gravity.reshape(terms["k"].shape)), axis=-1)
+    rows = _joint_rows(
+        terms, np.concatenate((screws, terms["dscrews"]), axis=1), blocks
+    )
+    return rows[:, :n, :, :10], rows[:, n:, :, :10], rows[:, :n, :, 10:]
 
 
 def idim_blocks(terms: dict[str, Any], v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
@@ -124,11 +152,14 @@ def idim_blocks(terms: dict[str, Any], v: np.ndarray, vdot: np.ndarray) -> np.nd
     ``terms`` must come from :func:`link_terms` with ``derivatives=True``; gravity
     enters as the base acceleration -g.
     """
-    acceleration = np.einsum("nbis,ni->nbs", terms["jac"], vdot) + np.einsum(
-        "nbis,ni->nbs", terms["dtwist"], v
-    )
+    plan = terms["plan"]
+    screws = terms["screws"]
+    num_samples, links = terms["twist"].shape[:2]
+    rates = screws * vdot[..., None] + terms["dscrews"] * v[..., None]
+    acceleration = (terms["frames"] @ (plan.ancestors @ rates)[..., None])[..., 0]
     acceleration[..., 3:] -= terms["gravity_body"]
-    force = momentum_matrix(acceleration) + ad_transpose_momentum(
-        terms["twist"], terms["k"]
-    )
-    return np.einsum("nbis,nbsk->nibk", terms["jac"], force)
+    # K(V̇ - [0; Rᵀg]) - ad(V)ᵀ K(V): the link's Newton-Euler force per parameter.
+    force = (acceleration @ plan.momentum).reshape(num_samples, links, 6, 10)
+    adjoint = (terms["twist"] @ plan.ad).reshape(num_samples, links, 6, 6)
+    force -= np.swapaxes(adjoint, -1, -2) @ terms["k"]
+    return _joint_rows(terms, screws, force)

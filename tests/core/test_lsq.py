@@ -242,3 +242,71 @@ def test_frequency_weighted_least_squares_passes_invalid_windows_through():
         frequency_noise_weights(np.ones(4), np.ones(4), np.zeros(3))
     with pytest.raises(ValueError, match="floor must be in"):
         frequency_noise_weights(np.ones(4), np.ones(4), np.zeros(4), floor=2.0)
+
+
+def _reference_weights(residual, nu, group, floor=1e-3):
+    """The former implementation: scipy's nnls per group (the oracle)."""
+    from scipy.optimize import nnls
+
+    weights = np.ones_like(residual)
+    for g in np.unique(group):
+        rows = group == g
+        model = np.stack([np.ones(rows.sum()), nu[rows] ** 2], axis=1)
+        coefficients, _ = nnls(model, residual[rows] ** 2)
+        variance = model @ coefficients
+        top = float(variance.max())
+        if top > 0.0:
+            weights[rows] = 1.0 / np.sqrt(np.maximum(variance, floor * top))
+    return weights
+
+
+def test_closed_form_noise_fit_equals_scipys_nnls():
+    # Seeds 0-39: residuals growing, falling (b < 0 unconstrained: a face), flat,
+    # one group with a single frequency, and an all-zero group.
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        nu = np.tile(np.arange(0.0, 12.0, 0.5), 3)
+        group = np.repeat([0, 1, 2], 24)
+        slope = rng.choice([-0.05, 0.0, 0.05])
+        residual = rng.normal(size=72) * np.sqrt(np.abs(1.0 + slope * nu**2))
+        nu[group == 2] = 3.0
+        if seed % 5 == 0:
+            residual[group == 1] = 0.0
+        new = frequency_noise_weights(residual, nu, group)
+        old = _reference_weights(residual, nu, group)
+        np.testing.assert_allclose(new, old, rtol=1e-12, atol=0)
+
+
+def test_lean_weighted_solve_equals_the_two_full_solves():
+    # The former composition: full first solve, nnls weights, full weighted solve.
+    # Conditions from 1 to past max_condition (bound path, SVD path, invalid).
+    conditions = []
+    for seed, spread in enumerate((0.0, 1.5, 2.5, 3.3, 5.0)):  # seeds 100-104
+        rng = np.random.default_rng(100 + seed)
+        A = rng.normal(size=(120, 9)) @ np.diag(np.logspace(0, 2, 9))
+        A[:, 1] = A[:, 0] * 3.0 + 10.0**-spread * A[:, 1]  # near-dependent
+        nu = np.tile(np.arange(20.0), 6)
+        group = np.repeat(np.arange(3), 40)
+        B = A @ rng.normal(size=9) + rng.normal(size=120) * (0.01 + 0.002 * nu)
+        first = solve_least_squares(A, B)
+        if first.valid:
+            weights = _reference_weights(B - A @ first.theta, nu, group)
+            old = solve_weighted_least_squares(A, B, weights)
+        else:
+            old = first
+        new = solve_frequency_weighted_least_squares(A, B, nu, group)
+        conditions.append(first.condition_number)
+        assert new.valid == old.valid and new.reason == old.reason
+        # The weights differ by round-off (~1e-15), which the solve amplifies by
+        # the condition number: equal to 1e-12 of each vector's scale, or 2e-15
+        # times the condition number above 500.
+        relative = max(1e-12, 2e-15 * first.condition_number)
+        for name in ("theta", "std", "condition_number", "residual_std"):
+            expected = np.asarray(getattr(old, name))
+            scale = np.nanmax(np.abs(expected)) if np.any(np.isfinite(expected)) else 0
+            np.testing.assert_allclose(
+                getattr(new, name), expected, rtol=0, atol=relative * scale
+            )
+    # Well conditioned (R's Frobenius bound suffices), moderate (the SVD decides),
+    # ill-conditioned (the first pass's invalid result).
+    assert conditions[0] < 20 and 1e3 < conditions[3] < 1e4 < conditions[4]

@@ -1,0 +1,171 @@
+"""``dynid fleet identify|offline``: one command over many logs, in parallel."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Any
+
+HELP = "run identify or offline over many logs (local processes or a Dask cluster)"
+DESCRIPTION = (
+    "Runs dynid identify or dynid offline on each of many logs (a fleet of robots, "
+    "a parameter study, a series of recordings), each log one recording, with the "
+    "same options, and writes one JSON per log in --out-dir (<log name>.json, as the "
+    "command's --json) plus summary.json, and prints a summary table. By default the "
+    "logs run in parallel local processes (--jobs, default the CPU count); with "
+    "--scheduler ADDRESS they run on that Dask distributed cluster (pip install "
+    "'drake-dynid[fleet]'). The command's options follow the logs, as for the "
+    "command itself. Exit code 2 when a log fails (the others are still done)."
+)
+
+_PER_LOG_OUTPUTS = (("--out", "out"), ("--plot", "plot"), ("--urdf-out", "urdf_out"))
+_FLEET_OWNED = ("--json", "--quiet")
+
+
+class _FleetParser(argparse.ArgumentParser):
+    """The command's own options, with LOGS (one recording each) for its LOG.
+
+    The command's ``add_arguments`` declares its ``log`` positional and its
+    ``--json``/``--quiet`` through this class: the positional becomes the fleet's
+    LOGS, and the fleet owns the outputs.
+    """
+
+    def add_argument(self, *names: Any, **kwargs: Any) -> Any:
+        if names == ("log",):
+            return super().add_argument(
+                "logs",
+                nargs="+",
+                metavar="LOG.csv",
+                help="the logs, one recording each (CSV, as for the command)",
+            )
+        if names and names[0] in _FLEET_OWNED:
+            return None
+        return super().add_argument(*names, **kwargs)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds ``identify`` and ``offline`` with their own options and the fleet's."""
+    from drake_dynid.fleet import FLEET_COMMANDS
+
+    commands = parser.add_subparsers(
+        dest="fleet_command", metavar="COMMAND", parser_class=_FleetParser
+    )
+    for name in FLEET_COMMANDS:
+        module = importlib.import_module(f"drake_dynid.commands.{name}")
+        sub = commands.add_parser(
+            name,
+            help=f"dynid {name} over many logs",
+            description=f"dynid {name} over many logs: {module.HELP}.",
+        )
+        module.add_arguments(sub)
+        fleet = sub.add_argument_group("fleet")
+        fleet.add_argument(
+            "--out-dir",
+            required=True,
+            metavar="DIR",
+            help="folder of the results: <log name>.json per log and summary.json",
+        )
+        fleet.add_argument(
+            "--jobs",
+            type=int,
+            metavar="N",
+            help="local worker processes (default: the CPU count); 1 runs the logs "
+            "one after the other in this process",
+        )
+        fleet.add_argument(
+            "--scheduler",
+            metavar="ADDRESS",
+            help="run on this Dask distributed scheduler (e.g. tcp://host:8786) "
+            "instead of local processes",
+        )
+        fleet.add_argument(
+            "--quiet", action="store_true", help="print nothing on stdout"
+        )
+
+
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    """The command's options: everything but the fleet's own and the dispatch."""
+    skip = {
+        "command",
+        "fleet_command",
+        "logs",
+        "out_dir",
+        "jobs",
+        "scheduler",
+        "quiet",
+        "threads",
+        "_run",
+    }
+    return {k: v for k, v in vars(args).items() if k not in skip}
+
+
+def summary_table(items: list[dict[str, Any]]) -> list[str]:
+    """The markdown summary: log, status, valid, condition number, time, JSON."""
+    lines = [
+        "| log | status | valid | condition | time [s] | result |",
+        "|---|---|---|---:|---:|---|",
+    ]
+    for item in items:
+        condition = item.get("condition_number")
+        cond = f"{condition:.3g}" if isinstance(condition, int | float) else ""
+        valid = "" if item.get("valid") is None else str(bool(item["valid"])).lower()
+        result = item["json"] if item["status"] == "ok" else item["message"]
+        result = result.strip().splitlines()[-1] if result.strip() else ""
+        lines.append(
+            f"| {item['log']} | {item['status']} | {valid} | {cond} | "
+            f"{item['seconds']:.2f} | {result} |"
+        )
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    """Runs the command over the logs; prints the summary; exit 2 if a log failed."""
+    import json
+    from pathlib import Path
+
+    from drake_dynid.fleet import run_fleet
+
+    if args.fleet_command is None:
+        raise ValueError("choose the command: dynid fleet identify|offline LOGS ...")
+    given = [opt for opt, name in _PER_LOG_OUTPUTS if getattr(args, name, None)]
+    if given:
+        raise ValueError(
+            f"{', '.join(given)} would write one file for every log; a fleet writes "
+            "each log's results in --out-dir (its JSON)."
+        )
+    quiet = bool(args.quiet)
+
+    def progress(item: dict[str, Any], done: int, total: int) -> None:
+        if not quiet:
+            print(
+                f"[{done}/{total}] {item['log']}: {item['status']} "
+                f"({item['seconds']:.1f} s)",
+                flush=True,
+            )
+        if item["status"] == "internal error":
+            print(item["message"], file=sys.stderr)
+
+    items = run_fleet(
+        args.fleet_command,
+        _options(args),
+        args.logs,
+        args.out_dir,
+        jobs=args.jobs,
+        scheduler=args.scheduler,
+        progress=progress,
+    )
+    summary = Path(args.out_dir) / "summary.json"
+    summary.write_text(json.dumps(items, indent=2) + "\n", encoding="utf-8")
+    if not quiet:
+        print()
+        for line in summary_table(items):
+            print(line)
+        print(f"wrote {summary}")
+    failed = [item for item in items if item["status"] != "ok"]
+    if failed:
+        raise ValueError(
+            f"{len(failed)} of {len(items)} logs failed (first: {failed[0]['log']}: "
+            f"{failed[0]['message'].strip().splitlines()[-1]}); see {summary}."
+        )
+    return 0

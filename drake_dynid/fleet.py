@@ -1,0 +1,208 @@
+"""Many logs through one ``dynid`` command: local processes or a Dask cluster.
+
+A fleet of robots, a parameter study, a day of recordings: :func:`run_fleet` runs
+``dynid identify`` or ``dynid offline`` on each log with the same options, each
+writing its own JSON, in parallel:
+
+* by default on this machine, in a ``concurrent.futures.ProcessPoolExecutor`` of
+  ``jobs`` worker processes (spawned: each worker imports drake_dynid and pydrake
+  once, and inherits ``dynid``'s one-thread BLAS settings,
+  ``drake_dynid.core._threads``); ``jobs=1`` runs the logs one after the other
+  in this process;
+* with ``scheduler`` (the address of a Dask ``distributed`` scheduler, e.g.
+  ``tcp://10.0.0.5:8786``), on that cluster: Dask is the Python ecosystem's
+  engine for distributing Python functions over machines, and an optional
+  dependency (``pip install drake-dynid[fleet]``); it is imported only then.
+
+Each task (:func:`run_one`) is independent: it loads the URDF and the log, runs
+the command's own ``run`` with ``--json`` set to its output and ``--quiet``, and
+returns a one-line summary (:class:`FleetItem` as a dict, so that it crosses
+process and network boundaries). A bad log (``ValueError``/``OSError``: the
+message the command would print) fails its item only; a bug is reported with its
+traceback in the item.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import multiprocessing
+import os
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FLEET_COMMANDS", "output_paths", "run_fleet", "run_one"]
+
+#: The commands a fleet runs (each has ``run(args)`` and a ``--json`` output).
+FLEET_COMMANDS = ("identify", "offline")
+
+
+def output_paths(logs: Sequence[str], out_dir: str | os.PathLike) -> list[str]:
+    """One JSON path per log in ``out_dir``: ``<stem>.json``, ``<stem>-2.json``, ...
+
+    Raises:
+        ValueError: an output path is one of the logs (never overwrite an input).
+    """
+    folder = Path(out_dir)
+    used: dict[str, int] = {}
+    out = []
+    for log in logs:
+        stem = Path(log).stem or "log"
+        used[stem] = used.get(stem, 0) + 1
+        name = stem if used[stem] == 1 else f"{stem}-{used[stem]}"
+        out.append(str(folder / f"{name}.json"))
+    inputs = {Path(log).resolve() for log in logs}
+    for path in out:
+        if Path(path).resolve() in inputs:
+            raise ValueError(
+                f"fleet: the output {path} is one of the logs; an output never "
+                "overwrites an input: choose another --out-dir."
+            )
+    return out
+
+
+def run_one(
+    command: str, options: dict[str, Any], log: str, json_path: str
+) -> dict[str, Any]:
+    """Runs ``dynid COMMAND`` on one log; returns its summary (never raises).
+
+    Args:
+        command: ``"identify"`` or ``"offline"``.
+        options: the command's parsed options (``argparse.Namespace`` as a dict),
+            the same for every log; ``log``, ``json`` and ``quiet`` are set here.
+        log: the log file.
+        json_path: where the command writes its JSON.
+
+    Returns:
+        ``{"log", "json", "status" ("ok", "bad input" or "internal error"),
+        "message", "seconds", "valid", "condition_number", "model"}``.
+    """
+    from drake_dynid.core._threads import configure_process
+
+    configure_process()  # a Dask worker may not have been started by dynid
+    start = time.perf_counter()
+    item: dict[str, Any] = {
+        "log": log,
+        "json": json_path,
+        "status": "ok",
+        "message": "",
+        "valid": None,
+        "condition_number": None,
+        "model": None,
+    }
+    args = argparse.Namespace(**options)
+    args.log, args.json, args.quiet = log, json_path, True
+    try:
+        module = importlib.import_module(f"drake_dynid.commands.{command}")
+        module.run(args)
+        with open(json_path, encoding="utf-8") as stream:
+            document = json.load(stream)
+        for key in ("valid", "condition_number", "model"):
+            item[key] = document.get(key)
+    except (ValueError, OSError) as error:
+        item["status"], item["message"] = "bad input", str(error)
+    except Exception:  # a bug: keep the traceback, go on with the other logs
+        item["status"], item["message"] = "internal error", traceback.format_exc()
+    item["seconds"] = time.perf_counter() - start
+    return item
+
+
+def run_fleet(
+    command: str,
+    options: dict[str, Any],
+    logs: Sequence[str],
+    out_dir: str | os.PathLike,
+    *,
+    jobs: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict[str, Any], int, int], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Runs ``dynid COMMAND`` on every log; one JSON per log in ``out_dir``.
+
+    Args:
+        command: ``"identify"`` or ``"offline"``.
+        options: the command's options as a dict (see :func:`run_one`).
+        logs: the log files (one recording each).
+        out_dir: folder of the JSON outputs (created if needed).
+        jobs: local worker processes (default: the CPU count, at most the number
+            of logs); 1 runs in this process. Ignored with ``scheduler``.
+        scheduler: address of a Dask ``distributed`` scheduler; None: local.
+        progress: called with (item, done, total) as each log finishes.
+
+    Returns:
+        The items of :func:`run_one`, in the order of ``logs``.
+
+    Raises:
+        ValueError: an unknown command, no log, ``jobs`` < 1, an output that is an
+            input, or Dask not installed when ``scheduler`` is given.
+    """
+    if command not in FLEET_COMMANDS:
+        raise ValueError(
+            f"fleet: command must be one of {', '.join(FLEET_COMMANDS)}; got "
+            f"{command!r}."
+        )
+    logs = [str(log) for log in logs]
+    if not logs:
+        raise ValueError("fleet: no log given.")
+    if jobs is not None and jobs < 1:
+        raise ValueError(f"fleet: jobs must be >= 1; got {jobs}.")
+    paths = output_paths(logs, out_dir)
+    Path(out_dir).mkdir(parents=True, exist_ok=True)
+    tasks = [
+        (command, options, log, path) for log, path in zip(logs, paths, strict=True)
+    ]
+    results: list[dict[str, Any] | None] = [None] * len(tasks)
+
+    def done(index: int, item: dict[str, Any]) -> None:
+        results[index] = item
+        if progress is not None:
+            progress(item, sum(r is not None for r in results), len(tasks))
+
+    if scheduler is not None:
+        _run_on_dask(scheduler, tasks, done)
+    else:
+        workers = min(jobs or os.cpu_count() or 1, len(tasks))
+        if workers == 1:
+            for index, task in enumerate(tasks):
+                done(index, run_one(*task))
+        else:
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(workers, mp_context=context) as pool:
+                futures = {
+                    pool.submit(run_one, *task): i for i, task in enumerate(tasks)
+                }
+                for future in as_completed(futures):
+                    done(futures[future], future.result())
+    return [item for item in results if item is not None]
+
+
+def _run_on_dask(
+    scheduler: str, tasks: list[tuple], done: Callable[[int, dict[str, Any]], None]
+) -> None:
+    """Submits every task to the Dask scheduler and collects them as they finish."""
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise ValueError(
+            "fleet: --scheduler needs Dask's distributed package: pip install "
+            "'drake-dynid[fleet]'."
+        ) from None
+    try:
+        client = Client(scheduler, timeout=30)
+    except OSError as error:
+        raise OSError(
+            f"fleet: cannot reach the Dask scheduler {scheduler}: {error}"
+        ) from None
+    try:
+        futures = [client.submit(run_one, *task, pure=False) for task in tasks]
+        index = {future.key: k for k, future in enumerate(futures)}
+        for future in dask_completed(futures):
+            done(index[future.key], future.result())
+    finally:
+        client.close()

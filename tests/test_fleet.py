@@ -1,0 +1,109 @@
+"""``dynid fleet``: many logs, one JSON each, equal to the single-log command.
+
+Logs: random Fourier motions of the 2R arm (numpy default_rng(1) and (2)), τ from
+its inverse-dynamics rows with the URDF's base values plus 1 % noise
+(default_rng(0)), written as CSV logs. The Dask test runs an in-process cluster
+(``distributed.LocalCluster(processes=False)``, one worker thread).
+"""
+
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.logs import write_log
+from drake_dynid.plants import RobotModel, model_path
+
+URDF = str(model_path("planar_2r"))
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("logs")
+    robot = RobotModel.from_urdf(URDF)
+    paths = []
+    for seed in (1, 2):
+        trajectory = random_fourier_trajectory(
+            2,
+            harmonics=5,
+            base_frequency=2 * np.pi / 10.0,
+            max_velocity=4.0,
+            rng=np.random.default_rng(seed),
+        )
+        t = 1e-3 * np.arange(12001)
+        q, v, vdot = trajectory.evaluate(t)
+        tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+        tau += 0.01 * tau.std(axis=0) * np.random.default_rng(0).normal(size=tau.shape)
+        path = folder / f"robot{seed}.csv"
+        write_log(path, t, q, tau, robot.joint_names)
+        paths.append(str(path))
+    return paths
+
+
+def _parameters(path):
+    document = json.loads(pathlib.Path(path).read_text(encoding="utf-8"))
+    return {p["name"]: p["value"] for p in document["parameters"]}
+
+
+def _single(command, log, out, *options):
+    argv = [command, log, "--urdf", URDF, "--json", str(out), "--quiet", *options]
+    assert cli.main(argv) == 0
+    return _parameters(out)
+
+
+def test_fleet_on_a_local_dask_cluster(logs, tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        argv = ["fleet", "offline", *logs, "--urdf", URDF]
+        argv += ["--out-dir", str(tmp_path / "out")]
+        argv += ["--scheduler", cluster.scheduler_address]
+        assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "| log | status | valid |" in out and out.count("| ok | true |") == 2
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert [item["log"] for item in summary] == logs
+    for log, item in zip(logs, summary, strict=True):
+        assert item["status"] == "ok" and item["valid"] is True
+        single = _single("offline", log, tmp_path / "single.json")
+        assert _parameters(item["json"]) == pytest.approx(single, rel=1e-12)
+
+
+def test_fleet_identify_in_this_process_and_offline_in_two(logs, tmp_path, capsys):
+    options = ["--window", "5", "--urdf", URDF]
+    argv = ["fleet", "identify", *logs, *options, "--out-dir", str(tmp_path / "a")]
+    assert cli.main([*argv, "--jobs", "1", "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
+    first = tmp_path / "a" / "robot1.json"
+    single = _single("identify", logs[0], tmp_path / "single.json", "--window", "5")
+    assert _parameters(first) == pytest.approx(single, rel=1e-12)
+    argv = ["fleet", "offline", *logs, "--urdf", URDF, "--out-dir", str(tmp_path / "b")]
+    assert cli.main([*argv, "--jobs", "2", "--quiet"]) == 0
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == [
+        "robot1.json",
+        "robot2.json",
+        "summary.json",
+    ]
+
+
+def test_fleet_errors(logs, tmp_path, capsys):
+    out_dir = str(tmp_path / "out")
+    base = ["fleet", "offline", "--urdf", URDF, "--out-dir", out_dir, "--jobs", "1"]
+    # A missing log fails alone: the others are done, exit 2 with one line.
+    assert cli.main([*base, logs[0], str(tmp_path / "missing.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "1 of 2 logs failed" in err and "missing.csv: no such file" in err
+    assert (tmp_path / "out" / "robot1.json").exists()
+    # One output file for every log is refused, as is an output onto an input.
+    assert cli.main([*base, logs[0], "--out", str(tmp_path / "x.csv")]) == 2
+    assert "--out would write one file for every log" in capsys.readouterr().err
+    clash = tmp_path / "out" / "robot9.json"
+    clash.write_text("{}")
+    assert cli.main([*base, str(clash)]) == 2
+    assert "never overwrites an input" in capsys.readouterr().err
+    assert cli.main(["fleet"]) == 2  # no command
+    assert "choose the command" in capsys.readouterr().err
