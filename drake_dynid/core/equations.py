@@ -160,7 +160,7 @@ def row_frequencies(bank: FourierBank, m: int) -> tuple[np.ndarray, np.ndarray]:
     centred on ℓ + k/2; the half-step up was the measured best on the 2R benchmark):
     the derivative ġ_ℓ, which multiplies the velocity estimate in every row, has a
     magnitude ∝ ν/T. Used by the frequency-weighted solve
-    (:func:`drake_dynid.core.lsq.solve_frequency_weighted_least_squares`), one
+    (:func:`drake_dynid.core.weighted_lsq.solve_frequency_weighted_least_squares`), one
     noise group per equation j.
 
     Returns:

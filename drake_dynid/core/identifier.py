@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION, solve_window
+from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.weighted_lsq import solve_window
 
 __all__ = ["IdentifierState", "Status", "identifier_init", "identifier_update"]
 
@@ -116,7 +117,7 @@ def identifier_update(
 ) -> IdentifierState:
     """One solve of the sliding identifier: the new state (the old is unchanged).
 
-    ``θ̂ = argmin ‖A θ - B‖`` (``core.lsq.solve_window``: ordinary, or
+    ``θ̂ = argmin ‖A θ - B‖`` (``core.weighted_lsq.solve_window``: ordinary, or
     frequency-weighted when ``weighting`` is given), accepted when A has full rank
     and a condition number (columns scaled to unit norm) <= ``max_condition``;
     otherwise the previous estimate is held (module docstring).
@@ -131,7 +132,7 @@ def identifier_update(
         max_condition: largest accepted scaled condition number.
         names: p parameter names (for the solver's messages).
         noise: the rows' ``core.row_noise.RowNoise`` for the honest σ
-            (``OnlineSettings.row_noise``; ``core.lsq.solve_window``); None:
+            (``OnlineSettings.row_noise``; ``core.weighted_lsq.solve_window``); None:
             Gautier's σ.
     """
     if not window_valid:

@@ -163,7 +163,7 @@ class OnlineSettings:
         weighting: ``"frequency"`` (default): two-step weighted least squares
             whose row weights follow a fitted noise model σ_j²(ν) = a_j + b_j ν²
             per equation j (high-ℓ rows carry more velocity-estimate noise;
-            ``lsq.solve_frequency_weighted_least_squares``); ``"none"``: ordinary
+            ``weighted_lsq.solve_frequency_weighted_least_squares``); ``"none"``: ordinary
             least squares, as in the paper. On the 2R benchmark at 30 dB the
             weighting halves the inertial error (benchmarks/bench_accuracy.py).
     """
@@ -361,7 +361,7 @@ class OnlineSettings:
     def row_weighting(
         self, m: int, bank: Any = None
     ) -> tuple[np.ndarray, np.ndarray] | None:
-        """The solver's ``weighting`` argument (``lsq.solve_window``).
+        """The solver's ``weighting`` argument (``weighted_lsq.solve_window``).
 
         None for ordinary least squares, else ``(row_frequency, row_group)`` of
         the bank's rows (``bank.row_frequencies``).

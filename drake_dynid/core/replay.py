@@ -44,9 +44,10 @@ from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
 from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
-from drake_dynid.core.lsq import LeastSquaresResult, solve_window
+from drake_dynid.core.lsq import LeastSquaresResult
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
 from drake_dynid.core.rows import check_rows, pack_rows
+from drake_dynid.core.weighted_lsq import solve_window
 
 __all__ = [
     "bank_channels",
@@ -301,7 +302,7 @@ def window_estimate(
 
     The window's newest bank sample is the differentiator output at sample
     ``end``; its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h).
-    Same equations and solve as the identifier's (``core.lsq.solve_window`` with
+    Same equations and solve as the identifier's (``core.weighted_lsq.solve_window`` with
     the settings' weighting and ``max_condition``), with
     ``core.equations.direct_fourier_integrals`` instead of the sliding sums.
 

@@ -104,7 +104,7 @@ class SlidingQRIdentifier(LeafSystem):
                 index ν and noise group (model equation j) of each row
                 (``bank.row_frequencies``). Given, every solve is the two-step
                 frequency-weighted one
-                (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
+                (``weighted_lsq.solve_frequency_weighted_least_squares``: OLS, fit
                 σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
                 None: ordinary least squares.
             row_noise: the rows' ``core.row_noise.RowNoise``

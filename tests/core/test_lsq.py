@@ -3,14 +3,22 @@
 import numpy as np
 import pytest
 
+from drake_dynid.core import lsq
 from drake_dynid.core.lsq import (
     DEFAULT_MAX_CONDITION,
-    frequency_noise_weights,
-    solve_frequency_weighted_least_squares,
     solve_least_squares,
     solve_weighted_least_squares,
+)
+from drake_dynid.core.weighted_lsq import (
+    frequency_noise_weights,
+    solve_frequency_weighted_least_squares,
     solve_window,
 )
+
+
+def test_former_import_path_of_the_weighted_solves_still_works():
+    assert lsq.solve_window is solve_window
+    assert lsq.frequency_noise_weights is frequency_noise_weights
 
 NAMES = ("ZZ1R", "ZZ2", "FV1", "FC1")
 
