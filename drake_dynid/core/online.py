@@ -164,8 +164,9 @@ class OnlineSettings:
             whose row weights follow a fitted noise model σ_j²(ν) = a_j + b_j ν²
             per equation j (high-ℓ rows carry more velocity-estimate noise;
             ``weighted_lsq.solve_frequency_weighted_least_squares``);
-            ``"none"``: ordinary least squares, as in the paper. On the 2R benchmark at 30 dB the
-            weighting halves the inertial error (benchmarks/bench_accuracy.py).
+            ``"none"``: ordinary least squares, as in the paper. On the 2R
+            benchmark at 30 dB the weighting halves the inertial error
+            (benchmarks/bench_accuracy.py).
     """
 
     model: str = "lagrangian"

@@ -303,7 +303,8 @@ def window_estimate(
     The window's newest bank sample is the differentiator output at sample
     ``end``; its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h).
     Same equations and solve as the identifier's
-    (``core.weighted_lsq.solve_window`` with the settings' weighting and ``max_condition``), with
+    (``core.weighted_lsq.solve_window`` with the settings' weighting and
+    ``max_condition``), with
     ``core.equations.direct_fourier_integrals`` instead of the sliding sums.
 
     Args:
