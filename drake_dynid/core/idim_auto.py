@@ -73,6 +73,22 @@ _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
 _SPECTRUM_PIECE = 1 << 18  # longest segment whose bandwidth is one periodogram
 
 
+def _position_spectra(
+    owner: str, q: Any, time_step: float
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(fs, f, S)``: the checked positions' Welch spectra (4 s segments)."""
+    time_step = check.positive(owner, "time_step", time_step, "s")
+    q = check.array(owner, "q", q)
+    if q.ndim == 1:
+        q = q[:, None]
+    if q.ndim != 2 or q.shape[0] < 16:
+        check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
+    fs = 1.0 / time_step
+    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
+    f, power = _welch(q, fs, segment)
+    return fs, f, power
+
+
 def auto_cutoff(q: Any, time_step: float) -> float:
     """Automatic Butterworth cutoff f_c [Hz] from the spectrum of the positions.
 
@@ -88,21 +104,12 @@ def auto_cutoff(q: Any, time_step: float) -> float:
     Returns:
         The cutoff [Hz], at least the Welch resolution fs/N_seg.
     """
-    owner = "auto_cutoff"
-    time_step = check.positive(owner, "time_step", time_step, "s")
-    q = check.array(owner, "q", q)
-    if q.ndim == 1:
-        q = q[:, None]
-    if q.ndim != 2 or q.shape[0] < 16:
-        check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
-    fs = 1.0 / time_step
-    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power = _welch(q, fs, segment)
+    fs, f, power = _position_spectra("auto_cutoff", q, time_step)
     resolution = f[1]
     high = f >= 0.25 * fs
     crossover = resolution
     bandwidth = resolution
-    for j in range(q.shape[1]):
+    for j in range(power.shape[1]):
         spectrum = power[:, j]
         floor = float(np.median(spectrum[high]))
         above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
@@ -235,19 +242,10 @@ def noise_limited_cutoff(q: Any, time_step: float) -> float:
         q: (N >= 16, n) finite positions [rad or m].
         time_step: sample period h [s].
     """
-    owner = "noise_limited_cutoff"
-    time_step = check.positive(owner, "time_step", time_step, "s")
-    q = check.array(owner, "q", q)
-    if q.ndim == 1:
-        q = q[:, None]
-    if q.ndim != 2 or q.shape[0] < 16:
-        check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
-    fs = 1.0 / time_step
-    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power = _welch(q, fs, segment)
+    fs, f, power = _position_spectra("noise_limited_cutoff", q, time_step)
     weight = (2.0 * np.pi * f) ** 2
     limit = 0.5 * fs
-    for j in range(q.shape[1]):
+    for j in range(power.shape[1]):
         spectrum = power[:, j]
         floor = float(np.median(spectrum[f >= 0.25 * fs]))
         above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
