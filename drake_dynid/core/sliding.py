@@ -32,6 +32,7 @@ persistent chunked ring).
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -102,17 +103,7 @@ class SlidingState:
         return self.ring.channels
 
     def __deepcopy__(self, memo: dict[int, Any]) -> SlidingState:
-        out = SlidingState(
-            ring=copy.deepcopy(self.ring, memo),
-            sums=self.sums,
-            phase=self.phase,
-            count=self.count,
-            last_invalid=self.last_invalid,
-            since_resync=self.since_resync,
-            resync_every=self.resync_every,
-            peak=self.peak,
-            peak_index=self.peak_index,
-        )
+        out = dataclasses.replace(self, ring=copy.deepcopy(self.ring, memo))
         memo[id(self)] = out
         return out
 
@@ -225,14 +216,11 @@ def sliding_resync(bank: FourierBank, state: SlidingState) -> SlidingState:
     first = state.count - len(window)
     sums = _absolute_sums(bank, window, first)
     peak, peak_index = _window_peaks(window, first)
-    return SlidingState(
-        ring=state.ring,
+    return dataclasses.replace(
+        state,
         sums=_frozen(sums),
         phase=_frozen(_phases(bank, state.count)),
-        count=state.count,
-        last_invalid=state.last_invalid,
         since_resync=0,
-        resync_every=state.resync_every,
         peak=peak,
         peak_index=peak_index,
     )
@@ -299,14 +287,8 @@ def _check_departures(bank: FourierBank, state: SlidingState) -> SlidingState:
     peak, peak_index = _window_peaks(window, oldest)
     if np.any(state.peak[gone] > RESYNC_RATIO * peak[gone]):
         return sliding_resync(bank, state)
-    return SlidingState(
-        ring=state.ring,
-        sums=state.sums,
-        phase=state.phase,
-        count=state.count,
-        last_invalid=state.last_invalid,
-        since_resync=state.since_resync,
-        resync_every=state.resync_every,
+    return dataclasses.replace(
+        state,
         peak=_frozen(np.where(gone, peak, state.peak)),
         peak_index=_frozen(np.where(gone, peak_index, state.peak_index)),
     )
@@ -422,16 +404,14 @@ def sliding_push_many(
     if count >= bank.num_samples or (
         state.resync_every and since >= state.resync_every
     ):
-        new = SlidingState(
-            ring,
-            state.sums,
-            state.phase,
-            new_count,
-            last_invalid,
-            since,
-            state.resync_every,
-            peak,
-            peak_index,
+        new = dataclasses.replace(
+            state,
+            ring=ring,
+            count=new_count,
+            last_invalid=last_invalid,
+            since_resync=since,
+            peak=peak,
+            peak_index=peak_index,
         )
         return sliding_resync(bank, new)
     sums = _absolute_sums(bank, x, state.count)
