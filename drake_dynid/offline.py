@@ -47,7 +47,7 @@ None) are those of :mod:`drake_dynid.core.idim_auto`: f_c where the position
 spectrum meets its noise floor, f_d = min(f_c, 1.5·B), D = floor(0.25·fs/f_d)
 rounded down to a multiple of D1.
 
-The work runs with one BLAS thread (:func:`drake_dynid._threads.thread_limit`;
+The work runs with one BLAS thread (:func:`drake_dynid.core._threads.thread_limit`;
 ``DYNID_THREADS`` changes it).
 """
 
@@ -58,9 +58,9 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid._threads import thread_limit
 from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
+from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
 from drake_dynid.core.idim_auto import (
     DECIMATION_BAND_FACTOR,
