@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -82,14 +81,12 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def validation_split(
-    args: argparse.Namespace, log: Any, robot: Any = None
+    args: argparse.Namespace, log: Any, robot: Any
 ) -> tuple[Any, Any, str]:
     """(log to fit, log to validate or None, its description) from the options.
 
     ``--validate`` files are read like the fitted log (``robot``'s drive chain).
     """
-    from drake_dynid.validation import split_log
-
     split = getattr(args, "split", None)
     other = getattr(args, "validate", None)
     if split is not None and other:
@@ -102,19 +99,12 @@ def validation_split(
         first, rest = split_log(log, split)
         return first, rest, f"{args.log} after the first {100 * split:g} %"
     if other:
-        if robot is None:
-            from drake_dynid.logs import read_log
-
-            held = read_log(other, log.joint_names, resample=args.resample)
-            for warning in held.warnings:
-                print(f"dynid: warning: log {other}: {warning}", file=sys.stderr)
-        else:
-            held = read_robot_log(
-                log_files(args, "validate"),
-                robot,
-                resample=args.resample,
-                command=getattr(args, "command", "dynid"),
-            )
+        held = read_robot_log(
+            log_files(args, "validate"),
+            robot,
+            resample=args.resample,
+            command=getattr(args, "command", "dynid"),
+        )
         return log, held, str(other)
     return log, None, ""
 
