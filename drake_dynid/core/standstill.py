@@ -35,7 +35,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core.idim import (
@@ -82,6 +81,8 @@ def velocity_noise(
     Raises:
         ValueError: no run long enough, or a cutoff not in (0, Nyquist).
     """
+    from scipy import signal  # only here: RobotModel imports this module
+
     time_step = check.positive(_OWNER, "time_step", time_step, "s")
     cutoff_hz = check.positive(_OWNER, "cutoff_hz", cutoff_hz, "Hz")
     band_cutoff_hz = check.positive(_OWNER, "band_cutoff_hz", band_cutoff_hz, "Hz")
