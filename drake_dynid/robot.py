@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
-from drake_dynid.core.friction import check_friction
+from drake_dynid.core.friction import check_coulomb_width, check_friction
 from drake_dynid.core.joint_map import JointMap
 from drake_dynid.core.kinematics import KinematicTree
 from drake_dynid.core.planar2r import Planar2RRows
@@ -91,6 +91,9 @@ class RobotModel(RobotRows):
             move with an identified leader (q = multiplier·q_leader + offset).
         notes: one-line remarks made while loading (joints treated as actuated,
             Drake's parser warnings summarised, an unclear rank decision).
+        coulomb_width: width ε of the Coulomb law of the friction columns
+            [rad/s or m/s]: s(v) = tanh(v/ε) when ε > 0, sign(v) when 0 (default).
+            Every row (on-line and off-line) uses the same law (:attr:`sign`).
     """
 
     plant: Any
@@ -109,6 +112,7 @@ class RobotModel(RobotRows):
         default_factory=lambda: MappingProxyType({})
     )
     notes: tuple[str, ...] = ()
+    coulomb_width: float = 0.0
     _map: JointMap = field(repr=False, default=None)  # type: ignore[assignment]
     _chain: KinematicTree = field(repr=False, default=None)  # type: ignore[assignment]
     _link_bodies: tuple[Any, ...] = field(repr=False, default=())
@@ -128,6 +132,7 @@ class RobotModel(RobotRows):
         seed: int = 0,
         joints: Sequence[str] | None = None,
         locked: Mapping[str, float] | None = None,
+        coulomb_width: float = 0.0,
     ) -> RobotModel:
         """Loads a URDF (see :func:`drake_dynid.urdf.load_plant`) and its parameters.
 
@@ -153,6 +158,8 @@ class RobotModel(RobotRows):
             locked: ``{joint: position [rad or m]}`` for joints that are not
                 identified; the other ones are locked at 0. A mimic joint follows
                 its leader (``<mimic>``: q = multiplier·q_leader + offset).
+            coulomb_width: ε >= 0 of the smooth Coulomb law tanh(v/ε) of the
+                friction columns [rad/s or m/s]; 0 (default): sign(v).
 
         Raises:
             ValueError: the loader's errors, an unknown joint name (the message
@@ -174,6 +181,7 @@ class RobotModel(RobotRows):
             locked=locked,
             mimic=read_urdf_mimic(path),
             notes=loaded.notes,
+            coulomb_width=coulomb_width,
         )
 
     @classmethod
@@ -191,6 +199,7 @@ class RobotModel(RobotRows):
         locked: Mapping[str, float] | None = None,
         mimic: Mapping[str, tuple[str, float, float]] | None = None,
         notes: Sequence[str] = (),
+        coulomb_width: float = 0.0,
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -198,10 +207,11 @@ class RobotModel(RobotRows):
         store them); the viscous values are the joints' default damping.
         ``joints``, ``locked`` and ``mimic`` (``{joint: (leader, multiplier,
         offset)}``, see :func:`drake_dynid.urdf.read_urdf_mimic`) choose the
-        identified joints as in :meth:`from_urdf`.
+        identified joints as in :meth:`from_urdf`; ``coulomb_width`` as there.
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
+        coulomb_width = check_coulomb_width(owner, coulomb_width)
         if kinematics not in _KINEMATICS:
             raise ValueError(
                 f"{owner}: kinematics must be one of {', '.join(_KINEMATICS)}; got "
@@ -235,6 +245,7 @@ class RobotModel(RobotRows):
             locked=jmap.locked,
             mimic=jmap.mimic,
             notes=tuple(notes),
+            coulomb_width=coulomb_width,
             _map=jmap,
             _chain=tree.chain,
             _link_bodies=tuple(joint.child_body() for joint in moving),
@@ -319,7 +330,11 @@ class RobotModel(RobotRows):
         length_squared = self.base.definitions[0].get("M2", 0.0)
         if length_squared <= 0.0:
             return self
-        fast = Planar2RRows(L1=math.sqrt(length_squared), friction=self.friction)
+        fast = Planar2RRows(
+            L1=math.sqrt(length_squared),
+            friction=self.friction,
+            coulomb_width=self.coulomb_width,
+        )
         if fast.names != self.base.names:
             return self
         rng = np.random.default_rng(12345)

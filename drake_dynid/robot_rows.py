@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.core.friction import friction_idim_columns
+from drake_dynid.core.friction import SignLaw, friction_idim_columns, sign_law
 from drake_dynid.core.rigid_body import (
     energy_blocks,
     idim_blocks,
@@ -35,8 +35,8 @@ class RobotRows:
     """Row methods of ``RobotModel`` (see the module docstring).
 
     Uses the model's ``joint_names``, ``links``, ``mimic``, ``gravity``,
-    ``friction``, ``rotor_inertia``, ``standard_names``, ``base``, ``kinematics``,
-    ``plant`` and its private tree and joint map.
+    ``friction``, ``coulomb_width``, ``rotor_inertia``, ``standard_names``,
+    ``base``, ``kinematics``, ``plant`` and its private tree and joint map.
     """
 
     # Provided by RobotModel (a frozen dataclass).
@@ -49,6 +49,7 @@ class RobotRows:
     plant: Any
     rotor_inertia: bool
     standard_names: tuple[str, ...]
+    coulomb_width: float
     _chain: Any
     _joint_frames: tuple[Any, ...]
     _link_bodies: tuple[Any, ...]
@@ -56,6 +57,15 @@ class RobotRows:
     joint_names: tuple[str, ...]
 
     # ---------------------------------------------------------------- sizes, maps
+    @property
+    def sign(self) -> SignLaw:
+        """The Coulomb law s of the friction columns: the sign of v, or tanh(v/ε).
+
+        ε = ``coulomb_width`` [rad/s or m/s] (0: the exact sign); every row uses it
+        (docs/MATH.md §2).
+        """
+        return sign_law(self.coulomb_width)
+
     @property
     def _block(self) -> int:
         """Standard columns per identified link: 10 inertial (+ IAj)."""
@@ -187,7 +197,9 @@ class RobotRows:
             self._reduce_joints(rows),
             np.eye(self.num_joints)[None] * vdot[:, None, :],
         )
-        out[..., self._friction_slice()] = friction_idim_columns(v, self.friction)
+        out[..., self._friction_slice()] = friction_idim_columns(
+            v, self.friction, self.sign
+        )
         return out
 
     def _columns(self, rows: np.ndarray, columns: str) -> np.ndarray:
@@ -242,7 +254,8 @@ class RobotRows:
     def idim_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
         """Inverse-dynamics rows W(q, v, v̇), shape ``(N, n, p)``: τ = W·θ [N·m, N].
 
-        Includes gravity and the friction columns v_j, sign v_j, 1 (joint j's row);
+        Includes gravity and the friction columns v_j, s(v_j), 1 (joint j's row;
+        s = sign, or tanh(v/ε) with ``coulomb_width`` ε);
         equals ``CalcInverseDynamics`` (gravity as a force element) + friction.
         """
         q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
@@ -267,7 +280,7 @@ class RobotRows:
         * ``"power"`` (m = 1): D = h = h_E + h_U, G = friction power
           [v_j², |v_j|, v_j] in the friction columns, y = vᵀτ [W].
         * ``"lagrangian"`` (m = n): D = ∂h_E/∂v, G = ∂h_U/∂q - ∂h_E/∂q + friction
-          [v_i, sign v_i, 1] in joint i's columns, y = τ [N·m, N].
+          [v_i, s(v_i), 1] in joint i's columns, y = τ [N·m, N] (s: :attr:`sign`).
 
         Args:
             kind: ``"power"`` or ``"lagrangian"``.
@@ -309,6 +322,7 @@ class RobotRows:
             fslice,
             self.friction,
             self.num_parameters,
+            self.sign,
         )
         return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
 

@@ -294,6 +294,8 @@ def run(args: argparse.Namespace) -> int:
             f"{len(settings.ell())} modulating functions; latency "
             f"{trace.delay:.4g} s"
         )
+        if robot.coulomb_width > 0.0:
+            print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g}), --coulomb-width")
         if band_measured:
             print(
                 f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
@@ -330,6 +332,7 @@ def run(args: argparse.Namespace) -> int:
             "settings": {
                 **settings.as_dict(),
                 "friction": list(robot.friction),
+                "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
                 "bandwidth_measured": band_measured,
                 "engine": args.engine,

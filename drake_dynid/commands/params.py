@@ -154,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
             "urdf": str(args.urdf),
             "settings": {
                 "friction": list(model.friction),
+                "coulomb_width": model.coulomb_width,
                 "rotor_inertia": model.rotor_inertia,
                 "gravity": model.gravity.tolist(),
             },
