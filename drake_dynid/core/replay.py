@@ -41,7 +41,8 @@ from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
 from drake_dynid.core.lsq import LeastSquaresResult, solve_window
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
-from drake_dynid.core.rows import check_rows, pack_rows
+from drake_dynid.core.raw_rows import raw_channels_batch
+from drake_dynid.core.rows import check_rows, num_channels, pack_rows
 
 __all__ = [
     "bank_channels",
@@ -102,16 +103,28 @@ def _replay_one(
     names = tuple(rows.names)
     weighting = entry.row_weighting(m, bank)
 
-    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j.
+    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j
+    # (filtered rows) or the mean rows of the raw samples j - D + 1 .. j (raw rows,
+    # read from the differentiator's ring: valid once the ring is full, invalid
+    # when a sample read is not finite, as in the blocks).
     bank_times = np.arange(0, count, decimation)
-    channels = bank_channels(
-        rows,
-        entry.model,
-        q_hat[bank_times],
-        v_hat[bank_times],
-        tau_hat[bank_times],
-    )
-    sample_valid = jacobi_ok[bank_times]
+    if entry.rows_from == "raw":
+        full = bank_times + 1 >= entry.jacobi_filters(h)[0].num_taps
+        channels = np.zeros((bank_times.size, num_channels(m, p)))
+        if full.any():
+            channels[full] = raw_channels_batch(
+                entry.raw_design(h), rows, entry.model, log.q, log.tau, bank_times[full]
+            )
+        sample_valid = full & np.isfinite(channels).all(axis=1)
+    else:
+        channels = bank_channels(
+            rows,
+            entry.model,
+            q_hat[bank_times],
+            v_hat[bank_times],
+            tau_hat[bank_times],
+        )
+        sample_valid = jacobi_ok[bank_times]
 
     # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
     # <= count.
@@ -159,7 +172,8 @@ def _replay_one(
         std=std,
         condition_number=condition,
         valid=valid,
-        delay=jacobi_delay + SOLVE_OFFSET * h,
+        delay=(entry.delay(h) if entry.rows_from == "raw" else jacobi_delay)
+        + SOLVE_OFFSET * h,
         status=status,
         unidentified=unidentified,
     )
