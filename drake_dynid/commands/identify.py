@@ -52,6 +52,7 @@ _SETTING_OPTIONS = {
     "update_period": "update_period",
     "max_condition": "max_condition",
     "weighting": "weighting",
+    "raw_window": "raw_window",
 }
 
 
@@ -89,11 +90,13 @@ def online_settings(
     args: argparse.Namespace,
     bandwidth: float | None = None,
     time_step: float | None = None,
+    rows_from: str | None = None,
 ) -> Any:
     """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
 
     ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
-    ``--bandwidth`` nor ``--frequencies`` is given. With the log's ``time_step``
+    ``--bandwidth`` nor ``--frequencies`` is given; ``rows_from`` (chosen on the
+    log) is used when ``--rows-from`` is ``auto``. With the log's ``time_step``
     [s] the settings are put on its grid (``OnlineSettings.on_grid``) and the bank
     design is checked.
     """
@@ -109,6 +112,10 @@ def online_settings(
         kwargs["frequencies"] = frequencies
     if bandwidth is not None and "bandwidth" not in kwargs:
         kwargs["bandwidth"] = bandwidth
+    if args.rows_from != "auto":
+        kwargs["rows_from"] = args.rows_from
+    elif rows_from is not None:
+        kwargs["rows_from"] = rows_from
     model = kwargs.pop("model", "lagrangian")
     settings = OnlineSettings.for_model(model, **kwargs)
     settings.ell()  # check the ℓ set now, with its message
@@ -116,6 +123,17 @@ def online_settings(
         settings = settings.on_grid(time_step)
         settings.bank()  # check the window and the bank step, with their message
     return settings
+
+
+def _longest_run(log: Any, minimum: int, what: str, override: str) -> Any:
+    """The positions of the longest run of finite samples (>= ``minimum``)."""
+    start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
+    if stop - start < minimum:
+        raise ValueError(
+            f"cannot measure {what}: no run of {minimum} finite samples in the log; "
+            f"give {override}."
+        )
+    return log.q[start:stop]
 
 
 def measured_bandwidth(log: Any, window: float) -> float:
@@ -127,14 +145,22 @@ def measured_bandwidth(log: Any, window: float) -> float:
     """
     from drake_dynid.core.excitation import estimate_bandwidth
 
-    start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
-    q = log.q[start:stop]
-    if q.shape[0] < 16:
-        raise ValueError(
-            "cannot measure the excitation band: no run of 16 finite samples in the "
-            "log; give --bandwidth or --frequencies."
-        )
+    q = _longest_run(log, 16, "the excitation band", "--bandwidth or --frequencies")
     return max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
+
+
+def measured_rows_from(log: Any, raw_window: float) -> tuple[str, float]:
+    """``(rows_from, ratio)`` for ``--rows-from auto`` (``core.raw_rows``).
+
+    The raw rows when the position noise measured on the longest run of finite
+    samples gives their velocity estimate a noise of at most
+    ``RAW_NOISE_RATIO`` of the RMS velocity (``rows_from_noise``), else the
+    filtered rows.
+    """
+    from drake_dynid.core.raw_rows import rows_from_noise
+
+    q = _longest_run(log, 64, "the position noise", "--rows-from filtered or raw")
+    return rows_from_noise(q, log.time_step, raw_window)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -201,6 +227,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "modulating frequency; 'none': ordinary least squares (the paper)",
     )
     group.add_argument(
+        "--rows-from",
+        choices=("auto", "filtered", "raw"),
+        default="auto",
+        help="signals of the model rows: 'filtered' (the matched-filtered q, v, "
+        "tau: least noise, but the filter biases the nonlinear terms, e.g. the "
+        "Coulomb sign), 'raw' (rows of the raw q, tau and a central velocity "
+        "estimate, averaged over each bank step: no filter bias, for a low "
+        "position noise), 'auto' (default): raw when the position noise measured "
+        "on the log gives the raw velocity a noise below 1.5 %% of the RMS "
+        "velocity",
+    )
+    group.add_argument(
+        "--raw-window",
+        type=float,
+        metavar="S",
+        help="window of the raw rows' central velocity estimate [s] (default 0.2; "
+        "raw_window + bank step <= jacobi window)",
+    )
+    group.add_argument(
         "--engine",
         choices=("core", "blocks"),
         default="core",
@@ -253,6 +298,13 @@ def run(args: argparse.Namespace) -> int:
     )
     bandwidth = measured_bandwidth(log, settings.window) if band_measured else None
     settings = online_settings(args, bandwidth, log.time_step)
+    rows_measured = args.rows_from == "auto"
+    noise_ratio = None
+    if rows_measured:  # with the raw window resolved on the log's grid
+        rows_from, noise_ratio = measured_rows_from(
+            log, settings.resolved("raw_window")
+        )
+        settings = online_settings(args, bandwidth, log.time_step, rows_from)
     needed = settings.window + settings.jacobi_window
     if log.duration <= needed:
         raise ValueError(
@@ -301,6 +353,15 @@ def run(args: argparse.Namespace) -> int:
                 f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
                 "99 % of the velocity power; --bandwidth to override)"
             )
+        if noise_ratio is not None:
+            from drake_dynid.core.raw_rows import RAW_NOISE_RATIO
+
+            print(
+                f"rows: {settings.rows_from} (raw velocity noise "
+                f"{100 * noise_ratio:.3g} % of the RMS velocity, measured on the "
+                f"log; raw up to {100 * RAW_NOISE_RATIO:g} %; --rows-from to "
+                "override)"
+            )
         print()
         for line in estimates_table(trace.names, theta, std):
             print(line)
@@ -335,6 +396,10 @@ def run(args: argparse.Namespace) -> int:
                 "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
                 "bandwidth_measured": band_measured,
+                "rows_from_measured": rows_measured,
+                "raw_noise_ratio": json_number(noise_ratio)
+                if noise_ratio is not None
+                else None,
                 "engine": args.engine,
             },
             "urdf": str(args.urdf),

@@ -31,6 +31,7 @@ from the newest samples of the differentiator's ring (the ``RawModelRows`` block
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,18 +44,28 @@ from drake_dynid.core.rows import num_channels, num_equations, pack_rows
 
 __all__ = [
     "RAW_KAPPA",
+    "RAW_NOISE_RATIO",
     "RAW_Q",
     "RawRowsDesign",
     "raw_channels",
     "raw_channels_batch",
     "raw_rows_design",
     "raw_signals",
+    "rows_from_noise",
 ]
 
 #: Shape of the central velocity estimator: κ = μ = 1, q = 2, ξ = 1/2 (exact for
 #: degree 4; on the 7-DOF benchmark q = 0 leaves 0.4 % of bias at a 0.1 s window).
 RAW_KAPPA = 1.0
 RAW_Q = 2
+
+#: The raw rows are chosen (:func:`rows_from_noise`) when the noise of their velocity
+#: estimate is at most this fraction of the RMS velocity on every joint. Measured
+#: (benchmarks/bench_accuracy.py, final estimates, 3-8 noise seeds): raw rows win
+#: at ratios up to 0.0085 (iiwa7: 0.8 % vs 2.1 % median error) and 0.047 (2R, 1 Hz
+#: trajectory), tie at 0.011 and lose at 0.026 (iiwa7) and 0.036 (2R paper
+#: trajectory: 2.7 % vs 2.2 % friction error).
+RAW_NOISE_RATIO = 0.015
 
 _CHUNK = 4096  # samples per batch call of the rows in raw_channels_batch
 
@@ -231,3 +242,35 @@ def raw_channels_batch(
             )
         )
     return np.concatenate(out, axis=0)
+
+
+def rows_from_noise(
+    q: Any, time_step: float, raw_window: float = 0.2
+) -> tuple[str, float]:
+    """``("raw" | "filtered", ratio)``: the rows a log's position noise calls for.
+
+    ``ratio = max_j σ_j·‖c‖₂ / v_rms,j``: σ_j the white position noise of joint j
+    (``core.excitation.position_noise_std``), ‖c‖₂ the noise gain of the raw
+    rows' central velocity estimator of window ``raw_window`` [1/s], v_rms,j the
+    RMS velocity of the motion (``core.excitation.velocity_rms``). The raw rows
+    (no filter bias) when ``ratio <= RAW_NOISE_RATIO``, else the filtered rows
+    (less velocity noise in the nonlinear terms). Joints that do not move are
+    ignored.
+
+    Args:
+        q: (N, n) positions [rad or m], N >= 64 (noise allowed).
+        time_step: h [s].
+        raw_window: the raw rows' velocity window [s] (rounded to an even
+            multiple of h, at least 2h).
+    """
+    from drake_dynid.core.excitation import position_noise_std, velocity_rms
+
+    h = _validate.positive("rows_from_noise", "time_step", time_step, "s")
+    window = 2 * h * max(1, round(raw_window / (2 * h)))
+    gain = raw_rows_design(window, h, 1).velocity.noise_gain
+    rms = velocity_rms(q, h)
+    moving = rms > 0.0
+    if not moving.any():
+        return "filtered", math.inf
+    ratio = float(np.max(position_noise_std(q, h)[moving] * gain / rms[moving]))
+    return ("raw" if ratio <= RAW_NOISE_RATIO else "filtered"), ratio
