@@ -163,12 +163,12 @@ def filtered(q, tau, s: OnlineSettings):
     return filtered_signals(q, tau, s, H)
 
 
-def online(rows, s: OnlineSettings, signals, end: int):
+def online(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
     """The core's solve of one window (``core.replay.window_estimate``).
 
     The window's newest bank sample is the differentiator output at sample ``end``.
     """
-    res = window_estimate(rows, s, signals, end, H)
+    res = window_estimate(rows, s, q, tau, end, H, signals=signals)
     return res.theta if res.valid else np.full(rows.num_parameters, np.nan)
 
 

@@ -12,7 +12,12 @@ import pytest
 
 from drake_dynid import cli
 from drake_dynid.core.excitation import position_noise_std, velocity_rms
-from drake_dynid.core.raw_rows import RAW_NOISE_RATIO, raw_rows_design, rows_from_noise
+from drake_dynid.core.raw_rows import (
+    RAW_NOISE_COEFFICIENT,
+    raw_noise_threshold,
+    raw_rows_design,
+    rows_from_noise,
+)
 from drake_dynid.logs import write_log
 from drake_dynid.robot import RobotModel
 from drake_dynid.urdf import model_path
@@ -31,16 +36,32 @@ def test_position_noise_and_velocity_rms_are_measured(sigma):
 
 
 def test_rows_follow_the_noise_of_the_raw_velocity():
+    band, window = 0.6, 0.4  # [Hz], [s]
+    limit = raw_noise_threshold(band, window)
+    assert limit == pytest.approx(RAW_NOISE_COEFFICIENT * (2 * np.pi * 0.24) ** 2)
     gain = raw_rows_design(0.2, H, 1).velocity.noise_gain
     slow = 2 * np.pi * 0.3 * 0.5 / np.sqrt(2)  # the slower joint decides
-    threshold = RAW_NOISE_RATIO * slow / gain  # [rad]
+    sigma = limit * slow / gain  # [rad]: the position noise at the threshold
     rng = np.random.default_rng(0)
-    assert rows_from_noise(Q, H) == ("raw", pytest.approx(0.0, abs=1e-9))
-    rows, ratio = rows_from_noise(Q + 0.5 * threshold * rng.standard_normal(Q.shape), H)
-    assert rows == "raw" and ratio == pytest.approx(0.5 * RAW_NOISE_RATIO, rel=0.1)
-    rows, ratio = rows_from_noise(Q + 2 * threshold * rng.standard_normal(Q.shape), H)
-    assert rows == "filtered" and ratio == pytest.approx(2 * RAW_NOISE_RATIO, rel=0.1)
-    assert rows_from_noise(np.zeros((200, 2)), H) == ("filtered", np.inf)
+    options = dict(raw_window=0.2, jacobi_window=window, bandwidth=band)
+    rows, ratio, threshold = rows_from_noise(Q, H, **options)
+    assert rows == "raw" and ratio < 1e-9 and threshold == limit
+    noisy = Q + 0.5 * sigma * rng.standard_normal(Q.shape)
+    rows, ratio, _ = rows_from_noise(noisy, H, **options)
+    assert rows == "raw" and ratio == pytest.approx(0.5 * limit, rel=0.1)
+    noisy = Q + 2.0 * sigma * rng.standard_normal(Q.shape)
+    rows, ratio, _ = rows_from_noise(noisy, H, **options)
+    assert rows == "filtered" and ratio == pytest.approx(2.0 * limit, rel=0.1)
+    # A shorter Jacobi window biases less: the same noise calls for filtered rows.
+    half = rows_from_noise(
+        Q + 0.5 * sigma * rng.standard_normal(Q.shape),
+        H,
+        raw_window=0.2,
+        jacobi_window=0.2,
+        bandwidth=band,
+    )
+    assert half[0] == "filtered"
+    assert rows_from_noise(np.zeros((200, 2)), H, **options)[:2] == ("filtered", np.inf)
 
 
 def test_cli_auto_picks_filtered_rows_on_noisy_positions(tmp_path, capsys):
@@ -58,13 +79,14 @@ def test_cli_auto_picks_filtered_rows_on_noisy_positions(tmp_path, capsys):
     assert "rows: filtered (raw velocity noise" in capsys.readouterr().out
     settings = json.loads(out.read_text())["settings"]
     assert settings["rows_from"] == "filtered" and settings["rows_from_measured"]
-    assert settings["raw_noise_ratio"] > RAW_NOISE_RATIO
+    assert settings["raw_noise_ratio"] > settings["raw_noise_threshold"] > 0
     assert cli.main([*argv, "--rows-from", "raw", "--raw-window", "0.05"]) == 0
     assert "rows:" not in capsys.readouterr().out  # chosen by the user
     settings = json.loads(out.read_text())["settings"]
     assert settings["rows_from"] == "raw" and settings["raw_window"] == 0.05
     assert settings["rows_from_measured"] is False
     assert settings["raw_noise_ratio"] is None
+    assert settings["raw_noise_threshold"] is None
     # A raw window that does not fit the differentiator's ring: exit 2.
     assert cli.main([*argv, "--rows-from", "raw", "--raw-window", "0.2"]) == 2
     assert "raw_window + bank_time_step must be <=" in capsys.readouterr().err
@@ -78,4 +100,4 @@ def test_the_cli_help_states_the_threshold():
     parser = argparse.ArgumentParser()
     identify.add_arguments(parser)
     text = " ".join(parser.format_help().split())
-    assert f"noise below {100 * RAW_NOISE_RATIO:g} % of the RMS velocity" in text
+    assert f"is below {RAW_NOISE_COEFFICIENT:g}·(2π·band·jacobi window)²" in text

@@ -149,18 +149,24 @@ def measured_bandwidth(log: Any, window: float) -> float:
     return max(float(estimate_bandwidth(q, log.time_step)), 2.0 / window)
 
 
-def measured_rows_from(log: Any, raw_window: float) -> tuple[str, float]:
-    """``(rows_from, ratio)`` for ``--rows-from auto`` (``core.raw_rows``).
+def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
+    """``(rows_from, ratio, threshold)`` for ``--rows-from auto``.
 
-    The raw rows when the position noise measured on the longest run of finite
-    samples gives their velocity estimate a noise of at most
-    ``RAW_NOISE_RATIO`` of the RMS velocity (``rows_from_noise``), else the
-    filtered rows.
+    ``core.raw_rows.rows_from_noise`` on the longest run of finite samples, with
+    the settings' raw window, Jacobi window and band: the raw rows when the
+    position noise gives their velocity estimate a noise (relative to the RMS
+    velocity) below the filtered rows' expected bias, else the filtered rows.
     """
     from drake_dynid.core.raw_rows import rows_from_noise
 
     q = _longest_run(log, 64, "the position noise", "--rows-from filtered or raw")
-    return rows_from_noise(q, log.time_step, raw_window)
+    return rows_from_noise(
+        q,
+        log.time_step,
+        raw_window=settings.resolved("raw_window"),
+        jacobi_window=settings.jacobi_window,
+        bandwidth=settings.bandwidth,
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -234,9 +240,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "tau: least noise, but the filter biases the nonlinear terms, e.g. the "
         "Coulomb sign), 'raw' (rows of the raw q, tau and a central velocity "
         "estimate, averaged over each bank step: no filter bias, for a low "
-        "position noise), 'auto' (default): raw when the position noise measured "
-        "on the log gives the raw velocity a noise below 1.5 %% of the RMS "
-        "velocity",
+        "position noise), 'auto' (default): raw when the raw velocity's noise "
+        "(measured on the log, relative to the RMS velocity) is below "
+        "0.008·(2π·band·jacobi window)², the filtered rows' expected bias",
     )
     group.add_argument(
         "--raw-window",
@@ -299,11 +305,9 @@ def run(args: argparse.Namespace) -> int:
     bandwidth = measured_bandwidth(log, settings.window) if band_measured else None
     settings = online_settings(args, bandwidth, log.time_step)
     rows_measured = args.rows_from == "auto"
-    noise_ratio = None
+    noise_ratio = noise_threshold = None
     if rows_measured:  # with the raw window resolved on the log's grid
-        rows_from, noise_ratio = measured_rows_from(
-            log, settings.resolved("raw_window")
-        )
+        rows_from, noise_ratio, noise_threshold = measured_rows_from(log, settings)
         settings = online_settings(args, bandwidth, log.time_step, rows_from)
     needed = settings.window + settings.jacobi_window
     if log.duration <= needed:
@@ -353,14 +357,12 @@ def run(args: argparse.Namespace) -> int:
                 f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
                 "99 % of the velocity power; --bandwidth to override)"
             )
-        if noise_ratio is not None:
-            from drake_dynid.core.raw_rows import RAW_NOISE_RATIO
-
+        if noise_ratio is not None and noise_threshold is not None:
             print(
                 f"rows: {settings.rows_from} (raw velocity noise "
                 f"{100 * noise_ratio:.3g} % of the RMS velocity, measured on the "
-                f"log; raw up to {100 * RAW_NOISE_RATIO:g} %; --rows-from to "
-                "override)"
+                f"log; raw up to {100 * noise_threshold:.3g} % at this band and "
+                "Jacobi window; --rows-from to override)"
             )
         print()
         for line in estimates_table(trace.names, theta, std):
@@ -397,9 +399,12 @@ def run(args: argparse.Namespace) -> int:
                 "resample": bool(args.resample),
                 "bandwidth_measured": band_measured,
                 "rows_from_measured": rows_measured,
-                "raw_noise_ratio": json_number(noise_ratio)
-                if noise_ratio is not None
-                else None,
+                "raw_noise_ratio": None
+                if noise_ratio is None
+                else json_number(noise_ratio),
+                "raw_noise_threshold": None
+                if noise_threshold is None
+                else json_number(noise_threshold),
                 "engine": args.engine,
             },
             "urdf": str(args.urdf),

@@ -44,11 +44,12 @@ from drake_dynid.core.rows import num_channels, num_equations, pack_rows
 
 __all__ = [
     "RAW_KAPPA",
-    "RAW_NOISE_RATIO",
+    "RAW_NOISE_COEFFICIENT",
     "RAW_Q",
     "RawRowsDesign",
     "raw_channels",
     "raw_channels_batch",
+    "raw_noise_threshold",
     "raw_rows_design",
     "raw_signals",
     "rows_from_noise",
@@ -60,12 +61,14 @@ RAW_KAPPA = 1.0
 RAW_Q = 2
 
 #: The raw rows are chosen (:func:`rows_from_noise`) when the noise of their velocity
-#: estimate is at most this fraction of the RMS velocity on every joint. Measured
-#: (benchmarks/bench_accuracy.py, final estimates, 3-8 noise seeds): raw rows win
-#: at ratios up to 0.0085 (iiwa7: 0.8 % vs 2.1 % median error) and 0.047 (2R, 1 Hz
-#: trajectory), tie at 0.011 and lose at 0.026 (iiwa7) and 0.036 (2R paper
-#: trajectory: 2.7 % vs 2.2 % friction error).
-RAW_NOISE_RATIO = 0.015
+#: estimate, relative to the RMS velocity, is at most
+#: ``RAW_NOISE_COEFFICIENT·(2π·B·Tj)²`` (B the excitation band, Tj the Jacobi window:
+#: the filtered rows' bias grows like the square of the filter's width against the
+#: motion). Calibrated on benchmarks/bench_accuracy.py (final estimates, 3-8 noise
+#: seeds; crossover ratio / (2π·B·Tj)²): iiwa7 (B = 0.52 Hz) raw wins at 0.005 and
+#: loses at 0.015; 2R paper trajectory (0.62 Hz) ties at 0.005 and loses at 0.015;
+#: 2R 1 Hz trajectory wins at 0.007.
+RAW_NOISE_COEFFICIENT = 0.008
 
 _CHUNK = 4096  # samples per batch call of the rows in raw_channels_batch
 
@@ -244,33 +247,54 @@ def raw_channels_batch(
     return np.concatenate(out, axis=0)
 
 
+def raw_noise_threshold(bandwidth: float, jacobi_window: float) -> float:
+    """``RAW_NOISE_COEFFICIENT·(2π·B·Tj)²``: the largest raw velocity noise ratio.
+
+    Args:
+        bandwidth: the excitation band B [Hz].
+        jacobi_window: the matched filter's window Tj [s].
+    """
+    owner = "raw_noise_threshold"
+    band = _validate.positive(owner, "bandwidth", bandwidth, "Hz")
+    window = _validate.positive(owner, "jacobi_window", jacobi_window, "s")
+    return RAW_NOISE_COEFFICIENT * (2.0 * math.pi * band * window) ** 2
+
+
 def rows_from_noise(
-    q: Any, time_step: float, raw_window: float = 0.2
-) -> tuple[str, float]:
-    """``("raw" | "filtered", ratio)``: the rows a log's position noise calls for.
+    q: Any,
+    time_step: float,
+    *,
+    raw_window: float,
+    jacobi_window: float,
+    bandwidth: float,
+) -> tuple[str, float, float]:
+    """``(rows_from, ratio, threshold)``: the rows a log's position noise calls for.
 
     ``ratio = max_j σ_j·‖c‖₂ / v_rms,j``: σ_j the white position noise of joint j
     (``core.excitation.position_noise_std``), ‖c‖₂ the noise gain of the raw
     rows' central velocity estimator of window ``raw_window`` [1/s], v_rms,j the
-    RMS velocity of the motion (``core.excitation.velocity_rms``). The raw rows
-    (no filter bias) when ``ratio <= RAW_NOISE_RATIO``, else the filtered rows
-    (less velocity noise in the nonlinear terms). Joints that do not move are
-    ignored.
+    RMS velocity of the motion (``core.excitation.velocity_rms``); joints that do
+    not move are ignored. ``"raw"`` (no filter bias, more velocity noise) when
+    ``ratio <= threshold = raw_noise_threshold(bandwidth, jacobi_window)`` (the
+    filtered rows' bias grows like (2π·B·Tj)²), else ``"filtered"``.
 
     Args:
         q: (N, n) positions [rad or m], N >= 64 (noise allowed).
         time_step: h [s].
         raw_window: the raw rows' velocity window [s] (rounded to an even
             multiple of h, at least 2h).
+        jacobi_window: the matched filter's window Tj [s].
+        bandwidth: the excitation band B [Hz].
     """
     from drake_dynid.core.excitation import position_noise_std, velocity_rms
 
     h = _validate.positive("rows_from_noise", "time_step", time_step, "s")
+    threshold = raw_noise_threshold(bandwidth, jacobi_window)
     window = 2 * h * max(1, round(raw_window / (2 * h)))
     gain = raw_rows_design(window, h, 1).velocity.noise_gain
     rms = velocity_rms(q, h)
     moving = rms > 0.0
     if not moving.any():
-        return "filtered", math.inf
+        return "filtered", math.inf, threshold
     ratio = float(np.max(position_noise_std(q, h)[moving] * gain / rms[moving]))
-    return ("raw" if ratio <= RAW_NOISE_RATIO else "filtered"), ratio
+    return ("raw" if ratio <= threshold else "filtered"), ratio, threshold

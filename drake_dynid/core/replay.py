@@ -26,7 +26,8 @@ smoothed q and τ and the velocity of q), the rows of every decimated sample in 
 batch call of ``rows.model_rows`` (:func:`bank_channels`), the bank's
 ``push_many`` between two solves, and a solve only at the solve times. Cost per
 log sample: a few µs, independent of the window T. :func:`window_estimate` solves
-one window by direct quadrature (the reference the accuracy benchmark uses).
+one window by direct quadrature (the reference the accuracy benchmark uses;
+:func:`window_equations` gives its equations).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ __all__ = [
     "bank_channels",
     "filtered_signals",
     "replay_log_core",
+    "window_equations",
     "window_estimate",
 ]
 
@@ -230,40 +232,76 @@ def replay_log_core(
     return traces
 
 
-def window_estimate(
+def window_equations(
     rows: Any,
     settings: OnlineSettings,
-    signals: Sequence[np.ndarray],
+    q: np.ndarray,
+    tau: np.ndarray,
     end: int,
     time_step: float,
-) -> LeastSquaresResult:
-    """The solve of one window by direct trapezoid quadrature (a reference).
+    *,
+    signals: Sequence[np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The modulated equations ``A θ = B`` of one window, by direct quadrature.
 
-    The window's newest bank sample is the differentiator output at sample
-    ``end``; its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h).
-    Same equations and solve as the identifier's (``core.lsq.solve_window`` with
-    the settings' weighting and ``max_condition``), with
+    The window's newest bank sample is the one pushed at signal sample ``end``;
+    its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h): the
+    filtered rows of the differentiator's outputs there, or the raw rows
+    (``core.raw_rows.raw_channels_batch``), then
     ``core.equations.direct_fourier_integrals`` instead of the sliding sums.
 
     Args:
         rows: row provider.
         settings: the identifier's settings (put on the grid of ``time_step``).
-        signals: ``(q̂, v̂, τ̂, ...)`` from :func:`filtered_signals`.
+        q: (N, n) positions of the log [rad or m].
+        tau: (N, n) torques of the log [N·m or N].
         end: index of the window's newest sample.
         time_step: the signal period h [s].
+        signals: ``(q̂, v̂, τ̂, ...)`` from :func:`filtered_signals` when already
+            computed (filtered rows only).
     """
     s = settings.on_grid(time_step)
-    q_hat, v_hat, tau_hat = signals[:3]
     bank = s.bank()
     index = end - s.decimation(time_step) * np.arange(bank.num_intervals, -1, -1)
-    channels = bank_channels(rows, s.model, q_hat[index], v_hat[index], tau_hat[index])
+    if s.rows_from == "raw":
+        channels = raw_channels_batch(
+            s.raw_design(time_step), rows, s.model, q, tau, index
+        )
+    else:
+        if signals is None:
+            signals = filtered_signals(q, tau, s, time_step)
+        q_hat, v_hat, tau_hat = signals[:3]
+        channels = bank_channels(
+            rows, s.model, q_hat[index], v_hat[index], tau_hat[index]
+        )
     m = s.num_equations(int(rows.num_joints))
     p = int(rows.num_parameters)
-    a, b = assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
+    return assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
+
+
+def window_estimate(
+    rows: Any,
+    settings: OnlineSettings,
+    q: np.ndarray,
+    tau: np.ndarray,
+    end: int,
+    time_step: float,
+    *,
+    signals: Sequence[np.ndarray] | None = None,
+) -> LeastSquaresResult:
+    """The solve of one window by direct trapezoid quadrature (a reference).
+
+    :func:`window_equations`, then the identifier's solve
+    (``core.lsq.solve_window`` with the settings' weighting and
+    ``max_condition``). Arguments as :func:`window_equations`.
+    """
+    s = settings.on_grid(time_step)
+    a, b = window_equations(rows, s, q, tau, end, time_step, signals=signals)
+    m = s.num_equations(int(rows.num_joints))
     return solve_window(
         a,
         b,
-        s.row_weighting(m, bank),
+        s.row_weighting(m),
         max_condition=s.max_condition,
         names=rows.names,
     )
