@@ -240,7 +240,7 @@ def window_equations(
     end: int,
     time_step: float,
     *,
-    signals: Sequence[np.ndarray] | None = None,
+    signals: Sequence[Any] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The modulated equations ``A θ = B`` of one window, by direct quadrature.
 
@@ -268,9 +268,8 @@ def window_equations(
             s.raw_design(time_step), rows, s.model, q, tau, index
         )
     else:
-        if signals is None:
-            signals = filtered_signals(q, tau, s, time_step)
-        q_hat, v_hat, tau_hat = signals[:3]
+        found = filtered_signals(q, tau, s, time_step) if signals is None else signals
+        q_hat, v_hat, tau_hat = found[:3]
         channels = bank_channels(
             rows, s.model, q_hat[index], v_hat[index], tau_hat[index]
         )
@@ -287,7 +286,7 @@ def window_estimate(
     end: int,
     time_step: float,
     *,
-    signals: Sequence[np.ndarray] | None = None,
+    signals: Sequence[Any] | None = None,
 ) -> LeastSquaresResult:
     """The solve of one window by direct trapezoid quadrature (a reference).
 
