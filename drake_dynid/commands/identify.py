@@ -53,6 +53,7 @@ _SETTING_OPTIONS = {
     "max_condition": "max_condition",
     "weighting": "weighting",
     "raw_window": "raw_window",
+    "uncertainty": "uncertainty",
 }
 
 
@@ -231,6 +232,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="least squares of each window: 'frequency' (default) re-weights the "
         "rows by a noise model fitted to the residuals, growing with the "
         "modulating frequency; 'none': ordinary least squares (the paper)",
+    )
+    group.add_argument(
+        "--uncertainty",
+        choices=("jackknife", "gautier"),
+        help="standard deviations: 'jackknife' (default) the larger of Gautier's σ "
+        "and the delete-one-modulating-function jackknife's (covers correlated "
+        "rows and noise in the regressor); 'gautier': Gautier's σ alone",
     )
     group.add_argument(
         "--rows-from",

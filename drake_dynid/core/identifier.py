@@ -112,6 +112,7 @@ def identifier_update(
     weighting: tuple[Any, Any] | None = None,
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
+    jackknife: Any = None,
 ) -> IdentifierState:
     """One solve of the sliding identifier: the new state (the old is unchanged).
 
@@ -129,10 +130,19 @@ def identifier_update(
         weighting: None, or ``(row_frequency, row_group)`` of the rows.
         max_condition: largest accepted scaled condition number.
         names: p parameter names (for the solver's messages).
+        jackknife: None, or the (r,) modulating function of every row: σ is then
+            the larger of Gautier's and the delete-one-function jackknife's.
     """
     if not window_valid:
         return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
-    result = solve_window(A, B, weighting, max_condition=max_condition, names=names)
+    result = solve_window(
+        A,
+        B,
+        weighting,
+        max_condition=max_condition,
+        names=names,
+        jackknife=jackknife,
+    )
     unidentified = np.zeros(state.num_parameters)
     if result.valid:
         return IdentifierState(

@@ -21,6 +21,7 @@ malformed arguments (shapes, types) raise.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as v
+from drake_dynid.core.jackknife import jackknife_std
 
 __all__ = [
     "DEFAULT_MAX_CONDITION",
@@ -376,15 +378,28 @@ def solve_frequency_weighted_least_squares(
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
     """
+    return _frequency_weighted(A, B, frequency, group, max_condition, names)[0]
+
+
+def _frequency_weighted(
+    A: Any,
+    B: Any,
+    frequency: Any,
+    group: Any,
+    max_condition: float,
+    names: Sequence[str] | None,
+) -> tuple[LeastSquaresResult, np.ndarray | None]:
+    """:func:`solve_frequency_weighted_least_squares` and its weights (None: OLS)."""
     first = solve_least_squares(A, B, max_condition=max_condition, names=names)
     if not first.valid:
-        return first
+        return first, None
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
     weights = frequency_noise_weights(B - A @ first.theta, frequency, group)
-    return solve_weighted_least_squares(
+    result = solve_weighted_least_squares(
         A, B, weights, max_condition=max_condition, names=names
     )
+    return result, weights
 
 
 def solve_window(
@@ -394,6 +409,7 @@ def solve_window(
     *,
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
+    jackknife: Any = None,
 ) -> LeastSquaresResult:
     """The on-line identifier's solve of one window (block and core replay alike).
 
@@ -405,10 +421,26 @@ def solve_window(
             :func:`solve_frequency_weighted_least_squares`.
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
+        jackknife: None (Gautier's σ), or the (r,) group of every row (its
+            modulating function): σ is then the larger of Gautier's and the
+            delete-one-group jackknife's (``core.jackknife.jackknife_std``, with
+            the solve's weights), per parameter (docs/MATH.md §4).
     """
     if weighting is None:
-        return solve_least_squares(A, B, max_condition=max_condition, names=names)
-    frequency, group = weighting
-    return solve_frequency_weighted_least_squares(
-        A, B, frequency, group, max_condition=max_condition, names=names
-    )
+        result = solve_least_squares(A, B, max_condition=max_condition, names=names)
+        weights = None
+    else:
+        frequency, group = weighting
+        result, weights = _frequency_weighted(
+            A, B, frequency, group, max_condition, names
+        )
+    if jackknife is None or not result.valid:
+        return result
+    spread = jackknife_std(A, B, jackknife, weights=weights)
+    std = np.fmax(result.std, spread)  # NaN jackknife: Gautier's σ alone
+    magnitude = np.abs(result.theta)
+    relative = np.full(std.shape, np.inf)
+    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
+    for array in (std, relative):
+        array.flags.writeable = False
+    return dataclasses.replace(result, std=std, relative_std_percent=relative)

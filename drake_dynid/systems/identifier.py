@@ -38,7 +38,7 @@ _GROUPS = (
 
 
 class SlidingQRIdentifier(LeafSystem):
-    r"""Least squares on the bank's sliding equations, with Gautier's uncertainty.
+    r"""Least squares on the bank's sliding equations, with their uncertainty.
 
     .. pydrake_system::
 
@@ -60,7 +60,9 @@ class SlidingQRIdentifier(LeafSystem):
         θ̂ = argmin ‖A θ - B‖₂      by QR (numpy), A: r × p,
 
     with σ_ρ² = ‖B - Aθ̂‖²/(r - p), C = σ_ρ² (AᵀA)⁻¹ (from R, never a pseudo-inverse),
-    ``theta_std`` = √diag(C) (in the units of θ), and ``condition_number`` of A after
+    ``theta_std`` = √diag(C) (in the units of θ; with ``row_functions``, the
+    larger of it and the delete-one-function jackknife's σ), and
+    ``condition_number`` of A after
     scaling its columns to unit norm (docs/MATH.md §4). When the window is not
     ready, or the system is rank deficient or more ill-conditioned than
     ``max_condition``, the block **holds the last valid estimate** and its σ, sets
@@ -88,6 +90,7 @@ class SlidingQRIdentifier(LeafSystem):
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
         row_weighting: tuple[Any, Any] | None = None,
+        row_functions: Any = None,
     ):
         """Builds the block.
 
@@ -106,6 +109,10 @@ class SlidingQRIdentifier(LeafSystem):
                 (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
                 σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
                 None: ordinary least squares.
+            row_functions: (r,) the modulating function of each row
+                (``bank.row_functions``): σ is then the larger of Gautier's and
+                the delete-one-function jackknife's (``core.jackknife``); None:
+                Gautier's σ.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -129,6 +136,11 @@ class SlidingQRIdentifier(LeafSystem):
                 check.array(owner, "row_frequency", frequency, (r,)),
                 check.array(owner, "row_group", group, (r,)).astype(int),
             )
+        self._jackknife = None
+        if row_functions is not None:
+            self._jackknife = check.array(
+                owner, "row_functions", row_functions, (r,)
+            ).astype(int)
         self._a = self.DeclareVectorInputPort("A", r * p)
         self._b = self.DeclareVectorInputPort("B", r)
         self._window_valid = self.DeclareVectorInputPort("window_valid", 1)
@@ -224,6 +236,7 @@ class SlidingQRIdentifier(LeafSystem):
             weighting=self._weighting,
             max_condition=self._max_condition,
             names=self._names,
+            jackknife=self._jackknife,
         )
         for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)
