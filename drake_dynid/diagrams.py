@@ -236,7 +236,9 @@ def add_online_identifier(
             names=names,
             offset=SOLVE_OFFSET * time_step,
             row_weighting=settings.row_weighting(model_rows.num_equations, design),
-            row_functions=settings.row_functions(model_rows.num_equations, design),
+            jackknife_groups=settings.jackknife_groups(
+                model_rows.num_equations, design
+            ),
         )
     )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())

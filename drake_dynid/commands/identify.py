@@ -237,7 +237,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--uncertainty",
         choices=("jackknife", "gautier"),
         help="standard deviations: 'jackknife' (default) the larger of Gautier's σ "
-        "and the delete-one-modulating-function jackknife's (covers correlated "
+        "and the jackknife's deleting pairs of modulating functions (covers correlated "
         "rows and noise in the regressor); 'gautier': Gautier's σ alone",
     )
     group.add_argument(

@@ -172,7 +172,7 @@ def row_functions(bank: FourierBank, m: int) -> np.ndarray:
     """Index (0 .. L-1) of the modulating function g_ℓ of every row.
 
     Rows of :func:`assemble_equations`, in their order (ℓ-major): the groups of
-    the delete-one-function jackknife (``core.jackknife.jackknife_std``).
+    the jackknife (``OnlineSettings.jackknife_groups``).
 
     Returns:
         (``bank.num_rows(m)``,) int.

@@ -130,8 +130,9 @@ def identifier_update(
         weighting: None, or ``(row_frequency, row_group)`` of the rows.
         max_condition: largest accepted scaled condition number.
         names: p parameter names (for the solver's messages).
-        jackknife: None, or the (r,) modulating function of every row: σ is then
-            the larger of Gautier's and the delete-one-function jackknife's.
+        jackknife: None, or the (r,) jackknife group of every row
+            (``OnlineSettings.jackknife_groups``): σ is then the larger of
+            Gautier's and the delete-one-group jackknife's.
     """
     if not window_valid:
         return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)

@@ -5,9 +5,10 @@ Gautier's σ (``core.lsq``) assumes rows with independent errors of one variance
 adjacent modulating functions share Fourier lines (correlation -0.5 for white
 noise), the velocity-estimate noise enters the regressor itself, and a filter
 bias differs from one modulating frequency to the next. The jackknife over groups
-of rows (one group per modulating function) measures the spread of the estimate
-between them instead of modelling it; the identifier reports the larger of the two
-per parameter (``core.lsq.solve_window``, ``OnlineSettings.uncertainty``).
+of rows (one group per pair of adjacent modulating functions) measures the spread
+of the estimate between them instead of modelling it; the identifier reports the
+larger of the two per parameter (``core.lsq.solve_window``,
+``OnlineSettings.uncertainty``).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def jackknife_std(A: Any, B: Any, groups: Any, *, weights: Any = None) -> np.nda
     rows of group g, ``θ̂_(g) = θ̂ - S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)⁻¹ e_g``. Unlike
     Gautier's σ it does not assume independent rows of equal variance: it follows
     the spread of the estimate between groups of rows (for the modulated
-    equations, one group per modulating function).
+    equations, one group per pair of modulating functions).
 
     Args:
         A: (r, p) regressor, full column rank.

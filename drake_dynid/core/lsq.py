@@ -421,8 +421,8 @@ def solve_window(
             :func:`solve_frequency_weighted_least_squares`.
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
-        jackknife: None (Gautier's σ), or the (r,) group of every row (its
-            modulating function): σ is then the larger of Gautier's and the
+        jackknife: None (Gautier's σ), or the (r,) group of every row (e.g. its
+            pair of modulating functions): σ is then the larger of Gautier's and the
             delete-one-group jackknife's (``core.jackknife.jackknife_std``, with
             the solve's weights), per parameter (docs/MATH.md §4).
     """

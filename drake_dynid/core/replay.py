@@ -104,7 +104,7 @@ def _replay_one(
     p = int(rows.num_parameters)
     names = tuple(rows.names)
     weighting = entry.row_weighting(m, bank)
-    jackknife = entry.row_functions(m, bank)
+    jackknife = entry.jackknife_groups(m, bank)
 
     # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j
     # (filtered rows) or the mean rows of the raw samples j - D + 1 .. j (raw rows,
@@ -305,5 +305,5 @@ def window_estimate(
         s.row_weighting(m),
         max_condition=s.max_condition,
         names=rows.names,
-        jackknife=s.row_functions(m),
+        jackknife=s.jackknife_groups(m),
     )

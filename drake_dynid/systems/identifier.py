@@ -60,11 +60,10 @@ class SlidingQRIdentifier(LeafSystem):
         θ̂ = argmin ‖A θ - B‖₂      by QR (numpy), A: r × p,
 
     with σ_ρ² = ‖B - Aθ̂‖²/(r - p), C = σ_ρ² (AᵀA)⁻¹ (from R, never a pseudo-inverse),
-    ``theta_std`` = √diag(C) (in the units of θ; with ``row_functions``, the
-    larger of it and the delete-one-function jackknife's σ), and
-    ``condition_number`` of A after
-    scaling its columns to unit norm (docs/MATH.md §4). When the window is not
-    ready, or the system is rank deficient or more ill-conditioned than
+    ``theta_std`` = √diag(C) (in the units of θ; with ``jackknife_groups``, the
+    larger of it and the delete-one-group jackknife's σ), and ``condition_number``
+    of A after scaling its columns to unit norm (docs/MATH.md §4). When the window
+    is not ready, or the system is rank deficient or more ill-conditioned than
     ``max_condition``, the block **holds the last valid estimate** and its σ, sets
     ``valid`` = 0, and marks in ``unidentified`` (p, 0/1) the parameters found not
     excited; ``status`` is ``Status.OK`` (0), ``Status.WINDOW_NOT_READY`` (1: window
@@ -90,7 +89,7 @@ class SlidingQRIdentifier(LeafSystem):
         initial_theta: Sequence[float] | None = None,
         offset: float = 0.0,
         row_weighting: tuple[Any, Any] | None = None,
-        row_functions: Any = None,
+        jackknife_groups: Any = None,
     ):
         """Builds the block.
 
@@ -109,10 +108,10 @@ class SlidingQRIdentifier(LeafSystem):
                 (``lsq.solve_frequency_weighted_least_squares``: OLS, fit
                 σ_j²(ν) = a_j + b_j ν² to its residuals, re-solve with 1/σ);
                 None: ordinary least squares.
-            row_functions: (r,) the modulating function of each row
-                (``bank.row_functions``): σ is then the larger of Gautier's and
-                the delete-one-function jackknife's (``core.jackknife``); None:
-                Gautier's σ.
+            jackknife_groups: (r,) the jackknife group of each row
+                (``OnlineSettings.jackknife_groups``): σ is then the larger of
+                Gautier's and the delete-one-group jackknife's
+                (``core.jackknife``); None: Gautier's σ.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -137,9 +136,9 @@ class SlidingQRIdentifier(LeafSystem):
                 check.array(owner, "row_group", group, (r,)).astype(int),
             )
         self._jackknife = None
-        if row_functions is not None:
+        if jackknife_groups is not None:
             self._jackknife = check.array(
-                owner, "row_functions", row_functions, (r,)
+                owner, "jackknife_groups", jackknife_groups, (r,)
             ).astype(int)
         self._a = self.DeclareVectorInputPort("A", r * p)
         self._b = self.DeclareVectorInputPort("B", r)
