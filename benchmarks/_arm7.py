@@ -8,7 +8,7 @@ from Drake's ``CalcInverseDynamics`` + the URDF's Coulomb friction
 Validation: another trajectory (default_rng(1), 20 s), torques the same way.
 
 Estimates: the on-line identifier's last window (T = 20 s, ending at the last
-sample; ``core.replay.window_estimate``, the core's equations by direct
+sample; ``core.replay.window_equations``, the core's equations by direct
 quadrature), library defaults with the band measured on the log (0.52 Hz), rows
 "filtered" or "raw" (``OnlineSettings.rows_from``; "auto" is
 ``core.raw_rows.rows_from_noise`` on the log); off-line IDIM-LS
@@ -30,10 +30,10 @@ import numpy as np
 from _independent import drake_torques, exact_log, honesty, with_noise
 
 from drake_dynid.core.excitation import estimate_bandwidth
-from drake_dynid.core.lsq import solve_least_squares
+from drake_dynid.core.lsq import solve_least_squares, solve_window
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
-from drake_dynid.core.replay import window_estimate
+from drake_dynid.core.replay import window_equations
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.offline import identify_offline
 from drake_dynid.robot import RobotModel
@@ -94,11 +94,11 @@ class Arm7:
         return with_noise(log, q_std, log.tau.std(axis=0) * 10 ** (-snr / 20), seed)
 
     def estimate(self, method: str, log, model=None):
-        """``(θ̂, σ, rows)`` of one method on one log."""
+        """``(θ̂, [σ, σ_Gautier], rows)`` of one method on one log."""
         model = self.robot if model is None else model
         if method == "off-line IDIM-LS":
             result = identify_offline(log, model)
-            return result.theta, result.std, "-"
+            return result.theta, [result.std, result.std], "-"
         rows_from = method.split()[-1]
         if rows_from == "auto":
             rows_from = rows_from_noise(
@@ -108,10 +108,15 @@ class Arm7:
                 jacobi_window=self.settings("raw").jacobi_window,
                 bandwidth=self.bandwidth,
             )[0]
-        result = window_estimate(
-            model, self.settings(rows_from), log.q, log.tau, log.num_samples - 1, H
-        )
-        return result.theta, result.std, rows_from
+        settings = self.settings(rows_from).on_grid(H)
+        a, b = window_equations(model, settings, log.q, log.tau, log.num_samples - 1, H)
+        stds = []
+        for groups in (settings.jackknife_groups(7), None):
+            result = solve_window(
+                a, b, settings.row_weighting(7), jackknife=groups, names=model.names
+            )
+            stds.append(result.std)
+        return result.theta, stds, rows_from
 
     def metrics(self, theta, smooth: bool = False) -> dict:
         """Errors over the well-identified set and the torque prediction [%]."""
@@ -145,11 +150,12 @@ def run(seeds, quick: bool = False) -> dict:
             runs = seeds if level != "none" else [0]
             if method.startswith("off-line") and level != "none":
                 runs = list(seeds)[:3]  # 5 s per off-line run
-            thetas, stds, chosen = [], [], []
+            thetas, stds, gautier, chosen = [], [], [], []
             for seed in runs:
                 theta, std, rows_from = arm.estimate(method, arm.noisy(level, seed))
                 thetas.append(theta)
-                stds.append(std)
+                stds.append(std[0])
+                gautier.append(std[1])
                 chosen.append(rows_from)
             per_run = [arm.metrics(theta) for theta in thetas]
             out["cases"][f"{level}|{method}"] = {
@@ -157,6 +163,7 @@ def run(seeds, quick: bool = False) -> dict:
                 "max": float(np.median([m["max"] for m in per_run])),
                 "torque": np.median([m["torque"] for m in per_run], axis=0).tolist(),
                 "honesty": honesty(thetas, stds, arm.truth),
+                "honesty_gautier": honesty(thetas, gautier, arm.truth),
                 "rows": sorted(set(chosen)),
                 "runs": len(runs),
             }
@@ -182,9 +189,10 @@ def print_report(report: dict) -> None:
     )
     print(
         "| noise | method | rows | median err % | max err % | torque prediction "
-        "err % per joint | err/σ p90 | identified but > 30 % off per run |"
+        "err % per joint | err/σ p90 | identified but > 30 % off per run | "
+        "Gautier σ: err/σ p90 |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for key, c in cases.items():
         level, method = key.split("|")
         if level == "tanh friction":
@@ -193,7 +201,8 @@ def print_report(report: dict) -> None:
         print(
             f"| {level} | {method} | {'/'.join(c['rows'])} | {c['median']:.3f} | "
             f"{c['max']:.2f} | {torque} | {c['honesty']['p90']:.2f} | "
-            f"{c['honesty']['false_per_run']:.1f} |"
+            f"{c['honesty']['false_per_run']:.1f} | "
+            f"{c['honesty_gautier']['p90']:.2f} |"
         )
     print("\nSmooth friction tanh(v/0.05), noise-free, raw rows:\n")
     print("| model | median err % | max err % | torque prediction err % per joint |")

@@ -20,11 +20,12 @@ noise-free q, τ (also used for the noise-only / bias-only error budget).
 
 On-line estimates: the numerical core of the blocks, batch
 (``core.replay.filtered_signals``: matched Jacobi over the whole log;
-``core.replay.window_estimate``: model rows of the decimated samples of the last window,
-trapezoid Fourier integrals, the identifier's window solve: frequency-weighted by
-default, "OLS" rows without; σ the larger of Gautier's and the jackknife's; rows of
-the filtered signals by default, "raw rows" ``rows_from="raw"``, "auto" the rows
-``core.raw_rows.rows_from_noise`` chooses on each noisy log). Checked once against
+``core.replay.window_equations``: model rows of the decimated samples of the last
+window, trapezoid Fourier integrals; ``core.lsq.solve_window``, the identifier's
+solve: frequency-weighted by default, "OLS" rows without; σ the larger of
+Gautier's and the jackknife's; rows of the filtered signals by default, "raw
+rows" ``rows_from="raw"``, "auto" the rows ``core.raw_rows.rows_from_noise``
+chooses on each noisy log). Checked once against
 the Drake blocks in the loop (first
 table line): same window, the blocks' own noise, relative difference ~1e-12. Off-line:
 ``drake_dynid.offline.identify_offline`` (IDIM-LS and IDIM-WLS, automatic cutoffs and
@@ -64,9 +65,10 @@ from _scenarios import _rf, robots, scenarios
 
 from drake_dynid import paper
 from drake_dynid.core.excitation import estimate_bandwidth
+from drake_dynid.core.lsq import solve_window
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
-from drake_dynid.core.replay import filtered_signals, window_estimate
+from drake_dynid.core.replay import filtered_signals, window_equations
 from drake_dynid.logs import RobotLog
 from drake_dynid.offline import identify_offline
 from drake_dynid.simulation import SimulationSettings, simulate_identification
@@ -104,24 +106,34 @@ def filtered(q, tau, s: OnlineSettings):
 
 
 def online(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
-    """The core's solve of one window (``core.replay.window_estimate``): θ̂ only."""
+    """θ̂ of the core's solve of one window (:func:`online_full`)."""
     return online_full(rows, s, signals, end, q, tau)[0]
 
 
 def online_full(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
-    """``(θ̂, σ)`` of the core's solve of the window ending at sample ``end``.
+    """``(θ̂, σ, σ_Gautier)`` of the core's solve of the window ending at ``end``.
 
-    Filtered rows: the differentiator's outputs ``signals``; raw rows: the rows of
-    ``q``, ``tau`` (``core.raw_rows``).
+    Filtered rows: the differentiator's outputs ``signals`` (computed from ``q``,
+    ``tau`` when None); raw rows: the rows of ``q``, ``tau`` (``core.raw_rows``).
+    σ is the settings' (by default the larger of Gautier's and the jackknife's).
     """
     s = s.on_grid(H)
-    if s.rows_from == "filtered" and signals is None:
-        signals = filtered(q, tau, s)
-    res = window_estimate(rows, s, q, tau, end, H, signals=signals)
-    if not res.valid:
+    a, b = window_equations(rows, s, q, tau, end, H, signals=signals)
+    m = s.num_equations(int(rows.num_joints))
+    bank = s.bank()
+    out = []
+    for groups in (s.jackknife_groups(m, bank), None):
+        res = solve_window(
+            a,
+            b,
+            s.row_weighting(m, bank),
+            max_condition=s.max_condition,
+            names=rows.names,
+            jackknife=groups,
+        )
         nan = np.full(rows.num_parameters, np.nan)
-        return nan, nan
-    return res.theta, res.std
+        out.append((res.theta, res.std) if res.valid else (nan, nan))
+    return out[0][0], out[0][1], out[1][1]
 
 
 def auto_rows(s: OnlineSettings, q) -> str:
@@ -212,7 +224,7 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
             if not m.startswith("off-line")
         ]
     for which, name in cases:
-        estimates, stds, chosen = [], [], set()
+        estimates, stds, gautier, chosen = [], [], [], set()
         for seed in seeds if which != "none" else [0]:
             if which == "none":
                 q, tau = r.q_true, r.tau_true
@@ -221,17 +233,20 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
             if name.startswith("off-line"):
                 estimates.append(offline(robot, q, tau, weighted=name.endswith("WLS")))
                 stds.append(np.full(len(truth), np.nan))
+                gautier.append(np.full(len(truth), np.nan))
                 continue
             s = methods[name](bandwidth)
             if name.endswith("(auto)"):
                 s = dataclasses.replace(s, rows_from=auto_rows(s, q))
             chosen.add(s.rows_from)
-            theta, std = online_full(rows, s, None, end, q, tau)
+            theta, std, std_gautier = online_full(rows, s, None, end, q, tau)
             estimates.append(theta)
             stds.append(std)
+            gautier.append(std_gautier)
         results[(which, name)] = {
             **errors(estimates, truth),
             "honesty": honesty(estimates, stds, truth),
+            "honesty_gautier": honesty(estimates, gautier, truth),
             "rows": sorted(chosen),
         }
     return results
@@ -337,17 +352,22 @@ def print_2r(all_results, methods, seeds) -> None:
         print(f"| {name} | " + " | ".join(cells) + " |")
     print(
         "\n## Uncertainty (same seeds, SNR 30 dB): |error|/σ over the 8 parameters "
-        "(p90 1.64 for an honest σ); rows chosen\n"
+        "(p90 1.64 for an honest σ), σ the larger of Gautier's and the jackknife's "
+        "(default) or Gautier's alone; rows chosen\n"
     )
-    print("| scenario | method | rows | err/σ p50 | err/σ p90 |")
-    print("|---|---|---|---|---|")
+    print("| scenario | method | rows | err/σ p50 | err/σ p90 | Gautier σ: p90 |")
+    print("|---|---|---|---|---|---|")
     for label, res_s in all_results.items():
         for name in methods:
             if name.startswith("off-line") or "power" in name:
                 continue
             h = res_s[("both", name)]["honesty"]
+            g = res_s[("both", name)]["honesty_gautier"]
             rows = "/".join(res_s[("both", name)]["rows"])
-            print(f"| {label} | {name} | {rows} | {h['p50']:.2f} | {h['p90']:.2f} |")
+            print(
+                f"| {label} | {name} | {rows} | {h['p50']:.2f} | {h['p90']:.2f} | "
+                f"{g['p90']:.2f} |"
+            )
     if len(all_results) > 1:
         print(
             "\n## Other geometries and trajectories "
@@ -376,7 +396,7 @@ def exact_bias(robot, quick: bool) -> dict:
         bandwidth = estimate_bandwidth(log.q, H)
         for rows_from in ("filtered", "raw"):
             s = settings_for(LAGRANGIAN, T, bandwidth, rows_from=rows_from)
-            theta, _ = online_full(
+            theta = online(
                 robot.rows_provider(), s, None, log.num_samples - 1, log.q, log.tau
             )
             out[f"{label}|{rows_from}"] = errors([theta], robot.base_values)
