@@ -30,7 +30,7 @@ DESCRIPTION = (
     "window -> sliding QR identifier. The default engine (--engine core) runs the "
     "vectorised numerical core, without a Simulator; --engine blocks steps the Drake "
     "LeafSystems in a Drake Simulator (the reference: both give the same "
-    "estimates). Prints the final base-parameter estimates with Gautier's standard "
+    "estimates). Prints the final base-parameter estimates with their standard "
     "deviations (a parameter with %σ > 30 is flagged '*' = not identified), the "
     "condition number and the validity of the last window; optionally writes the "
     "estimates over time (--out CSV, --plot PNG) and a JSON summary (--json). Options "

@@ -516,7 +516,8 @@ class OnlineTrace:
         names: base parameter names (p).
         t: (M,) times of the solves [s].
         theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
-        std: (M, p) Gautier standard deviations (inf before the first valid solve).
+        std: (M, p) standard deviations (``settings.uncertainty``; inf before the
+            first valid solve).
         condition_number: (M,) condition number of the column-scaled A.
         valid: (M,) 1 when the solve at that time was accepted.
         status: (M,) the identifier's status code (``core.identifier.Status``: 0
