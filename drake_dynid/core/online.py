@@ -12,7 +12,8 @@ Two drivers run it on the same numerics: the Drake blocks
 (:mod:`drake_dynid.core.replay`). This module holds what both read:
 :class:`OnlineSettings` (with the one ℓ rule and the one construction of the Jacobi
 filters and of the bank), the event offsets :data:`BANK_OFFSET` and
-:data:`SOLVE_OFFSET`, and :class:`OnlineTrace`, the estimates over time.
+:data:`SOLVE_OFFSET`, and :class:`OnlineTrace` (defined in ``core.trace``), the
+estimates over time.
 
 Periods on the signal grid (:meth:`OnlineSettings.on_grid`, docs/CONVENTIONS.md
 §2): every event period and window must be a whole number of its sample period.
@@ -29,7 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -46,6 +47,7 @@ from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 from drake_dynid.core.raw_rows import RawRowsDesign, raw_rows_design
 from drake_dynid.core.rows import check_model_kind, num_equations
+from drake_dynid.core.trace import OnlineTrace
 
 __all__ = [
     "BANK_OFFSET",
@@ -505,58 +507,3 @@ class OnlineSettings:
         out = asdict(self)
         out["frequencies"] = self.ell().tolist()
         return out
-
-
-@dataclass
-class OnlineTrace:
-    """Estimates of one on-line identifier over time (one row per solve).
-
-    Attributes:
-        settings: the identifier's settings (on the signal grid).
-        names: base parameter names (p).
-        t: (M,) times of the solves [s].
-        theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
-        std: (M, p) standard deviations (``settings.uncertainty``; inf before the
-            first valid solve).
-        condition_number: (M,) condition number of the column-scaled A.
-        valid: (M,) 1 when the solve at that time was accepted.
-        status: (M,) the identifier's status code (``core.identifier.Status``: 0
-            ok, 1 window not ready or holding a bad sample, 2 not identifiable).
-        unidentified: (M, p) 1 for the parameters found not excited by that solve.
-        delay: latency of the estimate [s]: the differentiator delay plus one sample
-            per block (the window ends at t - delay).
-    """
-
-    settings: OnlineSettings
-    names: tuple[str, ...]
-    t: np.ndarray
-    theta: np.ndarray
-    std: np.ndarray
-    condition_number: np.ndarray
-    valid: np.ndarray
-    delay: float
-    status: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    unidentified: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-
-    def final(self) -> dict[str, Any]:
-        """The estimate at the end of the run (last valid estimate held)."""
-        theta = self.theta[-1] if len(self.t) else np.full(len(self.names), np.nan)
-        std = self.std[-1] if len(self.t) else np.full(len(self.names), np.inf)
-        return {
-            "theta": theta,
-            "std": std,
-            "condition_number": float(self.condition_number[-1])
-            if len(self.t)
-            else math.inf,
-            "valid": bool(self.valid[-1]) if len(self.t) else False,
-            "status": int(self.status[-1]) if len(self.status) else None,
-            "unidentified": tuple(
-                name
-                for name, flag in zip(
-                    self.names,
-                    self.unidentified[-1] if len(self.unidentified) else (),
-                    strict=False,
-                )
-                if flag > 0.5
-            ),
-        }
