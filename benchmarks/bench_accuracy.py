@@ -1,4 +1,7 @@
-"""Accuracy of on-line (power, Lagrangian) and off-line (IDIM) identification, 2R arm.
+"""Accuracy of on-line (power, Lagrangian) and off-line (IDIM) identification.
+
+``--robot 2r`` (the paper's arm, below), ``--robot iiwa7`` (a 7-DOF arm on
+independent logs: benchmarks/_accuracy_arm7.py) or both (default).
 
 Set-up (paper §V): ``simulate_identification`` on the paper's 2R arm
 (``model_path("planar_2r")``, L1 = 1 m), discrete plant at 1 kHz, inverse-dynamics
@@ -17,9 +20,13 @@ noise-free q, τ (also used for the noise-only / bias-only error budget).
 
 On-line estimates: the numerical core of the blocks, batch
 (``core.replay.filtered_signals``: matched Jacobi over the whole log;
-``core.replay.window_estimate``: model rows of the decimated samples of the last window,
-trapezoid Fourier integrals, the identifier's window solve: frequency-weighted by
-default, "OLS" rows without). Checked once against the Drake blocks in the loop (first
+``core.replay.window_equations``: model rows of the decimated samples of the last
+window, trapezoid Fourier integrals; ``core.weighted_lsq.solve_window``, the
+identifier's solve: frequency-weighted by default, "OLS" rows without; σ the larger
+of the sandwich σ and the jackknife's; rows of the filtered signals by default, "raw
+rows" ``rows_from="raw"``, "auto" the rows ``core.raw_rows.rows_from_noise``
+chooses on each noisy log). Checked once against
+the Drake blocks in the loop (first
 table line): same window, the blocks' own noise, relative difference ~1e-12. Off-line:
 ``drake_dynid.offline.identify_offline`` (IDIM-LS and IDIM-WLS, automatic cutoffs and
 decimation). Medians over seeds (40 by default: with 10 the median friction error moves
@@ -33,6 +40,12 @@ light link 2, weak friction) and ``random_fourier_trajectory`` (H = 5, ω_f = 2�
 |q̇| ≤ 4, default_rng(5): 0.25-1 Hz). The default settings are the same everywhere:
 the ℓ set comes from ``estimate_bandwidth`` of the measured q.
 
+Uncertainty: |error|/σ over the 8 parameters and the seeds (p90 = 1.64 for a
+Gaussian error with an honest σ). Noise-free bias on exact logs: the trajectory
+evaluated (no simulation) and Drake's inverse dynamics + Coulomb sign
+(``_independent.exact_log``), which separates the identifier's bias from the
+simulated plant's time discretisation (the closed loop's noise-free column).
+
 ZZ1R jump (paper Fig. 4): ``paper.zz1_jump()`` at 9.4 s, T = 7 s, in the loop
 (Drake blocks), 25 s; time until ZZ1R stays within 2 % of 4.5.
 """
@@ -40,24 +53,24 @@ ZZ1R jump (paper Fig. 4): ``paper.zz1_jump()`` at 9.4 s, T = 7 s, in the loop
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
-import re
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from _independent import exact_log, honesty, window_solves
+from _scenarios import _rf, robots, scenarios
 
 from drake_dynid import paper
 from drake_dynid.core.excitation import estimate_bandwidth
 from drake_dynid.core.online import OnlineSettings
-from drake_dynid.core.replay import filtered_signals, window_estimate
-from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.core.raw_rows import rows_from_noise
+from drake_dynid.core.replay import filtered_signals, window_equations
 from drake_dynid.logs import RobotLog
 from drake_dynid.offline import identify_offline
-from drake_dynid.robot import RobotModel
 from drake_dynid.simulation import SimulationSettings, simulate_identification
-from drake_dynid.urdf import model_path
 
 H = 1e-3
 T = 20.0
@@ -83,78 +96,6 @@ def settings_for(
     )
 
 
-# ----------------------------------------------------------------- scenarios
-
-
-def _variant(text: str, L1, m1, izz1, m2, com2, izz2, fv, fc) -> str:
-    """planar_2r.urdf with another geometry, masses and friction."""
-
-    def sub(pattern, value, t):
-        return re.sub(pattern, lambda m: m.group(1) + value, t, count=1, flags=re.S)
-
-    inertia = 'ixx="{a}" ixy="0" ixz="0" iyy="{b}" iyz="0" izz="{b}"'
-    t = sub(r'(<link name="link1">.*?<origin xyz=")[^"]*', f"{L1 / 2} 0 0", text)
-    t = sub(r'(<link name="link1">.*?<mass value=")[^"]*', f"{m1}", t)
-    t = sub(
-        r'(<link name="link1">.*?<inertia )[^/]*',
-        inertia.format(a=0.05 * izz1, b=izz1),
-        t,
-    )
-    t = sub(r'(<link name="link2">.*?<origin xyz=")[^"]*', f"{com2[0]} {com2[1]} 0", t)
-    t = sub(r'(<link name="link2">.*?<mass value=")[^"]*', f"{m2}", t)
-    t = sub(
-        r'(<link name="link2">.*?<inertia )[^/]*',
-        inertia.format(a=0.05 * izz2, b=izz2),
-        t,
-    )
-    t = sub(r'(<joint name="joint2".*?<origin xyz=")[^"]*', f"{L1} 0 0", t)
-    for j in (0, 1):
-        t = sub(
-            rf'(<joint name="joint{j + 1}".*?<dynamics )[^/]*',
-            f'damping="{fv[j]}" friction="{fc[j]}"',
-            t,
-        )
-    return t
-
-
-def robots(directory: Path) -> dict[str, RobotModel]:
-    text = Path(model_path("planar_2r")).read_text()
-    g1 = _variant(text, 0.7, 3.0, 1.5, 2.0, (0.3, -0.05), 0.05, (0.5, 0.2), (0.6, 0.3))
-    g2 = _variant(text, 1.3, 1.0, 0.8, 0.5, (0.6, 0.08), 0.02, (0.1, 0.05), (0.2, 0.1))
-    (directory / "g1.urdf").write_text(g1)
-    (directory / "g2.urdf").write_text(g2)
-    return {
-        "paper": RobotModel.from_urdf(model_path("planar_2r")),
-        "g1": RobotModel.from_urdf(directory / "g1.urdf"),
-        "g2": RobotModel.from_urdf(directory / "g2.urdf"),
-    }
-
-
-def _rf(seed: int, harmonics: int = 5, f: float = 0.1):
-    return random_fourier_trajectory(
-        2,
-        harmonics=harmonics,
-        base_frequency=2 * np.pi * f,
-        max_velocity=4.0,
-        rng=np.random.default_rng(seed),
-    )
-
-
-def scenarios(quick: bool) -> dict[str, tuple[str, object]]:
-    main = {"paper 2R / paper_trajectory": ("paper", paper.paper_trajectory())}
-    if quick:
-        return main
-    return {
-        **main,
-        "g1 / paper_trajectory": ("g1", paper.paper_trajectory()),
-        "g2 / paper_trajectory": ("g2", paper.paper_trajectory()),
-        "paper 2R / rf seed 1": ("paper", _rf(1)),
-        "paper 2R / rf seed 2": ("paper", _rf(2)),
-        "g1 / rf seed 3": ("g1", _rf(3)),
-        "paper 2R / wide rf seed 5": ("paper", _rf(5, harmonics=4, f=0.25)),
-    }
-
-
 # ------------------------------------------------------------------ estimators
 
 
@@ -163,13 +104,36 @@ def filtered(q, tau, s: OnlineSettings):
     return filtered_signals(q, tau, s, H)
 
 
-def online(rows, s: OnlineSettings, signals, end: int):
-    """The core's solve of one window (``core.replay.window_estimate``).
+def online(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
+    """θ̂ of the core's solve of one window (:func:`online_full`)."""
+    return online_full(rows, s, signals, end, q, tau)[0]
 
-    The window's newest bank sample is the differentiator output at sample ``end``.
+
+def online_full(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
+    """``(θ̂, σ, σ_Gautier, σ_sandwich)`` of the core's solve of the window at ``end``.
+
+    Filtered rows: the differentiator's outputs ``signals`` (computed from ``q``,
+    ``tau`` when None); raw rows: the rows of ``q``, ``tau`` (``core.raw_rows``).
+    σ is the settings' (by default the larger of the sandwich σ and the
+    jackknife's; ``_independent.window_solves``).
     """
-    res = window_estimate(rows, s, signals, end, H)
-    return res.theta if res.valid else np.full(rows.num_parameters, np.nan)
+    s = s.on_grid(H)
+    a, b = window_equations(rows, s, q, tau, end, H, signals=signals)
+    m = s.num_equations(int(rows.num_joints))
+    theta, (std, gautier, sandwich) = window_solves(a, b, s, m, rows.names)
+    return theta, std, gautier, sandwich
+
+
+def auto_rows(s: OnlineSettings, q) -> str:
+    """``rows_from`` chosen on the log (``core.raw_rows.rows_from_noise``)."""
+    grid = s.on_grid(H)
+    return rows_from_noise(
+        q,
+        H,
+        raw_window=grid.resolved("raw_window"),
+        jacobi_window=grid.jacobi_window,
+        bandwidth=grid.bandwidth,
+    )[0]
 
 
 def offline(robot, q, tau, weighted=False):
@@ -248,7 +212,7 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
             if not m.startswith("off-line")
         ]
     for which, name in cases:
-        estimates = []
+        estimates, stds, gautier, sandwich, chosen = [], [], [], [], set()
         for seed in seeds if which != "none" else [0]:
             if which == "none":
                 q, tau = r.q_true, r.tau_true
@@ -256,10 +220,28 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
                 q, tau = noisy(r.q_true, r.tau_true, r.noise_std, seed, which)
             if name.startswith("off-line"):
                 estimates.append(offline(robot, q, tau, weighted=name.endswith("WLS")))
+                stds.append(np.full(len(truth), np.nan))
+                gautier.append(np.full(len(truth), np.nan))
+                sandwich.append(np.full(len(truth), np.nan))
                 continue
             s = methods[name](bandwidth)
-            estimates.append(online(rows, s, filtered(q, tau, s), end))
-        results[(which, name)] = errors(estimates, truth)
+            if name.endswith("(auto)"):
+                s = dataclasses.replace(s, rows_from=auto_rows(s, q))
+            chosen.add(s.rows_from)
+            theta, std, std_gautier, std_sandwich = online_full(
+                rows, s, None, end, q, tau
+            )
+            estimates.append(theta)
+            stds.append(std)
+            gautier.append(std_gautier)
+            sandwich.append(std_sandwich)
+        results[(which, name)] = {
+            **errors(estimates, truth),
+            "honesty": honesty(estimates, stds, truth),
+            "honesty_gautier": honesty(estimates, gautier, truth),
+            "honesty_sandwich": honesty(estimates, sandwich, truth),
+            "rows": sorted(chosen),
+        }
     return results
 
 
@@ -268,6 +250,12 @@ def method_table(bandwidth_note=True):
         "on-line Lagrangian": lambda b: settings_for(LAGRANGIAN, T, b),
         "on-line Lagrangian, OLS": lambda b: settings_for(
             LAGRANGIAN, T, b, weighting="none"
+        ),
+        "on-line Lagrangian, raw rows": lambda b: settings_for(
+            LAGRANGIAN, T, b, rows_from="raw"
+        ),
+        "on-line Lagrangian, rows from the log (auto)": lambda b: settings_for(
+            LAGRANGIAN, T, b
         ),
         "on-line power": lambda b: settings_for(POWER, T, b),
         "on-line power, OLS": lambda b: settings_for(POWER, T, b, weighting="none"),
@@ -320,17 +308,102 @@ def _row(label, values, fmt="{:+.2f}"):
     return f"| {label} | " + " | ".join(fmt.format(x) for x in values) + " |"
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seeds", type=int, default=40)
-    parser.add_argument("--quick", action="store_true", help="3 seeds, main case only")
-    parser.add_argument("--json", type=str, default=None)
-    args = parser.parse_args(argv)
-    seeds = range(3 if args.quick else args.seeds)
-    start = time.perf_counter()
-    report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}
-    methods = method_table()
+def print_2r(all_results, methods, seeds) -> None:
+    """The 2R tables: the main case, its error budget and σ, the other scenarios."""
     names = paper.BASE_NAMES
+    main_label = next(iter(all_results))
+    res = all_results[main_label]
+    print(
+        f"## {main_label}: median relative error over {len(seeds)} seeds [%] "
+        f"(SNR 30 dB, T = 20 s, measured band {res['bandwidth_hz']:.3f} Hz)\n"
+    )
+    print("| | " + " | ".join(names) + " | inertial | friction |")
+    print("|---" * (len(names) + 3) + "|")
+    for name in methods:
+        e = res[("both", name)]
+        print(
+            _row(name, e["median_signed"])[:-2]
+            + f" | {e['inertial']:.2f} | {e['friction']:.2f} |"
+        )
+    for label, err in (
+        ("paper Table II on-line", PAPER_ONLINE_ERR),
+        ("paper Table II off-line", PAPER_OFFLINE_ERR),
+    ):
+        a = np.abs(err)
+        print(_row(label, err)[:-2] + f" | {a[:4].mean():.2f} | {a[4:].mean():.2f} |")
+    print("\n(signed medians; inertial/friction: mean of the 4 medians of |error|)\n")
+    print("## Error budget (same seeds; mean |error| % inertial / friction)\n")
+    print("| method | noise q and τ | noise on τ only | noise on q only | noise-free |")
+    print("|---|---|---|---|---|")
+    for name in methods:
+        if name.startswith("off-line"):
+            continue
+        cells = [
+            f"{res[(w, name)]['inertial']:.2f} / {res[(w, name)]['friction']:.2f}"
+            for w in ("both", "tau", "q", "none")
+        ]
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    print(
+        "\n## Uncertainty (same seeds, SNR 30 dB): |error|/σ over the 8 parameters "
+        "(p90 1.64 for an honest σ), σ the larger of the sandwich σ and the "
+        "jackknife's (default), the sandwich σ alone, or Gautier's alone; rows "
+        "chosen\n"
+    )
+    print(
+        "| scenario | method | rows | err/σ p50 | err/σ p90 | sandwich σ: p90 | "
+        "Gautier σ: p90 |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for label, res_s in all_results.items():
+        for name in methods:
+            if name.startswith("off-line") or "power" in name:
+                continue
+            h = res_s[("both", name)]["honesty"]
+            g = res_s[("both", name)]["honesty_gautier"]
+            w = res_s[("both", name)]["honesty_sandwich"]
+            rows = "/".join(res_s[("both", name)]["rows"])
+            print(
+                f"| {label} | {name} | {rows} | {h['p50']:.2f} | {h['p90']:.2f} | "
+                f"{w['p90']:.2f} | {g['p90']:.2f} |"
+            )
+    if len(all_results) > 1:
+        print(
+            "\n## Other geometries and trajectories "
+            "(same defaults; inertial / friction %)\n"
+        )
+        print("| scenario | band Hz | " + " | ".join(methods) + " |")
+        print("|---|---|" + "---|" * len(methods))
+        for label, res_s in all_results.items():
+            cells = [
+                "{inertial:.2f} / {friction:.2f}".format(**res_s[("both", m)])
+                for m in methods
+            ]
+            print(
+                f"| {label} | {res_s['bandwidth_hz']:.2f} | " + " | ".join(cells) + " |"
+            )
+
+
+def exact_bias(robot, quick: bool) -> dict:
+    """Noise-free bias on exact logs (Drake inverse dynamics, no simulation)."""
+    cases = {"paper_trajectory": paper.paper_trajectory()}
+    if not quick:
+        cases["1 Hz (wide rf seed 5)"] = _rf(5, harmonics=4, f=0.25)
+    out = {}
+    for label, trajectory in cases.items():
+        log, _ = exact_log(robot, trajectory, T + 1.0, H)
+        bandwidth = estimate_bandwidth(log.q, H)
+        for rows_from in ("filtered", "raw"):
+            s = settings_for(LAGRANGIAN, T, bandwidth, rows_from=rows_from)
+            theta = online(
+                robot.rows_provider(), s, None, log.num_samples - 1, log.q, log.tau
+            )
+            out[f"{label}|{rows_from}"] = errors([theta], robot.base_values)
+    return out
+
+
+def run_2r(args, seeds, report) -> None:
+    start = time.perf_counter()
+    methods = method_table()
     with tempfile.TemporaryDirectory() as tmp:
         models = robots(Path(tmp))
         scen = scenarios(args.quick)
@@ -345,68 +418,22 @@ def main(argv=None) -> int:
         all_results = {}
         for label, (rname, traj) in scen.items():
             all_results[label] = run_scenario(
-                models[rname],
-                traj,
-                seeds,
-                methods,
-                budget=(label in scen and not all_results),
+                models[rname], traj, seeds, methods, budget=not all_results
             )
-        main_label = next(iter(scen))
-        res = all_results[main_label]
+        print_2r(all_results, methods, seeds)
+        bias = exact_bias(main_robot, args.quick)
         print(
-            f"## {main_label}: median relative error over {len(seeds)} seeds [%] "
-            f"(SNR 30 dB, T = 20 s, measured band {res['bandwidth_hz']:.3f} Hz)\n"
+            "\n## Noise-free bias on exact logs (trajectory evaluated, Drake inverse "
+            "dynamics + Coulomb sign; no simulation): inertial / friction %\n"
         )
-        print("| | " + " | ".join(names) + " | inertial | friction |")
-        print("|---" * (len(names) + 3) + "|")
-        for name in methods:
-            e = res[("both", name)]
-            print(
-                _row(name, e["median_signed"])[:-2]
-                + f" | {e['inertial']:.2f} | {e['friction']:.2f} |"
-            )
-        for label, err in (
-            ("paper Table II on-line", PAPER_ONLINE_ERR),
-            ("paper Table II off-line", PAPER_OFFLINE_ERR),
-        ):
-            a = np.abs(err)
-            print(
-                _row(label, err)[:-2] + f" | {a[:4].mean():.2f} | {a[4:].mean():.2f} |"
-            )
-        print(
-            "\n(signed medians; inertial/friction: mean of the 4 medians of |error|)\n"
-        )
-        print("## Error budget (same seeds; mean |error| % inertial / friction)\n")
-        print(
-            "| method | noise q and τ | noise on τ only | noise on q only "
-            "| noise-free |"
-        )
-        print("|---|---|---|---|---|")
-        for name in methods:
-            if name.startswith("off-line"):
-                continue
+        print("| trajectory | filtered rows | raw rows |")
+        print("|---|---|---|")
+        for label in dict.fromkeys(k.split("|")[0] for k in bias):
             cells = [
-                f"{res[(w, name)]['inertial']:.2f} / {res[(w, name)]['friction']:.2f}"
-                for w in ("both", "tau", "q", "none")
+                "{inertial:.3f} / {friction:.3f}".format(**bias[f"{label}|{r}"])
+                for r in ("filtered", "raw")
             ]
-            print(f"| {name} | " + " | ".join(cells) + " |")
-        if len(all_results) > 1:
-            print(
-                "\n## Other geometries and trajectories "
-                "(same defaults; inertial / friction %)\n"
-            )
-            print("| scenario | band Hz | " + " | ".join(methods) + " |")
-            print("|---|---|" + "---|" * len(methods))
-            for label, res_s in all_results.items():
-                cells = [
-                    "{inertial:.2f} / {friction:.2f}".format(**res_s[("both", m)])
-                    for m in methods
-                ]
-                print(
-                    f"| {label} | {res_s['bandwidth_hz']:.2f} | "
-                    + " | ".join(cells)
-                    + " |"
-                )
+            print(f"| {label} | " + " | ".join(cells) + " |")
         jump = jump_run(main_robot, main_traj)
         print("\n## ZZ1R jump 3.9 -> 4.5 at 9.4 s (T = 7 s, in-loop blocks, seed 0)\n")
         print("| model | ZZ1R before | ZZ1R at 25 s | time to stay within 2 % [s] |")
@@ -417,10 +444,8 @@ def main(argv=None) -> int:
                 f"{j['settle_s']:.2f} |"
             )
         print("\n(paper Fig. 4: about 5 s)")
-    wall = time.perf_counter() - start
-    print(f"\nwall time {wall:.0f} s")
-    report["wall_s"] = wall
     report["jump"] = jump
+    report["exact_bias"] = bias
     report["settings"] = {"lagrangian": LAGRANGIAN, "power": POWER}
     report["results"] = {
         label: {
@@ -428,6 +453,41 @@ def main(argv=None) -> int:
         }
         for label, r in all_results.items()
     }
+    report["wall_2r_s"] = time.perf_counter() - start
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=40)
+    parser.add_argument(
+        "--quick", action="store_true", help="few seeds, main cases only (smoke run)"
+    )
+    parser.add_argument(
+        "--robot",
+        choices=("2r", "iiwa7", "all"),
+        default="all",
+        help="the paper's 2R (closed loop, SNR 30 dB), the 7-DOF iiwa7 (independent "
+        "logs, benchmarks/_accuracy_arm7.py) or both (default)",
+    )
+    parser.add_argument(
+        "--seeds7", type=int, default=10, help="noise seeds of the iiwa7 section"
+    )
+    parser.add_argument("--json", type=str, default=None)
+    args = parser.parse_args(argv)
+    seeds = range(3 if args.quick else args.seeds)
+    start = time.perf_counter()
+    report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}
+    if args.robot in ("2r", "all"):
+        run_2r(args, seeds, report)
+    if args.robot in ("iiwa7", "all"):
+        import _accuracy_arm7 as _arm7
+
+        arm = _arm7.run(range(1 if args.quick else args.seeds7), quick=args.quick)
+        _arm7.print_report(arm)
+        report["iiwa7"] = arm
+    wall = time.perf_counter() - start
+    print(f"\nwall time {wall:.0f} s")
+    report["wall_s"] = wall
     if args.json:
         Path(args.json).write_text(json.dumps(report, indent=1))
     return 0

@@ -63,6 +63,9 @@ _LAZY: dict[str, str] = {
     "estimate_bandwidth": "drake_dynid.core.excitation",
     "frequencies_for": "drake_dynid.core.excitation",
     "velocity_spectrum": "drake_dynid.core.excitation",
+    "position_noise_std": "drake_dynid.core.excitation",
+    "rows_from_noise": "drake_dynid.core.raw_rows",
+    "jackknife_std": "drake_dynid.core.jackknife",
     "FourierTrajectory": "drake_dynid.core.trajectory",
     "random_fourier_trajectory": "drake_dynid.core.trajectory",
     "optimize_fourier_trajectory": "drake_dynid.core.trajectory",
@@ -119,6 +122,7 @@ _LAZY: dict[str, str] = {
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
     "JointFriction": "drake_dynid.systems.friction",
     "ModelRows": "drake_dynid.systems.identification",
+    "RawModelRows": "drake_dynid.systems.identification",
     "ModulatingIntegralBank": "drake_dynid.systems.identification",
     "SlidingQRIdentifier": "drake_dynid.systems.identification",
     # logs (no pydrake)

@@ -155,6 +155,7 @@ def add_online_identifier(
     from drake_dynid.systems.identification import (
         ModelRows,
         ModulatingIntegralBank,
+        RawModelRows,
         SlidingQRIdentifier,
     )
     from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
@@ -178,19 +179,34 @@ def add_online_identifier(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
         )
         builder.Connect(measurement, differentiator.get_input_port_u())
-    # derivative_0 = [q̂; τ̂] and derivative_1 = [v̂; τ̂']: split them per joint set.
-    smoothed = builder.AddSystem(Demultiplexer([n, n]))
-    rates = builder.AddSystem(Demultiplexer([n, n]))
-    builder.Connect(
-        differentiator.get_output_port_derivative(0), smoothed.get_input_port()
-    )
-    builder.Connect(
-        differentiator.get_output_port_derivative(1), rates.get_input_port()
-    )
-    model_rows = builder.AddSystem(ModelRows(rows, settings.model))
-    builder.Connect(smoothed.get_output_port(0), model_rows.get_input_port_q())
-    builder.Connect(rates.get_output_port(0), model_rows.get_input_port_v())
-    builder.Connect(smoothed.get_output_port(1), model_rows.get_input_port_tau())
+    if settings.rows_from == "raw":
+        # The mean rows of the raw samples of each bank step, read from the ring.
+        model_rows = builder.AddSystem(
+            RawModelRows(
+                rows,
+                settings.model,
+                settings.raw_design(time_step),
+                differentiator.history_length,
+            )
+        )
+        builder.Connect(
+            differentiator.get_output_port_history(),
+            model_rows.get_input_port_history(),
+        )
+    else:
+        # derivative_0 = [q̂; τ̂] and derivative_1 = [v̂; τ̂']: split them per joint.
+        smoothed = builder.AddSystem(Demultiplexer([n, n]))
+        rates = builder.AddSystem(Demultiplexer([n, n]))
+        builder.Connect(
+            differentiator.get_output_port_derivative(0), smoothed.get_input_port()
+        )
+        builder.Connect(
+            differentiator.get_output_port_derivative(1), rates.get_input_port()
+        )
+        model_rows = builder.AddSystem(ModelRows(rows, settings.model))
+        builder.Connect(smoothed.get_output_port(0), model_rows.get_input_port_q())
+        builder.Connect(rates.get_output_port(0), model_rows.get_input_port_v())
+        builder.Connect(smoothed.get_output_port(1), model_rows.get_input_port_tau())
     # Multi-rate timing without ties: the differentiator updates at k·h, the bank at
     # j·D·h + h/2 (it reads the differentiator's state after its update at j·D·h) and
     # the solver at u·U·h + 3h/4 (after the bank updates up to u·U·h). Event times of
@@ -222,6 +238,9 @@ def add_online_identifier(
             offset=SOLVE_OFFSET * time_step,
             row_weighting=settings.row_weighting(model_rows.num_equations, design),
             row_noise=settings.row_noise(model_rows.num_equations, design),
+            jackknife_groups=settings.jackknife_groups(
+                model_rows.num_equations, design
+            ),
         )
     )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())
@@ -269,8 +288,8 @@ def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> Onlin
     """The estimates a chain's loggers recorded, as an :class:`OnlineTrace`."""
     logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
     # Latency: a solve at u·U·h + 3h/4 uses the samples up to u·U·h, whose estimates
-    # refer to u·U·h - (differentiator delay).
-    delay = chain.differentiator.delay + SOLVE_OFFSET * time_step
+    # refer to u·U·h - (differentiator delay, or the raw rows' delay).
+    delay = chain.settings.delay(time_step) + SOLVE_OFFSET * time_step
     return OnlineTrace(
         settings=chain.settings,
         names=chain.names,

@@ -56,7 +56,14 @@ import numpy as np
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.core.drive_columns import MotorColumns
-from drake_dynid.core.friction import EXACT_SIGN, ExactSign, SignLaw, check_friction
+from drake_dynid.core.friction import (
+    EXACT_SIGN,
+    ExactSign,
+    SignLaw,
+    TanhSign,
+    check_coulomb_width,
+    check_friction,
+)
 from drake_dynid.core.joint_map import JointMap
 from drake_dynid.core.kinematics import KinematicTree
 from drake_dynid.core.planar2r import Planar2RRows
@@ -157,6 +164,7 @@ class RobotModel(RobotRows):
         joints: Sequence[str] | None = None,
         locked: Mapping[str, float] | None = None,
         drive: Any = None,
+        coulomb_width: float = 0.0,
     ) -> RobotModel:
         """Loads a URDF (see :func:`drake_dynid.urdf.load_plant`) and its parameters.
 
@@ -186,6 +194,9 @@ class RobotModel(RobotRows):
                 ``<transmission>`` elements, docs/DRIVE.md) or a ``DriveChain``
                 of the identified joints; None (default): no motor model (the URDF
                 transmissions give only the ``IAj`` values).
+            coulomb_width: ε >= 0 of a smooth Coulomb law s(v) = tanh(v/ε) of the
+                friction columns [rad/s or m/s] (``with_sign(TanhSign(ε))``); 0
+                (default): the exact sign.
 
         Raises:
             ValueError: the loader's errors, an unknown joint name (the message
@@ -209,6 +220,7 @@ class RobotModel(RobotRows):
             mimic=read_urdf_mimic(path),
             notes=loaded.notes,
             drive=drive,
+            coulomb_width=coulomb_width,
         )
 
     @classmethod
@@ -227,6 +239,7 @@ class RobotModel(RobotRows):
         mimic: Mapping[str, tuple[str, float, float]] | None = None,
         notes: Sequence[str] = (),
         drive: Any = None,
+        coulomb_width: float = 0.0,
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -234,10 +247,11 @@ class RobotModel(RobotRows):
         store them); the viscous values are the joints' default damping.
         ``joints``, ``locked`` and ``mimic`` (``{joint: (leader, multiplier,
         offset)}``, see :func:`drake_dynid.urdf.read_urdf_mimic`) choose the
-        identified joints as in :meth:`from_urdf`.
+        identified joints as in :meth:`from_urdf`; ``coulomb_width`` as there.
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
+        coulomb_width = check_coulomb_width(owner, coulomb_width)
         if kinematics not in _KINEMATICS:
             raise ValueError(
                 f"{owner}: kinematics must be one of {', '.join(_KINEMATICS)}; got "
@@ -312,6 +326,8 @@ class RobotModel(RobotRows):
             )
             _LOGGER.info("RobotModel: %s.", note)
             object.__setattr__(model, "notes", (*model.notes, note))
+        if coulomb_width > 0.0:
+            return model.with_sign(TanhSign(coulomb_width))
         return model
 
     def _reduce(self, seed: int, scales: Any = None) -> BaseParameters:
@@ -371,6 +387,11 @@ class RobotModel(RobotRows):
             zip(self.standard_names, self.standard_values.tolist(), strict=True)
         )
 
+    @property
+    def coulomb_width(self) -> float:
+        """ε of a smooth Coulomb law tanh(v/ε) [rad/s or m/s]; 0 for any other law."""
+        return self.sign.width if isinstance(self.sign, TanhSign) else 0.0
+
     def with_sign(self, sign: SignLaw | None) -> RobotModel:
         """A copy whose friction columns use the Coulomb law ``sign``.
 
@@ -404,14 +425,18 @@ class RobotModel(RobotRows):
         """
         if self.num_joints != 2 or self.rotor_inertia or self.mimic:
             return self
-        if self.drive is not None or not isinstance(self.sign, ExactSign):
+        if self.drive is not None or not isinstance(self.sign, (ExactSign, TanhSign)):
             return self
         if self.base.names[:4] != ("ZZ1R", "ZZ2", "MX2", "MY2"):
             return self
         length_squared = self.base.definitions[0].get("M2", 0.0)
         if length_squared <= 0.0:
             return self
-        fast = Planar2RRows(L1=math.sqrt(length_squared), friction=self.friction)
+        fast = Planar2RRows(
+            L1=math.sqrt(length_squared),
+            friction=self.friction,
+            coulomb_width=self.coulomb_width,
+        )
         if fast.names != self.base.names:
             return self
         rng = np.random.default_rng(12345)

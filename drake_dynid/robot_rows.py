@@ -48,8 +48,8 @@ class RobotRows:
     """Row methods of ``RobotModel`` (see the module docstring).
 
     Uses the model's ``joint_names``, ``links``, ``mimic``, ``gravity``,
-    ``friction``, ``rotor_inertia``, ``standard_names``, ``base``, ``kinematics``,
-    ``plant`` and its private tree and joint map.
+    ``friction``, ``sign``, ``rotor_inertia``, ``standard_names``, ``base``,
+    ``kinematics``, ``plant`` and its private tree and joint map.
     """
 
     # Provided by RobotModel (a frozen dataclass).
@@ -281,7 +281,8 @@ class RobotRows:
     def idim_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
         """Inverse-dynamics rows W(q, v, v̇), shape ``(N, n, p)``: τ = W·θ [N·m, N].
 
-        Includes gravity and the friction columns v_j, sign v_j, 1 (joint j's row);
+        Includes gravity and the friction columns v_j, s(v_j), 1 (joint j's row;
+        s: the model's ``sign`` law: sign, tanh(v/ε) or a dead zone);
         equals ``CalcInverseDynamics`` (gravity as a force element) + friction.
         """
         q, v, vdot, single = self._batches(q=q, v=v, vdot=vdot)
@@ -306,7 +307,7 @@ class RobotRows:
         * ``"power"`` (m = 1): D = h = h_E + h_U, G = friction power
           [v_j², |v_j|, v_j] in the friction columns, y = vᵀτ [W].
         * ``"lagrangian"`` (m = n): D = ∂h_E/∂v, G = ∂h_U/∂q - ∂h_E/∂q + friction
-          [v_i, sign v_i, 1] in joint i's columns, y = τ [N·m, N].
+          [v_i, s(v_i), 1] in joint i's columns, y = τ [N·m, N] (s: :attr:`sign`).
 
         Args:
             kind: ``"power"`` or ``"lagrangian"``.

@@ -11,7 +11,8 @@ and three identifiers run on the same data:
 * on-line, the Lagrangian model (this library's extension), same blocks;
 * off-line IDIM-LS on the recorded log (zero-phase filter + central differences).
 
-Prints the table (true values, the paper's columns, ours, errors and Gautier %σ) and
+Prints the table (true values, the paper's columns, ours, errors and %σ: Gautier's
+off-line, the larger of Gautier's and the jackknife's on-line) and
 writes ``table2.md``, ``table2.csv`` and ``table2_estimates.png`` to ``--out``.
 One noise seed; ``benchmarks/bench_accuracy.py`` gives medians over seeds.
 """

@@ -78,6 +78,7 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     out = captured.out
     assert re.search(r"^name\s+value\s+σ\s+%σ$", out, flags=re.M)
     assert "model: lagrangian; window: 2 s; 8 modulating functions" in out
+    assert "rows: raw (raw velocity noise" in out  # a noise-free log: raw rows
     assert re.search(r"^condition number: [\d.]+$", out, flags=re.M)
     assert "final window: valid" in out
     table = _table(out)
@@ -112,6 +113,9 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
     assert settings["frequencies"] == [float(i) for i in range(8)]
     assert settings["jacobi_window"] == 0.05 and settings["update_period"] == 0.05
     assert settings["bank_time_step"] == 0.005
+    assert settings["rows_from"] == "raw" and settings["rows_from_measured"] is True
+    assert settings["raw_window"] == pytest.approx(0.046)  # fits the 0.05 s ring
+    assert 0.0 <= settings["raw_noise_ratio"] < 1e-3
     # Unset options echo the OnlineSettings defaults.
     from drake_dynid.diagrams import OnlineSettings
 

@@ -45,6 +45,9 @@ SETTINGS = [
 SETTINGS.append(
     dataclasses.replace(SETTINGS[0], weighting="none", frequencies=np.arange(6.0))
 )
+# Raw rows (read from the differentiator's ring, averaged over each bank step).
+SETTINGS.append(dataclasses.replace(SETTINGS[0], rows_from="raw", raw_window=0.04))
+SETTINGS.append(dataclasses.replace(SETTINGS[1], rows_from="raw", raw_window=0.02))
 
 
 @pytest.fixture(scope="module")
@@ -99,9 +102,11 @@ def test_core_replay_handles_bad_samples_like_the_blocks(robot, log):
     q[1500:1503, 1] = np.nan
     bad = RobotLog(log.t, q, log.tau, log.joint_names, log.time_step)
     rows = robot.rows_provider()
-    fast = replay_log_core(bad, rows, SETTINGS[:1])
-    _compare(fast, replay_log(bad, rows, SETTINGS[:1]))
-    assert 0.0 in fast[0].valid[-10:]
+    chosen = [SETTINGS[0], SETTINGS[3]]  # filtered and raw rows
+    fast = replay_log_core(bad, rows, chosen)
+    _compare(fast, replay_log(bad, rows, chosen))
+    for trace in fast:
+        assert 0.0 in trace.valid[-10:]
 
 
 def test_core_replay_argument_checks(robot, log):

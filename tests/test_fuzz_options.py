@@ -54,6 +54,9 @@ def _namespace(**values):
         "max_condition",
         "weighting",
         "frequencies",
+        "raw_window",
+        "uncertainty",
+        "rows_from",
     )
     return argparse.Namespace(**{name: values.get(name) for name in fields})
 
@@ -92,6 +95,9 @@ def _bounded(call):
     max_condition=maybe(reals),
     weighting=maybe(st.sampled_from(["frequency", "none"])),
     frequencies=maybe(frequency_text),
+    raw_window=maybe(reals),
+    uncertainty=maybe(st.sampled_from(["jackknife", "sandwich", "gautier"])),
+    rows_from=st.sampled_from(["auto", "filtered", "raw"]),
     time_step=st.sampled_from([1e-3, 8e-3, 1.0 / 909.0, 0.05]),
 )
 def test_identify_options_work_or_are_refused_by_name(time_step, **values):

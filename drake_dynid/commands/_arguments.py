@@ -89,13 +89,23 @@ def parse_dead_zone(text: str | None) -> Any:
 
 
 def add_friction_argument(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--friction`` (the friction columns per joint)."""
+    """Adds ``--friction`` (the friction columns) and ``--coulomb-width`` (its law)."""
     parser.add_argument(
         "--friction",
         default="viscous,coulomb",
         help=(
             "comma-separated friction columns per joint among viscous, coulomb, "
             "offset, or 'none' (default: viscous,coulomb)"
+        ),
+    )
+    parser.add_argument(
+        "--coulomb-width",
+        type=float,
+        default=0.0,
+        metavar="W",
+        help=(
+            "smooth Coulomb friction: the Coulomb column is tanh(v/W) instead of "
+            "sign(v), W in rad/s (or m/s); 0 (default): sign(v)"
         ),
     )
 
@@ -185,8 +195,8 @@ def parse_locked(text: str | None) -> dict[str, float]:
 def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> Any:
     """Builds the ``RobotModel`` of ``args`` and prints its notes on stderr.
 
-    Reads ``args.urdf``, ``args.friction``, ``args.joints`` and ``args.lock`` (each
-    optional on ``args``; see :func:`add_friction_argument` and
+    Reads ``args.urdf``, ``args.friction``, ``args.coulomb_width``, ``args.joints``
+    and ``args.lock`` (each optional on ``args``; see :func:`add_friction_argument` and
     :func:`add_joint_arguments`) and ``args.rotor_inertia`` when present. Each note
     of the load (joints treated as actuated, Drake's parser warnings summarised,
     an unclear rank decision) is one line ``dynid COMMAND: note: ...`` on stderr.
@@ -209,6 +219,7 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
         ),
         "joints": parse_joints(getattr(args, "joints", None)),
         "locked": parse_locked(getattr(args, "lock", None)),
+        "coulomb_width": getattr(args, "coulomb_width", 0.0),
     }
     if hasattr(args, "rotor_inertia"):
         options["rotor_inertia"] = bool(args.rotor_inertia)
@@ -292,12 +303,13 @@ def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
     ``auto`` measures one width per joint (``drake_dynid.offline.
     standstill_widths``, with ``--cutoff``/``--decimation-cutoff`` when given);
     ``none`` keeps the exact sign; a number is one width for every joint. A model
-    without Coulomb columns is returned unchanged.
+    without Coulomb columns, or with a smooth Coulomb law (``--coulomb-width``:
+    tanh(v/W) is already continuous at standstill), is returned unchanged.
     """
     from drake_dynid.core.friction import DeadZoneSign
 
     choice = parse_dead_zone(getattr(args, "dead_zone", None))
-    if choice is None or "coulomb" not in robot.friction:
+    if choice is None or "coulomb" not in robot.friction or robot.coulomb_width > 0:
         return robot
     if choice == "auto":
         from drake_dynid.commands._options import FILTER_OPTIONS, option_message

@@ -2,7 +2,7 @@
 
 Not a subcommand. ``dynid identify``, ``dynid offline`` and ``dynid params`` print
 and write their results with these helpers, so every command shows a parameter the
-same way (name, value, Gautier's σ, %σ, ``*`` when %σ > 30: not identified) and
+same way (name, value, σ, %σ, ``*`` when %σ > 30: not identified) and
 writes the same JSON keys (the format in the README, "JSON (--json)").
 """
 

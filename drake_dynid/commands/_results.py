@@ -50,6 +50,10 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         options["locked"] = {str(k): float(v) for k, v in locked.items()}
     if not args.rotor_inertia:
         options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
+    width = _from_results(document, "coulomb_width")
+    if not getattr(args, "coulomb_width", 0.0) and isinstance(width, (int, float)):
+        if width > 0:
+            options["coulomb_width"] = float(width)
     drive = _from_results(document, "drive")
     if not args.drive and isinstance(drive, str) and Path(drive).is_file():
         options["drive"] = drive

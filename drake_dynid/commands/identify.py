@@ -35,7 +35,7 @@ DESCRIPTION = (
     "window -> sliding QR identifier. The default engine (--engine core) runs the "
     "vectorised numerical core, without a Simulator; --engine blocks steps the Drake "
     "LeafSystems in a Drake Simulator (the reference: both give the same "
-    "estimates). Prints the final base-parameter estimates with Gautier's standard "
+    "estimates). Prints the final base-parameter estimates with their standard "
     "deviations (a parameter with %σ > 30 is flagged '*' = not identified), the "
     "condition number and the validity of the last window; optionally writes the "
     "estimates over time (--out CSV, --plot PNG) and a JSON summary (--json). Options "
@@ -57,6 +57,8 @@ _SETTING_OPTIONS = {
     "update_period": "update_period",
     "max_condition": "max_condition",
     "weighting": "weighting",
+    "raw_window": "raw_window",
+    "uncertainty": "uncertainty",
 }
 
 
@@ -131,7 +133,7 @@ def _setting_values(args: argparse.Namespace, bandwidth: float | None) -> dict:
     """The OnlineSettings keyword arguments of the options (unset ones left out)."""
     kwargs: dict[str, Any] = {}
     for option, name in _SETTING_OPTIONS.items():
-        value = getattr(args, option)
+        value = getattr(args, option, None)
         if value is not None:
             kwargs[name] = value
     frequencies = _frequencies(args.frequencies)
@@ -139,6 +141,8 @@ def _setting_values(args: argparse.Namespace, bandwidth: float | None) -> dict:
         kwargs["frequencies"] = frequencies
     if bandwidth is not None and "bandwidth" not in kwargs:
         kwargs["bandwidth"] = bandwidth
+    if getattr(args, "rows_from", "auto") != "auto":
+        kwargs["rows_from"] = args.rows_from
     return kwargs
 
 
@@ -148,13 +152,15 @@ def online_settings(
     time_step: float | None = None,
     duration: float | None = None,
     robot: Any = None,
+    rows_from: str | None = None,
 ) -> Any:
     """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
 
     Every value is checked first, with the option names in the messages
     (``core.online_checks.check_values``), before anything is allocated.
     ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
-    ``--bandwidth`` nor ``--frequencies`` is given. With the log's ``time_step``
+    ``--bandwidth`` nor ``--frequencies`` is given; ``rows_from`` (chosen on the
+    log) is used when ``--rows-from`` is ``auto``. With the log's ``time_step``
     [s] and ``duration`` [s] (and the ``robot``: its joints and base parameters)
     the settings are put on the log's grid and checked against it
     (``OnlineSettings.for_log``: Nyquist, the differentiator's pass band, the
@@ -164,6 +170,8 @@ def online_settings(
     from drake_dynid.core.online_checks import check_values
 
     kwargs = _setting_values(args, bandwidth)
+    if rows_from is not None and "rows_from" not in kwargs:
+        kwargs["rows_from"] = rows_from
     model = kwargs.pop("model", "lagrangian")
     if model in MODEL_DEFAULTS:
         values = {**MODEL_DEFAULTS[model], **kwargs}
@@ -179,6 +187,17 @@ def online_settings(
             names=OPTION_NAMES,
         )
     return settings
+
+
+def _longest_run(log: Any, minimum: int, what: str, override: str) -> Any:
+    """The positions of the longest run of finite samples (>= ``minimum``)."""
+    start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
+    if stop - start < minimum:
+        raise ValueError(
+            f"cannot measure {what}: no run of {minimum} finite samples in the log; "
+            f"give {override}."
+        )
+    return log.q[start:stop]
 
 
 def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
@@ -257,6 +276,26 @@ def usable_band(settings: Any, time_step: float) -> float:
     )
 
 
+def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
+    """``(rows_from, ratio, threshold)`` for ``--rows-from auto``.
+
+    ``core.raw_rows.rows_from_noise`` on the longest run of finite samples, with
+    the settings' raw window, Jacobi window and band: the raw rows when the
+    position noise gives their velocity estimate a noise (relative to the RMS
+    velocity) below the filtered rows' expected bias, else the filtered rows.
+    """
+    from drake_dynid.core.raw_rows import rows_from_noise
+
+    q = _longest_run(log, 64, "the position noise", "--rows-from filtered or raw")
+    return rows_from_noise(
+        q,
+        log.time_step,
+        raw_window=settings.resolved("raw_window"),
+        jacobi_window=settings.jacobi_window,
+        bandwidth=settings.bandwidth,
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid identify`` arguments."""
     add_common_arguments(parser)
@@ -319,6 +358,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="least squares of each window: 'frequency' (default) re-weights the "
         "rows by a noise model fitted to the residuals, growing with the "
         "modulating frequency; 'none': ordinary least squares (the paper)",
+    )
+    group.add_argument(
+        "--uncertainty",
+        choices=("jackknife", "sandwich", "gautier"),
+        help="standard deviations: 'jackknife' (default) the larger of the sandwich σ "
+        "and the jackknife's deleting pairs of modulating functions (covers "
+        "correlated rows, noise in the regressor and a filter bias); 'sandwich': "
+        "Gautier's σ corrected for correlated rows and frequency-dependent noise; "
+        "'gautier': Gautier's σ alone (the paper's)",
+    )
+    group.add_argument(
+        "--rows-from",
+        choices=("auto", "filtered", "raw"),
+        default="auto",
+        help="signals of the model rows: 'filtered' (the matched-filtered q, v, "
+        "tau: least noise, but the filter biases the nonlinear terms, e.g. the "
+        "Coulomb sign), 'raw' (rows of the raw q, tau and a central velocity "
+        "estimate, averaged over each bank step: no filter bias, for a low "
+        "position noise), 'auto' (default): raw when the raw velocity's noise "
+        "(measured on the log, relative to the RMS velocity) is below "
+        "0.008·(2π·band·jacobi window)², the filtered rows' expected bias",
+    )
+    group.add_argument(
+        "--raw-window",
+        type=float,
+        metavar="S",
+        help="window of the raw rows' central velocity estimate [s] (default 0.2; "
+        "raw_window + bank step <= jacobi window)",
     )
     group.add_argument(
         "--engine",
@@ -388,6 +455,13 @@ def run(args: argparse.Namespace) -> int:
             else None
         )
         settings = online_settings(args, bandwidth, log.time_step, log.duration, robot)
+        rows_measured = args.rows_from == "auto"
+        noise_ratio = noise_threshold = None
+        if rows_measured:  # with the raw window resolved on the log's grid
+            rows_from, noise_ratio, noise_threshold = measured_rows_from(log, settings)
+            settings = online_settings(
+                args, bandwidth, log.time_step, log.duration, robot, rows_from
+            )
     except ValueError as error:
         raise ValueError(f"log {args.log}: {error}") from None
     if args.engine == "blocks":
@@ -427,10 +501,19 @@ def run(args: argparse.Namespace) -> int:
             f"{len(settings.ell())} modulating functions; latency "
             f"{trace.delay:.4g} s"
         )
+        if robot.coulomb_width > 0.0:
+            print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g}), --coulomb-width")
         if band_measured:
             print(
                 f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
                 "99 % of the velocity power; --bandwidth to override)"
+            )
+        if noise_ratio is not None and noise_threshold is not None:
+            print(
+                f"rows: {settings.rows_from} (raw velocity noise "
+                f"{100 * noise_ratio:.3g} % of the RMS velocity, measured on the "
+                f"log; raw up to {100 * noise_threshold:.3g} % at this band and "
+                "Jacobi window; --rows-from to override)"
             )
         print()
         for line in estimates_table(trace.names, theta, std):
@@ -468,9 +551,17 @@ def run(args: argparse.Namespace) -> int:
             "settings": {
                 **settings.as_dict(),
                 "friction": list(robot.friction),
+                "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
                 **model_settings(args, robot),
                 "bandwidth_measured": band_measured,
+                "rows_from_measured": rows_measured,
+                "raw_noise_ratio": None
+                if noise_ratio is None
+                else json_number(noise_ratio),
+                "raw_noise_threshold": None
+                if noise_threshold is None
+                else json_number(noise_threshold),
                 "engine": args.engine,
             },
             "urdf": str(args.urdf),

@@ -118,6 +118,8 @@ def run(args: argparse.Namespace) -> int:
             f"{result.num_segments_used} of {result.num_segments} segment(s); "
             f"{result.num_rows} equations"
         )
+        if robot.coulomb_width > 0.0:
+            print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g}), --coulomb-width")
         print()
         for line in estimates_table(result.names, result.theta, result.std):
             print(line)
@@ -145,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
             "settings": {
                 **settings,
                 "friction": list(robot.friction),
+                "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
                 **model_settings(args, robot),
             },

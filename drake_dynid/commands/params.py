@@ -128,6 +128,7 @@ def params_document(model: Any, urdf: Any, drive: Any = None) -> dict[str, Any]:
         "urdf": str(urdf),
         "settings": {
             "friction": list(model.friction),
+            "coulomb_width": model.coulomb_width,
             "rotor_inertia": model.rotor_inertia,
             "gravity": model.gravity.tolist(),
             "drive": drive,

@@ -397,6 +397,8 @@ def run(args: argparse.Namespace) -> int:
         line = dead_zone_line(robot)
         if line:
             print(line)
+        if robot.coulomb_width > 0.0:
+            print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g})")
     entry = report_validation(
         args,
         robot,
@@ -408,7 +410,12 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(
             args.json,
-            {**entry, "params": str(args.params), "urdf": str(args.urdf)},
+            {
+                **entry,
+                "settings": {**entry["settings"], "coulomb_width": robot.coulomb_width},
+                "params": str(args.params),
+                "urdf": str(args.urdf),
+            },
         )
         if not args.quiet:
             print(f"wrote {args.json}")

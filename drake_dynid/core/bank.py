@@ -61,6 +61,13 @@ class ModulatingBank(Protocol):
         """
         ...
 
+    def row_functions(self, m: int) -> np.ndarray:
+        """The modulating function (0 .. L-1) of every row.
+
+        The jackknife's groups, as ``core.equations.row_functions``.
+        """
+        ...
+
     def init_state(self, num_channels: int) -> Any:
         """Empty streaming state for samples of ``num_channels`` floats."""
         ...

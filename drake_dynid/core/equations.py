@@ -31,6 +31,7 @@ __all__ = [
     "direct_fourier_integrals",
     "modulated_integrals",
     "row_frequencies",
+    "row_functions",
 ]
 
 _BLOCK = 2048  # samples per block in the direct sums (bounds memory to K × _BLOCK)
@@ -173,3 +174,17 @@ def row_frequencies(bank: FourierBank, m: int) -> tuple[np.ndarray, np.ndarray]:
     group = np.tile(np.arange(m), 2 * L)
     keep = np.repeat(bank.row_mask.ravel(), m)
     return frequency[keep], group[keep]
+
+
+def row_functions(bank: FourierBank, m: int) -> np.ndarray:
+    """Index (0 .. L-1) of the modulating function g_ℓ of every row.
+
+    Rows of :func:`assemble_equations`, in their order (ℓ-major): the groups of
+    the jackknife (``OnlineSettings.jackknife_groups``).
+
+    Returns:
+        (``bank.num_rows(m)``,) int.
+    """
+    m = v.integer("row_functions", "m", m, minimum=1)
+    index = np.repeat(np.arange(bank.num_functions), 2 * m)
+    return index[np.repeat(bank.row_mask.ravel(), m)]

@@ -44,6 +44,8 @@ __all__ = [
     "estimate_bandwidth",
     "frequencies_for",
     "periodogram",
+    "position_noise_std",
+    "velocity_rms",
     "velocity_spectrum",
 ]
 
@@ -82,6 +84,58 @@ def periodogram(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     return np.fft.rfftfreq(count, 1.0 / fs), density
 
 
+def _periodogram(q: Any, time_step: float) -> tuple[np.ndarray, np.ndarray, Any]:
+    """``(f, S, x)``: the Hann periodogram of the detrended channels, (F, n)."""
+    h = v.positive(_OWNER, "time_step", time_step, "s")
+    if not 1e-9 <= h <= 1e5:  # (2πf)² of the spectrum stays finite
+        v.fail(_OWNER, f"time_step must be in [1e-09, 1e+05] [s]; got {h:g}.")
+    x = v.array(_OWNER, "q", q)
+    if x.ndim == 1:
+        x = x[:, None]
+    if x.ndim != 2 or x.shape[0] < 64 or x.shape[1] < 1:
+        v.fail(
+            _OWNER,
+            "q must have shape (N,) or (N, n) with N >= 64 samples; "
+            f"got {np.shape(q)}.",
+        )
+    f, s = periodogram(x, 1.0 / h)
+    return f, s, x
+
+
+def _noise_floor(f: np.ndarray, s: np.ndarray, time_step: float) -> np.ndarray:
+    """N_j: median of S_j above f_s/4 over ln 2 (module docstring) [unit²/Hz]."""
+    return np.median(s[f > 0.25 / time_step], axis=0) / math.log(2.0)
+
+
+def position_noise_std(q: Any, time_step: float) -> np.ndarray:
+    """Std of the white measurement noise of each position channel [rad or m].
+
+    ``σ_j = √(N_j·f_s/2)``, N_j the white-noise floor of the one-sided periodogram
+    (module docstring, step 2): the flat part of the spectrum above f_s/4, where a
+    robot's motion carries no power at kHz sampling. A noise-free (simulated)
+    record gives the leakage of its motion there, orders of magnitude below any
+    sensor's noise.
+
+    Args:
+        q: (N,) or (N, n) measured positions [rad or m], N >= 64.
+        time_step: sample period h [s].
+
+    Returns:
+        (n,) σ per channel.
+    """
+    f, s, _ = _periodogram(q, time_step)
+    return np.sqrt(_noise_floor(f, s, time_step) * 0.5 / time_step)
+
+
+def velocity_rms(q: Any, time_step: float, *, threshold: float = 20.0) -> np.ndarray:
+    """RMS of each channel's velocity from :func:`velocity_spectrum` [rad/s or m/s].
+
+    ``√(Σ_f P_j(f)·Δf)``: the motion above the noise floor only.
+    """
+    f, power = velocity_spectrum(q, time_step, threshold=threshold)
+    return np.sqrt(power.sum(axis=0) * (f[1] - f[0]))
+
+
 def velocity_spectrum(
     q: Any, time_step: float, *, threshold: float = 20.0
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -100,22 +154,9 @@ def velocity_spectrum(
         ``(f, P)``: frequencies (F,) [Hz] and the velocity power (F, n)
         [(unit/s)²/Hz].
     """
-    h = v.positive(_OWNER, "time_step", time_step, "s")
-    if not 1e-9 <= h <= 1e5:  # (2πf)² of the spectrum stays finite
-        v.fail(_OWNER, f"time_step must be in [1e-09, 1e+05] [s]; got {h:g}.")
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
-    x = v.array(_OWNER, "q", q)
-    if x.ndim == 1:
-        x = x[:, None]
-    if x.ndim != 2 or x.shape[0] < 64 or x.shape[1] < 1:
-        v.fail(
-            _OWNER,
-            "q must have shape (N,) or (N, n) with N >= 64 samples; "
-            f"got {np.shape(q)}.",
-        )
-    f, s = periodogram(x, 1.0 / h)
-    upper = f > 0.25 / h
-    floor = np.median(s[upper], axis=0) / math.log(2.0)
+    f, s, x = _periodogram(q, time_step)
+    floor = _noise_floor(f, s, time_step)
     keep = s > threshold * floor
     # A constant (or exactly linear) channel only leaves round-off: no motion.
     residual = detrend_linear(x)

@@ -170,6 +170,12 @@ class FourierBank:
 
         return row_frequencies(self, m)
 
+    def row_functions(self, m: int) -> np.ndarray:
+        """:func:`drake_dynid.core.equations.row_functions` of this bank."""
+        from drake_dynid.core.equations import row_functions
+
+        return row_functions(self, m)
+
     def init_state(self, num_channels: int) -> Any:
         """:func:`drake_dynid.core.sliding.sliding_init` of this bank."""
         from drake_dynid.core.sliding import sliding_init

@@ -47,6 +47,7 @@ __all__ = [
     "ExactSign",
     "SignLaw",
     "TanhSign",
+    "check_coulomb_width",
     "check_friction",
     "friction_coefficients",
     "friction_column",
@@ -175,6 +176,21 @@ EXACT_SIGN = ExactSign()
 def sign_law(smoothing: float) -> SignLaw:
     """:class:`TanhSign` of width ``smoothing`` when > 0, else :data:`EXACT_SIGN`."""
     return TanhSign(smoothing) if smoothing > 0.0 else EXACT_SIGN
+
+
+def check_coulomb_width(owner: str, width: Any) -> float:
+    """A Coulomb width ε >= 0 [rad/s or m/s] as a float, or raises.
+
+    ε is the width of the smooth Coulomb law ``s(v) = tanh(v/ε)`` of a model's
+    friction columns; 0 means the exact sign (:func:`sign_law`).
+    """
+    width = _validate.real(owner, "coulomb_width", width, "rad/s or m/s")
+    if not width >= 0.0:
+        raise ValueError(
+            f"{owner}: coulomb_width must be >= 0 [rad/s or m/s] (0: exact sign); "
+            f"got {width:g}."
+        )
+    return float(width)
 
 
 def check_friction(owner: str, friction: object) -> tuple[str, ...]:

@@ -114,6 +114,7 @@ def identifier_update(
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
     noise: Any = None,
+    jackknife: Any = None,
 ) -> IdentifierState:
     """One solve of the sliding identifier: the new state (the old is unchanged).
 
@@ -134,11 +135,20 @@ def identifier_update(
         noise: the rows' ``core.row_noise.RowNoise`` for the honest σ
             (``OnlineSettings.row_noise``; ``core.weighted_lsq.solve_window``); None:
             Gautier's σ.
+        jackknife: None, or the (r,) jackknife group of every row
+            (``OnlineSettings.jackknife_groups``): σ is then, per parameter, the
+            larger of the σ above and the delete-one-group jackknife's.
     """
     if not window_valid:
         return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
     result = solve_window(
-        A, B, weighting, max_condition=max_condition, names=names, noise=noise
+        A,
+        B,
+        weighting,
+        max_condition=max_condition,
+        names=names,
+        noise=noise,
+        jackknife=jackknife,
     )
     unidentified = np.zeros(state.num_parameters)
     if result.valid:

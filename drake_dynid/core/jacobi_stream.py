@@ -23,6 +23,7 @@ __all__ = [
     "JacobiRing",
     "jacobi_apply",
     "jacobi_batch",
+    "jacobi_history",
     "jacobi_initial_state",
     "jacobi_outputs",
     "jacobi_ring",
@@ -193,6 +194,18 @@ def jacobi_outputs(
     if index is None:
         return ring.kernel[:, start : start + length] @ buffer
     return ring.kernel[index, start : start + length] @ buffer
+
+
+def jacobi_history(ring: JacobiRing, state: np.ndarray) -> np.ndarray:
+    """The ring's samples in time order, oldest first: (L, m).
+
+    Row L-1 is the newest sample; samples not yet pushed are zeros (the rows
+    before the first sample), as in :func:`jacobi_batch`.
+    """
+    length, m = ring.num_taps, ring.num_signals
+    head = int(state[-2])
+    buffer = state[: length * m].reshape(length, m)
+    return np.roll(buffer, length - 1 - head, axis=0)
 
 
 def jacobi_valid(ring: JacobiRing, state: np.ndarray) -> bool:

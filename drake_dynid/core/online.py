@@ -12,7 +12,8 @@ Two drivers run it on the same numerics: the Drake blocks
 (:mod:`drake_dynid.core.replay`). This module holds what both read:
 :class:`OnlineSettings` (with the one ℓ rule and the one construction of the Jacobi
 filters and of the bank), the event offsets :data:`BANK_OFFSET` and
-:data:`SOLVE_OFFSET`, and :class:`OnlineTrace`, the estimates over time.
+:data:`SOLVE_OFFSET`, and :class:`OnlineTrace` (defined in ``core.trace``), the
+estimates over time.
 
 Periods on the signal grid (:meth:`OnlineSettings.on_grid`, docs/CONVENTIONS.md
 §2): every event period and window must be a whole number of its sample period.
@@ -36,7 +37,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -52,16 +53,22 @@ from drake_dynid.core.fourier_bank import (
 from drake_dynid.core.jacobi_design import JacobiFilter, jacobi_filters
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 from drake_dynid.core.online_checks import check_log, check_values
+from drake_dynid.core.raw_rows import RawRowsDesign, raw_rows_design
 from drake_dynid.core.rows import check_model_kind, num_equations
+from drake_dynid.core.trace import OnlineTrace
 
 __all__ = [
     "BANK_OFFSET",
+    "JACKKNIFE_FUNCTIONS",
     "MIN_BANK_SAMPLES_PER_JACOBI_WINDOW",
     "MIN_FUNCTIONS",
     "MODEL_DEFAULTS",
     "NOMINAL_BANK_TIME_STEP",
+    "NOMINAL_RAW_WINDOW",
     "NOMINAL_UPDATE_PERIOD",
+    "ROWS_FROM",
     "SOLVE_OFFSET",
+    "UNCERTAINTIES",
     "WEIGHTINGS",
     "OnlineSettings",
     "OnlineTrace",
@@ -85,8 +92,24 @@ NOMINAL_UPDATE_PERIOD = 0.1
 #: window (its low-pass has a cut-off of a few 1/jacobi_window).
 MIN_BANK_SAMPLES_PER_JACOBI_WINDOW = 10
 
+#: Nominal window of the raw rows' central velocity estimate [s] (benchmarks: on the
+#: iiwa7 without noise 0.1-0.3 s leave < 0.03 % of bias; longer windows filter more
+#: of the position noise).
+NOMINAL_RAW_WINDOW = 0.2
+
 #: Least-squares weightings of OnlineSettings.weighting.
 WEIGHTINGS = ("frequency", "none")
+
+#: Standard deviations of OnlineSettings.uncertainty.
+UNCERTAINTIES = ("jackknife", "sandwich", "gautier")
+
+#: Adjacent modulating functions per jackknife group (OnlineSettings.jackknife_groups).
+JACKKNIFE_FUNCTIONS = 2
+
+#: Signals of the model rows (OnlineSettings.rows_from): the matched-filtered
+#: signals, or the raw signals with the rows averaged over each bank step
+#: (``core.raw_rows``).
+ROWS_FROM = ("filtered", "raw")
 
 #: Per-model defaults (benchmarks/bench_accuracy.py, 2R at SNR 30 dB over noise seeds,
 #: geometries and trajectories): κ = μ = q = 1 for both; the Lagrangian model, whose
@@ -167,6 +190,30 @@ class OnlineSettings:
             ``"none"``: ordinary least squares, as in the paper. On the 2R
             benchmark at 30 dB the weighting halves the inertial error
             (benchmarks/bench_accuracy.py).
+        rows_from: ``"filtered"`` (default): the model rows of the matched-filtered
+            signals (q̂, v̂, τ̂), the least noisy, but the filter does not commute
+            with the nonlinear terms (sign(v̂), velocity products): a bias of
+            about 2 % on a 7-DOF arm, 0.3 % of friction on the paper's 2R.
+            ``"raw"``: the rows of the raw positions and torques (delayed) and a
+            central velocity estimate over ``raw_window``, averaged over each
+            bank step (``core.raw_rows``): no filter bias, more velocity noise
+            in the nonlinear terms; for logs with a low position noise
+            (``core.raw_rows.rows_from_noise`` decides from the log;
+            ``dynid identify --rows-from auto``).
+        uncertainty: ``"jackknife"`` (default): σ is, per parameter, the larger
+            of the honest sandwich σ (``core.row_noise``: correlated rows, noise
+            growing with the frequency) and the jackknife's deleting one pair of
+            adjacent modulating functions at a time (``core.jackknife``: also
+            covers the noise in the regressor and a filter bias that changes with
+            the modulating frequency); ``"sandwich"``: the sandwich σ alone;
+            ``"gautier"``: Gautier's σ alone (independent rows of equal variance,
+            the paper's; no check of the residual's degrees of freedom).
+        raw_window: window 2m·h of the central velocity estimate of the raw rows
+            [s] (an even multiple of h; the rows refer to m·h earlier). With
+            bank_time_step it must fit in the differentiator's ring:
+            raw_window + bank_time_step <= jacobi_window + h. None (default):
+            the longest even multiple of h that fits, at most
+            :data:`NOMINAL_RAW_WINDOW` (0.2 s), see :meth:`on_grid`.
     """
 
     model: str = "lagrangian"
@@ -182,6 +229,9 @@ class OnlineSettings:
     update_period: float | None = None
     max_condition: float = DEFAULT_MAX_CONDITION
     weighting: str = "frequency"
+    rows_from: str = "filtered"
+    uncertainty: str = "jackknife"
+    raw_window: float | None = None
 
     def __post_init__(self) -> None:
         # Types, ranges and the hard ceilings on the work per value
@@ -197,8 +247,12 @@ class OnlineSettings:
     # ----------------------------------------------------------- the signal grid
     @property
     def on_signal_grid(self) -> bool:
-        """True once :meth:`on_grid` has fixed the bank and solve periods."""
-        return self.bank_time_step is not None and self.update_period is not None
+        """True once :meth:`on_grid` has fixed the periods and the raw window."""
+        return (
+            self.bank_time_step is not None
+            and self.update_period is not None
+            and self.raw_window is not None
+        )
 
     def on_grid(self, time_step: float) -> OnlineSettings:
         """These settings for signals sampled every ``time_step`` h [s].
@@ -209,14 +263,18 @@ class OnlineSettings:
         * ``update_period`` None: the multiple of h closest to
           :data:`NOMINAL_UPDATE_PERIOD`; given: it must be a multiple of h.
         * ``jacobi_window``: the nearest multiple of h when it is not one;
-          ``window``: the nearest multiple of the bank step when it is not one.
+          ``window``: the nearest multiple of the bank step when it is not one;
+          ``raw_window`` None: the longest even multiple of h up to
+          :data:`NOMINAL_RAW_WINDOW` that fits in the differentiator's ring with
+          one bank step; given: the nearest even multiple (>= 2) of h.
 
         Ties go to the smaller multiple; a value already on the grid is kept
         exactly. Idempotent.
 
         Raises:
             ValueError: a given ``bank_time_step`` or ``update_period`` is not a
-                multiple of h, or ``jacobi_window`` is shorter than 10 h.
+                multiple of h, ``jacobi_window`` is shorter than 10 h, or (raw
+                rows) raw_window + bank_time_step > jacobi_window + h.
         """
         h = check.positive(_OWNER, "time_step", time_step, "s")
         jacobi_window = _on_grid(self.jacobi_window, h)
@@ -242,12 +300,33 @@ class OnlineSettings:
             update_period = _on_grid(NOMINAL_UPDATE_PERIOD, h)
         else:
             update_period = self._given_multiple("update_period", h)
+        ring = round(jacobi_window / h) + 1  # samples the raw rows may read
+        room = ring - round(bank_time_step / h)
+        if self.raw_window is None:
+            fits = max(1, room // 2)
+            raw_window = (
+                2.0 * h * min(nearest_multiple(NOMINAL_RAW_WINDOW, 2 * h), fits)
+            )
+        elif _is_multiple(self.raw_window, 2.0 * h):
+            raw_window = float(self.raw_window)
+        else:
+            raw_window = 2.0 * h * nearest_multiple(self.raw_window, 2.0 * h)
+        if self.rows_from == "raw":
+            if round(raw_window / h) > room:
+                check.fail(
+                    _OWNER,
+                    "raw rows read raw_window + bank_time_step of signal from the "
+                    "differentiator's ring: raw_window + bank_time_step must be <= "
+                    f"jacobi_window + h [s]; got {raw_window:g} + {bank_time_step:g} "
+                    f"with jacobi_window {jacobi_window:g} and h {h:g}.",
+                )
         return dataclasses.replace(
             self,
             window=_on_grid(self.window, bank_time_step),
             jacobi_window=jacobi_window,
             bank_time_step=bank_time_step,
             update_period=update_period,
+            raw_window=raw_window,
         )
 
     def for_log(
@@ -311,7 +390,7 @@ class OnlineSettings:
         return round(self.resolved("update_period") / h)
 
     def resolved(self, name: str) -> float:
-        """The period ``name`` (``"bank_time_step"`` or ``"update_period"``) [s].
+        """``name`` (``"bank_time_step"``, ``"update_period"``, ``"raw_window"``) [s].
 
         Raises:
             ValueError: it is None (not set and not yet put on a grid).
@@ -380,12 +459,54 @@ class OnlineSettings:
         """The rows' noise structure for the honest σ (``core.row_noise``).
 
         ``core.row_noise.row_noise(bank, m)``: row frequencies, noise groups and
-        the correlation of one equation's rows (docs/MATH.md §4). Both drivers
-        pass it to the identifier step, whatever the weighting.
+        the correlation of one equation's rows (docs/MATH.md §4); None with
+        ``uncertainty="gautier"``. Both drivers pass it to the identifier step,
+        whatever the weighting.
         """
+        if self.uncertainty == "gautier":
+            return None
         from drake_dynid.core.row_noise import row_noise
 
         return row_noise(self.bank() if bank is None else bank, m)
+
+    def jackknife_groups(self, m: int, bank: Any = None) -> np.ndarray | None:
+        """The solver's ``jackknife`` argument (``weighted_lsq.solve_window``).
+
+        None unless ``uncertainty="jackknife"``, else the group of every row: the
+        pairs of adjacent modulating functions, ``bank.row_functions(m) //``
+        :data:`JACKKNIFE_FUNCTIONS` (adjacent functions share a Fourier line; on
+        the 2R benchmark pairs give err/σ p90 1.8-2.4 where single functions
+        give 1.9-3.3).
+
+        Args:
+            m: equations per sample of the model rows.
+            bank: this configuration's bank when already built (default: builds
+                ``self.bank()``).
+        """
+        if self.uncertainty != "jackknife":
+            return None
+        functions = (self.bank() if bank is None else bank).row_functions(m)
+        return functions // JACKKNIFE_FUNCTIONS
+
+    def raw_design(self, time_step: float) -> RawRowsDesign:
+        """The raw-rows design (``core.raw_rows``) on the grid of ``time_step`` h.
+
+        Velocity window ``raw_window``, D = bank_time_step/h samples per bank
+        sample (after :meth:`on_grid`).
+        """
+        window = self.resolved("raw_window")
+        return raw_rows_design(window, time_step, self.decimation(time_step))
+
+    def delay(self, time_step: float) -> float:
+        """The latency of the bank's samples behind the newest signal sample [s].
+
+        Filtered rows: the Jacobi filters' delay; raw rows: the raw design's
+        (m + (D - 1)/2)·h. The estimate's latency adds the solve offset
+        (:data:`SOLVE_OFFSET` h).
+        """
+        if self.rows_from == "raw":
+            return self.raw_design(time_step).delay
+        return self.jacobi_filters(time_step)[0].delay
 
     def jacobi_parameters(self) -> dict[str, Any]:
         """Arguments of the matched differentiator (orders 0 and 1) but the period.
@@ -419,57 +540,3 @@ class OnlineSettings:
         out = asdict(self)
         out["frequencies"] = self.ell().tolist()
         return out
-
-
-@dataclass
-class OnlineTrace:
-    """Estimates of one on-line identifier over time (one row per solve).
-
-    Attributes:
-        settings: the identifier's settings (on the signal grid).
-        names: base parameter names (p).
-        t: (M,) times of the solves [s].
-        theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
-        std: (M, p) Gautier standard deviations (inf before the first valid solve).
-        condition_number: (M,) condition number of the column-scaled A.
-        valid: (M,) 1 when the solve at that time was accepted.
-        status: (M,) the identifier's status code (``core.identifier.Status``: 0
-            ok, 1 window not ready or holding a bad sample, 2 not identifiable).
-        unidentified: (M, p) 1 for the parameters found not excited by that solve.
-        delay: latency of the estimate [s]: the differentiator delay plus one sample
-            per block (the window ends at t - delay).
-    """
-
-    settings: OnlineSettings
-    names: tuple[str, ...]
-    t: np.ndarray
-    theta: np.ndarray
-    std: np.ndarray
-    condition_number: np.ndarray
-    valid: np.ndarray
-    delay: float
-    status: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    unidentified: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-
-    def final(self) -> dict[str, Any]:
-        """The estimate at the end of the run (last valid estimate held)."""
-        theta = self.theta[-1] if len(self.t) else np.full(len(self.names), np.nan)
-        std = self.std[-1] if len(self.t) else np.full(len(self.names), np.inf)
-        return {
-            "theta": theta,
-            "std": std,
-            "condition_number": float(self.condition_number[-1])
-            if len(self.t)
-            else math.inf,
-            "valid": bool(self.valid[-1]) if len(self.t) else False,
-            "status": int(self.status[-1]) if len(self.status) else None,
-            "unidentified": tuple(
-                name
-                for name, flag in zip(
-                    self.names,
-                    self.unidentified[-1] if len(self.unidentified) else (),
-                    strict=False,
-                )
-                if flag > 0.5
-            ),
-        }

@@ -237,6 +237,19 @@ def check_values(
             f"{say('weighting')} must be one of 'frequency', 'none'; got "
             f"{weighting!r}.",
         )
+    for field, allowed in (
+        ("rows_from", ("filtered", "raw")),
+        ("uncertainty", ("jackknife", "sandwich", "gautier")),
+    ):
+        value = get(field, allowed[0])
+        if not isinstance(value, str) or value not in allowed:
+            _fail(
+                prefix,
+                f"{say(field)} must be one of {', '.join(map(repr, allowed))}; got "
+                f"{value!r}.",
+            )
+    if get("raw_window") is not None:
+        _duration(prefix, say("raw_window"), get("raw_window"))
     step = get("bank_time_step")
     if step is not None and step > jacobi_window / 10:
         _fail(
@@ -438,6 +451,7 @@ def _renamed(message: str, say: Say) -> str:
         "bank_time_step",
         "update_period",
         "jacobi_window",
+        "raw_window",
         "window",
         "time_step",
     )

@@ -37,11 +37,14 @@ from drake_dynid.core import _validate
 from drake_dynid.core.friction import (
     FRICTION_KINDS,
     FRICTION_PREFIX,
+    SignLaw,
+    check_coulomb_width,
     check_friction,
     friction_idim_columns,
     friction_names,
     friction_power_columns,
     friction_value,
+    sign_law,
 )
 from drake_dynid.core.rows import (
     MODEL_KINDS,
@@ -104,14 +107,25 @@ class Planar2RRows:
         friction: friction columns per joint, a subset of ``("viscous", "coulomb",
             "offset")`` in that order; default viscous + Coulomb (the paper's 8
             parameters).
+        coulomb_width: width ε of a smooth Coulomb law s(v) = tanh(v/ε) [rad/s];
+            0 (default): s(v) = sign(v) (``core.friction.sign_law``).
     """
 
     L1: float = 1.0
     friction: tuple[str, ...] = ("viscous", "coulomb")
+    coulomb_width: float = 0.0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "L1", _validate.positive(_OWNER, "L1", self.L1, "m"))
         object.__setattr__(self, "friction", check_friction(_OWNER, self.friction))
+        object.__setattr__(
+            self, "coulomb_width", check_coulomb_width(_OWNER, self.coulomb_width)
+        )
+
+    @property
+    def sign(self) -> SignLaw:
+        """The Coulomb law s(v) of the friction columns (sign or tanh(v/ε))."""
+        return sign_law(self.coulomb_width)
 
     @property
     def num_joints(self) -> int:
@@ -202,7 +216,8 @@ class Planar2RRows:
     def idim_rows(self, q, v, vdot) -> np.ndarray:
         """Inverse-dynamics rows W(q, v, v̇), shape ``(N, 2, p)``: τ = W·X [N·m].
 
-        See the module docstring for τ1 and τ2; friction columns v_j, sign v_j, 1.
+        See the module docstring for τ1 and τ2; friction columns v_j, s(v_j), 1
+        (s = sign, or tanh(v/ε) with ``coulomb_width`` ε).
         """
         q, v, vdot, single = as_batches(_OWNER, _NUM_JOINTS, q=q, v=v, vdot=vdot)
         return _drop(single, self._idim(q, v, vdot))
@@ -220,7 +235,7 @@ class Planar2RRows:
         out[:, 1, 1] = a1 + a2
         out[:, 1, 2] = L1 * (c2 * a1 + s2 * v1 * v1)
         out[:, 1, 3] = L1 * (-s2 * a1 + c2 * v1 * v1)
-        out[:, :, _NUM_INERTIAL:] = friction_idim_columns(v, self.friction)
+        out[:, :, _NUM_INERTIAL:] = friction_idim_columns(v, self.friction, self.sign)
         return out
 
     def power_rows(self, q, v, vdot) -> np.ndarray:
@@ -254,6 +269,7 @@ class Planar2RRows:
         v1, v2 = float(v[0]), float(v[1])
         c2, s2 = math.cos(q2), math.sin(q2)
         L1, p, width = self.L1, self.num_parameters, len(self.friction)
+        sign = self.sign
         if kind == "lagrangian":
             # D: 2 rows (momentum), G: 2 rows (-∂h_E/∂q + friction), y = τ.
             out = [0.0] * (4 * p + 2)
@@ -265,7 +281,7 @@ class Planar2RRows:
             for i, vi in enumerate((v1, v2)):
                 row = 2 * p + i * p + _NUM_INERTIAL + i * width
                 for k, kind_f in enumerate(self.friction):
-                    out[row + k] = friction_value(kind_f, vi)
+                    out[row + k] = friction_value(kind_f, vi, sign)
             out[4 * p] = float(tau[0])
             out[4 * p + 1] = float(tau[1])
         else:  # power
@@ -275,7 +291,7 @@ class Planar2RRows:
             for i, vi in enumerate((v1, v2)):
                 row = p + _NUM_INERTIAL + i * width
                 for k, kind_f in enumerate(self.friction):
-                    out[row + k] = vi * friction_value(kind_f, vi)
+                    out[row + k] = vi * friction_value(kind_f, vi, sign)
             out[2 * p] = v1 * float(tau[0]) + v2 * float(tau[1])
         return np.array(out)
 
@@ -309,5 +325,6 @@ class Planar2RRows:
             slice(_NUM_INERTIAL, None),
             self.friction,
             self.num_parameters,
+            self.sign,
         )
         return _drop(single, *out)

@@ -22,14 +22,15 @@ bank_time_step/h and U = update_period/h samples:
   is processed and the loggers publish up to t_N.
 
 Vectorised and streamed: the FIRs are evaluated at the bank samples only
-(:func:`filtered_at`: the smoothed q and τ and the velocity of q), and they and
-their rows (one ``rows.model_rows`` call) a block of :data:`ROWS_CHUNK` bank
-samples at a time, when the solves reach them; the bank's ``push_many`` between
-two solves, and a solve only at the solve times. Cost per log sample: a few µs,
-independent of the window T and of the log's length; memory beyond the log and
-the traces: a few blocks. :func:`filtered_signals` filters a whole log and
-:func:`window_estimate` solves one window by direct quadrature (the references
-the accuracy benchmark uses).
+(:func:`filtered_at`: the smoothed q and τ and the velocity of q), or the raw rows
+(``core.raw_rows.raw_channels_batch``) there, and their rows (one
+``rows.model_rows`` call) a block of :data:`ROWS_CHUNK` bank samples at a time,
+when the solves reach them; the bank's ``push_many`` between two solves, and a
+solve only at the solve times. Cost per log sample: a few µs, independent of the
+window T and of the log's length; memory beyond the log and the traces: a few
+blocks. :func:`filtered_signals` filters a whole log and :func:`window_estimate`
+solves one window by direct quadrature (the references the accuracy benchmark
+uses; :func:`window_equations` gives its equations).
 """
 
 from __future__ import annotations
@@ -46,13 +47,15 @@ from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
 from drake_dynid.core.lsq import LeastSquaresResult
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
-from drake_dynid.core.rows import check_rows, pack_rows
+from drake_dynid.core.raw_rows import raw_channels_batch
+from drake_dynid.core.rows import check_rows, num_channels, pack_rows
 from drake_dynid.core.weighted_lsq import solve_window
 
 __all__ = [
     "bank_channels",
     "filtered_signals",
     "replay_log_core",
+    "window_equations",
     "window_estimate",
 ]
 
@@ -151,9 +154,28 @@ def bank_channels(
 def _channel_blocks(
     log: Any, rows: Any, entry: OnlineSettings, bank_times: np.ndarray
 ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """(packed rows, valid) of the bank samples, :data:`ROWS_CHUNK` at a time."""
+    """(packed rows, valid) of the bank samples, :data:`ROWS_CHUNK` at a time.
+
+    Raw rows (``entry.rows_from == "raw"``) read the differentiator's ring, as in
+    the blocks: valid once the ring is full and every sample read is finite.
+    """
+    raw = entry.rows_from == "raw"
+    if raw:
+        design = entry.raw_design(log.time_step)
+        taps = entry.jacobi_filters(log.time_step)[0].num_taps
+        m = entry.num_equations(int(rows.num_joints))
+        width = num_channels(m, int(rows.num_parameters))
     for start in range(0, len(bank_times), ROWS_CHUNK):
         index = bank_times[start : start + ROWS_CHUNK]
+        if raw:
+            full = index + 1 >= taps
+            channels = np.zeros((index.size, width))
+            if full.any():
+                channels[full] = raw_channels_batch(
+                    design, rows, entry.model, log.q, log.tau, index[full]
+                )
+            yield channels, full & np.isfinite(channels).all(axis=1)
+            continue
         q_hat, v_hat, tau_hat, valid = filtered_at(
             log.q, log.tau, entry, log.time_step, index
         )
@@ -163,7 +185,6 @@ def _channel_blocks(
 def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     h = log.time_step
     count = log.num_samples
-    jacobi_delay = entry.jacobi_filters(h)[0].delay
     decimation = entry.decimation(h)
     solve_every = entry.solve_decimation(h)
     bank = entry.bank()
@@ -172,9 +193,11 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     names = tuple(rows.names)
     weighting = entry.row_weighting(m, bank)
     noise = entry.row_noise(m, bank)
+    jackknife = entry.jackknife_groups(m, bank)
 
-    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j;
-    # their rows are computed a block at a time, when the solves reach them.
+    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j
+    # (filtered rows) or the mean rows of the raw samples j - D + 1 .. j (raw
+    # rows); their rows are computed a block at a time, when the solves reach them.
     bank_times = np.arange(0, count, decimation)
     blocks = _channel_blocks(log, rows, entry, bank_times)
     channels, sample_valid = next(blocks)
@@ -224,6 +247,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             max_condition=entry.max_condition,
             names=names,
             noise=noise,
+            jackknife=jackknife,
         )
     return OnlineTrace(
         settings=entry,
@@ -233,7 +257,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         std=std,
         condition_number=condition,
         valid=valid,
-        delay=jacobi_delay + SOLVE_OFFSET * h,
+        delay=entry.delay(h) + SOLVE_OFFSET * h,
         status=status,
         unidentified=unidentified,
     )
@@ -291,42 +315,77 @@ def replay_log_core(
         return [_replay_one(log, rows, raw.on_grid(log.time_step)) for raw in settings]
 
 
-def window_estimate(
+def window_equations(
     rows: Any,
     settings: OnlineSettings,
-    signals: Sequence[np.ndarray],
+    q: np.ndarray,
+    tau: np.ndarray,
     end: int,
     time_step: float,
-) -> LeastSquaresResult:
-    """The solve of one window by direct trapezoid quadrature (a reference).
+    *,
+    signals: Sequence[Any] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The modulated equations ``A θ = B`` of one window, by direct quadrature.
 
-    The window's newest bank sample is the differentiator output at sample
-    ``end``; its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h).
-    Same equations and solve as the identifier's
-    (``core.weighted_lsq.solve_window`` with the settings' weighting and
-    ``max_condition``), with
+    The window's newest bank sample is the one pushed at signal sample ``end``;
+    its samples are ``end - j·D``, j = N_bank .. 0 (D = bank_time_step/h): the
+    filtered rows of the differentiator's outputs there, or the raw rows
+    (``core.raw_rows.raw_channels_batch``), then
     ``core.equations.direct_fourier_integrals`` instead of the sliding sums.
 
     Args:
         rows: row provider.
         settings: the identifier's settings (put on the grid of ``time_step``).
-        signals: ``(q̂, v̂, τ̂, ...)`` from :func:`filtered_signals`.
+        q: (N, n) positions of the log [rad or m].
+        tau: (N, n) torques of the log [N·m or N].
         end: index of the window's newest sample.
         time_step: the signal period h [s].
+        signals: ``(q̂, v̂, τ̂, ...)`` from :func:`filtered_signals` when already
+            computed (filtered rows only).
     """
     s = settings.on_grid(time_step)
-    q_hat, v_hat, tau_hat = signals[:3]
     bank = s.bank()
     index = end - s.decimation(time_step) * np.arange(bank.num_intervals, -1, -1)
-    channels = bank_channels(rows, s.model, q_hat[index], v_hat[index], tau_hat[index])
+    if s.rows_from == "raw":
+        channels = raw_channels_batch(
+            s.raw_design(time_step), rows, s.model, q, tau, index
+        )
+    else:
+        found = filtered_signals(q, tau, s, time_step) if signals is None else signals
+        q_hat, v_hat, tau_hat = found[:3]
+        channels = bank_channels(
+            rows, s.model, q_hat[index], v_hat[index], tau_hat[index]
+        )
     m = s.num_equations(int(rows.num_joints))
     p = int(rows.num_parameters)
-    a, b = assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
+    return assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
+
+
+def window_estimate(
+    rows: Any,
+    settings: OnlineSettings,
+    q: np.ndarray,
+    tau: np.ndarray,
+    end: int,
+    time_step: float,
+    *,
+    signals: Sequence[Any] | None = None,
+) -> LeastSquaresResult:
+    """The solve of one window by direct trapezoid quadrature (a reference).
+
+    :func:`window_equations`, then the identifier's solve
+    (``core.lsq.solve_window`` with the settings' weighting and
+    ``max_condition``). Arguments as :func:`window_equations`.
+    """
+    s = settings.on_grid(time_step)
+    a, b = window_equations(rows, s, q, tau, end, time_step, signals=signals)
+    m = s.num_equations(int(rows.num_joints))
     return solve_window(
         a,
         b,
-        s.row_weighting(m, bank),
+        s.row_weighting(m),
         max_condition=s.max_condition,
         names=rows.names,
-        noise=s.row_noise(m, bank),
+        noise=s.row_noise(m),
+        jackknife=s.jackknife_groups(m),
     )

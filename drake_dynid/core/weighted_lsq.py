@@ -160,14 +160,27 @@ def solve_frequency_weighted_least_squares(
         max_condition: largest accepted scaled condition number.
         names: p parameter names.
     """
+    return _frequency_weighted(A, B, frequency, group, max_condition, names)[0]
+
+
+def _frequency_weighted(
+    A: Any,
+    B: Any,
+    frequency: Any,
+    group: Any,
+    max_condition: float,
+    names: Sequence[str] | None,
+) -> tuple[LeastSquaresResult, np.ndarray | None]:
+    """:func:`solve_frequency_weighted_least_squares` and its weights (None: OLS)."""
     A, B, first = _decompose(A, B, max_condition, names, bound_first=True)
     if isinstance(first, LeastSquaresResult):
-        return first
+        return first, None
     p = first.norms.size
     theta = (first.R_inv @ first.R_aug[:p, p]) * first.b_scale / first.norms
     weights = frequency_noise_weights(B - A @ theta, frequency, group)
     _, _, second = _decompose(A * weights[:, None], B * weights, max_condition, names)
-    return second if isinstance(second, LeastSquaresResult) else _estimate(second)
+    result = second if isinstance(second, LeastSquaresResult) else _estimate(second)
+    return result, weights
 
 
 def solve_window(
@@ -178,6 +191,7 @@ def solve_window(
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
     noise: Any = None,
+    jackknife: Any = None,
 ) -> LeastSquaresResult:
     """The on-line identifier's solve of one window (block and core replay alike).
 
@@ -195,14 +209,24 @@ def solve_window(
             frequency), and a window whose residual has fewer than
             ``core.row_noise.MIN_RESIDUAL_DOF`` effective degrees of freedom is
             not valid. None: Gautier's σ (independent rows of equal noise).
+        jackknife: None, or the (r,) group of every row (e.g. its pair of
+            modulating functions): σ is then, per parameter, the larger of the σ
+            above and the delete-one-group jackknife's
+            (``core.jackknife.jackknife_std``, with the solve's weights;
+            docs/MATH.md §4).
     """
     if noise is None:
         if weighting is None:
-            return solve_least_squares(A, B, max_condition=max_condition, names=names)
-        frequency, group = weighting
-        return solve_frequency_weighted_least_squares(
-            A, B, frequency, group, max_condition=max_condition, names=names
-        )
+            result = solve_least_squares(
+                A, B, max_condition=max_condition, names=names
+            )
+            weights = None
+        else:
+            frequency, group = weighting
+            result, weights = _frequency_weighted(
+                A, B, frequency, group, max_condition, names
+            )
+        return _with_jackknife(result, A, B, jackknife, weights)
     from drake_dynid.core.row_noise import (
         MIN_RESIDUAL_DOF,
         honest_std,
@@ -249,14 +273,33 @@ def solve_window(
                 "window or more modulating functions within the excitation band."
             ),
         )
-    std = honest.std
-    magnitude = np.abs(result.theta)
-    relative = np.full(A.shape[1], np.inf)
-    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
-    relative.flags.writeable = False
-    return dataclasses.replace(
-        result,
-        std=std,
-        relative_std_percent=relative,
-        residual_std=honest.residual_std,
+    result = dataclasses.replace(
+        _with_std(result, honest.std), residual_std=honest.residual_std
     )
+    return _with_jackknife(result, A, B, jackknife, weights)
+
+
+def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:
+    """``result`` with the standard deviations ``std`` (and their relative %)."""
+    magnitude = np.abs(result.theta)
+    relative = np.full(std.shape, np.inf)
+    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
+    for array in (std, relative):
+        array.flags.writeable = False
+    return dataclasses.replace(result, std=std, relative_std_percent=relative)
+
+
+def _with_jackknife(
+    result: LeastSquaresResult, A: Any, B: Any, groups: Any, weights: Any
+) -> LeastSquaresResult:
+    """σ = max(result's σ, the delete-one-group jackknife's), per parameter.
+
+    A NaN jackknife (fewer than two groups, or a group whose removal leaves θ
+    undetermined) keeps the result's σ.
+    """
+    if groups is None or not result.valid:
+        return result
+    from drake_dynid.core.jackknife import jackknife_std
+
+    spread = jackknife_std(A, B, groups, weights=weights)
+    return _with_std(result, np.fmax(result.std, spread))

@@ -6,6 +6,9 @@ The three blocks of the on-line identifier (docs/MATH.md §3-§4, docs/CONVENTIO
     (q̂, v̂, τ̂) ──► ModelRows ──channels──► ModulatingIntegralBank ──A, B──►
     SlidingQRIdentifier ──► θ̂, σ(θ̂), cond, valid
 
+(``RawModelRows`` replaces ``ModelRows`` for the raw rows: it reads the
+differentiator's ring, ``drake_dynid.core.raw_rows``.)
+
 Each block is a thin wrapper over ``drake_dynid.core`` with all state in the
 Context, in its own module (:mod:`~drake_dynid.systems.model_rows`,
 :mod:`~drake_dynid.systems.modulating_bank`, :mod:`~drake_dynid.systems.identifier`);
@@ -16,7 +19,7 @@ from __future__ import annotations
 
 from drake_dynid.core.identifier import Status
 from drake_dynid.systems.identifier import SlidingQRIdentifier
-from drake_dynid.systems.model_rows import ModelRows
+from drake_dynid.systems.model_rows import ModelRows, RawModelRows
 from drake_dynid.systems.modulating_bank import ModulatingIntegralBank
 
 __all__ = [
@@ -25,6 +28,7 @@ __all__ = [
     "STATUS_WINDOW_NOT_READY",
     "ModelRows",
     "ModulatingIntegralBank",
+    "RawModelRows",
     "SlidingQRIdentifier",
     "Status",
 ]

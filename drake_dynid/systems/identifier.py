@@ -38,7 +38,7 @@ _GROUPS = (
 
 
 class SlidingQRIdentifier(LeafSystem):
-    r"""Least squares on the bank's sliding equations, with Gautier's uncertainty.
+    r"""Least squares on the bank's sliding equations, with their uncertainty.
 
     .. pydrake_system::
 
@@ -60,9 +60,10 @@ class SlidingQRIdentifier(LeafSystem):
         θ̂ = argmin ‖A θ - B‖₂      by QR (numpy), A: r × p,
 
     with σ_ρ² = ‖B - Aθ̂‖²/(r - p), C = σ_ρ² (AᵀA)⁻¹ (from R, never a pseudo-inverse),
-    ``theta_std`` = √diag(C) (in the units of θ), and ``condition_number`` of A after
-    scaling its columns to unit norm (docs/MATH.md §4). When the window is not
-    ready, or the system is rank deficient or more ill-conditioned than
+    ``theta_std`` = √diag(C) (in the units of θ; with ``jackknife_groups``, the
+    larger of it and the delete-one-group jackknife's σ), and ``condition_number``
+    of A after scaling its columns to unit norm (docs/MATH.md §4). When the window
+    is not ready, or the system is rank deficient or more ill-conditioned than
     ``max_condition``, the block **holds the last valid estimate** and its σ, sets
     ``valid`` = 0, and marks in ``unidentified`` (p, 0/1) the parameters found not
     excited; ``status`` is ``Status.OK`` (0), ``Status.WINDOW_NOT_READY`` (1: window
@@ -89,6 +90,7 @@ class SlidingQRIdentifier(LeafSystem):
         offset: float = 0.0,
         row_weighting: tuple[Any, Any] | None = None,
         row_noise: Any = None,
+        jackknife_groups: Any = None,
     ):
         """Builds the block.
 
@@ -112,6 +114,10 @@ class SlidingQRIdentifier(LeafSystem):
                 (correlated rows, noise growing with frequency, docs/MATH.md §4)
                 and windows with too few effective degrees of freedom are not
                 valid; None: Gautier's σ.
+            jackknife_groups: (r,) the jackknife group of each row
+                (``OnlineSettings.jackknife_groups``): σ is then, per parameter,
+                the larger of the σ above and the delete-one-group jackknife's
+                (``core.jackknife``); None: no jackknife.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -143,6 +149,11 @@ class SlidingQRIdentifier(LeafSystem):
             check.fail(
                 owner, f"row_noise must describe {r} rows; got {row_noise.num_rows}."
             )
+        self._jackknife = None
+        if jackknife_groups is not None:
+            self._jackknife = check.array(
+                owner, "jackknife_groups", jackknife_groups, (r,)
+            ).astype(int)
         self._a = self.DeclareVectorInputPort("A", r * p)
         self._b = self.DeclareVectorInputPort("B", r)
         self._window_valid = self.DeclareVectorInputPort("window_valid", 1)
@@ -239,6 +250,7 @@ class SlidingQRIdentifier(LeafSystem):
             max_condition=self._max_condition,
             names=self._names,
             noise=self._noise,
+            jackknife=self._jackknife,
         )
         for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)

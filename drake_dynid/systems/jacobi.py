@@ -11,6 +11,7 @@ from pydrake.systems.framework import BasicVector, Context, DiscreteValues, Leaf
 from drake_dynid.core import _validate
 from drake_dynid.core.jacobi_design import JacobiFilter, _design_bank
 from drake_dynid.core.jacobi_stream import (
+    jacobi_history,
     jacobi_initial_state,
     jacobi_outputs,
     jacobi_ring,
@@ -33,6 +34,7 @@ class CausalJacobiDifferentiator(LeafSystem):
         - derivative_<order> (one per requested order, e.g. derivative_0)
         - ...
         - valid
+        - history
 
     Every ``time_step`` h [s] (offset 0) the block samples ``u`` (size m) into a ring
     buffer of the last N+1 samples (N = window/h) held in its discrete state, and
@@ -52,7 +54,10 @@ class CausalJacobiDifferentiator(LeafSystem):
     logger or a downstream block that samples them at t_k sees the state after the
     update at t_{k-1}: one extra sample of latency, as for every state-output block
     (docs/CONVENTIONS.md §2). ``valid`` is 0 until N+1 samples have been taken
-    (before that, missing samples count as zeros), then 1.
+    (before that, missing samples count as zeros), then 1. ``history`` is the
+    ring itself in time order, the last N+1 samples oldest first ((N+1)·m,
+    row-major (N+1, m); zeros before the first sample): the raw rows of the
+    on-line identifier read it (``drake_dynid.core.raw_rows``).
 
     State (numeric discrete state, in the Context only): one group, the ring of the
     last N+1 samples with its position,
@@ -119,6 +124,12 @@ class CausalJacobiDifferentiator(LeafSystem):
         self.DeclareVectorOutputPort(
             "valid", 1, self._CalcValid, prerequisites_of_calc=ticket
         )
+        self.DeclareVectorOutputPort(
+            "history",
+            self._ring.num_taps * num_signals,
+            self._CalcHistory,
+            prerequisites_of_calc=ticket,
+        )
 
     # ------------------------------------------------------------------ properties
     @property
@@ -158,6 +169,15 @@ class CausalJacobiDifferentiator(LeafSystem):
         """The output port ``valid``."""
         return self.GetOutputPort("valid")
 
+    def get_output_port_history(self):
+        """The output port ``history`` (the last N+1 samples, oldest first)."""
+        return self.GetOutputPort("history")
+
+    @property
+    def history_length(self) -> int:
+        """N + 1, the samples of the ``history`` port."""
+        return self._ring.num_taps
+
     # ------------------------------------------------------------------- callbacks
     def _Update(self, context: Context, discrete_state: DiscreteValues) -> None:
         state = discrete_state.get_mutable_value(self._state_index)
@@ -169,6 +189,10 @@ class CausalJacobiDifferentiator(LeafSystem):
     ) -> None:
         state = context.get_discrete_state(self._state_index).get_value()
         output.SetFromVector(jacobi_outputs(self._ring, state, index))
+
+    def _CalcHistory(self, context: Context, output: BasicVector) -> None:
+        state = context.get_discrete_state(self._state_index).get_value()
+        output.SetFromVector(jacobi_history(self._ring, state).ravel())
 
     def _CalcValid(self, context: Context, output: BasicVector) -> None:
         state = context.get_discrete_state(self._state_index).get_value()

@@ -12,6 +12,8 @@ from pydrake.systems.framework import (
     OutputPort,
 )
 
+from drake_dynid.core import _validate
+from drake_dynid.core.raw_rows import RawRowsDesign, raw_channels
 from drake_dynid.core.rows import (
     check_model_kind,
     check_rows,
@@ -20,7 +22,7 @@ from drake_dynid.core.rows import (
     pack_rows,
 )
 
-__all__ = ["ModelRows"]
+__all__ = ["ModelRows", "RawModelRows"]
 
 
 class ModelRows(LeafSystem):
@@ -119,3 +121,102 @@ class ModelRows(LeafSystem):
             return
         d, g, y = self._rows.model_rows(self._kind, q[None, :], v[None, :], tau[None])
         output.SetFromVector(pack_rows(d[0], g[0], y[0]))
+
+
+class RawModelRows(LeafSystem):
+    r"""Model rows of the raw signals, averaged over one bank step, packed.
+
+    .. pydrake_system::
+
+        name: RawModelRows
+        input_ports:
+        - history
+        output_ports:
+        - channels
+
+    The raw-rows counterpart of :class:`ModelRows` (``OnlineSettings.rows_from =
+    "raw"``, ``drake_dynid.core.raw_rows``): from the differentiator's ``history``
+    port (its ring of the last H samples of [q; τ], oldest first), the output is
+    the mean over the newest D samples k of ``pack_rows(D, G, y)`` at
+    ``(q_{k-m}, v_k', τ_{k-m})``, v' the central velocity estimate of the design,
+    i.e. ``core.raw_rows.raw_channels``. Same units and layout as ``ModelRows``.
+
+    Direct feedthrough from ``history``, no state; evaluated when the bank reads
+    it (once per bank step: one batch of D rows). Double only.
+    """
+
+    def __init__(
+        self,
+        rows: Any,
+        kind: str,
+        design: RawRowsDesign,
+        history_length: int,
+    ):
+        """Builds the block.
+
+        Args:
+            rows: a row provider (``drake_dynid.core.rows.RowProvider``).
+            kind: ``"power"`` or ``"lagrangian"``.
+            design: the raw-rows design (``OnlineSettings.raw_design``).
+            history_length: H, samples of the ``history`` input (the
+                differentiator's ring length), >= ``design.history``.
+        """
+        super().__init__()
+        owner = "RawModelRows"
+        self._kind = check_model_kind(owner, kind)
+        n = check_rows(owner, rows)
+        if not isinstance(design, RawRowsDesign):
+            raise TypeError(
+                f"{owner}: design must be a core.raw_rows.RawRowsDesign; got "
+                f"{type(design).__name__}."
+            )
+        length = _validate.integer(owner, "history_length", history_length, 1)
+        if length < design.history:
+            _validate.fail(
+                owner,
+                f"history_length must be >= {design.history} samples (raw window "
+                f"+ bank step); got {length}.",
+            )
+        self._rows = rows
+        self._design = design
+        self._shape = (length, 2 * n)
+        self._m = num_equations(kind, n)
+        self._p = int(rows.num_parameters)
+        self._history = self.DeclareVectorInputPort("history", length * 2 * n)
+        self._channels = self.DeclareVectorOutputPort(
+            "channels", num_channels(self._m, self._p), self._CalcChannels
+        )
+
+    @property
+    def kind(self) -> str:
+        """The model kind, ``"power"`` or ``"lagrangian"``."""
+        return self._kind
+
+    @property
+    def num_equations(self) -> int:
+        """m, equations per sample."""
+        return self._m
+
+    @property
+    def num_parameters(self) -> int:
+        """p, base parameters."""
+        return self._p
+
+    @property
+    def design(self) -> RawRowsDesign:
+        """The raw-rows design."""
+        return self._design
+
+    def get_input_port_history(self) -> InputPort:
+        """The input port ``history`` (H samples of [q; τ], oldest first)."""
+        return self._history
+
+    def get_output_port_channels(self) -> OutputPort:
+        """The output port ``channels`` (2·m·p + m averaged packed rows)."""
+        return self._channels
+
+    def _CalcChannels(self, context: Context, output: BasicVector) -> None:
+        history = self._history.Eval(context).reshape(self._shape)
+        output.SetFromVector(
+            raw_channels(self._design, self._rows, self._kind, history)
+        )

@@ -320,6 +320,9 @@ class _WrappedBank:
     def row_frequencies(self, m):
         return self._bank.row_frequencies(m)
 
+    def row_functions(self, m):
+        return self._bank.row_functions(m)
+
     def init_state(self, num_channels):
         return self._bank.init_state(num_channels)
 

@@ -75,9 +75,9 @@ def test_ports_properties_and_no_direct_feedthrough():
     names = [
         block.get_output_port(i).get_name() for i in range(block.num_output_ports())
     ]
-    assert names == ["derivative_0", "derivative_1", "derivative_2", "valid"]
+    assert names == ["derivative_0", "derivative_1", "derivative_2", "valid", "history"]
     sizes = [block.get_output_port(i).size() for i in range(block.num_output_ports())]
-    assert sizes == [3, 3, 3, 1]
+    assert sizes == [3, 3, 3, 1, 51 * 3] and block.history_length == 51
     assert not block.HasAnyDirectFeedthrough()
     assert block.get_output_port_derivative(2).get_name() == "derivative_2"
     assert block.get_output_port_valid().get_name() == "valid"
@@ -96,7 +96,7 @@ def test_explicit_xi_and_single_order():
     names = [
         block.get_output_port(i).get_name() for i in range(block.num_output_ports())
     ]
-    assert names == ["derivative_1", "valid"]
+    assert names == ["derivative_1", "valid", "history"]
 
 
 @pytest.mark.parametrize(
@@ -263,3 +263,25 @@ def test_matched_block_uses_shifted_weights_and_one_xi():
     f0, f1 = block.filters
     assert (f0.kappa, f0.mu, f1.kappa, f1.mu) == (2.0, 1.5, 1.0, 0.5)
     assert f0.delay == f1.delay == block.delay
+
+
+def test_history_port_is_the_ring_in_time_order():
+    """After the update at t_k, history holds samples k - N .. k (zeros before 0)."""
+    block = make_block(num_signals=2, window=0.005)  # 6 samples
+    samples = np.random.default_rng(SEED).normal(size=(9, 2))
+    source = TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold(
+            H * (np.arange(10) - 0.5), np.vstack([samples, samples[-1:]]).T
+        )
+    )
+    builder = DiagramBuilder()
+    src = builder.AddSystem(source)
+    blk = builder.AddSystem(block)
+    builder.Connect(src.get_output_port(0), blk.get_input_port_u())
+    simulator = Simulator(builder.Build())
+    for k in range(len(samples)):
+        simulator.AdvanceTo(k * H + H / 2)
+        context = blk.GetMyContextFromRoot(simulator.get_context())
+        history = blk.get_output_port_history().Eval(context).reshape(6, 2)
+        expected = np.vstack([np.zeros((6, 2)), samples[: k + 1]])[-6:]
+        np.testing.assert_array_equal(history, expected)
