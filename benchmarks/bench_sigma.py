@@ -3,9 +3,11 @@
 For several option sets, the final window of a log is solved for many noise seeds;
 for every window the identifier reports valid, its σ is compared with the
 Monte-Carlo spread of the estimates over the seeds (std over seeds, per
-parameter): ``ratio = median σ / spread``, honest within a factor 2. Gautier's σ
-(independent rows of equal noise, ``core.lsq.solve_window`` without the rows'
-noise model) is measured side by side on the same windows.
+parameter): ``ratio = median σ / spread``, honest within a factor 2. The default
+σ (the larger of the sandwich σ and the jackknife's), Gautier's σ (independent
+rows of equal noise, ``core.weighted_lsq.solve_window`` without the rows' noise
+model) and the sandwich σ alone (``uncertainty="sandwich"``, without the
+jackknife) are measured side by side on the same windows.
 
 Logs, at 1 kHz on the paper's 2R arm (``drake_dynid.paper``):
 
@@ -31,9 +33,9 @@ import numpy as np
 
 from drake_dynid import paper
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
-from drake_dynid.core.lsq import solve_window
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.replay import bank_channels, filtered_signals
+from drake_dynid.core.weighted_lsq import solve_window
 from drake_dynid.diagrams import SimulationSettings, simulate_identification
 from drake_dynid.plants import RobotModel, model_path
 from drake_dynid.simulation import reference_noise_std
@@ -70,8 +72,8 @@ def _settings(options: dict) -> OnlineSettings:
     return OnlineSettings.for_model(kwargs.pop("model", "lagrangian"), **kwargs)
 
 
-def _final_window(settings, rows, q, tau, weighted_noise: bool):
-    """(honest result, Gautier result) of the log's last window."""
+def _final_window(settings, rows, q, tau):
+    """(default, sandwich-only, Gautier) results of the log's last window."""
     signals = filtered_signals(q, tau, settings, H)
     bank = settings.bank()
     end = q.shape[0] - 1
@@ -83,9 +85,12 @@ def _final_window(settings, rows, q, tau, weighted_noise: bool):
     A, B = assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
     weighting = settings.row_weighting(m, bank)
     common = {"max_condition": settings.max_condition, "names": rows.names}
-    honest = solve_window(A, B, weighting, noise=settings.row_noise(m, bank), **common)
-    gautier = solve_window(A, B, weighting, **common) if weighted_noise else None
-    return honest, gautier
+    noise = settings.row_noise(m, bank)
+    groups = settings.jackknife_groups(m, bank)
+    honest = solve_window(A, B, weighting, noise=noise, jackknife=groups, **common)
+    sandwich = solve_window(A, B, weighting, noise=noise, **common)
+    gautier = solve_window(A, B, weighting, **common)
+    return honest, sandwich, gautier
 
 
 def _ratios(estimates, sigmas) -> tuple[float, float, np.ndarray]:
@@ -124,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
             table.append({"options": name, "refused": str(error)})
             continue
         for kind in ("clean", "pure noise"):
-            theta, sigma, old, valid = [], [], [], 0
+            theta, sigma, old, middle, valid = [], [], [], [], 0
             identified = []
             for seed in range(seeds):
                 rng = np.random.default_rng(seed)
@@ -134,18 +139,20 @@ def main(argv: list[str] | None = None) -> int:
                     q, tau = clean.q_true + noise_q, clean.tau_true + noise_tau
                 else:
                     q, tau = noise_q, noise_tau
-                honest, gautier = _final_window(settings, rows, q, tau, True)
+                honest, sandwich, gautier = _final_window(settings, rows, q, tau)
                 if not honest.valid:
                     continue
                 valid += 1
                 theta.append(honest.theta)
                 sigma.append(honest.std)
                 old.append(gautier.std)
+                middle.append(sandwich.std)
                 identified.append(int(np.sum(honest.relative_std_percent <= 30.0)))
             row = {"options": name, "log": kind, "valid": valid, "seeds": seeds}
             if valid >= 3:
                 low, high, ratio = _ratios(np.array(theta), np.array(sigma))
                 old_low, old_high, _ = _ratios(np.array(theta), np.array(old))
+                mid_low, mid_high, _ = _ratios(np.array(theta), np.array(middle))
                 row.update(
                     {
                         "ratio_min": low,
@@ -153,6 +160,8 @@ def main(argv: list[str] | None = None) -> int:
                         "ratios": ratio.tolist(),
                         "gautier_min": old_low,
                         "gautier_max": old_high,
+                        "sandwich_min": mid_low,
+                        "sandwich_max": mid_high,
                         "identified": float(np.median(identified)),
                     }
                 )
@@ -171,19 +180,20 @@ def main(argv: list[str] | None = None) -> int:
         "within [0.5, 2]\n"
     )
     print(
-        "| options | log | valid windows | σ/spread (this library) | "
-        "σ/spread (Gautier) | identified (%σ ≤ 30) |"
+        "| options | log | valid windows | σ/spread (default: max of sandwich and "
+        "jackknife) | σ/spread (sandwich alone) | σ/spread (Gautier) | identified "
+        "(%σ ≤ 30) |"
     )
-    print("|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|")
     for row in table:
         if "refused" in row:
             reason = row["refused"].split(": ", 1)[-1]
-            print(f"| {row['options']} | — | refused: {reason[:90]}… | | | |")
+            print(f"| {row['options']} | — | refused: {reason[:90]}… | | | | |")
             continue
         if "ratio_min" not in row:
             print(
                 f"| {row['options']} | {row['log']} | {row['valid']}/{row['seeds']} "
-                "| — | — | — |"
+                "| — | — | — | — |"
             )
             continue
         honest = 0.5 <= row["ratio_min"] and row["ratio_max"] <= 2.0
@@ -191,6 +201,7 @@ def main(argv: list[str] | None = None) -> int:
             f"| {row['options']} | {row['log']} | {row['valid']}/{row['seeds']} | "
             f"{row['ratio_min']:.2f}-{row['ratio_max']:.2f}"
             f"{'' if honest else ' (!)'} | "
+            f"{row['sandwich_min']:.2f}-{row['sandwich_max']:.2f} | "
             f"{row['gautier_min']:.2f}-{row['gautier_max']:.2f} | "
             f"{row['identified']:g} of {robot.num_parameters} |"
         )

@@ -62,6 +62,7 @@ __all__ = [
     "JACKKNIFE_FUNCTIONS",
     "MIN_BANK_SAMPLES_PER_JACOBI_WINDOW",
     "MIN_FUNCTIONS",
+    "MIN_JACKKNIFE_GROUPS",
     "MODEL_DEFAULTS",
     "NOMINAL_BANK_TIME_STEP",
     "NOMINAL_RAW_WINDOW",
@@ -105,6 +106,12 @@ UNCERTAINTIES = ("jackknife", "sandwich", "gautier")
 
 #: Adjacent modulating functions per jackknife group (OnlineSettings.jackknife_groups).
 JACKKNIFE_FUNCTIONS = 2
+
+#: Fewest jackknife groups for the jackknife σ: with G groups its variance has G - 1
+#: degrees of freedom, and with the 4 groups of a short window (8 functions) it
+#: overstated σ up to 15 times on the 2R (benchmarks/bench_sigma.py, T = 2-5 s);
+#: fewer groups keep the sandwich σ alone.
+MIN_JACKKNIFE_GROUPS = 6
 
 #: Signals of the model rows (OnlineSettings.rows_from): the matched-filtered
 #: signals, or the raw signals with the rows averaged over each bank step
@@ -476,7 +483,8 @@ class OnlineSettings:
         pairs of adjacent modulating functions, ``bank.row_functions(m) //``
         :data:`JACKKNIFE_FUNCTIONS` (adjacent functions share a Fourier line; on
         the 2R benchmark pairs give err/σ p90 1.8-2.4 where single functions
-        give 1.9-3.3).
+        give 1.9-3.3). None too when that makes fewer than
+        :data:`MIN_JACKKNIFE_GROUPS` groups (a short window: the sandwich σ alone).
 
         Args:
             m: equations per sample of the model rows.
@@ -486,7 +494,10 @@ class OnlineSettings:
         if self.uncertainty != "jackknife":
             return None
         functions = (self.bank() if bank is None else bank).row_functions(m)
-        return functions // JACKKNIFE_FUNCTIONS
+        groups = functions // JACKKNIFE_FUNCTIONS
+        if np.unique(groups).size < MIN_JACKKNIFE_GROUPS:
+            return None
+        return groups
 
     def raw_design(self, time_step: float) -> RawRowsDesign:
         """The raw-rows design (``core.raw_rows``) on the grid of ``time_step`` h.

@@ -83,14 +83,18 @@ def test_solve_window_reports_the_larger_sigma_per_parameter():
 def test_online_groups_are_pairs_of_adjacent_modulating_functions():
     from drake_dynid.core.online import OnlineSettings
 
-    settings = OnlineSettings(window=2.0, frequencies=[0.0, 1.0, 2.0, 3.0, 4.0])
+    settings = OnlineSettings(window=2.0, frequencies=np.arange(11.0))
     bank = settings.bank()
     functions = bank.row_functions(3)  # 2 parts x 3 equations per function
-    np.testing.assert_array_equal(functions, np.repeat(np.arange(5), 6))
+    np.testing.assert_array_equal(functions, np.repeat(np.arange(11), 6))
     np.testing.assert_array_equal(
-        settings.jackknife_groups(3, bank), np.repeat([0, 0, 1, 1, 2], 6)
+        settings.jackknife_groups(3, bank), np.repeat(np.arange(11) // 2, 6)
     )
-    gautier = OnlineSettings(uncertainty="gautier")
-    assert gautier.jackknife_groups(3) is None
+    # Fewer than MIN_JACKKNIFE_GROUPS pairs (a short window): the sandwich σ alone.
+    short = OnlineSettings(window=2.0, frequencies=[0.0, 1.0, 2.0, 3.0, 4.0])
+    assert short.jackknife_groups(3) is None
+    for kind in ("gautier", "sandwich"):
+        assert OnlineSettings(uncertainty=kind).jackknife_groups(3) is None
+    assert OnlineSettings(uncertainty="gautier").row_noise(3) is None
     with pytest.raises(ValueError, match="uncertainty must be one of"):
         OnlineSettings(uncertainty="bootstrap")
