@@ -114,7 +114,7 @@ def replay_in_meshcat(
         check.fail(
             owner,
             f"the replay must have at most {MAX_FRAMES} frames; got {frames} "
-            f"({t[-1] - t[0]:g} s at {fps:g} frames per second).",
+            f"({t[-1] - t[0]:g} s at frames_per_second {fps:g} Hz).",
         )
     builder, plant, notes = _load(urdf)
     positions = []

@@ -254,3 +254,19 @@ def test_meshcat_replay_runs_headless_and_exits(experiment, tmp_path, capsys):
     assert "links are shown by their inertia" in captured.err
     page = tmp_path / "log.meshcat.html"
     assert page.is_file() and "animation" in page.read_text(encoding="utf-8")
+
+
+def test_replay_of_a_trajectory_and_its_bad_options(experiment, tmp_path, capsys):
+    urdf, traj = experiment["urdf"], experiment["traj"]
+    page = tmp_path / "traj.html"
+    assert cli.main(["replay", urdf, traj, "--html", str(page), "--quiet"]) == 0
+    assert re.fullmatch(r"Meshcat: http://localhost:\d+\n", capsys.readouterr().out)
+    assert page.is_file()
+    for extra, message in [
+        (["--fps", "0"], "--fps must be > 0 [Hz]"),
+        (["--fps", "1e9"], "at most 115200 frames"),
+        (["--html", traj], "--html "),
+    ]:
+        assert cli.main(["replay", urdf, traj, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err, err

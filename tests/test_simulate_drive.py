@@ -308,3 +308,15 @@ def _chain_from_text(folder) -> DriveChain:
     path = folder / "wrist.toml"
     path.write_text(_drive_text())
     return _chain(str(path))
+
+
+def test_replay_of_the_raw_log_in_meshcat(files, tmp_path, capsys):
+    page = tmp_path / "log.html"
+    argv = [
+        "replay", str(URDF), files["exact"], "--drive", files["drive"],
+        "--html", str(page),
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "2001 samples over 2 s; 65 frames" in out and "Meshcat: http://" in out
+    assert "animation" in page.read_text(encoding="utf-8")
