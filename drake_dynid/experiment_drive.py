@@ -104,9 +104,9 @@ def configure_plant(plant: Any, context: Any, drive: SimulatedDrive) -> None:
     index = {name: j for j, name in enumerate(drive.joint_names)}
     for i in range(plant.num_actuators()):
         actuator = plant.get_joint_actuator(JointActuatorIndex(i))
-        j = index.get(actuator.joint().name())
-        if j is not None:
-            actuator.SetRotorInertia(context, float(drive.rotor_inertia[j]))
+        joint = index.get(actuator.joint().name())
+        if joint is not None:
+            actuator.SetRotorInertia(context, float(drive.rotor_inertia[joint]))
             actuator.SetGearRatio(context, 1.0)
 
 

@@ -22,6 +22,7 @@ About 8 s.
 import json
 import pathlib
 import re
+import tomllib
 
 import numpy as np
 import pytest
@@ -41,7 +42,8 @@ from drake_dynid.raw_log import read_raw_log, write_raw_log
 from drake_dynid.systems.drive_forces import DriveForces
 from drake_dynid.urdf import load_plant
 
-URDF = pathlib.Path(__file__).parent / "data" / "wrist4.urdf"
+DATA = pathlib.Path(__file__).parent / "data"
+URDF = DATA / "wrist4.urdf"
 JOINTS = ("j1", "j2", "j3", "j4")
 # Motors: gear ratio N, torque constant k_t [N*m/A], rotor inertia Ia [kg*m^2],
 # motor-side viscous Fv [N*m*s/rad] and Coulomb Fc [N*m] friction.
@@ -94,15 +96,15 @@ def files(tmp_path_factory):
     """excite (10 s, coupled drive) then simulate: noisy and noise-free logs."""
     folder = tmp_path_factory.mktemp("drive")
     paths = {
-        "drive": folder / "wrist.toml",
-        "limits": folder / "limits.json",
+        "drive": DATA / "wrist4.toml",  # the README's example
+        "limits": DATA / "wrist4_limits.json",
         "traj": folder / "traj.csv",
         "coeffs": folder / "traj.json",
         "log": folder / "log.csv",
         "exact": folder / "exact.csv",
     }
-    paths["drive"].write_text(_drive_text())
-    paths["limits"].write_text(json.dumps(LIMITS))
+    assert tomllib.loads(paths["drive"].read_text()) == tomllib.loads(_drive_text())
+    assert json.loads(paths["limits"].read_text()) == LIMITS
     common = ["--drive", str(paths["drive"]), "--limits", str(paths["limits"])]
     argv = [
         "excite", str(URDF), *common, "--rotor-inertia", "--duration", "10",
@@ -320,3 +322,17 @@ def test_replay_of_the_raw_log_in_meshcat(files, tmp_path, capsys):
     out = capsys.readouterr().out
     assert "2001 samples over 2 s; 65 frames" in out and "Meshcat: http://" in out
     assert "animation" in page.read_text(encoding="utf-8")
+
+
+def test_the_blocks_fast_path_is_the_core_law():
+    from drake_dynid.systems.drive_forces import _joint_friction
+
+    sign = TanhSign(SMOOTHING)
+    drive = SimulatedDrive(
+        JOINTS, None, np.zeros(4), DRY, np.array([0.1, 0, 0, -0.2]), None, sign
+    )
+    v = np.random.default_rng(1).normal(scale=0.05, size=(20, 4))
+    for row in v:
+        np.testing.assert_allclose(
+            _joint_friction(drive, row), drive.applied_friction(row), rtol=1e-15
+        )

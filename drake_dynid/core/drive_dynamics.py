@@ -122,8 +122,9 @@ class SimulatedDrive:
         index = [i for i, name in enumerate(motors.names) if name.startswith(prefix)]
         values = np.zeros(motors.rows.shape[0])
         numbers = [int(motors.names[i][len(prefix) :]) for i in index]
+        given = np.asarray(motors.values, dtype=float)
         for i, number in zip(index, numbers, strict=True):
-            values[motors.numbers.index(number)] = motors.values[i]
+            values[motors.numbers.index(number)] = given[i]
         return values
 
     @property
@@ -155,12 +156,11 @@ class SimulatedDrive:
         (apply -f; the viscous terms are the plant's damping D and B).
         """
         v = np.asarray(v, dtype=float)
-        out = friction_force(v, 0.0, self.coulomb, self.offset, self.sign)
+        out = friction_force(v, np.zeros_like(v), self.coulomb, self.offset, self.sign)
         motors = self.motors
         if motors is not None:
-            values = np.where(
-                [name.startswith("FVm") for name in motors.names], 0.0, motors.values
-            )
+            viscous = [name.startswith("FVm") for name in motors.names]
+            values = np.where(viscous, 0.0, np.asarray(motors.values, dtype=float))
             out = out + motors.friction_columns(v) @ values
         return out
 

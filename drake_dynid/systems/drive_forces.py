@@ -21,6 +21,7 @@ from pydrake.systems.framework import (
 
 from drake_dynid.core import _validate
 from drake_dynid.core.drive_dynamics import SimulatedDrive, coupled_motor_force
+from drake_dynid.core.friction import friction_force_scalar
 
 __all__ = ["DriveFeedforward", "DriveForces"]
 
@@ -29,6 +30,18 @@ def _check_drive(owner: str, drive: Any) -> SimulatedDrive:
     return _validate.instance(
         owner, "drive", drive, SimulatedDrive, "a SimulatedDrive (simulated_drive)"
     )
+
+
+def _joint_friction(drive: SimulatedDrive, v: Any) -> np.ndarray:
+    """``drive.applied_friction(v)`` without coupled motors, with plain floats.
+
+    Runs at every plant step: on a few joints plain floats beat numpy (the same
+    law, ``core.friction``; a test checks they agree).
+    """
+    sign, out = drive.sign, np.empty(drive.num_joints)
+    for j, (fc, off) in enumerate(zip(drive.coulomb, drive.offset, strict=True)):
+        out[j] = friction_force_scalar(float(v[j]), 0.0, float(fc), float(off), sign)
+    return out
 
 
 class DriveForces(LeafSystem):
@@ -79,7 +92,7 @@ class DriveForces(LeafSystem):
         n = drive.num_joints
         self._state = self.DeclareVectorInputPort("state", 2 * n)
         self._actuation = self.DeclareVectorInputPort("actuation", n)
-        self._plant = None
+        self._plant: Any = None
         if drive.needs_plant_step:
             if plant is None:
                 _validate.fail(
@@ -136,8 +149,11 @@ class DriveForces(LeafSystem):
         drive = self._drive
         n = drive.num_joints
         x = self._state.Eval(context)
-        v = np.asarray(x[n:], dtype=float)
-        force = -drive.applied_friction(v)
+        v = x[n:]
+        if drive.motors is None:
+            force = -_joint_friction(drive, v)
+        else:
+            force = -drive.applied_friction(np.asarray(v, dtype=float))
         if self._plant is not None:
             plant = self._plant
             plant_context = self._plant_state.Eval(context)
@@ -216,15 +232,18 @@ class DriveFeedforward(LeafSystem):
         return self._feedforward
 
     def _CalcFeedforward(self, context: Any, output: BasicVector) -> None:
-        n = self._drive.num_joints
+        drive = self._drive
+        n = drive.num_joints
+        r = self._reference.Eval(context)
+        if drive.motors is None:
+            output.SetFromVector(_joint_friction(drive, r[n : 2 * n]))
+            return
         x = np.asarray(self._state.Eval(context), dtype=float)
-        r = np.asarray(self._reference.Eval(context), dtype=float)
+        r = np.asarray(r, dtype=float)
         q_r, v_r, a_r = r[:n], r[n : 2 * n], r[2 * n :]
         command = a_r + self._kp * (q_r - x[:n]) + self._kd * (v_r - x[n:])
         output.SetFromVector(
-            self._drive.applied_friction(v_r)
-            + self._inertia @ command
-            + self._viscous @ v_r
+            drive.applied_friction(v_r) + self._inertia @ command + self._viscous @ v_r
         )
 
 
