@@ -22,10 +22,10 @@ About 8 s.
 import json
 import pathlib
 import re
-import tomllib
 
 import numpy as np
 import pytest
+import tomllib
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JointActuatorIndex, MultibodyForces
