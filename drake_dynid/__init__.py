@@ -99,6 +99,8 @@ _LAZY: dict[str, str] = {
     "read_drive": "drake_dynid.core.drive",
     "MotorColumns": "drake_dynid.core.drive_columns",
     "motor_columns": "drake_dynid.core.drive_columns",
+    "SimulatedDrive": "drake_dynid.core.drive_dynamics",
+    "simulated_drive": "drake_dynid.core.drive_dynamics",
     # URDF loading and the robot description (pydrake)
     "RobotModel": "drake_dynid.robot",
     "load_plant": "drake_dynid.urdf",
@@ -118,9 +120,14 @@ _LAZY: dict[str, str] = {
     "ExperimentSettings": "drake_dynid.experiment",
     "ExperimentLog": "drake_dynid.experiment",
     "simulate_experiment": "drake_dynid.experiment",
+    "truth_model": "drake_dynid.experiment_drive",
+    "simulated_drive_of": "drake_dynid.experiment_drive",
+    "replay_in_meshcat": "drake_dynid.meshcat_replay",
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
     "JointFriction": "drake_dynid.systems.friction",
+    "DriveForces": "drake_dynid.systems.drive_forces",
+    "DriveFeedforward": "drake_dynid.systems.drive_forces",
     "ModelRows": "drake_dynid.systems.identification",
     "RawModelRows": "drake_dynid.systems.identification",
     "ModulatingIntegralBank": "drake_dynid.systems.identification",

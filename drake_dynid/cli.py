@@ -36,6 +36,7 @@ SUBCOMMANDS = (
     "offline",
     "validate",
     "fleet",
+    "replay",
 )
 
 EXIT_OK = 0

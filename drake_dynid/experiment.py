@@ -3,11 +3,17 @@
 The arm of a URDF in Drake, tracking a reference trajectory (``dynid simulate``)::
 
     reference (cubic Hermite through the trajectory's q, v samples)
-        ──► InverseDynamicsController (kp, kd; compensates the URDF damping)
-              + Coulomb feedforward FC·tanh(v_ref/ε)
-        ──► discrete MultibodyPlant (1 kHz, URDF damping = viscous friction)
-              ◄── JointFriction (Coulomb -FC·tanh(v/ε), applied force)
+        ──► InverseDynamicsController (kp, kd; its plant has the damping and the
+            reflected inertia below)
+              + DriveFeedforward: FC·tanh(v_ref/ε) + OFF (+ coupled motors)
+        ──► discrete MultibodyPlant (1 kHz; joint damping FV, implicit; actuator
+            rotor inertia IA)
+              ◄── DriveForces (Coulomb -FC·tanh(v/ε) - OFF, applied force; the
+                  coupled motors of a drive file)
 
+with the friction and motor values of the true model
+(``drake_dynid.experiment_drive``: the URDF's ``<dynamics>``, and with a drive
+file the motors' reflected inertia and friction, docs/DRIVE.md §6c),
 logged at every step as (q_k, τ_k), τ_k the command at t_k (docs/CONVENTIONS.md
 §2) clipped to the URDF's effort limits as the plant applies it, decimated to the
 log rate, with seeded white noise added afterwards (the controller sees the true
@@ -22,7 +28,6 @@ simulation never produces a log.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,118 +35,53 @@ import numpy as np
 from drake_dynid.core import _validate as check
 from drake_dynid.core.joint_limits import JointLimits
 from drake_dynid.core.noise import noise_std_for_snr
+from drake_dynid.experiment_settings import (
+    MAX_STEPS,
+    MIN_LOG_SAMPLES,
+    ExperimentLog,
+    ExperimentSettings,
+)
 
-__all__ = ["ExperimentLog", "ExperimentSettings", "simulate_experiment"]
+__all__ = [
+    "MIN_LOG_SAMPLES",
+    "ExperimentLog",
+    "ExperimentSettings",
+    "simulate_experiment",
+]
 
-FRICTION_KINDS = ("viscous", "coulomb", "offset")
 
-
-#: Most plant steps of one simulated experiment (duration / time_step).
-MAX_STEPS = 1e7
-
-
-@dataclass(frozen=True)
-class ExperimentSettings:
-    """Settings of a simulated experiment.
-
-    Attributes:
-        friction: friction simulated, among "viscous" (URDF damping, else set to 0)
-            and "coulomb" (URDF ``friction``, else none); "offset" is accepted and
-            simulated as 0 (the URDF has none).
-        noise_q: std of the white noise on q [rad or m] (ignored with snr_db).
-        noise_tau: std of the noise on τ_j as a fraction of std(τ_j) (ignored with
-            snr_db).
-        snr_db: SNR on every q and τ channel, SNR = 10 log10(var(x)/σ²) (None: use
-            noise_q and noise_tau).
-        rate: log rate [Hz]; 1/(rate·time_step) must be an integer.
-        seed: seed of the noise (``numpy.random.default_rng(seed)``).
-        duration: simulated time [s] (None: the trajectory's).
-        time_step: plant period h [s].
-        kp, kd: controller gains [1/s², 1/s] (ω = 50 rad/s, critically damped:
-            stiff enough for light wrists whose damping time constant J/d is
-            below the 1 ms step).
-        coulomb_smoothing: ε of tanh(v/ε) [rad/s].
-        max_tracking_error: largest |q - q_ref| before the run is stopped [rad or m].
-        effort_factor: a command beyond this times the effort limit is a divergence.
-    """
-
-    friction: tuple[str, ...] = ("viscous", "coulomb")
-    noise_q: float = 1e-4
-    noise_tau: float = 0.01
-    snr_db: float | None = None
-    rate: float = 1000.0
-    seed: int = 0
-    duration: float | None = None
-    time_step: float = 1e-3
-    kp: float = 2500.0
-    kd: float = 100.0
-    coulomb_smoothing: float = 1e-2
-    max_tracking_error: float = 0.1
-    effort_factor: float = 10.0
-
-    def __post_init__(self) -> None:
-        owner = "ExperimentSettings"
-        unknown = [kind for kind in self.friction if kind not in FRICTION_KINDS]
-        if unknown:
+def _sample_checks(reference: Any, settings: ExperimentSettings, duration: float):
+    """Enough log samples for an identification; position noise below the motion."""
+    owner = "simulate_experiment"
+    decimation, h = settings.decimation, settings.time_step
+    samples = round(duration / h) // decimation + 1
+    if samples < settings.min_samples:
+        shortest = (settings.min_samples - 1) * decimation * h
+        count = f"{samples} sample{'s' if samples != 1 else ''}"
+        given = (
+            f"got duration {duration:g} ({count})"
+            if settings.duration is not None
+            else f"the trajectory lasts {duration:g} s ({count}): give a longer one "
+            "or a higher rate"
+        )
+        check.fail(
+            owner,
+            f"the log must have at least {settings.min_samples} samples (fewer "
+            "cannot be identified: the off-line fit's automatic cutoff needs 16, "
+            "the least squares more torque equations than base parameters): at "
+            f"rate {settings.rate:g} Hz that is duration >= {shortest:g} [s]; "
+            f"{given}.",
+        )
+    if settings.snr_db is None and settings.noise_q > 0.0:
+        keep = reference.t - reference.t[0] <= duration + 1e-9
+        motion = float(np.max(np.std(reference.q[keep], axis=0)))
+        if settings.noise_q >= motion:
             check.fail(
                 owner,
-                f"friction kinds must be among {', '.join(FRICTION_KINDS)}; got "
-                f"{', '.join(unknown)}.",
+                "noise_q must be below the motion it is added to: the largest std "
+                f"of a joint's reference position is {motion:.3g} [rad or m]; got "
+                f"{settings.noise_q:g}.",
             )
-        for name, top in (("noise_q", 1e99), ("noise_tau", 1e6)):
-            if not 0.0 <= check.real(owner, name, getattr(self, name)) <= top:
-                check.fail(
-                    owner, f"{name} must be in [0, {top:g}]; got {getattr(self, name)}."
-                )
-        if self.snr_db is not None:
-            check.in_range(owner, "snr_db", self.snr_db, -100.0, 400.0, "dB")
-        check.positive(owner, "rate", self.rate, "Hz")
-        check.integer(owner, "seed", self.seed, minimum=0)
-        if self.duration is not None:
-            check.positive(owner, "duration", self.duration, "s")
-        h = check.positive(owner, "time_step", self.time_step, "s")
-        ratio = 1.0 / (self.rate * h)
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
-            check.fail(
-                owner,
-                f"rate must divide 1/time_step = {1.0 / h:g} Hz [Hz] (the log is "
-                f"decimated from the simulation); got {self.rate:g}.",
-            )
-        check.positive(owner, "kp", self.kp, "1/s²")
-        check.positive(owner, "kd", self.kd, "1/s")
-        check.positive(owner, "coulomb_smoothing", self.coulomb_smoothing, "rad/s")
-        check.positive(owner, "max_tracking_error", self.max_tracking_error, "rad")
-        check.greater_than(owner, "effort_factor", self.effort_factor, 1.0)
-
-    @property
-    def decimation(self) -> int:
-        """Simulation steps per log sample."""
-        return round(1.0 / (self.rate * self.time_step))
-
-
-@dataclass(frozen=True, eq=False)
-class ExperimentLog:
-    """A simulated robot log.
-
-    Attributes:
-        t: (N,) sample times [s] from 0.
-        q, tau: (N, n) measured (noisy) positions and torques.
-        q_true, tau_true: (N, n) noise-free ones (τ: the applied torque).
-        noise_std: (2n,) std of the noise added to [q; τ].
-        joint_names: the n joints.
-        max_tracking_error: (n,) largest |q - q_ref| per joint [rad or m].
-        saturated: samples whose command exceeded the URDF effort limit (clipped).
-    """
-
-    t: np.ndarray
-    q: np.ndarray
-    tau: np.ndarray
-    q_true: np.ndarray
-    tau_true: np.ndarray
-    noise_std: np.ndarray
-    joint_names: tuple[str, ...]
-    max_tracking_error: np.ndarray
-    saturated: int
 
 
 def _reference_checks(reference: Any, limits: JointLimits, duration: float) -> None:
@@ -163,13 +103,6 @@ def _reference_checks(reference: Any, limits: JointLimits, duration: float) -> N
                 )
 
 
-def _set_friction(plant: Any, context: Any, names, keep_viscous: bool) -> None:
-    if keep_viscous:
-        return
-    for name in names:
-        plant.GetJointByName(name).SetDamping(context, 0.0)
-
-
 def simulate_experiment(
     urdf: str,
     reference: Any,
@@ -177,6 +110,7 @@ def simulate_experiment(
     settings: ExperimentSettings | None = None,
     *,
     gravity: Any = None,
+    drive: Any = None,
 ) -> ExperimentLog:
     """Simulates the arm tracking ``reference``; returns the log (module docstring).
 
@@ -188,6 +122,10 @@ def simulate_experiment(
         limits: the limits the run is checked against (position, effort).
         settings: the experiment (default ``ExperimentSettings()``).
         gravity: gravity vector [m/s²] (default Drake's).
+        drive: the robot's joint friction and drive chain as simulated, a
+            ``drake_dynid.core.drive_dynamics.SimulatedDrive`` of the limits'
+            joints (``experiment_drive.simulated_drive_of(truth_model(...))``);
+            default the URDF's friction of ``settings.friction``, without motors.
 
     Returns:
         The :class:`ExperimentLog`.
@@ -202,6 +140,13 @@ def simulate_experiment(
     from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
     from pydrake.trajectories import PiecewisePolynomial
 
+    from drake_dynid.core.drive_dynamics import SimulatedDrive
+    from drake_dynid.experiment_drive import (
+        add_drive_forces,
+        configure_plant,
+        simulated_drive_of,
+        truth_model,
+    )
     from drake_dynid.simulation import add_tracking_controller
     from drake_dynid.urdf import load_plant
 
@@ -217,6 +162,12 @@ def simulate_experiment(
     names = tuple(limits.joint_names)
     if tuple(reference.joint_names) != names:
         check.fail(owner, "the reference's joints must be the limits' joints.")
+    if drive is not None:
+        check.instance(
+            owner, "drive", drive, SimulatedDrive, "a SimulatedDrive (or None)"
+        )
+        if drive.joint_names != names:
+            check.fail(owner, "the drive's joints must be the limits' joints.")
     n, h = len(names), settings.time_step
     available = float(reference.t[-1] - reference.t[0])
     duration = available if settings.duration is None else settings.duration
@@ -233,7 +184,11 @@ def simulate_experiment(
             f"duration / time_step must be at most {MAX_STEPS:g} simulation steps; got "
             f"{duration:g} s / {h:g} s = {steps:.3g}.",
         )
+    _sample_checks(reference, settings, duration)
     _reference_checks(reference, limits, duration)
+    if drive is None:
+        model = truth_model(urdf, settings.friction, gravity=gravity)
+        drive = simulated_drive_of(model, settings.coulomb_smoothing)
 
     builder = DiagramBuilder()
     plant = builder.AddSystem(load_plant(urdf, h, gravity=gravity))
@@ -245,9 +200,7 @@ def simulate_experiment(
             f"{plant.num_actuators()} actuators.",
         )
     controller_context = controller_plant.CreateDefaultContext()
-    _set_friction(
-        controller_plant, controller_context, names, "viscous" in settings.friction
-    )
+    configure_plant(controller_plant, controller_context, drive)
     t_ref = reference.t - reference.t[0]
     source = builder.AddSystem(
         TrajectorySource(
@@ -255,7 +208,7 @@ def simulate_experiment(
             output_derivative_order=2,
         )
     )
-    controller, desired_state = add_tracking_controller(
+    controller, _ = add_tracking_controller(
         builder,
         plant,
         controller_plant,
@@ -264,17 +217,17 @@ def simulate_experiment(
         kd=settings.kd,
         controller_context=controller_context,
     )
-    control = controller.get_output_port_control()
-    if "coulomb" in settings.friction:
-        control = _add_coulomb(
-            builder,
-            plant,
-            desired_state,
-            control,
-            urdf,
-            names,
-            settings.coulomb_smoothing,
-        )
+    control = add_drive_forces(
+        builder,
+        plant,
+        controller_plant,
+        controller_context,
+        source.get_output_port(),
+        controller.get_output_port_control(),
+        drive,
+        kp=settings.kp,
+        kd=settings.kd,
+    )
     builder.Connect(control, plant.get_actuation_input_port())
     state_log = LogVectorOutput(plant.get_state_output_port(), builder, h)
     command_log = LogVectorOutput(control, builder, h)
@@ -283,7 +236,7 @@ def simulate_experiment(
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
-    _set_friction(plant, plant_context, names, "viscous" in settings.friction)
+    configure_plant(plant, plant_context, drive)
     plant.SetPositions(plant_context, reference.q[0])
     plant.SetVelocities(plant_context, reference.v[0])
     source_context = source.GetMyContextFromRoot(context)
@@ -361,45 +314,6 @@ def simulate_experiment(
         max_tracking_error=worst,
         saturated=saturated,
     )
-
-
-def _add_coulomb(builder, plant, desired_state, control, urdf, names, smoothing):
-    """Coulomb friction on the plant, and its feedforward added to the command.
-
-    The plant gets -FC·tanh(v/ε) (``JointFriction``); the command gets
-    +FC·tanh(v_ref/ε) from the desired velocity, as a robot controller compensates
-    its friction model (without it a light wrist lags by FC/(J·kp)). Returns the
-    output port of the total command.
-    """
-    from pydrake.systems.primitives import Adder, Gain
-
-    from drake_dynid.systems.friction import JointFriction
-    from drake_dynid.urdf import read_urdf_friction
-
-    n = len(names)
-    values = read_urdf_friction(urdf)
-    coulomb = np.array([values.get(name, 0.0) for name in names])
-    blocks = []
-    for state in (plant.get_state_output_port(), desired_state):
-        friction = builder.AddSystem(
-            JointFriction(
-                viscous=np.zeros(n),
-                coulomb=coulomb,
-                offset=np.zeros(n),
-                smoothing=smoothing,
-            )
-        )
-        builder.Connect(state, friction.get_input_port())
-        blocks.append(friction)
-    builder.Connect(
-        blocks[0].get_output_port(), plant.get_applied_generalized_force_input_port()
-    )
-    feedforward = builder.AddSystem(Gain(-1.0, n))
-    builder.Connect(blocks[1].get_output_port(), feedforward.get_input_port())
-    total = builder.AddSystem(Adder(2, n))
-    builder.Connect(control, total.get_input_port(0))
-    builder.Connect(feedforward.get_output_port(), total.get_input_port(1))
-    return total.get_output_port()
 
 
 def _actuators(plant: Any) -> list[str]:

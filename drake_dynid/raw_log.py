@@ -18,6 +18,10 @@ currents. :func:`read_raw_log` reads such a log:
    samples, ``resample``) on the converted arrays (:func:`_robot_log`, the one
    call into ``drake_dynid.logs``).
 
+:func:`write_raw_log` writes the inverse: joint signals in a drive chain's raw
+columns (``DriveChain.to_columns``), one file that :func:`read_raw_log` reads back
+(``dynid simulate --drive``).
+
 Errors are ``ValueError`` (``OSError`` for a missing file) whose message names the
 file, the column and the row: a needed column found in no file (naming the drive
 file's ``[log]`` key to fix), or in two files, a file without the time column, a
@@ -37,7 +41,7 @@ import numpy as np
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.log_repair import JITTER_TOLERANCE
 
-__all__ = ["RawTable", "read_raw_log", "read_raw_table"]
+__all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
 _BOM = "\ufeff"
 _LISTED = 6  # extra column names listed in the warning
@@ -316,3 +320,35 @@ def _robot_log(label, t, q, tau, joint_names, jitter_tolerance, resample, warnin
     except ValueError as error:
         raise ValueError(f"log {label}: {error}") from None
     return replace(log, warnings=(*warnings, *log.warnings))
+
+
+def write_raw_log(
+    path: str | os.PathLike,
+    chain: DriveChain,
+    t: np.ndarray,
+    q: np.ndarray,
+    tau: np.ndarray,
+) -> None:
+    """Writes joint signals as one CSV file in ``chain``'s raw conventions.
+
+    The columns are ``chain.required_columns()`` (time, positions, torques, in
+    that order), the values ``chain.to_columns(t, q, tau)``: time in the
+    ``[log] time_unit``, positions on the ``position_side`` in its units with its
+    offsets, torques on the ``torque_side`` (motor torques τ_m = R⁻ᵀ τ, the
+    minimum-norm solution with more motors than joints) or currents
+    i = τ_m / (k_t s_i); 17 significant digits, so that :func:`read_raw_log`
+    gives back t, q, τ to round-off.
+
+    Args:
+        path: the output file.
+        chain: the drive chain.
+        t: (N,) time [s] (from 0).
+        q: (N, n) joint positions [rad or m], ``chain.joint_names`` order.
+        tau: (N, n) joint torques [N·m or N].
+    """
+    columns = chain.to_columns(t, q, tau)
+    names = chain.required_columns()
+    data = np.column_stack([columns[name] for name in names])
+    with open(path, "w", newline="", encoding="utf-8") as stream:
+        csv.writer(stream, lineterminator="\n").writerow(names)
+        np.savetxt(stream, data, delimiter=",", fmt="%.17g")

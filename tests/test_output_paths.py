@@ -31,6 +31,10 @@ def files(tmp_path):
     trajectory.write_text("t,q_joint1,q_joint2\n0,0,0\n")
     link = tmp_path / "link.csv"
     os.link(log, link)
+    drive = tmp_path / "drive.toml"
+    drive.write_text("")
+    page = tmp_path / "replay.meshcat.html"
+    page.write_text("{}")
     return {
         "urdf": str(urdf),
         "log": str(log),
@@ -39,6 +43,9 @@ def files(tmp_path):
         "limits": str(limits),
         "trajectory": str(trajectory),
         "link": str(link),
+        "drive": str(drive),
+        "page": str(page),
+        "page_log": str(tmp_path / "replay.csv"),
         "dot_log": os.path.join(str(tmp_path), ".", "log.csv"),
     }
 
@@ -80,6 +87,17 @@ CASES = [
         "--trajectory",
     ),
     ("simulate {urdf} --trajectory {trajectory} --out {urdf}", "--out", "the URDF"),
+    (
+        "simulate {urdf} --trajectory {trajectory} --drive {drive} --out {drive}",
+        "--out",
+        "--drive",
+    ),
+    (
+        "simulate {urdf} --trajectory {trajectory} --limits {page} --meshcat "
+        "--out {page_log}",
+        "the Meshcat page",
+        "--limits",
+    ),
 ]
 
 
@@ -90,7 +108,7 @@ def test_an_output_never_overwrites_an_input(
     before = {
         name: Path(path).read_bytes()
         for name, path in files.items()
-        if name not in ("dot_log",)
+        if name not in ("dot_log", "page_log")
     }
     argv = command.format(**files).split()
     assert cli.main(argv) == 2

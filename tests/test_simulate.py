@@ -8,6 +8,7 @@ naming the joint, the time and the limit; outputs never overwrite inputs.
 """
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -194,3 +195,78 @@ def test_cli_bad_input_exits_2(experiment, tmp_path, capsys):
     argv = ["simulate", urdf, "--trajectory", str(bad), "--out", str(tmp_path / "y")]
     assert cli.main(argv) == 2
     assert "missing column(s) q_joint2, v_joint2" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--duration", "1e-12"], "at least 16 samples"),
+        (["--duration", "1e-12"], "--duration >= 0.015 [s]; got --duration 1e-12"),
+        (["--rate", "0.001"], "the trajectory lasts 20 s (1 sample)"),
+        (["--rate", "10", "--duration", "1"], "--duration >= 1.5 [s]"),
+        (["--snr", "-10"], "--snr must be in [0, 400] [dB]"),
+        (["--noise-tau", "5"], "--noise-tau must be in [0, 1]"),
+        (["--noise-q", "10"], "--noise-q must be below the motion"),
+        (["--noise-q", "-1"], "--noise-q must be >= 0"),
+        (["--time-step", "0.5", "--rate", "2"], "--time-step must be <= 1/kd = 0.01 s"),
+        (["--max-tracking-error", "0"], "--max-tracking-error must be > 0"),
+        (["--meshcat-wait"], "--meshcat-wait needs --meshcat"),
+        (["--drive", "no_such.toml"], "no_such.toml: no such file"),
+    ],
+)
+def test_bad_options_exit_2_naming_the_option(
+    experiment, tmp_path, capsys, extra, message
+):
+    argv = [
+        "simulate", experiment["urdf"], "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--out", str(tmp_path / "log.csv"), *extra,
+    ]  # fmt: skip
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err, err
+    assert not (tmp_path / "log.csv").exists()
+
+
+def test_the_shortest_log_is_accepted_and_identifiable_in_principle(
+    experiment, tmp_path
+):
+    # 16 samples at 1 kHz: the floor is a floor, not a promise (the fit says why).
+    out = tmp_path / "short.csv"
+    argv = [
+        "simulate", experiment["urdf"], "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--duration", "0.015", "--out", str(out),
+        "--quiet",
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    assert read_log(out, ("joint1", "joint2")).num_samples == 16
+
+
+def test_meshcat_replay_runs_headless_and_exits(experiment, tmp_path, capsys):
+    out = tmp_path / "log.csv"
+    argv = [
+        "simulate", experiment["urdf"], "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--duration", "2", "--meshcat",
+        "--out", str(out),
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    captured = capsys.readouterr()
+    assert re.search(r"Meshcat: http://localhost:\d+ \(65 frames\)", captured.out)
+    assert "links are shown by their inertia" in captured.err
+    page = tmp_path / "log.meshcat.html"
+    assert page.is_file() and "animation" in page.read_text(encoding="utf-8")
+
+
+def test_replay_of_a_trajectory_and_its_bad_options(experiment, tmp_path, capsys):
+    urdf, traj = experiment["urdf"], experiment["traj"]
+    page = tmp_path / "traj.html"
+    assert cli.main(["replay", urdf, traj, "--html", str(page), "--quiet"]) == 0
+    assert re.fullmatch(r"Meshcat: http://localhost:\d+\n", capsys.readouterr().out)
+    assert page.is_file()
+    for extra, message in [
+        (["--fps", "0"], "--fps must be > 0 [Hz]"),
+        (["--fps", "1e9"], "at most 115200 frames"),
+        (["--html", traj], "--html "),
+    ]:
+        assert cli.main(["replay", urdf, traj, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err, err

@@ -41,6 +41,7 @@ OUTPUTS: dict[str, str] = {
     "json": "--json",
     "plot": "--plot",
     "urdf_out": "--urdf-out",
+    "html": "--html",
 }
 
 

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -25,7 +27,12 @@ DESCRIPTION = (
     "Stops with exit code 2, naming the joint, the time and the limit, if the "
     "motion leaves the position limits or the simulation diverges (non-finite "
     "state, a command beyond 10 times the effort limit, tracking error beyond "
-    "--max-tracking-error)."
+    "--max-tracking-error), or the log would have fewer than 16 samples. With "
+    "--drive the arm also has the drive file's motors (reflected rotor inertia, "
+    "motor friction, coupled motors) and the log is written in the drive file's "
+    "raw columns (motor side, units, currents, offsets), read back by dynid "
+    "offline/identify/validate --drive. --meshcat replays the simulated motion in "
+    "Drake's Meshcat viewer."
 )
 
 
@@ -39,6 +46,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the reference (CSV of dynid excite, or its --json coefficients)",
     )
     add_friction_argument(parser)
+    parser.add_argument(
+        "--drive",
+        metavar="FILE.toml",
+        help="drive file (docs/DRIVE.md): simulate its motors (rotor inertia "
+        "reflected through the gear ratios, motor friction, coupled motors) and "
+        "write the log in its raw columns and units; the truth then holds the "
+        "motor parameters (IAj, IAmk, FVmk, ...)",
+    )
     parser.add_argument(
         "--snr",
         type=float,
@@ -95,6 +110,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="LOG.csv",
         help="write the log here and the truth to LOG.truth.json",
     )
+    parser.add_argument(
+        "--meshcat",
+        action="store_true",
+        help="replay the simulated motion in Drake's Meshcat viewer: print its "
+        "URL, write the replay as a standalone page LOG.meshcat.html, and exit "
+        "(the live page closes with the command; see --meshcat-wait)",
+    )
+    parser.add_argument(
+        "--meshcat-wait",
+        action="store_true",
+        help="with --meshcat: keep the live page served until Enter or Ctrl-C",
+    )
     parser.add_argument("--quiet", action="store_true", help="print nothing")
 
 
@@ -123,27 +150,47 @@ def _in_option_names():
         raise ValueError(option_message(str(error), OPTION_NAMES, owners)) from None
 
 
-def truth_path(out: str) -> Path:
-    """``LOG.csv`` -> ``LOG.truth.json``."""
+def truth_path(out: str, suffix: str = ".truth.json") -> Path:
+    """``LOG.csv`` -> ``LOG.truth.json`` (or another ``suffix``)."""
     path = Path(out)
-    return path.with_name(f"{path.stem if path.suffix else path.name}.truth.json")
+    return path.with_name(f"{path.stem if path.suffix else path.name}{suffix}")
+
+
+def _identify_hint(args: argparse.Namespace, robot) -> str:
+    """The dynid offline command line that scores the log against its truth."""
+    parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
+    if args.drive:
+        parts += ["--drive", str(args.drive)]
+    if robot.rotor_inertia:
+        parts.append("--rotor-inertia")
+    if tuple(robot.friction) != ("viscous", "coulomb"):
+        parts += ["--friction", ",".join(robot.friction) or "none"]
+    return " ".join(parts)
 
 
 def run(args: argparse.Namespace) -> int:
     """Simulates, writes the log and its truth. Returns 0."""
     from drake_dynid.commands.params import params_document
-    from drake_dynid.experiment import ExperimentSettings, simulate_experiment
+    from drake_dynid.experiment import (
+        MIN_LOG_SAMPLES,
+        ExperimentSettings,
+        simulate_experiment,
+    )
+    from drake_dynid.experiment_drive import simulated_drive_of, truth_model
     from drake_dynid.limits import joint_limits
-    from drake_dynid.logs import write_log
-    from drake_dynid.robot import RobotModel
     from drake_dynid.trajectory_file import read_trajectory
 
     truth = truth_path(args.out)
-    check_output_paths(args, outputs={"the truth file": truth})
+    html = truth_path(args.out, ".meshcat.html") if args.meshcat else None
+    check_output_paths(
+        args, outputs={"the truth file": truth, "the Meshcat page": html}
+    )
     if args.snr is not None and (
         args.noise_q is not None or args.noise_tau is not None
     ):
         raise ValueError("give either --snr or --noise-q/--noise-tau, not both.")
+    if args.meshcat_wait and not args.meshcat:
+        raise ValueError("--meshcat-wait needs --meshcat.")
     friction = parse_friction(args.friction)
     with _in_option_names():
         settings = ExperimentSettings(
@@ -157,10 +204,15 @@ def run(args: argparse.Namespace) -> int:
             time_step=args.time_step,
             max_tracking_error=args.max_tracking_error,
         )
-    robot = RobotModel.from_urdf(args.urdf, friction=friction)
+    robot = truth_model(args.urdf, friction, drive=args.drive)
+    say = (lambda *a: None) if args.quiet else print
+    for note in robot.notes:
+        print(f"dynid simulate: note: {note}", file=sys.stderr)
+    # More torque equations than base parameters (n per sample), and the floor.
+    fewest = max(MIN_LOG_SAMPLES, robot.base.num_base // robot.num_joints + 1)
+    settings = dataclasses.replace(settings, min_samples=fewest)
     limits = joint_limits(robot, args.limits)
     reference = read_trajectory(args.trajectory, robot.joint_names)
-    say = (lambda *a: None) if args.quiet else print
     unchecked = [
         name
         for j, name in enumerate(limits.joint_names)
@@ -168,29 +220,16 @@ def run(args: argparse.Namespace) -> int:
     ]
     if unchecked:
         say(f"note: no position limits for {', '.join(unchecked)}: not checked")
+    drive = simulated_drive_of(robot, settings.coulomb_smoothing)
     start = time.perf_counter()
     with _in_option_names():
         log = simulate_experiment(
-            args.urdf, reference, limits, settings, gravity=robot.gravity
+            args.urdf, reference, limits, settings, gravity=robot.gravity, drive=drive
         )
     elapsed = time.perf_counter() - start
-    write_log(args.out, log.t, log.q, log.tau, robot.joint_names)
-    document = params_document(robot, args.urdf)
-    n = robot.num_joints
-    document["simulation"] = {
-        "trajectory": str(args.trajectory),
-        "duration": float(log.t[-1]),
-        "rate": float(args.rate),
-        "time_step": float(args.time_step),
-        "seed": int(args.seed),
-        "friction": list(friction),
-        "snr_db": args.snr,
-        "noise_std_q": log.noise_std[:n].tolist(),
-        "noise_std_tau": log.noise_std[n:].tolist(),
-        "max_tracking_error": log.max_tracking_error.tolist(),
-        "saturated_samples": int(log.saturated),
-        "coulomb_smoothing": settings.coulomb_smoothing,
-    }
+    _write_log(args.out, robot, log)
+    document = params_document(robot, args.urdf, args.drive)
+    document["simulation"] = _simulation_entry(args, settings, log, robot)
     truth.write_text(json.dumps(document, indent=2) + "\n")
     say(f"robot: {args.urdf}; trajectory: {args.trajectory}")
     say(
@@ -198,6 +237,8 @@ def run(args: argparse.Namespace) -> int:
         f"({log.t[-1] / elapsed:.1f}× real time); friction: "
         f"{', '.join(friction) or 'none'}"
     )
+    if robot.drive is not None:
+        say(_drive_line(robot, drive))
     noise = (
         f"SNR {args.snr:g} dB"
         if args.snr is not None
@@ -214,4 +255,75 @@ def run(args: argparse.Namespace) -> int:
             "samples; the log holds the applied (clipped) torque"
         )
     say(f"wrote {args.out} and {truth} (true base parameters)")
+    say(f"score it with: {_identify_hint(args, robot)}")
+    if args.meshcat:
+        _replay(args, log, robot, html, say)
     return 0
+
+
+def _write_log(out: str, robot, log) -> None:
+    """The plain log format, or the drive file's raw columns (``--drive``)."""
+    if robot.drive is None:
+        from drake_dynid.logs import write_log
+
+        write_log(out, log.t, log.q, log.tau, robot.joint_names)
+    else:
+        from drake_dynid.raw_log import write_raw_log
+
+        write_raw_log(out, robot.drive, log.t, log.q, log.tau)
+
+
+def _simulation_entry(args, settings, log, robot) -> dict:
+    """The ``simulation`` entry of the truth file."""
+    n = robot.num_joints
+    return {
+        "trajectory": str(args.trajectory),
+        "duration": float(log.t[-1]),
+        "rate": float(args.rate),
+        "time_step": float(args.time_step),
+        "seed": int(args.seed),
+        "friction": list(settings.friction),
+        "drive": args.drive,
+        "rotor_inertia": bool(robot.rotor_inertia),
+        "snr_db": args.snr,
+        "noise_std_q": log.noise_std[:n].tolist(),
+        "noise_std_tau": log.noise_std[n:].tolist(),
+        "max_tracking_error": log.max_tracking_error.tolist(),
+        "saturated_samples": int(log.saturated),
+        "coulomb_smoothing": settings.coulomb_smoothing,
+    }
+
+
+def _drive_line(robot, drive) -> str:
+    chain = robot.drive
+    coupled = ", ".join(chain.motor_names[k] for k in chain.coupled_motors)
+    inertia = (
+        "none"
+        if drive.rotor_inertia is None
+        else f"IAj up to {float(np.max(drive.rotor_inertia)):.3g}"
+    )
+    return (
+        f"drive: {chain.source}; {chain.num_motors} motors"
+        + (f" (coupled: {coupled})" if coupled else "")
+        + f"; reflected inertia {inertia}; log in its raw columns "
+        f"({chain.log.position_side}-side positions, {chain.log.torque_side}-side "
+        f"{chain.log.torque_unit})"
+    )
+
+
+def _replay(args, log, robot, html, say) -> None:
+    """``--meshcat``: the simulated (noise-free) motion as a Meshcat animation."""
+    from drake_dynid.meshcat_replay import replay_in_meshcat
+
+    replay = replay_in_meshcat(
+        args.urdf, log.t, log.q_true, robot.joint_names, html=html
+    )
+    for note in replay.notes:
+        print(f"dynid simulate: note: Meshcat: {note}", file=sys.stderr)
+    say(
+        f"Meshcat: {replay.url} ({replay.frames} frames); standalone page {replay.html}"
+    )
+    if args.meshcat_wait:
+        print("Meshcat: serving the live page; press Enter (or Ctrl-C) to exit")
+        with contextlib.suppress(EOFError, KeyboardInterrupt):
+            input()

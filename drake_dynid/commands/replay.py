@@ -1,0 +1,122 @@
+"""``dynid replay``: a log or a trajectory in Drake's Meshcat viewer."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+
+from drake_dynid.commands._arguments import (
+    add_joint_arguments,
+    add_log_argument,
+    log_files,
+    read_robot_log,
+    robot_from_args,
+)
+from drake_dynid.commands._paths import check_output_paths
+
+HELP = "replay a log or a trajectory in Drake's Meshcat viewer (browser)"
+DESCRIPTION = (
+    "Replays the joint positions of a robot log (the plain CSV format, several "
+    "files, or a drive file's raw columns with --drive) or of a trajectory file "
+    "(dynid excite's CSV: t, q_<joint>, v_<joint>; or its JSON coefficients) as an "
+    "animation in Drake's Meshcat viewer: prints the URL of the live page (served "
+    "on localhost while the command runs), writes a standalone copy (--html, "
+    "default FILE.meshcat.html next to the first file) and exits; --wait keeps "
+    "the live page until Enter or Ctrl-C. A URDF without <visual> geometry is "
+    "shown by its links' inertia ellipsoids."
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``dynid replay`` arguments."""
+    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    add_log_argument(parser)
+    parser.add_argument(
+        "--drive",
+        metavar="FILE.toml",
+        help="drive file (docs/DRIVE.md) of a raw log: its columns and units",
+    )
+    add_joint_arguments(parser)
+    parser.add_argument(
+        "--fps",
+        type=float,
+        default=32.0,
+        metavar="HZ",
+        help="animation frames per second of motion (default 32)",
+    )
+    parser.add_argument(
+        "--html",
+        metavar="PAGE.html",
+        help="write the standalone page here (default: FILE.meshcat.html)",
+    )
+    parser.add_argument(
+        "--wait",
+        action="store_true",
+        help="keep the live page served until Enter or Ctrl-C",
+    )
+    parser.add_argument("--quiet", action="store_true", help="print only the URL")
+
+
+def _is_trajectory(path: str, joint_names) -> bool:
+    """A trajectory file: JSON coefficients, or a CSV with every v_<joint>."""
+    if path.lower().endswith(".json"):
+        return True
+    try:
+        with open(path, encoding="utf-8") as stream:
+            header = {cell.strip() for cell in stream.readline().split(",")}
+    except OSError:
+        return False
+    return all(f"v_{name}" in header for name in joint_names)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Replays the file(s) in Meshcat. Returns 0."""
+    from drake_dynid.commands._options import option_message
+    from drake_dynid.commands.simulate import truth_path
+    from drake_dynid.meshcat_replay import replay_in_meshcat
+    from drake_dynid.trajectory_file import read_trajectory
+
+    files = log_files(args)
+    if args.html is None:
+        args.html = str(truth_path(files[0], ".meshcat.html"))
+    check_output_paths(args)
+    robot = robot_from_args(args, "replay", rotor_inertia=True)
+    say = (lambda *a: None) if args.quiet else print
+    if (
+        len(files) == 1
+        and not args.drive
+        and _is_trajectory(files[0], robot.joint_names)
+    ):
+        motion = read_trajectory(files[0], robot.joint_names)
+        kind = "trajectory"
+    else:
+        motion = read_robot_log(files, robot, resample=False, command="replay")
+        kind = "log"
+    try:
+        replay = replay_in_meshcat(
+            args.urdf,
+            motion.t,
+            motion.q,
+            robot.joint_names,
+            html=args.html,
+            frames_per_second=args.fps,
+        )
+    except ValueError as error:
+        names = {"frames_per_second": "--fps"}
+        raise ValueError(
+            option_message(str(error), names, ("replay_in_meshcat",))
+        ) from None
+    for note in replay.notes:
+        print(f"dynid replay: note: {note}", file=sys.stderr)
+    say(
+        f"{kind} {args.log}: {motion.t.size} samples over "
+        f"{motion.t[-1] - motion.t[0]:g} s; {replay.frames} frames at {args.fps:g} "
+        f"per second; standalone page {replay.html}"
+    )
+    print(f"Meshcat: {replay.url}")
+    if args.wait:
+        print("Meshcat: serving the live page; press Enter (or Ctrl-C) to exit")
+        with contextlib.suppress(EOFError, KeyboardInterrupt):
+            input()
+    return 0

@@ -1,0 +1,158 @@
+"""Replay a motion (a log or a trajectory) in Drake's Meshcat viewer.
+
+:func:`replay_in_meshcat` loads the URDF with its geometry into a plant and a
+``SceneGraph``, adds Drake's Meshcat visualization (``ApplyVisualizationConfig``
+with an in-memory LCM, so nothing goes to the network but Meshcat's own web
+server on localhost), and records the motion as a Meshcat animation: for each
+frame (``frames_per_second``, positions interpolated linearly between samples)
+the plant's positions are set and the diagram is published;
+``Meshcat.StartRecording`` / ``StopRecording`` / ``PublishRecording`` turn the
+frames into the animation the browser plays (its controls: play, speed, scrub).
+
+The live page (``Replay.url``) lives as long as the process holds the Meshcat
+server; ``Replay.html`` is a standalone copy (``Meshcat.StaticHtml``: scene and
+animation in one file, no server needed). A URDF without ``<visual>`` elements
+(the shipped iiwa7, UR5, 2R) is shown by its links' equivalent inertia
+ellipsoids (Drake's inertia layer, made visible); a URDF whose meshes cannot be
+found is loaded without geometry, with a note.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as check
+
+__all__ = ["Replay", "replay_in_meshcat"]
+
+#: Most animation frames of one replay (an hour at 32 frames per second).
+MAX_FRAMES = 115_200
+
+
+@dataclass(frozen=True)
+class Replay:
+    """A published replay.
+
+    Attributes:
+        url: the live page (valid while ``meshcat`` is alive).
+        html: the standalone page written, or None.
+        frames: animation frames recorded.
+        notes: remarks (geometry not found, shown by inertia ellipsoids).
+        meshcat: the ``pydrake.geometry.Meshcat`` (keep it to keep the page live).
+    """
+
+    url: str
+    html: str | None
+    frames: int
+    notes: tuple[str, ...]
+    meshcat: Any
+
+
+def _load(urdf: str) -> tuple[Any, Any, list[str]]:
+    """A builder with the plant and its geometry, else without (a note says why)."""
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.urdf import load_urdf
+
+    builder = DiagramBuilder()
+    try:
+        return builder, load_urdf(urdf, 0.0, builder=builder, geometry=True).plant, []
+    except ValueError as error:
+        builder = DiagramBuilder()
+        plant = load_urdf(urdf, 0.0, builder=builder, geometry=False).plant
+        text = str(error).splitlines()[0]
+        match = re.search(r"error: (.+?)\. Fix the URDF", text)
+        reason = match.group(1) if match else text
+        return builder, plant, [f"shown without its geometry ({reason})"]
+
+
+def replay_in_meshcat(
+    urdf: str,
+    t: Any,
+    q: Any,
+    joint_names: Sequence[str],
+    *,
+    html: str | os.PathLike | None = None,
+    frames_per_second: float = 32.0,
+    meshcat: Any = None,
+) -> Replay:
+    """Records the motion q(t) of the URDF's joints as a Meshcat animation.
+
+    Args:
+        urdf: the robot's URDF.
+        t: (N,) sample times [s], increasing.
+        q: (N, n) positions [rad or m] of ``joint_names`` (other joints stay at 0).
+        joint_names: the n joints of q (URDF names).
+        html: write the standalone page here (None: do not).
+        frames_per_second: animation frames per second of motion [Hz].
+        meshcat: a ``Meshcat`` to use (default: ``StartMeshcat()``, a new server
+            on the first free port from 7000).
+
+    Raises:
+        ValueError: bad arrays, an unknown joint, too many frames.
+    """
+    from pydrake.geometry import StartMeshcat
+    from pydrake.lcm import DrakeLcm
+    from pydrake.multibody.tree import BodyIndex
+    from pydrake.visualization import ApplyVisualizationConfig, VisualizationConfig
+
+    owner = "replay_in_meshcat"
+    t = check.array(owner, "t", t, shape=(None,))
+    names = tuple(joint_names)
+    q = check.array(owner, "q", q, shape=(t.size, len(names)))
+    if t.size < 2 or np.any(np.diff(t) <= 0.0):
+        check.fail(owner, "t must have at least 2 increasing samples [s].")
+    fps = check.positive(owner, "frames_per_second", frames_per_second, "Hz")
+    frames = int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
+    if frames > MAX_FRAMES:
+        check.fail(
+            owner,
+            f"the replay must have at most {MAX_FRAMES} frames; got {frames} "
+            f"({t[-1] - t[0]:g} s at frames_per_second {fps:g} Hz).",
+        )
+    builder, plant, notes = _load(urdf)
+    positions = []
+    for name in names:
+        if not plant.HasJointNamed(name):
+            check.fail(owner, f"joint {name!r} is not a joint of {urdf}.")
+        positions.append(plant.GetJointByName(name).position_start())
+    bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
+    if not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
+        notes.append("no <visual> geometry: the links are shown by their inertia")
+    meshcat = StartMeshcat() if meshcat is None else meshcat
+    config = VisualizationConfig(
+        publish_contacts=False, publish_proximity=False, enable_alpha_sliders=False
+    )
+    lcm = DrakeLcm("memq://")  # in memory; referenced by the diagram: keep it alive
+    ApplyVisualizationConfig(config, builder, meshcat=meshcat, lcm=lcm)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    plant_context = plant.GetMyMutableContextFromRoot(context)
+    diagram.ForcedPublish(context)  # the scene, before the animation
+    if notes and notes[-1].startswith("no <visual>"):
+        meshcat.SetProperty("/drake/inertia", "visible", True)
+    times = t[0] + np.arange(frames) / fps
+    path = np.column_stack([np.interp(times, t, q[:, j]) for j in range(len(names))])
+    full = plant.GetPositions(plant_context).copy()
+    meshcat.StartRecording(
+        frames_per_second=fps, set_visualizations_while_recording=False
+    )
+    for k, time in enumerate(times):
+        context.SetTime(float(time - t[0]))
+        full[positions] = path[k]
+        plant.SetPositions(plant_context, full)
+        diagram.ForcedPublish(context)
+    meshcat.StopRecording()
+    meshcat.PublishRecording()
+    written = None
+    if html is not None:
+        written = os.fspath(html)
+        with open(written, "w", encoding="utf-8") as stream:
+            stream.write(meshcat.StaticHtml())
+    return Replay(meshcat.web_url(), written, frames, tuple(notes), meshcat)
