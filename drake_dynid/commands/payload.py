@@ -389,23 +389,27 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
     )
     if args.every:
         print()
-        print("t [s]     m [kg]              c [m]")
+        print("t [s]     m [kg]               c [m] (* not identified: %σ > 30)")
         step = max(1, round(args.every / settings.resolved("update_period")))
         for k in range(0, len(t), step):
             if trace.valid[k] < 0.5 and trace.status[k] == 1:
-                continue
+                continue  # the first window is not full yet
             entry = payload_summary(
                 rows, trace.theta[k], trace.std[k], trace.correlation[k]
             )
-            com = entry["com"]
-            c = (
-                "(" + ", ".join(f"{com[a]['value']:.4g}" for a in "xyz") + ")"
-                if com is not None
-                else "-"
-            )
-            mass = entry["mass"]
-            m = f"{mass['value']:.4g} ± {mass['std']:.2g}" if mass else "-"
-            print(f"{t[k]:<9.4g} {m:<19} {c}")
+            mass, com = entry["mass"], entry["com"]
+            m = "-"
+            if mass is not None:
+                m = f"{mass['value']:.4g} ± {mass['std']:.2g}"
+                m += "" if mass["identified"] else " *"
+            c = "-"
+            if com is not None and mass is not None and mass["identified"]:
+                c = ", ".join(
+                    f"{com[a]['value']:.4g}" + ("" if com[a]["identified"] else "*")
+                    for a in "xyz"
+                )
+                c = f"({c})"
+            print(f"{t[k]:<9.4g} {m:<20} {c}")
     print()
     print(
         f"final estimate (t = {t[-1]:.4g} s), about the attachment frame, in its axes:"

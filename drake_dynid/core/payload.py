@@ -2,7 +2,7 @@ r"""Payload identification on a known arm: the rows of the load's 10 parameters.
 
 A payload rigidly attached to link L (its frame: the child body of L's joint,
 docs/CONVENTIONS.md §4) through a frame F adds its 10 standard inertial parameters
-to L's. In F (docs/MATH.md §8)::
+to L's. In F (docs/PAYLOAD.md §1)::
 
     θ_F = [XX XY XZ YY YZ ZZ MX MY MZ M]_F
         (inertia tensor about F's origin in F's axes [kg·m²] (XY = -∫xy dm),

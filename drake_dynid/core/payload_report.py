@@ -2,7 +2,7 @@
 
 The identifier estimates the payload's base parameters (``core.payload``): the
 standard parameters of F that the joints see, some of them regrouped. This module
-states what follows about the physical quantities (docs/MATH.md §8):
+states what follows about the physical quantities (docs/PAYLOAD.md §4):
 
 * **mass** m = M, **first moments** h = m·c (MX, MY, MZ) and the **inertia about
   F's origin** (XX ... ZZ): each with its σ when it is a base parameter on its own

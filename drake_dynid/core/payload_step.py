@@ -9,7 +9,7 @@ the status are ``core.identifier.identifier_update``'s. Both drivers call
 (``core.payload_replay``).
 
 Default settings (:data:`PAYLOAD_DEFAULTS`, measured in benchmarks/_accuracy_payload.py
-and docs/MATH.md §8): a short window, so that the estimate follows a pick within
+and docs/PAYLOAD.md §3): a short window, so that the estimate follows a pick within
 about a second, and what a short window needs:
 
 * ``window`` 0.75 s: the mass is within 5 % about T - 0.1 s after the pick.
