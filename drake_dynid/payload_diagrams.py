@@ -27,6 +27,7 @@ from drake_dynid.core.online import (
 )
 from drake_dynid.core.payload import PayloadRows
 from drake_dynid.core.payload_replay import PayloadTrace
+from drake_dynid.core.payload_step import payload_jackknife_groups
 from drake_dynid.diagrams import IdentifierChain, advance, log_source
 
 __all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
@@ -150,7 +151,7 @@ def add_payload_identifier(
             offset=SOLVE_OFFSET * time_step,
             row_weighting=settings.row_weighting(m, design),
             row_noise=settings.row_noise(m, design),
-            jackknife_groups=settings.jackknife_groups(m, design),
+            jackknife_groups=payload_jackknife_groups(settings, m, design),
         )
     )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())

@@ -138,12 +138,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--max-condition", type=float, metavar="C", help="largest condition number"
     )
     group.add_argument(
-        "--weighting", choices=("frequency", "none"), help="row weighting (none)"
+        "--weighting", choices=("frequency", "none"), help="row weighting (frequency)"
     )
     group.add_argument(
         "--uncertainty",
         choices=("jackknife", "sandwich", "gautier"),
-        help="standard deviations (gautier)",
+        help="standard deviations (jackknife)",
     )
     group.add_argument(
         "--rows-from", choices=("filtered", "raw"), help="model rows' signals (raw)"

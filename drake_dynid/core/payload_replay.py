@@ -21,7 +21,11 @@ from drake_dynid.core import _validate as check
 from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
 from drake_dynid.core.payload import PayloadRows
-from drake_dynid.core.payload_step import payload_init, payload_update
+from drake_dynid.core.payload_step import (
+    payload_init,
+    payload_jackknife_groups,
+    payload_update,
+)
 from drake_dynid.core.replay import _channel_blocks
 
 __all__ = ["PayloadTrace", "replay_payload_core"]
@@ -52,7 +56,7 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     names = rows.payload_names
     weighting = entry.row_weighting(m, bank)
     noise = entry.row_noise(m, bank)
-    jackknife = entry.jackknife_groups(m, bank)
+    jackknife = payload_jackknife_groups(entry, m, bank)
 
     bank_times = np.arange(0, count, decimation)
     blocks = _channel_blocks(log, rows, entry, bank_times)
