@@ -5,8 +5,10 @@ The payload is added to the iiwa's last body in the simulated plant's Context
 payload given to Drake, never the library's regressor.
 """
 
+import json
 import re
 
+import pytest
 from test_examples import load_example
 
 
@@ -25,3 +27,18 @@ def test_payload_pick_quick(tmp_path, capsys):
         truth, estimate, sigma, flag = row.groups()
         assert flag == "yes"
         assert abs(float(estimate) - float(truth)) <= 3.0 * float(sigma)
+
+
+@pytest.mark.slow
+def test_bench_accuracy_payload_quick_run(tmp_path, capsys, monkeypatch):
+    from test_benchmarks import load_benchmark
+
+    out = tmp_path / "payload.json"
+    bench = load_benchmark("bench_accuracy", monkeypatch)
+    assert bench.main(["--quick", "--robot", "payload", "--json", str(out)]) == 0
+    assert "| iiwa7, exact | payload defaults |" in capsys.readouterr().out
+    cases = json.loads(out.read_text())["payload"]["cases"]
+    default = cases["iiwa7, exact|payload defaults"]
+    assert default["settle_s"] <= 1.0 and default["mass_error_percent"] < 1.0
+    noise_free = cases["iiwa7, exact|payload defaults, noise-free"]
+    assert noise_free["mass_error_percent"] < 0.05
