@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
     """Replays the log through the payload identifier; prints and writes results."""
     from drake_dynid.commands._paths import check_output_paths
     from drake_dynid.commands.identify import OPTION_NAMES, check_log_values
-    from drake_dynid.core.payload_report import payload_summary
+    from drake_dynid.core.payload_report import estimate_entry, payload_summary
     from drake_dynid.payload import payload_model
 
     check_output_paths(args)
@@ -301,7 +301,7 @@ def run(args: argparse.Namespace) -> int:
                 "parameters": [
                     {
                         "name": name,
-                        **(_document_entry(summary_entry(value, sigma)) or {}),
+                        **(_document_entry(estimate_entry(value, sigma)) or {}),
                         "definition": dict(definition),
                     }
                     for name, value, sigma, definition in zip(
@@ -350,21 +350,6 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"wrote {args.plot}")
     return 0
-
-
-def summary_entry(value: float, sigma: float) -> dict[str, Any]:
-    """``{"value", "std", "relative_std_percent", "identified"}`` of one estimate."""
-    from drake_dynid.core.payload_report import NOT_IDENTIFIED_PERCENT
-
-    value, sigma = float(value), float(sigma)
-    finite = math.isfinite(value) and math.isfinite(sigma)
-    percent = 100.0 * sigma / abs(value) if finite and value != 0.0 else math.inf
-    return {
-        "value": value,
-        "std": sigma,
-        "relative_std_percent": percent,
-        "identified": bool(percent <= NOT_IDENTIFIED_PERCENT),
-    }
 
 
 def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) -> None:

@@ -27,13 +27,19 @@ import numpy as np
 
 from drake_dynid.core.payload import PAYLOAD_NAMES
 
-__all__ = ["NOT_IDENTIFIED_PERCENT", "payload_summary"]
+__all__ = ["NOT_IDENTIFIED_PERCENT", "estimate_entry", "payload_summary"]
 
 #: A quantity whose σ exceeds this percentage of its magnitude is not identified.
 NOT_IDENTIFIED_PERCENT = 30.0
 
 
-def _entry(value: float, sigma: float) -> dict[str, Any]:
+def estimate_entry(value: float, sigma: float) -> dict[str, Any]:
+    """``{"value", "std", "relative_std_percent", "identified"}`` of one estimate.
+
+    %σ = 100 σ/|value| (inf for a zero value or a non-finite one); identified when
+    %σ <= :data:`NOT_IDENTIFIED_PERCENT`.
+    """
+    value, sigma = float(value), float(sigma)
     finite = math.isfinite(value) and math.isfinite(sigma)
     percent = 100.0 * sigma / abs(value) if finite and value != 0.0 else math.inf
     return {
@@ -72,8 +78,10 @@ def payload_summary(
             plain[next(iter(definition))] = k
     standard: dict[str, Any] = {}
     for name in PAYLOAD_NAMES:
-        k = plain.get(name)
-        standard[name] = None if k is None else _entry(float(theta[k]), float(std[k]))
+        found = plain.get(name)
+        standard[name] = (
+            None if found is None else estimate_entry(theta[found], std[found])
+        )
     mass = standard["M"]
     com = None
     if all(name in plain for name in ("M", "MX", "MY", "MZ")):
@@ -84,14 +92,14 @@ def payload_summary(
             k = plain[name]
             h, s_h = float(theta[k]), float(std[k])
             if m == 0.0 or not math.isfinite(m):
-                com[axis] = _entry(math.nan, math.inf)
+                com[axis] = estimate_entry(math.nan, math.inf)
                 continue
             c = h / m
             if not (math.isfinite(s_h) and math.isfinite(s_m)):
-                com[axis] = _entry(c, math.inf)
+                com[axis] = estimate_entry(c, math.inf)
                 continue
             variance = s_h**2 + c**2 * s_m**2 - 2.0 * c * rho[k, k_m] * s_h * s_m
-            com[axis] = _entry(c, math.sqrt(max(variance, 0.0)) / abs(m))
+            com[axis] = estimate_entry(c, math.sqrt(max(variance, 0.0)) / abs(m))
     return {
         "standard": standard,
         "mass": mass,
