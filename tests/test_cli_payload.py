@@ -111,6 +111,14 @@ def test_offset_frames_and_bad_input(log_file, tmp_path, capsys):
     assert abs(payload["com"]["z"]["value"]) < 0.01
     assert payload["offset"] == {"xyz": [0.0, 0.0, 0.1], "rpy": [0.0, 0.0, 0.0]}
     capsys.readouterr()
+    # A frame on the first link: the first joint sees only ZZ (printed over time).
+    first = ["payload", log_file, "--urdf", URDF, *COMMON, "--frame", "iiwa_link_1"]
+    assert cli.main([*first, "--every", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "t [s]     ZZ (* %σ > 30)" in printed and "mass: not identifiable" in printed
+    assert "not identifiable from these joints: XX, XY, XZ, YY, YZ, MX, MY, MZ, M" in (
+        printed
+    )
     planar = tmp_path / "planar.json"
     assert (
         cli.main(["params", str(model_path("planar_2r")), "--json", str(planar)]) == 0

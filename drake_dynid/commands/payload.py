@@ -353,7 +353,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) -> None:
-    from drake_dynid.core.payload_report import payload_summary
 
     print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
     line = dead_zone_line(robot, args)
@@ -374,27 +373,7 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
     )
     if args.every:
         print()
-        print("t [s]     m [kg]               c [m] (* not identified: %σ > 30)")
-        step = max(1, round(args.every / settings.resolved("update_period")))
-        for k in range(0, len(t), step):
-            if trace.valid[k] < 0.5 and trace.status[k] == 1:
-                continue  # the first window is not full yet
-            entry = payload_summary(
-                rows, trace.theta[k], trace.std[k], trace.correlation[k]
-            )
-            mass, com = entry["mass"], entry["com"]
-            m = "-"
-            if mass is not None:
-                m = f"{mass['value']:.4g} ± {mass['std']:.2g}"
-                m += "" if mass["identified"] else " *"
-            c = "-"
-            if com is not None and mass is not None and mass["identified"]:
-                c = ", ".join(
-                    f"{com[a]['value']:.4g}" + ("" if com[a]["identified"] else "*")
-                    for a in "xyz"
-                )
-                c = f"({c})"
-            print(f"{t[k]:<9.4g} {m:<20} {c}")
+        _print_every(args.every, rows, trace, settings, t)
     print()
     print(
         f"final estimate (t = {t[-1]:.4g} s), about the attachment frame, in its axes:"
@@ -420,3 +399,39 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
             f"final window INVALID: {reason}; the last valid estimate (t = "
             f"{t[last]:.4g} s) is shown"
         )
+
+
+def _print_every(every: float, rows, trace, settings, t) -> None:
+    """The estimate every ``every`` seconds: m and c, else the base parameters."""
+    from drake_dynid.core.payload_report import estimate_entry, payload_summary
+
+    step = max(1, round(every / settings.resolved("update_period")))
+    has_mass = "M" in rows.payload_names
+    if has_mass:
+        print("t [s]     m [kg]               c [m] (* not identified: %σ > 30)")
+    else:
+        print("t [s]     " + "  ".join(rows.payload_names) + " (* %σ > 30)")
+    for k in range(0, len(t), step):
+        if trace.valid[k] < 0.5 and trace.status[k] == 1:
+            continue  # the first window is not full yet
+        if not has_mass:
+            cells = []
+            for value, sigma in zip(trace.theta[k], trace.std[k], strict=True):
+                flag = "" if estimate_entry(value, sigma)["identified"] else "*"
+                cells.append(f"{value:.4g} ± {sigma:.2g}{flag}")
+            print(f"{t[k]:<9.4g} " + "  ".join(cells))
+            continue
+        entry = payload_summary(
+            rows, trace.theta[k], trace.std[k], trace.correlation[k]
+        )
+        mass, com = entry["mass"], entry["com"]
+        m = f"{mass['value']:.4g} ± {mass['std']:.2g}"
+        m += "" if mass["identified"] else " *"
+        c = "-"
+        if com is not None and mass["identified"]:
+            c = ", ".join(
+                f"{com[a]['value']:.4g}" + ("" if com[a]["identified"] else "*")
+                for a in "xyz"
+            )
+            c = f"({c})"
+        print(f"{t[k]:<9.4g} {m:<20} {c}")
