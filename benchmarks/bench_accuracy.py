@@ -464,10 +464,11 @@ def main(argv=None) -> int:
     )
     parser.add_argument(
         "--robot",
-        choices=("2r", "iiwa7", "all"),
+        choices=("2r", "iiwa7", "payload", "all"),
         default="all",
         help="the paper's 2R (closed loop, SNR 30 dB), the 7-DOF iiwa7 (independent "
-        "logs, benchmarks/_accuracy_arm7.py) or both (default)",
+        "logs, benchmarks/_accuracy_arm7.py), payload identification "
+        "(benchmarks/_accuracy_payload.py) or all (default)",
     )
     parser.add_argument(
         "--seeds7", type=int, default=10, help="noise seeds of the iiwa7 section"
@@ -485,6 +486,12 @@ def main(argv=None) -> int:
         arm = _arm7.run(range(1 if args.quick else args.seeds7), quick=args.quick)
         _arm7.print_report(arm)
         report["iiwa7"] = arm
+    if args.robot in ("payload", "all"):  # issue 16 item 5
+        import _accuracy_payload as _payload
+
+        payload = _payload.run(range(1 if args.quick else args.seeds7), args.quick)
+        _payload.print_report(payload)
+        report["payload"] = payload
     wall = time.perf_counter() - start
     print(f"\nwall time {wall:.0f} s")
     report["wall_s"] = wall

@@ -158,6 +158,21 @@ _LAZY: dict[str, str] = {
     "SimulationSettings": "drake_dynid.simulation",
     "SimulationResult": "drake_dynid.simulation",
     "simulate_identification": "drake_dynid.simulation",
+    # payload identification (issue 16): core, block, diagrams
+    "PayloadRows": "drake_dynid.core.payload",
+    "payload_rows": "drake_dynid.core.payload",
+    "payload_transform": "drake_dynid.core.payload",
+    "payload_parameters": "drake_dynid.core.payload",
+    "shift_parameters": "drake_dynid.core.payload",
+    "payload_settings": "drake_dynid.core.payload_step",
+    "payload_update": "drake_dynid.core.payload_step",
+    "PayloadTrace": "drake_dynid.core.payload_replay",
+    "replay_payload_core": "drake_dynid.core.payload_replay",
+    "payload_summary": "drake_dynid.core.payload_report",
+    "payload_model": "drake_dynid.payload",
+    "PayloadIdentifier": "drake_dynid.systems.payload",
+    "add_payload_identifier": "drake_dynid.payload_diagrams",
+    "replay_payload_log": "drake_dynid.payload_diagrams",
 }
 
 __all__ = ["__version__", *sorted(_LAZY)]

@@ -33,6 +33,7 @@ SUBCOMMANDS = (
     "excite",
     "simulate",
     "identify",
+    "payload",
     "offline",
     "validate",
     "fleet",

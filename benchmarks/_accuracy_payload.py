@@ -1,0 +1,280 @@
+"""Payload section of the accuracy benchmark (``bench_accuracy.py --robot payload``).
+
+A payload is picked at t = 3 s of a 5 s log; the arm's parameters are the URDF's
+(known); the payload identifier (``drake_dynid.core.payload_replay``, the core of
+the blocks) runs over the log. Truth: the payload given to Drake, never the
+library's regressor.
+
+* **iiwa7, exact**: ``random_fourier_trajectory`` (7 joints, 5 harmonics of
+  0.1 Hz, |q̇| <= 1 rad/s, default_rng(5)) evaluated at 1 kHz, torques from
+  Drake's ``CalcInverseDynamics`` + the URDF's Coulomb·sign(v), the payload added
+  to ``iiwa_link_7``'s spatial inertia in the Context from the pick on: 2 kg,
+  centre of mass (0.01, -0.02, 0.1) m, central inertia diag(0.01, 0.012, 0.008)
+  kg·m² (the flange frame). "slow": the same with |q̇| <= 0.3 rad/s.
+* **iiwa7, closed loop**: Drake simulates the arm (discrete plant, inverse-
+  dynamics tracking that ignores the payload, Coulomb tanh(v/0.01), the arm's
+  model with the same law) and the payload is added in the plant's Context at the
+  pick (``simulate_identification`` events, as examples/payload_pick.py).
+* **2R, exact**: the paper's arm (horizontal plane: only ZZ, MX, MY and M of the
+  payload act), |q̇| <= 3 rad/s (5 harmonics of 0.2 Hz), 0.5 kg at
+  (0.05, 0.02, 0) m on link 2.
+
+Noise (seeded, default_rng(1000 + seed)): σ_q = 1e-4 rad and τ white with 1 % of
+each joint's torque std (the 7-DOF benchmark's "encoder" level); "noise-free"
+rows have none.
+
+Metrics, medians over seeds: the time after the pick until the mass stays within
+5 %; at the end of the log (the window 2 s after the pick), the mass error, the
+centre-of-mass error |ĉ - c| [mm], the parameters flagged identified (%σ <= 30)
+per run, the median relative error over them, err/σ p90 over them and the
+identified parameters more than 30 % off per run (``_independent.honesty``'s
+rule). Methods: the payload identifier's defaults (``payload_settings()``) and
+one change at a time, to show what each default buys.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from _independent import drake_torques
+
+from drake_dynid.core.payload import payload_parameters, payload_rows
+from drake_dynid.core.payload_replay import replay_payload_core
+from drake_dynid.core.payload_step import payload_settings
+from drake_dynid.core.trajectory import random_fourier_trajectory
+from drake_dynid.logs import RobotLog
+from drake_dynid.robot import RobotModel
+from drake_dynid.urdf import model_path
+
+H = 1e-3
+PICK = 3.0
+DURATION = 5.0
+IIWA_PAYLOAD = (2.0, [0.01, -0.02, 0.1], np.diag([0.01, 0.012, 0.008]))
+PLANAR_PAYLOAD = (0.5, [0.05, 0.02, 0.0], np.diag([0.001, 0.001, 0.002]))
+
+METHODS = {
+    "payload defaults": {},
+    "window 0.5 s": {"window": 0.5},
+    "window 1.0 s": {"window": 1.0},
+    "filtered rows": {"rows_from": "filtered"},
+    "bank step 10 ms": {"bank_time_step": 0.01},
+    "ℓ = 0..7": {"frequencies": list(range(8))},
+    "OLS + Gautier σ": {"weighting": "none", "uncertainty": "gautier"},
+}
+
+
+def _spatial(theta):
+    from pydrake.multibody.tree import SpatialInertia, UnitInertia
+
+    m = theta[9]
+    g = theta[:6] / m
+    return SpatialInertia(
+        m, theta[6:9] / m, UnitInertia(g[0], g[3], g[5], g[1], g[2], g[4])
+    )
+
+
+def _torques_with(robot, q, v, vdot, body, theta):
+    from pydrake.multibody.tree import MultibodyForces
+
+    from drake_dynid.urdf import read_urdf_friction
+
+    coulomb = read_urdf_friction(robot.path)
+    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
+    plant = robot.plant
+    context = plant.CreateDefaultContext()
+    target = plant.GetBodyByName(body)
+    total = target.CalcSpatialInertiaInBodyFrame(context)
+    total += _spatial(theta)
+    target.SetSpatialInertiaInBodyFrame(context, total)
+    out = np.empty_like(q)
+    for k in range(len(q)):
+        plant.SetPositions(context, q[k])
+        plant.SetVelocities(context, v[k])
+        forces = MultibodyForces(plant)
+        plant.CalcForceElementsContribution(context, forces)
+        out[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
+    return out + fc * np.sign(v)
+
+
+class Case:
+    """One scenario: the robot, the payload's rows and truth, the noise-free log."""
+
+    def __init__(self, label, robot, truth, q, tau):
+        self.label = label
+        self.robot = robot
+        self.rows = payload_rows(robot)
+        self.truth = truth  # the payload's 10 standard parameters
+        self.expected = self.rows.base.matrix @ truth
+        self.q, self.tau = q, tau
+        self.tau_std = tau[: round(PICK / H)].std(axis=0)
+
+    def log(self, seed: int | None) -> RobotLog:
+        t = H * np.arange(len(self.q))
+        q, tau = self.q, self.tau
+        if seed is not None:
+            noise = np.random.default_rng(1000 + seed).standard_normal((2, *q.shape))
+            q = q + 1e-4 * noise[0]
+            tau = tau + 0.01 * self.tau_std * noise[1]
+        return RobotLog(t, q, tau, self.robot.joint_names, H)
+
+
+def exact_case(label, urdf, truth_args, body, harmonics_hz, max_velocity):
+    robot = RobotModel.from_urdf(model_path(urdf))
+    trajectory = random_fourier_trajectory(
+        robot.num_joints,
+        harmonics=5,
+        base_frequency=2 * np.pi * harmonics_hz,
+        max_velocity=max_velocity,
+        rng=np.random.default_rng(5),
+    )
+    t = H * np.arange(round(DURATION / H) + 1)
+    q, v, vdot = trajectory.evaluate(t)
+    truth = payload_parameters(*truth_args)
+    pick = round(PICK / H)
+    tau = np.vstack(
+        [
+            drake_torques(robot, q[:pick], v[:pick], vdot[:pick]),
+            _torques_with(robot, q[pick:], v[pick:], vdot[pick:], body, truth),
+        ]
+    )
+    return Case(label, robot, truth, q, tau)
+
+
+def closed_loop_case():
+    import importlib.util
+    import pathlib
+
+    from drake_dynid.simulation import SimulationSettings, simulate_identification
+
+    path = pathlib.Path(__file__).parents[1] / "examples" / "payload_pick.py"
+    spec = importlib.util.spec_from_file_location("payload_pick", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    robot = RobotModel.from_urdf(model_path("iiwa7"), coulomb_width=0.01)
+    truth = payload_parameters(*IIWA_PAYLOAD)
+    trajectory = random_fourier_trajectory(
+        7,
+        harmonics=5,
+        base_frequency=2 * np.pi * 0.1,
+        max_velocity=1.0,
+        rng=np.random.default_rng(5),
+    )
+    result = simulate_identification(
+        robot,
+        trajectory,
+        SimulationSettings(duration=DURATION, snr_db=None, coulomb_smoothing=0.01),
+        [],
+        events=[(PICK, example.payload_event("iiwa_link_7", truth))],
+    )
+    return Case("iiwa7, closed loop", robot, truth, result.q_true, result.tau_true)
+
+
+def evaluate(case: Case, settings, seeds) -> dict:
+    """The metrics of the module docstring over ``seeds`` (None: noise-free)."""
+    names = case.rows.payload_names
+    m_index = names.index("M")
+    settle, mass_error, com_error, counts, errors, z, false = ([] for _ in range(7))
+    for seed in seeds:
+        trace = replay_payload_core(case.log(seed), case.rows, settings)
+        mass = trace.theta[:, m_index]
+        outside = np.flatnonzero(
+            (trace.t >= PICK) & (np.abs(mass / case.truth[9] - 1) > 0.05)
+        )
+        if outside.size and outside[-1] + 1 >= len(trace.t):
+            settle.append(np.inf)
+        else:
+            settle.append(
+                float(trace.t[outside[-1] + 1] - PICK) if outside.size else 0.0
+            )
+        theta, std = trace.theta[-1], trace.std[-1]
+        mass_error.append(100 * (theta[m_index] - case.truth[9]) / case.truth[9])
+        if all(n in names for n in ("MX", "MY", "MZ")):
+            h = np.array([theta[names.index(n)] for n in ("MX", "MY", "MZ")])
+            com_error.append(
+                1e3
+                * np.linalg.norm(h / theta[m_index] - case.truth[6:9] / case.truth[9])
+            )
+        identified = std <= 0.3 * np.abs(theta)
+        error = np.abs(theta - case.expected)
+        counts.append(int(identified.sum()))
+        errors.append(
+            float(
+                np.median(100 * error[identified] / np.abs(case.expected[identified]))
+            )
+            if identified.any()
+            else np.nan
+        )
+        z.extend((error / std)[identified])
+        false.append(int((identified & (error > 0.3 * np.abs(case.expected))).sum()))
+    return {
+        "settle_s": float(np.median(settle)),
+        "settle_max_s": float(np.max(settle)),
+        "mass_error_percent": float(np.median(np.abs(mass_error))),
+        "com_error_mm": float(np.median(com_error)) if com_error else None,
+        "identified_per_run": float(np.mean(counts)),
+        "identified_error_percent": float(np.nanmedian(errors)),
+        "err_sigma_p90": float(np.percentile(z, 90)) if z else float("nan"),
+        "false_per_run": float(np.mean(false)),
+        "names": list(names),
+    }
+
+
+def run(seeds, quick: bool = False) -> dict:
+    start = time.perf_counter()
+    cases = [
+        exact_case("iiwa7, exact", "iiwa7", IIWA_PAYLOAD, "iiwa_link_7", 0.1, 1.0),
+    ]
+    if not quick:
+        cases += [
+            exact_case(
+                "iiwa7, exact, slow", "iiwa7", IIWA_PAYLOAD, "iiwa_link_7", 0.1, 0.3
+            ),
+            closed_loop_case(),
+            exact_case("2R, exact", "planar_2r", PLANAR_PAYLOAD, "link2", 0.2, 3.0),
+        ]
+    results: dict = {}
+    methods = METHODS if not quick else {"payload defaults": {}}
+    for case in cases:
+        chosen = methods if case.label == "iiwa7, exact" else {"payload defaults": {}}
+        for name, overrides in chosen.items():
+            settings = payload_settings(**overrides)
+            results[f"{case.label}|{name}"] = evaluate(case, settings, list(seeds))
+        results[f"{case.label}|payload defaults, noise-free"] = evaluate(
+            case, payload_settings(), [None]
+        )
+        if case.label == "iiwa7, exact" and not quick:
+            for name in ("filtered rows", "bank step 10 ms"):
+                results[f"{case.label}|{name}, noise-free"] = evaluate(
+                    case, payload_settings(**METHODS[name]), [None]
+                )
+    return {
+        "seeds": list(seeds),
+        "pick_s": PICK,
+        "duration_s": DURATION,
+        "cases": results,
+        "wall_s": time.perf_counter() - start,
+    }
+
+
+def print_report(report: dict) -> None:
+    print(
+        f"\n## Payload identification (pick at {PICK:g} s, estimate at {DURATION:g} s; "
+        f"medians over seeds {report['seeds']}; noise σ_q = 1e-4 rad, 1 % of τ std)\n"
+    )
+    print(
+        "| scenario | method | time to 5 % of the mass [s] (max) | mass err % | "
+        "c err [mm] | identified / run | err % of identified | err/σ p90 | "
+        "identified but > 30 % off / run |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for key, c in report["cases"].items():
+        label, method = key.split("|")
+        com = "-" if c["com_error_mm"] is None else f"{c['com_error_mm']:.2f}"
+        print(
+            f"| {label} | {method} | {c['settle_s']:.2f} ({c['settle_max_s']:.2f}) | "
+            f"{c['mass_error_percent']:.3f} | {com} | {c['identified_per_run']:.1f} of "
+            f"{len(c['names'])} | {c['identified_error_percent']:.2f} | "
+            f"{c['err_sigma_p90']:.2f} | {c['false_per_run']:.2f} |"
+        )
+    print(f"\n(payload section: {report['wall_s']:.0f} s)")

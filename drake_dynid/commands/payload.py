@@ -1,0 +1,437 @@
+"""``dynid payload``: a payload's inertial parameters on-line, the arm known."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.commands._arguments import (
+    add_common_arguments,
+    apply_dead_zone,
+    dead_zone_line,
+    log_files,
+    model_settings,
+    read_robot_log,
+    robot_from_args,
+)
+from drake_dynid.commands._report import (
+    estimates_table,
+    json_number,
+    log_document,
+    matplotlib_pyplot,
+    write_estimates_csv,
+    write_json,
+    write_plot,
+)
+
+HELP = "on-line identification of a payload's 10 inertial parameters (arm known)"
+DESCRIPTION = (
+    "Replays a robot log (CSV: t, q_<joint>, tau_<joint>) through drake_dynid's "
+    "payload identifier: the arm's parameters are known (the URDF's values, or a "
+    "previous identification with --params), and only the payload rigidly attached "
+    "to --frame (default: the last identified link) is estimated on-line: its mass, "
+    "first moments m·c and inertia about the attachment frame, in that frame, with "
+    "their standard deviations, over a short sliding window (0.75 s by default: the "
+    "estimate follows a pick within about a second). Prints the final estimate "
+    "(parameters with %σ > 30 flagged '*' = not identified; parameters the joints "
+    "cannot see are listed), the mass and the centre of mass; optionally the "
+    "estimates every --every seconds, a CSV over time (--out), a plot (--plot) and "
+    "a JSON summary (--json)."
+)
+
+# Option -> OnlineSettings field of the payload identifier's settings.
+_SETTING_OPTIONS = (
+    "window",
+    "jacobi_window",
+    "bank_time_step",
+    "update_period",
+    "max_condition",
+    "weighting",
+    "uncertainty",
+    "rows_from",
+    "raw_window",
+)
+
+
+def _triple_or_six(text: str | None) -> tuple[list[float], list[float]] | None:
+    """``--offset X,Y,Z[,ROLL,PITCH,YAW]`` -> (xyz [m], rpy [rad])."""
+    if text is None:
+        return None
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in (3, 6) or not all(map(math.isfinite, values)):
+        raise ValueError(
+            "--offset must be X,Y,Z [m] or X,Y,Z,ROLL,PITCH,YAW [m, rad] (finite "
+            f"numbers); got {text!r}."
+        )
+    return values[:3], (values[3:] or [0.0, 0.0, 0.0])
+
+
+def payload_settings_of(args: argparse.Namespace) -> Any:
+    """The payload identifier's ``OnlineSettings`` of the options (checked)."""
+    from drake_dynid.commands.identify import OPTION_NAMES, _frequencies
+    from drake_dynid.core.online_checks import check_values
+    from drake_dynid.core.payload_step import PAYLOAD_DEFAULTS, payload_settings
+
+    values = {k: getattr(args, k) for k in _SETTING_OPTIONS if getattr(args, k, None)}
+    frequencies = _frequencies(args.frequencies)
+    if not (isinstance(frequencies, str) and frequencies == "default"):
+        values["frequencies"] = frequencies
+    merged = {**PAYLOAD_DEFAULTS, **values}
+    check_values(merged, owner=None, names=OPTION_NAMES)
+    return payload_settings(**values)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Adds the ``dynid payload`` arguments."""
+    add_common_arguments(parser)
+    where = parser.add_argument_group("the payload and the arm")
+    where.add_argument(
+        "--frame",
+        metavar="NAME",
+        help="body or frame of the URDF the payload is rigidly attached to (default: "
+        "the last identified link); the parameters are about its origin, in its axes",
+    )
+    where.add_argument(
+        "--offset",
+        metavar="X,Y,Z[,R,P,Y]",
+        help="the attachment frame's offset from --frame: translation [m] and "
+        "roll, pitch, yaw [rad], as a URDF <origin> (default 0)",
+    )
+    where.add_argument(
+        "--params",
+        metavar="ARM.json",
+        help="the arm's parameters: a results file of dynid offline/identify "
+        "--json (or dynid params --json); default: the URDF's values",
+    )
+    group = parser.add_argument_group(
+        "identifier settings (default: the payload identifier's, "
+        "drake_dynid.core.payload_step.PAYLOAD_DEFAULTS)"
+    )
+    group.add_argument("--window", type=float, metavar="S", help="window T [s] (0.75)")
+    group.add_argument(
+        "--frequencies",
+        metavar="LIST",
+        help="modulating indices ℓ: '0,1,2,3' (default) or start:step:stop; 'auto': "
+        "the integers up to the default band (at least 8)",
+    )
+    group.add_argument(
+        "--jacobi-window", type=float, metavar="S", help="differentiator window [s]"
+    )
+    group.add_argument(
+        "--bank-time-step",
+        type=float,
+        metavar="S",
+        help="bank sample period [s], a multiple of the log's (default 0.002: the "
+        "arm's known part must be integrated finely)",
+    )
+    group.add_argument(
+        "--update-period", type=float, metavar="S", help="solve period [s] (0.05)"
+    )
+    group.add_argument(
+        "--max-condition", type=float, metavar="C", help="largest condition number"
+    )
+    group.add_argument(
+        "--weighting", choices=("frequency", "none"), help="row weighting (frequency)"
+    )
+    group.add_argument(
+        "--uncertainty",
+        choices=("jackknife", "sandwich", "gautier"),
+        help="standard deviations (jackknife)",
+    )
+    group.add_argument(
+        "--rows-from", choices=("filtered", "raw"), help="model rows' signals (raw)"
+    )
+    group.add_argument(
+        "--raw-window", type=float, metavar="S", help="raw rows' velocity window [s]"
+    )
+    group.add_argument(
+        "--engine",
+        choices=("core", "blocks"),
+        default="core",
+        help="core: the vectorised numerical core (default); blocks: the Drake "
+        "LeafSystems in a Simulator (the same estimates)",
+    )
+    outputs = parser.add_argument_group("outputs")
+    outputs.add_argument(
+        "--every",
+        type=float,
+        metavar="S",
+        help="also print the mass and centre of mass every S seconds",
+    )
+    outputs.add_argument(
+        "--out",
+        metavar="FILE.csv",
+        help="write the estimates over time: t,valid,<payload names>,std_<names>",
+    )
+    outputs.add_argument(
+        "--plot", metavar="FILE.png", help="plot the estimates over time"
+    )
+
+
+def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
+    """(robot, log, θ_arm, source): the arm's model, the log and its parameters."""
+    from drake_dynid.validation import read_estimates, read_results
+
+    if args.params:
+        from drake_dynid.commands._results import results_robot, results_sign
+
+        document = read_results(args.params)
+        robot = results_robot(args, document)
+        arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
+        log = read_robot_log(
+            log_files(args), robot, resample=args.resample, command="payload"
+        )
+        return results_sign(args, document, robot, log), log, arm, str(args.params)
+    robot = robot_from_args(args, "payload")
+    log = read_robot_log(
+        log_files(args), robot, resample=args.resample, command="payload"
+    )
+    return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf"
+
+
+def _document_entry(entry: dict[str, Any] | None) -> dict[str, Any] | None:
+    if entry is None:
+        return None
+    return {
+        "value": json_number(entry["value"]),
+        "std": json_number(entry["std"]),
+        "relative_std_percent": json_number(entry["relative_std_percent"]),
+        "identified": bool(entry["identified"]),
+    }
+
+
+def _text(entry: dict[str, Any] | None, unit: str) -> str:
+    if entry is None:
+        return "not identifiable"
+    flag = "" if entry["identified"] else " (not identified: %σ > 30)"
+    return f"{entry['value']:.5g} ± {entry['std']:.3g} {unit}{flag}"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Replays the log through the payload identifier; prints and writes results."""
+    from drake_dynid.commands._paths import check_output_paths
+    from drake_dynid.commands.identify import OPTION_NAMES, check_log_values
+    from drake_dynid.core.payload_report import estimate_entry, payload_summary
+    from drake_dynid.payload import payload_model
+
+    check_output_paths(args)
+    if args.every is not None and not (math.isfinite(args.every) and args.every > 0):
+        raise ValueError(f"--every must be > 0 [s]; got {args.every:g}.")
+    offset = _triple_or_six(args.offset)
+    settings = payload_settings_of(args)
+    if args.plot:
+        matplotlib_pyplot()
+    robot, log, arm, source = _robot(args)
+    xyz, rpy = offset if offset is not None else (None, None)
+    try:
+        rows = payload_model(robot, args.frame, xyz=xyz, rpy=rpy, arm=arm)
+    except ValueError as error:
+        raise ValueError(
+            str(error).replace("payload_model: frame", "--frame")
+        ) from None
+    check_log_values(args, log, settings)
+    try:
+        settings = settings.for_log(
+            log.time_step,
+            log.duration,
+            num_joints=robot.num_joints,
+            num_parameters=rows.num_payload,
+            owner=None,
+            names=OPTION_NAMES,
+        )
+    except ValueError as error:
+        raise ValueError(f"log {args.log}: {error}") from None
+    if args.engine == "blocks":
+        from drake_dynid.payload_diagrams import replay_payload_log
+
+        progress = bool(sys.stderr.isatty()) and not args.quiet
+        trace = replay_payload_log(log, rows, settings, progress=progress)
+    else:
+        from drake_dynid.core.payload_replay import replay_payload_core
+
+        trace = replay_payload_core(log, rows, settings)
+    valid = np.asarray(trace.valid) > 0.5
+    if not valid.any():
+        raise ValueError(
+            f"no window of the log gave a valid payload estimate ({trace.t.size} "
+            f"solves): the payload's {rows.num_payload} parameters "
+            f"({', '.join(rows.payload_names)}) are not all excited within "
+            f"--window {settings.window:g} s. Move the arm more (every joint, "
+            "changing orientation and accelerations), lengthen --window, or raise "
+            "--max-condition."
+        )
+    t = log.t[0] + np.asarray(trace.t)
+    last = int(np.flatnonzero(valid)[-1])
+    final_valid = bool(valid[-1])
+    theta, std, correlation = trace.theta[-1], trace.std[-1], trace.correlation[-1]
+    summary = payload_summary(rows, theta, std, correlation)
+    reason = ""
+    if not final_valid:
+        reason = (
+            "the last window is not ready (bad samples)"
+            if int(trace.status[-1]) == 1
+            else "the last window does not excite every payload parameter "
+            f"(condition number {trace.condition_number[-1]:.3g})"
+        )
+    if not args.quiet:
+        _print(args, robot, log, rows, trace, summary, settings, source, t, reason)
+    if args.out:
+        write_estimates_csv(
+            args.out, t, trace.valid, trace.theta, trace.names, trace.std
+        )
+        if not args.quiet:
+            print(f"wrote {args.out}")
+    if args.json:
+        definitions = rows.base.definitions
+        document = {
+            "payload": {
+                "link": rows.link_name,
+                "link_index": rows.link,
+                "frame": rows.frame_name,
+                "offset": None
+                if offset is None
+                else {"xyz": offset[0], "rpy": offset[1]},
+                "parameters": [
+                    {
+                        "name": name,
+                        **(_document_entry(estimate_entry(value, sigma)) or {}),
+                        "definition": dict(definition),
+                    }
+                    for name, value, sigma, definition in zip(
+                        rows.payload_names, theta, std, definitions, strict=True
+                    )
+                ],
+                "mass": _document_entry(summary["mass"]),
+                "com": None
+                if summary["com"] is None
+                else {k: _document_entry(v) for k, v in summary["com"].items()},
+                "inertia": {
+                    name: _document_entry(summary["standard"][name])
+                    for name in ("XX", "XY", "XZ", "YY", "YZ", "ZZ")
+                },
+                "not_identifiable": summary["not_identifiable"],
+            },
+            "arm": {"source": source, "num_parameters": len(arm)},
+            "valid": final_valid,
+            "reason": reason,
+            "last_valid_time": float(t[last]),
+            "condition_number": json_number(trace.condition_number[last]),
+            "delay": float(trace.delay),
+            "settings": {
+                **settings.as_dict(),
+                "friction": list(robot.friction),
+                "coulomb_width": robot.coulomb_width,
+                **model_settings(args, robot),
+                "engine": args.engine,
+            },
+            "urdf": str(args.urdf),
+            "log": log_document(args, log),
+        }
+        write_json(args.json, document)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    if args.plot:
+        write_plot(
+            args.plot,
+            t,
+            np.asarray(trace.theta),
+            np.asarray(trace.std),
+            trace.valid,
+            trace.names,
+            f"dynid payload: {rows.frame_name}, window {settings.window:g} s",
+        )
+        if not args.quiet:
+            print(f"wrote {args.plot}")
+    return 0
+
+
+def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) -> None:
+
+    print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+    line = dead_zone_line(robot, args)
+    if line:
+        print(line)
+    where = f"frame {rows.frame_name}" + (
+        f" + offset {args.offset}" if args.offset else ""
+    )
+    print(f"payload: on link {rows.link + 1} ({rows.link_name}), {where}")
+    print(
+        f"arm: {'the URDF' if source == 'urdf' else source} ({len(rows.arm)} base "
+        "parameters, known)"
+    )
+    print(
+        f"window: {settings.window:g} s; ℓ = "
+        f"{', '.join(f'{x:g}' for x in settings.ell())}; {settings.rows_from} rows; "
+        f"latency {trace.delay:.4g} s"
+    )
+    if args.every:
+        print()
+        _print_every(args.every, rows, trace, settings, t)
+    print()
+    print(
+        f"final estimate (t = {t[-1]:.4g} s), about the attachment frame, in its axes:"
+    )
+    for text in estimates_table(trace.names, trace.theta[-1], trace.std[-1]):
+        print(text)
+    print()
+    print(f"mass: {_text(summary['mass'], 'kg')}")
+    com = summary["com"]
+    if com is None:
+        print("centre of mass: not identifiable (M, MX, MY, MZ not all seen)")
+    else:
+        for axis in "xyz":
+            print(f"centre of mass {axis}: {_text(com[axis], 'm')}")
+    if summary["not_identifiable"]:
+        print(
+            "not identifiable from these joints: "
+            f"{', '.join(summary['not_identifiable'])} (regrouped or never seen)"
+        )
+    if reason:
+        last = int(np.flatnonzero(np.asarray(trace.valid) > 0.5)[-1])
+        print(
+            f"final window INVALID: {reason}; the last valid estimate (t = "
+            f"{t[last]:.4g} s) is shown"
+        )
+
+
+def _print_every(every: float, rows, trace, settings, t) -> None:
+    """The estimate every ``every`` seconds: m and c, else the base parameters."""
+    from drake_dynid.core.payload_report import estimate_entry, payload_summary
+
+    step = max(1, round(every / settings.resolved("update_period")))
+    has_mass = "M" in rows.payload_names
+    if has_mass:
+        print("t [s]     m [kg]               c [m] (* not identified: %σ > 30)")
+    else:
+        print("t [s]     " + "  ".join(rows.payload_names) + " (* %σ > 30)")
+    for k in range(0, len(t), step):
+        if trace.valid[k] < 0.5 and trace.status[k] == 1:
+            continue  # the first window is not full yet
+        if not has_mass:
+            cells = []
+            for value, sigma in zip(trace.theta[k], trace.std[k], strict=True):
+                flag = "" if estimate_entry(value, sigma)["identified"] else "*"
+                cells.append(f"{value:.4g} ± {sigma:.2g}{flag}")
+            print(f"{t[k]:<9.4g} " + "  ".join(cells))
+            continue
+        entry = payload_summary(
+            rows, trace.theta[k], trace.std[k], trace.correlation[k]
+        )
+        mass, com = entry["mass"], entry["com"]
+        m = f"{mass['value']:.4g} ± {mass['std']:.2g}"
+        m += "" if mass["identified"] else " *"
+        c = "-"
+        if com is not None and mass["identified"]:
+            c = ", ".join(
+                f"{com[a]['value']:.4g}" + ("" if com[a]["identified"] else "*")
+                for a in "xyz"
+            )
+            c = f"({c})"
+        print(f"{t[k]:<9.4g} {m:<20} {c}")

@@ -1,0 +1,231 @@
+"""Diagram builders of the payload identifier: its chain and the replay of a log.
+
+The chain is the on-line identifier's (``drake_dynid.diagrams``), on the rows of
+a payload (``drake_dynid.core.payload.PayloadRows``: the payload's columns and the
+arm's known column) and ending in the ``PayloadIdentifier`` block::
+
+    [q; τ] ──► CausalJacobiDifferentiator ──► ModelRows (or RawModelRows, from
+    the ring) ──► ModulatingIntegralBank ──A, B──► PayloadIdentifier
+    ──► θ̂ (payload), σ, cond, valid, status, correlation
+
+with the same event offsets (docs/CONVENTIONS.md §2) and the same settings
+(``core.payload_step.payload_settings``). :func:`replay_payload_log` runs it over
+a recorded log in a Simulator; ``core.payload_replay.replay_payload_core`` gives
+the same trace without one (``tests/test_payload_blocks.py``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from drake_dynid.core import _validate as check
+from drake_dynid.core._threads import thread_limit
+from drake_dynid.core.online import (
+    BANK_OFFSET,
+    SOLVE_OFFSET,
+    OnlineSettings,
+)
+from drake_dynid.core.payload import PayloadRows
+from drake_dynid.core.payload_replay import PayloadTrace
+from drake_dynid.core.payload_step import payload_jackknife_groups
+from drake_dynid.diagrams import IdentifierChain, advance, log_source
+
+__all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
+
+#: The identifier's ports the chain logs at the solve period.
+_LOGGED = (
+    "theta",
+    "theta_std",
+    "condition_number",
+    "valid",
+    "status",
+    "unidentified",
+    "correlation",
+)
+
+
+def add_payload_identifier(
+    builder: Any,
+    rows: PayloadRows,
+    measurement: Any,
+    time_step: float,
+    settings: OnlineSettings,
+    *,
+    differentiator: Any = None,
+    log: bool = True,
+) -> IdentifierChain:
+    """Adds the payload identifier fed by a measurement port [q; τ] of the arm.
+
+    As ``drake_dynid.diagrams.add_online_identifier`` (settings put on the
+    measurement's grid first; the same differentiator, rows and bank blocks),
+    with a ``PayloadIdentifier`` at the end.
+
+    Args:
+        builder: the ``DiagramBuilder``.
+        rows: the payload's rows (``core.payload.payload_rows``).
+        measurement: output port of size 2n carrying [q; τ] sampled at
+            ``time_step``.
+        time_step: sample period h of the measurement [s].
+        settings: identifier settings (``core.payload_step.payload_settings``).
+        differentiator: reuse an existing ``CausalJacobiDifferentiator`` with the
+            same Jacobi settings.
+        log: add loggers of every output of the identifier at the solve period.
+
+    Returns:
+        Handles to the blocks and loggers (``identifier`` is the
+        ``PayloadIdentifier``; ``names`` the payload's base parameters).
+    """
+    from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+
+    from drake_dynid.systems.identification import (
+        ModelRows,
+        ModulatingIntegralBank,
+        RawModelRows,
+    )
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+    from drake_dynid.systems.payload import PayloadIdentifier
+
+    owner = "add_payload_identifier"
+    check.instance(owner, "rows", rows, PayloadRows, "a PayloadRows (payload_rows)")
+    check.instance(owner, "settings", settings, OnlineSettings, "an OnlineSettings")
+    n = rows.num_joints
+    if measurement.size() != 2 * n:
+        check.fail(
+            owner,
+            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
+            f"{measurement.size()}.",
+        )
+    settings = settings.on_grid(time_step)
+    if differentiator is None:
+        differentiator = builder.AddSystem(
+            CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
+        )
+        builder.Connect(measurement, differentiator.get_input_port_u())
+    if settings.rows_from == "raw":
+        model_rows = builder.AddSystem(
+            RawModelRows(
+                rows,
+                settings.model,
+                settings.raw_design(time_step),
+                differentiator.history_length,
+            )
+        )
+        builder.Connect(
+            differentiator.get_output_port_history(),
+            model_rows.get_input_port_history(),
+        )
+    else:
+        smoothed = builder.AddSystem(Demultiplexer([n, n]))
+        rates = builder.AddSystem(Demultiplexer([n, n]))
+        builder.Connect(
+            differentiator.get_output_port_derivative(0), smoothed.get_input_port()
+        )
+        builder.Connect(
+            differentiator.get_output_port_derivative(1), rates.get_input_port()
+        )
+        model_rows = builder.AddSystem(ModelRows(rows, settings.model))
+        builder.Connect(smoothed.get_output_port(0), model_rows.get_input_port_q())
+        builder.Connect(rates.get_output_port(0), model_rows.get_input_port_v())
+        builder.Connect(smoothed.get_output_port(1), model_rows.get_input_port_tau())
+    design = settings.bank()
+    m = model_rows.num_equations
+    bank = builder.AddSystem(
+        ModulatingIntegralBank(
+            design, m, model_rows.num_parameters, offset=BANK_OFFSET * time_step
+        )
+    )
+    builder.Connect(
+        model_rows.get_output_port_channels(), bank.get_input_port_channels()
+    )
+    builder.Connect(
+        differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
+    )
+    names = rows.payload_names
+    identifier = builder.AddSystem(
+        PayloadIdentifier(
+            rows.num_payload,
+            bank.num_rows,
+            settings.resolved("update_period"),
+            max_condition=settings.max_condition,
+            names=names,
+            offset=SOLVE_OFFSET * time_step,
+            row_weighting=settings.row_weighting(m, design),
+            row_noise=settings.row_noise(m, design),
+            jackknife_groups=payload_jackknife_groups(settings, m, design),
+        )
+    )
+    builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())
+    builder.Connect(bank.get_output_port_B(), identifier.get_input_port_B())
+    builder.Connect(
+        bank.get_output_port_valid(), identifier.get_input_port_window_valid()
+    )
+    chain = IdentifierChain(
+        settings, names, differentiator, model_rows, bank, identifier
+    )
+    if log:
+        for port in _LOGGED:
+            chain.logs[port] = LogVectorOutput(
+                identifier.GetOutputPort(port),
+                builder,
+                settings.resolved("update_period"),
+            )
+    return chain
+
+
+def payload_chain_trace(
+    chain: IdentifierChain, context: Any, time_step: float
+) -> PayloadTrace:
+    """The estimates a payload chain's loggers recorded, as a ``PayloadTrace``."""
+    logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
+    p = len(chain.names)
+    correlation = logs["correlation"].data().T.reshape(-1, p, p).copy()
+    return PayloadTrace(
+        settings=chain.settings,
+        names=chain.names,
+        t=logs["theta"].sample_times().copy(),
+        theta=logs["theta"].data().T.copy(),
+        std=logs["theta_std"].data().T.copy(),
+        condition_number=logs["condition_number"].data()[0].copy(),
+        valid=logs["valid"].data()[0].copy(),
+        delay=chain.settings.delay(time_step) + SOLVE_OFFSET * time_step,
+        status=logs["status"].data()[0].copy(),
+        unidentified=logs["unidentified"].data().T.copy(),
+        correlation=correlation,
+    )
+
+
+def replay_payload_log(
+    log: Any, rows: PayloadRows, settings: OnlineSettings, *, progress: bool = False
+) -> PayloadTrace:
+    """Runs the payload identifier's blocks over a recorded log in a Simulator.
+
+    The log is played by ``drake_dynid.diagrams.log_source`` (sample k held over
+    [t_k - h/2, t_k + h/2)) and the Simulator runs to t_N = N·h, as
+    ``drake_dynid.diagrams.replay_log``.
+
+    Args:
+        log: a ``drake_dynid.logs.RobotLog`` of the arm.
+        rows: the payload's rows.
+        settings: the identifier's settings.
+        progress: print the progress on stderr.
+    """
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    owner = "replay_payload_log"
+    check.having(
+        owner, "log", log, ("q", "tau", "time_step", "num_samples"), "a RobotLog"
+    )
+    check.instance(owner, "rows", rows, PayloadRows, "a PayloadRows (payload_rows)")
+    n = rows.num_joints
+    if log.q.shape[1] != n or log.tau.shape[1] != n:
+        check.fail(owner, f"the log has {log.q.shape[1]} joints; the robot has {n}.")
+    h = log.time_step
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    chain = add_payload_identifier(builder, rows, source.get_output_port(), h, settings)
+    simulator = Simulator(builder.Build())
+    with thread_limit():
+        simulator.Initialize()
+        advance(simulator, float(h * log.num_samples), progress, "dynid payload")
+    return payload_chain_trace(chain, simulator.get_context(), h)

@@ -1,0 +1,144 @@
+"""``dynid payload`` on a simulated pick of the iiwa; bad input -> exit 2."""
+
+import csv
+import json
+import re
+
+import numpy as np
+import pytest
+from test_examples import load_example
+
+from drake_dynid import cli
+from drake_dynid.logs import write_log
+from drake_dynid.robot import RobotModel
+from drake_dynid.simulation import SimulationSettings, simulate_identification
+from drake_dynid.urdf import model_path
+
+URDF = str(model_path("iiwa7"))
+SMOOTHING = 0.01
+
+
+@pytest.fixture(scope="module")
+def log_file(tmp_path_factory):
+    """Drake simulates the iiwa picking the example's payload at 1.5 s (3 s log)."""
+    example = load_example("payload_pick")
+    robot = RobotModel.from_urdf(URDF, coulomb_width=SMOOTHING)
+    from drake_dynid.core.payload import payload_parameters
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+
+    theta = payload_parameters(example.MASS, example.COM, example.INERTIA)
+    trajectory = random_fourier_trajectory(
+        7,
+        harmonics=5,
+        base_frequency=2 * np.pi * 0.1,
+        max_velocity=1.0,
+        rng=np.random.default_rng(5),
+    )
+    result = simulate_identification(
+        robot,
+        trajectory,
+        SimulationSettings(duration=3.0, snr_db=None, coulomb_smoothing=SMOOTHING),
+        [],
+        events=[(1.5, example.payload_event("iiwa_link_7", theta))],
+    )
+    rng = np.random.default_rng(2)
+    path = tmp_path_factory.mktemp("logs") / "pick.csv"
+    write_log(
+        path,
+        result.t,
+        result.q_true + 1e-4 * rng.normal(size=result.q_true.shape),
+        result.tau_true + 0.05 * rng.normal(size=result.q_true.shape),
+        robot.joint_names,
+    )
+    return str(path)
+
+
+COMMON = ["--coulomb-width", str(SMOOTHING), "--dead-zone", "none"]
+
+
+def test_payload_command_prints_and_writes_the_estimate(log_file, tmp_path, capsys):
+    out, csv_path = tmp_path / "payload.json", tmp_path / "payload.csv"
+    argv = ["payload", log_file, "--urdf", URDF, *COMMON, "--every", "0.5"]
+    code = cli.main([*argv, "--json", str(out), "--out", str(csv_path)])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "payload: on link 7 (iiwa_joint_7), frame iiwa_link_7" in printed
+    mass = float(re.search(r"^mass: ([0-9.]+) ± ([0-9.e-]+) kg$", printed, re.M)[1])
+    assert abs(mass - 2.0) < 0.02
+    com_z = float(re.search(r"^centre of mass z: ([0-9.]+) ± ", printed, re.M)[1])
+    assert abs(com_z - 0.1) < 0.01
+    assert re.search(r"^2\.5 +1\.99[0-9]* ± ", printed, re.M)  # --every 0.5
+    document = json.loads(out.read_text())
+    payload = document["payload"]
+    assert payload["link"] == "iiwa_joint_7" and payload["frame"] == "iiwa_link_7"
+    assert abs(payload["mass"]["value"] - 2.0) < 0.02 and payload["mass"]["identified"]
+    assert abs(payload["com"]["z"]["value"] - 0.1) < 0.01
+    assert [p["name"] for p in payload["parameters"]][-1] == "M"
+    assert set(payload["inertia"]) == {"XX", "XY", "XZ", "YY", "YZ", "ZZ"}
+    assert payload["not_identifiable"] == []
+    assert document["valid"] and document["arm"]["source"] == "urdf"
+    assert document["settings"]["window"] == 0.75
+    with csv_path.open() as stream:
+        rows = list(csv.reader(stream))
+    assert rows[0][:3] == ["t", "valid", "XX"] and len(rows) > 50
+
+
+def test_arm_parameters_from_a_results_file_and_the_blocks_engine(
+    log_file, tmp_path, capsys
+):
+    arm = tmp_path / "arm.json"
+    assert cli.main(["params", URDF, "--json", str(arm)]) == 0
+    first, second = tmp_path / "a.json", tmp_path / "b.json"
+    base = ["payload", log_file, "--urdf", URDF, *COMMON, "--quiet"]
+    assert cli.main([*base, "--json", str(first)]) == 0
+    assert cli.main([*base, "--params", str(arm), "--json", str(second)]) == 0
+    blocks = tmp_path / "c.json"
+    assert cli.main([*base, "--engine", "blocks", "--json", str(blocks)]) == 0
+    one, two, three = (
+        json.loads(p.read_text())["payload"] for p in (first, second, blocks)
+    )
+    assert two["mass"]["value"] == pytest.approx(one["mass"]["value"], rel=1e-9)
+    assert three["mass"]["value"] == pytest.approx(one["mass"]["value"], rel=1e-9)
+    assert json.loads(second.read_text())["arm"]["source"] == str(arm)
+
+
+def test_offset_frames_and_bad_input(log_file, tmp_path, capsys):
+    base = ["payload", log_file, "--urdf", URDF, *COMMON, "--quiet"]
+    out = tmp_path / "offset.json"
+    # The same payload about a frame 0.1 m along the flange's z: MZ = m(c_z - 0.1).
+    assert cli.main([*base, "--offset", "0,0,0.1", "--json", str(out)]) == 0
+    payload = json.loads(out.read_text())["payload"]
+    assert abs(payload["com"]["z"]["value"]) < 0.01
+    assert payload["offset"] == {"xyz": [0.0, 0.0, 0.1], "rpy": [0.0, 0.0, 0.0]}
+    capsys.readouterr()
+    # A frame on the first link: the first joint sees only ZZ (printed over time).
+    first = ["payload", log_file, "--urdf", URDF, *COMMON, "--frame", "iiwa_link_1"]
+    assert cli.main([*first, "--every", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "t [s]     ZZ (* %σ > 30)" in printed and "mass: not identifiable" in printed
+    assert "not identifiable from these joints: XX, XY, XZ, YY, YZ, MX, MY, MZ, M" in (
+        printed
+    )
+    planar = tmp_path / "planar.json"
+    assert (
+        cli.main(["params", str(model_path("planar_2r")), "--json", str(planar)]) == 0
+    )
+    short = tmp_path / "short.csv"
+    with open(log_file) as stream:
+        lines = stream.read().splitlines()
+    short.write_text("\n".join(lines[:600]) + "\n")
+    cases = [
+        (["--frame", "gripper"], "--frame must be a body or frame of the URDF"),
+        (["--frame", "iiwa_link_0"], "does not move rigidly with any identified link"),
+        (["--offset", "1,2"], "--offset must be X,Y,Z"),
+        (["--every", "-1"], "--every must be > 0"),
+        (["--window", "-1"], "--window must be > 0"),
+        (["--params", str(planar)], "holds 8 base parameters"),
+        (["--json", log_file], "--json"),
+    ]
+    for extra, message in cases:
+        assert cli.main([*base, *extra]) == 2, extra
+        err = capsys.readouterr().err
+        assert message in err and "Traceback" not in err, (extra, err)
+    assert cli.main(["payload", str(short), "--urdf", URDF, *COMMON]) == 2
+    assert "--window" in capsys.readouterr().err

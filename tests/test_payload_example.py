@@ -1,0 +1,44 @@
+"""examples/payload_pick.py with --quick: an independent Drake simulation of a pick.
+
+The payload is added to the iiwa's last body in the simulated plant's Context
+(Drake's dynamics, the controller's torques, seeded noise): the truth is the
+payload given to Drake, never the library's regressor.
+"""
+
+import json
+import re
+
+import pytest
+from test_examples import load_example
+
+
+def test_payload_pick_quick(tmp_path, capsys):
+    example = load_example("payload_pick")
+    assert example.main(["--quick", "--out", str(tmp_path)]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "payload_pick.png").stat().st_size > 10_000
+    settle = float(re.search(r"from ([0-9.]+|inf) s after the pick", printed).group(1))
+    assert settle <= 1.0  # the mass within 5 % within a second of the pick
+    error = float(re.search(r"mass error: ([+-][0-9.]+) %", printed).group(1))
+    assert abs(error) < 1.0
+    # Mass and the first moments are identified and within 3 σ of the truth.
+    for name in ("M", "MX", "MY", "MZ"):
+        row = re.search(rf"\| {name} \| (\S+) \| (\S+) \| (\S+) \| (\w+) \|", printed)
+        truth, estimate, sigma, flag = row.groups()
+        assert flag == "yes"
+        assert abs(float(estimate) - float(truth)) <= 3.0 * float(sigma)
+
+
+@pytest.mark.slow
+def test_bench_accuracy_payload_quick_run(tmp_path, capsys, monkeypatch):
+    from test_benchmarks import load_benchmark
+
+    out = tmp_path / "payload.json"
+    bench = load_benchmark("bench_accuracy", monkeypatch)
+    assert bench.main(["--quick", "--robot", "payload", "--json", str(out)]) == 0
+    assert "| iiwa7, exact | payload defaults |" in capsys.readouterr().out
+    cases = json.loads(out.read_text())["payload"]["cases"]
+    default = cases["iiwa7, exact|payload defaults"]
+    assert default["settle_s"] <= 1.0 and default["mass_error_percent"] < 1.0
+    noise_free = cases["iiwa7, exact|payload defaults, noise-free"]
+    assert noise_free["mass_error_percent"] < 0.05
