@@ -9,6 +9,9 @@ the power model's defaults with the rows ``dynid identify`` chooses), over
   and with their noise bias compensated (``OnlineSettings.position_noise`` = the
   σ_q measured on each log, ``core.noise_bias``); plus the median |error| of one
   run, the metric of the other tables;
+* **the rows' bias**: the mean over seeds of the window's regressor A against the
+  noise-free log's, per column in units of its Monte-Carlo error (χ²/rows: 1 when
+  unbiased), as they are and compensated;
 * **the best linear weighting** (an oracle bound): the window's rows A θ = B of
   every seed, their residual at the true θ, r = B - A θ, and its covariance Σ
   over the first half of the seeds (the Monte-Carlo truth of the rows' noise,
@@ -67,7 +70,7 @@ def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
         "power", window=T, bandwidth=estimate_bandwidth(clean_q, H)
     )
     end = len(clean_q) - 1
-    plain, compensated, systems = [], [], []
+    plain, compensated, systems, regressors = [], [], [], []
     for seed in seeds:
         q, tau = _noisy(clean_q, clean_tau, noise_std, seed)
         grid = base.on_grid(H)
@@ -93,6 +96,7 @@ def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
                 names=rows.names,
             )
             out.append(res.theta if res.valid else np.full(p, np.nan))
+            regressors.append(a)
             if out is plain:
                 systems.append((a, b))
     half = len(systems) // 2
@@ -105,7 +109,14 @@ def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
         np.linalg.lstsq(whiten @ a, whiten @ b, rcond=None)[0]
         for a, b in systems[half:]
     ]
+    clean = window_equations(rows, s, clean_q, clean_tau, end, H)[0]
+    chi2 = {}
+    for key, found in (("plain", regressors[0::2]), ("compensated", regressors[1::2])):
+        found = np.array(found)
+        error = found.std(axis=0) / np.sqrt(len(found))
+        chi2[key] = (((found.mean(axis=0) - clean) / error) ** 2).mean(axis=0).tolist()
     return {
+        "regressor_chi2": chi2,
         "seeds": len(list(seeds)),
         "rows": int(systems[0][0].shape[0]),
         "rows_from": s.rows_from,
@@ -116,6 +127,16 @@ def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
 
 
 def print_report(report: dict, names) -> None:
+    print(
+        "\n## Power rows' bias: mean over seeds of the window's regressor A minus the "
+        "noise-free A, in units of its Monte-Carlo error, squared and averaged over "
+        "the rows (1 for an unbiased column)\n"
+    )
+    print("| rows | " + " | ".join(names) + " |")
+    print("|---" * (len(names) + 1) + "|")
+    for label, key in (("as they are", "plain"), ("compensated", "compensated")):
+        cells = " | ".join(f"{x:.2f}" for x in report["regressor_chi2"][key])
+        print(f"| {label} | {cells} |")
     print(
         f"\n## Power model on the 2R (paper trajectory, SNR 30 dB, {report['seeds']} "
         f"seeds, {report['rows']} rows, {report['rows_from']} rows): bias (mean "

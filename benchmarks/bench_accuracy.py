@@ -40,6 +40,13 @@ light link 2, weak friction) and ``random_fourier_trajectory`` (H = 5, ω_f = 2�
 |q̇| ≤ 4, default_rng(5): 0.25-1 Hz). The default settings are the same everywhere:
 the ℓ set comes from ``estimate_bandwidth`` of the measured q.
 
+Power model: the library defaults (ℓ set to twice the band, ``core.ell_rule``),
+"dynid identify" (rows chosen and σ_q measured on each log, the rows' noise bias
+compensated: ``OnlineSettings.position_noise``), "ℓ to B (before)" (the band
+alone, as before issue 16); benchmarks/_accuracy_power.py: the rows' bias, the
+estimates' bias vs spread and the best linear weighting on the main scenario
+(``--power-seeds``, 200).
+
 Uncertainty: |error|/σ over the 8 parameters and the seeds (p90 = 1.64 for a
 Gaussian error with an honest σ). Noise-free bias on exact logs: the trajectory
 evaluated (no simulation) and Drake's inverse dynamics + Coulomb sign
@@ -118,7 +125,7 @@ def online_full(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
     σ is the settings' (by default the larger of the sandwich σ and the
     jackknife's; ``_independent.window_solves``).
     """
-    s = s.on_grid(H)
+    s = s.for_robot(H, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, H, signals=signals)
     m = s.num_equations(int(rows.num_joints))
     theta, (std, gautier, sandwich) = window_solves(a, b, s, m, rows.names)
