@@ -64,8 +64,9 @@ def add_position_noise_argument(group: Any) -> None:
         help="power model: std of the white position noise whose bias is removed "
         "from the rows (the quadratic velocity terms of the energy and the "
         "friction power) [rad or m], one or one per joint; 'auto' (default): "
-        "measured on the log (the floor of the position spectrum above fs/4); "
-        "'none': no compensation",
+        "measured on the log (the floor of the position spectrum above fs/4; "
+        "none with --drive, whose motor columns it does not cover); 'none': no "
+        "compensation",
     )
 
 

@@ -332,7 +332,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--frequencies",
         metavar="paper|auto|LIST",
         help="modulating indices ℓ: 'paper' (0:0.05:10), 'auto' (integers up to "
-        "--bandwidth·T - 1), or a list '0,1,2' / 'start:step:stop'",
+        "--bandwidth·T - 1, twice that for the power model, and at least twice the "
+        "rows the robot's parameters need), or a list '0,1,2' / 'start:step:stop'",
     )
     group.add_argument(
         "--bandwidth",
@@ -479,9 +480,10 @@ def run(args: argparse.Namespace) -> int:
         noise_ratio = noise_threshold = rows_from = position_noise = None
         if rows_measured:  # with the raw window resolved on the log's grid
             rows_from, noise_ratio, noise_threshold = measured_rows_from(log, settings)
-        noise_measured = (
+        noise_measured = (  # not with a drive: its motor columns are not covered
             settings.model == "power"
             and position_noise_option(args.position_noise) == "auto"
+            and robot.drive is None
         )
         if noise_measured:
             position_noise = tuple(measured_position_noise(log).tolist())
