@@ -40,6 +40,13 @@ light link 2, weak friction) and ``random_fourier_trajectory`` (H = 5, ω_f = 2�
 |q̇| ≤ 4, default_rng(5): 0.25-1 Hz). The default settings are the same everywhere:
 the ℓ set comes from ``estimate_bandwidth`` of the measured q.
 
+Power model: the library defaults (ℓ set to twice the band, ``core.ell_rule``),
+"dynid identify" (rows chosen and σ_q measured on each log, the rows' noise bias
+compensated: ``OnlineSettings.position_noise``), "ℓ to B (before)" (the band
+alone, as before issue 16); benchmarks/_accuracy_power.py: the rows' bias, the
+estimates' bias vs spread and the best linear weighting on the main scenario
+(``--power-seeds``, 200).
+
 Uncertainty: |error|/σ over the 8 parameters and the seeds (p90 = 1.64 for a
 Gaussian error with an honest σ). Noise-free bias on exact logs: the trajectory
 evaluated (no simulation) and Drake's inverse dynamics + Coulomb sign
@@ -64,7 +71,8 @@ from _independent import exact_log, honesty, window_solves
 from _scenarios import _rf, robots, scenarios
 
 from drake_dynid import paper
-from drake_dynid.core.excitation import estimate_bandwidth
+from drake_dynid.core.ell_rule import POWER_BAND_FACTOR
+from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
 from drake_dynid.core.replay import filtered_signals, window_equations
@@ -117,7 +125,7 @@ def online_full(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
     σ is the settings' (by default the larger of the sandwich σ and the
     jackknife's; ``_independent.window_solves``).
     """
-    s = s.on_grid(H)
+    s = s.for_robot(H, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, H, signals=signals)
     m = s.num_equations(int(rows.num_joints))
     theta, (std, gautier, sandwich) = window_solves(a, b, s, m, rows.names)
@@ -134,6 +142,11 @@ def auto_rows(s: OnlineSettings, q) -> str:
         jacobi_window=grid.jacobi_window,
         bandwidth=grid.bandwidth,
     )[0]
+
+
+def measured_noise(q) -> tuple[float, ...]:
+    """σ_q per joint measured on the log, as ``dynid identify`` (power model)."""
+    return tuple(position_noise_std(q, H).tolist())
 
 
 def offline(robot, q, tau, weighted=False):
@@ -225,8 +238,10 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
                 sandwich.append(np.full(len(truth), np.nan))
                 continue
             s = methods[name](bandwidth)
-            if name.endswith("(auto)"):
+            if name.endswith("(auto)") or "dynid identify" in name:
                 s = dataclasses.replace(s, rows_from=auto_rows(s, q))
+            if "dynid identify" in name and s.model == "power":  # σ_q measured
+                s = dataclasses.replace(s, position_noise=measured_noise(q))
             chosen.add(s.rows_from)
             theta, std, std_gautier, std_sandwich = online_full(
                 rows, s, None, end, q, tau
@@ -258,6 +273,12 @@ def method_table(bandwidth_note=True):
             LAGRANGIAN, T, b
         ),
         "on-line power": lambda b: settings_for(POWER, T, b),
+        "on-line power (dynid identify: bias compensated)": lambda b: settings_for(
+            POWER, T, b
+        ),
+        "on-line power, ℓ to B (before)": lambda b: settings_for(
+            POWER, T, b / POWER_BAND_FACTOR
+        ),
         "on-line power, OLS": lambda b: settings_for(POWER, T, b, weighting="none"),
         "on-line power, paper set": lambda b: OnlineSettings(
             window=T, frequencies="paper", weighting="none", **POWER
@@ -421,6 +442,14 @@ def run_2r(args, seeds, report) -> None:
                 models[rname], traj, seeds, methods, budget=not all_results
             )
         print_2r(all_results, methods, seeds)
+        import _accuracy_power as _power
+
+        r0 = simulate(main_robot, main_traj)
+        power = _power.run(
+            main_robot, r0.q_true, r0.tau_true, r0.noise_std, range(args.power_seeds)
+        )
+        _power.print_report(power, paper.BASE_NAMES)
+        report["power"] = power
         bias = exact_bias(main_robot, args.quick)
         print(
             "\n## Noise-free bias on exact logs (trajectory evaluated, Drake inverse "
@@ -473,8 +502,16 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--seeds7", type=int, default=10, help="noise seeds of the iiwa7 section"
     )
+    parser.add_argument(
+        "--power-seeds",
+        type=int,
+        default=200,
+        help="noise seeds of the power model's bias/spread section",
+    )
     parser.add_argument("--json", type=str, default=None)
     args = parser.parse_args(argv)
+    if args.quick:
+        args.power_seeds = min(args.power_seeds, 20)
     seeds = range(3 if args.quick else args.seeds)
     start = time.perf_counter()
     report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}

@@ -173,7 +173,8 @@ def add_online_identifier(
             f"measurement must have size 2n = {2 * n} ([q; tau]); got "
             f"{measurement.size()}.",
         )
-    settings = settings.on_grid(time_step)
+    settings = settings.for_robot(time_step, n, int(rows.num_parameters))
+    rows = settings.row_provider(rows, time_step)  # noise-compensated power rows
     if differentiator is None:
         differentiator = builder.AddSystem(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())

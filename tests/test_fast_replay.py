@@ -48,6 +48,9 @@ SETTINGS.append(
 # Raw rows (read from the differentiator's ring, averaged over each bank step).
 SETTINGS.append(dataclasses.replace(SETTINGS[0], rows_from="raw", raw_window=0.04))
 SETTINGS.append(dataclasses.replace(SETTINGS[1], rows_from="raw", raw_window=0.02))
+# The power rows with their noise bias removed (core.noise_bias), filtered and raw.
+SETTINGS.append(dataclasses.replace(SETTINGS[1], position_noise=0.02))
+SETTINGS.append(dataclasses.replace(SETTINGS[4], position_noise=(0.02, 0.01)))
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ simulation needed). Every refused value: exit 2, one line naming the option, its
 constraint and value, no internal name, and a small peak allocation (tracemalloc).
 """
 
+import dataclasses
 import math
 import re
 import tracemalloc
@@ -233,13 +234,25 @@ def test_for_log_checks_against_the_log_with_the_names_given():
         settings.for_log(1e-3, 30.0, owner=None, names=names)
     with pytest.raises(ValueError, match=r"the log lasts 10 s"):
         OnlineSettings().for_log(1e-3, 10.0)
-    # Too few independent equations for an honest σ with 40 parameters: the power
-    # model has one equation per function.
-    power = OnlineSettings(model="power", window=2.0, jacobi_window=0.05)
-    with pytest.raises(ValueError, match=r"independent equations .* honest σ"):
+    # Too few independent rows for an honest σ with 40 parameters: the power
+    # model has one equation per function; the message says how many are needed.
+    power = OnlineSettings(
+        model="power", window=2.0, jacobi_window=0.05, frequencies=[0, 1, 2]
+    )
+    with pytest.raises(
+        ValueError,
+        match=r"gives 6 independent rows \(3 modulating functions x 2 rows x 1 "
+        r"equation of the power model\) for 40 parameters; an honest σ needs at "
+        r"least 44: use at least 22 integer ℓ \(frequencies 0:1:21, up to 11 Hz",
+    ):
         power.for_log(1e-3, 30.0, num_joints=6, num_parameters=40)
+    # The default set is given twice the rows needed (core.ell_rule), up to the
+    # pass band of the differentiator.
+    power = OnlineSettings(model="power", window=2.0, jacobi_window=0.05)
+    grid = power.for_log(1e-3, 30.0, num_joints=6, num_parameters=40)
+    assert grid.min_functions == 44 and len(grid.ell()) == 44
     grid = OnlineSettings().for_log(1e-3, 30.0, num_joints=2, num_parameters=8)
-    assert grid == OnlineSettings().on_grid(1e-3)
+    assert grid == dataclasses.replace(OnlineSettings().on_grid(1e-3), min_functions=8)
 
 
 @pytest.fixture(scope="module")

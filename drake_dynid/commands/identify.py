@@ -15,6 +15,12 @@ from drake_dynid.commands._arguments import (
     load_robot_and_log,
     model_settings,
 )
+from drake_dynid.commands._noise import (
+    add_position_noise_argument,
+    measured_position_noise,
+    position_noise_line,
+    position_noise_option,
+)
 from drake_dynid.commands._report import (
     estimates_table,
     json_number,
@@ -67,6 +73,7 @@ OPTION_NAMES = {
     field: f"--{option.replace('_', '-')}" for option, field in _SETTING_OPTIONS.items()
 }
 OPTION_NAMES["frequencies"] = "--frequencies"
+OPTION_NAMES["position_noise"] = "--position-noise"
 
 
 # --------------------------------------------------------------------- identify
@@ -143,6 +150,9 @@ def _setting_values(args: argparse.Namespace, bandwidth: float | None) -> dict:
         kwargs["bandwidth"] = bandwidth
     if getattr(args, "rows_from", "auto") != "auto":
         kwargs["rows_from"] = args.rows_from
+    noise = position_noise_option(getattr(args, "position_noise", None))
+    if noise != "auto" and noise is not None:
+        kwargs["position_noise"] = noise
     return kwargs
 
 
@@ -153,6 +163,7 @@ def online_settings(
     duration: float | None = None,
     robot: Any = None,
     rows_from: str | None = None,
+    position_noise: Any = None,
 ) -> Any:
     """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
 
@@ -160,7 +171,9 @@ def online_settings(
     (``core.online_checks.check_values``), before anything is allocated.
     ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
     ``--bandwidth`` nor ``--frequencies`` is given; ``rows_from`` (chosen on the
-    log) is used when ``--rows-from`` is ``auto``. With the log's ``time_step``
+    log) is used when ``--rows-from`` is ``auto``, ``position_noise`` [rad or m]
+    (measured on the log) when ``--position-noise`` is ``auto`` (power model
+    only). With the log's ``time_step``
     [s] and ``duration`` [s] (and the ``robot``: its joints and base parameters)
     the settings are put on the log's grid and checked against it
     (``OnlineSettings.for_log``: Nyquist, the differentiator's pass band, the
@@ -172,9 +185,11 @@ def online_settings(
     kwargs = _setting_values(args, bandwidth)
     if rows_from is not None and "rows_from" not in kwargs:
         kwargs["rows_from"] = rows_from
+    if position_noise is not None and "position_noise" not in kwargs:
+        kwargs["position_noise"] = position_noise
     model = kwargs.pop("model", "lagrangian")
     if model in MODEL_DEFAULTS:
-        values = {**MODEL_DEFAULTS[model], **kwargs}
+        values = {"model": model, **MODEL_DEFAULTS[model], **kwargs}
         check_values(values, owner=None, names=OPTION_NAMES)
     settings = OnlineSettings.for_model(model, **kwargs)
     if time_step is not None:
@@ -261,19 +276,23 @@ def check_log_values(args: argparse.Namespace, log: Any, settings: Any) -> None:
 
 
 def usable_band(settings: Any, time_step: float) -> float:
-    """The widest band [Hz] the default ℓ set of ``settings`` may cover on this log.
+    """The widest motion band [Hz] the default ℓ set of ``settings`` may cover.
 
-    min(differentiator's pass band, bank Nyquist, MAX_FUNCTIONS functions) [Hz].
+    min(differentiator's pass band, bank Nyquist, MAX_FUNCTIONS functions) [Hz],
+    divided by ``core.ell_rule.POWER_BAND_FACTOR`` for the power model (its set
+    covers that multiple of the band).
     """
+    from drake_dynid.core.ell_rule import model_band
     from drake_dynid.core.fourier_bank import MAX_FUNCTIONS
     from drake_dynid.core.online_checks import on_grid, pass_band
 
     grid = on_grid(settings, time_step, owner=None, names=OPTION_NAMES)
-    return min(
+    usable = min(
         pass_band(grid, time_step),
         0.5 / grid.resolved("bank_time_step"),
         (MAX_FUNCTIONS - 1 + grid.order) / grid.window,
     )
+    return usable / model_band(grid.model, 1.0)  # the power set covers 2B
 
 
 def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
@@ -313,7 +332,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--frequencies",
         metavar="paper|auto|LIST",
         help="modulating indices ℓ: 'paper' (0:0.05:10), 'auto' (integers up to "
-        "--bandwidth·T - 1), or a list '0,1,2' / 'start:step:stop'",
+        "--bandwidth·T - 1, twice that for the power model, and at least twice the "
+        "rows the robot's parameters need), or a list '0,1,2' / 'start:step:stop'",
     )
     group.add_argument(
         "--bandwidth",
@@ -387,6 +407,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="window of the raw rows' central velocity estimate [s] (default 0.2; "
         "raw_window + bank step <= jacobi window)",
     )
+    add_position_noise_argument(group)
     group.add_argument(
         "--engine",
         choices=("core", "blocks"),
@@ -456,11 +477,25 @@ def run(args: argparse.Namespace) -> int:
         )
         settings = online_settings(args, bandwidth, log.time_step, log.duration, robot)
         rows_measured = args.rows_from == "auto"
-        noise_ratio = noise_threshold = None
+        noise_ratio = noise_threshold = rows_from = position_noise = None
         if rows_measured:  # with the raw window resolved on the log's grid
             rows_from, noise_ratio, noise_threshold = measured_rows_from(log, settings)
+        noise_measured = (  # not with a drive: its motor columns are not covered
+            settings.model == "power"
+            and position_noise_option(args.position_noise) == "auto"
+            and robot.drive is None
+        )
+        if noise_measured:
+            position_noise = tuple(measured_position_noise(log).tolist())
+        if rows_measured or noise_measured:
             settings = online_settings(
-                args, bandwidth, log.time_step, log.duration, robot, rows_from
+                args,
+                bandwidth,
+                log.time_step,
+                log.duration,
+                robot,
+                rows_from,
+                position_noise,
             )
     except ValueError as error:
         raise ValueError(f"log {args.log}: {error}") from None
@@ -475,10 +510,18 @@ def run(args: argparse.Namespace) -> int:
     if not valid.any():
         finite = trace.condition_number[np.isfinite(trace.condition_number)]
         best = f"{finite.min():.3g}" if finite.size else "inf"
+        power = (
+            " (the power model has one equation per ℓ: on a multi-joint arm its "
+            "windows are ill-conditioned even on exact data, README Accuracy; "
+            "--model lagrangian uses n)"
+            if settings.model == "power" and len(finite)
+            else ""
+        )
         raise ValueError(
             f"no window of the log gave a valid estimate (best condition number "
-            f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves): "
-            f"the {len(trace.names)} base parameters are not all excited. Use a log "
+            f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves)"
+            f"{power}: the {len(trace.names)} base parameters are not all excited. "
+            "Use a log "
             "longer than the window with a more exciting trajectory (every joint "
             "moving, velocity reversals), a longer --window, a wider --bandwidth or "
             "--frequencies set, fewer friction columns (--friction), or a larger "
@@ -515,6 +558,9 @@ def run(args: argparse.Namespace) -> int:
                 f"log; raw up to {100 * noise_threshold:.3g} % at this band and "
                 "Jacobi window; --rows-from to override)"
             )
+        line = position_noise_line(settings, noise_measured)
+        if line:
+            print(line)
         print()
         for line in estimates_table(trace.names, theta, std):
             print(line)
@@ -556,6 +602,7 @@ def run(args: argparse.Namespace) -> int:
                 **model_settings(args, robot),
                 "bandwidth_measured": band_measured,
                 "rows_from_measured": rows_measured,
+                "position_noise_measured": noise_measured,
                 "raw_noise_ratio": None
                 if noise_ratio is None
                 else json_number(noise_ratio),

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.ell_rule import model_band
 from drake_dynid.core.fourier_bank import (
     MIN_FUNCTIONS,
     FourierBank,
@@ -216,6 +217,12 @@ class OnlineSettings:
             the modulating frequency); ``"sandwich"``: the sandwich σ alone;
             ``"gautier"``: Gautier's σ alone (independent rows of equal variance,
             the paper's; no check of the residual's degrees of freedom).
+        min_functions: fewest functions of the default ℓ set; None: at least
+            :data:`MIN_FUNCTIONS`, raised by :meth:`for_robot` to the count rule
+            of ``core.ell_rule`` (twice the rows the robot needs).
+        position_noise: white position noise σ_q [rad or m], one or one per
+            joint; given, the power model's rows have its known bias removed
+            (``core.noise_bias``); None (default): no compensation.
         raw_window: window 2m·h of the central velocity estimate of the raw rows
             [s] (an even multiple of h; the rows refer to m·h earlier). With
             bank_time_step it must fit in the differentiator's ring:
@@ -240,11 +247,20 @@ class OnlineSettings:
     rows_from: str = "filtered"
     uncertainty: str = "jackknife"
     raw_window: float | None = None
+    min_functions: int | None = None
+    position_noise: float | tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         # Types, ranges and the hard ceilings on the work per value
         # (core.online_checks), before anything is allocated.
         check_values({f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+        noise: Any = self.position_noise
+        if noise is not None:  # hashable and JSON-friendly: a float or a tuple
+            array = np.asarray(noise, dtype=float)
+            value = float(array) if array.ndim == 0 else tuple(array.tolist())
+            object.__setattr__(self, "position_noise", value)
+        if self.min_functions is not None:
+            object.__setattr__(self, "min_functions", int(self.min_functions))
 
     @classmethod
     def for_model(cls, model: str, **overrides: Any) -> OnlineSettings:
@@ -376,6 +392,32 @@ class OnlineSettings:
             names=names,
         )
 
+    def for_robot(
+        self, time_step: float, num_joints: int, num_parameters: int
+    ) -> OnlineSettings:
+        """:meth:`on_grid`, then the ℓ count rule and the row count for a robot.
+
+        ``core.ell_rule.for_robot``: ``min_functions`` None becomes the count
+        rule's (within the pass band and Nyquist); an ℓ set giving fewer
+        independent rows than p raises, saying what to change. Both drivers
+        call it; idempotent.
+        """
+        from drake_dynid.core.ell_rule import for_robot
+
+        return for_robot(self, time_step, num_joints, num_parameters)
+
+    def row_provider(self, rows: Any, time_step: float) -> Any:
+        """The row provider the drivers use: ``rows``, or the noise-compensated one.
+
+        With ``position_noise`` (power model): ``rows`` with the known noise bias
+        of the rows removed (``core.noise_bias.rows_for_settings``); else ``rows``.
+        """
+        if self.position_noise is None or self.model != "power":
+            return rows
+        from drake_dynid.core.noise_bias import rows_for_settings
+
+        return rows_for_settings(self, rows, time_step)
+
     def _given_multiple(self, name: str, h: float) -> float:
         value = getattr(self, name)
         if not _is_multiple(value, h):
@@ -421,12 +463,20 @@ class OnlineSettings:
         """The modulating indices ℓ of this configuration.
 
         ``frequencies=None``: the default set, the integers ℓ = 0, 1, ... with
-        (ℓ + k)/T up to ``bandwidth`` (orthogonal rows), extended with the next
-        integers to at least :data:`MIN_FUNCTIONS` when the window is too short
+        (ℓ + k)/T up to the model's band (``bandwidth``; the power model
+        ``core.ell_rule.POWER_BAND_FACTOR`` times it: its rows are products of
+        velocities and torques), extended with the next integers to at least
+        ``min_functions`` (default :data:`MIN_FUNCTIONS`; :meth:`for_robot`
+        raises it for the robot) when the band holds fewer
         (``core.fourier_bank.band_frequencies``, the library's one ℓ rule).
         """
         if self.frequencies is None:
-            return band_frequencies(self.window, self.bandwidth, order=self.order)
+            return band_frequencies(
+                self.window,
+                model_band(self.model, self.bandwidth),
+                order=self.order,
+                min_count=self.min_functions or MIN_FUNCTIONS,
+            )
         if isinstance(self.frequencies, str):
             return paper_frequencies()
         return np.asarray(self.frequencies, dtype=float)

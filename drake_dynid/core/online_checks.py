@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.ell_rule import model_band
 from drake_dynid.core.fourier_bank import MAX_FUNCTIONS, MAX_ORDER, MIN_FUNCTIONS
 from drake_dynid.core.jacobi_design import MAX_EXPONENT, MAX_Q, MAX_TAPS
 from drake_dynid.core.rows import MODEL_KINDS, num_channels
@@ -200,7 +201,7 @@ def check_values(
     ell = _frequencies(prefix, say("frequencies"), get("frequencies"))
     bandwidth = _positive(prefix, say("bandwidth"), get("bandwidth", 0.6), "Hz")
     if get("frequencies") is None:
-        count = bandwidth * window - order + 1.0
+        count = model_band(model, bandwidth) * window - order + 1.0
         if not count <= MAX_FUNCTIONS:
             _fail(
                 prefix,
@@ -250,6 +251,9 @@ def check_values(
             )
     if get("raw_window") is not None:
         _duration(prefix, say("raw_window"), get("raw_window"))
+    if get("min_functions") is not None:
+        _integer(prefix, say("min_functions"), get("min_functions"), 1, MAX_FUNCTIONS)
+    _position_noise(prefix, say, get("position_noise"), model)
     step = get("bank_time_step")
     if step is not None and step > jacobi_window / 10:
         _fail(
@@ -265,6 +269,30 @@ def check_values(
             f"{say('jacobi_window')} must be < {say('window')} [s] (the "
             "differentiator's low-pass would remove the modulating frequencies); got "
             f"{jacobi_window:g} with {say('window')} {window:g}.",
+        )
+
+
+def _position_noise(prefix: str, say: Say, value: Any, model: str) -> None:
+    """None, or σ_q >= 0 [rad or m] (one, or one per joint); power model only."""
+    if value is None:
+        return
+    name = say("position_noise")
+    text = f"{name} must be None, a std >= 0 [rad or m] or one per joint"
+    if isinstance(value, (str, bytes, bool)):
+        raise TypeError(f"{prefix}{text}; got {value!r}.")
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise TypeError(f"{prefix}{text}; got {value!r}.") from None
+    if array.ndim > 1 or array.size > 100_000 or (array.ndim == 1 and not array.size):
+        _fail(prefix, f"{text}; got {value!r}.")
+    if not np.all(np.isfinite(array)) or np.any(array < 0.0):
+        _fail(prefix, f"{text}, finite; got {value!r}.")
+    if model != "power":
+        _fail(
+            prefix,
+            f"{name} compensates the noise bias of the power model's rows only; got "
+            f"{value!r} with {say('model')} {model!r}.",
         )
 
 
@@ -360,6 +388,17 @@ def check_log(
             f"first estimate: record a longer log or shorten {say('window')}.",
         )
     grid = on_grid(settings, h, owner=owner, names=names)
+    noise = grid.position_noise
+    if num_joints is not None and np.ndim(noise) == 1 and len(noise) != num_joints:
+        _fail(
+            prefix,
+            f"{say('position_noise')} must hold one std per joint ({num_joints}) or "
+            f"one for all [rad or m]; got {len(noise)} values.",
+        )
+    if num_joints is not None and num_parameters is not None:
+        from drake_dynid.core.ell_rule import resolve_functions
+
+        grid = resolve_functions(grid, h, num_joints, num_parameters)
     needed = grid.window + grid.jacobi_window
     if not duration > needed:
         _fail(
@@ -406,11 +445,12 @@ def check_log(
             f"lengthen {say('window')} or shorten {say('jacobi_window')}.",
         )
     if num_joints is not None and num_parameters is not None:
-        _check_robot(prefix, say, grid, num_joints, num_parameters)
+        _check_robot(prefix, say, grid, h, num_joints, num_parameters)
     return grid
 
 
-def _check_robot(prefix: str, say: Say, grid: Any, n: int, p: int) -> None:
+def _check_robot(prefix: str, say: Say, grid: Any, h: float, n: int, p: int) -> None:
+    from drake_dynid.core.ell_rule import independent_rows, rows_remedy
     from drake_dynid.core.row_noise import MIN_RESIDUAL_DOF
 
     m = grid.num_equations(n)
@@ -424,20 +464,24 @@ def _check_robot(prefix: str, say: Say, grid: Any, n: int, p: int) -> None:
             f"got {grid.window:g} s / {grid.resolved('bank_time_step'):g} s "
             f"({size / 2**30:.3g} GiB).",
         )
-    correlation = grid.bank().row_correlation()
-    eigenvalues = np.linalg.eigvalsh(correlation)
-    independent = int(np.count_nonzero(eigenvalues > 1e-3 * eigenvalues.max()))
-    if m * independent < p + MIN_RESIDUAL_DOF:
+    independent = independent_rows(grid)
+    needed = p + MIN_RESIDUAL_DOF
+    if m * independent < needed:
         which = say("frequencies") if grid.frequencies is not None else say("window")
+        functions = len(grid.ell())
+        parts = (
+            f"{functions} modulating functions x 2 rows"
+            if independent == 2 * functions
+            else f"{functions} modulating functions, {independent} independent "
+            "rows: neighbouring ℓ repeat each other"
+        )
         _fail(
             prefix,
-            f"{which} gives {m * independent} independent equations ({independent} "
-            f"per equation of the {grid.model} model, {len(grid.ell())} modulating "
-            f"functions over {say('window')} {grid.window:g} s) for {p} parameters; "
-            f"an honest σ needs at least {p + MIN_RESIDUAL_DOF:g}: lengthen "
-            f"{say('window')}, widen {say('bandwidth')} or {say('frequencies')} "
-            f"(integer ℓ; at least {MIN_FUNCTIONS} functions), or use the lagrangian "
-            "model.",
+            f"{which} gives {m * independent} independent rows ({parts} x {m} "
+            f"equation{'s' if m > 1 else ''} of the {grid.model} model) for {p} "
+            f"parameters; an honest σ needs at least {needed:g}: "
+            + rows_remedy(grid, h, needed, m, say)
+            + (", or use the lagrangian model." if grid.model == "power" else "."),
         )
 
 

@@ -184,6 +184,7 @@ def _channel_blocks(
 
 def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     h = log.time_step
+    rows = entry.row_provider(rows, h)  # noise-compensated power rows, if asked
     count = log.num_samples
     decimation = entry.decimation(h)
     solve_every = entry.solve_decimation(h)
@@ -312,7 +313,11 @@ def replay_log_core(
                 f"{type(entry).__name__}."
             )
     with thread_limit():  # BLAS/OpenMP pools of one thread (core._threads)
-        return [_replay_one(log, rows, raw.on_grid(log.time_step)) for raw in settings]
+        p = int(rows.num_parameters)
+        return [
+            _replay_one(log, rows, raw.for_robot(log.time_step, n, p))
+            for raw in settings
+        ]
 
 
 def window_equations(
@@ -343,7 +348,8 @@ def window_equations(
         signals: ``(q̂, v̂, τ̂, ...)`` from :func:`filtered_signals` when already
             computed (filtered rows only).
     """
-    s = settings.on_grid(time_step)
+    s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
+    rows = s.row_provider(rows, time_step)
     bank = s.bank()
     index = end - s.decimation(time_step) * np.arange(bank.num_intervals, -1, -1)
     if s.rows_from == "raw":
@@ -377,7 +383,7 @@ def window_estimate(
     (``core.lsq.solve_window`` with the settings' weighting and
     ``max_condition``). Arguments as :func:`window_equations`.
     """
-    s = settings.on_grid(time_step)
+    s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, time_step, signals=signals)
     m = s.num_equations(int(rows.num_joints))
     return solve_window(
