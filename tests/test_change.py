@@ -224,10 +224,10 @@ def test_tracker_state_round_trips_through_a_vector():
     settings = dataclasses.replace(PLAIN, detect_changes=ChangeDetection(window=0.5))
     design = change_design(settings, 1e-3, 2, 8)
     state = dataclasses.replace(
-        tracker_init(design), cusum=0.25, rise=17, restart=12, changes=3
+        tracker_init(design), cusum=0.25, onset=17, restart=12, changes=3
     )
     back = tracker_from_vector(tracker_vector(state, design), design)
-    assert (back.cusum, back.rise, back.restart, back.changes) == (0.25, 17, 12, 3)
+    assert (back.cusum, back.onset, back.restart, back.changes) == (0.25, 17, 12, 3)
     np.testing.assert_array_equal(back.long.std, state.long.std)
     assert change_design(PLAIN, 1e-3, 2, 8) is None
 

@@ -103,7 +103,13 @@ def test_core_replay_with_change_detection_equals_the_blocks(robot, log):
     from drake_dynid.core.change import ChangeDetection
 
     eager = ChangeDetection(
-        window=0.3, functions=3, warmup=0.2, drift=1.0, threshold=0.1, confirm=0.3
+        window=0.3,
+        functions=3,
+        warmup=0.2,
+        drift=1.0,
+        onset_drift=0.8,
+        threshold=0.1,
+        confirm=0.3,
     )
     chosen = [
         dataclasses.replace(SETTINGS[0], detect_changes=eager),

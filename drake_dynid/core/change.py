@@ -84,6 +84,8 @@ class ChangeDetection:
         functions: M_d, polynomial modulating functions of the test's window
             (the segment since a change gets M_d/T_d per second, at least M_d).
         drift: κ, the allowance of the CUSUM per window (z ≈ 1 in control).
+        onset_drift: κ_o < κ, the allowance of the second sum that dates the
+            change (it leaves 0 when z first exceeds κ_o).
         threshold: h, the CUSUM's alarm level [detection windows].
         warmup: valid solves [s] over which the in-control mean squares are
             learned before the test is armed.
@@ -91,7 +93,8 @@ class ChangeDetection:
             sliding window T).
         alpha: level of the isolation's F-tests (``core.isolation``).
         lookback: the change is placed ``lookback``·T_d before the solve at which
-            the CUSUM last left 0.
+            the onset sum last left 0 (the test's window responds a little after
+            the change enters it).
         confirm: a detection whose segment, this long [s], has shown no changed
             parameter is withdrawn: the window's estimate is reported again and
             the test re-armed (a false alarm then costs about nothing).
@@ -100,11 +103,12 @@ class ChangeDetection:
     window: float = 1.0
     functions: int = 4
     drift: float = 5.0
+    onset_drift: float = 2.0
     threshold: float = 0.5
     warmup: float = 2.0
     memory: float | None = None
     alpha: float = 1e-3
-    lookback: float = 0.5
+    lookback: float = 0.2
     confirm: float = 2.0
 
     def __post_init__(self) -> None:
@@ -115,7 +119,10 @@ class ChangeDetection:
                 _OWNER,
                 f"functions must be <= {MAX_SEGMENT_FUNCTIONS}; got {count}.",
             )
-        v.positive(_OWNER, "drift", self.drift)
+        drift = v.positive(_OWNER, "drift", self.drift)
+        onset = v.positive(_OWNER, "onset_drift", self.onset_drift)
+        if not onset <= drift:
+            v.fail(_OWNER, f"onset_drift must be <= drift {drift:g}; got {onset:g}.")
         v.positive(_OWNER, "threshold", self.threshold)
         v.positive(_OWNER, "warmup", self.warmup, "s")
         if self.memory is not None:
@@ -147,6 +154,9 @@ class ChangeDesign:
         margin: bank samples skipped after the change estimate (the delay).
         delay: latency of the bank samples [s] (change times refer to the signal).
         memory: time constant of the mean squares [s].
+        history: past estimates kept (lookback·T_d/Δt + 1): the reference of a
+            change is the estimate from before it, not the one at the detection
+            (the sliding window has already mixed some data after the change).
     """
 
     detection: ChangeDetection
@@ -159,6 +169,7 @@ class ChangeDesign:
     margin: int
     delay: float
     memory: float
+    history: int
 
     @property
     def num_residuals(self) -> int:
@@ -214,6 +225,11 @@ def change_design(
         margin=math.ceil(delay / step - 1e-9),
         delay=delay,
         memory=grid.window if detection.memory is None else detection.memory,
+        history=math.ceil(
+            detection.lookback * detection.window / grid.resolved("update_period")
+            - 1e-9
+        )
+        + 1,
     )
 
 
@@ -226,10 +242,15 @@ class TrackerState:
         scale: (d,) in-control mean squares v of the test's residual.
         learned: solves that contributed to ``scale``.
         cusum: S [detection windows].
-        rise: absolute bank index of the newest sample when S last left 0 (-1).
+        onset_cusum: S_o, the same sum with the smaller drift κ_o (the onset).
+        onset: absolute bank index of the newest sample when S_o last left 0
+            (-1).
         restart: absolute bank index of the first sample of the segment since
             the last change (-1: no segment, the window's estimate is reported).
-        reference: (p,) the estimate before the last change; reference_std its σ.
+        reference: (p,) the estimate before the last change (the one held
+            ``lookback``·T_d before the CUSUM last left 0); reference_std its σ.
+        history: (K, 2p) the last K estimates held and their σ, oldest first
+            (NaN rows before they are filled).
         changes: changes detected so far.
         detected: True when this solve detected a change.
         change_index: absolute bank index of the last change's estimate (-1).
@@ -240,10 +261,12 @@ class TrackerState:
     scale: np.ndarray
     learned: int
     cusum: float
-    rise: int
+    onset_cusum: float
+    onset: int
     restart: int
     reference: np.ndarray
     reference_std: np.ndarray
+    history: np.ndarray
     changes: int
     detected: bool
     change_index: int
@@ -269,10 +292,12 @@ def tracker_init(design: ChangeDesign, initial_theta: Any = None) -> TrackerStat
         scale=_frozen(np.zeros(design.num_residuals)),
         learned=0,
         cusum=0.0,
-        rise=-1,
+        onset_cusum=0.0,
+        onset=-1,
         restart=-1,
         reference=_frozen(np.zeros(p)),
         reference_std=_frozen(np.full(p, np.inf)),
+        history=_frozen(np.full((design.history, 2 * p), np.nan)),
         changes=0,
         detected=False,
         change_index=-1,
@@ -292,10 +317,12 @@ def _vector_layout(design: ChangeDesign) -> list[tuple[str, int]]:
         ("scale", d),
         ("learned", 1),
         ("cusum", 1),
-        ("rise", 1),
+        ("onset_cusum", 1),
+        ("onset", 1),
         ("restart", 1),
         ("reference", p),
         ("reference_std", p),
+        ("history", design.history * 2 * p),
         ("changes", 1),
         ("detected", 1),
         ("change_index", 1),
@@ -316,10 +343,12 @@ def tracker_vector(state: TrackerState, design: ChangeDesign) -> np.ndarray:
         "scale": state.scale,
         "learned": state.learned,
         "cusum": state.cusum,
-        "rise": state.rise,
+        "onset_cusum": state.onset_cusum,
+        "onset": state.onset,
         "restart": state.restart,
         "reference": state.reference,
         "reference_std": state.reference_std,
+        "history": state.history.ravel(),
         "changes": state.changes,
         "detected": float(state.detected),
         "change_index": state.change_index,
@@ -359,10 +388,12 @@ def tracker_from_vector(vector: Any, design: ChangeDesign) -> TrackerState:
         scale=_frozen(parts["scale"]),
         learned=int(one["learned"]),
         cusum=one["cusum"],
-        rise=int(one["rise"]),
+        onset_cusum=one["onset_cusum"],
+        onset=int(one["onset"]),
         restart=int(one["restart"]),
         reference=_frozen(parts["reference"]),
         reference_std=_frozen(parts["reference_std"]),
+        history=_frozen(parts["history"].reshape(design.history, 2 * design.p)),
         changes=int(one["changes"]),
         detected=one["detected"] > 0.5,
         change_index=int(one["change_index"]),
@@ -491,8 +522,16 @@ def tracking_update(
 
 
 def _rearmed(tracker: TrackerState) -> TrackerState:
-    zeros = _frozen(np.zeros_like(tracker.changed))
-    return dataclasses.replace(tracker, restart=-1, cusum=0.0, rise=-1, changed=zeros)
+    """The test armed again after a segment (the held estimates start afresh)."""
+    return dataclasses.replace(
+        tracker,
+        restart=-1,
+        cusum=0.0,
+        onset_cusum=0.0,
+        onset=-1,
+        changed=_frozen(np.zeros_like(tracker.changed)),
+        history=_frozen(np.full_like(tracker.history, np.nan)),
+    )
 
 
 def _with_segment(
@@ -529,9 +568,11 @@ def _test(
         samples, design.bank_time_step, detection.functions, design.m, design.p
     )
     squared = (B - A @ reported.theta) ** 2
+    held = np.concatenate((reported.theta, reported.std))
+    history = np.vstack((tracker.history[1:], held[None, :]))
+    tracker = dataclasses.replace(tracker, history=_frozen(history))
     step = design.update_period
-    learning = tracker.learned * step < detection.warmup
-    if learning:  # the running mean of the warm-up
+    if tracker.learned * step < detection.warmup:  # the warm-up's running mean
         weight = 1.0 / (tracker.learned + 1)
         scale = tracker.scale + weight * (squared - tracker.scale)
         return False, dataclasses.replace(
@@ -539,18 +580,31 @@ def _test(
         )
     floor = np.finfo(float).tiny
     z = float(np.mean(squared / np.maximum(tracker.scale, floor)))
-    cusum = max(0.0, tracker.cusum + (z - detection.drift) * step / detection.window)
-    rise = newest if tracker.cusum == 0.0 and cusum > 0.0 else tracker.rise
+    scale_step = step / detection.window  # S counts detection windows
+    cusum = max(0.0, tracker.cusum + (z - detection.drift) * scale_step)
+    onset_cusum = max(
+        0.0, tracker.onset_cusum + (z - detection.onset_drift) * scale_step
+    )
+    if tracker.onset_cusum == 0.0 and onset_cusum > 0.0:
+        # S_o leaves 0: the change, if one follows, is about lookback·T_d earlier;
+        # keep the estimate held then (the oldest one kept) as its reference.
+        oldest = history[np.flatnonzero(np.isfinite(history[:, 0]))[0]]
+        tracker = dataclasses.replace(
+            tracker,
+            onset=newest,
+            reference=_frozen(oldest[: design.p]),
+            reference_std=_frozen(oldest[design.p :]),
+        )
+    tracker = dataclasses.replace(tracker, onset_cusum=onset_cusum)
     if cusum > detection.threshold:
         back = round(detection.lookback * detection.window / design.bank_time_step)
-        change = max(rise - back, window.count - len(window.ring))
+        change = max(tracker.onset - back, window.count - len(window.ring))
         return True, dataclasses.replace(
             tracker,
             cusum=0.0,
-            rise=-1,
+            onset_cusum=0.0,
+            onset=-1,
             restart=change + design.margin,
-            reference=_frozen(reported.theta),
-            reference_std=_frozen(reported.std),
             changes=tracker.changes + 1,
             detected=True,
             change_index=change,
@@ -559,10 +613,6 @@ def _test(
         weight = min(1.0, step / design.memory)
         scale = tracker.scale + weight * (squared - tracker.scale)
         return False, dataclasses.replace(
-            tracker,
-            scale=_frozen(scale),
-            cusum=cusum,
-            rise=rise,
-            learned=tracker.learned + 1,
+            tracker, scale=_frozen(scale), cusum=cusum, learned=tracker.learned + 1
         )
-    return False, dataclasses.replace(tracker, cusum=cusum, rise=rise)
+    return False, dataclasses.replace(tracker, cusum=cusum)
