@@ -18,14 +18,18 @@ the identifier runs, at every solve after the window's estimate (docs/MATH.md
 
        S ← max(0, S + (z - κ) Δt / T_d)        (Δt the solve period)
 
-   and a change is detected when S > h. The change is placed T_d/2 before the
-   solve at which S last left 0 (the test weighs the middle of its window most).
-2. **Restart.** From that estimate plus the bank samples' delay (the filtered
-   rows of the first samples after a change mix both parameter values), a
-   segment grows at every solve. Its equations (``core.segment``, M_d/T_d
+   and a change is detected when S > h. A second sum S_o with a smaller drift
+   κ_o dates it: the change is placed ``lookback``·T_d before the solve at which
+   S_o last left 0, and the estimate held then (a short history is kept) is the
+   reference, the sliding window having already mixed some later data.
+2. **Restart.** From that date plus the bank samples' delay (the filtered rows
+   of the first samples after a change mix both parameter values), a segment
+   grows at every solve. Its equations (``core.segment``, M_d/T_d
    functions per second) are too few to determine all parameters; forward
    selection (``core.isolation``) finds the parameters that moved and
-   re-estimates them, the others keeping their value before the change.
+   re-estimates them, the others keeping their value before the change. A
+   detection whose segment shows no changed parameter after ``confirm`` seconds
+   is withdrawn.
 3. **Refilled.** Once the sliding window holds no sample before the segment's
    start, the identifier reports the window's estimate again and the test is
    re-armed (the mean squares v are kept). While a segment grows the test is
@@ -34,27 +38,29 @@ the identifier runs, at every solve after the window's estimate (docs/MATH.md
 Without a detection the identifier's outputs are those of the plain sliding
 window, bit for bit. :func:`tracking_update` is the step both drivers call (the
 ``ChangeTrackingIdentifier`` block and ``core.replay``); the state is plain
-numbers (:func:`tracker_vector` packs it into one vector for a Drake Context).
+numbers (``core.change_state``: :func:`tracker_vector` packs it into one vector
+for a Drake Context); the settings are ``core.change_design``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from drake_dynid.core import _validate as v
-from drake_dynid.core.identifier import (
-    IdentifierState,
-    Status,
-    identifier_init,
-    identifier_update,
+from drake_dynid.core.change_design import ChangeDesign, ChangeDetection, change_design
+from drake_dynid.core.change_state import (
+    TrackerState,
+    _frozen,
+    tracker_from_vector,
+    tracker_init,
+    tracker_outputs,
+    tracker_vector,
 )
+from drake_dynid.core.identifier import IdentifierState, Status, identifier_update
 from drake_dynid.core.isolation import MIN_DOF, isolate_change
-from drake_dynid.core.segment import MAX_SEGMENT_FUNCTIONS, segment_equations
+from drake_dynid.core.segment import segment_equations
 
 __all__ = [
     "ChangeDesign",
@@ -67,353 +73,6 @@ __all__ = [
     "tracker_vector",
     "tracking_update",
 ]
-
-_OWNER = "ChangeDetection"
-
-
-@dataclass(frozen=True)
-class ChangeDetection:
-    """Settings of the residual test and of the restart (docs/MATH.md §4b).
-
-    The defaults are the measured trade-off on the paper's 2R arm at SNR 30 dB
-    (benchmarks/bench_accuracy.py: detection about 1 s after the Fig. 4 jump, few
-    false alarms on logs without a change; README "Tracking a change").
-
-    Attributes:
-        window: T_d, the residual test's window [s].
-        functions: M_d, polynomial modulating functions of the test's window
-            (the segment since a change gets M_d/T_d per second, at least M_d).
-        drift: κ, the allowance of the CUSUM per window (z ≈ 1 in control).
-        onset_drift: κ_o < κ, the allowance of the second sum that dates the
-            change (it leaves 0 when z first exceeds κ_o).
-        threshold: h, the CUSUM's alarm level [detection windows].
-        warmup: valid solves [s] over which the in-control mean squares are
-            learned before the test is armed.
-        memory: time constant of their exponential average [s] (None: the
-            sliding window T).
-        alpha: level of the isolation's F-tests (``core.isolation``).
-        lookback: the change is placed ``lookback``·T_d before the solve at which
-            the onset sum last left 0 (the test's window responds a little after
-            the change enters it).
-        confirm: a detection whose segment, this long [s], has shown no changed
-            parameter is withdrawn: the window's estimate is reported again and
-            the test re-armed (a false alarm then costs about nothing).
-    """
-
-    window: float = 1.0
-    functions: int = 4
-    drift: float = 5.0
-    onset_drift: float = 2.0
-    threshold: float = 0.5
-    warmup: float = 2.0
-    memory: float | None = None
-    alpha: float = 1e-3
-    lookback: float = 0.2
-    confirm: float = 2.0
-
-    def __post_init__(self) -> None:
-        v.positive(_OWNER, "window", self.window, "s")
-        count = v.integer(_OWNER, "functions", self.functions, minimum=1)
-        if count > MAX_SEGMENT_FUNCTIONS:
-            v.fail(
-                _OWNER,
-                f"functions must be <= {MAX_SEGMENT_FUNCTIONS}; got {count}.",
-            )
-        drift = v.positive(_OWNER, "drift", self.drift)
-        onset = v.positive(_OWNER, "onset_drift", self.onset_drift)
-        if not onset <= drift:
-            v.fail(_OWNER, f"onset_drift must be <= drift {drift:g}; got {onset:g}.")
-        v.positive(_OWNER, "threshold", self.threshold)
-        v.positive(_OWNER, "warmup", self.warmup, "s")
-        if self.memory is not None:
-            v.positive(_OWNER, "memory", self.memory, "s")
-        v.positive(_OWNER, "confirm", self.confirm, "s")
-        lookback = v.real(_OWNER, "lookback", self.lookback)
-        if not 0.0 <= lookback <= 1.0:
-            v.fail(_OWNER, f"lookback must be in [0, 1]; got {lookback:g}.")
-        alpha = v.positive(_OWNER, "alpha", self.alpha)
-        if alpha >= 1.0:
-            v.fail(_OWNER, f"alpha must be in (0, 1); got {alpha:g}.")
-        for name in ("window", "warmup", "memory", "confirm"):
-            value = getattr(self, name)
-            if value is not None and not math.isfinite(value):
-                v.fail(_OWNER, f"{name} must be finite [s]; got {value}.")
-
-
-@dataclass(frozen=True)
-class ChangeDesign:
-    """The test and the restart on one identifier's grid (:func:`change_design`).
-
-    Attributes:
-        detection: the settings.
-        m: equations per sample; p: parameters.
-        bank_time_step: h_b, spacing of the bank samples [s].
-        update_period: Δt, period of the solves [s].
-        window_samples: bank samples of the sliding window (N + 1).
-        detect_samples: bank samples of the test's window (T_d/h_b + 1).
-        margin: bank samples skipped after the change estimate (the delay).
-        delay: latency of the bank samples [s] (change times refer to the signal).
-        memory: time constant of the mean squares [s].
-        history: past estimates kept (lookback·T_d/Δt + 1): the reference of a
-            change is the estimate from before it, not the one at the detection
-            (the sliding window has already mixed some data after the change).
-    """
-
-    detection: ChangeDetection
-    m: int
-    p: int
-    bank_time_step: float
-    update_period: float
-    window_samples: int
-    detect_samples: int
-    margin: int
-    delay: float
-    memory: float
-    history: int
-
-    @property
-    def num_residuals(self) -> int:
-        """The components of the test's residual, d = M_d·m."""
-        return self.detection.functions * self.m
-
-    def segment_functions(self, count: int) -> int:
-        """Polynomial functions of a segment of ``count`` bank samples."""
-        length = (count - 1) * self.bank_time_step
-        density = self.detection.functions / self.detection.window
-        wanted = max(self.detection.functions, round(density * length))
-        return int(min(wanted, MAX_SEGMENT_FUNCTIONS))
-
-
-def change_design(
-    settings: Any, time_step: float, m: int, p: int
-) -> ChangeDesign | None:
-    """The design of ``settings.detect_changes`` on the signal grid, or None.
-
-    Args:
-        settings: ``OnlineSettings`` (put on the grid of ``time_step`` here).
-        time_step: signal period h [s].
-        m: equations per sample.
-        p: parameters.
-
-    Raises:
-        ValueError: the test's window is not shorter than the sliding window or
-            holds fewer than 2·M_d bank samples.
-    """
-    chosen = settings.detect_changes
-    if chosen is False or chosen is None:
-        return None
-    detection = ChangeDetection() if chosen is True else chosen
-    grid = settings.on_grid(time_step)
-    step = grid.resolved("bank_time_step")
-    count = round(detection.window / step) + 1
-    if not detection.window < grid.window or count < 2 * detection.functions:
-        v.fail(
-            _OWNER,
-            f"window must be shorter than the sliding window ({grid.window:g} s) "
-            f"and hold at least 2·functions = {2 * detection.functions} bank samples "
-            f"({step:g} s apart) [s]; got {detection.window:g}.",
-        )
-    delay = grid.delay(time_step)
-    return ChangeDesign(
-        detection=detection,
-        m=int(m),
-        p=int(p),
-        bank_time_step=step,
-        update_period=grid.resolved("update_period"),
-        window_samples=round(grid.window / step) + 1,
-        detect_samples=count,
-        margin=math.ceil(delay / step - 1e-9),
-        delay=delay,
-        memory=grid.window if detection.memory is None else detection.memory,
-        history=math.ceil(
-            detection.lookback * detection.window / grid.resolved("update_period")
-            - 1e-9
-        )
-        + 1,
-    )
-
-
-@dataclass(frozen=True, eq=False)
-class TrackerState:
-    """State of the change tracker (plain numbers; see the module docstring).
-
-    Attributes:
-        long: the sliding window's own identifier state.
-        scale: (d,) in-control mean squares v of the test's residual.
-        learned: solves that contributed to ``scale``.
-        cusum: S [detection windows].
-        onset_cusum: S_o, the same sum with the smaller drift κ_o (the onset).
-        onset: absolute bank index of the newest sample when S_o last left 0
-            (-1).
-        restart: absolute bank index of the first sample of the segment since
-            the last change (-1: no segment, the window's estimate is reported).
-        reference: (p,) the estimate before the last change (the one held
-            ``lookback``·T_d before the CUSUM last left 0); reference_std its σ.
-        history: (K, 2p) the last K estimates held and their σ, oldest first
-            (NaN rows before they are filled).
-        changes: changes detected so far.
-        detected: True when this solve detected a change.
-        change_index: absolute bank index of the last change's estimate (-1).
-        changed: (p,) 1.0 for the parameters re-estimated on the segment.
-    """
-
-    long: IdentifierState
-    scale: np.ndarray
-    learned: int
-    cusum: float
-    onset_cusum: float
-    onset: int
-    restart: int
-    reference: np.ndarray
-    reference_std: np.ndarray
-    history: np.ndarray
-    changes: int
-    detected: bool
-    change_index: int
-    changed: np.ndarray
-
-    @property
-    def tracking(self) -> bool:
-        """True while the estimate comes from the segment since a change."""
-        return self.restart >= 0
-
-
-def _frozen(value: Any) -> np.ndarray:
-    out = np.array(value, dtype=float)
-    out.flags.writeable = False
-    return out
-
-
-def tracker_init(design: ChangeDesign, initial_theta: Any = None) -> TrackerState:
-    """The tracker before the first solve."""
-    p = design.p
-    return TrackerState(
-        long=identifier_init(p, initial_theta),
-        scale=_frozen(np.zeros(design.num_residuals)),
-        learned=0,
-        cusum=0.0,
-        onset_cusum=0.0,
-        onset=-1,
-        restart=-1,
-        reference=_frozen(np.zeros(p)),
-        reference_std=_frozen(np.full(p, np.inf)),
-        history=_frozen(np.full((design.history, 2 * p), np.nan)),
-        changes=0,
-        detected=False,
-        change_index=-1,
-        changed=_frozen(np.zeros(p)),
-    )
-
-
-def _vector_layout(design: ChangeDesign) -> list[tuple[str, int]]:
-    p, d = design.p, design.num_residuals
-    return [
-        ("theta", p),
-        ("std", p),
-        ("condition_number", 1),
-        ("valid", 1),
-        ("unidentified", p),
-        ("status", 1),
-        ("scale", d),
-        ("learned", 1),
-        ("cusum", 1),
-        ("onset_cusum", 1),
-        ("onset", 1),
-        ("restart", 1),
-        ("reference", p),
-        ("reference_std", p),
-        ("history", design.history * 2 * p),
-        ("changes", 1),
-        ("detected", 1),
-        ("change_index", 1),
-        ("changed", p),
-    ]
-
-
-def tracker_vector(state: TrackerState, design: ChangeDesign) -> np.ndarray:
-    """The state as one float vector (integers are exact up to 2⁵³)."""
-    long = state.long
-    values = {
-        "theta": long.theta,
-        "std": long.std,
-        "condition_number": long.condition_number,
-        "valid": float(long.valid),
-        "unidentified": long.unidentified,
-        "status": float(long.status),
-        "scale": state.scale,
-        "learned": state.learned,
-        "cusum": state.cusum,
-        "onset_cusum": state.onset_cusum,
-        "onset": state.onset,
-        "restart": state.restart,
-        "reference": state.reference,
-        "reference_std": state.reference_std,
-        "history": state.history.ravel(),
-        "changes": state.changes,
-        "detected": float(state.detected),
-        "change_index": state.change_index,
-        "changed": state.changed,
-    }
-    return np.concatenate(
-        [
-            np.atleast_1d(np.asarray(values[name], dtype=float))
-            for name, _ in _vector_layout(design)
-        ]
-    )
-
-
-def tracker_from_vector(vector: Any, design: ChangeDesign) -> TrackerState:
-    """Inverse of :func:`tracker_vector`."""
-    x = np.asarray(vector, dtype=float)
-    parts: dict[str, np.ndarray] = {}
-    start = 0
-    for name, size in _vector_layout(design):
-        parts[name] = x[start : start + size]
-        start += size
-    if start != x.size:
-        v.fail(
-            "tracker_from_vector",
-            f"vector must have {start} entries for this design; got {x.size}.",
-        )
-    one = {name: float(value[0]) for name, value in parts.items() if value.size == 1}
-    return TrackerState(
-        long=IdentifierState(
-            theta=_frozen(parts["theta"]),
-            std=_frozen(parts["std"]),
-            condition_number=one["condition_number"],
-            valid=one["valid"] > 0.5,
-            unidentified=_frozen(parts["unidentified"]),
-            status=Status(int(one["status"])),
-        ),
-        scale=_frozen(parts["scale"]),
-        learned=int(one["learned"]),
-        cusum=one["cusum"],
-        onset_cusum=one["onset_cusum"],
-        onset=int(one["onset"]),
-        restart=int(one["restart"]),
-        reference=_frozen(parts["reference"]),
-        reference_std=_frozen(parts["reference_std"]),
-        history=_frozen(parts["history"].reshape(design.history, 2 * design.p)),
-        changes=int(one["changes"]),
-        detected=one["detected"] > 0.5,
-        change_index=int(one["change_index"]),
-        changed=_frozen(parts["changed"]),
-    )
-
-
-def tracker_outputs(state: TrackerState, design: ChangeDesign) -> np.ndarray:
-    """The tracker's outputs ``[detected, change_time, tracking, changed (p)]``.
-
-    ``change_time`` [s]: the bank sample of the change estimate, j·h_b, minus the
-    bank samples' delay (NaN before the first change).
-    """
-    time = (
-        state.change_index * design.bank_time_step - design.delay
-        if state.change_index >= 0
-        else math.nan
-    )
-    head = [float(state.detected), time, float(state.tracking)]
-    return np.concatenate((head, state.changed))
 
 
 def _recent(window: Any, first: int) -> np.ndarray | None:

@@ -173,7 +173,7 @@ def _frequencies(prefix: str, name: str, value: Any) -> np.ndarray | None:
 
 def _detect_changes(prefix: str, name: str, value: Any) -> None:
     """True, False or a ``core.change.ChangeDetection``."""
-    from drake_dynid.core.change import ChangeDetection
+    from drake_dynid.core.change_design import ChangeDetection
 
     if value is True or value is False or isinstance(value, ChangeDetection):
         return
