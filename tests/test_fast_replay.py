@@ -109,7 +109,7 @@ def test_core_replay_with_change_detection_equals_the_blocks(robot, log):
         drift=1.0,
         onset_drift=0.8,
         threshold=0.1,
-        confirm=0.3,
+        confirm=0.6,
     )
     chosen = [
         dataclasses.replace(SETTINGS[0], detect_changes=eager),

@@ -3,8 +3,8 @@ r"""Change detection for the on-line identifier: a CUSUM test and a restart.
 A sliding window T forgets an abrupt change of the parameters only as the old
 data leave it: after ZZ1R of the paper's 2R arm jumps 3.9 → 4.5 (Fig. 4, T = 7 s)
 the estimate is within 2 % only 3-4 s later. With ``OnlineSettings.detect_changes``
-the identifier runs, at every solve after the window's estimate (docs/MATH.md
-§4b):
+the identifier runs, at every solve after the window's estimate (docs/MATH.md §4,
+change detection):
 
 1. **Residual test.** The equations ``A_d θ = B_d`` of the last T_d of bank
    samples (``core.segment``: M_d polynomial modulating functions; T_d = 1 s)
@@ -96,16 +96,29 @@ def _segment_estimate(
 ) -> tuple[IdentifierState, np.ndarray | None]:
     """``(estimate, re-estimated flags)`` of the segment since the change.
 
-    The held estimate (not valid) and None when the segment is too short or
-    holds an invalid sample, or its chosen columns cannot be solved.
+    The reference (the estimate before the change) while the segment is shorter
+    than T_d/2 (its rows are then too few and too alike for the isolation's
+    tests); the held estimate (not valid) and None when the segment holds an
+    invalid sample or its chosen columns cannot be solved.
     """
     samples = _recent(window, tracker.restart)
-    functions = 0 if samples is None else design.segment_functions(len(samples))
-    if samples is None or functions * design.m < 1 + MIN_DOF:
+    if samples is None:
         held = dataclasses.replace(
             reported, valid=False, status=Status.WINDOW_NOT_READY
         )
         return held, None
+    functions = design.segment_functions(len(samples))
+    length = (len(samples) - 1) * design.bank_time_step
+    if length < 0.5 * design.detection.window or functions * design.m < 1 + MIN_DOF:
+        reference = IdentifierState(
+            theta=tracker.reference,
+            std=tracker.reference_std,
+            condition_number=reported.condition_number,
+            valid=True,
+            unidentified=_frozen(np.zeros(design.p)),
+            status=Status.OK,
+        )
+        return reference, np.zeros(design.p, dtype=bool)
     A, B = segment_equations(
         samples, design.bank_time_step, functions, design.m, design.p
     )
@@ -207,7 +220,9 @@ def _with_segment(
         return tracker, estimate
     length = (window.count - 1 - tracker.restart) * design.bank_time_step
     if not selected.any() and length >= design.detection.confirm:
-        return _rearmed(tracker), tracker.long  # withdrawn: nothing changed
+        # Withdrawn: nothing changed, the residual's level did. The test re-learns
+        # its in-control mean squares (a new warm-up) before it is armed again.
+        return dataclasses.replace(_rearmed(tracker), learned=0), tracker.long
     return dataclasses.replace(tracker, changed=_frozen(selected)), estimate
 
 
@@ -256,8 +271,14 @@ def _test(
         )
     tracker = dataclasses.replace(tracker, onset_cusum=onset_cusum)
     if cusum > detection.threshold:
-        back = round(detection.lookback * detection.window / design.bank_time_step)
-        change = max(tracker.onset - back, window.count - len(window.ring))
+        # The date: lookback·T_d before the onset, at most 1.5·T_d before now (an
+        # onset sum that stayed positive long before the alarm dates nothing).
+        windows = detection.window / design.bank_time_step
+        change = max(
+            tracker.onset - round(detection.lookback * windows),
+            newest - round(1.5 * windows),
+            window.count - len(window.ring),
+        )
         return True, dataclasses.replace(
             tracker,
             cusum=0.0,

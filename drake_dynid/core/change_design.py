@@ -3,7 +3,7 @@
 :class:`ChangeDetection` holds the test's settings (``OnlineSettings.detect_changes``),
 :func:`change_design` puts them on one identifier's grid (bank step, solve period,
 window, delay): the :class:`ChangeDesign` both drivers pass to
-``core.change.tracking_update``. docs/MATH.md §4b.
+``core.change.tracking_update``. docs/MATH.md §4, change detection.
 """
 
 from __future__ import annotations
@@ -22,7 +22,9 @@ _OWNER = "ChangeDetection"
 
 @dataclass(frozen=True)
 class ChangeDetection:
-    """Settings of the residual test and of the restart (docs/MATH.md §4b).
+    """Settings of the residual test and of the restart.
+
+    docs/MATH.md §4, change detection.
 
     The defaults are the measured trade-off on the paper's 2R arm at SNR 30 dB
     (benchmarks/bench_accuracy.py: detection about 1 s after the Fig. 4 jump, few

@@ -7,7 +7,7 @@ solve of a 1 s window misses ZZ1R of the paper's 2R arm by 30-90 %), but they
 can say which parameters moved. With the estimate before the change θ_ref and
 its residual ``r₀ = B - A θ_ref``, forward selection adds, one at a time, the
 parameter whose column explains most of the remaining residual, while the
-addition is significant (docs/MATH.md §4b)::
+addition is significant (docs/MATH.md §4, change detection)::
 
     gain_j = (a_j⊥ᵀ r)² / ‖a_j⊥‖²          (a_j⊥: column j orthogonal to the chosen)
     F = gain_j / (RSS_new / (r - k - 1)) > F_{1, r-k-1}(α / candidates)

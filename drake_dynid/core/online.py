@@ -219,7 +219,8 @@ class OnlineSettings:
             default ``core.change.ChangeDetection``) or a ``ChangeDetection``:
             a CUSUM test on the equation error of the last second against the
             estimate detects a change and restarts the estimation from it
-            (``core.change``, docs/MATH.md §4b; the traces' ``change`` fields).
+            (``core.change``, docs/MATH.md §4, change detection; the traces'
+            ``change`` fields).
     """
 
     model: str = "lagrangian"

@@ -5,7 +5,7 @@ equations of one fixed window T. The change detector (``core.change``) needs the
 equations of *any* stretch of the stored bank samples: the last second (the
 residual test) and the segment since a detected change, which grows at every
 solve. On a segment ``[t_0, t_0 + L]`` of length L [s] it uses the polynomial
-modulating functions (docs/MATH.md §3b), with s = (v - t_0)/L ∈ [0, 1]::
+modulating functions (docs/MATH.md §3, segments), with s = (v - t_0)/L ∈ [0, 1]::
 
     φ_i(s) = s (1 - s) P_i(2s - 1),      i = 0 .. M - 1
     g_i(v) = φ_i(s) / L  [1/s],          ġ_i(v) = φ_i'(s) / L²  [1/s²]

@@ -48,8 +48,8 @@ class ChangeTrackingIdentifier(SlidingQRIdentifier):
     error of the last second of bank samples (read from ``window_state``, the
     ``ModulatingIntegralBank``'s streaming state) against the estimate held; after
     a detection, the estimate of the segment since the change (the parameters
-    found changed re-estimated, docs/MATH.md §4b) until the window holds no older
-    sample. Without a detection the outputs equal the parent's.
+    found changed re-estimated, docs/MATH.md §4, change detection) until the
+    window holds no older sample. Without a detection the outputs equal the parent's.
 
     Extra outputs: ``change`` = [1 at the solve that detected a change else 0,
     estimated time of the last change [s] (NaN before the first), 1 while the

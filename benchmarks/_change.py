@@ -1,0 +1,262 @@
+"""Change tracking for the accuracy benchmark (``bench_accuracy.py``; not a script).
+
+Fig. 4 (paper §V): the paper's 2R arm in closed loop (Drake, 1 kHz), ZZ1R 3.9 -> 4.5
+at 9.4 s (``paper.zz1_jump``), 25 s, simulated once; seed s adds white noise
+(``default_rng(1000 + s)``, SNR 30 dB on every q and τ, or on τ only) to the
+recorded noise-free q, τ, and the core replay (equal to the blocks:
+tests/test_change.py) runs T = 7 s identifiers (solve every 50 ms) with and
+without ``detect_changes`` (``core.change``, its defaults) and the paper's power
+model with its ℓ set. Time to within 2 %: after the jump until ZZ1R stays within
+2 % of 4.5 to the end of the run (NaN: not within 2 % at the end).
+
+False alarms: logs without a change, simulated for 40 s on every 2R scenario of
+the benchmark (``_scenarios``) with the same noise; T = 7 s, defaults; the test
+is armed from the first valid window + its warm-up, except while a segment since a
+detection grows. "confirmed": detections whose segment found a changed parameter
+(the others are withdrawn after ``confirm`` s and cost nothing). The accuracy
+cost: the median over the armed solves of the mean |error| (inertial, friction)
+with and without detection, same logs. The iiwa7: the independent 60 s log of
+``_accuracy_arm7`` (Drake's inverse dynamics), T = 20 s, rows chosen on the log.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from drake_dynid import paper
+from drake_dynid.core.online import OnlineSettings
+from drake_dynid.core.replay import replay_log_core
+from drake_dynid.logs import RobotLog
+
+H = 1e-3
+JUMP = 9.4
+WINDOW = 7.0
+
+
+def _noisy(result, seed: int, which: str) -> RobotLog:
+    """The recorded noise-free log plus white noise (q and τ, or τ only)."""
+    n = result.q_true.shape[1]
+    e = np.random.default_rng(1000 + seed).standard_normal((len(result.t), 2 * n))
+    e = e * result.noise_std
+    q = result.q_true + (e[:, :n] if which == "both" else 0.0)
+    tau = result.tau_true + e[:, n:]
+    return RobotLog(result.t, q, tau, result.joint_names, H)
+
+
+def settle_time(trace, target: float = 4.5, after: float = JUMP) -> float:
+    """Seconds after ``after`` until ZZ1R stays within 2 % (NaN: not at the end)."""
+    z = trace.theta[:, 0]
+    bad = np.flatnonzero((trace.t >= after) & (np.abs(z - target) > 0.02 * target))
+    if not len(bad):
+        return 0.0
+    if bad[-1] + 1 >= len(trace.t):
+        return float("nan")
+    return float(trace.t[bad[-1] + 1] - after)
+
+
+def tracking_settings(bandwidth: float) -> dict[str, OnlineSettings]:
+    plain = OnlineSettings.for_model(
+        "lagrangian", window=WINDOW, bandwidth=bandwidth, update_period=0.05
+    )
+    return {
+        "Lagrangian, sliding window": plain,
+        "Lagrangian, change detection": dataclasses.replace(plain, detect_changes=True),
+        "power, paper ℓ set (the paper's method)": OnlineSettings.for_model(
+            "power", window=WINDOW, frequencies="paper", update_period=0.05
+        ),
+    }
+
+
+def jump_tracking(robot, simulate, bandwidth: float, seeds) -> dict:
+    """The Fig. 4 table: per noise case and method, times over the seeds."""
+    result = simulate(duration=25.0, events=[(JUMP, paper.zz1_jump(0.6))])
+    chosen = tracking_settings(bandwidth)
+    rows = robot.rows_provider()
+    out: dict = {}
+    for which in ("both", "tau"):
+        per = {name: [] for name in chosen}
+        detections = []
+        for seed in seeds:
+            traces = replay_log_core(
+                _noisy(result, seed, which), rows, list(chosen.values())
+            )
+            for name, trace in zip(chosen, traces, strict=True):
+                per[name].append(settle_time(trace))
+            found = traces[1].detections()
+            after = [d for d in found if d["t"] >= JUMP]
+            detections.append(
+                {
+                    "delay": after[0]["t"] - JUMP if after else float("nan"),
+                    "dating_error": after[0]["change_time"] - JUMP
+                    if after
+                    else float("nan"),
+                    "changed": after[0]["changed"] if after else None,
+                    "before_jump": len(found) - len(after),
+                }
+            )
+        out[which] = {
+            "settle": {
+                name: {
+                    "median": float(np.median(times)),
+                    "max": float(np.max(times)),
+                    "runs": [float(x) for x in times],
+                }
+                for name, times in per.items()
+            },
+            "detections": detections,
+        }
+    return out
+
+
+def _armed(trace, warmup: float) -> np.ndarray:
+    """The solves at which the test is armed (module docstring)."""
+    valid = np.flatnonzero(trace.valid > 0.5)
+    if not valid.size:
+        return np.zeros(len(trace.t), dtype=bool)
+    start = trace.t[valid[0]] + warmup
+    return (trace.t >= start) & (trace.tracking < 0.5)
+
+
+def _errors(theta, truth) -> np.ndarray:
+    e = 100 * np.abs(theta - truth) / np.abs(truth)
+    return np.column_stack((e[:, :4].mean(axis=1), e[:, 4:].mean(axis=1)))
+
+
+def false_alarms_2r(models, scenarios, simulate, seeds) -> dict:
+    """Detections on 2R logs without a change (40 s), per scenario."""
+    out = {}
+    for label, (name, trajectory) in scenarios.items():
+        robot = models[name]
+        result = simulate(robot=robot, trajectory=trajectory, duration=40.0)
+        plain = OnlineSettings.for_model(
+            "lagrangian", window=WINDOW, update_period=0.05
+        )
+        tracked = dataclasses.replace(plain, detect_changes=True)
+        alarms = confirmed = 0
+        armed = 0.0
+        cost = {"without": [], "with": []}
+        for seed in seeds:
+            log = _noisy(result, seed, "both")
+            base, trace = replay_log_core(log, robot.rows_provider(), [plain, tracked])
+            found = trace.detections()
+            alarms += len(found)
+            confirmed += sum(bool(d["changed"]) for d in found)
+            mask = _armed(trace, 2.0)
+            armed += mask.sum() * 0.05
+            window = trace.t >= trace.t[np.flatnonzero(trace.valid > 0.5)[0]] + 2.0
+            cost["without"].append(_errors(base.theta[window], robot.base_values))
+            cost["with"].append(_errors(trace.theta[window], robot.base_values))
+        out[label] = {
+            "alarms": alarms,
+            "confirmed": confirmed,
+            "armed_s": armed,
+            "per_minute": 60.0 * alarms / armed if armed else float("nan"),
+            "cost": {
+                key: np.median(np.vstack(value), axis=0).tolist()
+                for key, value in cost.items()
+            },
+        }
+    return out
+
+
+def _arm_rows(arm, log) -> str:
+    """``rows_from`` chosen on the log (``core.raw_rows.rows_from_noise``)."""
+    from drake_dynid.core.raw_rows import rows_from_noise
+
+    grid = arm.settings("raw").on_grid(H)
+    return rows_from_noise(
+        log.q,
+        H,
+        raw_window=grid.resolved("raw_window"),
+        jacobi_window=grid.jacobi_window,
+        bandwidth=arm.bandwidth,
+    )[0]
+
+
+def false_alarms_arm7(arm, seeds, levels=("encoder", "high")) -> dict:
+    """Detections on the iiwa7's independent 60 s log, T = 20 s, rows chosen."""
+    out = {}
+    for level in levels:
+        alarms = confirmed = 0
+        armed = 0.0
+        chosen = set()
+        for seed in seeds:
+            log = arm.noisy(level, seed)
+            rows_from = _arm_rows(arm, log)
+            chosen.add(rows_from)
+            settings = dataclasses.replace(arm.settings(rows_from), detect_changes=True)
+            (trace,) = replay_log_core(log, arm.robot.rows_provider(), [settings])
+            found = trace.detections()
+            alarms += len(found)
+            confirmed += sum(bool(d["changed"]) for d in found)
+            period = settings.on_grid(H).resolved("update_period")
+            armed += _armed(trace, 2.0).sum() * period
+        out[level] = {
+            "alarms": alarms,
+            "confirmed": confirmed,
+            "armed_s": armed,
+            "per_minute": 60.0 * alarms / armed if armed else float("nan"),
+            "rows": sorted(chosen),
+        }
+    return out
+
+
+def print_tracking(report: dict, seeds) -> None:
+    """The tables of ``report`` (keys ``jump``, ``false_2r``, ``false_arm7``)."""
+    if report.get("jump"):
+        _print_jump(report["jump"], seeds)
+    _print_false_alarms(report.get("false_2r", {}), report.get("false_arm7", {}))
+
+
+def _print_jump(jump: dict, seeds) -> None:
+    print(
+        f"\n## Tracking a change: ZZ1R 3.9 -> 4.5 at {JUMP} s (paper Fig. 4, T = 7 s), "
+        f"time until it stays within 2 % [s], median (worst) over {len(seeds)} "
+        "noise seeds\n"
+    )
+    print("| method | SNR 30 dB on q and τ | SNR 30 dB on τ only |")
+    print("|---|---|---|")
+    for name in jump["both"]["settle"]:
+        cells = [
+            "{median:.2f} ({max:.2f})".format(**jump[w]["settle"][name])
+            for w in ("both", "tau")
+        ]
+        print(f"| {name} | " + " | ".join(cells) + " |")
+    print("| paper Fig. 4 (power model, one run) | about 5 | - |")
+    for which in ("both", "tau"):
+        d = jump[which]["detections"]
+        delay = np.array([x["delay"] for x in d])
+        dating = np.array([x["dating_error"] for x in d])
+        changed = [",".join(x["changed"] or ["-"]) for x in d]
+        print(
+            f"\n{which}: detection {np.nanmedian(delay):.2f} s after the jump "
+            f"(median; {np.nanmin(delay):.2f}-{np.nanmax(delay):.2f}), dated "
+            f"{np.nanmedian(dating):+.2f} s (median error), parameters found changed: "
+            f"{', '.join(sorted(set(changed)))}"
+        )
+
+
+def _print_false_alarms(false_2r: dict, false_arm7: dict) -> None:
+    print(
+        "\n## False alarms without a change (T = 7 s on the 2R, 40 s logs; "
+        "T = 20 s on the iiwa7, 60 s)\n"
+    )
+    print(
+        "| log | noise | alarms (confirmed) | armed time [s] | per minute | "
+        "inertial / friction error % without → with detection |"
+    )
+    print("|---|---|---|---|---|---|")
+    for label, r in false_2r.items():
+        w, d = r["cost"]["without"], r["cost"]["with"]
+        print(
+            f"| 2R {label} | SNR 30 dB | {r['alarms']} ({r['confirmed']}) | "
+            f"{r['armed_s']:.0f} | {r['per_minute']:.2f} | {w[0]:.2f} / {w[1]:.2f} "
+            f"→ {d[0]:.2f} / {d[1]:.2f} |"
+        )
+    for level, r in false_arm7.items():
+        print(
+            f"| iiwa7 ({'/'.join(r['rows'])} rows) | {level} | {r['alarms']} "
+            f"({r['confirmed']}) | {r['armed_s']:.0f} | {r['per_minute']:.2f} | - |"
+        )
