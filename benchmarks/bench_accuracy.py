@@ -473,6 +473,9 @@ def main(argv=None) -> int:
             alarms = _change.false_alarms_arm7(_arm7.Arm7(), seeds7)
             _change.print_tracking({"false_arm7": alarms}, seeds7)
             report["iiwa7_false_alarms"] = alarms
+            payload = _change.payload_tracking(_arm7.Arm7(), seeds7)
+            _change.print_payload(payload)
+            report["iiwa7_payload"] = payload
     wall = time.perf_counter() - start
     print(f"\nwall time {wall:.0f} s")
     report["wall_s"] = wall

@@ -201,6 +201,7 @@ def _rearmed(tracker: TrackerState) -> TrackerState:
         cusum=0.0,
         onset_cusum=0.0,
         onset=-1,
+        quiet=-1,
         changed=_frozen(np.zeros_like(tracker.changed)),
         history=_frozen(np.full_like(tracker.history, np.nan)),
     )
@@ -259,23 +260,24 @@ def _test(
     onset_cusum = max(
         0.0, tracker.onset_cusum + (z - detection.onset_drift) * scale_step
     )
-    if tracker.onset_cusum == 0.0 and onset_cusum > 0.0:
-        # S_o leaves 0: the change, if one follows, is about lookback·T_d earlier;
-        # keep the estimate held then (the oldest one kept) as its reference.
+    if z <= 1.0 or (tracker.onset_cusum == 0.0 and onset_cusum > 0.0):
+        # The window is quiet, or S_o leaves 0: a change, if one follows, is
+        # about lookback·T_d before the later of the two; keep the estimate held
+        # then (the oldest one kept) as its reference.
         oldest = history[np.flatnonzero(np.isfinite(history[:, 0]))[0]]
         tracker = dataclasses.replace(
             tracker,
-            onset=newest,
             reference=_frozen(oldest[: design.p]),
             reference_std=_frozen(oldest[design.p :]),
+            **({"quiet": newest} if z <= 1.0 else {"onset": newest}),
         )
     tracker = dataclasses.replace(tracker, onset_cusum=onset_cusum)
     if cusum > detection.threshold:
-        # The date: lookback·T_d before the onset, at most 1.5·T_d before now (an
-        # onset sum that stayed positive long before the alarm dates nothing).
+        # The date: lookback·T_d before the later of the last quiet window and
+        # the onset, at most 1.5·T_d before now.
         windows = detection.window / design.bank_time_step
         change = max(
-            tracker.onset - round(detection.lookback * windows),
+            max(tracker.onset, tracker.quiet) - round(detection.lookback * windows),
             newest - round(1.5 * windows),
             window.count - len(window.ring),
         )
@@ -284,6 +286,7 @@ def _test(
             cusum=0.0,
             onset_cusum=0.0,
             onset=-1,
+            quiet=-1,
             restart=change + design.margin,
             changes=tracker.changes + 1,
             detected=True,

@@ -37,6 +37,8 @@ class TrackerState:
         learned: solves that contributed to ``scale``.
         cusum: S [detection windows].
         onset_cusum: S_o, the same sum with the smaller drift κ_o (the onset).
+        quiet: absolute bank index of the newest sample of the last window whose
+            statistic z was <= 1 (-1).
         onset: absolute bank index of the newest sample when S_o last left 0
             (-1).
         restart: absolute bank index of the first sample of the segment since
@@ -56,6 +58,7 @@ class TrackerState:
     learned: int
     cusum: float
     onset_cusum: float
+    quiet: int
     onset: int
     restart: int
     reference: np.ndarray
@@ -87,6 +90,7 @@ def tracker_init(design: ChangeDesign, initial_theta: Any = None) -> TrackerStat
         learned=0,
         cusum=0.0,
         onset_cusum=0.0,
+        quiet=-1,
         onset=-1,
         restart=-1,
         reference=_frozen(np.zeros(p)),
@@ -112,6 +116,7 @@ def _vector_layout(design: ChangeDesign) -> list[tuple[str, int]]:
         ("learned", 1),
         ("cusum", 1),
         ("onset_cusum", 1),
+        ("quiet", 1),
         ("onset", 1),
         ("restart", 1),
         ("reference", p),
@@ -138,6 +143,7 @@ def tracker_vector(state: TrackerState, design: ChangeDesign) -> np.ndarray:
         "learned": state.learned,
         "cusum": state.cusum,
         "onset_cusum": state.onset_cusum,
+        "quiet": state.quiet,
         "onset": state.onset,
         "restart": state.restart,
         "reference": state.reference,
@@ -183,6 +189,7 @@ def tracker_from_vector(vector: Any, design: ChangeDesign) -> TrackerState:
         learned=int(one["learned"]),
         cusum=one["cusum"],
         onset_cusum=one["onset_cusum"],
+        quiet=int(one["quiet"]),
         onset=int(one["onset"]),
         restart=int(one["restart"]),
         reference=_frozen(parts["reference"]),
