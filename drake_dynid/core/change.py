@@ -19,17 +19,19 @@ change detection):
        S ← max(0, S + (z - κ) Δt / T_d)        (Δt the solve period)
 
    and a change is detected when S > h. A second sum S_o with a smaller drift
-   κ_o dates it: the change is placed ``lookback``·T_d before the solve at which
-   S_o last left 0, and the estimate held then (a short history is kept) is the
-   reference, the sliding window having already mixed some later data.
+   κ_o dates it: the change is placed ``lookback``·T_d before the later of the
+   solve at which S_o last left 0 and the last solve with z <= 1, at most
+   1.5·T_d before the detection, and the estimate held then (a short history is
+   kept) is the reference, the sliding window having already mixed later data.
 2. **Restart.** From that date plus the bank samples' delay (the filtered rows
    of the first samples after a change mix both parameter values), a segment
    grows at every solve. Its equations (``core.segment``, M_d/T_d
    functions per second) are too few to determine all parameters; forward
    selection (``core.isolation``) finds the parameters that moved and
-   re-estimates them, the others keeping their value before the change. A
-   detection whose segment shows no changed parameter after ``confirm`` seconds
-   is withdrawn.
+   re-estimates them, the others keeping their value before the change (the
+   reference alone while the segment is shorter than T_d/2). A detection whose
+   segment shows no changed parameter after ``confirm`` seconds is withdrawn and
+   the mean squares v are learned again.
 3. **Refilled.** Once the sliding window holds no sample before the segment's
    start, the identifier reports the window's estimate again and the test is
    re-armed (the mean squares v are kept). While a segment grows the test is

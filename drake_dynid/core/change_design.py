@@ -27,8 +27,9 @@ class ChangeDetection:
     docs/MATH.md §4, change detection.
 
     The defaults are the measured trade-off on the paper's 2R arm at SNR 30 dB
-    (benchmarks/bench_accuracy.py: detection about 1 s after the Fig. 4 jump, few
-    false alarms on logs without a change; README "Tracking a change").
+    (benchmarks/bench_accuracy.py: detection about 1.4 s after the Fig. 4 jump,
+    0.1-0.4 false alarms per minute on logs without a change; README "Tracking a
+    change").
 
     Attributes:
         window: T_d, the residual test's window [s].
@@ -43,9 +44,10 @@ class ChangeDetection:
         memory: time constant of their exponential average [s] (None: the
             sliding window T).
         alpha: level of the isolation's F-tests (``core.isolation``).
-        lookback: the change is placed ``lookback``·T_d before the solve at which
-            the onset sum last left 0 (the test's window responds a little after
-            the change enters it).
+        lookback: the change is placed ``lookback``·T_d before the later of the
+            solve at which the onset sum last left 0 and the last quiet window
+            (z <= 1): the test's window responds a little after the change
+            enters it.
         confirm: a detection whose segment, this long [s], has shown no changed
             parameter is withdrawn: the window's estimate is reported again and
             the test re-armed (a false alarm then costs about nothing).
