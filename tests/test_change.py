@@ -5,7 +5,8 @@ dynamics tracking of ``paper_trajectory``, SNR 30 dB noise, seed 0) with the
 identifier blocks in the loop; at 9.4 s ``paper.zz1_jump`` raises link 1's
 inertia in the plant, so ZZ1R goes 3.9 -> 4.5. Logs without a change: the same
 simulation without the event, and an iiwa7 log with torques from Drake's
-``CalcInverseDynamics`` (never the library's regressor) and encoder-grade noise.
+``CalcInverseDynamics`` (never the library's regressor) and encoder-grade noise;
+the same iiwa7 log with the torques of the arm carrying 1 kg in link 7 from 16 s.
 """
 
 import dataclasses
