@@ -53,8 +53,8 @@ evaluated (no simulation) and Drake's inverse dynamics + Coulomb sign
 (``_independent.exact_log``), which separates the identifier's bias from the
 simulated plant's time discretisation (the closed loop's noise-free column).
 
-ZZ1R jump (paper Fig. 4): ``paper.zz1_jump()`` at 9.4 s, T = 7 s, in the loop
-(Drake blocks), 25 s; time until ZZ1R stays within 2 % of 4.5.
+ZZ1R jump (paper Fig. 4) and false alarms of the change detection
+(``OnlineSettings.detect_changes``): benchmarks/_change.py.
 """
 
 from __future__ import annotations
@@ -66,6 +66,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import _change
 import numpy as np
 from _independent import exact_log, honesty, window_solves
 from _scenarios import _rf, robots, scenarios
@@ -288,40 +289,6 @@ def method_table(bandwidth_note=True):
     }
 
 
-def jump_run(robot, trajectory):
-    window = 7.0
-    probe = simulate(robot, trajectory, duration=10.0)
-    bandwidth = estimate_bandwidth(probe.q, H)
-    chosen = [
-        settings_for(LAGRANGIAN, window, bandwidth, update_period=0.05),
-        settings_for(POWER, window, bandwidth, update_period=0.05),
-    ]
-    r = simulate(
-        robot,
-        trajectory,
-        duration=25.0,
-        settings=chosen,
-        events=[(9.4, paper.zz1_jump(0.6))],
-    )
-    out = {}
-    for s, trace in zip(chosen, r.traces, strict=True):
-        z = trace.theta[:, 0]
-        bad = np.flatnonzero((trace.t >= 9.4) & (np.abs(z - 4.5) > 0.02 * 4.5))
-        if not len(bad):
-            settle = 0.0
-        elif bad[-1] + 1 >= len(trace.t):
-            settle = float("nan")  # not within 2 % at the end of the run
-        else:
-            settle = float(trace.t[bad[-1] + 1] - 9.4)
-        out[s.model] = {
-            "settle_s": settle,
-            "final_ZZ1R": float(z[-1]),
-            "before_jump_ZZ1R": float(z[np.searchsorted(trace.t, 9.4) - 1]),
-            "ell": s.ell().tolist(),
-        }
-    return out
-
-
 # ---------------------------------------------------------------------- output
 
 
@@ -422,6 +389,30 @@ def exact_bias(robot, quick: bool) -> dict:
     return out
 
 
+def change_report(models, scen, robot, trajectory, seeds, quick: bool) -> dict:
+    """Change tracking and false alarms on the 2R (benchmarks/_change.py).
+
+    ``quick``: one seed, noise on q and τ only, the main scenario.
+    """
+    bandwidth = estimate_bandwidth(simulate(robot, trajectory, duration=10.0).q, H)
+    chosen = [0] if quick else list(seeds)[:10]
+    report = {
+        "jump": _change.jump_tracking(
+            robot,
+            lambda **kw: simulate(robot, trajectory, **kw),
+            bandwidth,
+            chosen,
+            noises=("both",) if quick else ("both", "tau"),
+        ),
+        "false_2r": _change.false_alarms_2r(models, scen, simulate, chosen),
+    }
+    if not quick:
+        main = dict(list(scen.items())[:1])
+        tau = _change.false_alarms_2r(models, main, simulate, chosen, "tau")
+        report["false_2r_tau"] = {f"{k} (q exact)": v for k, v in tau.items()}
+    return report
+
+
 def run_2r(args, seeds, report) -> None:
     start = time.perf_counter()
     methods = method_table()
@@ -463,17 +454,9 @@ def run_2r(args, seeds, report) -> None:
                 for r in ("filtered", "raw")
             ]
             print(f"| {label} | " + " | ".join(cells) + " |")
-        jump = jump_run(main_robot, main_traj)
-        print("\n## ZZ1R jump 3.9 -> 4.5 at 9.4 s (T = 7 s, in-loop blocks, seed 0)\n")
-        print("| model | ZZ1R before | ZZ1R at 25 s | time to stay within 2 % [s] |")
-        print("|---|---|---|---|")
-        for model, j in jump.items():
-            print(
-                f"| {model} | {j['before_jump_ZZ1R']:.3f} | {j['final_ZZ1R']:.3f} | "
-                f"{j['settle_s']:.2f} |"
-            )
-        print("\n(paper Fig. 4: about 5 s)")
-    report["jump"] = jump
+        tracking = change_report(models, scen, main_robot, main_traj, seeds, args.quick)
+        _change.print_tracking(tracking, seeds)
+    report["tracking"] = tracking
     report["exact_bias"] = bias
     report["settings"] = {"lagrangian": LAGRANGIAN, "power": POWER}
     report["results"] = {
@@ -523,6 +506,14 @@ def main(argv=None) -> int:
         arm = _arm7.run(range(1 if args.quick else args.seeds7), quick=args.quick)
         _arm7.print_report(arm)
         report["iiwa7"] = arm
+        if not args.quick:  # change detection on a log without a change
+            seeds7 = range(min(args.seeds7, 5))
+            alarms = _change.false_alarms_arm7(_arm7.Arm7(), seeds7)
+            _change.print_tracking({"false_arm7": alarms}, seeds7)
+            report["iiwa7_false_alarms"] = alarms
+            payload = _change.payload_tracking(_arm7.Arm7(), seeds7)
+            _change.print_payload(payload)
+            report["iiwa7_payload"] = payload
     if args.robot in ("payload", "all"):  # issue 16 item 5
         import _accuracy_payload as _payload
 

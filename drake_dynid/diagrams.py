@@ -31,6 +31,7 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core._threads import thread_limit
+from drake_dynid.core.change import change_design
 from drake_dynid.core.online import (
     BANK_OFFSET,
     MIN_BANK_SAMPLES_PER_JACOBI_WINDOW,
@@ -91,6 +92,8 @@ def __getattr__(name: str) -> Any:
 
 #: The ports of the identifier that the chain logs at the solve period.
 _LOGGED = ("theta", "theta_std", "condition_number", "valid", "status", "unidentified")
+#: Also logged with change detection (``systems.change.ChangeTrackingIdentifier``).
+_CHANGE_LOGGED = ("change", "changed")
 
 
 @dataclass
@@ -229,21 +232,36 @@ def add_online_identifier(
         differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
     )
     names = tuple(rows.names)
-    identifier = builder.AddSystem(
-        SlidingQRIdentifier(
-            model_rows.num_parameters,
-            bank.num_rows,
-            settings.resolved("update_period"),
-            max_condition=settings.max_condition,
-            names=names,
-            offset=SOLVE_OFFSET * time_step,
-            row_weighting=settings.row_weighting(model_rows.num_equations, design),
-            row_noise=settings.row_noise(model_rows.num_equations, design),
-            jackknife_groups=settings.jackknife_groups(
-                model_rows.num_equations, design
-            ),
-        )
+    solver = dict(
+        max_condition=settings.max_condition,
+        names=names,
+        offset=SOLVE_OFFSET * time_step,
+        row_weighting=settings.row_weighting(model_rows.num_equations, design),
+        row_noise=settings.row_noise(model_rows.num_equations, design),
+        jackknife_groups=settings.jackknife_groups(model_rows.num_equations, design),
     )
+    period = settings.resolved("update_period")
+    tracking = change_design(
+        settings, time_step, model_rows.num_equations, model_rows.num_parameters
+    )
+    if tracking is None:
+        identifier = builder.AddSystem(
+            SlidingQRIdentifier(
+                model_rows.num_parameters, bank.num_rows, period, **solver
+            )
+        )
+    else:  # change detection (core.change): it reads the bank's stored samples
+        from drake_dynid.systems.change import ChangeTrackingIdentifier
+
+        identifier = builder.AddSystem(
+            ChangeTrackingIdentifier(
+                model_rows.num_parameters, bank.num_rows, period, tracking, **solver
+            )
+        )
+        builder.Connect(
+            bank.get_output_port_window_state(),
+            identifier.get_input_port_window_state(),
+        )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())
     builder.Connect(bank.get_output_port_B(), identifier.get_input_port_B())
     builder.Connect(
@@ -253,7 +271,7 @@ def add_online_identifier(
         settings, names, differentiator, model_rows, bank, identifier
     )
     if log:
-        for port in _LOGGED:
+        for port in _LOGGED + (_CHANGE_LOGGED if tracking is not None else ()):
             chain.logs[port] = LogVectorOutput(
                 identifier.GetOutputPort(port),
                 builder,
@@ -302,7 +320,21 @@ def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> Onlin
         delay=delay,
         status=logs["status"].data()[0].copy(),
         unidentified=logs["unidentified"].data().T.copy(),
+        **_change_fields(logs),
     )
+
+
+def _change_fields(logs: dict[str, Any]) -> dict[str, np.ndarray]:
+    """The trace's change-detection fields from the logs (none without)."""
+    if "change" not in logs:
+        return {}
+    change = logs["change"].data()
+    return {
+        "change": change[0].copy(),
+        "change_time": change[1].copy(),
+        "tracking": change[2].copy(),
+        "changed": logs["changed"].data().T.copy(),
+    }
 
 
 def advance(simulator: Any, t_end: float, progress: bool, label: str) -> None:

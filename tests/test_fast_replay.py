@@ -100,6 +100,35 @@ def test_core_replay_equals_the_drake_blocks(robot, log):
         assert trace.valid[0] == 0.0 and trace.valid[-1] == 1.0
 
 
+def test_core_replay_with_change_detection_equals_the_blocks(robot, log):
+    """detect_changes: a test sensitive enough to alarm on this log without a change
+    (short windows, low drift), so the restart path runs in both engines."""
+    from drake_dynid.core.change import ChangeDetection
+
+    eager = ChangeDetection(
+        window=0.3,
+        functions=3,
+        warmup=0.2,
+        drift=1.0,
+        onset_drift=0.8,
+        threshold=0.1,
+        confirm=0.6,
+    )
+    chosen = [
+        dataclasses.replace(SETTINGS[0], detect_changes=eager),
+        dataclasses.replace(SETTINGS[4], detect_changes=eager),  # power, raw rows
+    ]
+    rows = robot.rows_provider()
+    fast = replay_log_core(log, rows, chosen)
+    reference = replay_log(log, rows, chosen)
+    _compare(fast, reference)
+    for got, want in zip(fast, reference, strict=True):
+        assert got.change.sum() >= 1 and got.tracking.sum() >= 3
+        for name in ("change", "tracking", "changed"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+        np.testing.assert_array_equal(got.change_time, want.change_time)
+
+
 def test_core_replay_handles_bad_samples_like_the_blocks(robot, log):
     q = log.q.copy()
     q[1500:1503, 1] = np.nan

@@ -65,6 +65,7 @@ _SETTING_OPTIONS = {
     "weighting": "weighting",
     "raw_window": "raw_window",
     "uncertainty": "uncertainty",
+    "detect_changes": "detect_changes",
 }
 
 
@@ -409,6 +410,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_position_noise_argument(group)
     group.add_argument(
+        "--detect-changes",
+        action="store_true",
+        default=None,
+        help="detect abrupt changes of the parameters (a CUSUM test on the equation "
+        "error of the last second against the estimate) and restart the estimation "
+        "from each change instead of waiting for the window to forget it; the "
+        "detections are printed and in the JSON ('changes')",
+    )
+    group.add_argument(
         "--engine",
         choices=("core", "blocks"),
         default="core",
@@ -431,6 +441,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from drake_dynid.commands.validate import add_validation_arguments
 
     add_validation_arguments(parser)
+
+
+def _change_lines(changes: list[dict[str, Any]]) -> list[str]:
+    """The printed lines of ``--detect-changes``."""
+    if not changes:
+        return ["changes detected: none"]
+    lines = [f"changes detected: {len(changes)}"]
+    for found in changes:
+        changed = ", ".join(found["changed"]) or "none found"
+        lines.append(
+            f"  at t = {found['t']:.4g} s: change at about {found['change_time']:.4g} "
+            f"s; parameters changed: {changed}"
+        )
+    return lines
 
 
 def _invalid_reason(trace: Any) -> str:
@@ -528,6 +552,14 @@ def run(args: argparse.Namespace) -> int:
             "--max-condition."
         )
     t = log.t[0] + np.asarray(trace.t)
+    changes = [
+        {
+            **found,
+            "t": log.t[0] + found["t"],
+            "change_time": log.t[0] + found["change_time"],
+        }
+        for found in trace.detections()
+    ]
     last_valid = int(np.flatnonzero(valid)[-1])
     final = trace.final()
     theta, std = final["theta"], final["std"]
@@ -575,6 +607,9 @@ def run(args: argparse.Namespace) -> int:
                 f"  {reason}; the estimates above are the last valid ones "
                 f"(t = {t[last_valid]:.4g} s)."
             )
+        if settings.detect_changes is not False:
+            for line in _change_lines(changes):
+                print(line)
     extra = finish_identify(
         args, robot, held, held_description, {settings.model: theta}
     )
@@ -594,6 +629,7 @@ def run(args: argparse.Namespace) -> int:
             "reason": reason,
             "last_valid_time": float(t[last_valid]),
             "delay": float(trace.delay),
+            "changes": changes if settings.detect_changes is not False else None,
             "settings": {
                 **settings.as_dict(),
                 "friction": list(robot.friction),

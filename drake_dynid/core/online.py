@@ -229,6 +229,13 @@ class OnlineSettings:
             raw_window + bank_time_step <= jacobi_window + h. None (default):
             the longest even multiple of h that fits, at most
             :data:`NOMINAL_RAW_WINDOW` (0.2 s), see :meth:`on_grid`.
+        detect_changes: False (default): the sliding window alone, which
+            forgets an abrupt change of the parameters in about T. True (the
+            default ``core.change.ChangeDetection``) or a ``ChangeDetection``:
+            a CUSUM test on the equation error of the last second against the
+            estimate detects a change and restarts the estimation from it
+            (``core.change``, docs/MATH.md §4, change detection; the traces'
+            ``change`` fields).
     """
 
     model: str = "lagrangian"
@@ -249,6 +256,7 @@ class OnlineSettings:
     raw_window: float | None = None
     min_functions: int | None = None
     position_noise: float | tuple[float, ...] | None = None
+    detect_changes: Any = False
 
     def __post_init__(self) -> None:
         # Types, ranges and the hard ceilings on the work per value

@@ -172,6 +172,18 @@ def _frequencies(prefix: str, name: str, value: Any) -> np.ndarray | None:
     return ell
 
 
+def _detect_changes(prefix: str, name: str, value: Any) -> None:
+    """True, False or a ``core.change.ChangeDetection``."""
+    from drake_dynid.core.change_design import ChangeDetection
+
+    if value is True or value is False or isinstance(value, ChangeDetection):
+        return
+    raise TypeError(
+        f"{prefix}{name} must be True, False or a ChangeDetection; got {value!r} of "
+        f"type {type(value).__name__}."
+    )
+
+
 def check_values(
     values: Mapping[str, Any],
     *,
@@ -254,6 +266,7 @@ def check_values(
     if get("min_functions") is not None:
         _integer(prefix, say("min_functions"), get("min_functions"), 1, MAX_FUNCTIONS)
     _position_noise(prefix, say, get("position_noise"), model)
+    _detect_changes(prefix, say("detect_changes"), get("detect_changes", False))
     step = get("bank_time_step")
     if step is not None and step > jacobi_window / 10:
         _fail(

@@ -42,6 +42,12 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core._threads import thread_limit
+from drake_dynid.core.change import (
+    change_design,
+    tracker_init,
+    tracker_outputs,
+    tracking_update,
+)
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
 from drake_dynid.core.identifier import identifier_init, identifier_update
 from drake_dynid.core.jacobi_stream import jacobi_batch
@@ -216,12 +222,18 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     unidentified = np.zeros((num_logs, p))
     state = identifier_init(p)
     window = bank.init_state(channels.shape[1])
+    # Change detection (core.change): the tracker's outputs per logged solve.
+    design = change_design(entry, h, m, p)
+    tracker = None if design is None else tracker_init(design)
+    change = np.zeros((num_logs if design else 0, 3 + p))
     pushed = 0
     for index, s in enumerate(log_times):
         # Record the state after the solves at t < t_s.
         theta[index], std[index] = state.theta, state.std
         condition[index], valid[index] = state.condition_number, float(state.valid)
         status[index], unidentified[index] = float(state.status), state.unidentified
+        if design is not None and tracker is not None:
+            change[index] = tracker_outputs(tracker, design)
         if s > count - 1:
             break
         # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
@@ -239,17 +251,19 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             pushed = stop
         ready = bank.window_valid(window)
         a, b = bank.equations(window, m, p) if ready else (None, None)
-        state = identifier_update(
-            state,
-            ready,
-            a,
-            b,
+        solve = dict(
             weighting=weighting,
             max_condition=entry.max_condition,
             names=names,
             noise=noise,
             jackknife=jackknife,
         )
+        if design is None or tracker is None:
+            state = identifier_update(state, ready, a, b, **solve)
+        else:
+            tracker, state = tracking_update(
+                tracker, state, design, ready, a, b, window, **solve
+            )
     return OnlineTrace(
         settings=entry,
         names=names,
@@ -261,6 +275,10 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         delay=entry.delay(h) + SOLVE_OFFSET * h,
         status=status,
         unidentified=unidentified,
+        change=change[:, 0],
+        change_time=change[:, 1],
+        tracking=change[:, 2],
+        changed=change[:, 3:],
     )
 
 

@@ -22,7 +22,8 @@ that contains them; only the block being filled (the *tail*) is private.
 
 Access: :attr:`ChunkRing.oldest` (the sample that leaves the window at the next
 push once the window is full), :attr:`ChunkRing.newest`, :meth:`ChunkRing.head`
-(the ``k`` oldest samples) and :meth:`ChunkRing.window` (all samples, oldest first,
+(the ``k`` oldest samples), :meth:`ChunkRing.tail` (the ``k`` newest) and
+:meth:`ChunkRing.window` (all samples, oldest first,
 for resynchronisation).
 """
 
@@ -167,6 +168,21 @@ class ChunkRing:
             take = min(count - filled, len(block))
             out[filled : filled + take] = block[:take]
             filled += take
+        return out
+
+    def tail(self, count: int) -> np.ndarray:
+        """The ``count`` newest samples, oldest first, as a new (count, c) array."""
+        count = v.integer(_OWNER, "count", count, minimum=0)
+        if count > self._size:
+            v.fail(_OWNER, f"count must be <= size {self._size}; got {count}.")
+        out = np.empty((count, self._channels))
+        filled = count
+        for block in reversed(self._blocks()):
+            if filled == 0:
+                break
+            take = min(filled, len(block))
+            out[filled - take : filled] = block[len(block) - take :]
+            filled -= take
         return out
 
     def window(self) -> np.ndarray:

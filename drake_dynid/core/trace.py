@@ -37,6 +37,13 @@ class OnlineTrace:
         unidentified: (M, p) 1 for the parameters found not excited by that solve.
         delay: latency of the estimate [s]: the differentiator delay plus one sample
             per block (the window ends at t - delay).
+        change: (M,) with ``settings.detect_changes`` (else empty): 1 at the solve
+            that detected an abrupt change (``core.change``).
+        change_time: (M,) estimated time of the last detected change [s] (NaN
+            before the first), in the signal's time base (like ``t - delay``).
+        tracking: (M,) 1 while the estimate comes from the segment since the
+            last change (the sliding window still holds older samples).
+        changed: (M, p) 1 for the parameters re-estimated on that segment.
     """
 
     settings: OnlineSettings
@@ -49,6 +56,40 @@ class OnlineTrace:
     delay: float
     status: np.ndarray = field(default_factory=lambda: np.zeros(0))
     unidentified: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    change: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    change_time: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    tracking: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    changed: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def detections(self) -> list[dict[str, Any]]:
+        """The detected changes (empty without detection).
+
+        Per change: the solve that detected it ``t`` [s], the estimated time of
+        the change [s] and the parameters found changed at the last solve of its
+        segment (before the sliding window took over again).
+        """
+        out = []
+        tracking = np.asarray(self.tracking) > 0.5
+        for index in np.flatnonzero(np.asarray(self.change) > 0.5):
+            last = index  # the segment's last solve: its most informed selection
+            while last + 1 < len(tracking) and tracking[last + 1]:
+                last += 1
+                if self.change[last] > 0.5:
+                    last -= 1
+                    break
+            flags = self.changed[last] if len(self.changed) else ()
+            out.append(
+                {
+                    "t": float(self.t[index]),
+                    "change_time": float(self.change_time[index]),
+                    "changed": [
+                        name
+                        for name, flag in zip(self.names, flags, strict=False)
+                        if flag > 0.5
+                    ],
+                }
+            )
+        return out
 
     def final(self) -> dict[str, Any]:
         """The estimate at the end of the run (last valid estimate held)."""

@@ -36,6 +36,7 @@ class ModulatingIntegralBank(LeafSystem):
         - A
         - B
         - valid
+        - window_state
 
     Every ``bank.time_step`` seconds the block pushes the input sample (the packed
     rows of docs/CONVENTIONS.md §3) into its sliding window of length T and updates
@@ -53,9 +54,10 @@ class ModulatingIntegralBank(LeafSystem):
 
     State: one abstract state group, the window (the bank's streaming state: for
     a ``FourierBank`` a persistent ring of the window's samples plus running sums,
-    cheap to copy). Outputs are computed from the state only (no direct
-    feedthrough), so after the update at t_k they describe the window ending with
-    the sample read at t_k. Any design satisfying
+    cheap to copy), also exposed as the abstract output ``window_state`` (read by
+    the change detector, ``systems.change``). Outputs are computed from the state
+    only (no direct feedthrough), so after the update at t_k they describe the
+    window ending with the sample read at t_k. Any design satisfying
     ``drake_dynid.core.bank.ModulatingBank`` works (the extension point for
     another modulating-function family). Double only: a plain Python
     ``LeafSystem`` has no AutoDiffXd or symbolic scalar conversion.
@@ -119,6 +121,12 @@ class ModulatingIntegralBank(LeafSystem):
         self._valid = self.DeclareVectorOutputPort(
             "valid", 1, self._CalcValid, prerequisites_of_calc=ticket
         )
+        self._window_state = self.DeclareAbstractOutputPort(
+            "window_state",
+            lambda: AbstractValue.Make(initial),
+            self._CalcWindowState,
+            prerequisites_of_calc=ticket,
+        )
 
     @property
     def bank(self) -> ModulatingBank:
@@ -149,6 +157,13 @@ class ModulatingIntegralBank(LeafSystem):
     def get_output_port_valid(self) -> OutputPort:
         """The output port ``valid`` (1: full window without invalid samples)."""
         return self._valid
+
+    def get_output_port_window_state(self) -> OutputPort:
+        """The output port ``window_state`` (abstract: the bank's streaming state)."""
+        return self._window_state
+
+    def _CalcWindowState(self, context: Context, value: AbstractValue) -> None:
+        value.set_value(self._state(context))
 
     def _state(self, context: Context) -> Any:
         return context.get_abstract_state(int(self._window)).get_value()
