@@ -61,6 +61,7 @@ import numpy as np
 from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
 from drake_dynid.core._threads import thread_limit
+from drake_dynid.core.friction import EXACT_SIGN
 from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
 from drake_dynid.core.idim_auto import (
     DECIMATION_BAND_FACTOR,
@@ -256,9 +257,11 @@ def offline_rows(
     padding = default_padding(h, cutoff_hz)
     minimum = 2 * trim + 1
 
-    # Friction columns go through the decimation at the full rate; the others
-    # (rigid body) are evaluated every D1-th sample.
-    layout = idim_stream.friction_layout(names, rows.idim_rows, n)
+    # Friction columns go through the decimation at the full rate, with the
+    # provider's Coulomb law (a RobotModel's ``sign``: a dead zone by default in
+    # dynid); the others (rigid body) are evaluated every D1-th sample.
+    sign = getattr(rows, "sign", EXACT_SIGN)
+    layout = idim_stream.friction_layout(names, rows.idim_rows, n, sign)
     factor_rule = "given" if regressor_decimation is not None else "auto"
     if regressor_decimation is not None:
         regressor_decimation = check.integer(
@@ -268,7 +271,8 @@ def offline_rows(
             check.fail(
                 owner,
                 "regressor_decimation must be 1 for this row provider: its columns "
-                "named FVj/FCj/OFFj are not the friction columns v_j, sign v_j, 1.",
+                "named FVj/FCj/OFFj are not the friction columns v_j, s(v_j), 1 (or "
+                "it has motor friction columns).",
             )
     if layout is None:
         regressor_decimation, layout = 1, ()
@@ -308,7 +312,7 @@ def offline_rows(
         if stop - start < minimum:
             continue
         W_rigid, F, tau_d = idim_stream.decimated_segment(
-            q[start:stop], tau[start:stop], plan, rigid, friction
+            q[start:stop], tau[start:stop], plan, rigid, friction, sign
         )
         W = np.zeros((tau_d.shape[0], n, len(names)))
         W[..., rigid_index] = W_rigid

@@ -14,8 +14,9 @@ same equation at a fraction of the cost, in memory independent of the log length
 
 **Which columns are evaluated where.** The columns of W are of two kinds:
 
-* friction columns ``v_j``, ``sign v_j``, ``1`` (joint j's row only): cheap, and
-  ``sign v`` is discontinuous (broadband); they go through the decimation at the
+* friction columns ``v_j``, ``s(v_j)``, ``1`` (joint j's row only; s the model's
+  Coulomb law: the exact sign or a standstill dead zone): cheap, and ``s(v)``
+  is discontinuous (broadband); they go through the decimation at the
   full rate, like τ;
 * rigid-body columns (everything else): expensive, but smooth functions of the
   filtered q_f, v, v̇, whose spectrum the position filter limits to a few f_c.
@@ -66,6 +67,7 @@ import numpy as np
 from scipy import signal
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.friction import EXACT_SIGN, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
 from drake_dynid.core.planar2r import FRICTION_PREFIX
 
@@ -334,13 +336,24 @@ def stream_plan(
     )
 
 
-def _friction_series(v: np.ndarray, friction: Sequence[tuple[str, int]]) -> np.ndarray:
+def _friction_series(
+    v: np.ndarray, friction: Sequence[tuple[str, int]], sign: SignLaw
+) -> np.ndarray:
+    """(N, len(friction)) friction columns: v_j, s(v_j) or 1.
+
+    ``sign`` is applied to the whole (N, n) velocity, as the models' rows do
+    (``core.friction.friction_idim_columns``): a per-joint law (a dead zone with
+    one width per joint, broadcast on the last axis) gives joint j its own width.
+    """
     out = np.empty((v.shape[0], len(friction)))
+    signs = v
+    if any(kind == "coulomb" for kind, _ in friction):
+        signs = np.asarray(sign(v), dtype=float)
     for c, (kind, joint) in enumerate(friction):
         if kind == "viscous":
             out[:, c] = v[:, joint]
         elif kind == "coulomb":
-            out[:, c] = np.sign(v[:, joint])
+            out[:, c] = signs[:, joint]
         else:
             out[:, c] = 1.0
     return out
@@ -361,6 +374,7 @@ def _stage_one(
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]],
+    sign: SignLaw,
 ) -> Iterator[np.ndarray]:
     """Intermediate-rate columns [τ_A, friction_A, W_rb] in consecutive chunks."""
     h, trim, D1 = plan.time_step, plan.trim, plan.factor
@@ -388,7 +402,8 @@ def _stage_one(
         vdot = (q_f[2:] - 2.0 * q_f[1:-1] + q_f[:-2]) / h**2
         grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
         rigid = _rigid(rows, q_f[1:-1][grid], v[grid], vdot[grid])
-        full = np.concatenate([tau[lo:hi], _friction_series(v, friction)], axis=1)
+        series = _friction_series(v, friction, sign)
+        full = np.concatenate([tau[lo:hi], series], axis=1)
         if D1 == 1:
             filtered = full
         else:
@@ -439,6 +454,7 @@ def decimated_segment(
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]] = (),
+    sign: SignLaw = EXACT_SIGN,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Decimated rigid-body rows, friction columns and torques of one finite segment.
 
@@ -452,6 +468,8 @@ def decimated_segment(
         rows: ``rows(q_f, v, v̇) -> (R, n, p_rb)`` rigid-body columns.
         friction: (kind, joint) per friction column, kind in
             :data:`FRICTION_KINDS`, joint 0-based.
+        sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
+            (N, n) velocity; default the exact sign).
 
     Returns:
         ``(W_rb, F, tau_d)``: (K, n, p_rb) rigid-body rows, (K, len(friction))
@@ -474,30 +492,35 @@ def decimated_segment(
             check.fail(owner, f"bad friction column ({kind!r}, {joint}).")
     n, width = q.shape[1], len(friction)
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
-    data = _stage_two(_stage_one(q, tau, plan, rows, friction), count, plan)
+    data = _stage_two(_stage_one(q, tau, plan, rows, friction, sign), count, plan)
     rigid = data[:, n + width :]
     return rigid.reshape(rigid.shape[0], n, -1), data[:, n : n + width], data[:, :n]
 
 
 def friction_layout(
-    names: Sequence[str], idim_rows: RigidRows, num_joints: int
+    names: Sequence[str],
+    idim_rows: RigidRows,
+    num_joints: int,
+    sign: SignLaw = EXACT_SIGN,
 ) -> tuple[tuple[int, str, int], ...] | None:
     """The friction columns of a row provider: (column, kind, joint) each, checked.
 
     A column named ``FVj``, ``FCj`` or ``OFFj`` (j = 1..n) is a friction column of
     joint j - 1 (:data:`~drake_dynid.core.planar2r.FRICTION_PREFIX`). The provider's
-    rows at seeded random states must hold ``v_j``, ``sign v_j`` or 1 in joint j's
-    row and 0 in the others there; otherwise None (the columns cannot be split).
-    The states include velocities of 1e-9 [rad/s or m/s], so a Coulomb column
-    with another sign law (a dead zone, tanh) is not split: it would be computed
-    with the exact sign. A motor friction column (``FVmk``, ``FCmk``, ``OFFmk``:
-    a coupled motor's friction, spread over several joints' rows) gives None too:
+    rows at seeded random states must hold ``v_j``, ``s(v_j)`` (``sign``, the
+    provider's Coulomb law) or 1 in joint j's row and 0 in the others there;
+    otherwise None (the columns cannot be split). The states include velocities
+    of 1e-9 [rad/s or m/s], so a Coulomb column whose law is not ``sign`` (a dead
+    zone or tanh given as the exact sign) is not split: it would be computed with
+    the wrong law. A motor friction column (``FVmk``, ``FCmk``, ``OFFmk``: a
+    coupled motor's friction, spread over several joints' rows) gives None too:
     nonlinear in v, it must not be evaluated at the intermediate rate.
 
     Args:
         names: the p column names.
         idim_rows: ``idim_rows(q, v, v̇) -> (N, n, p)``.
         num_joints: n.
+        sign: the provider's Coulomb sign law (``RobotModel.sign``).
     """
     kinds = {prefix: kind for kind, prefix in FRICTION_PREFIX.items()}
     if any(re.fullmatch(r"(FV|FC|OFF)m[0-9]+", name) for name in names):
@@ -513,7 +536,7 @@ def friction_layout(
     q, v, vdot = rng.normal(size=(3, 4, num_joints))
     v[0] *= 1e-9  # near standstill: tells sign(v) from other sign laws
     rows = np.asarray(idim_rows(q, v, vdot), dtype=float)
-    values = _friction_series(v, [(kind, joint) for _, kind, joint in layout])
+    values = _friction_series(v, [(kind, joint) for _, kind, joint in layout], sign)
     for c, (column, _, joint) in enumerate(layout):
         expected = np.zeros((4, num_joints))
         expected[:, joint] = values[:, c]
