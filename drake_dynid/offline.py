@@ -60,7 +60,8 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
-from drake_dynid.core._threads import thread_limit
+from drake_dynid.core._threads import release_heap, thread_limit
+from drake_dynid.core.blocks import is_stored, segment
 from drake_dynid.core.friction import EXACT_SIGN
 from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
 from drake_dynid.core.idim_auto import (
@@ -211,8 +212,9 @@ def offline_rows(
     h = _check_log(owner, log, robot, rows)
     names = tuple(rows.names)
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
-    q = np.asarray(log.q, dtype=float)
-    tau = np.asarray(log.tau, dtype=float)
+    # A long log read from a file stays on disk, read a block at a time.
+    q = log.q if is_stored(log.q) else np.asarray(log.q, dtype=float)
+    tau = log.tau if is_stored(log.tau) else np.asarray(log.tau, dtype=float)
     check.log_magnitudes(owner, q, tau)
     n = q.shape[1]
     segments = log.good_segments()
@@ -231,7 +233,7 @@ def offline_rows(
         owner=owner,
     )
     longest = max(segments, key=lambda s: s[1] - s[0])
-    longest_q = q[longest[0] : longest[1]]
+    longest_q = segment(q, *longest)
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
         if longest[1] - longest[0] < 16:
@@ -305,23 +307,32 @@ def offline_rows(
     def rigid(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
         return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)[..., rigid_index]
 
-    W_parts: list[np.ndarray] = []
-    tau_parts: list[np.ndarray] = []
-    used_samples = 0
-    for start, stop in segments:
-        if stop - start < minimum:
-            continue
-        W_rigid, F, tau_d = idim_stream.decimated_segment(
-            q[start:stop], tau[start:stop], plan, rigid, friction, sign
-        )
-        W = np.zeros((tau_d.shape[0], n, len(names)))
-        W[..., rigid_index] = W_rigid
-        for c, (column, _, joint) in enumerate(layout):
-            W[:, joint, column] = F[:, c]
-        W_parts.append(W)
-        tau_parts.append(tau_d)
-        used_samples += stop - start - 2 * trim
-    if not W_parts:
+    release_heap()  # the automatic settings' spectra: not under the rows' peak
+    used = [(start, stop) for start, stop in segments if stop - start >= minimum]
+    # Rows of each segment: ceil((N - 2·trim)/D); W allocated once (no copies).
+    counts = [-(-(stop - start - 2 * trim) // decimation) for start, stop in used]
+    W = np.zeros((sum(counts), n, len(names)))
+    tau_out = np.empty((sum(counts), n))
+    row = 0
+    for start, stop in used:
+        for W_rigid, F, tau_d in idim_stream.decimated_chunks(
+            segment(q, start, stop),
+            segment(tau, start, stop),
+            plan,
+            rigid,
+            friction,
+            sign,
+        ):
+            count = tau_d.shape[0]
+            part = W[row : row + count]
+            part[..., rigid_index] = W_rigid
+            for c, (column, _, joint) in enumerate(layout):
+                part[:, joint, column] = F[:, c]
+            tau_out[row : row + count] = tau_d
+            row += count
+    assert row == W.shape[0]
+    used_samples = sum(stop - start - 2 * trim for start, stop in used)
+    if not used:
         check.fail(
             owner,
             f"no finite segment of the log is long enough: the longest has "
@@ -346,13 +357,13 @@ def offline_rows(
     }
     return OfflineRows(
         names=names,
-        W=np.concatenate(W_parts),
-        tau=np.concatenate(tau_parts),
+        W=W,
+        tau=tau_out,
         settings=settings,
         num_samples=int(q.shape[0]),
         num_samples_used=int(used_samples),
         num_segments=len(segments),
-        num_segments_used=len(W_parts),
+        num_segments_used=len(used),
     )
 
 
@@ -386,10 +397,11 @@ def standstill_widths(
 
     owner = "standstill_widths"
     h = log.time_step
+    good = log.good_segments()
     check_offline_settings(
         log.q,
         h,
-        log.good_segments(),
+        good,
         cutoff_hz=cutoff_hz,
         decimation=None,
         decimation_cutoff_hz=decimation_cutoff_hz,
@@ -403,7 +415,7 @@ def standstill_widths(
         decimation_cutoff_hz = check.below_nyquist(
             owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
         )
-    segments = [log.q[a:b] for a, b in log.good_segments()]
+    segments = [segment(log.q, a, b) for a, b in good]
     if not segments or max(len(s) for s in segments) < 16:
         return None
     longest = max(segments, key=len)
@@ -412,9 +424,11 @@ def standstill_widths(
         return None
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
-    return dead_zone_widths(
+    widths = dead_zone_widths(
         segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
     )
+    release_heap()  # the residuals: not under the next phase's peak
+    return widths
 
 
 def identify_offline(

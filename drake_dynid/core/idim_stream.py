@@ -67,6 +67,7 @@ import numpy as np
 from scipy import signal
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.blocks import checked_rows
 from drake_dynid.core.friction import EXACT_SIGN, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
 from drake_dynid.core.planar2r import FRICTION_PREFIX
@@ -78,6 +79,7 @@ __all__ = [
     "FRICTION_KINDS",
     "StreamPlan",
     "anti_alias_taps",
+    "decimated_chunks",
     "decimated_segment",
     "friction_layout",
     "regressor_decimation",
@@ -101,10 +103,10 @@ SETTLE_TOLERANCE = 1e-12
 BLOCK_SAMPLES = 1 << 16
 """Full-rate samples per block of the position filter and stage 1."""
 
-ROWS_CHUNK = 1024
+ROWS_CHUNK = 256
 """Largest batch of one rigid-body rows call (larger batches leave the cache)."""
 
-_GROUP_COLUMNS = 128  # stage 2 filters at most this many columns at once
+_GROUP_COLUMNS = 32  # stage 2 filters at most this many columns at once
 
 FRICTION_KINDS = ("viscous", "coulomb", "offset")
 """Friction column kinds: v_j [rad/s or m/s], sign v_j, 1 (joint j's row)."""
@@ -336,8 +338,20 @@ def stream_plan(
     )
 
 
-def _friction_series(
+def _signs(
     v: np.ndarray, friction: Sequence[tuple[str, int]], sign: SignLaw
+) -> np.ndarray | None:
+    """s(v) of the whole (N, n) velocity when a Coulomb column needs it."""
+    if any(kind == "coulomb" for kind, _ in friction):
+        return np.asarray(sign(v), dtype=float)
+    return None
+
+
+def _friction_series(
+    v: np.ndarray,
+    friction: Sequence[tuple[str, int]],
+    sign: SignLaw,
+    signs: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N, len(friction)) friction columns: v_j, s(v_j) or 1.
 
@@ -346,13 +360,13 @@ def _friction_series(
     one width per joint, broadcast on the last axis) gives joint j its own width.
     """
     out = np.empty((v.shape[0], len(friction)))
-    signs = v
-    if any(kind == "coulomb" for kind, _ in friction):
-        signs = np.asarray(sign(v), dtype=float)
+    if signs is None:
+        signs = _signs(v, friction, sign)
     for c, (kind, joint) in enumerate(friction):
         if kind == "viscous":
             out[:, c] = v[:, joint]
         elif kind == "coulomb":
+            assert signs is not None
             out[:, c] = signs[:, joint]
         else:
             out[:, c] = 1.0
@@ -377,43 +391,62 @@ def _stage_one(
     sign: SignLaw,
 ) -> Iterator[np.ndarray]:
     """Intermediate-rate columns [τ_A, friction_A, W_rb] in consecutive chunks."""
+    count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
+    chunk = max(1, plan.block // plan.factor)
+    for ra in range(0, count, chunk):
+        # One block per call: its full-rate arrays are freed before the yield.
+        yield _stage_one_block(
+            q, tau, plan, rows, friction, sign, ra, min(count, ra + chunk)
+        )
+
+
+def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
+    """Intermediate samples [ra, rb) of :func:`_stage_one`."""
     h, trim, D1 = plan.time_step, plan.trim, plan.factor
     N = q.shape[0]
-    count = -(-(N - 2 * trim) // D1)
     K = (plan.taps.size - 1) // 2
     lead = (-2 * K) % D1  # zeros ahead of the data: output `first` is sample trim
     first = (2 * K + lead) // D1
     pad = min(plan.padding, N - 1)
     margin = plan.position_margin
-    chunk = max(1, plan.block // D1)
-    for ra in range(0, count, chunk):
-        rb = min(count, ra + chunk)
-        lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
-        hi = trim + (rb - 1) * D1 + K + 1
-        a, b = max(0, lo - 1 - margin), min(N, hi + 1 + margin)
-        q_f = zero_phase_span(
-            plan.position_sos,
-            q[a:b],
-            pad_left=pad if a == 0 else 0,
-            pad_right=pad if b == N else 0,
-            padtype="odd",
-        )[lo - 1 - a : hi + 1 - a]
-        v = (q_f[2:] - q_f[:-2]) / (2.0 * h)
-        vdot = (q_f[2:] - 2.0 * q_f[1:-1] + q_f[:-2]) / h**2
-        grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
-        rigid = _rigid(rows, q_f[1:-1][grid], v[grid], vdot[grid])
-        series = _friction_series(v, friction, sign)
-        full = np.concatenate([tau[lo:hi], series], axis=1)
+    lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
+    hi = trim + (rb - 1) * D1 + K + 1
+    a, b = max(0, lo - 1 - margin), min(N, hi + 1 + margin)
+    q_f = zero_phase_span(
+        plan.position_sos,
+        q[a:b],
+        pad_left=pad if a == 0 else 0,
+        pad_right=pad if b == N else 0,
+        padtype="odd",
+    )[lo - 1 - a : hi + 1 - a]
+    v = (q_f[2:] - q_f[:-2]) / (2.0 * h)
+    grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
+    ahead, here, behind = q_f[2:][grid], q_f[1:-1][grid], q_f[:-2][grid]
+    vdot = (ahead - 2.0 * here + behind) / h**2  # at the grid only
+    rigid = _rigid(rows, here, v[grid], vdot)
+    # [τ, friction] at the full rate after `lead` zeros, through the FIR a group
+    # of n columns at a time (each column on its own: the same numbers).
+    n = tau.shape[1]
+    series = np.asarray(tau[lo:hi], dtype=float)
+    signs = _signs(v, friction, sign)
+    out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
+    out[:, n + len(friction) :] = rigid
+    for c in range(0, n + len(friction), n):
+        if c:
+            series = _friction_series(v, friction[c - n : c], sign, signs=signs)
         if D1 == 1:
-            filtered = full
-        else:
-            full = np.concatenate([np.zeros((lead, full.shape[1])), full])
-            filtered = signal.upfirdn(plan.taps, full, down=D1, axis=0)
-            filtered = filtered[first : first + rb - ra]
-        yield np.concatenate([filtered, rigid], axis=1)
+            out[:, c : c + series.shape[1]] = series
+            continue
+        full = np.zeros((lead + series.shape[0], series.shape[1]))
+        full[lead:] = series
+        filtered = signal.upfirdn(plan.taps, full, down=D1, axis=0)
+        out[:, c : c + series.shape[1]] = filtered[first : first + rb - ra]
+    return out
 
 
-def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
+def _stage_two(
+    chunks: Iterator[np.ndarray], count: int, plan: StreamPlan
+) -> Iterator[np.ndarray]:
     """Zero-phase order-8 low-pass at f_d and one sample in D2, block by block."""
     D2 = plan.decimation // plan.factor
     margin = plan.decimation_margin
@@ -422,7 +455,6 @@ def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
     buffer = np.empty((0, 0))
     start = 0  # intermediate index of buffer[0]
     done = 0  # next intermediate index to output
-    out = []
     for chunk in chunks:
         buffer = chunk if buffer.size == 0 else np.concatenate([buffer, chunk])
         end = start + buffer.shape[0]
@@ -439,31 +471,32 @@ def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
                     pad_right=pad if u1 == count else 0,
                     padtype="even",
                 )
-                parts.append(y[done - u0 : r1 - u0 : D2])
-            out.append(np.concatenate(parts, axis=1))
+                parts.append(y[done - u0 : r1 - u0 : D2].copy())  # y freed
+            yield np.concatenate(parts, axis=1)
             done = r1
             keep = max(0, done - margin) - start
             buffer = buffer[keep:].copy()
             start += keep
-    return np.concatenate(out)
 
 
-def decimated_segment(
+def decimated_chunks(
     q: np.ndarray,
     tau: np.ndarray,
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]] = (),
     sign: SignLaw = EXACT_SIGN,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Decimated rigid-body rows, friction columns and torques of one finite segment.
 
     Row i refers to sample ``trim + i·D`` of the segment (as
-    ``parallel_decimation(W, tau[trim:N - trim], D)``).
+    ``parallel_decimation(W, tau[trim:N - trim], D)``); yielded a block of rows
+    at a time, in order (memory: a few blocks, not the K rows).
 
     Args:
-        q: (N, n) finite positions [rad or m], N >= 2·trim + 1.
-        tau: (N, n) finite torques [N·m or N].
+        q: (N, n) finite positions [rad or m], N >= 2·trim + 1 (an array, or a
+            stored log read a block at a time: ``drake_dynid.core.blocks``).
+        tau: (N, n) finite torques [N·m or N], likewise.
         plan: the :class:`StreamPlan`.
         rows: ``rows(q_f, v, v̇) -> (R, n, p_rb)`` rigid-body columns.
         friction: (kind, joint) per friction column, kind in
@@ -471,14 +504,15 @@ def decimated_segment(
         sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
             (N, n) velocity; default the exact sign).
 
-    Returns:
-        ``(W_rb, F, tau_d)``: (K, n, p_rb) rigid-body rows, (K, len(friction))
-        friction columns (column c belongs to row ``friction[c][1]``) and (K, n)
-        torques, K = ceil((N - 2·trim)/D).
+    Yields:
+        ``(W_rb, F, tau_d)`` chunks of (k, n, p_rb) rigid-body rows, (k,
+        len(friction)) friction columns (column c belongs to row
+        ``friction[c][1]``) and (k, n) torques; K = ceil((N - 2·trim)/D) rows in
+        all.
     """
-    owner = "decimated_segment"
-    q = check.array(owner, "q", q)
-    tau = check.array(owner, "tau", tau)
+    owner = "decimated_chunks"
+    q = checked_rows(owner, "q", q)  # a stored log: read a block at a time
+    tau = checked_rows(owner, "tau", tau)
     if q.ndim != 2 or tau.shape != q.shape:
         check.fail(owner, f"q and tau must be (N, n); got {q.shape} and {tau.shape}.")
     if q.shape[0] < 2 * plan.trim + 1:
@@ -492,9 +526,31 @@ def decimated_segment(
             check.fail(owner, f"bad friction column ({kind!r}, {joint}).")
     n, width = q.shape[1], len(friction)
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
-    data = _stage_two(_stage_one(q, tau, plan, rows, friction, sign), count, plan)
-    rigid = data[:, n + width :]
-    return rigid.reshape(rigid.shape[0], n, -1), data[:, n : n + width], data[:, :n]
+    for data in _stage_two(_stage_one(q, tau, plan, rows, friction, sign), count, plan):
+        rigid = data[:, n + width :]
+        yield (
+            rigid.reshape(rigid.shape[0], n, -1),
+            data[:, n : n + width],
+            data[:, :n],
+        )
+
+
+def decimated_segment(
+    q: np.ndarray,
+    tau: np.ndarray,
+    plan: StreamPlan,
+    rows: RigidRows,
+    friction: Sequence[tuple[str, int]] = (),
+    sign: SignLaw = EXACT_SIGN,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`decimated_chunks` of one segment, stacked.
+
+    Arguments and chunks as there: ``(W_rb, F, tau_d)`` with K = ceil((N -
+    2·trim)/D) rows.
+    """
+    parts = list(decimated_chunks(q, tau, plan, rows, friction, sign))
+    W_rb, F, tau_d = (np.concatenate([part[i] for part in parts]) for i in range(3))
+    return W_rb, F, tau_d
 
 
 def friction_layout(
