@@ -148,48 +148,45 @@ class StoredArray:
         out = self._file.read(self._start + start, self._start + stop)
         return out[:, 0] if self._vector else out
 
-    def _rows(self, index: Any) -> Any:
+    def _span(self, index: Any) -> tuple[int, int, Any]:
+        """(low, high, index shifted to rows [low, high)) of a row index."""
         n = len(self)
         if isinstance(index, slice):
             start, stop, step = index.indices(n)
-            if step == 1:
-                return self._read(start, max(start, stop))
-            return self._take(np.arange(start, stop, step))
+            picked = range(start, stop, step)
+            if len(picked) == 0:
+                return 0, 0, slice(0, 0)
+            low, high = min(picked[0], picked[-1]), max(picked[0], picked[-1]) + 1
+            end = stop - low
+            return low, high, slice(start - low, end if end >= 0 else None, step)
         if isinstance(index, (int, np.integer)):
             i = int(index) + (n if index < 0 else 0)
             if not 0 <= i < n:
                 raise IndexError(f"index {index} is out of bounds for {n} rows")
-            return self._read(i, i + 1)[0]
+            return i, i + 1, 0
         array = np.asarray(index)
         if array.dtype == bool:
             if array.shape != (n,):
                 raise IndexError(f"boolean index of shape {array.shape} for {n} rows")
-            return self._take(np.flatnonzero(array))
+            array = np.flatnonzero(array)
         if array.dtype.kind not in "iu":
             raise IndexError(f"rows must be indexed by integers; got {array.dtype}")
-        return self._take(array)
-
-    def _take(self, index: np.ndarray) -> np.ndarray:
-        n = len(self)
-        flat = np.where(index < 0, index + n, index).astype(np.int64)
+        flat = np.where(array < 0, array + n, array).astype(np.int64)
         if flat.size == 0:
-            return self._read(0, 0)[flat]
-        low, high = int(flat.min()), int(flat.max())
-        if low < 0 or high >= n:
+            return 0, 0, flat
+        low, high = int(flat.min()), int(flat.max()) + 1
+        if low < 0 or high > n:
             raise IndexError(f"row index out of bounds for {n} rows")
-        return self._read(low, high + 1)[flat - low]
+        return low, high, flat - low
 
     def __getitem__(self, index: Any) -> Any:
-        if isinstance(index, tuple):
-            if len(index) == 0:
-                return np.asarray(self)
-            rows = self._rows(index[0])
-            if len(index) == 1:
-                return rows
-            if np.ndim(rows) == self.ndim - 1:  # one row: the rest applies to it
-                return rows[index[1:]]
-            return rows[(slice(None), *index[1:])]
-        return self._rows(index)
+        """Reads only the rows the index needs; numpy's indexing rules on them."""
+        if not isinstance(index, tuple):
+            index = (index,)
+        if len(index) == 0 or index[0] is Ellipsis:
+            return np.asarray(self)[index]
+        low, high, rows = self._span(index[0])
+        return self._read(low, high)[(rows, *index[1:])]
 
     def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
         out = self._read(0, len(self))
