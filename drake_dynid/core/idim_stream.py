@@ -59,7 +59,6 @@ the log length; only the decimated rows (N/D of them) are kept.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -70,13 +69,24 @@ from drake_dynid.core import _validate as check
 from drake_dynid.core.blocks import checked_rows
 from drake_dynid.core.friction import EXACT_SIGN, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
-from drake_dynid.core.planar2r import FRICTION_PREFIX
+from drake_dynid.core.idim_friction import (
+    FRICTION_KINDS,
+    friction_layout,
+    friction_series,
+    signs_of,
+)
+from drake_dynid.core.zero_phase import (
+    SETTLE_TOLERANCE,
+    settle_samples,
+    zero_phase_span,
+)
 
 __all__ = [
     "ALIAS_FACTOR",
     "ANTI_ALIAS_DB",
     "BAND_FACTOR",
     "FRICTION_KINDS",
+    "SETTLE_TOLERANCE",
     "StreamPlan",
     "anti_alias_taps",
     "decimated_chunks",
@@ -97,9 +107,6 @@ BAND_FACTOR = 16.0
 ANTI_ALIAS_DB = 120.0
 """Kaiser FIR of stage 1: pass-band ripple and stop-band attenuation 1e-6."""
 
-SETTLE_TOLERANCE = 1e-12
-"""Block margins: IIR start-up transients decay below this fraction."""
-
 BLOCK_SAMPLES = 1 << 16
 """Full-rate samples per block of the position filter and stage 1."""
 
@@ -108,59 +115,7 @@ ROWS_CHUNK = 256
 
 _GROUP_COLUMNS = 32  # stage 2 filters at most this many columns at once
 
-FRICTION_KINDS = ("viscous", "coulomb", "offset")
-"""Friction column kinds: v_j [rad/s or m/s], sign v_j, 1 (joint j's row)."""
-
 RigidRows = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-
-
-def settle_samples(sos: np.ndarray, tolerance: float = SETTLE_TOLERANCE) -> int:
-    """Samples after which the IIR filter ``sos``'s transients fall below tolerance.
-
-    ``ceil(ln(tolerance) / ln ρ)`` with ρ < 1 the largest pole modulus of the
-    second-order sections (the slowest mode decays as ρ^k).
-    """
-    poles = np.concatenate([np.roots(section[3:]) for section in np.atleast_2d(sos)])
-    rho = float(np.max(np.abs(poles)))
-    if not rho < 1.0:
-        check.fail("settle_samples", f"the filter must be stable; got |pole| {rho}.")
-    return math.ceil(math.log(tolerance) / math.log(rho))
-
-
-def zero_phase_span(
-    sos: np.ndarray, x: np.ndarray, *, pad_left: int, pad_right: int, padtype: str
-) -> np.ndarray:
-    """``sosfiltfilt`` of a span of a longer signal, padded only at its true ends.
-
-    ``pad_left`` (``pad_right``) samples of the odd (``2 x_0 - x_k``) or even
-    (``x_k``) reflection are added at the start (end) of ``x``; 0 means that side is
-    interior (its transient must die in a margin the caller drops). With both pads
-    this is exactly ``scipy.signal.sosfiltfilt(sos, x, axis=0, padtype=padtype,
-    padlen=pad)``.
-
-    Args:
-        sos: second-order sections.
-        x: (L, c) span, L > max(pad_left, pad_right).
-        pad_left: reflection samples at the start (0: none).
-        pad_right: reflection samples at the end (0: none).
-        padtype: ``"odd"`` or ``"even"``.
-
-    Returns:
-        (L, c) the filtered span.
-    """
-    parts = []
-    if pad_left:
-        head = x[pad_left:0:-1]
-        parts.append(2.0 * x[:1] - head if padtype == "odd" else head)
-    parts.append(x)
-    if pad_right:
-        tail = x[-2 : -(pad_right + 2) : -1]
-        parts.append(2.0 * x[-1:] - tail if padtype == "odd" else tail)
-    ext = np.concatenate(parts) if len(parts) > 1 else x
-    zi = signal.sosfilt_zi(sos)[:, :, None]
-    y, _ = signal.sosfilt(sos, ext, axis=0, zi=zi * ext[:1])
-    y, _ = signal.sosfilt(sos, y[::-1], axis=0, zi=zi * y[-1:])
-    return y[::-1][pad_left : ext.shape[0] - pad_right]
 
 
 def anti_alias_taps(factor: int, passband: float) -> np.ndarray:
@@ -338,41 +293,6 @@ def stream_plan(
     )
 
 
-def _signs(
-    v: np.ndarray, friction: Sequence[tuple[str, int]], sign: SignLaw
-) -> np.ndarray | None:
-    """s(v) of the whole (N, n) velocity when a Coulomb column needs it."""
-    if any(kind == "coulomb" for kind, _ in friction):
-        return np.asarray(sign(v), dtype=float)
-    return None
-
-
-def _friction_series(
-    v: np.ndarray,
-    friction: Sequence[tuple[str, int]],
-    sign: SignLaw,
-    signs: np.ndarray | None = None,
-) -> np.ndarray:
-    """(N, len(friction)) friction columns: v_j, s(v_j) or 1.
-
-    ``sign`` is applied to the whole (N, n) velocity, as the models' rows do
-    (``core.friction.friction_idim_columns``): a per-joint law (a dead zone with
-    one width per joint, broadcast on the last axis) gives joint j its own width.
-    """
-    out = np.empty((v.shape[0], len(friction)))
-    if signs is None:
-        signs = _signs(v, friction, sign)
-    for c, (kind, joint) in enumerate(friction):
-        if kind == "viscous":
-            out[:, c] = v[:, joint]
-        elif kind == "coulomb":
-            assert signs is not None
-            out[:, c] = signs[:, joint]
-        else:
-            out[:, c] = 1.0
-    return out
-
-
 def _rigid(rows: RigidRows, q, v, vdot) -> np.ndarray:
     parts = []
     for a in range(0, q.shape[0], ROWS_CHUNK):
@@ -428,12 +348,12 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     # of n columns at a time (each column on its own: the same numbers).
     n = tau.shape[1]
     series = np.asarray(tau[lo:hi], dtype=float)
-    signs = _signs(v, friction, sign)
+    signs = signs_of(v, friction, sign)
     out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
     out[:, n + len(friction) :] = rigid
     for c in range(0, n + len(friction), n):
         if c:
-            series = _friction_series(v, friction[c - n : c], sign, signs=signs)
+            series = friction_series(v, friction[c - n : c], sign, signs=signs)
         if D1 == 1:
             out[:, c : c + series.shape[1]] = series
             continue
@@ -551,51 +471,3 @@ def decimated_segment(
     parts = list(decimated_chunks(q, tau, plan, rows, friction, sign))
     W_rb, F, tau_d = (np.concatenate([part[i] for part in parts]) for i in range(3))
     return W_rb, F, tau_d
-
-
-def friction_layout(
-    names: Sequence[str],
-    idim_rows: RigidRows,
-    num_joints: int,
-    sign: SignLaw = EXACT_SIGN,
-) -> tuple[tuple[int, str, int], ...] | None:
-    """The friction columns of a row provider: (column, kind, joint) each, checked.
-
-    A column named ``FVj``, ``FCj`` or ``OFFj`` (j = 1..n) is a friction column of
-    joint j - 1 (:data:`~drake_dynid.core.planar2r.FRICTION_PREFIX`). The provider's
-    rows at seeded random states must hold ``v_j``, ``s(v_j)`` (``sign``, the
-    provider's Coulomb law) or 1 in joint j's row and 0 in the others there;
-    otherwise None (the columns cannot be split). The states include velocities
-    of 1e-9 [rad/s or m/s], so a Coulomb column whose law is not ``sign`` (a dead
-    zone or tanh given as the exact sign) is not split: it would be computed with
-    the wrong law. A motor friction column (``FVmk``, ``FCmk``, ``OFFmk``: a
-    coupled motor's friction, spread over several joints' rows) gives None too:
-    nonlinear in v, it must not be evaluated at the intermediate rate.
-
-    Args:
-        names: the p column names.
-        idim_rows: ``idim_rows(q, v, v̇) -> (N, n, p)``.
-        num_joints: n.
-        sign: the provider's Coulomb sign law (``RobotModel.sign``).
-    """
-    kinds = {prefix: kind for kind, prefix in FRICTION_PREFIX.items()}
-    if any(re.fullmatch(r"(FV|FC|OFF)m[0-9]+", name) for name in names):
-        return None
-    layout = []
-    for column, name in enumerate(names):
-        match = re.fullmatch(r"(FV|FC|OFF)([1-9][0-9]*)", name)
-        if match and int(match[2]) <= num_joints:
-            layout.append((column, kinds[match[1]], int(match[2]) - 1))
-    if not layout:
-        return ()
-    rng = np.random.default_rng(20150)
-    q, v, vdot = rng.normal(size=(3, 4, num_joints))
-    v[0] *= 1e-9  # near standstill: tells sign(v) from other sign laws
-    rows = np.asarray(idim_rows(q, v, vdot), dtype=float)
-    values = _friction_series(v, [(kind, joint) for _, kind, joint in layout], sign)
-    for c, (column, _, joint) in enumerate(layout):
-        expected = np.zeros((4, num_joints))
-        expected[:, joint] = values[:, c]
-        if not np.allclose(rows[:, :, column], expected, rtol=1e-12, atol=1e-12):
-            return None
-    return tuple(layout)

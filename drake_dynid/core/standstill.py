@@ -134,7 +134,7 @@ class _Filters:
 
     Each block of velocities is computed from a span of q with margins where the
     filters' start-up transients decay below 1e-12
-    (``core.idim_stream.settle_samples``), padded only at the run's true ends:
+    (``core.zero_phase.settle_samples``), padded only at the run's true ends:
     a run that fits in one block gives ``sosfiltfilt`` of the whole run exactly,
     a longer one the same to round-off, in memory of a few blocks.
     """
@@ -142,7 +142,7 @@ class _Filters:
     def __init__(self, time_step: float, cutoff_hz: float, band: float):
         from scipy import signal  # only here: RobotModel imports this module
 
-        from drake_dynid.core.idim_stream import settle_samples
+        from drake_dynid.core.zero_phase import settle_samples
 
         self.h = time_step
         fs = 1.0 / time_step
@@ -172,7 +172,7 @@ class _Filters:
         Velocity sample k is position sample trim + k (central differences of
         the position filter's output, as ``core.idim.offline_derivatives``).
         """
-        from drake_dynid.core.idim_stream import zero_phase_span
+        from drake_dynid.core.zero_phase import zero_phase_span
 
         count = q.shape[0]
         velocities = count - 2 * trim
