@@ -27,6 +27,12 @@ Missing slots (k_{j+1} - k_j > 1) are dropped samples. The fit (``fit_time_grid`
 A gap would insert missing slots: their total is bounded by ``max_inserted`` and
 checked before anything is allocated. Pure numpy; no file or row notions: the caller
 names the samples through ``where`` (e.g. ``"row 12 (t = 0.011)"``).
+
+Memory: the fit holds the slots (int64) and a few (N,) masks, never a copy of the
+stamps; ``t`` may be a stored array of a long log (``core.blocks``), read a chunk
+of ``_CHUNK`` samples at a time. Up to ``_CHUNK`` samples the sums are those of one
+piece; beyond, they are taken in pieces (the same to round-off). The short-run
+interpolation is ``core.short_runs.fill_short_runs`` (re-exported here).
 """
 
 from __future__ import annotations
@@ -39,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core.blocks import is_stored
+from drake_dynid.core.short_runs import fill_short_runs
 
 __all__ = [
     "NonUniformSampling",
@@ -477,56 +484,3 @@ def _reread(s: _Stamps, slots: np.ndarray, h: float, c: float) -> bool:
     for a, b in s.spans():
         slots[a:b] = fresh(a, b)
     return True
-
-
-def fill_short_runs(
-    x: np.ndarray, max_run: int, cubic: bool = False
-) -> tuple[np.ndarray, np.ndarray]:
-    """Interpolates the interior runs of at most ``max_run`` non-finite samples.
-
-    Each column of ``x`` (N, n) on a uniform grid is treated alone. A run of missing
-    samples with finite neighbours a (before) and b (after) is filled linearly, or
-    with the cubic through a - 1, a, b, b + 1 when ``cubic`` and those are finite.
-    Runs at either end, and longer runs, stay non-finite.
-
-    Returns:
-        The filled copy of ``x`` and the (N, n) bool mask of the filled entries.
-    """
-    x = np.array(x, dtype=float, copy=True)
-    filled = np.zeros(x.shape, bool)
-    if max_run < 1:
-        return x, filled
-    n = x.shape[0]
-    idx = np.arange(n)
-    for j in range(x.shape[1]):
-        col = x[:, j]
-        finite = np.isfinite(col)
-        if finite.all() or not finite.any():
-            continue
-        left = np.maximum.accumulate(np.where(finite, idx, -1))
-        right = np.minimum.accumulate(np.where(finite, idx, n)[::-1])[::-1]
-        p = np.flatnonzero(~finite)
-        a, b = left[p], right[p]
-        use = (a >= 0) & (b < n) & (b - a - 1 <= max_run)
-        p, a, b = p[use], a[use], b[use]
-        if p.size == 0:
-            continue
-        w = (p - a) / (b - a)
-        value = (1.0 - w) * col[a] + w * col[b]
-        if cubic:
-            a0 = np.maximum(a - 1, 0)
-            b1 = np.minimum(b + 1, n - 1)
-            four = (a - 1 >= 0) & (b + 1 < n) & finite[a0] & finite[b1]
-            nodes = [a0[four], a[four], b[four], b1[four]]
-            at = p[four]
-            cubic_value = np.zeros(at.size)
-            for i in range(4):  # Lagrange polynomial through the four nodes
-                term = col[nodes[i]]
-                for m in range(4):
-                    if m != i:
-                        term = term * (at - nodes[m]) / (nodes[i] - nodes[m])
-                cubic_value += term
-            value[four] = cubic_value
-        col[p] = value
-        filled[p, j] = True
-    return x, filled
