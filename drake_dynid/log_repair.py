@@ -357,7 +357,9 @@ def _placed(grid, samples, options):
     total, slots = grid.num_slots, grid.slots
     n = q.shape[1]
     margin = options.fill_gaps + 2
-    sinks = RowSink(n), RowSink(n)
+    # A stored log stays stored (beyond log_store.SPILL_BYTES); arrays stay arrays.
+    limit = None if is_stored(q) or is_stored(tau) else math.inf
+    sinks = RowSink(n, limit), RowSink(n, limit)
     filled = np.zeros(total, bool)
     bad_after = np.zeros(slots.size, bool)
     for g0 in range(0, total, _PLACE_SLOTS):

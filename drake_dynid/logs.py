@@ -27,6 +27,11 @@ insert at most as many samples as the rows read (checked before any allocation);
 filling more than 5 % of the samples is an error. Every repair is a warning on the
 log; every problem a ``ValueError`` (``OSError`` for an unreadable file) naming the
 file, the rows and what to do.
+
+Long logs: the file is parsed a block of text at a time (``drake_dynid.log_table``)
+and, beyond ``drake_dynid.log_store.SPILL_BYTES`` per array, ``t``, ``q`` and
+``tau`` stay in temporary files, read a block at a time by the streamed consumers
+(``drake_dynid.core.blocks``); the numbers are those of the whole file read at once.
 """
 
 from __future__ import annotations

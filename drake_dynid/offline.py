@@ -25,8 +25,10 @@ columns and τ are decimated at the full rate, while the rigid-body columns, the
 expensive ones, are evaluated only every D1-th sample, D = D1·D2, with the
 decimation in two stages (an anti-alias FIR to f_s/D1 on τ and friction, then
 the order-8 Butterworth at f_d on every column at f_s/D1). Memory does not grow
-with the log length beyond the decimated rows (:func:`offline_rows`), and on a
-7-DOF arm the regressor runs on about one sample in 40 instead of all of them.
+with the log length beyond the decimated rows (:func:`offline_rows`; a long log
+read from a file stays on disk and is read a block at a time, and the least
+squares factor the rows a block at a time), and on a 7-DOF arm the regressor runs
+on about one sample in 40 instead of all of them.
 ``regressor_decimation=1`` evaluates every sample: the one-stage parallel
 decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
 The estimates of the two agree to a small fraction of their σ (tests/test_offline.py).
