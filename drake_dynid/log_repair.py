@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drake_dynid.core.blocks import BLOCK_ROWS, blocks, is_stored
 from drake_dynid.core.timestamps import (
     NonUniformSampling,
     TimeGrid,
@@ -21,6 +22,7 @@ from drake_dynid.core.timestamps import (
     fit_time_grid,
     nominal_step,
 )
+from drake_dynid.log_store import GridTimes, RowSink
 
 JITTER_TOLERANCE = 0.25  # [steps] default snapping tolerance
 FILL_GAPS = 5  # [samples] default longest interpolated run
@@ -29,6 +31,7 @@ NANOSECONDS = 1e17  # integer stamps from here on: nanoseconds since the epoch
 MAX_SECONDS = 1e11  # |t| beyond (year 5000) cannot be seconds
 RESAMPLE_ROUNDING = 1e-2  # a resampling grid takes a round step within 1 %
 REPORTED_JITTER = 1e-3  # [steps] smaller deviations are round-off, not reported
+_PLACE_SLOTS = 1 << 14  # grid slots placed and filled at a time
 
 
 @dataclass(frozen=True)
@@ -111,11 +114,28 @@ def rows_text(noun: str, labels: Sequence[int], limit: int = 4) -> str:
 
 
 def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
-    """Time stamps in seconds relative to a base, the base [s], and a note."""
+    """Time stamps in seconds relative to a base, the base [s], and a note.
+
+    ``exact``: (N,) int64 stamps as written (integer nanoseconds), or None. A
+    stored t (a long log) is checked a block at a time and loaded only when its
+    stamps are epoch nanoseconds.
+    """
+    if is_stored(t):
+        low, high = math.inf, -math.inf
+        for _, block in blocks(t):
+            block = block[np.isfinite(block)]
+            if block.size:
+                low, high = min(low, float(block.min())), max(high, float(block.max()))
+        if low > high or max(abs(low), abs(high)) < MAX_SECONDS:
+            return t, 0.0, []
+        t = np.asarray(t)
     finite = np.isfinite(t)
     if not finite.any():
         return t, 0.0, []
-    big = float(np.max(np.abs(t[finite])))
+    if finite.all():  # no copy of t
+        big = max(abs(float(t.max())), abs(float(t.min())))
+    else:
+        big = float(np.max(np.abs(t[finite])))
     if big < MAX_SECONDS:
         return t, 0.0, []
     if float(t[finite].min()) < NANOSECONDS:
@@ -126,10 +146,9 @@ def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
         )
     first = int(np.flatnonzero(finite)[0])
     s = np.full(t.size, np.nan)
-    if exact is not None and exact[first] is not None:
+    if exact is not None:
         base = int(exact[first])
-        rel = [0 if v is None else v - base for v in exact]
-        s[finite] = np.asarray(rel, dtype=float)[finite] * 1e-9
+        s[finite] = (exact[finite] - base).astype(float) * 1e-9
     else:
         base = int(t[first])
         s[finite] = (t[finite] - t[first]) * 1e-9
@@ -140,25 +159,35 @@ def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
     return s, base * 1e-9, [note]
 
 
-def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired:
+def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
     """Time stamps → uniform grid → filled or bad samples.
 
     Args:
         owner: prefix of the messages (``log PATH``).
         noun: what a label counts (``row`` of a file, ``sample`` of arrays).
         t: (N,) time stamps as read [s, or ns when >= 1e17].
-        exact: the stamps as exact integers (nanoseconds), or None.
-        q: (N, n) joint positions [rad or m].
-        tau: (N, n) joint torques [N·m or N].
+        exact: (N,) int64 stamps as written (integer nanoseconds), or None.
+        q: (N, n) joint positions [rad or m]: an array, or a stored array
+            (``drake_dynid.log_store``) read a block at a time.
+        tau: (N, n) joint torques [N·m or N], likewise.
         labels: (N,) int label of each sample in messages.
         options: the checked options.
         notes: warnings of the earlier layers.
+        bad: (N,) bool, True where a q or tau cell is not finite (None: computed).
+
+    Returns:
+        The :class:`Repaired` log; its q and tau are stored arrays when larger
+        than ``drake_dynid.log_store.SPILL_BYTES`` (t then a ``GridTimes``).
     """
     warnings = list(notes)
-    shown = t.copy()
+    shown = t
     t, base, note = _seconds(owner, t, exact)
     warnings += note
-    bad_t = np.flatnonzero(~np.isfinite(t))
+    bad = _bad(q, tau) if bad is None else bad
+    index = None  # working sample -> row of q and tau (None: the same row)
+    bad_t = np.concatenate(
+        [start + np.flatnonzero(~np.isfinite(block)) for start, block in blocks(t)]
+    ).astype(np.int64)
     if bad_t.size:
         first = int(bad_t[0])
         if bad_t.size > 3 + t.size // 1000 or t.size - bad_t.size < 10:
@@ -169,19 +198,14 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
         warnings.append(
             f"dropped {rows_text(noun, labels[bad_t])}: time stamp empty or not finite."
         )
+        t = shown = np.asarray(t)
         keep = np.isfinite(t)
-        t, shown, q, tau, labels = (
-            t[keep],
-            shown[keep],
-            q[keep],
-            tau[keep],
-            labels[keep],
-        )
+        index = np.flatnonzero(keep)
+        t, shown, labels, bad = t[keep], shown[keep], labels[keep], bad[keep]
     if t.size < 2:
         raise ValueError(f"{owner}: needs at least 2 samples; got {t.size}.")
-    same = np.flatnonzero(np.diff(t) == 0.0)
-    if same.size:
-        i = int(same[0]) + 1
+    i = _repeated(t)
+    if i:
         raise ValueError(
             f"{owner}: duplicated time stamp at {noun} {labels[i]} (t = {shown[i]:.16g}"
             f", the same as {noun} {labels[i - 1]})."
@@ -214,15 +238,19 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
             f"{', ...' if out.size > 3 else ''}): time stamp(s) off the grid of the "
             "other samples (outliers)."
         )
-    jitter = 0.0 if grid is None else float(np.max(np.abs(grid.deviation)))
+        rows = np.flatnonzero(kept)
+        index = rows if index is None else index[rows]
+        t, shown = np.asarray(t)[kept], np.asarray(shown)[kept]
+        labels, bad = labels[kept], bad[kept]
+    jitter = 0.0 if grid is None else grid.jitter
     if options.resample and (grid is None or jitter > REPORTED_JITTER):
         log = _resampled(
             owner,
             noun,
-            t[kept],
-            q[kept],
-            tau[kept],
-            labels[kept],
+            np.asarray(t),
+            _loaded(q, index),
+            _loaded(tau, index),
+            labels,
             step,
             grid,
             options,
@@ -232,15 +260,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
     else:
         assert grid is not None
         log = _snapped(
-            owner,
-            noun,
-            grid,
-            q[kept],
-            tau[kept],
-            labels[kept],
-            shown[kept],
-            options,
-            warnings,
+            owner, noun, grid, (q, tau, index, bad), labels, shown, options, warnings
         )
     samples = log.t.size
     duration = (samples - 1) * log.time_step
@@ -260,21 +280,45 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=()) -> Repaired
     )
 
 
-def _fill(owner, noun, q, tau, options, what):
-    """Short runs of bad values filled; the filled mask; error beyond 5 %."""
-    q, filled_q = fill_short_runs(q, options.fill_gaps, cubic=True)
-    tau, filled_tau = fill_short_runs(tau, options.fill_gaps)
-    filled = np.any(filled_q, axis=1) | np.any(filled_tau, axis=1)
-    count = int(filled.sum())
-    if count > MAX_FILLED_FRACTION * filled.size:
+def _repeated(t) -> int:
+    """The first i with t[i] == t[i - 1] (0: none), a block at a time."""
+    previous = None
+    for start, block in blocks(t):
+        steps = np.diff(block if previous is None else np.r_[previous, block])
+        same = np.flatnonzero(steps == 0.0)
+        if same.size:  # steps[k] ends at sample start + k (+ 1 in the first block)
+            return start + int(same[0]) + (1 if previous is None else 0)
+        previous = block[-1]
+    return 0
+
+
+def _loaded(values, index) -> np.ndarray:
+    """The rows ``index`` (None: all) of an array or a stored array, in memory."""
+    values = np.asarray(values, dtype=float)
+    return values if index is None else values[index]
+
+
+def _rows_of(values, index, a: int, b: int) -> np.ndarray:
+    """Working samples [a, b) of an array or a stored array (``index``: their rows)."""
+    if index is None:
+        return np.asarray(values[a:b], dtype=float)
+    rows = index[a:b]
+    if rows.size == 0:
+        return np.empty((0, values.shape[1]))
+    span = np.asarray(values[int(rows[0]) : int(rows[-1]) + 1], dtype=float)
+    return span[rows - rows[0]]
+
+
+def _check_filled(owner, count: int, total: int, what: str) -> None:
+    """Filling more than 5 % of the samples is an error."""
+    if count > MAX_FILLED_FRACTION * total:
         raise ValueError(
-            f"{owner}: {count} of {filled.size} samples "
-            f"({100 * count / filled.size:.3g} %) would be interpolated ({what}); "
+            f"{owner}: {count} of {total} samples "
+            f"({100 * count / total:.3g} %) would be interpolated ({what}); "
             "filling more than "
             f"{100 * MAX_FILLED_FRACTION:g} % would invent data: repair the log, or "
             "read it with fill_gaps=0 to keep them as bad samples."
         )
-    return q, tau, filled
 
 
 def _bad_cells_note(noun, labels, bad_before, bad_after, fill_gaps) -> str:
@@ -289,37 +333,80 @@ def _bad_cells_note(noun, labels, bad_before, bad_after, fill_gaps) -> str:
     )
 
 
-def _bad(q, tau):
-    return ~(np.all(np.isfinite(q), axis=1) & np.all(np.isfinite(tau), axis=1))
+def _bad(q, tau) -> np.ndarray:
+    """(N,) bool: a non-finite q or tau cell (a block of rows at a time)."""
+    out = np.empty(len(q), bool)
+    for start in range(0, len(q), BLOCK_ROWS):
+        stop = start + BLOCK_ROWS
+        a, b = np.asarray(q[start:stop]), np.asarray(tau[start:stop])
+        finite = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+        out[start:stop] = ~finite
+    return out
 
 
-def _snapped(owner, noun, grid, q, tau, labels, shown, options, warnings):
-    """Samples placed on their grid slots; dropped samples and bad cells filled."""
+def _placed(grid, samples, options):
+    """q, τ on the grid with the short runs filled, a chunk of slots at a time.
+
+    Slot chunks of :data:`_PLACE_SLOTS` with ``fill_gaps + 2`` slots of margin on
+    each side: a run of at most ``fill_gaps`` missing slots and the four nodes
+    of its cubic lie inside, so each chunk is filled exactly as the whole grid
+    would be (``fill_short_runs``). Returns (q, tau, filled, bad after) with
+    q and τ arrays or stored arrays (``log_store.RowSink``).
+    """
+    q, tau, index, _ = samples
+    total, slots = grid.num_slots, grid.slots
+    n = q.shape[1]
+    margin = options.fill_gaps + 2
+    # A stored log stays stored (beyond log_store.SPILL_BYTES); arrays stay arrays.
+    limit = None if is_stored(q) or is_stored(tau) else math.inf
+    sinks = RowSink(n, limit), RowSink(n, limit)
+    filled = np.zeros(total, bool)
+    bad_after = np.zeros(slots.size, bool)
+    for g0 in range(0, total, _PLACE_SLOTS):
+        g1 = min(total, g0 + _PLACE_SLOTS)
+        lo, hi = max(0, g0 - margin), min(total, g1 + margin)
+        j0, j1 = np.searchsorted(slots, [lo, hi])
+        k0, k1 = np.searchsorted(slots, [g0, g1])
+        core = slice(g0 - lo, g1 - lo)
+        masks = []
+        for values, sink, cubic in zip((q, tau), sinks, (True, False), strict=True):
+            block = np.full((hi - lo, n), np.nan)
+            block[slots[j0:j1] - lo] = _rows_of(values, index, j0, j1)
+            block, mask = fill_short_runs(block, options.fill_gaps, cubic=cubic)
+            sink.append(block[core])
+            masks.append(mask[core])
+            bad_after[k0:k1] |= ~np.all(np.isfinite(block[slots[k0:k1] - lo]), axis=1)
+        filled[g0:g1] = np.any(masks[0], axis=1) | np.any(masks[1], axis=1)
+    return sinks[0].finish(), sinks[1].finish(), filled, bad_after
+
+
+def _snapped(owner, noun, grid, samples, labels, shown, options, warnings):
+    """Samples placed on their grid slots; dropped samples and bad cells filled.
+
+    ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
+    the row of each kept sample (None: the same), and its bad-cell flags.
+    """
     total, slots = grid.num_slots, grid.slots
     h = grid.step
-    jitter = float(np.max(np.abs(grid.deviation)))
+    jitter = grid.jitter
     if jitter > REPORTED_JITTER:
         warnings.append(
             f"time stamp jitter up to {jitter * h:.3g} s ({100 * jitter:.3g} % of the "
             f"step {h:.6g} s); time stamps snapped to the uniform grid fitted by least "
             f"squares (tolerance {100 * options.jitter_tolerance:g} %)."
         )
-    bad_before = _bad(q, tau)
-    full_q = np.full((total, q.shape[1]), np.nan)
-    full_tau = np.full((total, tau.shape[1]), np.nan)
-    full_q[slots] = q
-    full_tau[slots] = tau
-    q, tau, filled = _fill(
-        owner, noun, full_q, full_tau, options, "dropped samples and bad cells"
-    )
-    if bad_before.any():
-        warnings.append(
-            _bad_cells_note(
-                noun, labels, bad_before, _bad(q[slots], tau[slots]), options.fill_gaps
+    q, tau, index, bad_before = samples
+    if index is None and total == slots.size and not bad_before.any():
+        filled = np.zeros(total, bool)  # every slot read, every cell finite
+    else:
+        q, tau, filled, bad_after = _placed(grid, samples, options)
+        _check_filled(owner, int(filled.sum()), total, "dropped samples and bad cells")
+        if bad_before.any():
+            warnings.append(
+                _bad_cells_note(noun, labels, bad_before, bad_after, options.fill_gaps)
             )
-        )
-    gaps = np.diff(slots) - 1
-    if gaps.any():
+    if total > slots.size:  # slots increase from 0: gaps iff the last exceeds
+        gaps = np.diff(slots) - 1
         missing = np.ones(total, bool)
         missing[slots] = False
         count = int(missing.sum())
@@ -335,7 +422,7 @@ def _snapped(owner, noun, grid, q, tau, labels, shown, options, warnings):
             f"tau), {count - done} inserted as bad samples (the windows containing "
             "them are flagged invalid)."
         )
-    t = h * np.arange(total)
+    t = GridTimes(h, total) if is_stored(q) else h * np.arange(total)
     return Repaired(t, q, tau, h, (), grid.origin, filled)
 
 

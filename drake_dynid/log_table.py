@@ -3,20 +3,78 @@
 Used by :func:`drake_dynid.logs.read_log`; every failure is a ``ValueError`` whose
 message names the file and the row (the line number in the file, header = row 1 when
 the file starts with it).
+
+The file is read a block of about :data:`BLOCK_BYTES` at a time, cut at line ends,
+so the text of a long log is never in memory at once: each block is decoded and
+checked (UTF-8, NUL bytes), parsed by numpy's C reader when it is clean (no quote,
+no blank line), else cell by cell, and its numbers go to a
+:class:`~drake_dynid.log_store.RowSink` (in memory, or a temporary file for a long
+log). A block never ends inside a quoted cell. Parsing a block is parsing its lines:
+the numbers and messages are those of the whole file read at once.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import math
 import re
 import warnings as warnings_module
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-_BLANK_LINE = re.compile(r"(?:^|\n)[ \t]*(?:\n|$)")
+from drake_dynid.core.blocks import is_stored
+from drake_dynid.log_store import RowSink
+
+BLOCK_BYTES = 1 << 21
+"""Bytes of text read and parsed at a time."""
+
+NANOSECONDS = 1e17  # integer stamps from here on: nanoseconds since the epoch
+
+_BLANK_START = re.compile(r"[ \t]*(?:\n|\Z)")  # a blank first line
+_BLANK_INNER = re.compile(r"\n[ \t]*\n")  # a blank line after a line end
 _LEADING_BLANK = re.compile(r"(?:[ \t]*\n)*")
+
+
+class LineNumbers:
+    """Line numbers ``first + i`` of consecutive rows i = 0..count-1 (lazy).
+
+    Indexing by an integer, a boolean mask or an integer array gives what the
+    array ``first + np.arange(count)`` would.
+    """
+
+    def __init__(self, first: int, count: int):
+        self.first = int(first)
+        self.count = int(count)
+
+    def __len__(self) -> int:
+        return self.count
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return self.count
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, (int, np.integer)):
+            i = int(index) + (self.count if index < 0 else 0)
+            if not 0 <= i < self.count:
+                raise IndexError(f"row {index} is out of bounds for {self.count}")
+            return self.first + i
+        array = np.asarray(index)
+        if array.dtype == bool:
+            return self.first + np.flatnonzero(array)
+        array = np.where(array < 0, array + self.count, array).astype(np.int64)
+        if array.size and (array.min() < 0 or array.max() >= self.count):
+            raise IndexError(f"row index out of bounds for {self.count}")
+        return self.first + array
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        out = self.first + np.arange(self.count)
+        return out if dtype is None else out.astype(dtype, copy=False)
 
 
 @dataclass
@@ -25,58 +83,106 @@ class Table:
 
     Attributes:
         header: the column names, stripped.
-        data: (R, len(wanted)) numbers of the wanted columns, NaN for empty cells.
-        rows: (R,) line number in the file of each data row.
+        t: (R,) numbers of the first wanted column (the time), NaN when empty;
+            a stored array (a temporary file) when ``parts`` are.
+        parts: the other wanted columns in consecutive groups (``groups``), each
+            (R, width): an array, or a :class:`~drake_dynid.log_store.StoredArray`
+            for a long log; NaN for empty cells.
+        rows: (R,) line number in the file of each data row (an int64 array or a
+            :class:`LineNumbers`).
+        bad: (R,) bool, True where a cell of ``parts`` is not finite.
+        exact: (R,) int64 time stamps as written (integer nanoseconds; 0 where t
+            is not finite) when every finite t is >= 1e17 and written as an
+            integer; else None.
         notes: what was repaired while reading (a truncated last row).
-        body: the text below the header (for an exact re-read of a column).
-        body_line: line number of the first line of ``body``.
     """
 
     header: list[str]
-    data: np.ndarray
-    rows: np.ndarray
+    t: np.ndarray
+    parts: tuple[Any, ...]
+    rows: Any
+    bad: np.ndarray
+    exact: np.ndarray | None
     notes: list[str]
-    body: str
-    body_line: int
 
 
-def decode(path: str, raw: bytes) -> str:
-    """UTF-8 text of the file (a byte-order mark is dropped), or a clear error."""
-    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+def decode(path: str, raw: bytes, offset: int = 0, lines: int = 0) -> str:
+    """UTF-8 text of a block of the file (a byte-order mark is dropped), or an error.
+
+    Args:
+        path: the file, for the messages.
+        raw: the bytes of the block, starting at a line start.
+        offset: byte offset of the block in the file.
+        lines: line ends before the block.
+    """
+    if offset == 0 and raw.startswith((b"\xff\xfe", b"\xfe\xff")):
         raise ValueError(
             f"log {path}: the file is UTF-16 or UTF-32 text (byte-order mark "
             f"{raw[:2].hex(' ')}); expected UTF-8: save the log as UTF-8 CSV."
         )
+    skip = 3 if offset == 0 and raw.startswith(b"\xef\xbb\xbf") else 0
     nul = raw.find(b"\x00")
     try:
-        text = raw.decode("utf-8-sig")
+        text = raw[skip:].decode("utf-8")
     except UnicodeDecodeError as error:
-        start = error.start
-        line = raw.count(b"\n", 0, start) + 1
+        start = error.start + skip  # in raw
+        line = lines + raw.count(b"\n", 0, start) + 1
         column = start - (raw.rfind(b"\n", 0, start) + 1) + 1
         raise ValueError(
-            f"log {path}: not UTF-8 text: byte {start} (line {line}, column {column}) "
-            f"is 0x{raw[start]:02x}; expected UTF-8 (or ASCII): save the log as UTF-8 "
-            "CSV (e.g. iconv -f latin1 -t utf-8)."
+            f"log {path}: not UTF-8 text: byte {offset + start} (line {line}, column "
+            f"{column}) is 0x{raw[start]:02x}; expected UTF-8 (or ASCII): save the "
+            "log as UTF-8 CSV (e.g. iconv -f latin1 -t utf-8)."
         ) from None
     if nul >= 0:
-        line = raw.count(b"\n", 0, nul) + 1
+        line = lines + raw.count(b"\n", 0, nul) + 1
         raise ValueError(
-            f"log {path}: not a text file: byte {nul} (line {line}) is NUL; expected "
-            "a UTF-8 CSV file."
+            f"log {path}: not a text file: byte {offset + nul} (line {line}) is NUL; "
+            "expected a UTF-8 CSV file."
         )
     if "\r" in text:  # Windows and old Mac line ends
         text = text.replace("\r\n", "\n").replace("\r", "\n")
     return text
 
 
-def _split_header(path: str, text: str) -> tuple[list[str], str, int]:
-    """Header cells, body text and the line number of the body's first line."""
+def _texts(path: str, stream: Any) -> Iterator[tuple[str, bool]]:
+    """(decoded text, last) blocks of the file, each cut after a line end.
+
+    A block is extended to the next line end, and past a line end inside a
+    quoted cell (an odd number of quotes so far), so that no row is split.
+    """
+    previous = None
+    for text in _decoded(path, stream):
+        if previous is not None:
+            yield previous, False
+        previous = text
+    if previous is not None:
+        yield previous, True
+
+
+def _decoded(path: str, stream: Any) -> Iterator[str]:
+    offset = lines = 0
+    pending = b""
+    eof = False
+    while not eof:
+        chunk = stream.read(BLOCK_BYTES)
+        eof = not chunk
+        data = pending + chunk
+        cut = len(data) if eof else data.rfind(b"\n") + 1
+        if not eof and (cut == 0 or data.count(b'"', 0, cut) % 2):
+            pending = data  # no complete row yet, or inside a quoted cell
+            continue
+        raw, pending = data[:cut], data[cut:]
+        if raw:
+            yield decode(path, raw, offset, lines)
+            offset += len(raw)
+            lines += raw.count(b"\n")
+
+
+def _split_header(path: str, text: str, first_line: int) -> tuple[list[str], str, int]:
+    """Header cells, the text after it and the line number of its first line."""
     lead = _LEADING_BLANK.match(text)
     start = lead.end() if lead else 0
-    if start >= len(text) or not text[start:].strip():
-        raise ValueError(f"log {path}: the file is empty; expected a header row.")
-    header_line = text.count("\n", 0, start) + 1
+    header_line = first_line + text.count("\n", 0, start)
     end = text.find("\n", start)
     end = len(text) if end < 0 else end
     try:
@@ -88,15 +194,32 @@ def _split_header(path: str, text: str) -> tuple[list[str], str, int]:
     return [cell.strip() for cell in header], text[end + 1 :], header_line + 1
 
 
-def _fast(body: str, width: int, index: list[int]) -> np.ndarray | None:
-    """Numbers of a clean body with numpy's C parser, else None."""
-    if '"' in body or _BLANK_LINE.search(body.rstrip("\n \t")):
+def _blank_line(text: str) -> bool:
+    """True when a line of ``text`` is empty or only spaces and tabs."""
+    if _BLANK_START.match(text) or _BLANK_INNER.search(text):
+        return True
+    end = text.rfind("\n")
+    return end >= 0 and not text[end + 1 :].strip(" \t")
+
+
+def _lines(body: str) -> list[str]:
+    r"""The lines of a block (split at ``\n`` only), without the last line end."""
+    lines = body.split("\n")
+    if lines and lines[-1] == "":
+        lines.pop()
+    return lines
+
+
+def _fast(body: str, width: int, index: list[int], last: bool = True):
+    """Numbers of a clean block with numpy's C parser, else None."""
+    clean = body.rstrip("\n \t") if last else body[:-1]
+    if '"' in body or _blank_line(clean):
         return None
     try:
         with warnings_module.catch_warnings():
             warnings_module.simplefilter("error")  # "input contained no data"
             numbers = np.loadtxt(
-                io.StringIO(body), delimiter=",", ndmin=2, dtype=float, comments=None
+                _lines(body), delimiter=",", ndmin=2, dtype=float, comments=None
             )
     except Exception:  # any parse failure: the cell-by-cell reader names it
         return None
@@ -118,8 +241,8 @@ def _cell(path: str, text: str, row: int, column: str) -> float:
         ) from None
 
 
-def _slow(path, body, first_line, header, index, wanted, notes):
-    """Cell by cell, with messages naming the row and the column."""
+def _records(path: str, body: str, first_line: int) -> list[tuple[int, list[str]]]:
+    """(line, cells) of the non-blank CSV records of a block."""
     reader = csv.reader(io.StringIO(body))
     records: list[tuple[int, list[str]]] = []
     line = first_line
@@ -130,13 +253,11 @@ def _slow(path, body, first_line, header, index, wanted, notes):
             line = first_line + reader.line_num
     except csv.Error as error:
         raise ValueError(f"log {path}: row {line}: not valid CSV ({error}).") from None
-    truncated = not body.endswith("\n")  # no line end after the last row
-    if truncated and len(records) >= 3 and len(records[-1][1]) < len(header):
-        row, record = records.pop()
-        notes.append(
-            f"the last row {row} is cut short ({len(record)} of {len(header)} "
-            "cells, no line end: was the logger interrupted?): dropped."
-        )
+    return records
+
+
+def _slow(path, records, header, index, wanted):
+    """Cell by cell, with messages naming the row and the column."""
     data = np.empty((len(records), len(index)))
     for r, (row, record) in enumerate(records):
         if len(record) != len(header):
@@ -150,10 +271,70 @@ def _slow(path, body, first_line, header, index, wanted, notes):
     return data, rows
 
 
-def read_table(path: str, raw: bytes, wanted: list[str]) -> Table:
-    """Decodes and parses a log; checks the header against the ``wanted`` columns."""
-    text = decode(path, raw)
-    header, body, body_line = _split_header(path, text)
+def _exact_stamps(cells: Sequence[str], t: np.ndarray) -> np.ndarray | None:
+    """Integer stamps as written (0 where t is not finite), None when one is not."""
+    out = np.zeros(t.size, np.int64)
+    if len(cells) != t.size:
+        return None
+    try:
+        for i in np.flatnonzero(np.isfinite(t)).tolist():
+            out[i] = int(cells[i])
+    except (ValueError, OverflowError):
+        return None
+    return out
+
+
+class _Stamps:
+    """Collects the time column, and its exact integers while they can be read."""
+
+    def __init__(self) -> None:
+        self.t = RowSink(1, limit=math.inf)
+        self.exact: list[np.ndarray] | None = []
+
+    def add(self, t: np.ndarray, cells: Any) -> None:
+        self.t.append(t)
+        if self.exact is None:
+            return
+        finite = t[np.isfinite(t)]
+        if finite.size and finite.min() < NANOSECONDS:
+            self.exact = None  # seconds: no exact integers needed
+            return
+        exact = _exact_stamps(cells(), t) if finite.size else np.zeros(t.size, np.int64)
+        self.exact = None if exact is None else [*self.exact, exact]
+
+    def finish(self, stored: bool) -> tuple[Any, np.ndarray | None]:
+        """(t, exact): t stays in its file when ``stored`` (a long log)."""
+        self.t.limit = 0 if stored else math.inf
+        t = self.t.finish(vector=True)
+        if self.exact is None:
+            return t, None
+        exact = np.concatenate(self.exact)
+        return (t, exact) if np.isfinite(np.asarray(t)).any() else (t, None)
+
+
+def read_table(
+    path: str, stream: Any, wanted: list[str], groups: Sequence[int]
+) -> Table:
+    """Parses a log; checks the header against the ``wanted`` columns.
+
+    Args:
+        path: the file, for the messages.
+        stream: the file opened in binary mode.
+        wanted: the columns to read, the time first.
+        groups: widths of the consecutive groups of ``wanted[1:]`` returned as
+            ``Table.parts`` (e.g. n positions, n torques).
+    """
+    texts = _texts(path, stream)
+    line = 1
+    text, last = "", True
+    for item in texts:  # leading blank lines: until the header
+        text, last = item
+        if text.strip():
+            break
+        line += text.count("\n")
+    if not text.strip():
+        raise ValueError(f"log {path}: the file is empty; expected a header row.")
+    header, body, body_line = _split_header(path, text, line)
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
         names = ", ".join(f"'{name}'" for name in duplicated)
@@ -166,25 +347,87 @@ def read_table(path: str, raw: bytes, wanted: list[str]) -> Table:
             f"(found: {', '.join(header)})."
         )
     index = [header.index(name) for name in wanted]
+    bounds = np.cumsum([1, *groups])
+    sinks = [RowSink(width) for width in groups]
+    stamps = _Stamps()
+    bad: list[np.ndarray] = []
+    rows: list[Any] = []  # per block: (first line, count) or a line array
     notes: list[str] = []
-    data = _fast(body, len(header), index)
-    if data is not None:
-        rows = body_line + np.arange(data.shape[0], dtype=np.int64)
-    else:
-        data, rows = _slow(path, body, body_line, header, index, wanted, notes)
-    if data.shape[0] == 0:
+    count = 0
+
+    def parse(body: str, first: int, final: bool) -> None:
+        nonlocal count
+        data = _fast(body, len(header), index, final)
+        lines: Any
+        if data is not None:
+            lines = (first, data.shape[0])
+
+            def cells() -> list[str]:
+                full = (r for r in _lines(body) if r.strip())
+                return [r.split(",")[index[0]].strip() for r in full]
+
+        else:
+            records = _records(path, body, first)
+            truncated = final and not body.endswith("\n")
+            if truncated and count + len(records) >= 3:
+                if records and len(records[-1][1]) < len(header):
+                    row, record = records.pop()
+                    notes.append(
+                        f"the last row {row} is cut short ({len(record)} of "
+                        f"{len(header)} cells, no line end: was the logger "
+                        "interrupted?): dropped."
+                    )
+            data, lines = _slow(path, records, header, index, wanted)
+
+            def cells() -> list[str]:
+                return [record[index[0]].strip() for _, record in records]
+
+        if data.shape[0] == 0:
+            return
+        count += data.shape[0]
+        stamps.add(data[:, 0], cells)
+        for sink, a, b in zip(sinks, bounds[:-1], bounds[1:], strict=True):
+            sink.append(data[:, a:b])
+        bad.append(~np.all(np.isfinite(data[:, 1:]), axis=1))
+        rows.append(lines)
+
+    parse(body, body_line, last)
+    line = body_line + body.count("\n")
+    for text, last in texts:
+        parse(text, line, last)
+        line += text.count("\n")
+    if count == 0:
         raise ValueError(f"log {path}: the header has no data rows below it.")
-    return Table(header, data, rows, notes, body, body_line)
+    parts = tuple(sink.finish() for sink in sinks)
+    t, exact = stamps.finish(any(is_stored(part) for part in parts))
+    return Table(
+        header,
+        t,
+        parts,
+        _line_numbers(rows),
+        np.concatenate(bad),
+        exact,
+        notes,
+    )
 
 
-def column_text(table: Table, column: int) -> list[str]:
-    """The cells of one column, as written, for the rows of ``table.data``."""
-    wanted = set(table.rows.tolist())
-    cells = []
-    reader = csv.reader(io.StringIO(table.body))
-    line = table.body_line
-    for record in reader:
-        if line in wanted and column < len(record):
-            cells.append(record[column].strip())
-        line = table.body_line + reader.line_num
-    return cells
+def _line_numbers(rows: list[Any]) -> Any:
+    """One :class:`LineNumbers` when the rows are consecutive lines, else an array."""
+    first, total, consecutive = None, 0, True
+    for part in rows:
+        if not isinstance(part, tuple):
+            consecutive = False
+            break
+        start, count = part
+        if first is None:
+            first = start
+        consecutive = consecutive and start == first + total
+        total += count
+    if consecutive and first is not None:
+        return LineNumbers(first, total)
+    return np.concatenate(
+        [
+            part if not isinstance(part, tuple) else part[0] + np.arange(part[1])
+            for part in rows
+        ]
+    ).astype(np.int64)

@@ -25,8 +25,10 @@ columns and τ are decimated at the full rate, while the rigid-body columns, the
 expensive ones, are evaluated only every D1-th sample, D = D1·D2, with the
 decimation in two stages (an anti-alias FIR to f_s/D1 on τ and friction, then
 the order-8 Butterworth at f_d on every column at f_s/D1). Memory does not grow
-with the log length beyond the decimated rows (:func:`offline_rows`), and on a
-7-DOF arm the regressor runs on about one sample in 40 instead of all of them.
+with the log length beyond the decimated rows (:func:`offline_rows`; a long log
+read from a file stays on disk and is read a block at a time, and the least
+squares factor the rows a block at a time), and on a 7-DOF arm the regressor runs
+on about one sample in 40 instead of all of them.
 ``regressor_decimation=1`` evaluates every sample: the one-stage parallel
 decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
 The estimates of the two agree to a small fraction of their σ (tests/test_offline.py).
@@ -60,7 +62,9 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
-from drake_dynid.core._threads import thread_limit
+from drake_dynid.core._threads import release_heap, thread_limit
+from drake_dynid.core.blocks import is_stored, segment
+from drake_dynid.core.friction import EXACT_SIGN
 from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
 from drake_dynid.core.idim_auto import (
     DECIMATION_BAND_FACTOR,
@@ -210,8 +214,9 @@ def offline_rows(
     h = _check_log(owner, log, robot, rows)
     names = tuple(rows.names)
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
-    q = np.asarray(log.q, dtype=float)
-    tau = np.asarray(log.tau, dtype=float)
+    # A long log read from a file stays on disk, read a block at a time.
+    q = log.q if is_stored(log.q) else np.asarray(log.q, dtype=float)
+    tau = log.tau if is_stored(log.tau) else np.asarray(log.tau, dtype=float)
     check.log_magnitudes(owner, q, tau)
     n = q.shape[1]
     segments = log.good_segments()
@@ -230,7 +235,7 @@ def offline_rows(
         owner=owner,
     )
     longest = max(segments, key=lambda s: s[1] - s[0])
-    longest_q = q[longest[0] : longest[1]]
+    longest_q = segment(q, *longest)
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
         if longest[1] - longest[0] < 16:
@@ -256,9 +261,11 @@ def offline_rows(
     padding = default_padding(h, cutoff_hz)
     minimum = 2 * trim + 1
 
-    # Friction columns go through the decimation at the full rate; the others
-    # (rigid body) are evaluated every D1-th sample.
-    layout = idim_stream.friction_layout(names, rows.idim_rows, n)
+    # Friction columns go through the decimation at the full rate, with the
+    # provider's Coulomb law (a RobotModel's ``sign``: a dead zone by default in
+    # dynid); the others (rigid body) are evaluated every D1-th sample.
+    sign = getattr(rows, "sign", EXACT_SIGN)
+    layout = idim_stream.friction_layout(names, rows.idim_rows, n, sign)
     factor_rule = "given" if regressor_decimation is not None else "auto"
     if regressor_decimation is not None:
         regressor_decimation = check.integer(
@@ -268,7 +275,8 @@ def offline_rows(
             check.fail(
                 owner,
                 "regressor_decimation must be 1 for this row provider: its columns "
-                "named FVj/FCj/OFFj are not the friction columns v_j, sign v_j, 1.",
+                "named FVj/FCj/OFFj are not the friction columns v_j, s(v_j), 1 (or "
+                "it has motor friction columns).",
             )
     if layout is None:
         regressor_decimation, layout = 1, ()
@@ -301,23 +309,32 @@ def offline_rows(
     def rigid(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
         return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)[..., rigid_index]
 
-    W_parts: list[np.ndarray] = []
-    tau_parts: list[np.ndarray] = []
-    used_samples = 0
-    for start, stop in segments:
-        if stop - start < minimum:
-            continue
-        W_rigid, F, tau_d = idim_stream.decimated_segment(
-            q[start:stop], tau[start:stop], plan, rigid, friction
-        )
-        W = np.zeros((tau_d.shape[0], n, len(names)))
-        W[..., rigid_index] = W_rigid
-        for c, (column, _, joint) in enumerate(layout):
-            W[:, joint, column] = F[:, c]
-        W_parts.append(W)
-        tau_parts.append(tau_d)
-        used_samples += stop - start - 2 * trim
-    if not W_parts:
+    release_heap()  # the automatic settings' spectra: not under the rows' peak
+    used = [(start, stop) for start, stop in segments if stop - start >= minimum]
+    # Rows of each segment: ceil((N - 2·trim)/D); W allocated once (no copies).
+    counts = [-(-(stop - start - 2 * trim) // decimation) for start, stop in used]
+    W = np.zeros((sum(counts), n, len(names)))
+    tau_out = np.empty((sum(counts), n))
+    row = 0
+    for start, stop in used:
+        for W_rigid, F, tau_d in idim_stream.decimated_chunks(
+            segment(q, start, stop),
+            segment(tau, start, stop),
+            plan,
+            rigid,
+            friction,
+            sign,
+        ):
+            count = tau_d.shape[0]
+            part = W[row : row + count]
+            part[..., rigid_index] = W_rigid
+            for c, (column, _, joint) in enumerate(layout):
+                part[:, joint, column] = F[:, c]
+            tau_out[row : row + count] = tau_d
+            row += count
+    assert row == W.shape[0]
+    used_samples = sum(stop - start - 2 * trim for start, stop in used)
+    if not used:
         check.fail(
             owner,
             f"no finite segment of the log is long enough: the longest has "
@@ -342,13 +359,13 @@ def offline_rows(
     }
     return OfflineRows(
         names=names,
-        W=np.concatenate(W_parts),
-        tau=np.concatenate(tau_parts),
+        W=W,
+        tau=tau_out,
         settings=settings,
         num_samples=int(q.shape[0]),
         num_samples_used=int(used_samples),
         num_segments=len(segments),
-        num_segments_used=len(W_parts),
+        num_segments_used=len(used),
     )
 
 
@@ -382,10 +399,11 @@ def standstill_widths(
 
     owner = "standstill_widths"
     h = log.time_step
+    good = log.good_segments()
     check_offline_settings(
         log.q,
         h,
-        log.good_segments(),
+        good,
         cutoff_hz=cutoff_hz,
         decimation=None,
         decimation_cutoff_hz=decimation_cutoff_hz,
@@ -399,7 +417,7 @@ def standstill_widths(
         decimation_cutoff_hz = check.below_nyquist(
             owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
         )
-    segments = [log.q[a:b] for a, b in log.good_segments()]
+    segments = [segment(log.q, a, b) for a, b in good]
     if not segments or max(len(s) for s in segments) < 16:
         return None
     longest = max(segments, key=len)
@@ -408,9 +426,11 @@ def standstill_widths(
         return None
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
-    return dead_zone_widths(
+    widths = dead_zone_widths(
         segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
     )
+    release_heap()  # the residuals: not under the next phase's peak
+    return widths
 
 
 def identify_offline(

@@ -85,3 +85,51 @@ def test_memory_beyond_the_rows_does_not_grow_with_the_log():
         rows.append(result.num_rows * robot.num_parameters * 8)
     assert peaks[1] - peaks[0] <= 2 * (rows[1] - rows[0]) + 1e6
     assert peaks[1] < 100e6
+
+
+class _RowsWithoutLaw:
+    """A robot's rows and names, without its ``sign``: today's one-stage path.
+
+    ``friction_layout`` cannot tell the dead zone from the exact sign, so every
+    column, the Coulomb ones included, comes from the model's own rows at every
+    sample (regressor_decimation 1).
+    """
+
+    def __init__(self, robot):
+        self.names = robot.names
+        self.joint_names = robot.joint_names
+        self.idim_rows = robot.idim_rows
+
+
+def test_a_dead_zone_keeps_the_streamed_path_with_each_joints_width():
+    from drake_dynid.core.friction import DeadZoneSign
+
+    plain = RobotModel.from_urdf(model_path("planar_2r"))
+    log = _log(plain, seed=1, period=10.0, duration=60.0, velocity=5.0)
+    # Widths that put a good share of each joint's samples in its zone, and
+    # differ: a law applied with the other joint's width would move the fit.
+    robot = plain.with_sign(DeadZoneSign((0.4, 1.5)))
+    v = np.diff(log.q, axis=0) / H
+    assert 0.03 < np.mean(np.abs(v[:, 0]) <= 0.4) < 0.5
+    assert 0.03 < np.mean(np.abs(v[:, 1]) <= 1.5) < 0.5
+    streamed = identify_offline(log, robot)
+    settings = streamed.settings
+    assert settings["regressor_decimation"] > 4  # the fast path with a dead zone
+    same = {
+        "cutoff_hz": settings["cutoff_hz"],
+        "decimation": settings["decimation"],
+        "decimation_cutoff_hz": settings["decimation_cutoff_hz"],
+    }
+    reference = identify_offline(log, _RowsWithoutLaw(robot), **same)
+    assert reference.settings["regressor_decimation"] == 1  # every column from rows
+    one_stage = identify_offline(log, robot, regressor_decimation=1, **same)
+    assert streamed.valid and reference.valid and one_stage.valid
+    # The friction columns computed by the stream (s applied per joint) equal the
+    # model's own: the same one-stage chain gives the same estimates to round-off.
+    np.testing.assert_allclose(one_stage.theta, reference.theta, rtol=1e-9, atol=0)
+    # Two stages against one: a fraction of σ (module docstring).
+    gap = np.abs(streamed.theta - reference.theta) / reference.std
+    assert gap.max() <= 0.5 and np.median(gap) <= 0.15
+    # The dead zone matters here: the exact sign gives other estimates.
+    exact = identify_offline(log, plain, **same)
+    assert np.max(np.abs(exact.theta - reference.theta) / reference.std) > 3.0

@@ -227,10 +227,11 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
     Nyquist frequency and ``core.fourier_bank.MAX_FUNCTIONS`` functions; a noisy or
     unexcited log measures a wide band that only noise fills.
     """
+    from drake_dynid.core.blocks import segment
     from drake_dynid.core.idim_auto import velocity_bandwidth
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
-    q = log.q[start:stop]
+    q = segment(log.q, start, stop)  # a long log stays on disk
     run = q.shape[0]
     if run < 64:
         raise ValueError(

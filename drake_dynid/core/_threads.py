@@ -53,6 +53,7 @@ __all__ = [
     "configure_process",
     "loaded_pools",
     "pin_environment",
+    "release_heap",
     "requested_threads",
     "thread_counts",
     "thread_limit",
@@ -247,6 +248,26 @@ def tune_allocator() -> bool:
     done = mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD)
     done &= mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD)
     return bool(done)
+
+
+def release_heap() -> bool:
+    """Returns the freed heap memory to the system now (glibc ``malloc_trim(0)``).
+
+    :func:`tune_allocator` keeps up to 64 MiB of freed heap in the process, for
+    the row loops' sake; a long log's phases (reading, automatic settings, the
+    streamed rows) each free tens of MB of large temporaries, and kept, those
+    would stack with the next phase's under the process's high-water mark. The
+    streamed off-line chain calls this between them (a few ms). Returns False
+    where there is no glibc (nothing done).
+    """
+    try:
+        trim = ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError):
+        return False
+    trim.argtypes = (ctypes.c_size_t,)
+    trim.restype = ctypes.c_int
+    trim(0)
+    return True
 
 
 def configure_process(threads: int | None = None) -> None:

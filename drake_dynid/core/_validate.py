@@ -200,11 +200,12 @@ def log_magnitudes(owner: str, q: Any, tau: Any) -> None:
     Non-finite samples are not checked here (they are bad samples).
     """
     for name, values, unit in (("q", q, "rad or m"), ("tau", tau, "N·m or N")):
-        array = np.asarray(values, dtype=float)
+        stored = hasattr(values, "rows") and not isinstance(values, np.ndarray)
+        array = values if stored else np.asarray(values, dtype=float)  # core.blocks
         top = 0.0
         for start in range(0, array.shape[0] if array.ndim else 1, 1 << 16):
             # In blocks of rows: memory independent of the log's length.
-            block = np.abs(array[start : start + (1 << 16)])
+            block = np.abs(np.asarray(array[start : start + (1 << 16)], dtype=float))
             block[~np.isfinite(block)] = 0.0
             if block.size:
                 top = max(top, float(block.max()))

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.blocks import checked_rows, is_stored
 from drake_dynid.core.excitation import estimate_bandwidth, velocity_spectrum
 
 __all__ = [
@@ -78,7 +79,7 @@ def _position_spectra(
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """``(fs, f, S)``: the checked positions' Welch spectra (4 s segments)."""
     time_step = check.positive(owner, "time_step", time_step, "s")
-    q = check.array(owner, "q", q)
+    q = checked_rows(owner, "q", q)  # a stored log: checked a block at a time
     if q.ndim == 1:
         q = q[:, None]
     if q.ndim != 2 or q.shape[0] < 16:
@@ -132,27 +133,30 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
 
     The average over all segments, computed over consecutive runs of whole
-    segments so that the memory stays bounded on long logs.
+    segments, one joint at a time, so that the memory stays bounded on long logs.
     """
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
     from scipy import signal  # lazily: dynid identify does not need it
 
-    f, power = np.empty(0), 0.0
+    f, power = np.empty(0), np.empty(0)
     for first in range(0, total, per_piece):
         count = min(per_piece, total - first)
-        piece = q[first * step : (first + count - 1) * step + segment]
-        f, part = signal.welch(
-            piece,
-            fs=fs,
-            window="blackmanharris",
-            nperseg=segment,
-            detrend="linear",
-            axis=0,
-        )
-        power = power + part * (count / total)
-    return f, np.asarray(power)
+        piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
+        piece = piece.reshape(piece.shape[0], -1)
+        for j in range(piece.shape[1]):  # one joint at a time: memory / n
+            f, part = signal.welch(
+                piece[:, j],
+                fs=fs,
+                window="blackmanharris",
+                nperseg=segment,
+                detrend="linear",
+            )
+            if power.size == 0:
+                power = np.zeros((f.size, piece.shape[1]))
+            power[:, j] = power[:, j] + part * (count / total)
+    return f, power
 
 
 def auto_decimation(time_step: float, cutoff_hz: float) -> int:
@@ -190,7 +194,9 @@ def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
         cutoff_hz: the position filter's cutoff f_c [Hz].
     """
     try:
-        band = velocity_bandwidth(np.asarray(q, dtype=float), time_step)
+        band = velocity_bandwidth(
+            q if is_stored(q) else np.asarray(q, dtype=float), time_step
+        )
     except ValueError:
         return float(cutoff_hz)
     return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
@@ -201,20 +207,26 @@ def velocity_bandwidth(q: np.ndarray, time_step: float) -> float:
 
     Up to 2^18 samples, :func:`~drake_dynid.core.excitation.estimate_bandwidth`
     itself; beyond, from the sum of the velocity spectra of equal pieces of at
-    most 2^18 samples (memory: one piece, whatever the log's length).
+    most 2^18 samples, one joint at a time (memory: one piece, whatever the log's
+    length; ``q`` may be a stored log, ``drake_dynid.core.blocks``).
 
     Raises:
         ValueError: no joint moves above the noise (or fewer than 64 samples).
     """
     if q.shape[0] <= _SPECTRUM_PIECE:
-        return estimate_bandwidth(q, time_step)
+        return estimate_bandwidth(np.asarray(q, dtype=float), time_step)
     count = -(-q.shape[0] // _SPECTRUM_PIECE)
     length = q.shape[0] // count
-    f, first = velocity_spectrum(q[:length], time_step)
-    power = np.array(first, dtype=float)  # summed piece by piece: bounded memory
-    for k in range(1, count):
-        power += velocity_spectrum(q[k * length : (k + 1) * length], time_step)[1]
-    power = power.reshape(len(f), -1)
+    power = np.empty(0)
+    f = np.empty(0)
+    for k in range(count):  # summed piece by piece, joint by joint: bounded memory
+        piece = np.asarray(q[k * length : (k + 1) * length], dtype=float)
+        piece = piece.reshape(length, -1)
+        for j in range(piece.shape[1]):
+            f, part = velocity_spectrum(piece[:, j], time_step)
+            if k == 0 and j == 0:
+                power = np.zeros((len(f), piece.shape[1]))
+            power[:, j] += part[:, 0]
     total = power.sum(axis=0)
     moving = np.flatnonzero(total > 0.0)
     if moving.size == 0:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.blocks import segment
 from drake_dynid.core.idim_auto import MAX_VELOCITY_NOISE_SHARE, noise_limited_cutoff
 
 __all__ = ["check_filter_frequency", "check_offline_settings"]
@@ -108,9 +109,7 @@ def check_offline_settings(
             prefix, say("cutoff_hz"), cutoff_hz, time_step, length
         )
         if length >= 16:
-            limit = noise_limited_cutoff(
-                np.asarray(q)[longest[0] : longest[1]], time_step
-            )
+            limit = noise_limited_cutoff(segment(q, *longest), time_step)
             if cutoff > limit:
                 raise ValueError(
                     f"{prefix}{say('cutoff_hz')} must be <= {limit:.3g} Hz on this "

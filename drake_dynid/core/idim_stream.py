@@ -14,8 +14,9 @@ same equation at a fraction of the cost, in memory independent of the log length
 
 **Which columns are evaluated where.** The columns of W are of two kinds:
 
-* friction columns ``v_j``, ``sign v_j``, ``1`` (joint j's row only): cheap, and
-  ``sign v`` is discontinuous (broadband); they go through the decimation at the
+* friction columns ``v_j``, ``s(v_j)``, ``1`` (joint j's row only; s the model's
+  Coulomb law: the exact sign or a standstill dead zone): cheap, and ``s(v)``
+  is discontinuous (broadband); they go through the decimation at the
   full rate, like τ;
 * rigid-body columns (everything else): expensive, but smooth functions of the
   filtered q_f, v, v̇, whose spectrum the position filter limits to a few f_c.
@@ -58,7 +59,6 @@ the log length; only the decimated rows (N/D of them) are kept.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -66,16 +66,30 @@ import numpy as np
 from scipy import signal
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.blocks import checked_rows
+from drake_dynid.core.friction import EXACT_SIGN, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
-from drake_dynid.core.planar2r import FRICTION_PREFIX
+from drake_dynid.core.idim_friction import (
+    FRICTION_KINDS,
+    friction_layout,
+    friction_series,
+    signs_of,
+)
+from drake_dynid.core.zero_phase import (
+    SETTLE_TOLERANCE,
+    settle_samples,
+    zero_phase_span,
+)
 
 __all__ = [
     "ALIAS_FACTOR",
     "ANTI_ALIAS_DB",
     "BAND_FACTOR",
     "FRICTION_KINDS",
+    "SETTLE_TOLERANCE",
     "StreamPlan",
     "anti_alias_taps",
+    "decimated_chunks",
     "decimated_segment",
     "friction_layout",
     "regressor_decimation",
@@ -93,70 +107,15 @@ BAND_FACTOR = 16.0
 ANTI_ALIAS_DB = 120.0
 """Kaiser FIR of stage 1: pass-band ripple and stop-band attenuation 1e-6."""
 
-SETTLE_TOLERANCE = 1e-12
-"""Block margins: IIR start-up transients decay below this fraction."""
-
 BLOCK_SAMPLES = 1 << 16
 """Full-rate samples per block of the position filter and stage 1."""
 
-ROWS_CHUNK = 1024
+ROWS_CHUNK = 256
 """Largest batch of one rigid-body rows call (larger batches leave the cache)."""
 
-_GROUP_COLUMNS = 128  # stage 2 filters at most this many columns at once
-
-FRICTION_KINDS = ("viscous", "coulomb", "offset")
-"""Friction column kinds: v_j [rad/s or m/s], sign v_j, 1 (joint j's row)."""
+_GROUP_COLUMNS = 32  # stage 2 filters at most this many columns at once
 
 RigidRows = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-
-
-def settle_samples(sos: np.ndarray, tolerance: float = SETTLE_TOLERANCE) -> int:
-    """Samples after which the IIR filter ``sos``'s transients fall below tolerance.
-
-    ``ceil(ln(tolerance) / ln ρ)`` with ρ < 1 the largest pole modulus of the
-    second-order sections (the slowest mode decays as ρ^k).
-    """
-    poles = np.concatenate([np.roots(section[3:]) for section in np.atleast_2d(sos)])
-    rho = float(np.max(np.abs(poles)))
-    if not rho < 1.0:
-        check.fail("settle_samples", f"the filter must be stable; got |pole| {rho}.")
-    return math.ceil(math.log(tolerance) / math.log(rho))
-
-
-def zero_phase_span(
-    sos: np.ndarray, x: np.ndarray, *, pad_left: int, pad_right: int, padtype: str
-) -> np.ndarray:
-    """``sosfiltfilt`` of a span of a longer signal, padded only at its true ends.
-
-    ``pad_left`` (``pad_right``) samples of the odd (``2 x_0 - x_k``) or even
-    (``x_k``) reflection are added at the start (end) of ``x``; 0 means that side is
-    interior (its transient must die in a margin the caller drops). With both pads
-    this is exactly ``scipy.signal.sosfiltfilt(sos, x, axis=0, padtype=padtype,
-    padlen=pad)``.
-
-    Args:
-        sos: second-order sections.
-        x: (L, c) span, L > max(pad_left, pad_right).
-        pad_left: reflection samples at the start (0: none).
-        pad_right: reflection samples at the end (0: none).
-        padtype: ``"odd"`` or ``"even"``.
-
-    Returns:
-        (L, c) the filtered span.
-    """
-    parts = []
-    if pad_left:
-        head = x[pad_left:0:-1]
-        parts.append(2.0 * x[:1] - head if padtype == "odd" else head)
-    parts.append(x)
-    if pad_right:
-        tail = x[-2 : -(pad_right + 2) : -1]
-        parts.append(2.0 * x[-1:] - tail if padtype == "odd" else tail)
-    ext = np.concatenate(parts) if len(parts) > 1 else x
-    zi = signal.sosfilt_zi(sos)[:, :, None]
-    y, _ = signal.sosfilt(sos, ext, axis=0, zi=zi * ext[:1])
-    y, _ = signal.sosfilt(sos, y[::-1], axis=0, zi=zi * y[-1:])
-    return y[::-1][pad_left : ext.shape[0] - pad_right]
 
 
 def anti_alias_taps(factor: int, passband: float) -> np.ndarray:
@@ -334,18 +293,6 @@ def stream_plan(
     )
 
 
-def _friction_series(v: np.ndarray, friction: Sequence[tuple[str, int]]) -> np.ndarray:
-    out = np.empty((v.shape[0], len(friction)))
-    for c, (kind, joint) in enumerate(friction):
-        if kind == "viscous":
-            out[:, c] = v[:, joint]
-        elif kind == "coulomb":
-            out[:, c] = np.sign(v[:, joint])
-        else:
-            out[:, c] = 1.0
-    return out
-
-
 def _rigid(rows: RigidRows, q, v, vdot) -> np.ndarray:
     parts = []
     for a in range(0, q.shape[0], ROWS_CHUNK):
@@ -361,44 +308,65 @@ def _stage_one(
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]],
+    sign: SignLaw,
 ) -> Iterator[np.ndarray]:
     """Intermediate-rate columns [τ_A, friction_A, W_rb] in consecutive chunks."""
+    count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
+    chunk = max(1, plan.block // plan.factor)
+    for ra in range(0, count, chunk):
+        # One block per call: its full-rate arrays are freed before the yield.
+        yield _stage_one_block(
+            q, tau, plan, rows, friction, sign, ra, min(count, ra + chunk)
+        )
+
+
+def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
+    """Intermediate samples [ra, rb) of :func:`_stage_one`."""
     h, trim, D1 = plan.time_step, plan.trim, plan.factor
     N = q.shape[0]
-    count = -(-(N - 2 * trim) // D1)
     K = (plan.taps.size - 1) // 2
     lead = (-2 * K) % D1  # zeros ahead of the data: output `first` is sample trim
     first = (2 * K + lead) // D1
     pad = min(plan.padding, N - 1)
     margin = plan.position_margin
-    chunk = max(1, plan.block // D1)
-    for ra in range(0, count, chunk):
-        rb = min(count, ra + chunk)
-        lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
-        hi = trim + (rb - 1) * D1 + K + 1
-        a, b = max(0, lo - 1 - margin), min(N, hi + 1 + margin)
-        q_f = zero_phase_span(
-            plan.position_sos,
-            q[a:b],
-            pad_left=pad if a == 0 else 0,
-            pad_right=pad if b == N else 0,
-            padtype="odd",
-        )[lo - 1 - a : hi + 1 - a]
-        v = (q_f[2:] - q_f[:-2]) / (2.0 * h)
-        vdot = (q_f[2:] - 2.0 * q_f[1:-1] + q_f[:-2]) / h**2
-        grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
-        rigid = _rigid(rows, q_f[1:-1][grid], v[grid], vdot[grid])
-        full = np.concatenate([tau[lo:hi], _friction_series(v, friction)], axis=1)
+    lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
+    hi = trim + (rb - 1) * D1 + K + 1
+    a, b = max(0, lo - 1 - margin), min(N, hi + 1 + margin)
+    q_f = zero_phase_span(
+        plan.position_sos,
+        q[a:b],
+        pad_left=pad if a == 0 else 0,
+        pad_right=pad if b == N else 0,
+        padtype="odd",
+    )[lo - 1 - a : hi + 1 - a]
+    v = (q_f[2:] - q_f[:-2]) / (2.0 * h)
+    grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
+    ahead, here, behind = q_f[2:][grid], q_f[1:-1][grid], q_f[:-2][grid]
+    vdot = (ahead - 2.0 * here + behind) / h**2  # at the grid only
+    rigid = _rigid(rows, here, v[grid], vdot)
+    # [τ, friction] at the full rate after `lead` zeros, through the FIR a group
+    # of n columns at a time (each column on its own: the same numbers).
+    n = tau.shape[1]
+    series = np.asarray(tau[lo:hi], dtype=float)
+    signs = signs_of(v, friction, sign)
+    out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
+    out[:, n + len(friction) :] = rigid
+    for c in range(0, n + len(friction), n):
+        if c:
+            series = friction_series(v, friction[c - n : c], sign, signs=signs)
         if D1 == 1:
-            filtered = full
-        else:
-            full = np.concatenate([np.zeros((lead, full.shape[1])), full])
-            filtered = signal.upfirdn(plan.taps, full, down=D1, axis=0)
-            filtered = filtered[first : first + rb - ra]
-        yield np.concatenate([filtered, rigid], axis=1)
+            out[:, c : c + series.shape[1]] = series
+            continue
+        full = np.zeros((lead + series.shape[0], series.shape[1]))
+        full[lead:] = series
+        filtered = signal.upfirdn(plan.taps, full, down=D1, axis=0)
+        out[:, c : c + series.shape[1]] = filtered[first : first + rb - ra]
+    return out
 
 
-def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
+def _stage_two(
+    chunks: Iterator[np.ndarray], count: int, plan: StreamPlan
+) -> Iterator[np.ndarray]:
     """Zero-phase order-8 low-pass at f_d and one sample in D2, block by block."""
     D2 = plan.decimation // plan.factor
     margin = plan.decimation_margin
@@ -407,7 +375,6 @@ def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
     buffer = np.empty((0, 0))
     start = 0  # intermediate index of buffer[0]
     done = 0  # next intermediate index to output
-    out = []
     for chunk in chunks:
         buffer = chunk if buffer.size == 0 else np.concatenate([buffer, chunk])
         end = start + buffer.shape[0]
@@ -424,43 +391,48 @@ def _stage_two(chunks: Iterator[np.ndarray], count: int, plan: StreamPlan):
                     pad_right=pad if u1 == count else 0,
                     padtype="even",
                 )
-                parts.append(y[done - u0 : r1 - u0 : D2])
-            out.append(np.concatenate(parts, axis=1))
+                parts.append(y[done - u0 : r1 - u0 : D2].copy())  # y freed
+            yield np.concatenate(parts, axis=1)
             done = r1
             keep = max(0, done - margin) - start
             buffer = buffer[keep:].copy()
             start += keep
-    return np.concatenate(out)
 
 
-def decimated_segment(
+def decimated_chunks(
     q: np.ndarray,
     tau: np.ndarray,
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]] = (),
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    sign: SignLaw = EXACT_SIGN,
+) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Decimated rigid-body rows, friction columns and torques of one finite segment.
 
     Row i refers to sample ``trim + i·D`` of the segment (as
-    ``parallel_decimation(W, tau[trim:N - trim], D)``).
+    ``parallel_decimation(W, tau[trim:N - trim], D)``); yielded a block of rows
+    at a time, in order (memory: a few blocks, not the K rows).
 
     Args:
-        q: (N, n) finite positions [rad or m], N >= 2·trim + 1.
-        tau: (N, n) finite torques [N·m or N].
+        q: (N, n) finite positions [rad or m], N >= 2·trim + 1 (an array, or a
+            stored log read a block at a time: ``drake_dynid.core.blocks``).
+        tau: (N, n) finite torques [N·m or N], likewise.
         plan: the :class:`StreamPlan`.
         rows: ``rows(q_f, v, v̇) -> (R, n, p_rb)`` rigid-body columns.
         friction: (kind, joint) per friction column, kind in
             :data:`FRICTION_KINDS`, joint 0-based.
+        sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
+            (N, n) velocity; default the exact sign).
 
-    Returns:
-        ``(W_rb, F, tau_d)``: (K, n, p_rb) rigid-body rows, (K, len(friction))
-        friction columns (column c belongs to row ``friction[c][1]``) and (K, n)
-        torques, K = ceil((N - 2·trim)/D).
+    Yields:
+        ``(W_rb, F, tau_d)`` chunks of (k, n, p_rb) rigid-body rows, (k,
+        len(friction)) friction columns (column c belongs to row
+        ``friction[c][1]``) and (k, n) torques; K = ceil((N - 2·trim)/D) rows in
+        all.
     """
-    owner = "decimated_segment"
-    q = check.array(owner, "q", q)
-    tau = check.array(owner, "tau", tau)
+    owner = "decimated_chunks"
+    q = checked_rows(owner, "q", q)  # a stored log: read a block at a time
+    tau = checked_rows(owner, "tau", tau)
     if q.ndim != 2 or tau.shape != q.shape:
         check.fail(owner, f"q and tau must be (N, n); got {q.shape} and {tau.shape}.")
     if q.shape[0] < 2 * plan.trim + 1:
@@ -474,49 +446,28 @@ def decimated_segment(
             check.fail(owner, f"bad friction column ({kind!r}, {joint}).")
     n, width = q.shape[1], len(friction)
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
-    data = _stage_two(_stage_one(q, tau, plan, rows, friction), count, plan)
-    rigid = data[:, n + width :]
-    return rigid.reshape(rigid.shape[0], n, -1), data[:, n : n + width], data[:, :n]
+    for data in _stage_two(_stage_one(q, tau, plan, rows, friction, sign), count, plan):
+        rigid = data[:, n + width :]
+        yield (
+            rigid.reshape(rigid.shape[0], n, -1),
+            data[:, n : n + width],
+            data[:, :n],
+        )
 
 
-def friction_layout(
-    names: Sequence[str], idim_rows: RigidRows, num_joints: int
-) -> tuple[tuple[int, str, int], ...] | None:
-    """The friction columns of a row provider: (column, kind, joint) each, checked.
+def decimated_segment(
+    q: np.ndarray,
+    tau: np.ndarray,
+    plan: StreamPlan,
+    rows: RigidRows,
+    friction: Sequence[tuple[str, int]] = (),
+    sign: SignLaw = EXACT_SIGN,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`decimated_chunks` of one segment, stacked.
 
-    A column named ``FVj``, ``FCj`` or ``OFFj`` (j = 1..n) is a friction column of
-    joint j - 1 (:data:`~drake_dynid.core.planar2r.FRICTION_PREFIX`). The provider's
-    rows at seeded random states must hold ``v_j``, ``sign v_j`` or 1 in joint j's
-    row and 0 in the others there; otherwise None (the columns cannot be split).
-    The states include velocities of 1e-9 [rad/s or m/s], so a Coulomb column
-    with another sign law (a dead zone, tanh) is not split: it would be computed
-    with the exact sign. A motor friction column (``FVmk``, ``FCmk``, ``OFFmk``:
-    a coupled motor's friction, spread over several joints' rows) gives None too:
-    nonlinear in v, it must not be evaluated at the intermediate rate.
-
-    Args:
-        names: the p column names.
-        idim_rows: ``idim_rows(q, v, v̇) -> (N, n, p)``.
-        num_joints: n.
+    Arguments and chunks as there: ``(W_rb, F, tau_d)`` with K = ceil((N -
+    2·trim)/D) rows.
     """
-    kinds = {prefix: kind for kind, prefix in FRICTION_PREFIX.items()}
-    if any(re.fullmatch(r"(FV|FC|OFF)m[0-9]+", name) for name in names):
-        return None
-    layout = []
-    for column, name in enumerate(names):
-        match = re.fullmatch(r"(FV|FC|OFF)([1-9][0-9]*)", name)
-        if match and int(match[2]) <= num_joints:
-            layout.append((column, kinds[match[1]], int(match[2]) - 1))
-    if not layout:
-        return ()
-    rng = np.random.default_rng(20150)
-    q, v, vdot = rng.normal(size=(3, 4, num_joints))
-    v[0] *= 1e-9  # near standstill: tells sign(v) from other sign laws
-    rows = np.asarray(idim_rows(q, v, vdot), dtype=float)
-    values = _friction_series(v, [(kind, joint) for _, kind, joint in layout])
-    for c, (column, _, joint) in enumerate(layout):
-        expected = np.zeros((4, num_joints))
-        expected[:, joint] = values[:, c]
-        if not np.allclose(rows[:, :, column], expected, rtol=1e-12, atol=1e-12):
-            return None
-    return tuple(layout)
+    parts = list(decimated_chunks(q, tau, plan, rows, friction, sign))
+    W_rb, F, tau_d = (np.concatenate([part[i] for part in parts]) for i in range(3))
+    return W_rb, F, tau_d

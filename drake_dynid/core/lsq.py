@@ -94,6 +94,56 @@ def _describe(names: Sequence[str], indices: Iterable[int]) -> str:
     return ", ".join(f"{names[i]} (column {i})" for i in indices)
 
 
+_BLOCK_ENTRIES = 1 << 19
+"""A larger A (4 MB) is scaled and factored a block of rows at a time."""
+
+
+def _block_rows(p: int) -> int:
+    """Rows per block of an A with p columns."""
+    return max(4 * (p + 1), _BLOCK_ENTRIES // (p + 1))
+
+
+def _column_norms(A: np.ndarray) -> np.ndarray:
+    """‖A_:j‖, scaled by the column's largest entry (no overflow).
+
+    The scaling keeps entries up to the largest float (squares of 1e160 would
+    overflow). A block of rows at a time beyond :data:`_BLOCK_ENTRIES` (the
+    same sums, taken in pieces).
+    """
+    step = _block_rows(A.shape[1])
+    peak = np.zeros(A.shape[1])
+    for a in range(0, A.shape[0], step):
+        np.maximum(peak, np.max(np.abs(A[a : a + step]), axis=0), out=peak)
+    safe = np.where(peak > 0.0, peak, 1.0)
+    squares = np.zeros(A.shape[1])
+    for a in range(0, A.shape[0], step):
+        block = A[a : a + step] / safe
+        squares += np.einsum("ij,ij->j", block, block)
+    return peak * np.sqrt(squares)
+
+
+def _r_factor(A: np.ndarray, B: np.ndarray, norms: np.ndarray, scale: float):
+    """R of the QR of the scaled, augmented [A S⁻¹ | B/scale] (Q never formed).
+
+    Its last column holds z = QᵀB and the residual norm ρ = ‖B - A X̂‖. Beyond
+    :data:`_BLOCK_ENTRIES` a block of rows at a time: R of [R_previous; block]
+    (the R of the whole up to the signs of its rows, which no result depends
+    on), in memory of one block.
+    """
+    rows, p = A.shape
+    step = _block_rows(p)
+    R_aug = np.empty((0, p + 1))
+    for a in range(0, rows, step):
+        b = min(rows, a + step)
+        block = np.empty((R_aug.shape[0] + b - a, p + 1))
+        block[: R_aug.shape[0]] = R_aug
+        np.divide(A[a:b], norms, out=block[R_aug.shape[0] :, :p])
+        np.divide(B[a:b], scale, out=block[R_aug.shape[0] :, p])
+        # (numpy's stubs type mode="r" as a tuple; it is the array R.)
+        R_aug = np.asarray(np.linalg.qr(block, mode="r"))
+    return R_aug
+
+
 def _weak_columns(R: np.ndarray, limit: float) -> tuple[int, ...]:
     """Columns involved in the directions whose singular value is below ``limit``.
 
@@ -201,11 +251,7 @@ def _decompose(
                 f"too few rows: {rows} rows for {p} parameters (need more than {p})."
             ),
         )
-    # Column norms scaled by the column's largest entry: no overflow for entries
-    # up to the largest float (squares of 1e160 would overflow).
-    peak = np.max(np.abs(A), axis=0)
-    safe = np.where(peak > 0.0, peak, 1.0)
-    norms = peak * np.sqrt(np.einsum("ij,ij->j", A / safe, A / safe))
+    norms = _column_norms(A)
     zero = np.flatnonzero(norms <= np.finfo(float).tiny)
     if zero.size:
         return (
@@ -219,14 +265,8 @@ def _decompose(
                 indices=zero,
             ),
         )
-    # One QR of the scaled, augmented [A S⁻¹ | B] (R only, Q never formed) gives
-    # R, z = QᵀB and the residual norm ρ = ‖B - A X̂‖ in its last column.
-    augmented = np.empty((rows, p + 1))
-    np.divide(A, norms, out=augmented[:, :p])
     b_scale = float(np.max(np.abs(B))) or 1.0
-    np.divide(B, b_scale, out=augmented[:, p])
-    # (numpy's stubs type mode="r" as a tuple; it is the array R.)
-    R_aug = np.asarray(np.linalg.qr(augmented, mode="r"))
+    R_aug = _r_factor(A, B, norms, b_scale)
     R = R_aug[:p, :p]
     R_inv = None
     if bound_first:

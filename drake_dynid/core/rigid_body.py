@@ -47,6 +47,19 @@ def _frames(rotation: np.ndarray, position: np.ndarray) -> np.ndarray:
     return out
 
 
+def _rotated_back(gravity: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """Rᵀg = Σ_k g_k R[k, :] of every link, (N, b, 3), skipping the zero g_k.
+
+    A stacked vector-matrix product costs a call per link; gravity usually has one
+    nonzero component, so this is one or two array operations (the same sums).
+    """
+    out = None
+    for k in np.flatnonzero(gravity):
+        term = gravity[k] * rotation[..., k, :]
+        out = term if out is None else out + term
+    return np.zeros(rotation.shape[:-1]) if out is None else out
+
+
 def link_terms(
     tree: KinematicTree,
     forward: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -54,6 +67,7 @@ def link_terms(
     gravity: np.ndarray,
     *,
     derivatives: bool = False,
+    vdot: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """Per-link spatial quantities shared by the rows.
 
@@ -70,6 +84,11 @@ def link_terms(
         derivatives: also return ``dscrews`` = ad(V_parent(i)) S_i (world), the
             rate of the screw per unit velocity, needed by the Lagrangian and
             inverse-dynamics rows.
+        vdot: joint accelerations (N, n) for the inverse-dynamics rows: also
+            return (with ``dscrews``) ``acceleration``, the body-frame spatial
+            acceleration of every link without gravity (N, b, 6), and
+            ``adjoint`` = ad(V_b) (N, b, 6, 6), computed in the same products as
+            the twist and K(V_b).
 
     Returns:
         dict with ``rotation``, ``position``, ``screws`` (N, i, 6), ``frames`` =
@@ -82,22 +101,38 @@ def link_terms(
     plan = tree.plan
     num_samples, n = v.shape
     frames = _frames(rotation, position)
-    twist_world = (plan.ancestors * v[:, None, :]) @ screws
-    twist = (frames @ twist_world[..., None])[..., 0]
     out: dict[str, Any] = {
         "rotation": rotation,
         "position": position,
         "screws": screws,
         "frames": frames,
-        "twist": twist,
-        "k": (twist @ plan.momentum).reshape(num_samples, n, 6, 10),
-        "gravity_body": gravity @ rotation,
+        "gravity_body": _rotated_back(gravity, rotation),
         "plan": plan,
     }
-    if derivatives:
-        # ∂S_j/∂q_i = ad(S_i) S_j: d/dt S_i = ad(V_parent(i)) S_i.
-        parent_twist = (plan.strict_ancestors * v[:, None, :]) @ screws
-        out["dscrews"] = ad(parent_twist, screws)
+    if not (derivatives or vdot is not None):
+        twist_world = (plan.ancestors * v[:, None, :]) @ screws
+        out["twist"] = twist = (frames @ twist_world[..., None])[..., 0]
+        out["k"] = (twist @ plan.momentum).reshape(num_samples, n, 6, 10)
+        return out
+    # World twists of every link and of every joint's parent link, one product;
+    # ∂S_j/∂q_i = ad(S_i) S_j: d/dt S_i = ad(V_parent(i)) S_i.
+    masks = np.concatenate((plan.ancestors, plan.strict_ancestors))
+    twists = (masks * v[:, None, :]) @ screws
+    twist_world = twists[:, :n]
+    out["dscrews"] = dscrews = ad(twists[:, n:], screws)
+    if vdot is None:
+        out["twist"] = twist = (frames @ twist_world[..., None])[..., 0]
+        out["k"] = (twist @ plan.momentum).reshape(num_samples, n, 6, 10)
+        return out
+    # Body twist and acceleration (Σ_i S_i v̇_i + Ṡ_i v_i) in one product, and
+    # K(V_b), ad(V_b) in another.
+    rates = screws * vdot[..., None] + dscrews * v[..., None]
+    body = frames @ np.stack((twist_world, plan.ancestors @ rates), axis=-1)
+    out["twist"] = twist = body[..., 0]
+    out["acceleration"] = body[..., 1]
+    maps = twist @ np.concatenate((plan.momentum, plan.ad), axis=1)
+    out["k"] = maps[..., :60].reshape(num_samples, n, 6, 10)
+    out["adjoint"] = maps[..., 60:].reshape(num_samples, n, 6, 6)
     return out
 
 
@@ -109,10 +144,14 @@ def _joint_rows(terms: dict[str, Any], columns: np.ndarray, blocks: np.ndarray):
     not move link b.
     """
     num_samples, links, _, width = blocks.shape
-    world = np.swapaxes(terms["frames"], -1, -2) @ blocks
-    world = np.swapaxes(world, 1, 2).reshape(num_samples, 6, links * width)
-    rows = (columns @ world).reshape(num_samples, -1, links, links, width)
-    rows *= terms["plan"].ancestors.T[:, :, None]
+    world = np.empty((num_samples, 6, links, width))  # Ad(X_WB⁻¹)ᵀ blocks, by row
+    np.matmul(
+        np.swapaxes(terms["frames"], -1, -2), blocks, out=world.transpose(0, 2, 1, 3)
+    )
+    rows = columns @ world.reshape(num_samples, 6, links * width)  # (N, r, b·w)
+    # [i, (b, k)] = 1 where joint i moves link b: one 2-D mask for every sample.
+    mask = np.repeat(terms["plan"].ancestors.T, width, axis=1)
+    rows *= np.tile(mask, (columns.shape[1] // links, 1))
     return rows.reshape(num_samples, columns.shape[1], links, width)
 
 
@@ -149,17 +188,22 @@ def lagrangian_blocks(
 def idim_blocks(terms: dict[str, Any], v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
     """Inverse-dynamics columns τ_i = Σ_b rows[i, b]·θ_b, (N, n, n_links, 10) [N·m, N].
 
-    ``terms`` must come from :func:`link_terms` with ``derivatives=True``; gravity
+    ``terms`` must come from :func:`link_terms` with ``derivatives=True`` (or
+    with ``vdot``: the accelerations and ad(V) it computed are used); gravity
     enters as the base acceleration -g.
     """
     plan = terms["plan"]
     screws = terms["screws"]
     num_samples, links = terms["twist"].shape[:2]
-    rates = screws * vdot[..., None] + terms["dscrews"] * v[..., None]
-    acceleration = (terms["frames"] @ (plan.ancestors @ rates)[..., None])[..., 0]
+    if "acceleration" in terms:
+        acceleration = terms["acceleration"].copy()
+        adjoint = terms["adjoint"]
+    else:
+        rates = screws * vdot[..., None] + terms["dscrews"] * v[..., None]
+        acceleration = (terms["frames"] @ (plan.ancestors @ rates)[..., None])[..., 0]
+        adjoint = (terms["twist"] @ plan.ad).reshape(num_samples, links, 6, 6)
     acceleration[..., 3:] -= terms["gravity_body"]
     # K(V̇ - [0; Rᵀg]) - ad(V)ᵀ K(V): the link's Newton-Euler force per parameter.
     force = (acceleration @ plan.momentum).reshape(num_samples, links, 6, 10)
-    adjoint = (terms["twist"] @ plan.ad).reshape(num_samples, links, 6, 6)
     force -= np.swapaxes(adjoint, -1, -2) @ terms["k"]
     return _joint_rows(terms, screws, force)

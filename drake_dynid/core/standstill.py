@@ -37,11 +37,11 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.blocks import BLOCK_ROWS, checked_rows, is_stored
 from drake_dynid.core.idim import (
     DECIMATION_FILTER_ORDER,
     default_padding,
     default_trim,
-    offline_derivatives,
 )
 
 __all__ = [
@@ -59,6 +59,10 @@ _OWNER = "velocity_noise"
 #: Velocity samples a run needs beyond the edge trims (the order-8 zero-phase
 #: low-pass pads 27 samples).
 MIN_RUN = 32
+#: Block margins: the filters' start-up transients decay below this fraction (the
+#: residual is ~1e-4 of the motion, and v̇ amplifies q's errors by 1/h: at 1e-16
+#: the blocks agree with the whole-run filters to round-off, ~1e-9 of σ_v).
+_SETTLE = 1e-16
 
 
 def velocity_noise(
@@ -81,8 +85,6 @@ def velocity_noise(
     Raises:
         ValueError: no run long enough, or a cutoff not in (0, Nyquist).
     """
-    from scipy import signal  # only here: RobotModel imports this module
-
     time_step = check.positive(_OWNER, "time_step", time_step, "s")
     cutoff_hz = check.positive(_OWNER, "cutoff_hz", cutoff_hz, "Hz")
     band_cutoff_hz = check.positive(_OWNER, "band_cutoff_hz", band_cutoff_hz, "Hz")
@@ -93,38 +95,113 @@ def velocity_noise(
             f"cutoff_hz and band_cutoff_hz must be < the Nyquist frequency "
             f"{nyquist:g} [Hz]; got {cutoff_hz:g} and {band_cutoff_hz:g}.",
         )
-    runs = [segments] if isinstance(segments, np.ndarray) else list(segments)
+    single = is_stored(segments) or isinstance(segments, np.ndarray)
+    runs = [segments] if single else list(segments)
     trim = default_trim(time_step, cutoff_hz)
     band = min(band_cutoff_hz, cutoff_hz)
-    sos = signal.butter(DECIMATION_FILTER_ORDER, band, fs=1.0 / time_step, output="sos")
-    padding = default_padding(time_step, band)
-    edge = default_trim(time_step, band) - 1  # two periods of the band's cutoff
-    residuals = []
+    filters = _Filters(time_step, cutoff_hz, band)
+    checked = []
     for run in runs:
-        q = check.array(_OWNER, "segments", run)
+        q = checked_rows(_OWNER, "segments", run)
         if q.ndim == 1:
             q = q[:, None]
-        if q.shape[0] < 2 * trim + MIN_RUN:
-            continue
-        _, v, _ = offline_derivatives(q, time_step, cutoff_hz=cutoff_hz, trim=trim)
-        # Odd padding of four periods (value and slope continuous) and two
-        # periods dropped at each end, as the off-line filters do: the low-pass's
-        # edge transient on the motion is not noise.
-        low = signal.sosfiltfilt(
-            sos, v, axis=0, padtype="odd", padlen=min(padding, v.shape[0] - 1)
-        )
-        residual = v - low
-        if residual.shape[0] - 2 * edge >= MIN_RUN:
-            residual = residual[edge : residual.shape[0] - edge]
-        residuals.append(residual)
-    if not residuals:
+        if q.shape[0] >= 2 * trim + MIN_RUN:
+            checked.append(q)
+    if not checked:
         check.fail(
             _OWNER,
             f"needs a finite run of at least {2 * trim + MIN_RUN} samples to "
             "measure the velocity noise; got none.",
         )
-    r = np.concatenate(residuals, axis=0)
-    return _MAD_TO_STD * np.median(np.abs(r - np.median(r, axis=0)), axis=0)
+    spans = [filters.kept(q.shape[0] - 2 * trim) for q in checked]
+    total = sum(b - a for a, b in spans)
+    sigma = np.empty(checked[0].shape[1])
+    for j in range(sigma.size):  # one joint at a time: memory of one (N,) array
+        r = np.empty(total)
+        at = 0
+        for q, span in zip(checked, spans, strict=True):
+            for part in filters.residual(q, j, trim, span):
+                r[at : at + part.size] = part
+                at += part.size
+        r -= np.median(r, overwrite_input=True)
+        np.abs(r, out=r)
+        sigma[j] = _MAD_TO_STD * np.median(r, overwrite_input=True)
+    return sigma
+
+
+class _Filters:
+    """The two zero-phase low-passes of :func:`velocity_noise`, a block at a time.
+
+    Each block of velocities is computed from a span of q with margins where the
+    filters' start-up transients decay below 1e-12
+    (``core.zero_phase.settle_samples``), padded only at the run's true ends:
+    a run that fits in one block gives ``sosfiltfilt`` of the whole run exactly,
+    a longer one the same to round-off, in memory of a few blocks.
+    """
+
+    def __init__(self, time_step: float, cutoff_hz: float, band: float):
+        from scipy import signal  # only here: RobotModel imports this module
+
+        from drake_dynid.core.zero_phase import settle_samples
+
+        self.h = time_step
+        fs = 1.0 / time_step
+        self.position = signal.butter(4, cutoff_hz, fs=fs, output="sos")
+        self.position_padding = default_padding(time_step, cutoff_hz)
+        self.position_margin = max(
+            settle_samples(self.position, _SETTLE), self.position_padding + 2
+        )
+        self.low = signal.butter(DECIMATION_FILTER_ORDER, band, fs=fs, output="sos")
+        self.low_padding = default_padding(time_step, band)
+        self.low_margin = max(settle_samples(self.low, _SETTLE), self.low_padding + 2)
+        self.edge = default_trim(time_step, band) - 1  # two periods of f_d
+
+    def kept(self, count: int) -> tuple[int, int]:
+        """Velocity samples [a, b) kept of ``count``.
+
+        Two f_d periods are dropped at each end when MIN_RUN are left (the
+        low-pass's edge transient on the motion is not noise).
+        """
+        if count - 2 * self.edge >= MIN_RUN:
+            return self.edge, count - self.edge
+        return 0, count
+
+    def residual(self, q: Any, j: int, trim: int, span: tuple[int, int]):
+        """The residual v - low-pass(v) of joint j at velocity samples [a, b).
+
+        Velocity sample k is position sample trim + k (central differences of
+        the position filter's output, as ``core.idim.offline_derivatives``).
+        """
+        from drake_dynid.core.zero_phase import zero_phase_span
+
+        count = q.shape[0]
+        velocities = count - 2 * trim
+        pad_q = min(self.position_padding, count - 1)
+        pad_v = min(self.low_padding, velocities - 1)
+        for r0 in range(span[0], span[1], BLOCK_ROWS):
+            r1 = min(span[1], r0 + BLOCK_ROWS)
+            u0 = max(0, r0 - self.low_margin)
+            u1 = min(velocities, r1 + self.low_margin)
+            lo, hi = trim + u0 - 1, trim + u1 + 1  # positions behind and ahead
+            a = max(0, lo - self.position_margin)
+            b = min(count, hi + self.position_margin)
+            x = np.asarray(q[a:b], dtype=float)[:, j : j + 1]
+            q_f = zero_phase_span(
+                self.position,
+                x,
+                pad_left=pad_q if a == 0 else 0,
+                pad_right=pad_q if b == count else 0,
+                padtype="odd",
+            )[lo - a : hi - a]
+            v = (q_f[2:] - q_f[:-2]) / (2.0 * self.h)
+            low = zero_phase_span(
+                self.low,
+                v,
+                pad_left=pad_v if u0 == 0 else 0,
+                pad_right=pad_v if u1 == velocities else 0,
+                padtype="odd",
+            )
+            yield (v - low)[r0 - u0 : r1 - u0, 0]
 
 
 def dead_zone_widths(

@@ -27,6 +27,12 @@ Missing slots (k_{j+1} - k_j > 1) are dropped samples. The fit (``fit_time_grid`
 A gap would insert missing slots: their total is bounded by ``max_inserted`` and
 checked before anything is allocated. Pure numpy; no file or row notions: the caller
 names the samples through ``where`` (e.g. ``"row 12 (t = 0.011)"``).
+
+Memory: the fit holds the slots (int64) and a few (N,) masks, never a copy of the
+stamps; ``t`` may be a stored array of a long log (``core.blocks``), read a chunk
+of ``_CHUNK`` samples at a time. Up to ``_CHUNK`` samples the sums are those of one
+piece; beyond, they are taken in pieces (the same to round-off). The short-run
+interpolation is ``core.short_runs.fill_short_runs`` (re-exported here).
 """
 
 from __future__ import annotations
@@ -34,8 +40,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from drake_dynid.core.blocks import is_stored
+from drake_dynid.core.short_runs import fill_short_runs
 
 __all__ = [
     "NonUniformSampling",
@@ -68,7 +78,8 @@ class TimeGrid:
         origin: grid origin t0 [s], in the time base of the stamps given.
         kept: (N,) bool, False for the rows dropped as outlier stamps.
         slots: (M,) int64 slot k_j of each kept row, slots[0] == 0, increasing.
-        deviation: (M,) signed deviation e_j/h of each kept stamp [steps].
+        jitter: the largest deviation |e_j|/h of a kept stamp from the grid
+            [steps].
     """
 
     step: float
@@ -76,7 +87,7 @@ class TimeGrid:
     origin: float
     kept: np.ndarray
     slots: np.ndarray
-    deviation: np.ndarray
+    jitter: float
 
     @property
     def num_slots(self) -> int:
@@ -121,32 +132,125 @@ def nominal_step(h: float, agreement: float = STEP_AGREEMENT) -> float:
     return h
 
 
-def _nominal(s, slots, h, c, deviation, tolerance):
-    """(step, origin, deviation) on the simplest round step fitting the stamps.
+_CHUNK = 1 << 18
+"""Samples per pass of the grid fit: a log up to this length is fitted in one
+piece; a longer one chunk by chunk (the same arithmetic, its sums taken in
+pieces), in memory of a few (N,) arrays whatever N."""
+
+
+class _Stamps:
+    """The relative stamps s_j = t[rows_j] - t[rows_0] of the kept rows, by chunks.
+
+    Never holds s itself: a chunk is computed from t when needed (the same
+    subtraction, element by element); ``rows`` is None when every row is kept.
+    """
+
+    def __init__(self, t: Any, keep: np.ndarray):
+        self.t = t
+        self.rows = None if keep.all() else np.flatnonzero(keep)
+        self.count = len(t) if self.rows is None else int(self.rows.size)
+        self.first = float(t[self.row(0)]) if self.count else math.nan
+
+    def row(self, j: int) -> int:
+        """The row of t of kept sample j."""
+        return j if self.rows is None else int(self.rows[j])
+
+    def chunk(self, a: int, b: int) -> np.ndarray:
+        """s_j for j in [a, b)."""
+        rows = slice(a, b) if self.rows is None else self.rows[a:b]
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.asarray(self.t[rows], dtype=float) - self.first
+
+    def spans(self) -> list[tuple[int, int]]:
+        """The [a, b) chunks covering the kept samples."""
+        return [(a, min(self.count, a + _CHUNK)) for a in range(0, self.count, _CHUNK)]
+
+    def total(self, term: Callable[[int, int], Any]) -> float:
+        """Σ over the chunks of ``term(a, b)`` (one chunk: that one sum)."""
+        out = 0.0
+        for a, b in self.spans():
+            out += float(term(a, b))
+        return out
+
+
+def _nominal(s: _Stamps, slots, h, c, jitter, tolerance):
+    """(step, origin, jitter) on the simplest round step fitting the stamps.
 
     The step is within ``MAX_RATE_ERROR`` of h and every deviation within tolerance.
     """
     for step in _step_candidates(h):
         if abs(step / h - 1.0) > MAX_RATE_ERROR:
             continue
-        origin = float(np.mean(s - step * slots))
-        fresh = (s - origin) / step - slots
-        if np.all(np.abs(fresh) <= tolerance):
-            return step, origin, fresh
-    return h, c, deviation
+
+        def shifted(a: int, b: int, w: float = step) -> float:
+            return float(np.sum(s.chunk(a, b) - w * slots[a:b]))
+
+        origin = float(s.total(shifted) / s.count)
+
+        def fresh(a: int, b: int, w: float = step, o: float = origin) -> np.ndarray:
+            return (s.chunk(a, b) - o) / w - slots[a:b]
+
+        largest = 0.0
+        for a, b in s.spans():
+            size = np.abs(fresh(a, b))
+            if not np.all(size <= tolerance):
+                break
+            largest = max(largest, float(size.max()))
+        else:
+            return step, origin, largest
+    return h, c, jitter
 
 
-def _fit(s: np.ndarray, k: np.ndarray) -> tuple[float, float]:
+def _fit(s: _Stamps, k: np.ndarray) -> tuple[float, float]:
     """Least squares s ≈ c + h·k; returns (h, c)."""
-    kf = k.astype(float)
-    k_mean = kf.mean()
-    s_mean = s.mean()
-    dk = kf - k_mean
-    denominator = float(dk @ dk)
+    k_mean = s.total(lambda a, b: np.sum(k[a:b].astype(float))) / s.count
+    s_mean = s.total(lambda a, b: np.sum(s.chunk(a, b))) / s.count
+
+    def dk(a: int, b: int) -> np.ndarray:
+        return k[a:b].astype(float) - k_mean
+
+    denominator = s.total(lambda a, b: dk(a, b) @ dk(a, b))
     if denominator == 0.0:
         return math.nan, math.nan
-    h = float(dk @ (s - s_mean)) / denominator
+    h = s.total(lambda a, b: dk(a, b) @ (s.chunk(a, b) - s_mean)) / denominator
     return h, float(s_mean - h * k_mean)
+
+
+def _steps(t: Any) -> np.ndarray:
+    """(N - 1,) t[i+1] - t[i] (``np.diff``), a chunk of t at a time."""
+    out = np.empty(max(0, len(t) - 1))
+    with np.errstate(over="ignore", invalid="ignore"):
+        for a in range(0, out.size, _CHUNK):
+            b = min(out.size, a + _CHUNK)
+            np.subtract(*_pair(t, a, b), out=out[a:b])
+    return out
+
+
+def _pair(t: Any, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """(t[a+1 : b+1], t[a:b]), read once."""
+    x = np.asarray(t[a : b + 1], dtype=float)
+    return x[1:], x[:-1]
+
+
+def _steps_ok(t: Any, d_max: float, d_edge: float, run: int) -> np.ndarray:
+    """(N - 1,) bool: each step t[i+1] - t[i] in (0, d], a chunk at a time.
+
+    d = d_edge for the ``run`` first and last steps (every step when run = 0, as
+    ``edge[-0:]``), d_max elsewhere.
+    """
+    good = np.empty(max(0, t.size - 1), bool)
+    tail = good.size - min(run, good.size) if run else 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for a in range(0, good.size, _CHUNK):
+            b = min(good.size, a + _CHUNK)
+            later, earlier = _pair(t, a, b)
+            dt = later - earlier
+            good[a:b] = (dt > 0.0) & (dt <= d_max)
+        for a, b in ((0, min(run, good.size)), (tail, good.size)):
+            later, earlier = _pair(t, a, b)
+            dt = later - earlier
+            good[a:b] = (dt > 0.0) & (dt <= d_edge)
+    return good
 
 
 def _drop_outliers(t, h0, gaps, max_outliers, run, owner, where) -> np.ndarray:
@@ -158,12 +262,7 @@ def _drop_outliers(t, h0, gaps, max_outliers, run, owner, where) -> np.ndarray:
     n = t.size
     d_max = (gaps[0] + 1.5) * h0
     d_edge = (min(gaps) + 1.5) * h0
-    with np.errstate(over="ignore", invalid="ignore"):
-        dt = np.diff(t)
-    edge = np.zeros(dt.size, bool)
-    edge[:run] = edge[-run:] = True
-    good = (dt > 0.0) & (dt <= np.where(edge, d_edge, d_max))
-    broken = np.flatnonzero(~good)
+    broken = np.flatnonzero(~_steps_ok(t, d_max, d_edge, run))
     keep = np.ones(n, bool)
     if broken.size == 0:
         return keep
@@ -262,57 +361,43 @@ def fit_time_grid(
         ValueError: stamps going back, or a gap longer than ``max_inserted`` slots.
     """
     where = where or _default_where
-    t = np.asarray(t, dtype=float)
-    n = t.size
+    t = t if is_stored(t) else np.asarray(t, dtype=float)
+    n = len(t)
     max_inserted = n if max_inserted is None else int(max_inserted)
     max_outliers = 3 + n // 1000 if max_outliers is None else int(max_outliers)
     gaps = (max_inserted, max_inserted if edge_gap is None else int(edge_gap))
-    with np.errstate(over="ignore", invalid="ignore"):
-        dt = np.diff(t)
-        h0 = float(np.median(dt))
+    h0 = float(np.median(_steps(t), overwrite_input=True))
     if not (math.isfinite(h0) and h0 > 0.0):
-        b = int(np.flatnonzero(~(dt > 0.0))[0]) + 1
+        b = int(np.flatnonzero(~(_steps(t) > 0.0))[0]) + 1
         raise ValueError(
             f"{owner}: time stamps are not increasing at {where(b)} after "
             f"{where(b - 1)}; sort the log by time."
         )
     keep = _drop_outliers(t, h0, gaps, max_outliers, max_outlier_run, owner, where)
     for attempt in range(2):
-        rows = np.flatnonzero(keep)
-        if rows.size < 2:
+        s = _Stamps(t, keep)
+        if s.count < 2:
             raise ValueError(
                 f"{owner}: fewer than 2 samples left after dropping "
                 f"{np.count_nonzero(~keep)} outlier time stamp(s)."
             )
-        with np.errstate(over="ignore", invalid="ignore"):
-            s = t[rows] - t[rows[0]]
-        if not np.all(np.isfinite(s)):
+        if not all(np.all(np.isfinite(s.chunk(a, b))) for a, b in s.spans()):
             raise ValueError(f"{owner}: the time stamps span more than 1e308 s.")
-        ratio = np.diff(s) / h0  # <= max_inserted + 1.5 after stage 1
-        slots = np.concatenate([[0], np.cumsum(np.maximum(1, np.rint(ratio)))])
-        slots = slots.astype(np.int64)
+        slots = _first_slots(s, h0)
         h, c = _fit(s, slots)
         for _ in range(2):  # slots re-read from the fitted grid, then refit
-            if not (math.isfinite(h) and h > 0.0):
+            if not (math.isfinite(h) and h > 0.0) or not _reread(s, slots, h, c):
                 break
-            fresh = np.rint((s - c) / h).astype(np.int64)
-            fresh -= fresh[0]
-            if np.array_equal(fresh, slots) or np.any(np.diff(fresh) < 1):
-                break
-            slots = fresh
             h, c = _fit(s, slots)
-        deviation = (s - c) / h - slots if h > 0.0 else np.full(s.size, np.inf)
-        off = ~(np.abs(deviation) <= tolerance)
+        off, worst, jitter = _deviations(s, slots, h, c, tolerance)
         if not np.any(off):
             break
         budget = max_outliers - int(np.count_nonzero(~keep))
         isolated = not np.any(off[1:] & off[:-1])
-        if attempt or np.count_nonzero(off) > budget or not isolated or rows.size < 5:
-            size = np.where(np.isfinite(deviation), np.abs(deviation), np.inf)
-            worst = int(np.argmax(size))
+        if attempt or np.count_nonzero(off) > budget or not isolated or s.count < 5:
             raise NonUniformSampling(
-                f"{owner}: non-uniform sampling: {where(int(rows[worst]))} is "
-                f"{abs(deviation[worst]):.2f} steps off the uniform grid of step "
+                f"{owner}: non-uniform sampling: {where(s.row(worst))} is "
+                f"{jitter:.2f} steps off the uniform grid of step "
                 f"{h:.6g} s fitted to the time stamps ({np.count_nonzero(off)} "
                 f"stamp(s) beyond the tolerance of {tolerance:g} step); resample it "
                 "onto a uniform grid first, or allow linear interpolation "
@@ -320,71 +405,82 @@ def fit_time_grid(
                 keep,
                 h0,
             )
-        keep[rows[off]] = False
+        keep[np.flatnonzero(off) if s.rows is None else s.rows[off]] = False
     inserted = int(slots[-1]) + 1 - slots.size
     if inserted > max_inserted:
         gap = int(np.argmax(np.diff(slots)))
-        a, b = int(rows[gap]), int(rows[gap + 1])
+        a, b = s.row(gap), s.row(gap + 1)
         raise ValueError(
             f"{owner}: the gaps in the time stamps would insert {inserted} missing "
             f"samples, more than the {max_inserted} allowed (the number of rows "
             f"read); the longest is {int(slots[gap + 1] - slots[gap]) - 1} samples "
             f"between {where(a)} and {where(b)}; split the log there."
         )
-    step, c, deviation = _nominal(s, slots, h, c, deviation, tolerance)
+    step, c, jitter = _nominal(s, slots, h, c, jitter, tolerance)
     if abs(c) <= 1e-6 * step:  # round-off: the first stamp is the origin
         c = 0.0
-    return TimeGrid(step, h, float(t[rows[0]] + c), keep, slots, deviation)
+    return TimeGrid(step, h, float(t[s.row(0)] + c), keep, slots, jitter)
 
 
-def fill_short_runs(
-    x: np.ndarray, max_run: int, cubic: bool = False
-) -> tuple[np.ndarray, np.ndarray]:
-    """Interpolates the interior runs of at most ``max_run`` non-finite samples.
+def _deviations(s: _Stamps, slots: np.ndarray, h: float, c: float, tolerance: float):
+    """(off, worst, largest) of the deviations e_j/h from the grid c + h·k.
 
-    Each column of ``x`` (N, n) on a uniform grid is treated alone. A run of missing
-    samples with finite neighbours a (before) and b (after) is filled linearly, or
-    with the cubic through a - 1, a, b, b + 1 when ``cubic`` and those are finite.
-    Runs at either end, and longer runs, stay non-finite.
-
-    Returns:
-        The filled copy of ``x`` and the (N, n) bool mask of the filled entries.
+    ``off``: (M,) the stamps beyond ``tolerance``; ``worst``: the first of the
+    largest |e_j|/h (non-finite: inf); ``largest``: that value [steps].
     """
-    x = np.array(x, dtype=float, copy=True)
-    filled = np.zeros(x.shape, bool)
-    if max_run < 1:
-        return x, filled
-    n = x.shape[0]
-    idx = np.arange(n)
-    for j in range(x.shape[1]):
-        col = x[:, j]
-        finite = np.isfinite(col)
-        if finite.all() or not finite.any():
-            continue
-        left = np.maximum.accumulate(np.where(finite, idx, -1))
-        right = np.minimum.accumulate(np.where(finite, idx, n)[::-1])[::-1]
-        p = np.flatnonzero(~finite)
-        a, b = left[p], right[p]
-        use = (a >= 0) & (b < n) & (b - a - 1 <= max_run)
-        p, a, b = p[use], a[use], b[use]
-        if p.size == 0:
-            continue
-        w = (p - a) / (b - a)
-        value = (1.0 - w) * col[a] + w * col[b]
-        if cubic:
-            a0 = np.maximum(a - 1, 0)
-            b1 = np.minimum(b + 1, n - 1)
-            four = (a - 1 >= 0) & (b + 1 < n) & finite[a0] & finite[b1]
-            nodes = [a0[four], a[four], b[four], b1[four]]
-            at = p[four]
-            cubic_value = np.zeros(at.size)
-            for i in range(4):  # Lagrange polynomial through the four nodes
-                term = col[nodes[i]]
-                for m in range(4):
-                    if m != i:
-                        term = term * (at - nodes[m]) / (nodes[i] - nodes[m])
-                cubic_value += term
-            value[four] = cubic_value
-        col[p] = value
-        filled[p, j] = True
-    return x, filled
+    off = np.ones(s.count, bool)
+    if not h > 0.0:
+        return off, 0, math.inf
+    worst, largest = 0, -1.0
+    for a, b in s.spans():
+        size = np.abs((s.chunk(a, b) - c) / h - slots[a:b])
+        off[a:b] = ~(size <= tolerance)
+        size[~np.isfinite(size)] = np.inf
+        k = int(np.argmax(size))
+        if size[k] > largest:
+            worst, largest = a + k, float(size[k])
+    return off, worst, largest
+
+
+def _first_slots(s: _Stamps, h0: float) -> np.ndarray:
+    """Slots from the local steps: k_j - k_{j-1} = max(1, round((s_j - s_{j-1})/h₀)).
+
+    The ratios are <= max_inserted + 1.5 after stage 1; their cumulative sum is
+    exact in float64 (integers), chunk by chunk as at once.
+    """
+    slots = np.zeros(s.count, np.int64)
+    carry = 0.0
+    for a in range(1, s.count, _CHUNK):
+        b = min(s.count, a + _CHUNK)
+        ratio = np.diff(s.chunk(a - 1, b)) / h0
+        steps = np.cumsum(np.maximum(1, np.rint(ratio))) + carry
+        slots[a:b] = steps
+        carry = float(steps[-1])
+    return slots
+
+
+def _reread(s: _Stamps, slots: np.ndarray, h: float, c: float) -> bool:
+    """Slots re-read from the grid c + h·k, in place.
+
+    False when they are unchanged or not increasing (``slots`` left as it was).
+    """
+    zero = int(np.rint((s.chunk(0, 1)[0] - c) / h))
+
+    def fresh(a: int, b: int) -> np.ndarray:
+        out = np.rint((s.chunk(a, b) - c) / h).astype(np.int64)
+        out -= zero
+        return out
+
+    equal, last = True, None
+    for a, b in s.spans():
+        part = fresh(a, b)
+        equal = equal and np.array_equal(part, slots[a:b])
+        steps = np.diff(part if last is None else np.concatenate([[last], part]))
+        if np.any(steps < 1):
+            return False
+        last = int(part[-1])
+    if equal:
+        return False
+    for a, b in s.spans():
+        slots[a:b] = fresh(a, b)
+    return True

@@ -1,0 +1,40 @@
+"""The inverse-dynamics rows in base columns are gathered straight from the link
+blocks (``RobotRows._idim_base``): they must equal the standard rows' base columns.
+
+Pinocchio and Drake check the standard rows themselves (tests/test_models_7dof.py,
+tests/test_any_urdf.py); here the gather is checked against the general path on
+models with rotor inertia, offsets, locked joints and a dead zone.
+"""
+
+import numpy as np
+import pytest
+
+from drake_dynid.core.friction import DeadZoneSign
+from drake_dynid.plants import RobotModel, model_path
+
+
+@pytest.mark.parametrize(
+    ("name", "options"),
+    [
+        ("iiwa7", {}),
+        ("iiwa7", {"rotor_inertia": True, "friction": "viscous,coulomb,offset"}),
+        ("ur5", {"rotor_inertia": True, "locked": {"wrist_3_joint": 0.3}}),
+        ("planar_2r", {"friction": "viscous"}),
+    ],
+)
+def test_base_rows_are_the_standard_rows_base_columns(name, options):
+    robot = RobotModel.from_urdf(model_path(name), **options)
+    assert robot._base_sources is not None  # the gathered path is taken
+    widths = tuple(0.05 * (1 + j) for j in range(robot.num_joints))
+    rng = np.random.default_rng(8)
+    for model in (robot, robot.with_sign(DeadZoneSign(widths))):
+        for size in (1, 5, 300):
+            q, v, vdot = rng.normal(size=(3, size, robot.num_joints))
+            v[0] *= 0.01  # some velocities inside the dead zone
+            base = model.idim_rows(q, v, vdot)
+            standard = model.idim_rows(q, v, vdot, columns="standard")
+            np.testing.assert_array_equal(
+                base, standard[..., list(model.base.independent)]
+            )
+    single = robot.idim_rows(q[0], v[0], vdot[0])
+    np.testing.assert_array_equal(single, robot.idim_rows(q[:1], v[:1], vdot[:1])[0])
