@@ -20,7 +20,7 @@ applied generalized force:
   which no joint or actuator of Drake's plant can carry (off-diagonal), are
   applied exactly by :func:`coupled_motor_force`.
 
-A discrete ``MultibodyPlant`` without contact steps as (measured, pydrake 1.51, SAP;
+A discrete ``MultibodyPlant`` without contact steps as (measured, Drake 1.51, SAP;
 docs/CONVENTIONS.md §7)::
 
     (M + h D) a = u + f - c(q, v) - D v,      v⁺ = v + h a,      q⁺ = q + h v⁺

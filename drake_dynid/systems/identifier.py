@@ -9,9 +9,7 @@ import numpy as np
 from pydrake.systems.framework import (
     Context,
     DiscreteValues,
-    InputPort,
     LeafSystem,
-    OutputPort,
 )
 
 from drake_dynid.core import _validate as check
@@ -22,22 +20,20 @@ from drake_dynid.core.identifier import (
     identifier_update,
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.systems._solver_block import (
+    ESTIMATE_GROUPS,
+    SolverBlock,
+    estimate_vectors,
+)
 
 __all__ = ["SlidingQRIdentifier"]
 
-# The state groups of the block, in declaration order, and their sizes (p: the
-# parameters); each is also an output port of the same name.
-_GROUPS = (
-    "theta",
-    "theta_std",
-    "condition_number",
-    "valid",
-    "unidentified",
-    "status",
-)
+# The state groups of the block, in declaration order (p: the parameters); each is
+# also an output port of the same name.
+_GROUPS = ESTIMATE_GROUPS
 
 
-class SlidingQRIdentifier(LeafSystem):
+class SlidingQRIdentifier(SolverBlock, LeafSystem):
     r"""Least squares on the bank's sliding equations, with their uncertainty.
 
     .. pydrake_system::
@@ -121,92 +117,24 @@ class SlidingQRIdentifier(LeafSystem):
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
-        p = check.integer(owner, "num_parameters", num_parameters, 1)
-        r = check.integer(owner, "num_rows", num_rows, 1)
-        self._period = check.positive(owner, "update_period", update_period, "s")
-        offset = check.real(owner, "offset", offset, "s")
-        if offset < 0.0:
-            check.fail(owner, f"offset must be >= 0 [s]; got {offset}.")
-        self._max_condition = check.greater_than(
-            owner, "max_condition", max_condition, 1.0
+        offset = self._configure(
+            owner,
+            num_parameters,
+            num_rows,
+            update_period,
+            offset,
+            max_condition,
+            names,
+            row_weighting,
+            row_noise,
+            jackknife_groups,
         )
-        if names is not None and len(names) != p:
-            check.fail(owner, f"names must have {p} entries; got {len(names)}.")
-        self._names = tuple(names) if names is not None else None
         if initial_theta is not None:
-            check.array(owner, "initial_theta", initial_theta, (p,))
-        initial = identifier_init(p, initial_theta)
-        self._p, self._r = p, r
-        self._weighting = None
-        if row_weighting is not None:
-            frequency, group = row_weighting
-            self._weighting = (
-                check.array(owner, "row_frequency", frequency, (r,)),
-                check.array(owner, "row_group", group, (r,)).astype(int),
-            )
-        self._noise = row_noise
-        if row_noise is not None and row_noise.num_rows != r:
-            check.fail(
-                owner, f"row_noise must describe {r} rows; got {row_noise.num_rows}."
-            )
-        self._jackknife = None
-        if jackknife_groups is not None:
-            self._jackknife = check.array(
-                owner, "jackknife_groups", jackknife_groups, (r,)
-            ).astype(int)
-        self._a = self.DeclareVectorInputPort("A", r * p)
-        self._b = self.DeclareVectorInputPort("B", r)
-        self._window_valid = self.DeclareVectorInputPort("window_valid", 1)
-        self._groups = {
-            name: self.DeclareDiscreteState(value)
-            for name, value in zip(_GROUPS, self._as_vectors(initial), strict=True)
-        }
-        self.DeclarePeriodicDiscreteUpdateEvent(self._period, offset, self._Solve)
-        self._outputs = {
-            name: self.DeclareStateOutputPort(name, index)
-            for name, index in self._groups.items()
-        }
-
-    @property
-    def update_period(self) -> float:
-        """Seconds between two solves."""
-        return self._period
-
-    def get_input_port_A(self) -> InputPort:
-        """The input port ``A`` (r × p, row-major)."""
-        return self._a
-
-    def get_input_port_B(self) -> InputPort:
-        """The input port ``B`` (r)."""
-        return self._b
-
-    def get_input_port_window_valid(self) -> InputPort:
-        """The input port ``window_valid`` (1: solve this window)."""
-        return self._window_valid
-
-    def get_output_port_theta(self) -> OutputPort:
-        """The output port ``theta`` (p, the estimate held)."""
-        return self._outputs["theta"]
-
-    def get_output_port_theta_std(self) -> OutputPort:
-        """The output port ``theta_std`` (p, Gautier's σ)."""
-        return self._outputs["theta_std"]
-
-    def get_output_port_condition_number(self) -> OutputPort:
-        """The output port ``condition_number`` (1)."""
-        return self._outputs["condition_number"]
-
-    def get_output_port_valid(self) -> OutputPort:
-        """The output port ``valid`` (1: the last solve was accepted)."""
-        return self._outputs["valid"]
-
-    def get_output_port_unidentified(self) -> OutputPort:
-        """The output port ``unidentified`` (p, 1: not excited in the last solve)."""
-        return self._outputs["unidentified"]
-
-    def get_output_port_status(self) -> OutputPort:
-        """The output port ``status`` (1, a ``core.identifier.Status`` code)."""
-        return self._outputs["status"]
+            check.array(owner, "initial_theta", initial_theta, (self._p,))
+        initial = identifier_init(self._p, initial_theta)
+        self._declare(
+            self._p, _GROUPS, self._as_vectors(initial), offset, self._Solve
+        )
 
     def status(self, context: Context) -> Status:
         """The status of the last update."""
@@ -214,28 +142,11 @@ class SlidingQRIdentifier(LeafSystem):
 
     def state(self, context: Context) -> IdentifierState:
         """The identifier's state in ``context`` (``core.identifier``)."""
-        return IdentifierState(
-            theta=self._value(context, "theta").copy(),
-            std=self._value(context, "theta_std").copy(),
-            condition_number=float(self._value(context, "condition_number")[0]),
-            valid=bool(self._value(context, "valid")[0] > 0.5),
-            unidentified=self._value(context, "unidentified").copy(),
-            status=Status(int(self._value(context, "status")[0])),
-        )
-
-    def _value(self, context: Context, name: str) -> np.ndarray:
-        return context.get_discrete_state(int(self._groups[name])).get_value()
+        return self._estimate(context)
 
     @staticmethod
     def _as_vectors(state: IdentifierState) -> tuple[np.ndarray, ...]:
-        return (
-            state.theta,
-            state.std,
-            np.array([state.condition_number]),
-            np.array([1.0 if state.valid else 0.0]),
-            state.unidentified,
-            np.array([float(state.status)]),
-        )
+        return estimate_vectors(state)
 
     def _Solve(self, context: Context, discrete_state: DiscreteValues) -> None:
         ready = self._window_valid.Eval(context)[0] > 0.5
