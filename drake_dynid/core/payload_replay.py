@@ -26,7 +26,7 @@ from drake_dynid.core.payload_step import (
     payload_jackknife_groups,
     payload_update,
 )
-from drake_dynid.core.replay import _channel_blocks
+from drake_dynid.core.replay import bank_windows
 
 __all__ = ["PayloadTrace", "replay_payload_core"]
 
@@ -48,7 +48,6 @@ class PayloadTrace(OnlineTrace):
 def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     h = log.time_step
     count = log.num_samples
-    decimation = entry.decimation(h)
     solve_every = entry.solve_decimation(h)
     bank = entry.bank()
     m = entry.num_equations(rows.num_joints)
@@ -58,10 +57,6 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     noise = entry.row_noise(m, bank)
     jackknife = payload_jackknife_groups(entry, m, bank)
 
-    bank_times = np.arange(0, count, decimation)
-    blocks = _channel_blocks(log, rows, entry, bank_times)
-    channels, sample_valid = next(blocks)
-    offset = 0
     log_times = np.arange(0, count + 1, solve_every)
     num_logs = len(log_times)
     size = len(names)
@@ -73,8 +68,7 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     unidentified = np.zeros((num_logs, size))
     correlation = np.zeros((num_logs, size, size))
     state = payload_init(size)
-    window = bank.init_state(channels.shape[1])
-    pushed = 0
+    windows = bank_windows(log, rows, entry, bank, m, p, log_times)
     for index, s in enumerate(log_times):
         estimate = state.estimate
         theta[index], std[index] = estimate.theta, estimate.std
@@ -86,20 +80,7 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
         correlation[index] = state.correlation
         if s > count - 1:
             break
-        upto = int(np.searchsorted(bank_times, s, side="right"))
-        while upto > pushed:
-            if pushed - offset == len(channels):
-                offset += len(channels)
-                channels, sample_valid = next(blocks)
-            stop = min(upto, offset + len(channels))
-            window = bank.push_many(
-                window,
-                channels[pushed - offset : stop - offset],
-                valid=sample_valid[pushed - offset : stop - offset],
-            )
-            pushed = stop
-        ready = bank.window_valid(window)
-        a, b = bank.equations(window, m, p) if ready else (None, None)
+        ready, a, b, _ = next(windows)
         state = payload_update(
             state,
             ready,

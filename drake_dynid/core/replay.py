@@ -59,6 +59,7 @@ from drake_dynid.core.weighted_lsq import solve_window
 
 __all__ = [
     "bank_channels",
+    "bank_windows",
     "filtered_signals",
     "replay_log_core",
     "window_equations",
@@ -188,55 +189,33 @@ def _channel_blocks(
         yield pack_rows(*rows.model_rows(entry.model, q_hat, v_hat, tau_hat)), valid
 
 
-def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
-    h = log.time_step
-    rows = entry.row_provider(rows, h)  # noise-compensated power rows, if asked
-    count = log.num_samples
-    decimation = entry.decimation(h)
-    solve_every = entry.solve_decimation(h)
-    bank = entry.bank()
-    m = entry.num_equations(int(rows.num_joints))
-    p = int(rows.num_parameters)
-    names = tuple(rows.names)
-    weighting = entry.row_weighting(m, bank)
-    noise = entry.row_noise(m, bank)
-    jackknife = entry.jackknife_groups(m, bank)
+def bank_windows(
+    log: Any,
+    rows: Any,
+    entry: OnlineSettings,
+    bank: Any,
+    m: int,
+    p: int,
+    solve_times: np.ndarray,
+) -> Iterator[tuple[bool, Any, Any, Any]]:
+    """The bank's window at each solve, the samples pushed as the solves reach them.
 
-    # Bank updates run at t_j + h/2, j = 0, D, ... <= count - 1, each pushing ẑ_j
-    # (filtered rows) or the mean rows of the raw samples j - D + 1 .. j (raw
-    # rows); their rows are computed a block at a time, when the solves reach them.
-    bank_times = np.arange(0, count, decimation)
+    Bank updates run at t_j + h/2, j = 0, D, ... <= N - 1 (D = bank_time_step/h),
+    each pushing ẑ_j (filtered rows) or the mean rows of the raw samples
+    j - D + 1 .. j (raw rows), computed a block at a time (:func:`_channel_blocks`);
+    the solve at t_s + 3h/4 sees the updates at t_j <= t_s. Yields, for each
+    ``s`` of ``solve_times`` (signal samples, increasing, <= N - 1), ``(ready, A,
+    B, window)``: whether the window is valid, its equations (None when not) and
+    the bank's state. The core replays of the identifier and of the payload
+    identifier consume it.
+    """
+    bank_times = np.arange(0, log.num_samples, entry.decimation(log.time_step))
     blocks = _channel_blocks(log, rows, entry, bank_times)
     channels, sample_valid = next(blocks)
     offset = 0  # bank sample of channels[0]
-
-    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
-    # <= count.
-    log_times = np.arange(0, count + 1, solve_every)
-    num_logs = len(log_times)
-    theta = np.zeros((num_logs, p))
-    std = np.full((num_logs, p), np.inf)
-    condition = np.full(num_logs, np.inf)
-    valid = np.zeros(num_logs)
-    status = np.zeros(num_logs)
-    unidentified = np.zeros((num_logs, p))
-    state = identifier_init(p)
     window = bank.init_state(channels.shape[1])
-    # Change detection (core.change): the tracker's outputs per logged solve.
-    design = change_design(entry, h, m, p)
-    tracker = None if design is None else tracker_init(design)
-    change = np.zeros((num_logs if design else 0, 3 + p))
     pushed = 0
-    for index, s in enumerate(log_times):
-        # Record the state after the solves at t < t_s.
-        theta[index], std[index] = state.theta, state.std
-        condition[index], valid[index] = state.condition_number, float(state.valid)
-        status[index], unidentified[index] = float(state.status), state.unidentified
-        if design is not None and tracker is not None:
-            change[index] = tracker_outputs(tracker, design)
-        if s > count - 1:
-            break
-        # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
+    for s in solve_times:
         upto = int(np.searchsorted(bank_times, s, side="right"))
         while upto > pushed:
             if pushed - offset == len(channels):
@@ -251,6 +230,49 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             pushed = stop
         ready = bank.window_valid(window)
         a, b = bank.equations(window, m, p) if ready else (None, None)
+        yield ready, a, b, window
+
+
+def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
+    h = log.time_step
+    rows = entry.row_provider(rows, h)  # noise-compensated power rows, if asked
+    count = log.num_samples
+    solve_every = entry.solve_decimation(h)
+    bank = entry.bank()
+    m = entry.num_equations(int(rows.num_joints))
+    p = int(rows.num_parameters)
+    names = tuple(rows.names)
+    weighting = entry.row_weighting(m, bank)
+    noise = entry.row_noise(m, bank)
+    jackknife = entry.jackknife_groups(m, bank)
+
+    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
+    # <= count.
+    log_times = np.arange(0, count + 1, solve_every)
+    num_logs = len(log_times)
+    theta = np.zeros((num_logs, p))
+    std = np.full((num_logs, p), np.inf)
+    condition = np.full(num_logs, np.inf)
+    valid = np.zeros(num_logs)
+    status = np.zeros(num_logs)
+    unidentified = np.zeros((num_logs, p))
+    state = identifier_init(p)
+    windows = bank_windows(log, rows, entry, bank, m, p, log_times)
+    # Change detection (core.change): the tracker's outputs per logged solve.
+    design = change_design(entry, h, m, p)
+    tracker = None if design is None else tracker_init(design)
+    change = np.zeros((num_logs if design else 0, 3 + p))
+    for index, s in enumerate(log_times):
+        # Record the state after the solves at t < t_s.
+        theta[index], std[index] = state.theta, state.std
+        condition[index], valid[index] = state.condition_number, float(state.valid)
+        status[index], unidentified[index] = float(state.status), state.unidentified
+        if design is not None and tracker is not None:
+            change[index] = tracker_outputs(tracker, design)
+        if s > count - 1:
+            break
+        # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
+        ready, a, b, window = next(windows)
         solve = dict(
             weighting=weighting,
             max_condition=entry.max_condition,
