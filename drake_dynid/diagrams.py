@@ -64,6 +64,7 @@ __all__ = [
     "OnlineTrace",
     "SimulationResult",
     "SimulationSettings",
+    "add_bank_front",
     "add_online_identifier",
     "add_online_identifiers",
     "advance",
@@ -122,62 +123,37 @@ class IdentifierChain:
 _Chain = IdentifierChain  # the former private name
 
 
-def add_online_identifier(
+def add_bank_front(
     builder: Any,
     rows: Any,
+    settings: OnlineSettings,
     measurement: Any,
     time_step: float,
-    settings: OnlineSettings,
-    *,
     differentiator: Any = None,
-    log: bool = True,
-) -> IdentifierChain:
-    """Adds the on-line identification chain fed by a measurement port [q; τ].
+) -> tuple[Any, Any, Any, Any]:
+    """Differentiator → model rows → modulating bank, wired in ``builder``.
 
-    The settings are put on the measurement's grid first
-    (:meth:`OnlineSettings.on_grid`: unset bank and solve periods become the
-    multiples of ``time_step`` closest to their nominal values).
-
-    Args:
-        builder: the ``DiagramBuilder``.
-        rows: row provider (``RobotModel`` or its ``rows_provider()``): has
-            ``num_joints``, ``num_parameters``, ``names`` and ``model_rows``.
-        measurement: output port of size 2n carrying [q; τ] sampled at ``time_step``.
-        time_step: sample period h of the measurement [s].
-        settings: identifier settings.
-        differentiator: reuse an existing differentiator (a chain returned earlier
-            with the same Jacobi settings) instead of adding a new one.
-        log: add loggers of θ̂, σ, cond, valid, status and unidentified at the
-            solve period.
+    The front end every on-line identifier block shares (the sliding identifier of
+    :func:`add_online_identifier`, ``payload_diagrams.add_payload_identifier``):
+    a ``CausalJacobiDifferentiator`` of ``measurement`` = [q; τ] (or the one
+    given), the ``ModelRows`` of its outputs or the ``RawModelRows`` of its ring
+    (``settings.rows_from``), and a ``ModulatingIntegralBank`` of their channels.
+    ``settings`` must already be on the grid of ``time_step`` [s].
 
     Returns:
-        Handles to the blocks and loggers.
+        ``(differentiator, model_rows, bank, design)``: the blocks and the bank's
+        design (``settings.bank()``).
     """
-    from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+    from pydrake.systems.primitives import Demultiplexer
 
     from drake_dynid.systems.identification import (
         ModelRows,
         ModulatingIntegralBank,
         RawModelRows,
-        SlidingQRIdentifier,
     )
     from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
 
-    owner = "add_online_identifier"
-    n = check_rows(owner, rows)
-    if not isinstance(settings, OnlineSettings):
-        raise TypeError(
-            f"{owner}: settings must be an OnlineSettings; got "
-            f"{type(settings).__name__}."
-        )
-    if measurement.size() != 2 * n:
-        check.fail(
-            owner,
-            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
-            f"{measurement.size()}.",
-        )
-    settings = settings.for_robot(time_step, n, int(rows.num_parameters))
-    rows = settings.row_provider(rows, time_step)  # noise-compensated power rows
+    n = int(rows.num_joints)
     if differentiator is None:
         differentiator = builder.AddSystem(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
@@ -230,6 +206,62 @@ def add_online_identifier(
     )
     builder.Connect(
         differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
+    )
+    return differentiator, model_rows, bank, design
+
+
+def add_online_identifier(
+    builder: Any,
+    rows: Any,
+    measurement: Any,
+    time_step: float,
+    settings: OnlineSettings,
+    *,
+    differentiator: Any = None,
+    log: bool = True,
+) -> IdentifierChain:
+    """Adds the on-line identification chain fed by a measurement port [q; τ].
+
+    The settings are put on the measurement's grid first
+    (:meth:`OnlineSettings.on_grid`: unset bank and solve periods become the
+    multiples of ``time_step`` closest to their nominal values).
+
+    Args:
+        builder: the ``DiagramBuilder``.
+        rows: row provider (``RobotModel`` or its ``rows_provider()``): has
+            ``num_joints``, ``num_parameters``, ``names`` and ``model_rows``.
+        measurement: output port of size 2n carrying [q; τ] sampled at ``time_step``.
+        time_step: sample period h of the measurement [s].
+        settings: identifier settings.
+        differentiator: reuse an existing differentiator (a chain returned earlier
+            with the same Jacobi settings) instead of adding a new one.
+        log: add loggers of θ̂, σ, cond, valid, status and unidentified at the
+            solve period.
+
+    Returns:
+        Handles to the blocks and loggers.
+    """
+    from pydrake.systems.primitives import LogVectorOutput
+
+    from drake_dynid.systems.identification import SlidingQRIdentifier
+
+    owner = "add_online_identifier"
+    n = check_rows(owner, rows)
+    if not isinstance(settings, OnlineSettings):
+        raise TypeError(
+            f"{owner}: settings must be an OnlineSettings; got "
+            f"{type(settings).__name__}."
+        )
+    if measurement.size() != 2 * n:
+        check.fail(
+            owner,
+            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
+            f"{measurement.size()}.",
+        )
+    settings = settings.for_robot(time_step, n, int(rows.num_parameters))
+    rows = settings.row_provider(rows, time_step)  # noise-compensated power rows
+    differentiator, model_rows, bank, design = add_bank_front(
+        builder, rows, settings, measurement, time_step, differentiator
     )
     names = tuple(rows.names)
     solver = dict(

@@ -21,14 +21,13 @@ from typing import Any
 from drake_dynid.core import _validate as check
 from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.online import (
-    BANK_OFFSET,
     SOLVE_OFFSET,
     OnlineSettings,
 )
 from drake_dynid.core.payload import PayloadRows
 from drake_dynid.core.payload_replay import PayloadTrace
 from drake_dynid.core.payload_step import payload_jackknife_groups
-from drake_dynid.diagrams import IdentifierChain, advance, log_source
+from drake_dynid.diagrams import IdentifierChain, add_bank_front, advance, log_source
 
 __all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
 
@@ -75,14 +74,8 @@ def add_payload_identifier(
         Handles to the blocks and loggers (``identifier`` is the
         ``PayloadIdentifier``; ``names`` the payload's base parameters).
     """
-    from pydrake.systems.primitives import Demultiplexer, LogVectorOutput
+    from pydrake.systems.primitives import LogVectorOutput
 
-    from drake_dynid.systems.identification import (
-        ModelRows,
-        ModulatingIntegralBank,
-        RawModelRows,
-    )
-    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
     from drake_dynid.systems.payload import PayloadIdentifier
 
     owner = "add_payload_identifier"
@@ -96,50 +89,10 @@ def add_payload_identifier(
             f"{measurement.size()}.",
         )
     settings = settings.on_grid(time_step)
-    if differentiator is None:
-        differentiator = builder.AddSystem(
-            CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
-        )
-        builder.Connect(measurement, differentiator.get_input_port_u())
-    if settings.rows_from == "raw":
-        model_rows = builder.AddSystem(
-            RawModelRows(
-                rows,
-                settings.model,
-                settings.raw_design(time_step),
-                differentiator.history_length,
-            )
-        )
-        builder.Connect(
-            differentiator.get_output_port_history(),
-            model_rows.get_input_port_history(),
-        )
-    else:
-        smoothed = builder.AddSystem(Demultiplexer([n, n]))
-        rates = builder.AddSystem(Demultiplexer([n, n]))
-        builder.Connect(
-            differentiator.get_output_port_derivative(0), smoothed.get_input_port()
-        )
-        builder.Connect(
-            differentiator.get_output_port_derivative(1), rates.get_input_port()
-        )
-        model_rows = builder.AddSystem(ModelRows(rows, settings.model))
-        builder.Connect(smoothed.get_output_port(0), model_rows.get_input_port_q())
-        builder.Connect(rates.get_output_port(0), model_rows.get_input_port_v())
-        builder.Connect(smoothed.get_output_port(1), model_rows.get_input_port_tau())
-    design = settings.bank()
+    differentiator, model_rows, bank, design = add_bank_front(
+        builder, rows, settings, measurement, time_step, differentiator
+    )
     m = model_rows.num_equations
-    bank = builder.AddSystem(
-        ModulatingIntegralBank(
-            design, m, model_rows.num_parameters, offset=BANK_OFFSET * time_step
-        )
-    )
-    builder.Connect(
-        model_rows.get_output_port_channels(), bank.get_input_port_channels()
-    )
-    builder.Connect(
-        differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
-    )
     names = rows.payload_names
     identifier = builder.AddSystem(
         PayloadIdentifier(
