@@ -22,7 +22,14 @@ from drake_dynid.core import _validate as v
 __all__ = ["jackknife_std"]
 
 
-def jackknife_std(A: Any, B: Any, groups: Any, *, weights: Any = None) -> np.ndarray:
+def jackknife_std(
+    A: Any,
+    B: Any,
+    groups: Any,
+    *,
+    weights: Any = None,
+    factor: tuple[np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Delete-one-group jackknife standard deviations of the least-squares solution.
 
     With θ̂_(g) the solution without the rows of group g (G groups) and θ̄ their
@@ -42,6 +49,10 @@ def jackknife_std(A: Any, B: Any, groups: Any, *, weights: Any = None) -> np.nda
         B: (r,) observations.
         groups: (r,) integer group of every row.
         weights: optional (r,) row weights (the weighted problem's jackknife).
+        factor: optional ``(R_inv, norms)`` of the solve that produced θ̂ (R⁻¹
+            of the QR of the weighted, column-scaled A and the column norms S,
+            ``core.lsq``), from a solve that found A full rank and well
+            conditioned: then ``Q = A S⁻¹ R⁻¹`` and no new QR is taken.
 
     Returns:
         (p,) σ_J in the units of θ; NaN when there are fewer than 2 groups or
@@ -61,14 +72,20 @@ def jackknife_std(A: Any, B: Any, groups: Any, *, weights: Any = None) -> np.nda
         A, B = A * w[:, None], B * w
     labels = np.unique(groups)
     nan = np.full(p, np.nan)
-    norms = np.sqrt(np.einsum("ij,ij->j", A, A))
-    if labels.size < 2 or rows <= p or np.any(norms <= 0.0):
-        return nan
-    Q, R = np.linalg.qr(A / norms)
-    singular = np.linalg.svd(R, compute_uv=False)
-    if singular[-1] <= singular[0] * max(rows, p) * np.finfo(float).eps:
-        return nan
-    R_inv = np.linalg.inv(R)
+    if factor is not None:
+        R_inv, norms = factor
+        if labels.size < 2 or rows <= p:
+            return nan
+        Q = (A / norms) @ R_inv
+    else:
+        norms = np.sqrt(np.einsum("ij,ij->j", A, A))
+        if labels.size < 2 or rows <= p or np.any(norms <= 0.0):
+            return nan
+        Q, R = np.linalg.qr(A / norms)
+        singular = np.linalg.svd(R, compute_uv=False)
+        if singular[-1] <= singular[0] * max(rows, p) * np.finfo(float).eps:
+            return nan
+        R_inv = np.linalg.inv(R)
     residual = B - Q @ (Q.T @ B)
     deleted = np.empty((labels.size, p))
     for k, label in enumerate(labels):

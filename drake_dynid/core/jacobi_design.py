@@ -9,10 +9,10 @@ Perruquetti & Gautier, AIM 2014)::
     Q(τ) = (1-τ)^μ τ^κ Σ_{i=0..q} C_i P_i^{(μ+k, κ+k)}(ξ) P_{k+i}^{(μ, κ)}(τ)
     C_i  = (μ+κ+2k+2i+1) Γ(κ+μ+2k+i+1) Γ(k+i+1) / (Γ(κ+k+i+1) Γ(μ+k+i+1))
 
-with ``P_m^{(a,b)}(τ) = scipy.special.eval_jacobi(m, a, b, 2τ-1)``. The continuous
-estimate is the k-th derivative at ξ of the weighted least-squares polynomial of
-degree k+q fitted to the window: exact for polynomials of degree k+q for any ξ, and
-of degree k+q+1 when ξ is a root of ``P_{q+1}^{(μ+k, κ+k)}``.
+with ``P_m^{(a,b)}(τ) = scipy.special.eval_jacobi(m, a, b, 2τ-1)`` (``core.orthopoly``).
+The continuous estimate is the k-th derivative at ξ of the weighted least-squares
+polynomial of degree k+q fitted to the window: exact for polynomials of degree k+q for
+any ξ, and of degree k+q+1 when ξ is a root of ``P_{q+1}^{(μ+k, κ+k)}``.
 
 Discretisation: product integration with x linear between samples (hat functions
 φ_j at τ_j = j/N, N = Tj/h)::
@@ -39,9 +39,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import special
 
 from drake_dynid.core import _validate
+from drake_dynid.core.orthopoly import gauss_jacobi, jacobi_polynomial, log_gamma
 
 __all__ = [
     "MAX_EXPONENT",
@@ -165,13 +165,13 @@ def jacobi_minimum_delay_xi(order: int, *, kappa: float, mu: float, q: int) -> f
     """Minimum-delay ξ that makes the estimator exact for degree order+q+1.
 
     ``ξ = (r+1)/2`` with r the smallest root of ``P_{q+1}^{(μ+k, κ+k)}`` on [-1, 1]
-    (``scipy.special.roots_jacobi(q+1, μ+k, κ+k)``). For q = 0 this is
-    ``(κ+k+1)/(κ+μ+2k+2)``. Dimensionless.
+    (``scipy.special.roots_jacobi(q+1, μ+k, κ+k)``, ``core.orthopoly``). For q = 0
+    this is ``(κ+k+1)/(κ+μ+2k+2)``. Dimensionless.
     """
     owner = "jacobi_minimum_delay_xi"
     order = _check_integer(owner, "order", order, 0)
     kappa, mu, q = _check_shape(owner, kappa, mu, q)
-    roots, _ = special.roots_jacobi(q + 1, mu + order, kappa + order)
+    roots, _ = gauss_jacobi(q + 1, mu + order, kappa + order)
     return float(np.clip((np.min(roots) + 1.0) / 2.0, 0.0, 1.0))
 
 
@@ -181,17 +181,17 @@ def _coefficients(order: int, kappa: float, mu: float, q: int, xi: float) -> np.
     out = np.empty(q + 1)
     for i in range(q + 1):
         if i == 0:  # (κ+μ+2k+1)Γ(κ+μ+2k+1) = Γ(κ+μ+2k+2), fine for κ+μ+2k+1 <= 0
-            log_c = special.gammaln(kappa + mu + 2 * k + 2)
+            log_c = log_gamma(kappa + mu + 2 * k + 2)
             scale = 1.0
         else:
-            log_c = special.gammaln(kappa + mu + 2 * k + i + 1)
+            log_c = log_gamma(kappa + mu + 2 * k + i + 1)
             scale = kappa + mu + 2 * k + 2 * i + 1
         log_c += (
-            special.gammaln(k + i + 1)
-            - special.gammaln(kappa + k + i + 1)
-            - special.gammaln(mu + k + i + 1)
+            log_gamma(k + i + 1)
+            - log_gamma(kappa + k + i + 1)
+            - log_gamma(mu + k + i + 1)
         )
-        jac = special.eval_jacobi(i, mu + k, kappa + k, 2.0 * xi - 1.0)
+        jac = jacobi_polynomial(i, mu + k, kappa + k, 2.0 * xi - 1.0)
         out[i] = scale * np.exp(log_c) * jac
     return out
 
@@ -201,7 +201,7 @@ def _polynomial(tau: np.ndarray, order: int, kappa: float, mu: float, coeffs) ->
     x = 2.0 * np.asarray(tau, dtype=float) - 1.0
     out = np.zeros_like(x)
     for i, c in enumerate(coeffs):
-        out = out + c * special.eval_jacobi(order + i, mu, kappa, x)
+        out = out + c * jacobi_polynomial(order + i, mu, kappa, x)
     return out
 
 
@@ -227,7 +227,7 @@ def jacobi_kernel(
 
 def _gauss_jacobi_01(points: int, exponent: float) -> tuple[np.ndarray, np.ndarray]:
     """Nodes s and weights W with ∫_0^1 s^e f(s) ds ≈ Σ W f(s)."""
-    x, w = special.roots_jacobi(points, 0.0, exponent)
+    x, w = gauss_jacobi(points, 0.0, exponent)
     return (x + 1.0) / 2.0, w / 2.0 ** (exponent + 1.0)
 
 
@@ -247,7 +247,7 @@ def _product_integration(
         np.add.at(out, left + 1, np.sum(values * s, axis=-1))
 
     if n == 1:  # one interval holds both singular ends: one Gauss-Jacobi rule
-        x, w = special.roots_jacobi(points, mu, kappa)
+        x, w = gauss_jacobi(points, mu, kappa)
         s = (x + 1.0) / 2.0
         values = (
             w / 2.0 ** (mu + kappa + 1.0) * _polynomial(s, order, kappa, mu, coeffs)
@@ -272,7 +272,7 @@ def _product_integration(
 
     # Interior intervals: Gauss-Legendre on the full (smooth there) integrand.
     if n > 2:
-        x, w = special.roots_legendre(points)
+        x, w = gauss_jacobi(points, 0.0, 0.0)
         s = (x + 1.0) / 2.0
         left = np.arange(1, n - 1)
         tau = (left[:, None] + s[None, :]) * step
@@ -295,7 +295,7 @@ def _design(
     order = _check_integer(owner, "order", order, 0)
     window, time_step, intervals = _check_grid(owner, window, time_step)
     kappa, mu, q = _check_shape(owner, kappa, mu, q)
-    roots, _ = special.roots_jacobi(q + 1, mu + order, kappa + order)
+    roots, _ = gauss_jacobi(q + 1, mu + order, kappa + order)
     root_xi = (roots + 1.0) / 2.0
     if xi is None:
         xi = float(np.clip(np.min(root_xi), 0.0, 1.0))
@@ -385,7 +385,7 @@ def _design_bank(
     kappa, mu, q = _check_shape(owner, kappa, mu, q)
     top = max(orders)
     if xi is None:
-        roots, _ = special.roots_jacobi(q + 1, mu + top, kappa + top)
+        roots, _ = gauss_jacobi(q + 1, mu + top, kappa + top)
         xi = float(np.clip((np.min(roots) + 1.0) / 2.0, 0.0, 1.0))
     # matched: order k uses (κ + K - k, μ + K - k), K the highest order, so that every
     # output is the same low-pass D⁰(κ+K, μ+K, q) applied to x^(k).

@@ -192,6 +192,17 @@ class ChunkRing:
             return np.empty((0, self._channels))
         return np.concatenate(blocks, axis=0)
 
+    def window_columns(self, columns: Any) -> np.ndarray:
+        """The window's samples of the channels ``columns`` only, (size, k), a copy.
+
+        ``window()[:, columns]`` without copying the other channels.
+        """
+        blocks = self._blocks()
+        columns = np.asarray(columns, dtype=np.intp)
+        if not blocks:
+            return np.empty((0, columns.size))
+        return np.concatenate([block[:, columns] for block in blocks], axis=0)
+
     # -- value-semantics updates ---------------------------------------------------
 
     def _derive(self) -> ChunkRing:

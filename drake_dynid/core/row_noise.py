@@ -129,24 +129,75 @@ def noise_model_std(
     Returns:
         (r,) σ_i [unit of B] (ones for an equation whose residuals are all 0).
     """
-    from scipy.optimize import nnls
-
+    labels, index = np.unique(group, return_inverse=True)
+    index = index.reshape(-1)
+    count = labels.size
+    scale = np.zeros(count)
+    np.maximum.at(scale, index, np.abs(residual))
+    nu2 = frequency**2
+    model = np.stack([np.ones_like(nu2), nu2, nu2 * nu2], axis=1)
+    top = np.zeros((count, 3))
+    np.maximum.at(top, index, model)
+    top[top == 0.0] = 1.0
+    fitted = scale > 0.0
+    safe = np.where(fitted, scale, 1.0)
+    model = model / top[index]
+    coefficients = nonnegative_fit(model, (residual / safe[index]) ** 2, index, count)
+    variance = np.einsum("ik,ik->i", model, coefficients[index])
+    peak = np.zeros(count)
+    np.maximum.at(peak, index, variance)
+    use = (fitted & (peak > 0.0))[index]
     out = np.ones_like(residual)
-    for j in np.unique(group):
-        rows = group == j
-        scale = float(np.max(np.abs(residual[rows]), initial=0.0))
-        if scale == 0.0:
-            continue
-        nu2 = frequency[rows] ** 2
-        model = np.stack([np.ones_like(nu2), nu2, nu2 * nu2], axis=1)
-        top = np.max(model, axis=0)
-        top[top == 0.0] = 1.0
-        coefficients, _ = nnls(model / top, (residual[rows] / scale) ** 2)
-        variance = (model / top) @ coefficients
-        peak = float(variance.max())
-        if peak > 0.0:
-            out[rows] = scale * np.sqrt(np.maximum(variance, 1e-3 * peak))
+    out[use] = (safe[index] * np.sqrt(np.maximum(variance, 1e-3 * peak[index])))[use]
     return out
+
+
+def nonnegative_fit(
+    model: np.ndarray, y: np.ndarray, index: np.ndarray, count: int
+) -> np.ndarray:
+    """Per group g: ``argmin ‖M_g x - y_g‖²`` subject to x >= 0, all groups at once.
+
+    The non-negative least squares of a few columns (k <= 3 here) by enumeration:
+    the optimum is the unconstrained least squares on its own support, so it is
+    the feasible (all coefficients >= 0) support solution of least cost among the
+    2^k supports (the empty one costs 0). The support solves use the groups' Gram
+    matrices (columns scaled to at most 1 by the caller), vectorised over groups;
+    the fitted values equal scipy's ``nnls`` to round-off.
+
+    Args:
+        model: (r, k) columns M of every row.
+        y: (r,) observations.
+        index: (r,) group of every row, in 0..count-1.
+        count: number of groups.
+
+    Returns:
+        (count, k) coefficients (zeros for a group whose best fit is 0).
+    """
+    k = model.shape[1]
+    member = np.zeros((count, model.shape[0]))
+    member[index, np.arange(model.shape[0])] = 1.0
+    gram = np.einsum("gi,ia,ib->gab", member, model, model)
+    moment = member @ (model * y[:, None])
+    best = np.zeros((count, k))
+    best_cost = np.zeros(count)  # the empty support: x = 0, cost - ‖y‖² = 0
+    for mask in range(1, 2**k):
+        support = [i for i in range(k) if mask >> i & 1]
+        g = gram[:, support][:, :, support]
+        c = moment[:, support]
+        # Hadamard ratio det/Π diag in [0, 1]: near 0, a dependent support (its
+        # sub-supports are tried as well).
+        diagonal = np.prod(np.diagonal(g, axis1=1, axis2=2), axis=1)
+        solvable = np.linalg.det(g) > 1e-10 * diagonal
+        x = np.zeros((count, len(support)))
+        if solvable.any():
+            x[solvable] = np.linalg.solve(g[solvable], c[solvable][..., None])[..., 0]
+        cost = -np.einsum("gi,gi->g", c, x)  # ‖y - Mx‖² - ‖y‖² at the LS optimum
+        better = solvable & (x >= 0.0).all(axis=1) & (cost < best_cost)
+        if better.any():
+            best[better] = 0.0
+            best[np.ix_(better, support)] = x[better]
+            best_cost[better] = cost[better]
+    return best
 
 
 @dataclass(frozen=True)
@@ -171,6 +222,8 @@ def honest_std(
     weights: np.ndarray,
     relative_std: np.ndarray,
     noise: RowNoise,
+    *,
+    factor: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> HonestStd:
     """Sandwich standard deviations of ``X̂ = argmin ‖W (B - A X)‖`` (module doc).
 
@@ -182,18 +235,24 @@ def honest_std(
         relative_std: (r,) modelled noise std of each row, up to one scale (e.g.
             ``1/frequency_noise_weights``).
         noise: the rows' :class:`RowNoise`.
+        factor: optional ``(R_inv, norms)`` of the weighted solve (R⁻¹ of the QR
+            of ``W A`` with its columns divided by ``norms``, ``core.lsq``):
+            reused instead of a new QR.
 
     Returns:
         :class:`HonestStd` (std NaN and dof 0 when the residual has no degree of
         freedom left).
     """
     Aw = A * weights[:, None]
-    scale = np.max(np.abs(Aw), axis=0)
-    scale[scale == 0.0] = 1.0
-    norms = scale * np.sqrt(np.einsum("ij,ij->j", Aw / scale, Aw / scale))
-    As = Aw / norms
-    R = np.asarray(np.linalg.qr(As, mode="r"))
-    R_inv = np.linalg.inv(R)
+    if factor is None:
+        scale = np.max(np.abs(Aw), axis=0)
+        scale[scale == 0.0] = 1.0
+        norms = scale * np.sqrt(np.einsum("ij,ij->j", Aw / scale, Aw / scale))
+        As = Aw / norms
+        R_inv = np.linalg.inv(np.asarray(np.linalg.qr(As, mode="r")))
+    else:
+        R_inv, norms = factor
+        As = Aw / norms
     inverse = R_inv @ R_inv.T
     s = weights * relative_std
     s = s / np.sqrt(np.mean(s * s))  # one overall scale, fitted below

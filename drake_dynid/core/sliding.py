@@ -277,20 +277,22 @@ def _check_departures(bank: FourierBank, state: SlidingState) -> SlidingState:
     """Resynchronises when a channel's peak has left the window and was large.
 
     Otherwise, the peaks of the channels whose peak left are re-read from the
-    window (O(N·c), once per departure).
+    window (O(N·k) for the k channels that left, once per departure).
     """
     oldest = state.count - len(state.ring)
-    gone = (state.peak_index >= 0) & (state.peak_index < oldest)
-    if not gone.any():
+    gone = np.flatnonzero((state.peak_index >= 0) & (state.peak_index < oldest))
+    if gone.size == 0:
         return state
-    window = state.ring.window()
-    peak, peak_index = _window_peaks(window, oldest)
-    if np.any(state.peak[gone] > RESYNC_RATIO * peak[gone]):
+    # Only the departed channels are re-read (a few of the c per push).
+    peak, peak_index = _window_peaks(state.ring.window_columns(gone), oldest)
+    if np.any(state.peak[gone] > RESYNC_RATIO * peak):
         return sliding_resync(bank, state)
+    new_peak = state.peak.copy()
+    new_index = state.peak_index.copy()
+    new_peak[gone] = peak
+    new_index[gone] = peak_index
     return dataclasses.replace(
-        state,
-        peak=_frozen(np.where(gone, peak, state.peak)),
-        peak_index=_frozen(np.where(gone, peak_index, state.peak_index)),
+        state, peak=_frozen(new_peak), peak_index=_frozen(new_index)
     )
 
 

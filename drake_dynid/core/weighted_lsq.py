@@ -25,8 +25,8 @@ from drake_dynid.core.lsq import (
     LeastSquaresResult,
     _decompose,
     _estimate,
+    _Factor,
     solve_least_squares,
-    solve_weighted_least_squares,
 )
 
 __all__ = [
@@ -233,29 +233,37 @@ def solve_window(
         noise_model_std,
     )
 
-    first = solve_least_squares(A, B, max_condition=max_condition, names=names)
-    if not first.valid:
+    # First pass: X̂₀ only when it is re-solved with weights (no SVD then).
+    A, B, first = _decompose(
+        A, B, max_condition, names, bound_first=weighting is not None
+    )
+    if isinstance(first, LeastSquaresResult):
         return first
-    A = np.asarray(A, dtype=float)
-    B = np.asarray(B, dtype=float)
     if A.shape[0] != noise.num_rows:
         v.fail(
             "solve_window",
             f"noise must describe the {A.shape[0]} rows of A; got {noise.num_rows}.",
         )
-    model = frequency_noise_weights(B - A @ first.theta, noise.frequency, noise.group)
+    first = _with_inverse(first)
+    p = first.norms.size
+    theta = (first.R_inv @ first.R_aug[:p, p]) * first.b_scale / first.norms
+    model = frequency_noise_weights(B - A @ theta, noise.frequency, noise.group)
     if weighting is None:
         weights = np.ones_like(B)
-        result = first
+        factor = first
     else:
         weights = model
-        result = solve_weighted_least_squares(
-            A, B, weights, max_condition=max_condition, names=names
+        _, _, second = _decompose(
+            A * weights[:, None], B * weights, max_condition, names
         )
-        if not result.valid:
-            return result
+        if isinstance(second, LeastSquaresResult):
+            return second
+        factor = _with_inverse(second)
+    result = _estimate(factor)
+    assert factor.R_inv is not None
+    reuse = (factor.R_inv, factor.norms)  # honest σ and jackknife: no new QR
     relative = noise_model_std(B - A @ result.theta, noise.frequency, noise.group)
-    honest = honest_std(A, B, result.theta, weights, relative, noise)
+    honest = honest_std(A, B, result.theta, weights, relative, noise, factor=reuse)
     if not honest.dof >= MIN_RESIDUAL_DOF:
         nan = np.full(A.shape[1], np.nan)
         nan.flags.writeable = False
@@ -276,7 +284,7 @@ def solve_window(
     result = dataclasses.replace(
         _with_std(result, honest.std), residual_std=honest.residual_std
     )
-    return _with_jackknife(result, A, B, jackknife, weights)
+    return _with_jackknife(result, A, B, jackknife, weights, factor=reuse)
 
 
 def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:
@@ -290,16 +298,29 @@ def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult
 
 
 def _with_jackknife(
-    result: LeastSquaresResult, A: Any, B: Any, groups: Any, weights: Any
+    result: LeastSquaresResult,
+    A: Any,
+    B: Any,
+    groups: Any,
+    weights: Any,
+    factor: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> LeastSquaresResult:
     """σ = max(result's σ, the delete-one-group jackknife's), per parameter.
 
     A NaN jackknife (fewer than two groups, or a group whose removal leaves θ
-    undetermined) keeps the result's σ.
+    undetermined) keeps the result's σ. ``factor``: the solve's (R⁻¹, norms).
     """
     if groups is None or not result.valid:
         return result
     from drake_dynid.core.jackknife import jackknife_std
 
-    spread = jackknife_std(A, B, groups, weights=weights)
+    spread = jackknife_std(A, B, groups, weights=weights, factor=factor)
     return _with_std(result, np.fmax(result.std, spread))
+
+
+def _with_inverse(factor: _Factor) -> _Factor:
+    """``factor`` with R⁻¹ formed (once, shared by X̂, σ and the jackknife)."""
+    if factor.R_inv is not None:
+        return factor
+    p = factor.norms.size
+    return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))

@@ -18,6 +18,7 @@ from drake_dynid.core.row_noise import (
     MIN_RESIDUAL_DOF,
     honest_std,
     noise_model_std,
+    nonnegative_fit,
     row_noise,
 )
 from drake_dynid.core.sliding import (
@@ -129,6 +130,30 @@ def test_noise_model_std_fits_a_nu4_law_without_overflow():
     model = noise_model_std(residual, nu, np.zeros(nu.size, dtype=int))
     assert np.all(np.isfinite(model))
     np.testing.assert_allclose(model / 1e160, truth, rtol=0.25)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_nonnegative_fit_equals_scipy_nnls_per_group(seed):
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(seed)
+    frequency_sets = (np.arange(10.0), rng.uniform(0, 20, 12), np.full(8, 3.0))
+    for nu in frequency_sets:
+        nu = np.tile(np.repeat(nu, 2), 4)
+        index = np.repeat(np.arange(4), nu.size // 4)
+        model = np.stack([np.ones_like(nu), nu**2, nu**4], axis=1)
+        model /= model.max(axis=0)
+        truth = rng.uniform(-1, 1, (4, 3)) * (rng.uniform(size=(4, 3)) < 0.7)
+        y = np.einsum("ik,ik->i", model, truth[index])
+        y += 0.3 * rng.standard_normal(nu.size)
+        ours = nonnegative_fit(model, y, index, 4)
+        assert np.all(ours >= 0.0)
+        for g in range(4):
+            rows = index == g
+            reference, _ = nnls(model[rows], y[rows])
+            np.testing.assert_allclose(
+                model[rows] @ ours[g], model[rows] @ reference, rtol=1e-7, atol=1e-9
+            )
 
 
 def test_least_squares_of_data_scaled_by_1e160():
