@@ -318,6 +318,29 @@ class RobotRows:
         out[..., friction_columns] = friction_idim_columns(v, self.friction, self.sign)
         return out
 
+    def _lagrangian_base(self, q, v):
+        """:meth:`_lagrangian_standard` in base columns, gathered from the blocks.
+
+        As :meth:`_idim_base`: the same numbers without the standard arrays.
+        """
+        sources = self._base_sources
+        if sources is None:
+            return tuple(
+                self._columns(a, "base") for a in self._lagrangian_standard(q, v)
+            )
+        inertial_columns, inertial, rotor_columns, rotor, _ = sources
+        num_samples, n = v.shape
+        out = []
+        blocks = lagrangian_blocks(self._terms(q, v, derivatives=True))
+        for k, block in enumerate(blocks):
+            rows = self._reduce_joints(block).reshape(num_samples, n, -1)
+            gathered = np.zeros((num_samples, n, self.num_parameters))
+            gathered[..., inertial_columns] = rows[..., inertial]
+            if k == 0 and rotor_columns.size:  # ∂h_E/∂v of IA_j v_j²/2
+                gathered[:, rotor, rotor_columns] = v[:, rotor]
+            out.append(gathered)
+        return tuple(out)
+
     @cached_property
     def _base_sources(self):
         """Where each base column of the IDIM rows comes from (None: coupled motors).
@@ -406,9 +429,7 @@ class RobotRows:
             return self._columns(kinetic + potential, "base")
 
         def lagrangian():
-            return tuple(
-                self._columns(a, "base") for a in self._lagrangian_standard(q, v)
-            )
+            return self._lagrangian_base(q, v)
 
         check_model_kind("RobotModel", kind)
         if self.friction:

@@ -1,5 +1,6 @@
-"""The inverse-dynamics rows in base columns are gathered straight from the link
-blocks (``RobotRows._idim_base``): they must equal the standard rows' base columns.
+"""The inverse-dynamics and Lagrangian rows in base columns are gathered straight
+from the link blocks (``RobotRows._idim_base``, ``_lagrangian_base``): they must
+equal the standard rows' base columns.
 
 Pinocchio and Drake check the standard rows themselves (tests/test_models_7dof.py,
 tests/test_any_urdf.py); here the gather is checked against the general path on
@@ -12,16 +13,15 @@ import pytest
 from drake_dynid.core.friction import DeadZoneSign
 from drake_dynid.plants import RobotModel, model_path
 
+MODELS = [
+    ("iiwa7", {}),
+    ("iiwa7", {"rotor_inertia": True, "friction": "viscous,coulomb,offset"}),
+    ("ur5", {"rotor_inertia": True, "locked": {"wrist_3_joint": 0.3}}),
+    ("planar_2r", {"friction": "viscous"}),
+]
 
-@pytest.mark.parametrize(
-    ("name", "options"),
-    [
-        ("iiwa7", {}),
-        ("iiwa7", {"rotor_inertia": True, "friction": "viscous,coulomb,offset"}),
-        ("ur5", {"rotor_inertia": True, "locked": {"wrist_3_joint": 0.3}}),
-        ("planar_2r", {"friction": "viscous"}),
-    ],
-)
+
+@pytest.mark.parametrize(("name", "options"), MODELS)
 def test_base_rows_are_the_standard_rows_base_columns(name, options):
     robot = RobotModel.from_urdf(model_path(name), **options)
     assert robot._base_sources is not None  # the gathered path is taken
@@ -38,3 +38,15 @@ def test_base_rows_are_the_standard_rows_base_columns(name, options):
             )
     single = robot.idim_rows(q[0], v[0], vdot[0])
     np.testing.assert_array_equal(single, robot.idim_rows(q[:1], v[:1], vdot[:1])[0])
+
+
+@pytest.mark.parametrize(("name", "options"), MODELS)
+def test_lagrangian_base_rows_are_the_standard_rows_base_columns(name, options):
+    robot = RobotModel.from_urdf(model_path(name), **options)
+    assert robot._base_sources is not None
+    rng = np.random.default_rng(9)
+    q, v = rng.normal(size=(2, 40, robot.num_joints))
+    gathered = robot._lagrangian_base(q, v)
+    for fast, general in zip(gathered, robot._lagrangian_standard(q, v), strict=True):
+        np.testing.assert_array_equal(fast, general[..., list(robot.base.independent)])
+    assert len(gathered) == 3

@@ -138,7 +138,7 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
-    from scipy import signal  # lazily: dynid identify does not need it
+    from drake_dynid.core.iir import welch  # numpy: no scipy.signal at start-up
 
     f, power = np.empty(0), np.empty(0)
     for first in range(0, total, per_piece):
@@ -146,13 +146,8 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
         piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
         piece = piece.reshape(piece.shape[0], -1)
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
-            f, part = signal.welch(
-                piece[:, j],
-                fs=fs,
-                window="blackmanharris",
-                nperseg=segment,
-                detrend="linear",
-            )
+            f, part = welch(piece[:, j], fs, segment)
+            part = part[:, 0]
             if power.size == 0:
                 power = np.zeros((f.size, piece.shape[1]))
             power[:, j] = power[:, j] + part * (count / total)

@@ -63,7 +63,6 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core.blocks import checked_rows
@@ -141,6 +140,8 @@ def anti_alias_taps(factor: int, passband: float) -> np.ndarray:
             f"passband must be < 1/(2·factor) = {0.5 / factor:g} cycles/sample; got "
             f"{passband:g}.",
         )
+    from scipy import signal  # lazily: not on dynid identify's path
+
     numtaps, beta = signal.kaiserord(ANTI_ALIAS_DB, min(width, 1.0))
     numtaps += 1 - numtaps % 2  # odd: symmetric about a sample
     return signal.firwin(numtaps, 1.0 / factor, window=("kaiser", beta))
@@ -270,6 +271,8 @@ def stream_plan(
             f"than the {trim} samples trimmed at each segment end; use a smaller "
             "factor.",
         )
+    from scipy import signal  # lazily: not on dynid identify's path
+
     position_sos = signal.butter(
         filter_order, cutoff_hz, fs=1.0 / time_step, output="sos"
     )
@@ -351,6 +354,8 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     signs = signs_of(v, friction, sign)
     out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
     out[:, n + len(friction) :] = rigid
+    from scipy import signal  # lazily: not on dynid identify's path
+
     for c in range(0, n + len(friction), n):
         if c:
             series = friction_series(v, friction[c - n : c], sign, signs=signs)

@@ -155,49 +155,58 @@ def noise_model_std(
 def nonnegative_fit(
     model: np.ndarray, y: np.ndarray, index: np.ndarray, count: int
 ) -> np.ndarray:
-    """Per group g: ``argmin ‖M_g x - y_g‖²`` subject to x >= 0, all groups at once.
+    """Per group g: ``argmin ‖M_g x - y_g‖²`` subject to x >= 0, for 3 columns.
 
-    The non-negative least squares of a few columns (k <= 3 here) by enumeration:
-    the optimum is the unconstrained least squares on its own support, so it is
-    the feasible (all coefficients >= 0) support solution of least cost among the
-    2^k supports (the empty one costs 0). The support solves use the groups' Gram
-    matrices (columns scaled to at most 1 by the caller), vectorised over groups;
-    the fitted values equal scipy's ``nnls`` to round-off.
+    The non-negative least squares of three columns by enumeration: the optimum
+    is the unconstrained least squares on its own support, so it is the
+    feasible (all coefficients >= 0) support solution of least cost among the 8
+    supports (the empty one costs 0). The support solves use the groups' Gram
+    matrices (columns scaled to at most 1 by the caller) in closed form,
+    vectorised over groups; the fitted values equal scipy's ``nnls`` to
+    round-off (tests/core/test_row_noise.py).
 
     Args:
-        model: (r, k) columns M of every row.
+        model: (r, 3) columns M of every row.
         y: (r,) observations.
         index: (r,) group of every row, in 0..count-1.
         count: number of groups.
 
     Returns:
-        (count, k) coefficients (zeros for a group whose best fit is 0).
+        (count, 3) coefficients (zeros for a group whose best fit is 0).
     """
-    k = model.shape[1]
-    member = np.zeros((count, model.shape[0]))
-    member[index, np.arange(model.shape[0])] = 1.0
-    gram = np.einsum("gi,ia,ib->gab", member, model, model)
-    moment = member @ (model * y[:, None])
-    best = np.zeros((count, k))
-    best_cost = np.zeros(count)  # the empty support: x = 0, cost - ‖y‖² = 0
-    for mask in range(1, 2**k):
-        support = [i for i in range(k) if mask >> i & 1]
-        g = gram[:, support][:, :, support]
-        c = moment[:, support]
-        # Hadamard ratio det/Π diag in [0, 1]: near 0, a dependent support (its
-        # sub-supports are tried as well).
-        diagonal = np.prod(np.diagonal(g, axis1=1, axis2=2), axis=1)
-        solvable = np.linalg.det(g) > 1e-10 * diagonal
-        x = np.zeros((count, len(support)))
-        if solvable.any():
-            x[solvable] = np.linalg.solve(g[solvable], c[solvable][..., None])[..., 0]
-        cost = -np.einsum("gi,gi->g", c, x)  # ‖y - Mx‖² - ‖y‖² at the LS optimum
-        better = solvable & (x >= 0.0).all(axis=1) & (cost < best_cost)
-        if better.any():
-            best[better] = 0.0
-            best[np.ix_(better, support)] = x[better]
-            best_cost[better] = cost[better]
-    return best
+    rows = model.shape[0]
+    member = np.zeros((count, rows))
+    member[index, np.arange(rows)] = 1.0
+    products = (model[:, :, None] * model[:, None, :]).reshape(rows, 9)
+    gram = (member @ products).reshape(count, 3, 3)
+    c = member @ (model * y[:, None])
+    d = np.diagonal(gram, axis1=1, axis2=2)
+    candidates = np.zeros((count, 8, 3))  # supports: {}, 3 singles, 3 pairs, all
+    usable = np.zeros((count, 8), dtype=bool)
+    usable[:, 0] = True
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for k in range(3):  # one column
+            usable[:, 1 + k] = d[:, k] > 0.0
+            candidates[:, 1 + k, k] = c[:, k] / d[:, k]
+        for slot, (i, j) in enumerate(((0, 1), (0, 2), (1, 2))):  # two, Cramer
+            g = gram[:, i, j]
+            det = d[:, i] * d[:, j] - g * g
+            # Hadamard ratio det/(g_ii g_jj) near 0: a dependent pair.
+            usable[:, 4 + slot] = det > 1e-10 * d[:, i] * d[:, j]
+            candidates[:, 4 + slot, i] = (c[:, i] * d[:, j] - c[:, j] * g) / det
+            candidates[:, 4 + slot, j] = (c[:, j] * d[:, i] - c[:, i] * g) / det
+        det = np.linalg.det(gram)
+        full = det > 1e-10 * np.prod(d, axis=1)
+        usable[:, 7] = full
+        if full.any():
+            candidates[full, 7] = np.linalg.solve(gram[full], c[full][..., None])[
+                ..., 0
+            ]
+    candidates[~usable] = 0.0
+    cost = -np.einsum("gsk,gk->gs", candidates, c)  # ‖y - Mx‖² - ‖y‖² at each LS
+    feasible = usable & (candidates >= 0.0).all(axis=2)
+    best = np.argmin(np.where(feasible, cost, np.inf), axis=1)
+    return candidates[np.arange(count), best]
 
 
 @dataclass(frozen=True)

@@ -140,18 +140,17 @@ class _Filters:
     """
 
     def __init__(self, time_step: float, cutoff_hz: float, band: float):
-        from scipy import signal  # only here: RobotModel imports this module
-
+        from drake_dynid.core.iir import butter_lowpass
         from drake_dynid.core.zero_phase import settle_samples
 
         self.h = time_step
         fs = 1.0 / time_step
-        self.position = signal.butter(4, cutoff_hz, fs=fs, output="sos")
+        self.position = butter_lowpass(4, cutoff_hz, fs)
         self.position_padding = default_padding(time_step, cutoff_hz)
         self.position_margin = max(
             settle_samples(self.position, _SETTLE), self.position_padding + 2
         )
-        self.low = signal.butter(DECIMATION_FILTER_ORDER, band, fs=fs, output="sos")
+        self.low = butter_lowpass(DECIMATION_FILTER_ORDER, band, fs)
         self.low_padding = default_padding(time_step, band)
         self.low_margin = max(settle_samples(self.low, _SETTLE), self.low_padding + 2)
         self.edge = default_trim(time_step, band) - 1  # two periods of f_d

@@ -1,6 +1,7 @@
 """Zero-phase IIR filtering of a span of a longer signal (the streamed chains' blocks).
 
-A zero-phase Butterworth (``scipy.signal.sosfiltfilt``) applied to a block of a long
+A zero-phase Butterworth (``scipy.signal.sosfiltfilt``, here with the numpy
+filters of ``core.iir``) applied to a block of a long
 signal with margins on each side gives the whole-signal result inside the block
 once the filter's start-up transients have decayed in the margins
 (:func:`settle_samples`); at the signal's true ends the padding of the
@@ -13,9 +14,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import signal
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core.iir import sosfilt, sosfilt_zi
 
 __all__ = ["SETTLE_TOLERANCE", "settle_samples", "zero_phase_span"]
 
@@ -66,7 +67,7 @@ def zero_phase_span(
         tail = x[-2 : -(pad_right + 2) : -1]
         parts.append(2.0 * x[-1:] - tail if padtype == "odd" else tail)
     ext = np.concatenate(parts) if len(parts) > 1 else x
-    zi = signal.sosfilt_zi(sos)[:, :, None]
-    y, _ = signal.sosfilt(sos, ext, axis=0, zi=zi * ext[:1])
-    y, _ = signal.sosfilt(sos, y[::-1], axis=0, zi=zi * y[-1:])
+    zi = sosfilt_zi(sos)[:, :, None]
+    y = sosfilt(sos, ext, zi * ext[:1])
+    y = sosfilt(sos, y[::-1], zi * y[-1:])
     return y[::-1][pad_left : ext.shape[0] - pad_right]
