@@ -23,6 +23,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -98,12 +99,16 @@ def arm_log(robot, duration: float, path: str) -> None:
 def run_case(case: dict) -> dict:
     """Runs ``case`` in a fresh process; adds ``wall`` (end to end, start included)."""
     case = {**case, "benchmarks": str(__import__("pathlib").Path(__file__).parent)}
+    # As installed: modules load from cached bytecode (an environment that sets
+    # PYTHONDONTWRITEBYTECODE would compile every module of every run).
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     start = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", _RUNNER, json.dumps(case)],
         check=True,
         capture_output=True,
         text=True,
+        env=env,
     )
     wall = time.perf_counter() - start
     out = json.loads(done.stdout.strip().splitlines()[-1])

@@ -190,6 +190,8 @@ def check_physical(
     Returns:
         A :class:`PhysicalCheck`.
     """
+    from pydrake.solvers import LinearEqualityConstraint
+
     owner = "check_physical"
     theta = _theta(owner, robot, theta)
     tolerance = check.positive(owner, "tolerance", tolerance)
@@ -211,7 +213,11 @@ def check_physical(
     keep = [i for i in range(base.num_base) if base.names[i] not in negative]
     rows = matrix[keep]
     norms = np.linalg.norm(rows, axis=1)
-    prog.AddLinearEqualityConstraint(rows / norms[:, None], theta[keep] / norms, x)
+    # A constraint object: the (A, b, vars) overloads make pydrake import
+    # scipy.sparse (0.1 s of every dynid identify) to test for a sparse A.
+    prog.AddConstraint(
+        LinearEqualityConstraint(rows / norms[:, None], theta[keep] / norms), x
+    )
     problem.add_lmis(prog, x, slack)
     standalone_columns = {k for i, k in standalone.items()}
     for j, k in enumerate(problem.layout.rotor):
