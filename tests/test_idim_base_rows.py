@@ -50,3 +50,19 @@ def test_lagrangian_base_rows_are_the_standard_rows_base_columns(name, options):
     for fast, general in zip(gathered, robot._lagrangian_standard(q, v), strict=True):
         np.testing.assert_array_equal(fast, general[..., list(robot.base.independent)])
     assert len(gathered) == 3
+
+
+@pytest.mark.parametrize(("name", "options"), MODELS)
+def test_mean_packed_rows_are_the_block_means_of_the_packed_rows(name, options):
+    from drake_dynid.core.rows import pack_rows
+
+    robot = RobotModel.from_urdf(model_path(name), **options)
+    rng = np.random.default_rng(10)
+    q, v, tau = rng.normal(size=(3, 60, robot.num_joints))
+    for kind in ("lagrangian", "power"):
+        packed = pack_rows(*robot.model_rows(kind, q, v, tau))
+        expected = packed.reshape(6, 10, -1).mean(axis=1)
+        got = robot.mean_packed_rows(kind, q, v, tau, 10)
+        np.testing.assert_allclose(
+            got, expected, rtol=0, atol=1e-14 * abs(expected).max()
+        )
