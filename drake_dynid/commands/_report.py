@@ -28,6 +28,7 @@ __all__ = [
     "write_estimates_csv",
     "write_json",
     "write_plot",
+    "write_trace_outputs",
 ]
 
 #: A parameter whose relative standard deviation exceeds this is "not identified".
@@ -112,7 +113,8 @@ def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
     """The ``log`` entry of the JSON format."""
     return {
         "path": (
-            str(args.log) if len(getattr(args, "log_files", [0])) == 1
+            str(args.log)
+            if len(getattr(args, "log_files", [0])) == 1
             else list(args.log_files)
         ),
         "samples": int(log.num_samples),
@@ -194,6 +196,32 @@ def write_plot(
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)
+
+
+def write_trace_outputs(
+    args: Any, document: Mapping[str, Any] | None, t: np.ndarray, trace: Any, title: str
+) -> None:
+    """``--json`` (``document``) and ``--plot`` (the estimates of ``trace`` over t).
+
+    Shared by ``dynid identify`` and ``dynid payload``; each file written is
+    announced on stdout unless ``--quiet``.
+    """
+    if args.json and document is not None:
+        write_json(args.json, document)
+        if not args.quiet:
+            print(f"wrote {args.json}")
+    if args.plot:
+        write_plot(
+            args.plot,
+            t,
+            np.asarray(trace.theta),
+            np.asarray(trace.std),
+            trace.valid,
+            trace.names,
+            title,
+        )
+        if not args.quiet:
+            print(f"wrote {args.plot}")
 
 
 def write_estimates_csv(

@@ -28,8 +28,7 @@ from drake_dynid.commands._report import (
     matplotlib_pyplot,
     parameters_document,
     write_estimates_csv,
-    write_json,
-    write_plot,
+    write_trace_outputs,
 )
 from drake_dynid.core.rows import MODEL_KINDS
 
@@ -620,6 +619,7 @@ def run(args: argparse.Namespace) -> int:
         )
         if not args.quiet:
             print(f"wrote {args.out}")
+    document = None
     if args.json:
         document = {
             "parameters": parameters_document(robot, trace.names, theta, std),
@@ -652,19 +652,11 @@ def run(args: argparse.Namespace) -> int:
             "log": log_document(args, log),
             **extra,
         }
-        write_json(args.json, document)
-        if not args.quiet:
-            print(f"wrote {args.json}")
-    if args.plot:
-        write_plot(
-            args.plot,
-            t,
-            np.asarray(trace.theta),
-            np.asarray(trace.std),
-            trace.valid,
-            trace.names,
-            f"dynid identify: {settings.model} model, window {settings.window:g} s",
-        )
-        if not args.quiet:
-            print(f"wrote {args.plot}")
+    write_trace_outputs(
+        args,
+        document,
+        t,
+        trace,
+        f"dynid identify: {settings.model} model, window {settings.window:g} s",
+    )
     return 0

@@ -24,8 +24,7 @@ from drake_dynid.commands._report import (
     log_document,
     matplotlib_pyplot,
     write_estimates_csv,
-    write_json,
-    write_plot,
+    write_trace_outputs,
 )
 
 HELP = "on-line identification of a payload's 10 inertial parameters (arm known)"
@@ -288,6 +287,7 @@ def run(args: argparse.Namespace) -> int:
         )
         if not args.quiet:
             print(f"wrote {args.out}")
+    document = None
     if args.json:
         definitions = rows.base.definitions
         document = {
@@ -334,21 +334,13 @@ def run(args: argparse.Namespace) -> int:
             "urdf": str(args.urdf),
             "log": log_document(args, log),
         }
-        write_json(args.json, document)
-        if not args.quiet:
-            print(f"wrote {args.json}")
-    if args.plot:
-        write_plot(
-            args.plot,
-            t,
-            np.asarray(trace.theta),
-            np.asarray(trace.std),
-            trace.valid,
-            trace.names,
-            f"dynid payload: {rows.frame_name}, window {settings.window:g} s",
-        )
-        if not args.quiet:
-            print(f"wrote {args.plot}")
+    write_trace_outputs(
+        args,
+        document,
+        t,
+        trace,
+        f"dynid payload: {rows.frame_name}, window {settings.window:g} s",
+    )
     return 0
 
 
