@@ -35,6 +35,7 @@ def load_benchmark(name, monkeypatch):
         "bench_pipeline",
         "bench_regressors",
         "bench_sigma",
+        "bench_sigma_diagnosis",
     ],
 )
 def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):
