@@ -19,6 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.batch_rows import (
+    BatchRowsPlan,
+    batch_idim_rows,
+    batch_rows_plan,
+)
 from drake_dynid.core.friction import friction_idim_columns
 from drake_dynid.core.rigid_body import (
     energy_blocks,
@@ -298,8 +303,13 @@ class RobotRows:
     def _idim_base(self, q, v, vdot):
         """:meth:`_idim_standard` in base columns, gathered from the blocks.
 
-        No standard array in between: the same numbers, fewer passes.
+        No standard array in between: the same numbers, fewer passes. With numpy
+        kinematics and no mimic joint or coupled motor, the fused batch plan
+        (``drake_dynid.core.batch_rows``) computes them, equal to round-off.
         """
+        plan = self._batch_plan
+        if plan is not None:
+            return batch_idim_rows(plan, q, v, vdot, self.sign)
         sources = self._base_sources
         assert sources is not None
         inertial_columns, inertial, rotor_columns, rotor, friction_columns = sources
@@ -460,17 +470,13 @@ class RobotRows:
             return pack_rows(d_rows, g_rows, y)
         return packed_sample_rows(plan, kind, q, v, tau, self.sign)
 
-    @cached_property
-    def _sample_plan(self) -> SampleRowsPlan | None:
-        """The single-sample plan, or None (Drake kinematics, mimic joints).
+    def _standard_columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Standard columns of the link parameters, IAj and joint friction.
 
-        None also when a friction column is not identifiable: ``model_rows``
-        then raises with its message.
+        Returns (links·10,) per link parameter, (n,) per IAj (-1: none) and
+        (n, kinds) per friction parameter, probed through :meth:`_assemble`.
         """
-        if self.kinematics != "numpy" or self.mimic:
-            return None
         links, n = self.num_links, self.num_joints
-        # Where _assemble puts each link parameter and IAj: probe it with labels.
         labels = 1.0 + np.arange(links * 10.0).reshape(1, links, 10)
         placed = self._assemble(labels, np.zeros((1, n)))[0]
         inertial = np.full(links * 10, -1)
@@ -484,6 +490,18 @@ class RobotRows:
         width = len(self.friction)
         start = self._friction_slice().start
         friction = start + np.arange(n * width).reshape(n, width)
+        return inertial, rotor, friction
+
+    @cached_property
+    def _sample_plan(self) -> SampleRowsPlan | None:
+        """The single-sample plan, or None (Drake kinematics, mimic joints).
+
+        None also when a friction column is not identifiable: ``model_rows``
+        then raises with its message.
+        """
+        if self.kinematics != "numpy" or self.mimic:
+            return None
+        inertial, rotor, friction = self._standard_columns()
         try:
             return sample_rows_plan(
                 self._chain.plan,
@@ -495,6 +513,29 @@ class RobotRows:
                 friction,
             )
         except ValueError:  # model_rows reports it with its own message
+            return None
+
+    @cached_property
+    def _batch_plan(self) -> BatchRowsPlan | None:
+        """The fused batch IDIM plan, or None.
+
+        None with Drake kinematics, mimic joints or coupled motors:
+        :meth:`_idim_base` then gathers from the blocks.
+        """
+        if self.kinematics != "numpy" or self.mimic or self._motors is not None:
+            return None
+        inertial, rotor, friction = self._standard_columns()
+        try:
+            return batch_rows_plan(
+                self._chain.plan,
+                self.gravity,
+                self.base.independent,
+                inertial,
+                rotor,
+                self.friction,
+                friction,
+            )
+        except ValueError:  # a column the gather does not know: the general path
             return None
 
     def _check_friction_columns(self) -> None:
