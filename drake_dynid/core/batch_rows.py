@@ -12,15 +12,15 @@ large products against constant matrices (constants from
    ``X_b = Ad(A_b⁻¹) X_parent(b)`` is one stacked product per link;
 2. world screws ``S_j = P X_jᵀ P s_j`` (a few rows of X_j, as P s_j is sparse), world
    twists ``V^W_b = Σ_{i anc b} S_i v_i`` (a cumulative sum on a serial chain),
-   screw rates ``Ṡ_i = ad(V^W_i) S_i`` (= ad(V^W_parent(i)) S_i, as ad(S_i) S_i = 0:
-   one product of the outer products ``V^W ⊗ S`` with a constant 36×6 matrix) and
-   world accelerations ``A^W_b = Σ_{i anc b} S_i v̇_i + Ṡ_i v_i - [0; g]`` (gravity
-   as the base acceleration -g);
+   screw rates ``Ṡ_i v_i = ad(V^W_i) S_i v_i`` (= ad(V^W_parent(i)) S_i v_i, as
+   ad(S_i) S_i = 0) and world accelerations
+   ``A^W_b = Σ_{i anc b} S_i v̇_i + Ṡ_i v_i - [0; g]`` (gravity as the base
+   acceleration -g, added at the roots);
 3. body twist and acceleration ``[V_b, a_b] = X_b [V^W_b, A^W_b]`` (one stacked
    product), and the link's Newton-Euler force per parameter
    ``F_b = K(a_b) - ad(V_b)ᵀ K(V_b)`` (6×10) as one product of
-   ``[a_b, ω_b ⊗ V_b]`` (24 features: F_b is linear in a_b and bilinear in V_b, with
-   no term in the products of the linear velocity) with a constant 24×60 matrix;
+   ``[ω_b ⊗ V_b, a_b]`` (24 features: F_b is bilinear in V_b, with no term in the
+   products of the linear velocity, and linear in a_b) with a constant 24×60 matrix;
 4. ``X_bᵀ F_b`` moves every link's block to the world (one stacked product), and
    ``S_iᵀ X_bᵀ F_b`` for every joint i and link b is one stacked product per sample
    (n × 6 by 6 × 10n);
@@ -69,8 +69,7 @@ class BatchRowsPlan:
             j - 1): sums over ancestors are cumulative sums.
         screw_rows: ``(r, c)`` pairs: ``P S_j = Σ c[j] X_j[r, :]`` (c (n,), the
             nonzero rows r of ``P s_j``).
-        bracket: (36, 6): ``ad(x) y = (x ⊗ y).ravel() · bracket``.
-        force: (24, 60): ``F_b.ravel() = [a_b, (ω_b ⊗ V_b).ravel()] · force``.
+        force: (24, 60): ``F_b.ravel() = [(ω_b ⊗ V_b).ravel(), a_b] · force``.
         index: (n·p,) buffer index of each entry of W (joint-major).
         friction_kinds: the friction kinds, in buffer order.
     """
@@ -81,14 +80,13 @@ class BatchRowsPlan:
     local_terms: np.ndarray
     serial: bool
     screw_rows: tuple[tuple[int, np.ndarray], ...]
-    bracket: np.ndarray
     force: np.ndarray
     index: np.ndarray
     friction_kinds: tuple[str, ...]
 
 
 def _force_basis() -> np.ndarray:
-    """(24, 60): F = K(a) - ad(V)ᵀ K(V) from [a, ω ⊗ V], V = [ω; u]."""
+    """(24, 60): F = K(a) - ad(V)ᵀ K(V) from [ω ⊗ V, a], V = [ω; u]."""
     basis = np.eye(6)
     ad_basis = np.zeros((6, 6, 6))
     for k in range(6):
@@ -100,7 +98,6 @@ def _force_basis() -> np.ndarray:
         return -(matrix.T @ momentum_matrix(twist)).ravel()
 
     out = np.zeros((24, 60))
-    out[:6] = momentum_matrix(basis).reshape(6, 60)
     for a in range(3):
         for b in range(6):
             if a == b:
@@ -110,7 +107,8 @@ def _force_basis() -> np.ndarray:
                 term = term - quadratic(basis[a]) - quadratic(basis[b])
                 if b < 3:
                     term = 0.5 * term  # ω_a ω_b appears twice in ω ⊗ V
-            out[6 + 6 * a + b] = term
+            out[6 * a + b] = term
+    out[18:] = momentum_matrix(basis).reshape(6, 60)
     return out
 
 
@@ -188,14 +186,9 @@ def batch_rows_plan(
     )
     for _, coefficients in screw_rows:
         coefficients.setflags(write=False)
-    bracket = np.zeros((6, 6, 6))
-    for k in range(6):
-        for m in range(6):
-            bracket[k, m] = ad(np.eye(6)[k], np.eye(6)[m])
     arrays: dict[str, np.ndarray] = {
         "gravity": np.array(gravity, dtype=float).reshape(3),
         "local_terms": local,
-        "bracket": bracket.reshape(36, 6),
         "force": _force_basis(),
         "index": index.ravel(),
     }
@@ -253,25 +246,22 @@ def _block_rows(
     screws = np.zeros((num_samples, n, 6)) if swapped is None else swapped[..., SWAP]
     world = np.empty((num_samples, n, 6, 2))  # [A^W_b, V^W_b] as columns
     twist = world[..., 1]
-    _over_ancestors(plan, screws * v[..., None], twist)
-    products = np.multiply(twist[..., :, None], screws[..., None, :])
-    rates = (products.reshape(rows, 36) @ plan.bracket).reshape(num_samples, n, 6)
-    rates *= v[..., None]
+    moving = screws * v[..., None]
+    _over_ancestors(plan, moving, twist)
+    rates = ad(twist, moving)
     rates += screws * vdot[..., None]
-    acceleration = world[..., 0]
-    _over_ancestors(plan, rates, acceleration)
-    acceleration[..., 3:] -= plan.gravity
-    # 3. [a_b, V_b] into the features [a_b, V_b, ω_b ⊗ V_b].
+    rates[:, list(tree.roots), 3:] -= plan.gravity
+    _over_ancestors(plan, rates, world[..., 0])
+    # 3. [a_b, V_b] into the features [ω_b ⊗ V_b, a_b, V_b], then F_b.
     features = np.empty((rows, 30))
-    body = features.reshape(num_samples, n, 5, 6)[:, :, :2].transpose(0, 1, 3, 2)
+    body = features.reshape(num_samples, n, 5, 6)[:, :, 3:].transpose(0, 1, 3, 2)
     np.matmul(frames, world, out=body)
     np.multiply(
-        features[:, 6:9, None],
-        features[:, None, 6:12],
-        out=features[:, 12:].reshape(rows, 3, 6),
+        features[:, 24:27, None],
+        features[:, None, 24:30],
+        out=features[:, :18].reshape(rows, 3, 6),
     )
-    force = features[:, 12:] @ plan.force[6:]
-    force += features[:, :6] @ plan.force[:6]
+    force = features[:, :24] @ plan.force
     # 4. S_iᵀ X_bᵀ F_b for every joint i and link b.
     moved = np.empty((num_samples, 6, n, 10))
     np.matmul(
