@@ -206,11 +206,40 @@ def batch_rows_plan(
 
 
 def _over_ancestors(plan: BatchRowsPlan, x: np.ndarray, out: np.ndarray) -> None:
-    """out[:, b] = Σ_{i anc b} x[:, i] (x, out: (N, n, 6))."""
+    """out[:, b] = Σ_{i anc b} x[:, i] (x, out: (N, n, 6)).
+
+    On a serial chain one addition per link (twice as fast as ``np.cumsum`` along
+    the link axis).
+    """
     if plan.serial:
-        np.cumsum(x, axis=1, out=out)
+        out[:, 0] = x[:, 0]
+        for j in range(1, x.shape[1]):
+            np.add(out[:, j - 1], x[:, j], out=out[:, j])
     else:
         np.matmul(plan.tree.ancestors, x, out=out)
+
+
+# ad(x) y = [ωx × ωy; ωx × vy + vx × ωy] as the cross products of the 3 pairs
+# ([ωx, ωx, vx], [ωy, vy, ωy]), a × b = a[1,2,0] b[2,0,1] - a[2,0,1] b[1,2,0].
+_PAIRS = (np.array([0, 1, 2, 0, 1, 2, 3, 4, 5]), np.array([0, 1, 2, 3, 4, 5, 0, 1, 2]))
+_ROLL = (np.array([1, 2, 0]), np.array([2, 0, 1]))
+_BRACKET = tuple(
+    pair.reshape(3, 3)[:, roll].ravel() for pair in _PAIRS for roll in _ROLL
+)  # x's first roll, x's second, y's first, y's second
+
+
+def _bracket(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """ad(x) y of twists [ω; v] (..., 6), by index gathers.
+
+    The same numbers as ``core.kinematics.ad`` in fewer numpy calls.
+    """
+    x1, x2, y1, y2 = _BRACKET
+    terms = x[..., x1] * y[..., y2]
+    terms -= x[..., x2] * y[..., y1]
+    out = np.empty(x.shape)
+    out[..., :3] = terms[..., :3]
+    np.add(terms[..., 3:6], terms[..., 6:], out=out[..., 3:])
+    return out
 
 
 def _block_rows(
@@ -248,7 +277,7 @@ def _block_rows(
     twist = world[..., 1]
     moving = screws * v[..., None]
     _over_ancestors(plan, moving, twist)
-    rates = ad(twist, moving)
+    rates = _bracket(twist, moving)
     rates += screws * vdot[..., None]
     rates[:, list(tree.roots), 3:] -= plan.gravity
     _over_ancestors(plan, rates, world[..., 0])
