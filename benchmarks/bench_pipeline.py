@@ -25,8 +25,8 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
    arrays).
 7. Regressor rows of the iiwa7: one sample (the blocks' path), batches (the
    replay and off-line paths) and Pinocchio's regressor side by side (alternating
-   rounds, median of the rounds' ratios), µs per sample; ``--rows-only`` runs this
-   section alone.
+   rounds, median of the rounds' ratios), µs of CPU time per sample;
+   ``--rows-only`` runs this section alone (about 15 s).
 
 The process runs with ``dynid``'s settings (``configure_process``: BLAS pools of
 one thread, glibc's allocator tuned), as the ``dynid`` command does.
@@ -613,10 +613,12 @@ def _hour_csv_cases(arm, urdf: str, folder: str) -> dict[str, dict]:
 def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
     """Section 7: µs per sample of the iiwa7 rows, one sample and batches.
 
-    The batch inverse-dynamics rows and Pinocchio's regressor (a Python loop over
-    the samples, as a user would call it) run side by side: alternating, in rounds
-    of at least ``minimum`` seconds each, the ratio being the median of the
-    rounds' ratios (``_timing.time_side_by_side``).
+    Times are the process's CPU time (BLAS pinned to one thread, so CPU time is the
+    compute time, without the waits for a core of a shared machine). The batch
+    inverse-dynamics rows and Pinocchio's regressor (a Python loop over the
+    samples, as a user would call it) run side by side: alternating, in rounds of
+    at least 20 ms each, the ratio being the median of the rounds' ratios
+    (``_timing.time_side_by_side``).
     """
     from drake_dynid.core.rows import pack_rows
 
@@ -626,20 +628,22 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
     batch = 256
     Q, V, A = rng.normal(size=(3, batch, n))
     minimum = 0.05 if quick else 0.5
+    cpu = time.process_time
     rows = {
         "one sample, Lagrangian (ModelRows: packed_rows)": time_call(
-            lambda: arm.packed_rows("lagrangian", q, v, tau), repeats, minimum
+            lambda: arm.packed_rows("lagrangian", q, v, tau), repeats, minimum, cpu
         ),
         "one sample, power (ModelRows: packed_rows)": time_call(
-            lambda: arm.packed_rows("power", q, v, tau), repeats, minimum
+            lambda: arm.packed_rows("power", q, v, tau), repeats, minimum, cpu
         ),
         "one sample, batch code with N = 1 (model_rows)": time_call(
             lambda: pack_rows(*arm.model_rows("lagrangian", q, v, tau)),
             repeats,
             minimum,
+            cpu,
         ),
         f"batch of {batch}, Lagrangian model_rows, per sample": time_call(
-            lambda: arm.model_rows("lagrangian", Q, V, A), repeats, minimum
+            lambda: arm.model_rows("lagrangian", Q, V, A), repeats, minimum, cpu
         )
         / batch,
     }
@@ -661,7 +665,7 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
                     pin.computeJointTorqueRegressor(model, data, Q[k], V[k], A[k])
 
             functions["pinocchio"] = pinocchio_rows
-        samples = time_side_by_side(functions, rounds, each)
+        samples = time_side_by_side(functions, rounds, each, cpu)
         rows[f"batch of {size}, inverse-dynamics idim_rows, per sample"] = (
             statistics.median(samples["ours"]) / size
         )
@@ -680,7 +684,7 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
         table.append((label, ratio))
     return _table(
         f"Regressor rows, iiwa7 ({arm.num_parameters} base parameters)",
-        ("rows", "µs per sample"),
+        ("rows", "µs per sample (CPU time)"),
         table,
     )
 
