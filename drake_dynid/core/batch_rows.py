@@ -109,6 +109,8 @@ def _force_basis() -> np.ndarray:
                     term = 0.5 * term  # ω_a ω_b appears twice in ω ⊗ V
             out[6 * a + b] = term
     out[18:] = momentum_matrix(basis).reshape(6, 60)
+    # No term in u_a u_b: the features need not hold the linear velocity's products.
+    assert not any(np.any(quadratic(u + w)) for u in basis[3:] for w in basis[3:])
     return out
 
 
