@@ -24,7 +24,9 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
    API on a 1-hour log built in memory (peak memory with and without the log's own
    arrays).
 7. Regressor rows of the iiwa7: one sample (the blocks' path), batches (the
-   replay and off-line paths) and Pinocchio's regressor, µs per sample.
+   replay and off-line paths) and Pinocchio's regressor side by side (alternating
+   rounds, median of the rounds' ratios), µs of CPU time per sample;
+   ``--rows-only`` runs this section alone (about 15 s).
 
 The process runs with ``dynid``'s settings (``configure_process``: BLAS pools of
 one thread, glibc's allocator tuned), as the ``dynid`` command does.
@@ -48,7 +50,7 @@ import time
 
 import numpy as np
 from _arm7 import arm_log, run_case
-from _timing import time_call
+from _timing import median_ratio, time_call, time_side_by_side
 
 from drake_dynid.core import modulating
 from drake_dynid.core._threads import configure_process
@@ -142,10 +144,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
+    parser.add_argument(
+        "--rows-only", action="store_true", help="only section 7 (a few seconds)"
+    )
     args = parser.parse_args(argv)
     configure_process()
     quick = args.quick
     repeats = 1 if quick else args.repeats
+    if args.rows_only:
+        results_rows: dict[str, dict] = {}
+        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
+        print(_rows_table(results_rows, arm7, repeats, quick))
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as handle:
+                json.dump(results_rows, handle, indent=2)
+        return 0
     window = 2.0 if quick else 20.0
     log_duration = 4.0 if quick else 60.0
     results: dict[str, dict] = {}
@@ -604,7 +617,15 @@ def _hour_csv_cases(arm, urdf: str, folder: str) -> dict[str, dict]:
 
 
 def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
-    """Section 7: µs per sample of the iiwa7 rows, one sample and batches."""
+    """Section 7: µs per sample of the iiwa7 rows, one sample and batches.
+
+    Times are the process's CPU time (BLAS pinned to one thread, so CPU time is the
+    compute time, without the waits for a core of a shared machine). The batch
+    inverse-dynamics rows and Pinocchio's regressor (a Python loop over the
+    samples, as a user would call it) run side by side: alternating, in rounds of
+    at least 20 ms each, the ratio being the median of the rounds' ratios
+    (``_timing.time_side_by_side``).
+    """
     from drake_dynid.core.rows import pack_rows
 
     rng = np.random.default_rng(3)
@@ -613,24 +634,22 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
     batch = 256
     Q, V, A = rng.normal(size=(3, batch, n))
     minimum = 0.05 if quick else 0.5
+    cpu = time.process_time
     rows = {
         "one sample, Lagrangian (ModelRows: packed_rows)": time_call(
-            lambda: arm.packed_rows("lagrangian", q, v, tau), repeats, minimum
+            lambda: arm.packed_rows("lagrangian", q, v, tau), repeats, minimum, cpu
         ),
         "one sample, power (ModelRows: packed_rows)": time_call(
-            lambda: arm.packed_rows("power", q, v, tau), repeats, minimum
+            lambda: arm.packed_rows("power", q, v, tau), repeats, minimum, cpu
         ),
         "one sample, batch code with N = 1 (model_rows)": time_call(
             lambda: pack_rows(*arm.model_rows("lagrangian", q, v, tau)),
             repeats,
             minimum,
+            cpu,
         ),
         f"batch of {batch}, Lagrangian model_rows, per sample": time_call(
-            lambda: arm.model_rows("lagrangian", Q, V, A), repeats, minimum
-        )
-        / batch,
-        f"batch of {batch}, inverse-dynamics idim_rows, per sample": time_call(
-            lambda: arm.idim_rows(Q, V, A), repeats, minimum
+            lambda: arm.model_rows("lagrangian", Q, V, A), repeats, minimum, cpu
         )
         / batch,
     }
@@ -638,29 +657,40 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
         import pinocchio as pin
     except ImportError:  # a test-only oracle
         pin = None
-    if pin is not None:
-        model = pin.buildModelFromUrdf(str(model_path("iiwa7")))
-        data = model.createData()
+    ratios = {}
+    rounds, each = (1, 0.0) if quick else (max(repeats, 21), 0.02)
+    for size in (batch, 1000):
+        Qs, Vs, As = rng.normal(size=(3, size, n))
+        functions = {"ours": lambda Q=Qs, V=Vs, A=As: arm.idim_rows(Q, V, A)}
+        if pin is not None:
+            model = pin.buildModelFromUrdf(str(model_path("iiwa7")))
+            data = model.createData()
 
-        def pinocchio_rows():
-            for k in range(batch):
-                pin.computeJointTorqueRegressor(model, data, Q[k], V[k], A[k])
+            def pinocchio_rows(Q=Qs, V=Vs, A=As, size=size, model=model, data=data):
+                for k in range(size):
+                    pin.computeJointTorqueRegressor(model, data, Q[k], V[k], A[k])
 
-        rows["Pinocchio computeJointTorqueRegressor, per sample (Python loop)"] = (
-            time_call(pinocchio_rows, repeats, minimum) / batch
+            functions["pinocchio"] = pinocchio_rows
+        samples = time_side_by_side(functions, rounds, each, cpu)
+        rows[f"batch of {size}, inverse-dynamics idim_rows, per sample"] = (
+            statistics.median(samples["ours"]) / size
         )
+        if pin is not None:
+            rows[
+                f"batch of {size}: Pinocchio computeJointTorqueRegressor, per sample "
+                "(Python loop), side by side"
+            ] = statistics.median(samples["pinocchio"]) / size
+            ratios[size] = median_ratio(samples, "ours", "pinocchio")
     table = [(name, 1e6 * value) for name, value in rows.items()]
     results["rows"] = {name: 1e6 * value for name, value in rows.items()}
-    if pin is not None:
-        ratio = (
-            rows[f"batch of {batch}, inverse-dynamics idim_rows, per sample"]
-            / (rows["Pinocchio computeJointTorqueRegressor, per sample (Python loop)"])
-        )
-        results["rows"]["idim_batch_over_pinocchio"] = ratio
-        table.append(("batch idim_rows / Pinocchio", ratio))
+    for size, ratio in ratios.items():
+        key = "idim_batch_over_pinocchio" + ("" if size == batch else f"_{size}")
+        results["rows"][key] = ratio
+        label = f"batch idim_rows / Pinocchio, batches of {size} (median of rounds)"
+        table.append((label, ratio))
     return _table(
         f"Regressor rows, iiwa7 ({arm.num_parameters} base parameters)",
-        ("rows", "µs per sample"),
+        ("rows", "µs per sample (CPU time)"),
         table,
     )
 

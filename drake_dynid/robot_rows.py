@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.batch_rows import BatchRowsPlan, batch_idim_rows
 from drake_dynid.core.friction import friction_idim_columns
 from drake_dynid.core.rigid_body import (
     energy_blocks,
@@ -32,12 +33,9 @@ from drake_dynid.core.rows import (
     model_rows_from_parts,
     pack_rows,
 )
-from drake_dynid.core.sample_rows import (
-    SampleRowsPlan,
-    packed_sample_rows,
-    sample_rows_plan,
-)
+from drake_dynid.core.sample_rows import SampleRowsPlan, packed_sample_rows
 from drake_dynid.plant_tree import drake_forward
+from drake_dynid.robot_plans import base_sources, batch_plan, sample_plan
 
 __all__ = ["RobotRows"]
 
@@ -298,8 +296,13 @@ class RobotRows:
     def _idim_base(self, q, v, vdot):
         """:meth:`_idim_standard` in base columns, gathered from the blocks.
 
-        No standard array in between: the same numbers, fewer passes.
+        No standard array in between: the same numbers, fewer passes. With numpy
+        kinematics and no mimic joint or coupled motor, the fused batch plan
+        (``drake_dynid.core.batch_rows``) computes them, equal to round-off.
         """
+        plan = self._batch_plan
+        if plan is not None:
+            return batch_idim_rows(plan, q, v, vdot, self.sign)
         sources = self._base_sources
         assert sources is not None
         inertial_columns, inertial, rotor_columns, rotor, friction_columns = sources
@@ -340,52 +343,6 @@ class RobotRows:
                 gathered[:, rotor, rotor_columns] = v[:, rotor]
             out.append(gathered)
         return tuple(out)
-
-    @cached_property
-    def _base_sources(self):
-        """Where each base column of the IDIM rows comes from (None: coupled motors).
-
-        (base columns of link parameters, their index in the flattened (links, 10)
-        blocks, base columns of IAj, their joints j, base columns of the joint
-        friction in order); probed through :meth:`_assemble` like the sample plan.
-        """
-        if self._motors is not None:
-            return None
-        links, n = self.num_links, self.num_joints
-        position = {column: c for c, column in enumerate(self.base.independent)}
-        labels = 1.0 + np.arange(links * 10.0).reshape(1, links, 10)
-        placed = self._assemble(labels, np.zeros((1, n)))[0]
-        inertial = [
-            (position[c], int(placed[c]) - 1)
-            for c in np.flatnonzero(placed).tolist()
-            if c in position
-        ]
-        rotor = []
-        if self.rotor_inertia:
-            placed = self._assemble(np.zeros((1, links, 10)), 1.0 + np.arange(n)[None])
-            rotor = [
-                (position[c], int(placed[0, c]) - 1)
-                for c in np.flatnonzero(placed[0]).tolist()
-                if c in position
-            ]
-        friction = self._friction_slice()
-        friction_columns = [
-            position.get(c) for c in range(friction.start, friction.stop)
-        ]
-        known = {c for c, _ in inertial} | {c for c, _ in rotor}
-        if None in friction_columns or len(known) + len(friction_columns) != len(
-            position
-        ):
-            return None  # a column this gather does not know: the general path
-        pairs = np.array(inertial, dtype=np.int64).reshape(-1, 2)
-        joints = np.array(rotor, dtype=np.int64).reshape(-1, 2)
-        return (
-            pairs[:, 0],
-            pairs[:, 1],
-            joints[:, 0],
-            joints[:, 1],
-            np.array(friction_columns, dtype=np.int64),
-        )
 
     def power_rows(self, q, v, vdot, *, columns: str = "base") -> np.ndarray:
         """Power rows vᵀW = [d/dt h, friction power], shape ``(N, p)`` [W per unit]."""
@@ -523,42 +480,18 @@ class RobotRows:
             return pack_rows(d_rows, g_rows, y)
         return packed_sample_rows(plan, kind, q, v, tau, self.sign)
 
+    # The fast paths' plans (drake_dynid.robot_plans), built once per model.
     @cached_property
     def _sample_plan(self) -> SampleRowsPlan | None:
-        """The single-sample plan, or None (Drake kinematics, mimic joints).
+        return sample_plan(self)
 
-        None also when a friction column is not identifiable: ``model_rows``
-        then raises with its message.
-        """
-        if self.kinematics != "numpy" or self.mimic:
-            return None
-        links, n = self.num_links, self.num_joints
-        # Where _assemble puts each link parameter and IAj: probe it with labels.
-        labels = 1.0 + np.arange(links * 10.0).reshape(1, links, 10)
-        placed = self._assemble(labels, np.zeros((1, n)))[0]
-        inertial = np.full(links * 10, -1)
-        for column in np.flatnonzero(placed):
-            inertial[int(placed[column]) - 1] = column
-        rotor = np.full(n, -1)
-        if self.rotor_inertia:
-            placed = self._assemble(np.zeros((1, links, 10)), 1.0 + np.arange(n)[None])
-            for column in np.flatnonzero(placed[0]):
-                rotor[int(placed[0, column]) - 1] = column
-        width = len(self.friction)
-        start = self._friction_slice().start
-        friction = start + np.arange(n * width).reshape(n, width)
-        try:
-            return sample_rows_plan(
-                self._chain.plan,
-                self.gravity,
-                self.base.independent,
-                inertial,
-                rotor,
-                self.friction,
-                friction,
-            )
-        except ValueError:  # model_rows reports it with its own message
-            return None
+    @cached_property
+    def _batch_plan(self) -> BatchRowsPlan | None:
+        return batch_plan(self)
+
+    @cached_property
+    def _base_sources(self) -> tuple[np.ndarray, ...] | None:
+        return base_sources(self)
 
     def _check_friction_columns(self) -> None:
         friction = self._friction_slice()
