@@ -54,7 +54,9 @@ evaluated (no simulation) and Drake's inverse dynamics + Coulomb sign
 simulated plant's time discretisation (the closed loop's noise-free column).
 
 ZZ1R jump (paper Fig. 4) and false alarms of the change detection
-(``OnlineSettings.detect_changes``): benchmarks/_change.py.
+(``OnlineSettings.detect_changes``): benchmarks/_change.py; how soon ZZ1R can be
+within 2 % at all (Cramér-Rao bound, estimators told the change time, a step test
+in place of the CUSUM): benchmarks/_change_floor.py.
 """
 
 from __future__ import annotations
@@ -67,6 +69,7 @@ import time
 from pathlib import Path
 
 import _change
+import _change_floor
 import numpy as np
 from _independent import exact_log, honesty, window_solves
 from _scenarios import _rf, robots, scenarios
@@ -390,7 +393,7 @@ def exact_bias(robot, quick: bool) -> dict:
 
 
 def change_report(models, scen, robot, trajectory, seeds, quick: bool) -> dict:
-    """Change tracking and false alarms on the 2R (benchmarks/_change.py).
+    """Tracking, false alarms and the floor on the 2R (_change.py, _change_floor.py).
 
     ``quick``: one seed, noise on q and τ only, the main scenario.
     """
@@ -410,6 +413,9 @@ def change_report(models, scen, robot, trajectory, seeds, quick: bool) -> dict:
         main = dict(list(scen.items())[:1])
         tau = _change.false_alarms_2r(models, main, simulate, chosen, "tau")
         report["false_2r_tau"] = {f"{k} (q exact)": v for k, v in tau.items()}
+    report["floor"] = _change_floor.floor_report(
+        models, None if quick else scen, simulate, bandwidth, chosen
+    )
     return report
 
 
@@ -456,6 +462,7 @@ def run_2r(args, seeds, report) -> None:
             print(f"| {label} | " + " | ".join(cells) + " |")
         tracking = change_report(models, scen, main_robot, main_traj, seeds, args.quick)
         _change.print_tracking(tracking, seeds)
+        _change_floor.print_floor(tracking["floor"])
     report["tracking"] = tracking
     report["exact_bias"] = bias
     report["settings"] = {"lagrangian": LAGRANGIAN, "power": POWER}
