@@ -22,9 +22,14 @@ and the rows' covariance is
     Γ_ss'[k, k'] = Γ_ss'(k - k') = Σ_u c_s[u + (k - k')D] c_s'[u]
 
 (Γ is banded: the filters are a few bank steps long). The derivatives ∂/∂s are
-central differences of the row provider at the window's samples (uncompensated rows:
-the noise-bias compensation of ``core.noise_bias`` changes them at second order
-only); Σ depends on θ through them. For the power model the noise of v̂ enters
+central differences of the row provider at the window's samples over ±√3 σ_s, σ_s
+the noise std of the signal s (σ_q‖c₀‖₂, σ_q‖c₁‖₂, σ_τ‖c₀‖₂): the three-point
+Gauss-Hermite rule of d/ds E[rows(s + σ_s z)], z ~ N(0, 1) (a statistical
+linearisation: exact for the rows' terms up to cubic, and it spreads the jump of
+a Coulomb sign(v̂) over the noise that makes it flip, where a tangent would see
+nothing, or 1/step at a sample next to v̂ = 0). Uncompensated rows: the
+noise-bias compensation of ``core.noise_bias`` changes them at second order only.
+Σ depends on θ through them. For the power model the noise of v̂ enters
 through the momentum ``∂(Dθ)/∂v̂ = M(q̂)v̂`` times ġ_ℓ and through ``∂(vᵀτ)/∂v̂ = τ̂``
 times g_ℓ: its size follows the motion, and rows of different ℓ share it (one noise
 process seen through every g_ℓ). Σ is far from diagonal, which is why a weighting
@@ -43,6 +48,7 @@ off. Only the ratios of the stds change θ̂. First order only: the squared nois
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -73,8 +79,8 @@ _OWNER = "row_covariance"
 #: 30 dB (benchmarks/bench_accuracy.py) a third changes the friction error by 0.1 %.
 ITERATIONS = 2
 
-#: Central-difference step of the rows' derivatives, relative to 1 + max|s| of
-#: each signal over the window.
+#: Central-difference step of the rows' derivatives for a noise-free signal,
+#: relative to 1 + max|s| over the window (the others: √3 times their noise std).
 DIFFERENCE_STEP = 1e-6
 
 
@@ -92,6 +98,7 @@ class CovarianceDesign:
         kernels: (3, 2M + 1) Γ_00, Γ_01, Γ_11 at the bank lags -M..M.
         position_std: (n,) σ_q per joint [rad or m].
         torque_std: (n,) σ_τ per joint [N·m or N].
+        signal_std: (3n,) the noise std of q̂_j, v̂_j, τ̂_j (the filters' gains).
     """
 
     model: str
@@ -102,6 +109,7 @@ class CovarianceDesign:
     kernels: np.ndarray
     position_std: np.ndarray
     torque_std: np.ndarray
+    signal_std: np.ndarray
 
     @property
     def num_samples(self) -> int:
@@ -187,29 +195,43 @@ def covariance_design(
         ]
     )
     keep = np.repeat(bank.row_mask.ravel(), m)
-    for array in (*maps, keep, kernels):
+    gains = np.sqrt(kernels[[0, 2], lags])  # ‖c₀‖₂, ‖c₁‖₂
+    signal_std = np.concatenate(
+        [sigma_q * gains[0], sigma_q * gains[1], sigma_tau * gains[0]]
+    )
+    for array in (*maps, keep, kernels, signal_std):
         array.flags.writeable = False
     return CovarianceDesign(
-        model, m, maps[0], maps[1], keep, kernels, sigma_q, sigma_tau
+        model, m, maps[0], maps[1], keep, kernels, sigma_q, sigma_tau, signal_std
     )
 
 
 def sample_sensitivities(
-    rows: Any, model: str, q_hat: Any, v_hat: Any, tau_hat: Any, theta: Any
+    rows: Any,
+    model: str,
+    q_hat: Any,
+    v_hat: Any,
+    tau_hat: Any,
+    theta: Any,
+    signal_std: Any = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(E, Y)``: ∂(Dθ)/∂s and ∂(y - Gθ)/∂s at each sample, each (K, m, 3n).
 
     s runs over q̂_1..q̂_n, v̂_1..v̂_n, τ̂_1..τ̂_n; central differences of
-    ``rows.model_rows`` (one batch call per step) with the step
-    :data:`DIFFERENCE_STEP`·(1 + max|s|).
+    ``rows.model_rows`` (one batch call per step) over ±√3 σ_s (``signal_std``
+    (3n,), module docstring), or :data:`DIFFERENCE_STEP`·(1 + max|s|) where σ_s
+    is 0 or not given.
     """
     signals = [np.asarray(x, dtype=float) for x in (q_hat, v_hat, tau_hat)]
     theta = np.asarray(theta, dtype=float)
     count, n = signals[0].shape
+    spread = np.zeros(3 * n) if signal_std is None else np.asarray(signal_std)
     e_out = y_out = np.empty(0)
     for part in range(3):
         for joint in range(n):
-            step = DIFFERENCE_STEP * (1.0 + np.abs(signals[part][:, joint]).max())
+            step = math.sqrt(3.0) * float(spread[part * n + joint])
+            if not step > 0.0:
+                step = DIFFERENCE_STEP * (1.0 + np.abs(signals[part][:, joint]).max())
             values = []
             for sign in (1.0, -1.0):
                 moved = [x.copy() for x in signals]
@@ -270,7 +292,7 @@ def row_covariance(
                 f"shape {shape}.",
             )
     e_sens, y_sens = sample_sensitivities(
-        rows, design.model, q_hat, v_hat, tau_hat, theta
+        rows, design.model, q_hat, v_hat, tau_hat, theta, design.signal_std
     )
     n = e_sens.shape[2] // 3
 
