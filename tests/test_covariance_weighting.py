@@ -279,3 +279,15 @@ def test_signal_ring_keeps_the_last_samples_in_order():
     np.testing.assert_array_equal(tau[:, 0], [22, 23, 24])
     with pytest.raises(ValueError, match=r"must have 1 entries each; got 4"):
         ring_push(ring, [1, 2], [1], [1])
+
+
+def test_payload_identifier_refuses_the_covariance_weighting():
+    from drake_dynid.core.payload_step import payload_settings
+
+    with pytest.raises(ValueError, match=r"payload_settings: settings.weighting must"):
+        payload_settings(
+            weighting="covariance",
+            position_noise=0.01,
+            torque_noise=0.1,
+            rows_from="filtered",
+        )
