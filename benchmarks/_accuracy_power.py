@@ -1,27 +1,29 @@
 """The power model's limits on the paper's 2R (a section of bench_accuracy.py).
 
-On the main scenario (paper 2R, paper trajectory, SNR 30 dB on q and τ, T = 20 s,
-the power model's defaults with the rows ``dynid identify`` chooses), over
-``seeds`` noise draws (default_rng(1000 + s), as the other tables):
+On the main scenario (paper 2R, paper trajectory, SNR 30 dB on q and τ, T = 20 s),
+over ``seeds`` noise draws (default_rng(1000 + s), as the other tables):
 
-* **bias vs spread**: the mean over seeds of the relative error of each parameter
-  (the bias) and its standard deviation (the spread), with the rows as they are
-  and with their noise bias compensated (``OnlineSettings.position_noise`` = the
-  σ_q measured on each log, ``core.noise_bias``); plus the median |error| of one
-  run, the metric of the other tables;
 * **the rows' bias**: the mean over seeds of the window's regressor A against the
   noise-free log's, per column in units of its Monte-Carlo error (χ²/rows: 1 when
-  unbiased), as they are and compensated;
-* **the best linear weighting** (an oracle bound): the window's rows A θ = B of
-  every seed, their residual at the true θ, r = B - A θ, and its covariance Σ
-  over the first half of the seeds (the Monte-Carlo truth of the rows' noise,
-  which no estimator knows; shrunk towards its diagonal by r/(r + N/2) for r
-  rows and N seeds, so that it stays invertible); generalised least squares with
-  Σ⁻¹ on the other half: about what the best (linear, generalised least
-  squares) weighting of these rows could reach if it knew their noise, i.e. how
-  far the power model's rows can go at this noise level.
-
-Frequency-weighted solves (the default) unless stated.
+  unbiased), with the frequency weighting's rows as they are and with their noise
+  bias compensated (``OnlineSettings.position_noise`` = the σ_q measured on each
+  log, ``core.noise_bias``);
+* **bias vs spread**: the mean over seeds of the relative error of each parameter
+  (the bias), its standard deviation (the spread) and the median |error| of one
+  run (the metric of the other tables), for the frequency weighting with the
+  compensation (``dynid identify`` before the covariance weighting) and for the
+  covariance weighting (``core.row_covariance``, σ_q and σ_τ measured on each log:
+  ``dynid identify``'s default);
+* **the floor of the power rows**: the best linear unbiased use of a window's
+  power rows, generalised least squares with their exact first-order covariance
+  Σ (``core.row_covariance`` at the true θ on the noise-free log, with the true
+  noise stds): σ_θ = √diag((AᵀΣ⁻¹A)⁻¹), reported as the median |error| of one run
+  it implies (0.674 σ_θ for a Gaussian error), for the frequency weighting's ℓ set
+  (ℓ to 2B) and for every ℓ within the differentiator's pass band (the covariance
+  weighting's set). No weighting of these rows can do better to first order in
+  the noise; more information needs a longer window or a lower noise.
+* **the covariance weighting without noise** (the filters' and the closed loop's
+  bias): its estimate on the noise-free log with Σ from the true stds.
 """
 
 from __future__ import annotations
@@ -32,12 +34,17 @@ import numpy as np
 
 from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
 from drake_dynid.core.online import OnlineSettings
-from drake_dynid.core.raw_rows import rows_from_noise
-from drake_dynid.core.replay import window_equations
+from drake_dynid.core.replay import (
+    filtered_signals,
+    window_covariance_at,
+    window_equations,
+)
 from drake_dynid.core.weighted_lsq import solve_window
 
 H = 1e-3
 T = 20.0
+#: The median |error| of a zero-mean Gaussian of std σ is 0.674 σ.
+MEDIAN_OF_GAUSSIAN = 0.6745
 
 
 def _noisy(q, tau, std, seed):
@@ -61,68 +68,113 @@ def _summary(errors: np.ndarray) -> dict:
     }
 
 
+def _solve(rows, settings, q, tau, end):
+    """θ̂ of the window at ``end`` (NaN when not valid) and its regressor."""
+    a, b = window_equations(rows, settings, q, tau, end, H)
+    res = solve_window(
+        a,
+        b,
+        settings.row_weighting(1),
+        max_condition=settings.max_condition,
+        names=rows.names,
+        covariance=window_covariance_at(rows, settings, q, tau, end, H),
+    )
+    return (res.theta if res.valid else np.full(a.shape[1], np.nan)), a
+
+
+def floor(rows, settings, clean_q, clean_tau, truth) -> dict:
+    """σ_θ of generalised least squares with the rows' exact covariance (docstring)."""
+    end = len(clean_q) - 1
+    s = settings.for_robot(H, int(rows.num_joints), int(rows.num_parameters))
+    signals = filtered_signals(clean_q, clean_tau, s, H)
+    a = window_equations(rows, s, clean_q, clean_tau, end, H, signals=signals)[0]
+    cov = window_covariance_at(rows, s, clean_q, clean_tau, end, H, signals=signals)
+    information = a.T @ np.linalg.solve(cov(truth), a)
+    std = 100 * np.sqrt(np.diag(np.linalg.inv(information))) / np.abs(truth)
+    median = MEDIAN_OF_GAUSSIAN * std
+    return {
+        "functions": len(s.ell()),
+        "std": std.tolist(),
+        "median_abs": median.tolist(),
+        "inertial": float(median[:4].mean()),
+        "friction": float(median[4:].mean()),
+    }
+
+
 def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
     """Every number of the section (module docstring) on one noise-free log."""
     rows = robot.rows_provider()
     truth = robot.base_values
-    n, p = robot.num_joints, robot.num_parameters
+    n = robot.num_joints
     base = OnlineSettings.for_model(
         "power", window=T, bandwidth=estimate_bandwidth(clean_q, H)
     )
     end = len(clean_q) - 1
-    plain, compensated, systems, regressors = [], [], [], []
+    sigma_q, sigma_tau = tuple(noise_std[:n]), tuple(noise_std[n:])
+    weighted = dataclasses.replace(
+        base, weighting="covariance", position_noise=sigma_q, torque_noise=sigma_tau
+    )
+    found = {"plain": [], "compensated": [], "covariance": []}
+    regressors = {"plain": [], "compensated": []}
     for seed in seeds:
         q, tau = _noisy(clean_q, clean_tau, noise_std, seed)
-        grid = base.on_grid(H)
-        chosen = rows_from_noise(
-            q,
-            H,
-            raw_window=grid.resolved("raw_window"),
-            jacobi_window=grid.jacobi_window,
-            bandwidth=grid.bandwidth,
-        )[0]
-        s = dataclasses.replace(base, rows_from=chosen).for_robot(H, n, p)
-        sigma = tuple(position_noise_std(q, H).tolist())
-        for settings, out in (
-            (s, plain),
-            (dataclasses.replace(s, position_noise=sigma), compensated),
+        measured_q = tuple(position_noise_std(q, H).tolist())
+        measured_tau = tuple(position_noise_std(tau, H).tolist())
+        for key, settings in (
+            ("plain", base),
+            ("compensated", dataclasses.replace(base, position_noise=measured_q)),
+            (
+                "covariance",
+                dataclasses.replace(
+                    weighted, position_noise=measured_q, torque_noise=measured_tau
+                ),
+            ),
         ):
-            a, b = window_equations(rows, settings, q, tau, end, H)
-            res = solve_window(
-                a,
-                b,
-                settings.row_weighting(1),
-                max_condition=settings.max_condition,
-                names=rows.names,
-            )
-            out.append(res.theta if res.valid else np.full(p, np.nan))
-            regressors.append(a)
-            if out is plain:
-                systems.append((a, b))
-    half = len(systems) // 2
-    residual = np.array([b - a @ truth for a, b in systems[:half]])
-    cov = np.cov(residual.T)
-    shrink = min(1.0, cov.shape[0] / (cov.shape[0] + half))  # towards the diagonal
-    cov = (1.0 - shrink) * cov + shrink * np.diag(np.diag(cov))
-    whiten = np.linalg.cholesky(np.linalg.inv(cov)).T
-    oracle = [
-        np.linalg.lstsq(whiten @ a, whiten @ b, rcond=None)[0]
-        for a, b in systems[half:]
-    ]
-    clean = window_equations(rows, s, clean_q, clean_tau, end, H)[0]
+            theta, a = _solve(rows, settings, q, tau, end)
+            found[key].append(theta)
+            if key in regressors:
+                regressors[key].append(a)
+    clean = window_equations(rows, base, clean_q, clean_tau, end, H)[0]
     chi2 = {}
-    for key, found in (("plain", regressors[0::2]), ("compensated", regressors[1::2])):
-        found = np.array(found)
-        error = found.std(axis=0) / np.sqrt(len(found))
-        chi2[key] = (((found.mean(axis=0) - clean) / error) ** 2).mean(axis=0).tolist()
+    for key, values in regressors.items():
+        values = np.array(values)
+        error = values.std(axis=0) / np.sqrt(len(values))
+        chi2[key] = (((values.mean(axis=0) - clean) / error) ** 2).mean(axis=0).tolist()
+    # Without noise there is no noise bias to remove: the covariance set's rows
+    # uncompensated, Σ from the true stds.
+    grid = weighted.for_robot(H, n, len(truth))
+    plain = dataclasses.replace(
+        grid,
+        weighting="frequency",
+        position_noise=None,
+        torque_noise=None,
+        frequencies=grid.ell(),
+    )
+    a, b = window_equations(rows, plain, clean_q, clean_tau, end, H)
+    noise_free = solve_window(
+        a, b, covariance=window_covariance_at(rows, grid, clean_q, clean_tau, end, H)
+    ).theta
     return {
         "regressor_chi2": chi2,
         "seeds": len(list(seeds)),
-        "rows": int(systems[0][0].shape[0]),
-        "rows_from": s.rows_from,
-        "plain": _summary(_percent(plain, truth)),
-        "compensated": _summary(_percent(compensated, truth)),
-        "oracle": _summary(_percent(oracle, truth)),
+        "functions": {
+            "frequency": len(base.for_robot(H, n, len(truth)).ell()),
+            "covariance": len(weighted.for_robot(H, n, len(truth)).ell()),
+        },
+        "compensated": _summary(_percent(found["compensated"], truth)),
+        "covariance": _summary(_percent(found["covariance"], truth)),
+        "plain": _summary(_percent(found["plain"], truth)),
+        "floor_frequency_set": floor(
+            rows,
+            dataclasses.replace(
+                weighted, frequencies=base.for_robot(H, n, len(truth)).ell()
+            ),
+            clean_q,
+            clean_tau,
+            truth,
+        ),
+        "floor": floor(rows, weighted, clean_q, clean_tau, truth),
+        "covariance_noise_free": _percent(noise_free, truth).tolist(),
     }
 
 
@@ -137,31 +189,43 @@ def print_report(report: dict, names) -> None:
     for label, key in (("as they are", "plain"), ("compensated", "compensated")):
         cells = " | ".join(f"{x:.2f}" for x in report["regressor_chi2"][key])
         print(f"| {label} | {cells} |")
+    functions = report["functions"]
     print(
         f"\n## Power model on the 2R (paper trajectory, SNR 30 dB, {report['seeds']} "
-        f"seeds, {report['rows']} rows, {report['rows_from']} rows): bias (mean "
-        "error) vs spread (std), %\n"
+        f"seeds): bias (mean error) vs spread (std), %; frequency weighting with "
+        f"{functions['frequency']} functions (ℓ to 2B), covariance weighting with "
+        f"{functions['covariance']} (ℓ to the pass band)\n"
     )
     print("| | " + " | ".join(names) + " | inertial | friction |")
     print("|---" * (len(names) + 3) + "|")
-    for label, key in (
-        ("mean error, rows as they are", "plain"),
-        ("mean error, noise bias compensated", "compensated"),
-    ):
+    methods = (
+        ("frequency weighting, compensated", "compensated"),
+        ("covariance weighting", "covariance"),
+    )
+    for label, key in methods:
         r = report[key]
         cells = " | ".join(f"{x:+.2f}" for x in r["mean"])
-        print(f"| {label} | {cells} | | {r['friction_bias']:.2f} (mean abs) |")
-    for label, key in (
-        ("std over seeds, rows as they are", "plain"),
-        ("std over seeds, compensated", "compensated"),
-    ):
+        print(
+            f"| mean error, {label} | {cells} | | {r['friction_bias']:.2f} (mean abs) |"
+        )
+    for label, key in methods:
         cells = " | ".join(f"{x:.2f}" for x in report[key]["std"])
-        print(f"| {label} | {cells} | | |")
-    for label, key in (
-        ("median abs, rows as they are", "plain"),
-        ("median abs, compensated", "compensated"),
-        ("median abs, best linear weighting (oracle, other half)", "oracle"),
-    ):
-        r = report[key]
+        print(f"| std over seeds, {label} | {cells} | | |")
+    rows = [(f"median abs, {label}", report[key]) for label, key in methods]
+    rows += [
+        (
+            f"floor: exact-covariance GLS, {report[key]['functions']} functions "
+            "(0.674 σ_θ)",
+            report[key],
+        )
+        for key in ("floor_frequency_set", "floor")
+    ]
+    for label, r in rows:
         cells = " | ".join(f"{x:.2f}" for x in r["median_abs"])
         print(f"| {label} | {cells} | {r['inertial']:.2f} | {r['friction']:.2f} |")
+    bias = np.abs(report["covariance_noise_free"])
+    cells = " | ".join(f"{x:+.2f}" for x in report["covariance_noise_free"])
+    print(
+        f"| covariance weighting, noise-free log | {cells} | {bias[:4].mean():.2f} | "
+        f"{bias[4:].mean():.2f} |"
+    )

@@ -95,18 +95,33 @@ def honesty(estimates, stds, truth) -> dict[str, float]:
 SIGMAS = ("jackknife", "gautier", "sandwich")
 
 
-def window_solves(a, b, settings: Any, m: int, names, bank: Any = None):
+def window_solves(
+    a, b, settings: Any, m: int, names, bank: Any = None, covariance: Any = None
+):
     """``(θ̂, [σ for each of SIGMAS])`` of one window's equations ``a θ = b``.
 
     The identifier's solve (``core.weighted_lsq.solve_window``, the settings'
     weighting) with each uncertainty: the default (the larger of the sandwich σ and
     the jackknife's), Gautier's alone and the sandwich σ alone; NaN when a solve is
-    not valid. θ̂ is the default's.
+    not valid. θ̂ is the default's. With ``covariance`` (θ -> Σ of the rows, the
+    covariance weighting) one solve, whose generalised least squares' σ stands
+    for all three.
     """
     import dataclasses
 
     from drake_dynid.core.weighted_lsq import solve_window
 
+    nan = np.full(len(names), np.nan)
+    if covariance is not None:
+        res = solve_window(
+            a,
+            b,
+            max_condition=settings.max_condition,
+            names=names,
+            covariance=covariance,
+        )
+        std = res.std if res.valid else nan
+        return (res.theta if res.valid else nan), [std] * len(SIGMAS)
     bank = settings.bank() if bank is None else bank
     theta, stds = None, []
     for kind in SIGMAS:

@@ -79,7 +79,11 @@ from drake_dynid.core.ell_rule import POWER_BAND_FACTOR
 from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
-from drake_dynid.core.replay import filtered_signals, window_equations
+from drake_dynid.core.replay import (
+    filtered_signals,
+    window_covariance_at,
+    window_equations,
+)
 from drake_dynid.logs import RobotLog
 from drake_dynid.offline import identify_offline
 from drake_dynid.simulation import SimulationSettings, simulate_identification
@@ -132,7 +136,10 @@ def online_full(rows, s: OnlineSettings, signals, end: int, q=None, tau=None):
     s = s.for_robot(H, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, H, signals=signals)
     m = s.num_equations(int(rows.num_joints))
-    theta, (std, gautier, sandwich) = window_solves(a, b, s, m, rows.names)
+    covariance = window_covariance_at(rows, s, q, tau, end, H, signals=signals)
+    theta, (std, gautier, sandwich) = window_solves(
+        a, b, s, m, rows.names, covariance=covariance
+    )
     return theta, std, gautier, sandwich
 
 
@@ -149,8 +156,31 @@ def auto_rows(s: OnlineSettings, q) -> str:
 
 
 def measured_noise(q) -> tuple[float, ...]:
-    """σ_q per joint measured on the log, as ``dynid identify`` (power model)."""
+    """σ_q (or σ_τ) per joint measured on the log, as ``dynid identify``."""
     return tuple(position_noise_std(q, H).tolist())
+
+
+def as_run(name: str, s: OnlineSettings, q, tau) -> OnlineSettings:
+    """The settings of method ``name`` on one noisy log, as ``dynid identify``.
+
+    "covariance": the covariance weighting with σ_q, σ_τ measured on the log and
+    the filtered rows (the power model's ``dynid identify`` default); "(auto)" or
+    "dynid identify": the rows chosen on the log, and for the power model σ_q
+    measured (the noise-bias compensation).
+    """
+    if "covariance" in name:
+        return dataclasses.replace(
+            s,
+            weighting="covariance",
+            rows_from="filtered",
+            position_noise=measured_noise(q),
+            torque_noise=measured_noise(tau),
+        )
+    if name.endswith("(auto)") or "dynid identify" in name:
+        s = dataclasses.replace(s, rows_from=auto_rows(s, q))
+        if s.model == "power":
+            s = dataclasses.replace(s, position_noise=measured_noise(q))
+    return s
 
 
 def offline(robot, q, tau, weighted=False):
@@ -241,11 +271,7 @@ def run_scenario(robot, trajectory, seeds, methods, budget=False):
                 gautier.append(np.full(len(truth), np.nan))
                 sandwich.append(np.full(len(truth), np.nan))
                 continue
-            s = methods[name](bandwidth)
-            if name.endswith("(auto)") or "dynid identify" in name:
-                s = dataclasses.replace(s, rows_from=auto_rows(s, q))
-            if "dynid identify" in name and s.model == "power":  # σ_q measured
-                s = dataclasses.replace(s, position_noise=measured_noise(q))
+            s = as_run(name, methods[name](bandwidth), q, tau)
             chosen.add(s.rows_from)
             theta, std, std_gautier, std_sandwich = online_full(
                 rows, s, None, end, q, tau
@@ -276,10 +302,16 @@ def method_table(bandwidth_note=True):
         "on-line Lagrangian, rows from the log (auto)": lambda b: settings_for(
             LAGRANGIAN, T, b
         ),
-        "on-line power": lambda b: settings_for(POWER, T, b),
-        "on-line power (dynid identify: bias compensated)": lambda b: settings_for(
-            POWER, T, b
+        "on-line Lagrangian, covariance weighting": lambda b: settings_for(
+            LAGRANGIAN, T, b
         ),
+        "on-line power (dynid identify: covariance weighting)": lambda b: (
+            settings_for(POWER, T, b)
+        ),
+        "on-line power, frequency weighting (dynid identify before)": lambda b: (
+            settings_for(POWER, T, b)
+        ),
+        "on-line power": lambda b: settings_for(POWER, T, b),
         "on-line power, ℓ to B (before)": lambda b: settings_for(
             POWER, T, b / POWER_BAND_FACTOR
         ),
@@ -347,7 +379,9 @@ def print_2r(all_results, methods, seeds) -> None:
     print("|---|---|---|---|---|---|---|")
     for label, res_s in all_results.items():
         for name in methods:
-            if name.startswith("off-line") or "power" in name:
+            if name.startswith("off-line") or (
+                "power" in name and "covariance" not in name
+            ):
                 continue
             h = res_s[("both", name)]["honesty"]
             g = res_s[("both", name)]["honesty_gautier"]

@@ -259,11 +259,13 @@ def add_online_identifier(
             f"{measurement.size()}.",
         )
     settings = settings.for_robot(time_step, n, int(rows.num_parameters))
+    plain_rows = rows
     rows = settings.row_provider(rows, time_step)  # noise-compensated power rows
     differentiator, model_rows, bank, design = add_bank_front(
         builder, rows, settings, measurement, time_step, differentiator
     )
     names = tuple(rows.names)
+    covariance = settings.covariance_design(time_step, n)
     solver = dict(
         max_condition=settings.max_condition,
         names=names,
@@ -271,6 +273,7 @@ def add_online_identifier(
         row_weighting=settings.row_weighting(model_rows.num_equations, design),
         row_noise=settings.row_noise(model_rows.num_equations, design),
         jackknife_groups=settings.jackknife_groups(model_rows.num_equations, design),
+        covariance=None if covariance is None else (covariance, plain_rows),
     )
     period = settings.resolved("update_period")
     tracking = change_design(
@@ -293,6 +296,25 @@ def add_online_identifier(
         builder.Connect(
             bank.get_output_port_window_state(),
             identifier.get_input_port_window_state(),
+        )
+    if covariance is not None:  # the window's filtered signals (core.row_covariance)
+        from drake_dynid.systems.signal_window import SignalWindow
+
+        window = builder.AddSystem(
+            SignalWindow(
+                n,
+                covariance.num_samples,
+                settings.resolved("bank_time_step"),
+                offset=BANK_OFFSET * time_step,
+            )
+        )
+        for order, port in (
+            (0, window.get_input_port_smoothed()),
+            (1, window.get_input_port_rates()),
+        ):
+            builder.Connect(differentiator.get_output_port_derivative(order), port)
+        builder.Connect(
+            window.get_output_port_window(), identifier.get_input_port_window_signals()
         )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())
     builder.Connect(bank.get_output_port_B(), identifier.get_input_port_B())

@@ -26,7 +26,10 @@ from drake_dynid.core.online import (
 )
 from drake_dynid.core.payload import PayloadRows
 from drake_dynid.core.payload_replay import PayloadTrace
-from drake_dynid.core.payload_step import payload_jackknife_groups
+from drake_dynid.core.payload_step import (
+    check_payload_weighting,
+    payload_jackknife_groups,
+)
 from drake_dynid.diagrams import IdentifierChain, add_bank_front, advance, log_source
 
 __all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
@@ -81,6 +84,7 @@ def add_payload_identifier(
     owner = "add_payload_identifier"
     check.instance(owner, "rows", rows, PayloadRows, "a PayloadRows (payload_rows)")
     check.instance(owner, "settings", settings, OnlineSettings, "an OnlineSettings")
+    check_payload_weighting(owner, settings)
     n = rows.num_joints
     if measurement.size() != 2 * n:
         check.fail(

@@ -51,6 +51,18 @@ SETTINGS.append(dataclasses.replace(SETTINGS[1], rows_from="raw", raw_window=0.0
 # The power rows with their noise bias removed (core.noise_bias), filtered and raw.
 SETTINGS.append(dataclasses.replace(SETTINGS[1], position_noise=0.02))
 SETTINGS.append(dataclasses.replace(SETTINGS[4], position_noise=(0.02, 0.01)))
+# The covariance weighting (core.row_covariance: the blocks keep the window's
+# filtered signals in a SignalWindow), both models, its default ℓ set.
+SETTINGS.extend(
+    dataclasses.replace(
+        SETTINGS[k],
+        weighting="covariance",
+        position_noise=0.02,
+        torque_noise=(0.5, 0.1),
+        frequencies=None,
+    )
+    for k in (0, 1)
+)
 
 
 @pytest.fixture(scope="module")

@@ -34,6 +34,8 @@ def test_defaults_follow_125_hz_and_909_hz():
     assert grid.update_period == pytest.approx(0.096)  # 12.5 steps: the smaller
     assert grid.window == 20.0 and grid.jacobi_window == 0.4  # already on the grid
     power = OnlineSettings.for_model("power").on_grid(0.008)
+    assert power.jacobi_window == pytest.approx(25 * 0.008)  # 0.2 s, on the grid
+    power = OnlineSettings.for_model("power", jacobi_window=0.3).on_grid(0.008)
     assert power.jacobi_window == pytest.approx(37 * 0.008)  # 0.3 s = 37.5 steps
     h = 1.0 / 909.0
     grid = OnlineSettings().on_grid(h)

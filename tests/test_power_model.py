@@ -126,7 +126,9 @@ def test_default_set_scales_with_the_parameters_within_the_pass_band():
     assert power.ell()[-1] == 19 and lagrangian.ell()[-1] == 9
     # A short window: capped at the pass band (0.3 s Jacobi window: 3.87 Hz); 30
     # functions are 60 rows, enough to solve (57) but not for an honest σ (61).
-    short = OnlineSettings.for_model("power", window=8.0, bandwidth=0.52)
+    short = OnlineSettings.for_model(
+        "power", window=8.0, bandwidth=0.52, jacobi_window=0.3
+    )
     assert len(short.for_robot(H, 7, 57).ell()) == 30
     with pytest.raises(ValueError, match=r"lengthen window to at least 8.01 s"):
         short.for_log(H, 60.0, num_joints=7, num_parameters=57)
@@ -217,7 +219,7 @@ def test_compensated_power_equations_are_unbiased(arm2, exact_2r):
 
 
 def test_position_noise_setting_is_checked():
-    with pytest.raises(ValueError, match=r"power model's rows only"):
+    with pytest.raises(ValueError, match=r"noise bias of the power model's rows"):
         OnlineSettings(position_noise=0.01)
     with pytest.raises(ValueError, match=r"position_noise must be None, a std >= 0"):
         OnlineSettings(model="power", position_noise=-1.0)

@@ -1,10 +1,12 @@
-"""``dynid identify --position-noise``: the power rows' noise compensation option.
+"""``dynid identify --position-noise``, ``--torque-noise``: the noise std options.
 
 The power model's rows are quadratic in the estimated velocity; white position
 noise of std σ_q biases them by a known amount (``drake_dynid.core.noise_bias``,
-docs/MATH.md §3). ``--position-noise auto`` (the default) measures σ_q per joint
-on the log (``core.excitation.position_noise_std``), ``none`` turns the
-compensation off, numbers give it.
+docs/MATH.md §3). The covariance weighting (``core.row_covariance``) computes the
+rows' covariance from σ_q and the torque noise σ_τ. ``auto`` (the default)
+measures them per joint on the log (``core.excitation.position_noise_std``: the
+white floor of the spectrum above f_s/4) when they are used, ``none`` leaves
+them out, numbers give them.
 """
 
 from __future__ import annotations
@@ -15,15 +17,21 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "add_position_noise_argument",
-    "measured_position_noise",
-    "position_noise_line",
+    "add_noise_arguments",
+    "measured_noise",
+    "noise_lines",
+    "noise_option",
     "position_noise_option",
 ]
 
+_UNITS = {"position": "rad or m", "torque": "N·m or N"}
 
-def position_noise_option(text: str | None) -> Any:
-    """``auto`` | ``none`` | ``S[,S...]``: ``"auto"``, None, a float or floats."""
+
+def noise_option(text: str | None, signal: str = "position") -> Any:
+    """``auto`` | ``none`` | ``S[,S...]``: ``"auto"``, None, a float or floats.
+
+    ``signal``: ``"position"`` (``--position-noise``) or ``"torque"``.
+    """
     text = "auto" if text is None else text.strip()
     if text in ("auto", "none"):
         return None if text == "none" else "auto"
@@ -33,57 +41,82 @@ def position_noise_option(text: str | None) -> Any:
         values = []
     if not values or any(not math.isfinite(x) or x < 0.0 for x in values):
         raise ValueError(
-            "--position-noise must be 'auto', 'none' or stds >= 0 [rad or m] (one, "
-            f"or one per joint, comma-separated); got {text!r}."
+            f"--{signal}-noise must be 'auto', 'none' or stds >= 0 [{_UNITS[signal]}] "
+            f"(one, or one per joint, comma-separated); got {text!r}."
         )
     return values[0] if len(values) == 1 else values
 
 
-def measured_position_noise(log: Any) -> np.ndarray:
-    """σ_q per joint [rad or m] for ``--position-noise auto`` (power model).
+def position_noise_option(text: str | None) -> Any:
+    """:func:`noise_option` of ``--position-noise``."""
+    return noise_option(text, "position")
 
-    ``core.excitation.position_noise_std`` (the white floor of the position
-    spectrum above f_s/4) on the longest run of finite samples.
+
+def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
+    """σ per joint of the log's positions or torques, for ``auto``.
+
+    ``core.excitation.position_noise_std`` (the white floor of the spectrum above
+    f_s/4) on the longest run of finite samples [rad or m; N·m or N].
     """
     from drake_dynid.core.excitation import position_noise_std
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     if stop - start < 64:
         raise ValueError(
-            "cannot measure the position noise: no run of 64 finite samples in the "
-            "log; give --position-noise none or S."
+            f"cannot measure the {signal} noise: no run of 64 finite samples in the "
+            f"log; give --{signal}-noise none or S."
         )
-    return position_noise_std(log.q[start:stop], log.time_step)
+    values = log.q if signal == "position" else log.tau
+    return position_noise_std(values[start:stop], log.time_step)
 
 
-def add_position_noise_argument(group: Any) -> None:
-    """Adds ``--position-noise`` to an argument group."""
+def add_noise_arguments(group: Any) -> None:
+    """Adds ``--position-noise`` and ``--torque-noise`` to an argument group."""
     group.add_argument(
         "--position-noise",
         metavar="auto|none|S[,S...]",
-        help="power model: std of the white position noise whose bias is removed "
-        "from the rows (the quadratic velocity terms of the energy and the "
-        "friction power) [rad or m], one or one per joint; 'auto' (default): "
-        "measured on the log (the floor of the position spectrum above fs/4; "
-        "none with --drive, whose motor columns it does not cover); 'none': no "
-        "compensation",
+        help="std of the white position noise [rad or m], one or one per joint: "
+        "the power model removes its bias from the rows (the quadratic velocity "
+        "terms of the energy and the friction power), the covariance weighting "
+        "uses it; 'auto' (default): measured on the log (the floor of the "
+        "position spectrum above fs/4) when used (not with --drive, whose motor "
+        "columns the compensation does not cover); 'none': neither",
+    )
+    group.add_argument(
+        "--torque-noise",
+        metavar="auto|none|S[,S...]",
+        help="std of the white torque noise [N·m or N], one or one per joint, for "
+        "--weighting covariance; 'auto' (default): measured on the log (the floor "
+        "of the torque spectrum above fs/4)",
     )
 
 
-def position_noise_line(settings: Any, measured: bool) -> str:
-    """The printed line of the compensation ("" when there is none)."""
-    if settings.position_noise is None:
-        return ""
-    sigma = np.atleast_1d(settings.position_noise)
-    where = (
-        " (measured on the log: the floor of the position spectrum; "
-        "--position-noise to override)"
-        if measured
-        else " (--position-noise)"
-    )
-    return (
-        "position noise: "
-        + ", ".join(f"{x:.3g}" for x in sigma)
-        + where
-        + "; its bias is removed from the power rows"
-    )
+def noise_lines(settings: Any, position_measured: bool, torque_measured: bool) -> list:
+    """The printed lines of the noise stds (none when not used)."""
+    lines = []
+    for field, measured, signal in (
+        ("position_noise", position_measured, "position"),
+        ("torque_noise", torque_measured, "torque"),
+    ):
+        value = getattr(settings, field)
+        if value is None:
+            continue
+        where = (
+            f" (measured on the log: the floor of the {signal} spectrum; "
+            f"--{signal}-noise to override)"
+            if measured
+            else f" (--{signal}-noise)"
+        )
+        uses = []
+        if signal == "position" and settings.model == "power":
+            uses.append("its bias is removed from the power rows")
+        if settings.weighting == "covariance":
+            uses.append("the rows' covariance uses it")
+        lines.append(
+            f"{signal} noise: "
+            + ", ".join(f"{x:.3g}" for x in np.atleast_1d(value))
+            + where
+            + "; "
+            + " and ".join(uses)
+        )
+    return lines

@@ -16,10 +16,10 @@ from drake_dynid.commands._arguments import (
     model_settings,
 )
 from drake_dynid.commands._noise import (
-    add_position_noise_argument,
-    measured_position_noise,
-    position_noise_line,
-    position_noise_option,
+    add_noise_arguments,
+    measured_noise,
+    noise_lines,
+    noise_option,
 )
 from drake_dynid.commands._report import (
     estimates_table,
@@ -74,6 +74,7 @@ OPTION_NAMES = {
 }
 OPTION_NAMES["frequencies"] = "--frequencies"
 OPTION_NAMES["position_noise"] = "--position-noise"
+OPTION_NAMES["torque_noise"] = "--torque-noise"
 
 
 # --------------------------------------------------------------------- identify
@@ -150,10 +151,35 @@ def _setting_values(args: argparse.Namespace, bandwidth: float | None) -> dict:
         kwargs["bandwidth"] = bandwidth
     if getattr(args, "rows_from", "auto") != "auto":
         kwargs["rows_from"] = args.rows_from
-    noise = position_noise_option(getattr(args, "position_noise", None))
-    if noise != "auto" and noise is not None:
-        kwargs["position_noise"] = noise
+    for signal in ("position", "torque"):
+        noise = noise_option(getattr(args, f"{signal}_noise", None), signal)
+        if noise != "auto" and noise is not None:
+            kwargs[f"{signal}_noise"] = noise
     return kwargs
+
+
+def default_weighting(args: argparse.Namespace, robot: Any = None) -> str | None:
+    """``--weighting``, or the power model's default: ``covariance``.
+
+    The covariance weighting (``core.row_covariance``) for ``--model power`` unless
+    the rows are raw (``--rows-from raw``), a noise std is turned off (``none``) or
+    the robot has a drive (whose motor columns the power rows' noise compensation
+    does not cover); None otherwise (the library default, ``frequency``).
+    """
+    if args.weighting is not None:
+        return args.weighting
+    off = any(
+        noise_option(getattr(args, f"{signal}_noise", None), signal) is None
+        for signal in ("position", "torque")
+    )
+    if (
+        args.model == "power"
+        and getattr(args, "rows_from", "auto") != "raw"
+        and not off
+        and (robot is None or robot.drive is None)
+    ):
+        return "covariance"
+    return None
 
 
 def online_settings(
@@ -164,6 +190,8 @@ def online_settings(
     robot: Any = None,
     rows_from: str | None = None,
     position_noise: Any = None,
+    torque_noise: Any = None,
+    weighting: str | None = None,
 ) -> Any:
     """The ``OnlineSettings`` of the options; unset options keep the model's defaults.
 
@@ -172,8 +200,10 @@ def online_settings(
     ``bandwidth`` [Hz] (measured on the log) replaces the default band when neither
     ``--bandwidth`` nor ``--frequencies`` is given; ``rows_from`` (chosen on the
     log) is used when ``--rows-from`` is ``auto``, ``position_noise`` [rad or m]
-    (measured on the log) when ``--position-noise`` is ``auto`` (power model
-    only). With the log's ``time_step``
+    and ``torque_noise`` [N·m or N] (measured on the log) when their options are
+    ``auto``, ``weighting`` (:func:`default_weighting`) when ``--weighting`` is
+    not given. The covariance weighting waiting for noise stds still to be
+    measured is checked as the frequency weighting. With the log's ``time_step``
     [s] and ``duration`` [s] (and the ``robot``: its joints and base parameters)
     the settings are put on the log's grid and checked against it
     (``OnlineSettings.for_log``: Nyquist, the differentiator's pass band, the
@@ -185,8 +215,23 @@ def online_settings(
     kwargs = _setting_values(args, bandwidth)
     if rows_from is not None and "rows_from" not in kwargs:
         kwargs["rows_from"] = rows_from
-    if position_noise is not None and "position_noise" not in kwargs:
-        kwargs["position_noise"] = position_noise
+    noises = (("position_noise", position_noise), ("torque_noise", torque_noise))
+    for field, value in noises:
+        if value is not None and field not in kwargs:
+            kwargs[field] = value
+    if weighting is not None and "weighting" not in kwargs:
+        kwargs["weighting"] = weighting
+    waiting = [  # stds that --*-noise auto will measure on the log
+        field
+        for field in ("position_noise", "torque_noise")
+        if field not in kwargs
+        and noise_option(getattr(args, field, None), field.split("_")[0]) == "auto"
+    ]
+    if kwargs.get("weighting") == "covariance" and waiting:
+        kwargs["weighting"] = "frequency"
+        if kwargs.get("model") != "power":
+            kwargs.pop("position_noise", None)
+        kwargs.pop("torque_noise", None)
     model = kwargs.pop("model", "lagrangian")
     if model in MODEL_DEFAULTS:
         values = {"model": model, **MODEL_DEFAULTS[model], **kwargs}
@@ -375,10 +420,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     group.add_argument(
         "--weighting",
-        choices=("frequency", "none"),
-        help="least squares of each window: 'frequency' (default) re-weights the "
-        "rows by a noise model fitted to the residuals, growing with the "
-        "modulating frequency; 'none': ordinary least squares (the paper)",
+        choices=("frequency", "none", "covariance"),
+        help="least squares of each window: 'frequency' (the Lagrangian model's "
+        "default) re-weights the rows by a noise model fitted to the residuals, "
+        "growing with the modulating frequency; 'covariance' (the power model's "
+        "default: filtered rows, not with --drive) is the generalised least "
+        "squares with the rows' noise covariance computed from the window, the "
+        "filters and --position-noise, --torque-noise, and an ℓ set up to the "
+        "differentiator's pass band; 'none': ordinary least squares (the paper)",
     )
     group.add_argument(
         "--uncertainty",
@@ -408,7 +457,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="window of the raw rows' central velocity estimate [s] (default 0.2; "
         "raw_window + bank step <= jacobi window)",
     )
-    add_position_noise_argument(group)
+    add_noise_arguments(group)
     group.add_argument(
         "--detect-changes",
         action="store_true",
@@ -500,27 +549,35 @@ def run(args: argparse.Namespace) -> int:
             else None
         )
         settings = online_settings(args, bandwidth, log.time_step, log.duration, robot)
-        rows_measured = args.rows_from == "auto"
-        noise_ratio = noise_threshold = rows_from = position_noise = None
+        weighting = default_weighting(args, robot)
+        covariance = weighting == "covariance"  # it models the filtered rows' noise
+        rows_measured = args.rows_from == "auto" and not covariance
+        noise_ratio = noise_threshold = position_noise = torque_noise = None
+        rows_from = "filtered" if covariance and args.rows_from == "auto" else None
         if rows_measured:  # with the raw window resolved on the log's grid
             rows_from, noise_ratio, noise_threshold = measured_rows_from(log, settings)
-        noise_measured = (  # not with a drive: its motor columns are not covered
-            settings.model == "power"
-            and position_noise_option(args.position_noise) == "auto"
-            and robot.drive is None
+        noise_measured = noise_option(args.position_noise) == "auto" and (
+            covariance  # the compensation: not with a drive (its motor columns)
+            or (settings.model == "power" and robot.drive is None)
+        )
+        torque_measured = (
+            covariance and noise_option(args.torque_noise, "torque") == "auto"
         )
         if noise_measured:
-            position_noise = tuple(measured_position_noise(log).tolist())
-        if rows_measured or noise_measured:
-            settings = online_settings(
-                args,
-                bandwidth,
-                log.time_step,
-                log.duration,
-                robot,
-                rows_from,
-                position_noise,
-            )
+            position_noise = tuple(measured_noise(log).tolist())
+        if torque_measured:
+            torque_noise = tuple(measured_noise(log, "torque").tolist())
+        settings = online_settings(
+            args,
+            bandwidth,
+            log.time_step,
+            log.duration,
+            robot,
+            rows_from,
+            position_noise,
+            torque_noise,
+            weighting,
+        )
     except ValueError as error:
         raise ValueError(f"log {args.log}: {error}") from None
     if args.engine == "blocks":
@@ -574,7 +631,7 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"model: {settings.model}; window: {settings.window:g} s; "
             f"{len(settings.ell())} modulating functions; latency "
-            f"{trace.delay:.4g} s"
+            f"{trace.delay:.4g} s; weighting: {settings.weighting}"
         )
         if robot.coulomb_width > 0.0:
             print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g}), --coulomb-width")
@@ -590,8 +647,12 @@ def run(args: argparse.Namespace) -> int:
                 f"log; raw up to {100 * noise_threshold:.3g} % at this band and "
                 "Jacobi window; --rows-from to override)"
             )
-        line = position_noise_line(settings, noise_measured)
-        if line:
+        if covariance and args.rows_from == "auto":
+            print(
+                "rows: filtered (the covariance weighting models the filtered rows' "
+                "noise; --rows-from to override)"
+            )
+        for line in noise_lines(settings, noise_measured, torque_measured):
             print(line)
         print()
         for line in estimates_table(trace.names, theta, std):
@@ -640,6 +701,7 @@ def run(args: argparse.Namespace) -> int:
                 "bandwidth_measured": band_measured,
                 "rows_from_measured": rows_measured,
                 "position_noise_measured": noise_measured,
+                "torque_noise_measured": torque_measured,
                 "raw_noise_ratio": None
                 if noise_ratio is None
                 else json_number(noise_ratio),

@@ -26,6 +26,15 @@ functions. Both depend on the model:
   p = 57, n = 7; the band already gives 10 at T = 20 s) nor for the 2R; it gives
   the power model 61 functions on a 7-DOF arm (p = 57).
 
+With the covariance weighting (``OnlineSettings.weighting``, ``core.row_covariance``)
+the set is every integer ℓ the limit below allows: the generalised least squares
+weighs each row by its modelled noise and correlation, so rows where the noise
+dominates cost nothing, and the high rows still carry information (the Coulomb
+term's |v| is broadband). On the paper's 2R at SNR 30 dB (benchmarks/
+bench_accuracy.py, 100 seeds) the power model's friction error is 11.3 % with the
+functions up to 3.9 Hz and 9.9 % up to 5.8 Hz (the defaults' pass band), where the
+frequency weighting is 21.6 % with its 2B set and worse with more functions.
+
 The limit (:func:`functions_that_fit`): every function must stay inside the
 differentiator's pass band and below the bank's Nyquist frequency, at most
 ``core.fourier_bank.MAX_FUNCTIONS``: L <= ⌊f_max·T⌋ - k + 1. When the count rule
@@ -158,7 +167,8 @@ def resolve_functions(grid: Any, time_step: float, n: int, p: int) -> Any:
     """``grid`` with ``min_functions`` None set by the count rule (module docstring).
 
     min(:func:`functions_for_rows`, :func:`functions_that_fit` below
-    :func:`usable_frequency`), at least ``MIN_FUNCTIONS``; unchanged when
+    :func:`usable_frequency`), at least ``MIN_FUNCTIONS``; with the covariance
+    weighting every function that fits (module docstring); unchanged when
     ``frequencies`` or ``min_functions`` is given. ``grid`` is on the grid of
     ``time_step`` (``OnlineSettings.on_grid``).
     """
@@ -167,6 +177,8 @@ def resolve_functions(grid: Any, time_step: float, n: int, p: int) -> Any:
     top = usable_frequency(grid, time_step)
     fit = functions_that_fit(grid.window, grid.order, top)
     wanted = min(functions_for_rows(grid.num_equations(n), p), fit)
+    if grid.weighting == "covariance":
+        wanted = fit
     return dataclasses.replace(grid, min_functions=max(MIN_FUNCTIONS, wanted))
 
 
@@ -178,13 +190,14 @@ def for_robot(settings: Any, time_step: float, n: int, p: int) -> Any:
     n = _validate.integer(owner, "num_joints", n, minimum=1)
     p = _validate.integer(owner, "num_parameters", p, minimum=1)
     grid = settings.on_grid(time_step)
-    noise = grid.position_noise
-    if noise is not None and np.ndim(noise) == 1 and len(noise) != n:
-        _validate.fail(
-            owner,
-            f"position_noise must hold one std per joint ({n}) or one for all [rad "
-            f"or m]; got {len(noise)} values.",
-        )
+    for field, unit in (("position_noise", "rad or m"), ("torque_noise", "N·m or N")):
+        noise = getattr(grid, field)
+        if noise is not None and np.ndim(noise) == 1 and len(noise) != n:
+            _validate.fail(
+                owner,
+                f"{field} must hold one std per joint ({n}) or one for all [{unit}]; "
+                f"got {len(noise)} values.",
+            )
     grid = resolve_functions(grid, time_step, n, p)
     m = grid.num_equations(n)
     rows = m * independent_rows(grid)

@@ -115,6 +115,7 @@ def identifier_update(
     names: Sequence[str] | None = None,
     noise: Any = None,
     jackknife: Any = None,
+    covariance: Any = None,
 ) -> IdentifierState:
     """One solve of the sliding identifier: the new state (the old is unchanged).
 
@@ -138,6 +139,8 @@ def identifier_update(
         jackknife: None, or the (r,) jackknife group of every row
             (``OnlineSettings.jackknife_groups``): σ is then, per parameter, the
             larger of the σ above and the delete-one-group jackknife's.
+        covariance: None, or θ -> Σ of the window's rows: the covariance-weighted
+            solve (``core.row_covariance``; weighting, noise and jackknife unused).
     """
     if not window_valid:
         return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
@@ -149,6 +152,7 @@ def identifier_update(
         names=names,
         noise=noise,
         jackknife=jackknife,
+        covariance=covariance,
     )
     unidentified = np.zeros(state.num_parameters)
     if result.valid:

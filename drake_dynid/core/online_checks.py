@@ -49,6 +49,7 @@ __all__ = [
     "MAX_SECONDS",
     "MAX_WINDOW_BYTES",
     "PASS_BAND_GAIN",
+    "WEIGHTING_NAMES",
     "check_log",
     "check_values",
     "on_grid",
@@ -74,6 +75,8 @@ MAX_WINDOW_BYTES = 1 << 30
 #: The differentiator's low-pass gain at the highest modulating frequency must be
 #: at least this (-3 dB).
 PASS_BAND_GAIN = 1.0 / math.sqrt(2.0)
+#: The solves of ``OnlineSettings.weighting`` (``core.online.WEIGHTINGS``).
+WEIGHTING_NAMES = ("frequency", "none", "covariance")
 
 Say = Callable[[str], str]
 
@@ -244,11 +247,11 @@ def check_values(
             f"the solve's round-off can exceed σ); got {condition:g}.",
         )
     weighting = get("weighting", "frequency")
-    if not isinstance(weighting, str) or weighting not in ("frequency", "none"):
+    if not isinstance(weighting, str) or weighting not in WEIGHTING_NAMES:
         _fail(
             prefix,
-            f"{say('weighting')} must be one of 'frequency', 'none'; got "
-            f"{weighting!r}.",
+            f"{say('weighting')} must be one of "
+            f"{', '.join(map(repr, WEIGHTING_NAMES))}; got {weighting!r}.",
         )
     for field, allowed in (
         ("rows_from", ("filtered", "raw")),
@@ -265,7 +268,9 @@ def check_values(
         _duration(prefix, say("raw_window"), get("raw_window"))
     if get("min_functions") is not None:
         _integer(prefix, say("min_functions"), get("min_functions"), 1, MAX_FUNCTIONS)
-    _position_noise(prefix, say, get("position_noise"), model)
+    _noise_std(prefix, say, "position_noise", get("position_noise"), "rad or m")
+    _noise_std(prefix, say, "torque_noise", get("torque_noise"), "N·m or N")
+    _noise_use(prefix, say, values, model, weighting)
     _detect_changes(prefix, say("detect_changes"), get("detect_changes", False))
     step = get("bank_time_step")
     if step is not None and step > jacobi_window / 10:
@@ -285,12 +290,12 @@ def check_values(
         )
 
 
-def _position_noise(prefix: str, say: Say, value: Any, model: str) -> None:
-    """None, or σ_q >= 0 [rad or m] (one, or one per joint); power model only."""
+def _noise_std(prefix: str, say: Say, field: str, value: Any, unit: str) -> None:
+    """None, or a white-noise std >= 0 [unit] (one, or one per joint)."""
     if value is None:
         return
-    name = say("position_noise")
-    text = f"{name} must be None, a std >= 0 [rad or m] or one per joint"
+    name = say(field)
+    text = f"{name} must be None, a std >= 0 [{unit}] or one per joint"
     if isinstance(value, (str, bytes, bool)):
         raise TypeError(f"{prefix}{text}; got {value!r}.")
     try:
@@ -301,11 +306,60 @@ def _position_noise(prefix: str, say: Say, value: Any, model: str) -> None:
         _fail(prefix, f"{text}; got {value!r}.")
     if not np.all(np.isfinite(array)) or np.any(array < 0.0):
         _fail(prefix, f"{text}, finite; got {value!r}.")
-    if model != "power":
+
+
+def _noise_use(
+    prefix: str, say: Say, values: Mapping[str, Any], model: str, weighting: str
+) -> None:
+    """What the noise stds are for: the power rows' compensation, the covariance.
+
+    ``position_noise`` compensates the power model's rows and, with the
+    covariance weighting, shapes the rows' covariance (either model);
+    ``torque_noise`` is for the covariance weighting only, which needs both and
+    the filtered rows (``core.row_covariance``).
+    """
+    position, torque = values.get("position_noise"), values.get("torque_noise")
+    if weighting == "covariance":
+        missing = [
+            say(field)
+            for field, value in (("position_noise", position), ("torque_noise", torque))
+            if value is None
+        ]
+        if missing:
+            _fail(
+                prefix,
+                f"{say('weighting')} 'covariance' needs the white noise stds of the "
+                f"positions and torques (the rows' covariance is computed from them); "
+                f"{' and '.join(missing)} not given.",
+            )
+        if not (np.any(np.asarray(position) > 0) or np.any(np.asarray(torque) > 0)):
+            _fail(
+                prefix,
+                f"{say('weighting')} 'covariance' needs a noise: "
+                f"{say('position_noise')} and {say('torque_noise')} are all 0.",
+            )
+        rows_from = values.get("rows_from", "filtered")
+        if rows_from != "filtered":
+            _fail(
+                prefix,
+                f"{say('weighting')} 'covariance' models the noise of the filtered "
+                f"rows; got {say('rows_from')} {rows_from!r} (use 'filtered', or "
+                f"{say('weighting')} 'frequency').",
+            )
+        return
+    if torque is not None:
         _fail(
             prefix,
-            f"{name} compensates the noise bias of the power model's rows only; got "
-            f"{value!r} with {say('model')} {model!r}.",
+            f"{say('torque_noise')} is used by {say('weighting')} 'covariance' "
+            f"only; got {torque!r} with {say('weighting')} {weighting!r}.",
+        )
+    if position is not None and model != "power":
+        _fail(
+            prefix,
+            f"{say('position_noise')} compensates the noise bias of the power "
+            f"model's rows (and shapes the rows' covariance with {say('weighting')} "
+            f"'covariance'); got {position!r} with {say('model')} {model!r} and "
+            f"{say('weighting')} {weighting!r}.",
         )
 
 
@@ -401,13 +455,14 @@ def check_log(
             f"first estimate: record a longer log or shorten {say('window')}.",
         )
     grid = on_grid(settings, h, owner=owner, names=names)
-    noise = grid.position_noise
-    if num_joints is not None and np.ndim(noise) == 1 and len(noise) != num_joints:
-        _fail(
-            prefix,
-            f"{say('position_noise')} must hold one std per joint ({num_joints}) or "
-            f"one for all [rad or m]; got {len(noise)} values.",
-        )
+    for field, unit in (("position_noise", "rad or m"), ("torque_noise", "N·m or N")):
+        noise = getattr(grid, field)
+        if num_joints is not None and np.ndim(noise) == 1 and len(noise) != num_joints:
+            _fail(
+                prefix,
+                f"{say(field)} must hold one std per joint ({num_joints}) or one for "
+                f"all [{unit}]; got {len(noise)} values.",
+            )
     if num_joints is not None and num_parameters is not None:
         from drake_dynid.core.ell_rule import resolve_functions
 

@@ -22,6 +22,7 @@ from drake_dynid.core._threads import thread_limit
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
 from drake_dynid.core.payload import PayloadRows
 from drake_dynid.core.payload_step import (
+    check_payload_weighting,
     payload_init,
     payload_jackknife_groups,
     payload_update,
@@ -128,6 +129,7 @@ def replay_payload_core(
     )
     check.instance(owner, "rows", rows, PayloadRows, "a PayloadRows (payload_rows)")
     check.instance(owner, "settings", settings, OnlineSettings, "an OnlineSettings")
+    check_payload_weighting(owner, settings)
     check.log_magnitudes(owner, log.q, log.tau)
     n = rows.num_joints
     if log.q.shape[1] != n or log.tau.shape[1] != n:

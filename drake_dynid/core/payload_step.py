@@ -58,6 +58,7 @@ from drake_dynid.core.payload import eliminate_known
 __all__ = [
     "PAYLOAD_DEFAULTS",
     "PayloadState",
+    "check_payload_weighting",
     "payload_init",
     "payload_jackknife_groups",
     "payload_settings",
@@ -84,12 +85,28 @@ def payload_settings(**overrides: Any) -> OnlineSettings:
     """``OnlineSettings`` of the payload identifier: :data:`PAYLOAD_DEFAULTS`.
 
     Any ``OnlineSettings`` field can be overridden (``window=1.0``, ...); the
-    values are checked as by ``OnlineSettings``.
+    values are checked as by ``OnlineSettings`` and :func:`check_payload_weighting`.
     """
     values = {**PAYLOAD_DEFAULTS, **overrides}
     if isinstance(values.get("frequencies"), tuple):
         values["frequencies"] = list(values["frequencies"])
-    return OnlineSettings(**values)
+    return check_payload_weighting("payload_settings", OnlineSettings(**values))
+
+
+def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSettings:
+    """``settings``, unless its weighting is one the payload solve does not have.
+
+    The covariance weighting (``core.row_covariance``) models the arm's rows; the
+    payload's rows carry the arm's known column, so it is refused.
+    """
+    if settings.weighting == "covariance":
+        check.fail(
+            owner,
+            "settings.weighting must be 'frequency' or 'none' for the payload "
+            "identifier (the covariance weighting models the arm's own rows); got "
+            "'covariance'.",
+        )
+    return settings
 
 
 def payload_jackknife_groups(settings: OnlineSettings, m: int, bank: Any = None):

@@ -62,6 +62,8 @@ __all__ = [
     "bank_windows",
     "filtered_signals",
     "replay_log_core",
+    "window_covariance",
+    "window_covariance_at",
     "window_equations",
     "window_estimate",
 ]
@@ -233,8 +235,23 @@ def bank_windows(
         yield ready, a, b, window
 
 
+def window_covariance(
+    design: Any, rows: Any, log: Any, entry: OnlineSettings, index: np.ndarray
+) -> Any:
+    """θ -> Σ of the window whose bank samples are the signal samples ``index``.
+
+    The filtered signals there (:func:`filtered_at`) and
+    ``core.row_covariance.row_covariance`` with the (uncompensated) ``rows``.
+    """
+    from drake_dynid.core.row_covariance import row_covariance
+
+    q_hat, v_hat, tau_hat, _ = filtered_at(log.q, log.tau, entry, log.time_step, index)
+    return lambda theta: row_covariance(design, rows, q_hat, v_hat, tau_hat, theta)
+
+
 def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     h = log.time_step
+    plain_rows = rows
     rows = entry.row_provider(rows, h)  # noise-compensated power rows, if asked
     count = log.num_samples
     solve_every = entry.solve_decimation(h)
@@ -245,6 +262,8 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     weighting = entry.row_weighting(m, bank)
     noise = entry.row_noise(m, bank)
     jackknife = entry.jackknife_groups(m, bank)
+    covariance = entry.covariance_design(h, int(rows.num_joints))
+    bank_times = np.arange(0, count, entry.decimation(h))
 
     # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
     # <= count.
@@ -280,6 +299,12 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             noise=noise,
             jackknife=jackknife,
         )
+        if covariance is not None and ready:  # the window's K bank samples
+            upto = int(np.searchsorted(bank_times, s, side="right"))
+            samples = bank_times[upto - covariance.num_samples : upto]
+            solve["covariance"] = window_covariance(
+                covariance, plain_rows, log, entry, samples
+            )
         if design is None or tracker is None:
             state = identifier_update(state, ready, a, b, **solve)
         else:
@@ -434,4 +459,37 @@ def window_estimate(
         names=rows.names,
         noise=s.row_noise(m),
         jackknife=s.jackknife_groups(m),
+        covariance=window_covariance_at(
+            rows, s, q, tau, end, time_step, signals=signals
+        ),
     )
+
+
+def window_covariance_at(
+    rows: Any,
+    settings: OnlineSettings,
+    q: np.ndarray,
+    tau: np.ndarray,
+    end: int,
+    time_step: float,
+    *,
+    signals: Sequence[Any] | None = None,
+) -> Any:
+    """θ -> Σ of the window of :func:`window_equations` (covariance weighting).
+
+    None unless ``settings.weighting`` is ``"covariance"``. Arguments as
+    :func:`window_equations`; ``rows`` uncompensated (the derivatives of the
+    rows, ``core.row_covariance``).
+    """
+    s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
+    design = s.covariance_design(time_step, int(rows.num_joints))
+    if design is None:
+        return None
+    from drake_dynid.core.row_covariance import row_covariance
+
+    index = end - s.decimation(time_step) * np.arange(design.num_samples - 1, -1, -1)
+    if signals is None:
+        q_hat, v_hat, tau_hat, _ = filtered_at(q, tau, s, time_step, index)
+    else:
+        q_hat, v_hat, tau_hat = (np.asarray(x)[index] for x in signals[:3])
+    return lambda theta: row_covariance(design, rows, q_hat, v_hat, tau_hat, theta)

@@ -192,6 +192,7 @@ def solve_window(
     names: Sequence[str] | None = None,
     noise: Any = None,
     jackknife: Any = None,
+    covariance: Any = None,
 ) -> LeastSquaresResult:
     """The on-line identifier's solve of one window (block and core replay alike).
 
@@ -214,7 +215,18 @@ def solve_window(
             above and the delete-one-group jackknife's
             (``core.jackknife.jackknife_std``, with the solve's weights;
             docs/MATH.md §4).
+        covariance: None, or θ -> Σ (r, r), the rows' noise covariance at θ (the
+            window's ``core.row_covariance.row_covariance``): the solve is then
+            the covariance-weighted one
+            (``core.row_covariance.covariance_weighted_solve``) and ``weighting``,
+            ``noise`` and ``jackknife`` are not used.
     """
+    if covariance is not None:
+        from drake_dynid.core.row_covariance import covariance_weighted_solve
+
+        return covariance_weighted_solve(
+            A, B, covariance, max_condition=max_condition, names=names
+        )
     if noise is None:
         if weighting is None:
             result = solve_least_squares(

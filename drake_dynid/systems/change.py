@@ -141,6 +141,7 @@ class ChangeTrackingIdentifier(SlidingQRIdentifier):
             names=self._names,
             noise=self._noise,
             jackknife=self._jackknife,
+            covariance=self._row_covariance(context, ready),
         )
         for name, value in zip(_GROUPS, self._as_vectors(reported), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)

@@ -6,9 +6,11 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (
     Context,
     DiscreteValues,
+    InputPort,
     LeafSystem,
 )
 
@@ -43,6 +45,7 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
         - A
         - B
         - window_valid
+        - window_signals (with covariance)
         output_ports:
         - theta
         - theta_std
@@ -67,6 +70,9 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
     deficient or ill-conditioned). Before the first valid update ``theta`` is
     ``initial_theta`` (default zeros) and ``theta_std`` is +inf. The step is
     ``drake_dynid.core.identifier.identifier_update``, shared with the core replay.
+    With ``covariance`` the solve is the covariance-weighted one
+    (``core.row_covariance``), from the window's filtered signals read on the
+    abstract input ``window_signals`` (a ``SignalWindow`` block's ``window``).
 
     State: one discrete state group per quantity (theta, theta_std,
     condition_number, valid, unidentified, status), each exposed by a state output
@@ -87,6 +93,7 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
         row_weighting: tuple[Any, Any] | None = None,
         row_noise: Any = None,
         jackknife_groups: Any = None,
+        covariance: tuple[Any, Any] | None = None,
     ):
         """Builds the block.
 
@@ -114,6 +121,11 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
                 (``OnlineSettings.jackknife_groups``): σ is then, per parameter,
                 the larger of the σ above and the delete-one-group jackknife's
                 (``core.jackknife``); None: no jackknife.
+            covariance: ``(design, rows)``: the covariance weighting's
+                ``core.row_covariance.CovarianceDesign``
+                (``OnlineSettings.covariance_design``) and the uncompensated row
+                provider; adds the input ``window_signals``. None: the solve of
+                ``row_weighting``.
         """
         super().__init__()
         owner = "SlidingQRIdentifier"
@@ -132,9 +144,46 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
         if initial_theta is not None:
             check.array(owner, "initial_theta", initial_theta, (self._p,))
         initial = identifier_init(self._p, initial_theta)
-        self._declare(
-            self._p, _GROUPS, self._as_vectors(initial), offset, self._Solve
-        )
+        self._declare(self._p, _GROUPS, self._as_vectors(initial), offset, self._Solve)
+        self._covariance = covariance
+        self._window_signals = None
+        if covariance is not None:
+            design, _ = covariance
+            if design.num_rows != self._r:
+                check.fail(
+                    owner,
+                    f"covariance must describe {self._r} rows; its design has "
+                    f"{design.num_rows}.",
+                )
+            self._window_signals = self.DeclareAbstractInputPort(
+                "window_signals", AbstractValue.Make(object())
+            )
+
+    def get_input_port_window_signals(self) -> InputPort:
+        """The input port ``window_signals`` (with ``covariance`` only)."""
+        if self._window_signals is None:
+            raise RuntimeError(
+                "SlidingQRIdentifier: window_signals exists with covariance only."
+            )
+        return self._window_signals
+
+    def _row_covariance(self, context: Context, ready: bool) -> Any:
+        """θ -> Σ of the window's rows (covariance weighting), else None."""
+        if self._covariance is None or not ready:
+            return None
+        from drake_dynid.core.row_covariance import row_covariance
+
+        port = self._window_signals
+        assert port is not None  # built with the covariance weighting
+        window = port.Eval(context)
+        if window is None:
+            raise RuntimeError(
+                "SlidingQRIdentifier: window_signals holds fewer samples than the "
+                "bank's window; connect the SignalWindow of the same bank."
+            )
+        design, rows = self._covariance
+        q_hat, v_hat, tau_hat = window
+        return lambda theta: row_covariance(design, rows, q_hat, v_hat, tau_hat, theta)
 
     def status(self, context: Context) -> Status:
         """The status of the last update."""
@@ -162,6 +211,7 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
             names=self._names,
             noise=self._noise,
             jackknife=self._jackknife,
+            covariance=self._row_covariance(context, ready),
         )
         for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)
