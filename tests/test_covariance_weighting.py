@@ -291,3 +291,35 @@ def test_payload_identifier_refuses_the_covariance_weighting():
             torque_noise=0.1,
             rows_from="filtered",
         )
+
+
+@pytest.mark.parametrize("count", [3, 7, 40])
+def test_lagged_matches_its_definition(count):
+    # Z[:, k] = Σ_Δ kernel(Δ) values[:, k - Δ], zero outside the window, also
+    # when the kernel (2M + 1 = 9 lags) is longer than the window.
+    from drake_dynid.core.row_covariance import _lagged
+
+    rng = np.random.default_rng(count)
+    values, kernel = rng.standard_normal((5, count)), rng.standard_normal(9)
+    expected = np.zeros_like(values)
+    for k in range(count):
+        for index, weight in enumerate(kernel):
+            source = k - (index - 4)
+            if 0 <= source < count:
+                expected[:, k] += weight * values[:, source]
+    np.testing.assert_allclose(_lagged(values, kernel), expected, atol=1e-12)
+
+
+def test_covariance_weighting_solves_every_second_by_default():
+    # Each covariance-weighted solve builds Σ (tens of ms): 1 s unless given.
+    from drake_dynid.core.online import (
+        NOMINAL_COVARIANCE_UPDATE_PERIOD,
+        NOMINAL_UPDATE_PERIOD,
+    )
+
+    noise = dict(weighting="covariance", position_noise=0.01, torque_noise=0.1)
+    grid = OnlineSettings(**noise).on_grid(1e-3)
+    assert grid.update_period == NOMINAL_COVARIANCE_UPDATE_PERIOD == 1.0
+    assert OnlineSettings().on_grid(1e-3).update_period == NOMINAL_UPDATE_PERIOD
+    given = OnlineSettings(**noise, update_period=0.2).on_grid(1e-3)
+    assert given.update_period == 0.2

@@ -410,7 +410,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="S",
         help="period of the least-squares solve [s], a multiple of the log's "
-        "(default: the multiple closest to 0.1 s)",
+        "(default: the multiple closest to 0.1 s; 1 s with --weighting covariance)",
     )
     group.add_argument(
         "--max-condition",

@@ -66,6 +66,7 @@ __all__ = [
     "MIN_JACKKNIFE_GROUPS",
     "MODEL_DEFAULTS",
     "NOMINAL_BANK_TIME_STEP",
+    "NOMINAL_COVARIANCE_UPDATE_PERIOD",
     "NOMINAL_RAW_WINDOW",
     "NOMINAL_UPDATE_PERIOD",
     "ROWS_FROM",
@@ -89,6 +90,11 @@ NOMINAL_BANK_TIME_STEP = 0.02
 
 #: Nominal period of the least-squares solve [s].
 NOMINAL_UPDATE_PERIOD = 0.1
+
+#: Nominal period of the solve with ``weighting="covariance"`` [s]: each of its
+#: solves builds the rows' covariance (0.05 s on the 2R, 0.4 s on a 7-DOF arm,
+#: 116 functions), so it solves every second unless told otherwise.
+NOMINAL_COVARIANCE_UPDATE_PERIOD = 1.0
 
 #: The bank samples the differentiator's output at least this many times per Jacobi
 #: window (its low-pass has a cut-off of a few 1/jacobi_window).
@@ -192,7 +198,9 @@ class OnlineSettings:
             :data:`NOMINAL_BANK_TIME_STEP` (20 ms), see :meth:`on_grid`.
         update_period: period of the least-squares solve [s], a multiple of h.
             None (default): the multiple of h closest to
-            :data:`NOMINAL_UPDATE_PERIOD` (0.1 s).
+            :data:`NOMINAL_UPDATE_PERIOD` (0.1 s), or
+            :data:`NOMINAL_COVARIANCE_UPDATE_PERIOD` (1 s) with
+            ``weighting="covariance"``.
         max_condition: largest accepted condition number of the column-scaled A
             (default ``core.lsq.DEFAULT_MAX_CONDITION``).
         weighting: ``"frequency"`` (default): two-step weighted least squares
@@ -310,7 +318,8 @@ class OnlineSettings:
           min(:data:`NOMINAL_BANK_TIME_STEP`, jacobi_window/10), at most
           jacobi_window/10; given: it must be a multiple of h.
         * ``update_period`` None: the multiple of h closest to
-          :data:`NOMINAL_UPDATE_PERIOD`; given: it must be a multiple of h.
+          :data:`NOMINAL_UPDATE_PERIOD` (:data:`NOMINAL_COVARIANCE_UPDATE_PERIOD`
+          with the covariance weighting); given: it must be a multiple of h.
         * ``jacobi_window``: the nearest multiple of h when it is not one;
           ``window``: the nearest multiple of the bank step when it is not one;
           ``raw_window`` None: the longest even multiple of h up to
@@ -346,7 +355,12 @@ class OnlineSettings:
         else:
             bank_time_step = self._given_multiple("bank_time_step", h)
         if self.update_period is None:
-            update_period = _on_grid(NOMINAL_UPDATE_PERIOD, h)
+            nominal_period = (
+                NOMINAL_COVARIANCE_UPDATE_PERIOD
+                if self.weighting == "covariance"
+                else NOMINAL_UPDATE_PERIOD
+            )
+            update_period = _on_grid(nominal_period, h)
         else:
             update_period = self._given_multiple("update_period", h)
         ring = round(jacobi_window / h) + 1  # samples the raw rows may read
