@@ -104,25 +104,29 @@ def window_solves(
     weighting) with each uncertainty: the default (the larger of the sandwich σ and
     the jackknife's), Gautier's alone and the sandwich σ alone; NaN when a solve is
     not valid. θ̂ is the default's. With ``covariance`` (θ -> Σ of the rows, the
-    covariance weighting) one solve, whose generalised least squares' σ stands
-    for all three.
+    covariance weighting): the default σ is the larger of the generalised least
+    squares' and the jackknife's on the whitened rows, the other two the GLS σ.
     """
     import dataclasses
 
     from drake_dynid.core.weighted_lsq import solve_window
 
     nan = np.full(len(names), np.nan)
-    if covariance is not None:
-        res = solve_window(
-            a,
-            b,
-            max_condition=settings.max_condition,
-            names=names,
-            covariance=covariance,
-        )
-        std = res.std if res.valid else nan
-        return (res.theta if res.valid else nan), [std] * len(SIGMAS)
     bank = settings.bank() if bank is None else bank
+    if covariance is not None:  # default: with the jackknife; then the GLS σ alone
+        stds = []
+        for groups in (settings.jackknife_groups(m, bank), None):
+            res = solve_window(
+                a,
+                b,
+                max_condition=settings.max_condition,
+                names=names,
+                covariance=covariance,
+                jackknife=groups,
+            )
+            stds.append(res.std if res.valid else nan)
+        theta = res.theta if res.valid else nan
+        return theta, [stds[0], stds[1], stds[1]]
     theta, stds = None, []
     for kind in SIGMAS:
         s = dataclasses.replace(settings, uncertainty=kind)

@@ -323,3 +323,38 @@ def test_covariance_weighting_solves_every_second_by_default():
     assert OnlineSettings().on_grid(1e-3).update_period == NOMINAL_UPDATE_PERIOD
     given = OnlineSettings(**noise, update_period=0.2).on_grid(1e-3)
     assert given.update_period == 0.2
+
+
+def test_covariance_solve_jackknife_sees_a_misfit_between_groups():
+    # Σ models white noise of std 0.01, but each group of rows carries its own
+    # error in the first column (a misfit no noise model holds): over 40 draws the
+    # GLS σ alone is overconfident on θ_0 (err/σ p90 > 3), the larger of it and the
+    # jackknife over the groups of the whitened rows is not; θ̂ is unchanged.
+    from drake_dynid.core.row_covariance import covariance_weighted_solve
+    from drake_dynid.core.weighted_lsq import solve_window
+
+    rows, groups = 120, np.arange(120) // 10
+    theta = np.array([1.0, -2.0, 0.5])
+
+    def cov(_theta):
+        return 1e-4 * np.eye(rows)
+
+    ratios = []
+    for seed in range(40):
+        rng = np.random.default_rng(seed)
+        A = rng.standard_normal((rows, 3))
+        B = A @ theta + 0.01 * rng.standard_normal(rows)
+        B += (0.3 * rng.standard_normal(12))[groups] * A[:, 0]
+        plain = covariance_weighted_solve(A, B, cov)
+        jack = covariance_weighted_solve(A, B, cov, jackknife=groups)
+        np.testing.assert_array_equal(jack.theta, plain.theta)
+        assert np.all(jack.std >= plain.std)
+        error = np.abs(plain.theta - theta)
+        ratios.append((error[0] / plain.std[0], error[0] / jack.std[0]))
+    p90 = np.percentile(ratios, 90, axis=0)
+    assert p90[0] > 3.0 and p90[1] < 2.5, p90
+    window = solve_window(A, B, covariance=cov, jackknife=groups)
+    np.testing.assert_array_equal(window.std, jack.std)
+    np.testing.assert_allclose(
+        jack.relative_std_percent, 100 * jack.std / np.abs(jack.theta)
+    )

@@ -33,6 +33,7 @@ __all__ = [
     "frequency_noise_weights",
     "solve_frequency_weighted_least_squares",
     "solve_window",
+    "with_jackknife",
 ]
 
 
@@ -218,14 +219,20 @@ def solve_window(
         covariance: None, or θ -> Σ (r, r), the rows' noise covariance at θ (the
             window's ``core.row_covariance.row_covariance``): the solve is then
             the covariance-weighted one
-            (``core.row_covariance.covariance_weighted_solve``) and ``weighting``,
-            ``noise`` and ``jackknife`` are not used.
+            (``core.row_covariance.covariance_weighted_solve``, with the
+            jackknife on the whitened rows) and ``weighting`` and ``noise`` are
+            not used.
     """
     if covariance is not None:
         from drake_dynid.core.row_covariance import covariance_weighted_solve
 
         return covariance_weighted_solve(
-            A, B, covariance, max_condition=max_condition, names=names
+            A,
+            B,
+            covariance,
+            max_condition=max_condition,
+            names=names,
+            jackknife=jackknife,
         )
     if noise is None:
         if weighting is None:
@@ -238,7 +245,7 @@ def solve_window(
             result, weights = _frequency_weighted(
                 A, B, frequency, group, max_condition, names
             )
-        return _with_jackknife(result, A, B, jackknife, weights)
+        return with_jackknife(result, A, B, jackknife, weights)
     from drake_dynid.core.row_noise import (
         MIN_RESIDUAL_DOF,
         honest_std,
@@ -296,7 +303,7 @@ def solve_window(
     result = dataclasses.replace(
         _with_std(result, honest.std), residual_std=honest.residual_std
     )
-    return _with_jackknife(result, A, B, jackknife, weights, factor=reuse)
+    return with_jackknife(result, A, B, jackknife, weights, factor=reuse)
 
 
 def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:
@@ -309,7 +316,7 @@ def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult
     return dataclasses.replace(result, std=std, relative_std_percent=relative)
 
 
-def _with_jackknife(
+def with_jackknife(
     result: LeastSquaresResult,
     A: Any,
     B: Any,
