@@ -10,8 +10,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _drake_dynamics import exact_paper_2r
 
-from drake_dynid import paper
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.replay import (
     filtered_signals,
@@ -37,20 +37,7 @@ def arm2():
 @pytest.fixture(scope="module")
 def exact_2r(arm2):
     """The paper trajectory evaluated for 21 s: q, τ (Drake + Coulomb), θ."""
-    from pydrake.multibody.tree import MultibodyForces
-
-    t = H * np.arange(21001)
-    q, v, vdot = paper.paper_trajectory().evaluate(t)
-    plant = arm2.plant
-    context = plant.CreateDefaultContext()
-    tau = np.empty_like(q)
-    for k in range(len(t)):
-        plant.SetPositions(context, q[k])
-        plant.SetVelocities(context, v[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        tau[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
-    tau += np.array([0.4, 0.25]) * np.sign(v)  # the URDF's Coulomb friction
+    _, q, tau = exact_paper_2r(arm2)
     return q, tau
 
 

@@ -14,8 +14,9 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from _drake_dynamics import exact_paper_2r
 
-from drake_dynid import cli, paper
+from drake_dynid import cli
 from drake_dynid.core.ell_rule import functions_for_rows
 from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign, TanhSign
 from drake_dynid.core.noise_bias import coulomb_power_mean, noise_compensated_rows
@@ -35,20 +36,7 @@ def arm2():
 @pytest.fixture(scope="module")
 def exact_2r(arm2):
     """The paper trajectory evaluated for 21 s, torques from Drake (independent)."""
-    from pydrake.multibody.tree import MultibodyForces
-
-    t = H * np.arange(21001)
-    q, v, vdot = paper.paper_trajectory().evaluate(t)
-    plant = arm2.plant
-    context = plant.CreateDefaultContext()
-    tau = np.empty_like(q)
-    for k in range(len(t)):
-        plant.SetPositions(context, q[k])
-        plant.SetVelocities(context, v[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        tau[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
-    tau += np.array([0.4, 0.25]) * np.sign(v)  # the URDF's Coulomb friction
+    t, q, tau = exact_paper_2r(arm2)
     return RobotLog(t, q, tau, arm2.joint_names, H)
 
 
