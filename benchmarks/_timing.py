@@ -19,17 +19,22 @@ def time_call(
     ``clock`` has passed (see :func:`time_side_by_side` for ``time.process_time``).
     """
     function()
-    samples = []
-    for _ in range(repeats):
-        calls, start = 0, clock()
-        while True:
-            function()
-            calls += 1
-            elapsed = clock() - start
-            if elapsed >= min_time:
-                break
-        samples.append(elapsed / calls)
-    return statistics.median(samples)
+    return statistics.median(
+        _per_call(function, min_time, clock) for _ in range(repeats)
+    )
+
+
+def _per_call(
+    function: Callable[[], object], min_time: float, clock: Callable[[], float]
+) -> float:
+    """Seconds per call of ``function``, called until ``min_time`` [s] of ``clock``."""
+    calls, start = 0, clock()
+    while True:
+        function()
+        calls += 1
+        elapsed = clock() - start
+        if elapsed >= min_time:
+            return elapsed / calls
 
 
 def time_side_by_side(
@@ -52,14 +57,7 @@ def time_side_by_side(
     samples: dict[str, list[float]] = {name: [] for name in functions}
     for _ in range(rounds):
         for name, function in functions.items():
-            calls, start = 0, clock()
-            while True:
-                function()
-                calls += 1
-                elapsed = clock() - start
-                if elapsed >= min_time:
-                    break
-            samples[name].append(elapsed / calls)
+            samples[name].append(_per_call(function, min_time, clock))
     return samples
 
 

@@ -19,6 +19,7 @@ general path, which reports bad models with its own messages.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -62,19 +63,8 @@ def sample_plan(model: Any) -> SampleRowsPlan | None:
     """
     if model.kinematics != "numpy" or model.mimic:
         return None
-    inertial, rotor, friction = standard_columns(model)
-    try:
-        return sample_rows_plan(
-            model._chain.plan,
-            model.gravity,
-            model.base.independent,
-            inertial,
-            rotor,
-            model.friction,
-            friction,
-        )
-    except ValueError:  # model_rows reports it with its own message
-        return None
+    # A ValueError: model_rows reports it with its own message.
+    return _numpy_plan(model, sample_rows_plan)
 
 
 def batch_plan(model: Any) -> BatchRowsPlan | None:
@@ -85,9 +75,17 @@ def batch_plan(model: Any) -> BatchRowsPlan | None:
     """
     if model.kinematics != "numpy" or model.mimic or model._motors is not None:
         return None
+    return _numpy_plan(model, batch_rows_plan)
+
+
+def _numpy_plan(model: Any, build: Callable[..., Any]) -> Any:
+    """``build`` (a plan builder of ``core``) on the model's tree and columns.
+
+    None when it raises ValueError (a column the plan cannot hold).
+    """
     inertial, rotor, friction = standard_columns(model)
     try:
-        return batch_rows_plan(
+        return build(
             model._chain.plan,
             model.gravity,
             model.base.independent,

@@ -14,6 +14,7 @@ import pathlib
 
 import numpy as np
 import pytest
+from _drake_dynamics import drake_torques
 
 from drake_dynid.core.change import (
     ChangeDetection,
@@ -140,25 +141,6 @@ def test_no_false_alarm_without_a_change(robot):
     assert trace.t[-1] > 7.5 + 2.0 + 5.0  # the test ran armed for > 5 s
 
 
-def _drake_torques(robot, q, v, vdot):
-    """Drake's inverse dynamics (gravity, URDF damping) + URDF Coulomb·sign(v)."""
-    from pydrake.multibody.tree import MultibodyForces
-
-    from drake_dynid.urdf import read_urdf_friction
-
-    plant = robot.plant
-    context = plant.CreateDefaultContext()
-    tau = np.empty_like(q)
-    for k in range(len(q)):
-        plant.SetPositions(context, q[k])
-        plant.SetVelocities(context, v[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        tau[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
-    coulomb = read_urdf_friction(robot.path)
-    return tau + np.array([coulomb[n] for n in robot.joint_names]) * np.sign(v)
-
-
 @pytest.fixture(scope="module")
 def iiwa_logs(tmp_path_factory):
     """22 s of the iiwa7 (0.1 Hz multi-sine, default_rng(0)); the same arm picking
@@ -192,10 +174,10 @@ def iiwa_logs(tmp_path_factory):
     h = 1e-3
     t = h * np.arange(22001)
     q, v, vdot = trajectory.evaluate(t)
-    tau = _drake_torques(iiwa, q, v, vdot)
+    tau = drake_torques(iiwa, q, v, vdot)
     after = t >= 16.0
     tau_loaded = tau.copy()
-    tau_loaded[after] = _drake_torques(heavy, q[after], v[after], vdot[after])
+    tau_loaded[after] = drake_torques(heavy, q[after], v[after], vdot[after])
     rng = np.random.default_rng(1)
     q_noise = 1e-4 * rng.standard_normal(q.shape)  # encoder-grade noise
     tau_noise = 0.01 * tau.std(axis=0) * rng.standard_normal(tau.shape)

@@ -11,6 +11,7 @@ import json
 
 import numpy as np
 import pytest
+from _drake_dynamics import drake_torques
 
 from drake_dynid import cli
 from drake_dynid.core.excite import ExcitationSettings, _baseline, design_excitation
@@ -23,7 +24,7 @@ from drake_dynid.core.joint_limits import JointLimits, Margins, limit_violations
 from drake_dynid.limits import joint_limits, read_limits_file
 from drake_dynid.robot import RobotModel
 from drake_dynid.trajectory_file import read_coefficients, read_trajectory
-from drake_dynid.urdf import MODELS_DIR, model_path, read_urdf_friction
+from drake_dynid.urdf import MODELS_DIR, model_path
 
 # A 3R arm on a cylindrical base whose links hit the base when joint 2 folds down.
 FOLDING_3R = """<robot name="folding3r">
@@ -70,24 +71,6 @@ def folding_urdf(tmp_path, limits=True):
     path = tmp_path / "folding3r.urdf"
     path.write_text(text)
     return str(path)
-
-
-def drake_torques(robot, q, v, vdot):
-    """τ from Drake's CalcInverseDynamics (gravity, damping) + FC·sign(v)."""
-    from pydrake.multibody.tree import MultibodyForces
-
-    plant = robot.plant
-    context = plant.CreateDefaultContext()
-    coulomb = read_urdf_friction(robot.path)
-    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
-    out = np.empty_like(q)
-    for k in range(q.shape[0]):
-        plant.SetPositions(context, q[k])
-        plant.SetVelocities(context, v[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        out[k] = plant.CalcInverseDynamics(context, vdot[k], forces)
-    return out + fc * np.sign(v)
 
 
 @pytest.mark.parametrize(

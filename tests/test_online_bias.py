@@ -9,32 +9,16 @@ rows (``rows_from="raw"``, core.raw_rows) remove it.
 
 import numpy as np
 import pytest
-from pydrake.multibody.tree import MultibodyForces
+from _drake_dynamics import drake_torques
 
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.replay import replay_log_core
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.logs import RobotLog
 from drake_dynid.robot import RobotModel
-from drake_dynid.urdf import model_path, read_urdf_friction
+from drake_dynid.urdf import model_path
 
 H = 1e-3
-
-
-def drake_torques(robot, q, v, vdot):
-    """Drake's inverse dynamics (gravity, damping) + URDF Coulomb·sign(v)."""
-    coulomb = read_urdf_friction(robot.path)
-    fc = np.array([coulomb[name] for name in robot.joint_names])
-    plant = robot.plant
-    context = plant.CreateDefaultContext()
-    out = []
-    for k in range(len(q)):
-        plant.SetPositions(context, q[k])
-        plant.SetVelocities(context, v[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        out.append(plant.CalcInverseDynamics(context, vdot[k], forces))
-    return np.array(out) + fc * np.sign(v)
 
 
 def exact_log(robot, trajectory, duration):
