@@ -102,17 +102,27 @@ def test_lagrangian_base_rows_are_the_standard_rows_base_columns(name, options):
     assert len(gathered) == 3
 
 
-@pytest.mark.parametrize(("name", "options"), MODELS)
-def test_mean_packed_rows_are_the_block_means_of_the_packed_rows(name, options):
+@pytest.mark.parametrize(("name", "options"), [*MODELS, ("tree", {})])
+def test_mean_packed_rows_are_the_block_means_of_the_packed_rows(
+    name, options, tmp_path
+):
+    """The Lagrangian means come from ``core.batch_rows`` (one product per block,
+    batches of whole blocks up to ``BLOCK`` samples): 300 samples cross a batch."""
     from drake_dynid.core.rows import pack_rows
 
-    robot = RobotModel.from_urdf(model_path(name), **options)
+    path = random_tree_urdf(tmp_path / "tree.urdf") if name == "tree" else None
+    robot = RobotModel.from_urdf(path or model_path(name), **options)
+    assert robot._batch_plan is not None  # the fused Lagrangian means
+    widths = tuple(0.05 * (1 + j) for j in range(robot.num_joints))
     rng = np.random.default_rng(10)
-    q, v, tau = rng.normal(size=(3, 60, robot.num_joints))
-    for kind in ("lagrangian", "power"):
-        packed = pack_rows(*robot.model_rows(kind, q, v, tau))
-        expected = packed.reshape(6, 10, -1).mean(axis=1)
-        got = robot.mean_packed_rows(kind, q, v, tau, 10)
-        np.testing.assert_allclose(
-            got, expected, rtol=0, atol=1e-14 * abs(expected).max()
-        )
+    q, v, tau = rng.normal(size=(3, 300, robot.num_joints))
+    v[:20] *= 0.01  # some velocities inside the dead zone
+    for model in (robot, robot.with_sign(DeadZoneSign(widths))):
+        for kind in ("lagrangian", "power"):
+            packed = pack_rows(*model.model_rows(kind, q, v, tau))
+            for block in (1, 10, 30):
+                expected = packed.reshape(300 // block, block, -1).mean(axis=1)
+                got = model.mean_packed_rows(kind, q, v, tau, block)
+                np.testing.assert_allclose(
+                    got, expected, rtol=0, atol=1e-14 * abs(expected).max()
+                )

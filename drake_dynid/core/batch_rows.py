@@ -28,6 +28,11 @@ large products against constant matrices (constants from
    by precomputed indices (a pair where joint i does not move link b reads the 0;
    ``IAj``: v̇_j; friction ``[v_i, s(v_i), 1]``, ``core.friction``'s law).
 
+The Lagrangian model rows of the raw-rows path (``core.raw_rows``), averaged over
+bank steps, reuse steps 1-2 and the gather (:func:`batch_lagrangian_mean_rows`): the
+mean over a bank step of ``[S_i; ad(V^W_i) S_i]ᵀ X_bᵀ [K(V_b) | K([0; -g_b])]`` is one
+product per bank step, its samples side by side in the inner dimension.
+
 Large batches are cut into blocks of :data:`BLOCK` samples so that the temporaries
 stay in the processor's cache. The rows equal ``core.rigid_body``'s (the general
 path, ``RobotModel.idim_rows(columns="standard")``) to round-off and Pinocchio's
@@ -46,7 +51,13 @@ from drake_dynid.core.friction import EXACT_SIGN, SignLaw, friction_column
 from drake_dynid.core.kinematics import ad, momentum_matrix
 from drake_dynid.core.tree_plan import SWAP, TreePlan
 
-__all__ = ["BLOCK", "BatchRowsPlan", "batch_idim_rows", "batch_rows_plan"]
+__all__ = [
+    "BLOCK",
+    "BatchRowsPlan",
+    "batch_idim_rows",
+    "batch_lagrangian_mean_rows",
+    "batch_rows_plan",
+]
 
 #: Samples per block: the temporaries of one block (a few hundred kB on a 7-DOF arm)
 #: stay in the cache; larger blocks are slower per sample, smaller ones pay numpy's
@@ -244,19 +255,12 @@ def _bracket(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return out
 
 
-def _block_rows(
-    plan: BatchRowsPlan,
-    q: np.ndarray,
-    v: np.ndarray,
-    vdot: np.ndarray,
-    sign: SignLaw,
-    out: np.ndarray,
-) -> None:
-    """W of one block of samples into ``out`` ((N, n·p), C-contiguous)."""
+def _frames_and_screws(
+    plan: BatchRowsPlan, q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Steps 1-2a: X_b = Ad(X_WB⁻¹) (N, n, 6, 6) and the world screws S_j (N, n, 6)."""
     tree = plan.tree
     num_samples, n = q.shape
-    rows = num_samples * n
-    # 1. X_b of every link.
     factors = np.empty((num_samples, plan.local_terms.shape[0]))
     factors[:, 0] = 1.0
     np.cos(q, out=factors[:, 1 : n + 1])
@@ -269,12 +273,28 @@ def _block_rows(
         frames[:, j] = local[:, j]
     for j, parent in tree.chain:
         np.matmul(local[:, j], frames[:, parent], out=frames[:, j])
-    # 2. World screws, twists, screw rates and accelerations.
     swapped = None
     for r, coefficients in plan.screw_rows:
         term = frames[:, :, r, :] * coefficients[:, None]
         swapped = term if swapped is None else swapped + term
     screws = np.zeros((num_samples, n, 6)) if swapped is None else swapped[..., SWAP]
+    return frames, screws
+
+
+def _block_rows(
+    plan: BatchRowsPlan,
+    q: np.ndarray,
+    v: np.ndarray,
+    vdot: np.ndarray,
+    sign: SignLaw,
+    out: np.ndarray,
+) -> None:
+    """W of one block of samples into ``out`` ((N, n·p), C-contiguous)."""
+    tree = plan.tree
+    num_samples, n = q.shape
+    rows = num_samples * n
+    # 1. X_b of every link; 2. world screws, twists, screw rates and accelerations.
+    frames, screws = _frames_and_screws(plan, q)
     world = np.empty((num_samples, n, 6, 2))  # [A^W_b, V^W_b] as columns
     twist = world[..., 1]
     moving = screws * v[..., None]
@@ -349,3 +369,138 @@ def batch_idim_rows(
             plan, q[start:stop], v[start:stop], vdot[start:stop], sign, out[start:stop]
         )
     return out.reshape(num_samples, n, p)
+
+
+def _energy_basis() -> np.ndarray:
+    """(9, 84): ``[K(V_b) | K([0; -g_b])[:, 6:]]`` (6×14, row-major) from [V_b, g_b].
+
+    K([0; u]) has no term in the rotational inertia: its last four columns
+    (MX MY MZ M) are all the gravity block needs.
+    """
+    out = np.zeros((9, 6, 14))
+    out[:6, :, :10] = momentum_matrix(np.eye(6))
+    unit = np.zeros((3, 6))
+    unit[:, 3:] = np.eye(3)
+    out[6:, :, 10:] = -momentum_matrix(unit)[..., 6:]
+    return out.reshape(9, 84)
+
+
+_ENERGY = _energy_basis()
+_ENERGY.setflags(write=False)
+
+
+def _lagrangian_block(
+    plan: BatchRowsPlan,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    block: int,
+    sign: SignLaw,
+    out: np.ndarray,
+) -> None:
+    """The block means of one batch of samples into ``out`` ((N/block, 2np + n))."""
+    num_samples, n = q.shape
+    count = num_samples // block
+    frames, screws = _frames_and_screws(plan, q)
+    # World twists V^W_b and [0; g] as columns; X_b moves both to the body.
+    world = np.zeros((num_samples, n, 6, 2))
+    _over_ancestors(plan, screws * v[..., None], world[..., 0])
+    world[..., 3:, 1] = plan.gravity
+    body = frames @ world
+    features = np.empty((num_samples, n, 9))
+    features[..., :6] = body[..., 0]
+    features[..., 6:] = body[..., 3:, 1]
+    blocks = (features.reshape(num_samples * n, 9) @ _ENERGY).reshape(
+        num_samples, n, 6, 14
+    )
+    moved = np.empty((num_samples, 6, n, 14))  # X_bᵀ [K(V_b) | K([0; -g_b])]
+    np.matmul(frames.transpose(0, 1, 3, 2), blocks, out=moved.transpose(0, 2, 1, 3))
+    # [S_i; ad(V^W_i) S_i] of the block's samples side by side: the block's mean of
+    # their products with ``moved`` is one product over (sample, 6).
+    left = np.empty((count, 2 * n, block, 6))
+    by_block = left.transpose(0, 2, 1, 3)
+    by_block[:, :, :n] = screws.reshape(count, block, n, 6)
+    by_block[:, :, n:] = _bracket(world[..., 0], screws).reshape(count, block, n, 6)
+    product = left.reshape(count, 2 * n, block * 6) @ moved.reshape(
+        count, block * 6, n * 14
+    )
+    product = product.reshape(count, 2 * n, n, 14)
+    product *= 1.0 / block
+    # Buffers in batch_idim_rows's layout: [links (i, b, k) | v | friction | 0].
+    links = n * n * 10
+    kinds = plan.friction_kinds
+    width = links + n + n * len(kinds) + 1
+    d_buffer = np.zeros((count, width))
+    g_buffer = np.zeros((count, width))
+    d_buffer[:, :links].reshape(count, n, n, 10)[...] = product[:, :n, :, :10]
+    g_links = g_buffer[:, :links].reshape(count, n, n, 10)
+    np.negative(product[:, n:, :, :10], out=g_links)
+    g_links[..., 6:] += product[:, :n, :, 10:]
+    d_buffer[:, links : links + n] = v.reshape(count, block, n).mean(axis=1)
+    at = links + n
+    for kind in kinds:
+        column = np.broadcast_to(friction_column(kind, v, sign), v.shape)
+        g_buffer[:, at : at + n] = column.reshape(count, block, n).mean(axis=1)
+        at += n
+    p = plan.num_parameters
+    np.take(d_buffer, plan.index, axis=1, out=out[:, : n * p], mode="clip")
+    np.take(g_buffer, plan.index, axis=1, out=out[:, n * p : 2 * n * p], mode="clip")
+    out[:, 2 * n * p :] = tau.reshape(count, block, n).mean(axis=1)
+
+
+def batch_lagrangian_mean_rows(
+    plan: BatchRowsPlan,
+    q: np.ndarray,
+    v: np.ndarray,
+    tau: np.ndarray,
+    block: int,
+    sign: SignLaw = EXACT_SIGN,
+) -> np.ndarray:
+    """Lagrangian model rows averaged over consecutive blocks of samples, packed.
+
+    The rows of the modulated Lagrangian model (docs/MATH.md §3), per joint i::
+
+        D_i = ∂h_E/∂v_i = S_iᵀ X_bᵀ K(V_b)                        (per link b)
+        G_i = ∂h_U/∂q_i - ∂h_E/∂q_i + friction
+            = S_iᵀ X_bᵀ K([0; -R_bᵀg]) - (ad(V^W_i) S_i)ᵀ X_bᵀ K(V_b) + [v_i, s(v_i), 1]
+
+    (``core.rigid_body.lagrangian_blocks``; IAj: D_j += v_j), averaged over samples
+    ``k·block .. (k+1)·block - 1`` and returned as ``pack_rows(D, G, τ)`` of the
+    means, ``(N/block, 2np + n)``. The mean over a block is one matrix product per
+    block, ``[S; ad(V^W) S]`` of its samples side by side times their
+    ``X_bᵀ [K(V_b) | K([0; -g_b])]`` stacked: no per-sample rows are formed.
+    Equal to ``RobotModel.mean_packed_rows``'s general path to round-off
+    (tests/test_batch_rows.py).
+
+    Args:
+        plan: from :func:`batch_rows_plan`.
+        q: (N, n) joint positions [rad, m], N a multiple of ``block``.
+        v: (N, n) joint velocities [rad/s, m/s].
+        tau: (N, n) joint torques [N·m, N].
+        block: samples per mean.
+        sign: the Coulomb law s(v) of the friction columns.
+    """
+    q = np.ascontiguousarray(q, dtype=float)
+    v = np.ascontiguousarray(v, dtype=float)
+    tau = np.ascontiguousarray(tau, dtype=float)
+    num_samples, n = q.shape
+    if block < 1 or num_samples % block:
+        raise ValueError(
+            "batch_lagrangian_mean_rows: the number of samples must be a multiple "
+            f"of block >= 1; got {num_samples} samples, block {block}."
+        )
+    p = plan.num_parameters
+    out = np.empty((num_samples // block, 2 * n * p + n))
+    step = max(1, BLOCK // block) * block
+    for start in range(0, num_samples, step):
+        stop = min(start + step, num_samples)
+        _lagrangian_block(
+            plan,
+            q[start:stop],
+            v[start:stop],
+            tau[start:stop],
+            block,
+            sign,
+            out[start // block : stop // block],
+        )
+    return out

@@ -229,17 +229,19 @@ def raw_channels_batch(
     ends = np.asarray(ends, dtype=int)
     m, block = design.delay_samples, design.block
     pad = design.history
-    q_pad = np.vstack([np.zeros((pad, q.shape[1])), q])
-    tau_pad = np.vstack([np.zeros((pad, tau.shape[1])), tau])
-    # v'_k for every padded sample k (np.convolve: taps[j] multiplies q_{k-j}).
-    velocity = np.stack(
-        [
-            np.convolve(q_pad[:, i], design.velocity.taps)[: q_pad.shape[0]]
-            for i in range(q.shape[1])
-        ],
-        axis=1,
-    )
+    taps = design.velocity.taps
+    # Only the samples these bank samples read: padded samples first .. last.
+    first = int(ends[0]) + pad - block + 1 if ends.size else pad
+    last = int(ends[-1]) + pad + 1 if ends.size else pad
+    origin = max(0, first - m - taps.size + 1)  # taps[j] multiplies q_{k-j}
+    q_pad = _padded(q, pad, origin, last)  # row r: padded sample origin + r
+    tau_pad = _padded(tau, pad, origin, last)
+    # v'_k for the padded samples k >= start + taps - 1 (np.convolve's 'valid').
+    velocity = np.zeros_like(q_pad)
+    for i in range(q.shape[1]):
+        velocity[taps.size - 1 :, i] = np.convolve(q_pad[:, i], taps, mode="valid")
     samples = (ends[:, None] + pad - block + 1 + np.arange(block)[None, :]).ravel()
+    samples -= origin
     width = num_channels(num_equations(kind, q.shape[1]), int(rows.num_parameters))
     out = [np.zeros((0, width))]
     chunk = max(1, _CHUNK // block) * block  # whole bank samples per call
@@ -251,6 +253,15 @@ def raw_channels_batch(
             )
         )
     return np.concatenate(out, axis=0)
+
+
+def _padded(x: np.ndarray, pad: int, start: int, stop: int) -> np.ndarray:
+    """Rows ``start .. stop - 1`` of ``x`` after ``pad`` rows of zeros."""
+    out = np.zeros((max(0, stop - start), x.shape[1]))
+    low = max(start, pad)
+    if stop > low:
+        out[low - start :] = x[low - pad : stop - pad]
+    return out
 
 
 def raw_noise_threshold(bandwidth: float, jacobi_window: float) -> float:
