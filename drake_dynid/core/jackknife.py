@@ -87,14 +87,26 @@ def jackknife_std(
             return nan
         R_inv = np.linalg.inv(R)
     residual = B - Q @ (Q.T @ B)
-    deleted = np.empty((labels.size, p))
-    for k, label in enumerate(labels):
-        in_group = groups == label
-        Qg = Q[in_group]
-        leverage = np.eye(Qg.shape[0]) - Qg @ Qg.T
-        if np.linalg.eigvalsh(leverage)[0] <= 1e-10:
+    # Groups of one size (the modulated equations' pairs of functions): all the
+    # downdates in stacked calls; else one group at a time.
+    sizes = np.unique(np.bincount(np.searchsorted(labels, groups)))
+    if sizes.size == 1:
+        order = np.argsort(groups, kind="stable")
+        g = labels.size
+        stacks = [(Q[order].reshape(g, -1, p), residual[order].reshape(g, -1))]
+    else:
+        stacks = [
+            (Q[groups == label][None], residual[groups == label][None])
+            for label in labels
+        ]
+    deleted = []
+    for Qg, eg in stacks:
+        leverage = np.eye(Qg.shape[1]) - Qg @ np.swapaxes(Qg, -1, -2)
+        if np.linalg.eigvalsh(leverage)[:, 0].min() <= 1e-10:
             return nan  # the other groups alone do not determine θ
-        deleted[k] = R_inv @ (Qg.T @ np.linalg.solve(leverage, residual[in_group]))
-    spread = deleted - deleted.mean(axis=0)
+        solved = np.linalg.solve(leverage, eg[..., None])
+        deleted.append((np.swapaxes(Qg, -1, -2) @ solved)[..., 0] @ R_inv.T)
+    estimates = np.concatenate(deleted)
+    spread = estimates - estimates.mean(axis=0)
     count = labels.size
     return np.sqrt((count - 1) / count * np.sum(spread**2, axis=0)) / norms

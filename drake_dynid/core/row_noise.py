@@ -266,36 +266,35 @@ def honest_std(
     s = weights * relative_std
     s = s / np.sqrt(np.mean(s * s))  # one overall scale, fitted below
     p = A.shape[1]
-    meat = np.zeros((p, p))
-    meat_sq = np.zeros((p, p))
-    trace_s = 0.0
-    trace_s2 = 0.0
     # Σ_j = S_j C S_j = (S_j F)(S_j F)ᵀ with F the correlation's factor (R1 × k):
-    # Ãᵀ Σ Ã = YᵀY with Y = (S F)ᵀ Ã, (Σ Ã)ᵀ(Σ Ã) = Yᵀ G Y with G = (S F)ᵀ(S F).
+    # Ãᵀ Σ Ã = YᵀY with Y = (S F)ᵀ Ã, (Σ Ã)ᵀ(Σ Ã) = Yᵀ G Y with G = (S F)ᵀ(S F),
+    # every group j (R1 rows each, in order) in stacked products.
     F = noise.factor
-    for j in np.unique(noise.group):
-        rows = noise.group == j
-        sj = s[rows]
-        SF = sj[:, None] * F
-        Y = SF.T @ As[rows]
-        G = SF.T @ SF
-        meat += Y.T @ Y
-        meat_sq += Y.T @ (G @ Y)
-        trace_s += float(np.sum(sj * sj))
-        trace_s2 += float(np.sum(G * G))
+    order = np.argsort(noise.group, kind="stable")
+    count = order.size // F.shape[0]
+    SF = s[order].reshape(count, -1, 1) * F  # (g, R1, k)
+    Y = np.swapaxes(SF, 1, 2) @ As[order].reshape(count, -1, p)  # (g, k, p)
+    G = np.swapaxes(SF, 1, 2) @ SF  # (g, k, k)
+    stacked = Y.reshape(-1, p)
+    meat = stacked.T @ stacked
+    meat_sq = stacked.T @ (G @ Y).reshape(-1, p)
+    trace_s = float(np.sum(s * s))
+    trace_s2 = float(np.sum(G * G))
     hat = inverse @ meat
     dof_num = trace_s - float(np.trace(hat))
     nan = np.full(p, np.nan)
     if not dof_num > 0.0:
         return HonestStd(std=nan, residual_std=np.nan, dof=0.0)
     denominator = (
-        trace_s2 - 2.0 * float(np.trace(inverse @ meat_sq)) + float(np.sum(hat * hat.T))
+        trace_s2
+        - 2.0 * float(np.einsum("ij,ji->", inverse, meat_sq))
+        + float(np.sum(hat * hat.T))
     )
     dof = dof_num**2 / denominator if denominator > 0.0 else 0.0
     residual = (B - A @ theta) * weights
     r_scale = float(np.max(np.abs(residual))) or 1.0
     sigma2 = r_scale**2 * float(np.sum((residual / r_scale) ** 2)) / dof_num
-    covariance = sigma2 * (hat @ inverse)
-    std = np.sqrt(np.clip(np.diag(covariance), 0.0, None)) / norms
+    variance = sigma2 * np.einsum("ij,ji->i", hat, inverse)  # diag(H P⁻¹) σ̂²
+    std = np.sqrt(np.clip(variance, 0.0, None)) / norms
     std.flags.writeable = False
     return HonestStd(std=std, residual_std=float(np.sqrt(sigma2)), dof=float(dof))

@@ -18,11 +18,18 @@ def _resolved(A, B, groups, weights):
     return np.sqrt((len(labels) - 1) / len(labels) * (spread**2).sum(axis=0))
 
 
-def test_downdates_equal_explicit_solves():
+@pytest.mark.parametrize(
+    "groups",
+    [
+        np.repeat(np.arange(12), 5),  # one size: stacked downdates
+        np.tile(np.arange(12), 5),  # one size, interleaved (the windows' order)
+        np.repeat(np.arange(6), [5, 15, 10, 10, 8, 12]),  # one at a time
+    ],
+)
+def test_downdates_equal_explicit_solves(groups):
     rng = np.random.default_rng(11)
     A = rng.normal(size=(60, 4)) * [1.0, 10.0, 0.1, 3.0]
     B = A @ [1.0, -2.0, 3.0, 0.5] + rng.normal(size=60)
-    groups = np.repeat(np.arange(12), 5)
     weights = rng.uniform(0.5, 2.0, 60)
     np.testing.assert_allclose(
         jackknife_std(A, B, groups, weights=weights),
