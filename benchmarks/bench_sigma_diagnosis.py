@@ -37,6 +37,7 @@ from _scenarios import robots, scenarios
 from drake_dynid.core.excitation import estimate_bandwidth
 from drake_dynid.core.replay import filtered_signals, window_equations
 from drake_dynid.core.weighted_lsq import frequency_noise_weights
+from drake_dynid.urdf import model_path
 
 NEAR_ZERO = 0.1  # [rad/s] the counterfactual's band around v = 0
 
@@ -81,6 +82,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=200)
     parser.add_argument("--quick", action="store_true", help="4 seeds (smoke run)")
     parser.add_argument("--json", metavar="FILE")
+    parser.add_argument(
+        "--coulomb-width",
+        type=float,
+        default=0.0,
+        metavar="EPS",
+        help="identify with the Coulomb law tanh(v/EPS) (the simulated plant's "
+        "is tanh(v/0.01)); default 0: sign(v), as the accuracy benchmark",
+    )
     args = parser.parse_args(argv)
     seeds = range(4 if args.quick else args.seeds)
     with tempfile.TemporaryDirectory() as tmp:
@@ -88,8 +97,15 @@ def main(argv: list[str] | None = None) -> int:
         robot_name, trajectory = scenarios(False)[args.scenario]
         robot = models[robot_name]
         log = ba.simulate(robot, trajectory)
+        identified = robot
+        if args.coulomb_width > 0.0:
+            urdf = Path(tmp) / f"{robot_name}.urdf"
+            identified = type(robot).from_urdf(
+                model_path("planar_2r") if robot_name == "paper" else urdf,
+                coulomb_width=args.coulomb_width,
+            )
     bandwidth = estimate_bandwidth(log.q, ba.H)
-    rows = robot.rows_provider()
+    rows = identified.rows_provider()
     truth = robot.base_values
     end = len(log.q) - 1
     base = ba.settings_for(ba.LAGRANGIAN, ba.T, bandwidth)

@@ -101,3 +101,21 @@ def test_the_cli_help_states_the_threshold():
     identify.add_arguments(parser)
     text = " ".join(parser.format_help().split())
     assert f"is below {RAW_NOISE_COEFFICIENT:g}·(2π·band·jacobi window)²" in text
+
+
+def test_motion_and_noise_by_pieces_on_long_logs(monkeypatch):
+    """One periodogram gives both statistics; past ``SPECTRUM_PIECE`` samples they
+    are mean squares over equal pieces, one joint at a time (bounded memory on
+    hour-long logs), still the known σ and RMS velocity."""
+    from drake_dynid.core import excitation
+
+    noisy = Q + 1e-3 * np.random.default_rng(0).standard_normal(Q.shape)
+    rms, noise = excitation.motion_and_noise(noisy, H)
+    np.testing.assert_array_equal(rms, velocity_rms(noisy, H))
+    np.testing.assert_array_equal(noise, position_noise_std(noisy, H))
+    monkeypatch.setattr(excitation, "SPECTRUM_PIECE", 12000)  # 2 pieces of 10 s
+    pieces_rms, pieces_noise = excitation.motion_and_noise(noisy, H)
+    np.testing.assert_allclose(pieces_noise, 1e-3, rtol=0.05)
+    np.testing.assert_allclose(position_noise_std(noisy, H), pieces_noise, rtol=0)
+    np.testing.assert_allclose(pieces_rms, rms, rtol=0.02)
+    assert not np.array_equal(pieces_rms, rms)  # the pieces were taken

@@ -40,9 +40,11 @@ from drake_dynid.core import _validate as v
 from drake_dynid.core.fourier_bank import band_frequencies
 
 __all__ = [
+    "SPECTRUM_PIECE",
     "detrend_linear",
     "estimate_bandwidth",
     "frequencies_for",
+    "motion_and_noise",
     "periodogram",
     "position_noise_std",
     "velocity_rms",
@@ -50,6 +52,11 @@ __all__ = [
 ]
 
 _OWNER = "estimate_bandwidth"
+
+SPECTRUM_PIECE = 1 << 18
+"""Longest record (samples) whose statistics are one periodogram: longer records are
+cut into equal pieces of at most this many samples, one joint at a time (memory of
+one piece's spectrum, whatever the log's length)."""
 
 
 def detrend_linear(x: np.ndarray) -> np.ndarray:
@@ -121,8 +128,11 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
         time_step: sample period h [s].
 
     Returns:
-        (n,) σ per channel.
+        (n,) σ per channel (records longer than :data:`SPECTRUM_PIECE`: by
+        pieces, :func:`motion_and_noise`).
     """
+    if np.ndim(q) == 2 and np.shape(q)[0] > SPECTRUM_PIECE:
+        return motion_and_noise(q, time_step)[1]
     f, s, _ = _periodogram(q, time_step)
     return np.sqrt(_noise_floor(f, s, time_step) * 0.5 / time_step)
 
@@ -134,6 +144,44 @@ def velocity_rms(q: Any, time_step: float, *, threshold: float = 20.0) -> np.nda
     """
     f, power = velocity_spectrum(q, time_step, threshold=threshold)
     return np.sqrt(power.sum(axis=0) * (f[1] - f[0]))
+
+
+def motion_and_noise(
+    q: Any, time_step: float, *, threshold: float = 20.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(velocity_rms(q, h), position_noise_std(q, h))`` from one periodogram.
+
+    Up to :data:`SPECTRUM_PIECE` samples, exactly those two functions' values.
+    Beyond, the mean squares over equal pieces of at most that many samples, one
+    joint at a time (``v_rms² = mean of the pieces' v_rms²``, the same for σ²):
+    bounded memory on hour-long logs.
+
+    Args:
+        q: (N,) or (N, n) positions [rad or m], N >= 64.
+        time_step: h [s].
+        threshold: the motion's detection threshold (:func:`velocity_spectrum`).
+
+    Returns:
+        (n,) RMS velocities [rad/s or m/s] and (n,) position noise std [rad or m].
+    """
+    x = np.asarray(q)
+    if x.ndim == 2 and x.shape[0] > SPECTRUM_PIECE:
+        count = -(-x.shape[0] // SPECTRUM_PIECE)
+        length = x.shape[0] // count
+        squares = np.zeros((2, x.shape[1]))
+        for k in range(count):
+            for j in range(x.shape[1]):
+                piece = np.asarray(x[k * length : (k + 1) * length, j], dtype=float)
+                rms, noise = motion_and_noise(piece, time_step, threshold=threshold)
+                squares[:, j] += (rms[0] ** 2, noise[0] ** 2)
+        rms, noise = np.sqrt(squares / count)
+        return rms, noise
+    threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
+    f, s, x = _periodogram(q, time_step)
+    floor = _noise_floor(f, s, time_step)
+    noise = np.sqrt(floor * 0.5 / time_step)
+    power = _velocity_power(f, s, x, floor, threshold)
+    return np.sqrt(power.sum(axis=0) * (f[1] - f[0])), noise
 
 
 def velocity_spectrum(
@@ -157,6 +205,13 @@ def velocity_spectrum(
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     f, s, x = _periodogram(q, time_step)
     floor = _noise_floor(f, s, time_step)
+    return f, _velocity_power(f, s, x, floor, threshold)
+
+
+def _velocity_power(
+    f: np.ndarray, s: np.ndarray, x: np.ndarray, floor: np.ndarray, threshold: float
+) -> np.ndarray:
+    """P_j(f) of :func:`velocity_spectrum` from the periodogram and its floor."""
     keep = s > threshold * floor
     # A constant (or exactly linear) channel only leaves round-off: no motion.
     residual = detrend_linear(x)
@@ -164,7 +219,7 @@ def velocity_spectrum(
     keep &= np.ptp(residual, axis=0) > 1e-9 * scale
     clean = np.where(keep, s - floor, 0.0)
     clean[0] = 0.0
-    return f, (2.0 * math.pi * f[:, None]) ** 2 * clean
+    return (2.0 * math.pi * f[:, None]) ** 2 * clean
 
 
 def estimate_bandwidth(

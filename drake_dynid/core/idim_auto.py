@@ -43,7 +43,11 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core.blocks import checked_rows, is_stored
-from drake_dynid.core.excitation import estimate_bandwidth, velocity_spectrum
+from drake_dynid.core.excitation import (
+    SPECTRUM_PIECE,
+    estimate_bandwidth,
+    velocity_spectrum,
+)
 
 __all__ = [
     "DECIMATION_BAND_FACTOR",
@@ -71,7 +75,7 @@ the paper's 2R at SNR 30 dB, 0.2 (25 Hz) still gave errors within 2σ, 1.5 (50 H
 5σ and 12 (100 Hz) 30σ: the errors-in-variables bias of v² and sign(v) terms, which
 σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
-_SPECTRUM_PIECE = 1 << 18  # longest segment whose bandwidth is one periodogram
+_SPECTRUM_PIECE = SPECTRUM_PIECE  # longest segment whose bandwidth is one periodogram
 
 
 def _position_spectra(

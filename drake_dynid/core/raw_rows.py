@@ -303,15 +303,15 @@ def rows_from_noise(
         jacobi_window: the matched filter's window Tj [s].
         bandwidth: the excitation band B [Hz].
     """
-    from drake_dynid.core.excitation import position_noise_std, velocity_rms
+    from drake_dynid.core.excitation import motion_and_noise
 
     h = _validate.positive("rows_from_noise", "time_step", time_step, "s")
     threshold = raw_noise_threshold(bandwidth, jacobi_window)
     window = 2 * h * max(1, round(raw_window / (2 * h)))
     gain = raw_rows_design(window, h, 1).velocity.noise_gain
-    rms = velocity_rms(q, h)
+    rms, noise = motion_and_noise(q, h)  # by pieces on long logs: bounded memory
     moving = rms > 0.0
     if not moving.any():
         return "filtered", math.inf, threshold
-    ratio = float(np.max(position_noise_std(q, h)[moving] * gain / rms[moving]))
+    ratio = float(np.max(noise[moving] * gain / rms[moving]))
     return ("raw" if ratio <= threshold else "filtered"), ratio, threshold
