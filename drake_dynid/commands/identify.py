@@ -250,14 +250,19 @@ def online_settings(
 
 
 def _longest_run(log: Any, minimum: int, what: str, override: str) -> Any:
-    """The positions of the longest run of finite samples (>= ``minimum``)."""
+    """The positions of the longest run of finite samples (>= ``minimum``).
+
+    A lazy view of a stored (long) log: it stays on disk.
+    """
+    from drake_dynid.core.blocks import segment
+
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     if stop - start < minimum:
         raise ValueError(
             f"cannot measure {what}: no run of {minimum} finite samples in the log; "
             f"give {override}."
         )
-    return log.q[start:stop]
+    return segment(log.q, start, stop)
 
 
 def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:

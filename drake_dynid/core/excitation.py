@@ -131,7 +131,7 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
         (n,) σ per channel (records longer than :data:`SPECTRUM_PIECE`: by
         pieces, :func:`motion_and_noise`).
     """
-    if np.ndim(q) == 2 and np.shape(q)[0] > SPECTRUM_PIECE:
+    if len(np.shape(q)) == 2 and np.shape(q)[0] > SPECTRUM_PIECE:
         return motion_and_noise(q, time_step)[1]
     f, s, _ = _periodogram(q, time_step)
     return np.sqrt(_noise_floor(f, s, time_step) * 0.5 / time_step)
@@ -164,16 +164,16 @@ def motion_and_noise(
     Returns:
         (n,) RMS velocities [rad/s or m/s] and (n,) position noise std [rad or m].
     """
-    x = np.asarray(q)
-    if x.ndim == 2 and x.shape[0] > SPECTRUM_PIECE:
-        count = -(-x.shape[0] // SPECTRUM_PIECE)
-        length = x.shape[0] // count
-        squares = np.zeros((2, x.shape[1]))
+    shape = np.shape(q)  # q may be a stored log (read a piece at a time)
+    if len(shape) == 2 and shape[0] > SPECTRUM_PIECE:
+        count = -(-shape[0] // SPECTRUM_PIECE)
+        length = shape[0] // count
+        squares = np.zeros((2, shape[1]))
         for k in range(count):
-            for j in range(x.shape[1]):
-                piece = np.asarray(x[k * length : (k + 1) * length, j], dtype=float)
-                rms, noise = motion_and_noise(piece, time_step, threshold=threshold)
-                squares[:, j] += (rms[0] ** 2, noise[0] ** 2)
+            piece = np.asarray(q[k * length : (k + 1) * length], dtype=float)
+            for j in range(shape[1]):
+                one = motion_and_noise(piece[:, j], time_step, threshold=threshold)
+                squares[:, j] += (one[0][0] ** 2, one[1][0] ** 2)
         rms, noise = np.sqrt(squares / count)
         return rms, noise
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)

@@ -216,17 +216,17 @@ def raw_channels_batch(
         design: the raw-rows design.
         rows: a row provider.
         kind: ``"power"`` or ``"lagrangian"``.
-        q: (N, n) positions, one row per signal sample.
-        tau: (N, n) torques.
+        q: (N, n) positions, one row per signal sample: an array or a stored
+            log (``drake_dynid.log_store``), of which only the rows these bank
+            samples read are loaded.
+        tau: (N, n) torques, likewise.
         ends: indices of the newest sample of each bank sample (increasing).
 
     Returns:
         (len(ends), 2mp + m) the averaged packed rows (NaN for a bank sample
         that reads a non-finite sample).
     """
-    q = np.asarray(q, dtype=float)
-    tau = np.asarray(tau, dtype=float)
-    ends = np.asarray(ends, dtype=int)
+    ends = np.asarray(ends, dtype=int)  # q, τ: arrays or stored logs, read in part
     m, block = design.delay_samples, design.block
     pad = design.history
     taps = design.velocity.taps
@@ -255,12 +255,15 @@ def raw_channels_batch(
     return np.concatenate(out, axis=0)
 
 
-def _padded(x: np.ndarray, pad: int, start: int, stop: int) -> np.ndarray:
-    """Rows ``start .. stop - 1`` of ``x`` after ``pad`` rows of zeros."""
+def _padded(x: Any, pad: int, start: int, stop: int) -> np.ndarray:
+    """Rows ``start .. stop - 1`` of ``x`` after ``pad`` rows of zeros.
+
+    Reads only those rows of ``x`` (an array, or a stored log read in part).
+    """
     out = np.zeros((max(0, stop - start), x.shape[1]))
     low = max(start, pad)
     if stop > low:
-        out[low - start :] = x[low - pad : stop - pad]
+        out[low - start :] = np.asarray(x[low - pad : stop - pad], dtype=float)
     return out
 
 

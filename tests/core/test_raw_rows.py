@@ -89,3 +89,39 @@ def test_latency_follows_the_rows():
     raw = dataclasses.replace(filtered, rows_from="raw")
     assert filtered.delay(H) == pytest.approx(filtered.jacobi_filters(H)[0].delay)
     assert raw.delay(H) == pytest.approx((100 + 9.5) * H)  # m = 100, D = 20
+
+
+class _Stored:
+    """A stored log's interface (shape, row slices); loading it whole fails."""
+
+    def __init__(self, values):
+        self.values = values
+        self.shape = values.shape
+        self.largest_read = 0
+
+    def rows(self, start, stop):  # pragma: no cover - not used here
+        raise AssertionError("no lazy view expected")
+
+    def __getitem__(self, index):
+        part = self.values[index]
+        self.largest_read = max(self.largest_read, len(part))
+        return part
+
+    def __array__(self, dtype=None, copy=None):
+        raise AssertionError("the whole log was loaded")
+
+
+def test_batch_reads_only_the_rows_its_bank_samples_need():
+    """A long (stored) log is read in part: the channels equal the array's."""
+    design = raw_rows_design(0.02, H, block=5)
+    rows = Planar2RRows()
+    rng = np.random.default_rng(4)
+    q, tau = rng.normal(size=(2, 5000, 2))
+    ends = np.arange(3000, 3100, 5)
+    stored_q, stored_tau = _Stored(q), _Stored(tau)
+    for kind in ("lagrangian", "power"):
+        np.testing.assert_array_equal(
+            raw_channels_batch(design, rows, kind, stored_q, stored_tau, ends),
+            raw_channels_batch(design, rows, kind, q, tau, ends),
+        )
+    assert stored_q.largest_read <= 100 + design.history + design.velocity.taps.size
