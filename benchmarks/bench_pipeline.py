@@ -474,6 +474,7 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
             variants = [("offline", []), ("identify", [])]
             if duration == durations[0]:  # the rows chosen on the log are raw here
                 variants.append(("identify", ["--rows-from", "filtered"]))
+                variants.append(("identify", ["--bootstrap", "0"]))
             for command, extra in variants:
                 json_path = os.path.join(folder, f"{command}{duration:g}.json")
                 argv = [command, log, "--urdf", urdf, "--json", json_path, "--quiet"]
@@ -483,7 +484,10 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
                 runs = [run_case({"kind": "cli", "argv": argv}) for _ in range(count)]
                 with open(json_path, encoding="utf-8") as stream:
                     document = json.load(stream)
-                label = f"{command}{' filtered rows' if extra else ''}"
+                label = command + {
+                    "--rows-from": " filtered rows",
+                    "--bootstrap": " --bootstrap 0",
+                }.get(extra[0] if extra else "", "")
                 cases[f"{label} {duration:g} s"] = {
                     "duration": duration,
                     "wall": statistics.median(r["wall"] for r in runs),

@@ -111,6 +111,11 @@ def test_cli_prints_and_writes_the_detections(fig4, tmp_path, capsys):
     (found,) = document["changes"]
     assert JUMP < found["t"] < JUMP + 1.5 and found["changed"] == ["ZZ1R"]
     assert document["settings"]["detect_changes"] is True
+    # The final estimate's window started at the change: no bootstrap of a full
+    # sliding window (core.bootstrap), and the report says why.
+    assert document["bootstrap"]["applied"] is False
+    assert "a detected change restarted it" in document["bootstrap"]["reason"]
+    assert "no bootstrap: the final window is not the sliding window" in printed
     assert cli.main([*argv, "--engine", "blocks", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["changes"] == document["changes"]
     assert cli.main([*argv[:-1], "--json", str(out), "--quiet"]) == 0

@@ -352,3 +352,40 @@ def test_measured_bandwidth_of_a_log_without_finite_samples_is_a_clear_error():
     log = RobotLog(np.arange(100) * 1e-3, nan, nan, ("joint1", "joint2"), 1e-3)
     with pytest.raises(ValueError, match="no run of 64 finite samples"):
         measured_bandwidth(log, 2.0)
+
+
+def test_identify_reports_the_larger_of_the_window_and_bootstrap_sigma(
+    simulation, tmp_path, capsys
+):
+    """σ of the final estimate = max(the window's σ, the parametric bootstrap's);
+    ``--bootstrap 0`` reports the window's σ alone (the last row of ``--out``)."""
+    noisy = tmp_path / "noisy.csv"
+    rng = np.random.default_rng(2)
+    q = simulation.q + 1e-3 * rng.standard_normal(simulation.q.shape)
+    tau = simulation.tau + 0.02 * rng.standard_normal(simulation.tau.shape)
+    write_log(noisy, simulation.t, q, tau, simulation.joint_names)
+    documents, window_std = {}, {}
+    for replicates in ("0", "8"):
+        out_json, out_csv = tmp_path / f"b{replicates}.json", tmp_path / "e.csv"
+        argv = ["identify", str(noisy), "--urdf", URDF, *FAST, "--quiet"]
+        argv += ["--bootstrap", replicates, "--json", str(out_json)]
+        assert cli.main([*argv, "--out", str(out_csv)]) == 0
+        documents[replicates] = json.loads(out_json.read_text())
+        with open(out_csv, newline="") as stream:
+            last = list(csv.reader(stream))[-1]
+        window_std[replicates] = np.array([float(x) for x in last[2 + 8 :]])
+    off, on = documents["0"]["bootstrap"], documents["8"]["bootstrap"]
+    assert off["applied"] is False and off["reason"] == "--bootstrap 0"
+    assert on["applied"] is True and on["valid_replicates"] == 8
+    np.testing.assert_allclose(on["position_noise"], 1e-3, rtol=0.1)
+    np.testing.assert_array_equal(window_std["0"], window_std["8"])  # the on-line σ
+    reported = {
+        key: np.array([p["std"] for p in document["parameters"]])
+        for key, document in documents.items()
+    }
+    np.testing.assert_allclose(reported["0"], window_std["0"], rtol=1e-12)
+    expected = np.fmax(window_std["0"], on["std"])
+    np.testing.assert_allclose(reported["8"], expected, rtol=1e-12)
+    assert np.any(np.asarray(on["std"]) > window_std["0"])  # it mattered here
+    assert cli.main(["identify", str(noisy), "--urdf", URDF, "--bootstrap", "1"]) == 2
+    assert "--bootstrap must be 0 (no bootstrap) or" in capsys.readouterr().err

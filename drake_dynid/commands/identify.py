@@ -30,6 +30,7 @@ from drake_dynid.commands._report import (
     write_estimates_csv,
     write_trace_outputs,
 )
+from drake_dynid.core.bootstrap import DEFAULT_REPLICATES, bootstrap_std
 from drake_dynid.core.rows import MODEL_KINDS
 
 HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
@@ -346,6 +347,81 @@ def usable_band(settings: Any, time_step: float) -> float:
     return usable / model_band(grid.model, 1.0)  # the power set covers 2B
 
 
+def final_bootstrap(
+    args: argparse.Namespace,
+    log: Any,
+    robot: Any,
+    settings: Any,
+    trace: Any,
+    last_valid: int,
+) -> dict[str, Any]:
+    """The parametric bootstrap of the final estimate's window (``--bootstrap``).
+
+    ``core.bootstrap.bootstrap_std`` on the window of the solve that gave the
+    estimate logged at ``last_valid`` (the solve at the previous logged time; its
+    newest bank sample), with the white noise measured on the log
+    (``measured_noise``). Not applied (with the reason) when switched off, when
+    fewer than 2 replicates are valid, or when the window's direct quadrature
+    does not reproduce the estimate (a change detection restarted the window).
+
+    Returns:
+        The JSON ``bootstrap`` object (``applied``, ``replicates``,
+        ``valid_replicates``, ``position_noise``, ``torque_noise``, ``std``,
+        ``reason``) and ``line``, the text report's line.
+    """
+    out: dict[str, Any] = {
+        "applied": False,
+        "replicates": int(args.bootstrap),
+        "valid_replicates": 0,
+        "position_noise": None,
+        "torque_noise": None,
+        "std": None,
+        "reason": "",
+    }
+
+    def skipped(reason: str) -> dict[str, Any]:
+        out["reason"] = reason
+        out["line"] = f"σ: the window's (no bootstrap: {reason})"
+        return out
+
+    if args.bootstrap == 0:
+        return skipped("--bootstrap 0")
+    h = log.time_step
+    sample = (last_valid - 1) * settings.solve_decimation(h)  # the solve's sample
+    end = sample - sample % settings.decimation(h)  # its newest bank sample
+    noise = (measured_noise(log), measured_noise(log, "torque"))
+    out["position_noise"] = [json_number(x) for x in noise[0]]
+    out["torque_noise"] = [json_number(x) for x in noise[1]]
+    result = bootstrap_std(
+        robot.rows_provider(),
+        settings,
+        log.q,
+        log.tau,
+        end,
+        h,
+        noise,
+        replicates=int(args.bootstrap),
+    )
+    out["valid_replicates"] = result.replicates
+    theta = np.asarray(trace.theta[last_valid])
+    scale = np.fmax(np.abs(theta), np.asarray(trace.std[last_valid]))
+    if not np.all(np.abs(result.nominal - theta) <= 1e-6 * scale):
+        return skipped(
+            "the final window is not the sliding window of the estimate (a detected "
+            "change restarted it)"
+        )
+    if result.replicates < 2:
+        return skipped(f"{result.replicates} of {args.bootstrap} replicates valid")
+    out["applied"] = True
+    out["std"] = [json_number(x) for x in result.std]
+    out["line"] = (
+        "σ: the larger of the window's and a parametric bootstrap's "
+        f"({result.replicates} of {args.bootstrap} replicates of the final window "
+        "with the white noise measured on the log added; --bootstrap 0 to skip)"
+    )
+    return out
+
+
 def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
     """``(rows_from, ratio, threshold)`` for ``--rows-from auto``.
 
@@ -444,6 +520,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "'gautier': Gautier's σ alone (the paper's)",
     )
     group.add_argument(
+        "--bootstrap",
+        type=int,
+        default=DEFAULT_REPLICATES,
+        metavar="K",
+        help="σ of the final estimate: also a parametric bootstrap of its window, "
+        "K replicates with white noise of the levels measured on the log added to "
+        "q and tau (sees the noise inside the regressor, e.g. the Coulomb sign "
+        "at slow velocity reversals, that no statistic of one window's rows "
+        f"sees); the larger σ is reported (default {DEFAULT_REPLICATES}; 0: the "
+        "window's σ alone)",
+    )
+    group.add_argument(
         "--rows-from",
         choices=("auto", "filtered", "raw"),
         default="auto",
@@ -538,6 +626,11 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.commands.validate import check_output_paths, validation_split
 
     check_output_paths(args)
+    if args.bootstrap < 0 or args.bootstrap == 1:
+        raise ValueError(
+            f"--bootstrap must be 0 (no bootstrap) or a number of replicates >= 2; "
+            f"got {args.bootstrap}."
+        )
     settings = online_settings(args)  # every value checked, nothing allocated
     if args.plot:
         matplotlib_pyplot()  # fail before the long replay
@@ -625,6 +718,9 @@ def run(args: argparse.Namespace) -> int:
     last_valid = int(np.flatnonzero(valid)[-1])
     final = trace.final()
     theta, std = final["theta"], final["std"]
+    bootstrap = final_bootstrap(args, log, robot, settings, trace, last_valid)
+    if bootstrap["applied"]:
+        std = np.fmax(std, np.asarray(bootstrap["std"], dtype=float))
     final_valid = bool(valid[-1])
     reason = "" if final_valid else _invalid_reason(trace)
     condition = float(trace.condition_number[last_valid])
@@ -663,6 +759,7 @@ def run(args: argparse.Namespace) -> int:
         for line in estimates_table(trace.names, theta, std):
             print(line)
         print()
+        print(bootstrap["line"])
         print(f"condition number: {condition:.4g}")
         print(
             f"valid windows: {int(valid.sum())} of {valid.size} solves; final "
@@ -696,6 +793,7 @@ def run(args: argparse.Namespace) -> int:
             "reason": reason,
             "last_valid_time": float(t[last_valid]),
             "delay": float(trace.delay),
+            "bootstrap": {k: value for k, value in bootstrap.items() if k != "line"},
             "changes": changes if settings.detect_changes is not False else None,
             "settings": {
                 **settings.as_dict(),

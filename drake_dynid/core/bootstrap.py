@@ -1,0 +1,151 @@
+"""Parametric bootstrap σ of one window's estimate (docs/MATH.md §4).
+
+The window solve's σ (the sandwich and the jackknife of ``core.lsq.solve_window``)
+are statistics of the window's own rows. Noise that lies in the column space of
+the rows moves θ̂ exactly as a change of θ would, and no statistic of one window's
+residuals can see it: the velocity estimate's noise inside the regressor, above
+all the Coulomb sign s(v̂) flipping where a joint's velocity crosses zero slowly
+(benchmarks/bench_sigma_diagnosis.py: 45 % of the weighted noise lies there on the
+2R scenario ``g1 / rf seed 3``, 18 % for noise without structure; err/σ p90 2.87).
+
+The bootstrap measures that sensitivity instead. K replicates of the window, each
+with white noise of the levels measured on the log added to the positions and the
+torques (σ_q,j, σ_τ,j: the white floor of each signal's spectrum,
+``core.excitation.position_noise_std``), are solved exactly as the identifier
+solves the window (:func:`drake_dynid.core.replay.window_estimate`: the same
+filters or raw rows, bank, weighting and checks)::
+
+    σ_B,i = std_k(θ̂_i^(k)),   k = 1..K   (sample std, ddof = 1)
+
+The replicates perturb the measured signals, whose own noise is already there:
+σ_B is the estimate's sensitivity to noise at the measured operating point, the
+parametric bootstrap's usual approximation. ``dynid identify`` reports
+max(σ, σ_B) per parameter for its final estimate; the accuracy benchmark
+(benchmarks/bench_accuracy.py, Uncertainty) measures it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from drake_dynid.core import _validate as v
+
+__all__ = ["DEFAULT_REPLICATES", "BootstrapStd", "bootstrap_std", "window_start"]
+
+#: Replicates of the default bootstrap: the sample std of K normal draws is within
+#: ±18 % (one σ of its sampling spread, 1/√(2(K-1))) at K = 16.
+DEFAULT_REPLICATES = 16
+
+
+@dataclass(frozen=True)
+class BootstrapStd:
+    """Outcome of :func:`bootstrap_std`.
+
+    Attributes:
+        std: (p,) σ_B [units of θ]; NaN when fewer than 2 replicates were valid.
+        nominal: (p,) θ̂ of the unperturbed window (its direct quadrature: the
+            identifier's estimate to round-off); NaN when that window is not valid.
+        replicates: the replicates whose window was valid.
+    """
+
+    std: np.ndarray
+    nominal: np.ndarray
+    replicates: int
+
+
+def window_start(settings: Any, time_step: float, end: int) -> int:
+    """The first signal sample the window ending at ``end`` reads (>= 0).
+
+    The oldest bank sample ``end - D·N_bank``, the raw rows' D-sample average
+    before it and the longest filter or raw-velocity history (``settings`` put on
+    the grid and resolved for the robot, :meth:`OnlineSettings.for_robot`).
+    """
+    bank = settings.bank()
+    decimation = settings.decimation(time_step)
+    history = settings.jacobi_filters(time_step)[0].num_taps
+    if settings.rows_from == "raw":
+        history = max(history, settings.raw_design(time_step).history)
+    first = end - decimation * bank.num_intervals - decimation - history
+    return max(0, first - decimation)
+
+
+def bootstrap_std(
+    rows: Any,
+    settings: Any,
+    q: Any,
+    tau: Any,
+    end: int,
+    time_step: float,
+    noise_std: tuple[Any, Any],
+    *,
+    replicates: int = DEFAULT_REPLICATES,
+    seed: int = 0,
+) -> BootstrapStd:
+    """σ of the estimate of the window ending at ``end``, by parametric bootstrap.
+
+    Args:
+        rows: the row provider the identifier used.
+        settings: its :class:`~drake_dynid.core.online.OnlineSettings` (put on
+            the log's grid).
+        q: (N, n) positions of the log [rad or m] (an array or a stored log: only
+            the window's samples are read).
+        tau: (N, n) torques [N·m or N].
+        end: the window's newest bank sample (signal sample index).
+        time_step: h [s].
+        noise_std: ``(σ_q, σ_τ)``, each (n,) >= 0: the white noise added to the
+            positions [rad or m] and the torques [N·m or N].
+        replicates: K >= 2.
+        seed: seed of ``numpy.random.default_rng`` (the result is reproducible).
+
+    Returns:
+        :class:`BootstrapStd`.
+    """
+    from drake_dynid.core.replay import window_estimate
+
+    owner = "bootstrap_std"
+    n = int(rows.num_joints)
+    p = int(rows.num_parameters)
+    if isinstance(replicates, bool) or not isinstance(replicates, (int, np.integer)):
+        v.fail(owner, f"replicates must be an integer >= 2; got {replicates!r}.")
+    if replicates < 2:
+        v.fail(owner, f"replicates must be an integer >= 2; got {replicates}.")
+    if len(noise_std) != 2:
+        v.fail(owner, "noise_std must be (position std, torque std).")
+    sigma_q, sigma_tau = (
+        v.array(owner, name, x, shape=(n,))
+        for name, x in zip(("position std", "torque std"), noise_std, strict=True)
+    )
+    if np.any(sigma_q < 0.0) or np.any(sigma_tau < 0.0):
+        v.fail(owner, "the noise std must be >= 0.")
+    h = v.positive(owner, "time_step", time_step, "s")
+    s = settings.for_robot(h, n, p)
+    count = int(np.shape(q)[0])
+    if not 0 <= int(end) < count:
+        v.fail(owner, f"end must be a sample of the log (0..{count - 1}); got {end}.")
+    start = window_start(s, h, int(end))
+    q_window = np.asarray(q[start : end + 1], dtype=float)
+    tau_window = np.asarray(tau[start : end + 1], dtype=float)
+    last = int(end) - start
+
+    def solve(qk: np.ndarray, tauk: np.ndarray) -> np.ndarray | None:
+        result = window_estimate(rows, s, qk, tauk, last, h)
+        return np.asarray(result.theta) if result.valid else None
+
+    nominal = solve(q_window, tau_window)
+    rng = np.random.default_rng(seed)
+    draws = []
+    for _ in range(replicates):
+        qk = q_window + sigma_q * rng.standard_normal(q_window.shape)
+        tauk = tau_window + sigma_tau * rng.standard_normal(tau_window.shape)
+        theta = solve(qk, tauk)
+        if theta is not None:
+            draws.append(theta)
+    std = np.std(draws, axis=0, ddof=1) if len(draws) >= 2 else np.full(p, np.nan)
+    return BootstrapStd(
+        std=std,
+        nominal=np.full(p, np.nan) if nominal is None else nominal,
+        replicates=len(draws),
+    )
