@@ -58,6 +58,7 @@ def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
     ``core.excitation.position_noise_std`` (the white floor of the spectrum above
     f_s/4) on the longest run of finite samples [rad or m; N·m or N].
     """
+    from drake_dynid.core.blocks import segment
     from drake_dynid.core.excitation import position_noise_std
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
@@ -67,7 +68,8 @@ def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
             f"log; give --{signal}-noise none or S."
         )
     values = log.q if signal == "position" else log.tau
-    return position_noise_std(values[start:stop], log.time_step)
+    # A lazy view of a stored (long) log: measured a piece at a time.
+    return position_noise_std(segment(values, start, stop), log.time_step)
 
 
 def add_noise_arguments(group: Any) -> None:
