@@ -243,6 +243,11 @@ def test_cli_measures_prints_and_echoes_the_position_noise(
     measured = document["settings"]["position_noise"]
     assert document["settings"]["position_noise_measured"] is True
     np.testing.assert_allclose(measured, 0.01, rtol=0.05)
+    # The covariance weighting's σ models the regressor noise: no bootstrap by default.
+    assert document["settings"]["weighting"] == "covariance"
+    assert document["bootstrap"]["applied"] is False
+    assert document["bootstrap"]["replicates"] == 0
+    assert "covariance weighting's σ models" in document["bootstrap"]["reason"]
     assert cli.main([*common, "--json", str(out), "--position-noise", "none"]) == 0
     assert "position noise" not in capsys.readouterr().out
     assert json.loads(out.read_text())["settings"]["position_noise"] is None
