@@ -248,8 +248,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
             owner,
             noun,
             np.asarray(t),
-            _loaded(q, index),
-            _loaded(tau, index),
+            (q, tau, index, bad),
             labels,
             step,
             grid,
@@ -290,12 +289,6 @@ def _repeated(t) -> int:
             return start + int(same[0]) + (1 if previous is None else 0)
         previous = block[-1]
     return 0
-
-
-def _loaded(values, index) -> np.ndarray:
-    """The rows ``index`` (None: all) of an array or a stored array, in memory."""
-    values = np.asarray(values, dtype=float)
-    return values if index is None else values[index]
 
 
 def _rows_of(values, index, a: int, b: int) -> np.ndarray:
@@ -426,8 +419,18 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings):
     return Repaired(t, q, tau, h, (), grid.origin, filled)
 
 
-def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, reason):
-    """Linear interpolation from the stamps onto the fitted uniform grid."""
+def _resampled(owner, noun, s, samples, labels, step, grid, options, warnings, reason):
+    """Linear interpolation from the stamps onto the fitted uniform grid.
+
+    ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
+    the row of each working sample (None: the same) and its bad-cell flags; ``s``
+    the working samples' stamps. The grid is filled :data:`_PLACE_SLOTS` samples
+    at a time from the working samples around them, ``fill_gaps + 2`` of margin
+    on each side: a neighbour further away has more than ``fill_gaps`` bad
+    samples before it, so the grid sample is bad either way, and every chunk is
+    what the whole grid would be. A stored log stays stored (bounded memory).
+    """
+    q, tau, index, bad_before = samples
     zero = float(s[0])
     s = s - zero  # precision with epoch stamps
     if grid is not None:
@@ -445,33 +448,44 @@ def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, re
             f"samples from {s.size} rows; the time stamps are too irregular to "
             "resample."
         )
-    times = origin + h * np.arange(k0, k1 + 1)
-    values = np.column_stack([q, tau])
-    bad_before = ~np.all(np.isfinite(values), axis=1)
-    out = np.full((count, values.shape[1]), np.nan)
+    n = q.shape[1]
+    limit = None if is_stored(q) or is_stored(tau) else math.inf
+    sinks = RowSink(n, limit), RowSink(n, limit)
     bridged = np.zeros(count, bool)
     longest = (options.fill_gaps + 1) * h
-    for j in range(values.shape[1]):
-        finite = np.flatnonzero(np.isfinite(values[:, j]))
-        if finite.size < 2:
-            continue
-        xs = s[finite]
-        right = np.clip(np.searchsorted(xs, times, side="right"), 1, xs.size - 1)
-        left = right - 1
-        skipped = finite[right] - finite[left] - 1
-        span = xs[right] - xs[left]
-        inside = (times >= xs[0]) & (times <= xs[-1])
-        ok = inside & (skipped <= options.fill_gaps) & (span <= longest * (1 + 1e-9))
-        out[ok, j] = np.interp(times[ok], xs, values[finite, j])
-        bridged |= ok & ((skipped > 0) | (span > 1.5 * h))
+    margin = options.fill_gaps + 2
+    bad_after = 0
+    for c0 in range(0, count, _PLACE_SLOTS):
+        c1 = min(count, c0 + _PLACE_SLOTS)
+        times = origin + h * np.arange(k0 + c0, k0 + c1)
+        a = max(0, int(np.searchsorted(s, times[0], side="right")) - 1 - margin)
+        b = min(s.size, int(np.searchsorted(s, times[-1], side="left")) + 1 + margin)
+        values = np.hstack([_rows_of(q, index, a, b), _rows_of(tau, index, a, b)])
+        out = np.full((c1 - c0, 2 * n), np.nan)
+        for j in range(2 * n):
+            finite = np.flatnonzero(np.isfinite(values[:, j]))
+            if finite.size < 2:
+                continue
+            xs = s[a:b][finite]
+            right = np.clip(np.searchsorted(xs, times, side="right"), 1, xs.size - 1)
+            left = right - 1
+            skipped = finite[right] - finite[left] - 1
+            gap = xs[right] - xs[left]
+            inside = (times >= xs[0]) & (times <= xs[-1])
+            ok = inside & (skipped <= options.fill_gaps)
+            ok &= gap <= longest * (1 + 1e-9)
+            out[ok, j] = np.interp(times[ok], xs, values[finite, j])
+            bridged[c0:c1] |= ok & ((skipped > 0) | (gap > 1.5 * h))
+        sinks[0].append(out[:, :n])
+        sinks[1].append(out[:, n:])
+        bad_after += int((~np.all(np.isfinite(out), axis=1)).sum())
+    q_grid, tau_grid = sinks[0].finish(), sinks[1].finish()
     if bridged.sum() > MAX_FILLED_FRACTION * count:
         raise ValueError(
             f"{owner}: {int(bridged.sum())} of {count} resampled samples bridge gaps "
             f"or bad cells; more than {100 * MAX_FILLED_FRACTION:g} % would invent "
             "data: repair the log."
         )
-    n = q.shape[1]
-    q_grid, tau_grid = out[:, :n], out[:, n:]
     if bad_before.any():
         warnings.append(
             f"{int(bad_before.sum())} sample(s) with an empty, NaN or infinite q/tau "
@@ -481,8 +495,8 @@ def _resampled(owner, noun, s, q, tau, labels, step, grid, options, warnings, re
         )
     warnings.append(
         f"{reason}: resampled by linear interpolation onto a uniform grid of step "
-        f"{h:.6g} s ({count} samples); {int(_bad(q_grid, tau_grid).sum())} bad, "
+        f"{h:.6g} s ({count} samples); {bad_after} bad, "
         f"{int(bridged.sum())} bridging a gap."
     )
-    t = h * np.arange(count)
-    return Repaired(t, q_grid, tau_grid, h, (), float(times[0]) + zero, bridged)
+    t = GridTimes(h, count) if is_stored(q_grid) else h * np.arange(count)
+    return Repaired(t, q_grid, tau_grid, h, (), origin + h * k0 + zero, bridged)

@@ -294,3 +294,36 @@ def test_identify_reads_a_long_log_in_part(tmp_path, monkeypatch, long_logs):
     assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0
     assert json.loads(out.read_text())["valid"]
     assert loads and max(loads) <= BLOCK_ROWS < 79_000, sorted(loads)[-5:]
+
+
+def test_resampling_a_long_log_by_chunks_equals_one_piece(
+    tmp_path, monkeypatch, long_logs
+):
+    """``resample=True`` fills the grid a chunk at a time from the samples around
+    it (``fill_gaps + 2`` of margin): the same numbers as one piece, bit for bit,
+    with short and long runs of bad cells and a gap across chunk edges; a long log
+    stays stored."""
+    import drake_dynid.log_repair as log_repair
+
+    rng = np.random.default_rng(1)
+    n = 5000
+    t = 1.7e9 + np.cumsum(rng.uniform(0.5e-3, 1.6e-3, n))  # non-uniform, epoch
+    q = np.stack([np.sin(t - t[0]), np.cos(2 * (t - t[0]))], 1)
+    tau = rng.normal(size=(n, 2))
+    q[200:202, 0] = np.nan  # filled
+    q[3000:3030, 1] = np.nan  # kept bad
+    tau[4000, 1] = np.nan
+    keep = np.ones(n, bool)
+    keep[2500:2504] = False  # a gap
+    path = tmp_path / "irregular.csv"
+    write_log(path, t[keep], q[keep], tau[keep], ("a", "b"))
+    whole = read_log(path, ("a", "b"), resample=True)  # one chunk of 2^14 samples
+    monkeypatch.setattr(log_repair, "_PLACE_SLOTS", 37)
+    chunked = read_log(path, ("a", "b"), resample=True)
+    assert is_stored(chunked.q) and is_stored(chunked.tau)
+    for name in ("t", "q", "tau"):
+        np.testing.assert_array_equal(
+            np.asarray(getattr(chunked, name)), np.asarray(getattr(whole, name))
+        )
+    assert chunked.warnings == whole.warnings
+    assert np.isnan(np.asarray(chunked.q)[:, 1]).sum() > 0  # the long run stays bad
