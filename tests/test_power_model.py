@@ -248,6 +248,17 @@ def test_cli_measures_prints_and_echoes_the_position_noise(
     assert document["bootstrap"]["applied"] is False
     assert document["bootstrap"]["replicates"] == 0
     assert "covariance weighting's σ models" in document["bootstrap"]["reason"]
+    # A given torque noise with the power model's default weighting (was refused
+    # as if the weighting were 'frequency'); an asked bootstrap uses the given std.
+    argv = [*common, "--json", str(out), "--torque-noise", "0.3", "--bootstrap", "3"]
+    assert cli.main(argv) == 0
+    capsys.readouterr()
+    document = json.loads(out.read_text())
+    assert document["settings"]["weighting"] == "covariance"
+    assert document["settings"]["torque_noise"] == 0.3
+    assert document["bootstrap"]["applied"] is True
+    assert document["bootstrap"]["torque_noise"] == [0.3, 0.3]
+    np.testing.assert_allclose(document["bootstrap"]["position_noise"], measured)
     assert cli.main([*common, "--json", str(out), "--position-noise", "none"]) == 0
     assert "position noise" not in capsys.readouterr().out
     assert json.loads(out.read_text())["settings"]["position_noise"] is None

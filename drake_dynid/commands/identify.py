@@ -177,7 +177,7 @@ def default_weighting(args: argparse.Namespace, robot: Any = None) -> str | None
         args.model == "power"
         and getattr(args, "rows_from", "auto") != "raw"
         and not off
-        and (robot is None or robot.drive is None)
+        and getattr(robot, "drive", None) is None
     ):
         return "covariance"
     return None
@@ -214,6 +214,8 @@ def online_settings(
     from drake_dynid.core.online_checks import check_values
 
     kwargs = _setting_values(args, bandwidth)
+    if weighting is None:  # the model's default (power: covariance) from the start
+        weighting = default_weighting(args, robot)
     if rows_from is not None and "rows_from" not in kwargs:
         kwargs["rows_from"] = rows_from
     noises = (("position_noise", position_noise), ("torque_noise", torque_noise))
@@ -375,7 +377,8 @@ def final_bootstrap(
     ``core.bootstrap.bootstrap_std`` on the window of the solve that gave the
     estimate logged at ``last_valid`` (the solve at the previous logged time; its
     newest bank sample), with the white noise measured on the log
-    (``measured_noise``). Not applied (with the reason) when switched off, when
+    (``measured_noise``; the settings' ``position_noise``/``torque_noise`` when
+    given). Not applied (with the reason) when switched off, when
     fewer than 2 replicates are valid, or when the window's direct quadrature
     does not reproduce the estimate (a change detection restarted the window).
 
@@ -409,7 +412,16 @@ def final_bootstrap(
     h = log.time_step
     sample = (last_valid - 1) * settings.solve_decimation(h)  # the solve's sample
     end = sample - sample % settings.decimation(h)  # its newest bank sample
-    noise = (measured_noise(log), measured_noise(log, "torque"))
+    # The noise levels given for the rows' noise model (--position-noise,
+    # --torque-noise: the settings), else those measured on the log.
+    n = int(robot.num_joints)
+    noise = []
+    given = (settings.position_noise, settings.torque_noise)
+    for value, kind in zip(given, ("position", "torque"), strict=True):
+        if value is None:
+            noise.append(measured_noise(log, kind))
+        else:  # one value or one per joint
+            noise.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
     out["position_noise"] = [json_number(x) for x in noise[0]]
     out["torque_noise"] = [json_number(x) for x in noise[1]]
     result = bootstrap_std(
@@ -419,7 +431,7 @@ def final_bootstrap(
         log.tau,
         end,
         h,
-        noise,
+        (noise[0], noise[1]),
         replicates=int(replicates),
     )
     out["valid_replicates"] = result.replicates

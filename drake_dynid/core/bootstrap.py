@@ -93,7 +93,8 @@ def bootstrap_std(
         q: (N, n) positions of the log [rad or m] (an array or a stored log: only
             the window's samples are read).
         tau: (N, n) torques [N·m or N].
-        end: the window's newest bank sample (signal sample index).
+        end: the window's newest bank sample (signal sample index); the window
+            must be full (ValueError otherwise).
         time_step: h [s].
         noise_std: ``(σ_q, σ_τ)``, each (n,) >= 0: the white noise added to the
             positions [rad or m] and the torques [N·m or N].
@@ -125,6 +126,17 @@ def bootstrap_std(
     count = int(np.shape(q)[0])
     if not 0 <= int(end) < count:
         v.fail(owner, f"end must be a sample of the log (0..{count - 1}); got {end}.")
+    # A full window: its oldest bank sample has the differentiator's taps behind it
+    # (as the replay's validity, core.replay).
+    taps = s.jacobi_filters(h)[0].num_taps
+    first = int(end) - s.decimation(h) * s.bank().num_intervals
+    if first + 1 < taps:
+        v.fail(
+            owner,
+            f"the window ending at sample {end} is not full: its oldest bank sample "
+            f"{first} needs {taps - 1} samples before it (end >= "
+            f"{int(end) - first + taps - 1}).",
+        )
     start = window_start(s, h, int(end))
     q_window = np.asarray(q[start : end + 1], dtype=float)
     tau_window = np.asarray(tau[start : end + 1], dtype=float)

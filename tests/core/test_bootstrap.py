@@ -95,3 +95,8 @@ def test_bad_arguments_are_named(case):
         bootstrap_std(*args, (np.ones(3), NOISE[1]))
     with pytest.raises(ValueError, match="end must be a sample of the log"):
         bootstrap_std(rows, settings, log.q, log.tau, 10**6, H, NOISE)
+    # A window that is not full yet (its oldest bank sample without the filter's
+    # history, or before the log): named, never an estimate of a partial window.
+    for end in (1000, 4000, 4990):
+        with pytest.raises(ValueError, match=f"window ending at sample {end} is not"):
+            bootstrap_std(rows, settings, log.q, log.tau, end, H, NOISE)
