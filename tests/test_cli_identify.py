@@ -389,3 +389,23 @@ def test_identify_reports_the_larger_of_the_window_and_bootstrap_sigma(
     assert np.any(np.asarray(on["std"]) > window_std["0"])  # it mattered here
     assert cli.main(["identify", str(noisy), "--urdf", URDF, "--bootstrap", "1"]) == 2
     assert "--bootstrap must be 0 (no bootstrap) or" in capsys.readouterr().err
+
+
+def test_final_bootstrap_skips_a_window_that_is_not_full(simulation):
+    """A final estimate whose window is not a full sliding window (as a detected
+    change can leave it) gets the window's σ and the reason, never an error."""
+    from types import SimpleNamespace
+
+    from drake_dynid.commands.identify import final_bootstrap
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.logs import RobotLog
+
+    robot = RobotModel.from_urdf(URDF)
+    log = RobotLog(
+        simulation.t, simulation.q, simulation.tau, simulation.joint_names, 1e-3
+    )
+    settings = OnlineSettings(window=2.0, bandwidth=2.0).on_grid(1e-3)
+    trace = SimpleNamespace(theta=np.ones((20, 8)), std=np.ones((20, 8)))
+    out = final_bootstrap(4, log, robot, settings, trace, 3)  # end = 0.2 s
+    assert out["applied"] is False and out["std"] is None
+    assert "is not full" in out["reason"] and "no bootstrap" in out["line"]

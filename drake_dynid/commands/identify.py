@@ -424,16 +424,19 @@ def final_bootstrap(
             noise.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
     out["position_noise"] = [json_number(x) for x in noise[0]]
     out["torque_noise"] = [json_number(x) for x in noise[1]]
-    result = bootstrap_std(
-        robot.rows_provider(),
-        settings,
-        log.q,
-        log.tau,
-        end,
-        h,
-        (noise[0], noise[1]),
-        replicates=int(replicates),
-    )
+    try:
+        result = bootstrap_std(
+            robot.rows_provider(),
+            settings,
+            log.q,
+            log.tau,
+            end,
+            h,
+            (noise[0], noise[1]),
+            replicates=int(replicates),
+        )
+    except ValueError as error:  # e.g. a window a detected change left short
+        return skipped(str(error).removeprefix("bootstrap_std: "))
     out["valid_replicates"] = result.replicates
     theta = np.asarray(trace.theta[last_valid])
     scale = np.fmax(np.abs(theta), np.asarray(trace.std[last_valid]))
