@@ -17,8 +17,10 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
 5. Per block: µs per 1 kHz step and state size; the sliding integrals against a
    direct quadrature of the whole window at every bank step.
 6. 7-DOF iiwa7 logs (60 s and 600 s, 1 kHz; benchmarks/_arm7.py): ``dynid offline``
-   and ``dynid identify`` end to end, each run in a fresh process (start, imports,
-   URDF, CSV, compute, JSON) with its own peak memory, beside a Pinocchio + scipy
+   and ``dynid identify`` end to end (at 60 s also with ``--rows-from filtered`` and
+   with ``--bootstrap 0``, without the final σ's bootstrap), each run in a fresh
+   process (start, imports, URDF, CSV, compute, JSON) with its own peak memory,
+   beside a Pinocchio + scipy
    off-line reference of the same algorithm (60 s); both commands on a 1-hour CSV
    log (1.08 GB, written to a temporary file; not with ``--quick``); the off-line
    API on a 1-hour log built in memory (peak memory with and without the log's own
