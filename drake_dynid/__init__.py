@@ -66,6 +66,8 @@ _LAZY: dict[str, str] = {
     "position_noise_std": "drake_dynid.core.excitation",
     "rows_from_noise": "drake_dynid.core.raw_rows",
     "jackknife_std": "drake_dynid.core.jackknife",
+    "bootstrap_std": "drake_dynid.core.bootstrap",
+    "motion_and_noise": "drake_dynid.core.excitation",
     "FourierTrajectory": "drake_dynid.core.trajectory",
     "random_fourier_trajectory": "drake_dynid.core.trajectory",
     "optimize_fourier_trajectory": "drake_dynid.core.trajectory",
