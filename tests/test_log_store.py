@@ -327,3 +327,42 @@ def test_resampling_a_long_log_by_chunks_equals_one_piece(
         )
     assert chunked.warnings == whole.warnings
     assert np.isnan(np.asarray(chunked.q)[:, 1]).sum() > 0  # the long run stays bad
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_resampling_by_chunks_equals_one_piece_on_random_logs(seed, monkeypatch):
+    """Random irregular stamps, bad-cell runs of every length around ``fill_gaps``,
+    dropped rows and chunk sizes down to 1 sample: the chunked interpolation gives
+    the one-piece numbers, bad samples and bridged flags bit for bit."""
+    import drake_dynid.log_repair as log_repair
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(200, 600))
+    t = np.cumsum(1e-3 * (1.0 + 0.35 * rng.uniform(-1.0, 1.0, n)))  # 35 % jitter
+    q, tau = rng.normal(size=(2, n, 2))
+    for values in (q, tau):
+        for _ in range(int(rng.integers(0, 3))):
+            start = int(rng.integers(0, n - 1))
+            length = int(rng.integers(1, 9))
+            values[start : start + length, int(rng.integers(0, 2))] = np.nan
+    keep = rng.uniform(size=n) > 0.01
+    keep[[0, 1, -2, -1]] = True
+    args = (t[keep], q[keep], tau[keep], ("a", "b"))
+    fill_gaps = int(rng.integers(0, 6))
+
+    def read():
+        try:
+            return RobotLog.from_arrays(*args, resample=True, fill_gaps=fill_gaps)
+        except ValueError as error:  # the same refusal either way
+            return str(error)
+
+    whole = read()
+    monkeypatch.setattr(log_repair, "_PLACE_SLOTS", int(rng.integers(1, 12)))
+    chunked = read()
+    if isinstance(whole, str):
+        assert chunked == whole
+        return
+    for name in ("t", "q", "tau", "filled"):
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+    assert chunked.warnings == whole.warnings
+    assert chunked.time_offset == whole.time_offset
