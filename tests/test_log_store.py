@@ -341,14 +341,14 @@ def test_resampling_by_chunks_equals_one_piece_on_random_logs(seed, monkeypatch)
     t = np.cumsum(1e-3 * (1.0 + 0.35 * rng.uniform(-1.0, 1.0, n)))  # 35 % jitter
     q, tau = rng.normal(size=(2, n, 2))
     for values in (q, tau):
-        for _ in range(int(rng.integers(0, 3))):
+        for _ in range(int(rng.integers(2, 7))):  # runs of 1 to 7 bad cells
             start = int(rng.integers(0, n - 1))
-            length = int(rng.integers(1, 9))
+            length = int(rng.integers(1, 8))
             values[start : start + length, int(rng.integers(0, 2))] = np.nan
     keep = rng.uniform(size=n) > 0.01
     keep[[0, 1, -2, -1]] = True
     args = (t[keep], q[keep], tau[keep], ("a", "b"))
-    fill_gaps = int(rng.integers(0, 6))
+    fill_gaps = int(rng.integers(1, 6))
 
     def read():
         try:
