@@ -478,7 +478,7 @@ def _resampled(owner, noun, s, samples, labels, step, grid, options, warnings, r
             bridged[c0:c1] |= ok & ((skipped > 0) | (gap > 1.5 * h))
         sinks[0].append(out[:, :n])
         sinks[1].append(out[:, n:])
-        bad_after += int((~np.all(np.isfinite(out), axis=1)).sum())
+        bad_after += int(_bad(out[:, :n], out[:, n:]).sum())
     q_grid, tau_grid = sinks[0].finish(), sinks[1].finish()
     if bridged.sum() > MAX_FILLED_FRACTION * count:
         raise ValueError(

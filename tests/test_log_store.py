@@ -266,7 +266,6 @@ def test_identify_reads_a_long_log_in_part(tmp_path, monkeypatch, long_logs):
     import traceback
 
     import drake_dynid.core.excitation as excitation
-    import drake_dynid.core.idim_auto as idim_auto
     from drake_dynid import cli
 
     robot = RobotModel.from_urdf(model_path("planar_2r"))
@@ -274,7 +273,6 @@ def test_identify_reads_a_long_log_in_part(tmp_path, monkeypatch, long_logs):
     path = tmp_path / "long.csv"
     write_log(path, t, q, tau, robot.joint_names)
     monkeypatch.setattr(excitation, "SPECTRUM_PIECE", 6000)
-    monkeypatch.setattr(idim_auto, "_SPECTRUM_PIECE", 6000)
     loads = []
     read = log_store.StoredArray._read
     # Every other read is a block of at most BLOCK_ROWS (2^16) rows, a spectrum

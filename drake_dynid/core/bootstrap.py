@@ -63,13 +63,17 @@ def window_start(settings: Any, time_step: float, end: int) -> int:
     before it and the longest filter or raw-velocity history (``settings`` put on
     the grid and resolved for the robot, :meth:`OnlineSettings.for_robot`).
     """
-    bank = settings.bank()
     decimation = settings.decimation(time_step)
     history = settings.jacobi_filters(time_step)[0].num_taps
     if settings.rows_from == "raw":
         history = max(history, settings.raw_design(time_step).history)
-    first = end - decimation * bank.num_intervals - decimation - history
+    first = _oldest_bank_sample(settings, time_step, end) - decimation - history
     return max(0, first - decimation)
+
+
+def _oldest_bank_sample(settings: Any, time_step: float, end: int) -> int:
+    """``end - D·N_bank``: the oldest bank sample of the window ending at ``end``."""
+    return int(end) - settings.decimation(time_step) * settings.bank().num_intervals
 
 
 def bootstrap_std(
@@ -129,7 +133,7 @@ def bootstrap_std(
     # A full window: its oldest bank sample has the differentiator's taps behind it
     # (as the replay's validity, core.replay).
     taps = s.jacobi_filters(h)[0].num_taps
-    first = int(end) - s.decimation(h) * s.bank().num_intervals
+    first = _oldest_bank_sample(s, h, end)
     if first + 1 < taps:
         v.fail(
             owner,

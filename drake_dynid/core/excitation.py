@@ -32,6 +32,7 @@ dominate the f²-weighted velocity spectrum (about 10 % of the velocity power up
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -47,6 +48,7 @@ __all__ = [
     "motion_and_noise",
     "periodogram",
     "position_noise_std",
+    "record_pieces",
     "velocity_rms",
     "velocity_spectrum",
 ]
@@ -146,6 +148,20 @@ def velocity_rms(q: Any, time_step: float, *, threshold: float = 20.0) -> np.nda
     return np.sqrt(power.sum(axis=0) * (f[1] - f[0]))
 
 
+def record_pieces(q: Any) -> Iterator[np.ndarray]:
+    """The equal pieces of at most :data:`SPECTRUM_PIECE` rows of a record.
+
+    ``N // count`` rows each (count = ⌈N / SPECTRUM_PIECE⌉; the last ``N mod
+    count`` rows are left out), as float arrays read one at a time (``q`` may be
+    a stored log); one piece, the whole record, up to SPECTRUM_PIECE rows.
+    """
+    total = int(np.shape(q)[0])
+    count = max(1, -(-total // SPECTRUM_PIECE))
+    length = total // count
+    for k in range(count):
+        yield np.asarray(q[k * length : (k + 1) * length], dtype=float)
+
+
 def motion_and_noise(
     q: Any, time_step: float, *, threshold: float = 20.0
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -166,11 +182,10 @@ def motion_and_noise(
     """
     shape = np.shape(q)  # q may be a stored log (read a piece at a time)
     if len(shape) == 2 and shape[0] > SPECTRUM_PIECE:
-        count = -(-shape[0] // SPECTRUM_PIECE)
-        length = shape[0] // count
         squares = np.zeros((2, shape[1]))
-        for k in range(count):
-            piece = np.asarray(q[k * length : (k + 1) * length], dtype=float)
+        count = 0
+        for piece in record_pieces(q):
+            count += 1
             for j in range(shape[1]):
                 one = motion_and_noise(piece[:, j], time_step, threshold=threshold)
                 squares[:, j] += (one[0][0] ** 2, one[1][0] ** 2)

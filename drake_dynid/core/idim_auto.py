@@ -42,10 +42,11 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.core import excitation
 from drake_dynid.core.blocks import checked_rows, is_stored
 from drake_dynid.core.excitation import (
-    SPECTRUM_PIECE,
     estimate_bandwidth,
+    record_pieces,
     velocity_spectrum,
 )
 
@@ -75,7 +76,6 @@ the paper's 2R at SNR 30 dB, 0.2 (25 Hz) still gave errors within 2σ, 1.5 (50 H
 5σ and 12 (100 Hz) 30σ: the errors-in-variables bias of v² and sign(v) terms, which
 σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
-_SPECTRUM_PIECE = SPECTRUM_PIECE  # longest segment whose bandwidth is one periodogram
 
 
 def _position_spectra(
@@ -212,15 +212,13 @@ def velocity_bandwidth(q: np.ndarray, time_step: float) -> float:
     Raises:
         ValueError: no joint moves above the noise (or fewer than 64 samples).
     """
-    if q.shape[0] <= _SPECTRUM_PIECE:
+    if q.shape[0] <= excitation.SPECTRUM_PIECE:
         return estimate_bandwidth(np.asarray(q, dtype=float), time_step)
-    count = -(-q.shape[0] // _SPECTRUM_PIECE)
-    length = q.shape[0] // count
     power = np.empty(0)
     f = np.empty(0)
-    for k in range(count):  # summed piece by piece, joint by joint: bounded memory
-        piece = np.asarray(q[k * length : (k + 1) * length], dtype=float)
-        piece = piece.reshape(length, -1)
+    # Summed piece by piece, joint by joint: bounded memory.
+    for k, piece in enumerate(record_pieces(q)):
+        piece = piece.reshape(piece.shape[0], -1)
         for j in range(piece.shape[1]):
             f, part = velocity_spectrum(piece[:, j], time_step)
             if k == 0 and j == 0:

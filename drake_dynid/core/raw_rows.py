@@ -290,10 +290,10 @@ def rows_from_noise(
 ) -> tuple[str, float, float]:
     """``(rows_from, ratio, threshold)``: the rows a log's position noise calls for.
 
-    ``ratio = max_j σ_j·‖c‖₂ / v_rms,j``: σ_j the white position noise of joint j
-    (``core.excitation.position_noise_std``), ‖c‖₂ the noise gain of the raw
-    rows' central velocity estimator of window ``raw_window`` [1/s], v_rms,j the
-    RMS velocity of the motion (``core.excitation.velocity_rms``); joints that do
+    ``ratio = max_j σ_j·‖c‖₂ / v_rms,j``: σ_j the white position noise of joint j,
+    ‖c‖₂ the noise gain of the raw rows' central velocity estimator of window
+    ``raw_window`` [1/s], v_rms,j the RMS velocity of the motion (both from one
+    periodogram, ``core.excitation.motion_and_noise``); joints that do
     not move are ignored. ``"raw"`` (no filter bias, more velocity noise) when
     ``ratio <= threshold = raw_noise_threshold(bandwidth, jacobi_window)`` (the
     filtered rows' bias grows like (2π·B·Tj)²), else ``"filtered"``.
