@@ -34,6 +34,7 @@ from drake_dynid.core.rigid_body import (
 from drake_dynid.core.rows import (
     as_batches,
     check_model_kind,
+    lagrangian_friction_part,
     model_rows_from_parts,
     pack_rows,
 )
@@ -406,6 +407,26 @@ class RobotRows:
         if self._motors is not None:
             self._add_motor_friction(kind, v, out[1])
         return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
+
+    def lagrangian_friction_rows(self, v) -> tuple[np.ndarray, np.ndarray] | None:
+        """G's friction part of the Lagrangian rows: ``(columns, values)``.
+
+        ``core.rows.lagrangian_friction_part`` on the joint friction's base columns:
+        v (N, n) [rad/s or m/s] -> the columns (k,) and their values (N, n, k) in G.
+        None with drive motors (their friction columns are added elsewhere,
+        ``_add_motor_friction``).
+        """
+        if self._motors is not None:
+            return None
+        if self.friction:
+            self._check_friction_columns()
+        return lagrangian_friction_part(
+            np.asarray(v, dtype=float),
+            self._friction_base_slice(),
+            self.friction,
+            self.num_parameters,
+            self.sign,
+        )
 
     def _friction_base_slice(self) -> slice:
         """Base columns of the joint friction (contiguous; empty without)."""

@@ -30,6 +30,7 @@ def load_benchmark(name, monkeypatch):
     "name",
     [
         "bench_bank",
+        "bench_bootstrap",
         "bench_jacobi",
         "bench_physical",
         "bench_pipeline",

@@ -377,6 +377,9 @@ def test_identify_reports_the_larger_of_the_window_and_bootstrap_sigma(
     off, on = documents["0"]["bootstrap"], documents["8"]["bootstrap"]
     assert off["applied"] is False and off["reason"] == "--bootstrap 0"
     assert on["applied"] is True and on["valid_replicates"] == 8
+    rows_from = documents["8"]["settings"]["rows_from"]  # raw: first-order replicates
+    assert on["method"] == {"raw": "linearized", "filtered": "exact"}[rows_from]
+    assert off["method"] is None
     np.testing.assert_allclose(on["position_noise"], 1e-3, rtol=0.1)
     np.testing.assert_array_equal(window_std["0"], window_std["8"])  # the on-line σ
     reported = {

@@ -198,6 +198,13 @@ def test_the_coupled_motor_has_its_own_columns(runs):
     assert values["FC3"] == pytest.approx(0.6 + N[2] * FC[2])
 
 
+def test_motor_friction_is_not_split_for_the_linearised_bootstrap(runs):
+    """With motors, G's friction is not the joint friction part alone: the raw rows'
+    linearisation (core.raw_rows) is refused and the bootstrap solves exactly."""
+    robot = runs[True]["robot"]
+    assert robot.lagrangian_friction_rows(np.zeros((3, 4))) is None
+
+
 def test_the_raw_files_convert_to_the_true_joint_signals(runs):
     log = runs[True]["log"]
     assert log.num_samples == 8001 and log.time_step == pytest.approx(0.005)

@@ -161,3 +161,30 @@ def test_core_replay_argument_checks(robot, log):
         replay_log_core(log, object(), [OnlineSettings()])
     with pytest.raises(TypeError, match="settings must be OnlineSettings"):
         replay_log_core(log, robot.rows_provider(), [{"window": 2.0}])
+
+
+def test_filters_at_the_bank_samples_equal_the_whole_log_filters():
+    """core.replay.filtered_at (the FIRs at some samples) against filtered_signals
+    (the whole log): values to round-off, and validity: not before the taps are
+    filled, nor while a non-finite sample is in the window."""
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.replay import filtered_at, filtered_signals
+
+    settings = OnlineSettings(window=2.0, bandwidth=1.0).on_grid(1e-3)
+    rng = np.random.default_rng(8)
+    q, tau = np.cumsum(rng.normal(size=(2, 3000, 3)), axis=1) * 1e-2
+    q[1500, 2] = np.nan
+    tau[2200, 0] = np.inf
+    whole = filtered_signals(q, tau, settings, 1e-3)
+    taps = settings.jacobi_filters(1e-3)[0].num_taps
+    for index in (
+        np.arange(0, 3000, 20),
+        np.array([taps - 2, taps - 1, 1499, 1500, 1500 + taps - 1, 1500 + taps]),
+        np.array([2999]),
+    ):
+        at = filtered_at(q, tau, settings, 1e-3, index)
+        np.testing.assert_array_equal(at[3], whole[3][index])
+        for mine, reference in zip(at[:3], whole[:3], strict=True):
+            np.testing.assert_allclose(mine, reference[index], rtol=1e-12, atol=1e-12)
+    assert not filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps - 1]))[3][0]
+    assert filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps]))[3][0]

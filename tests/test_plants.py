@@ -380,6 +380,27 @@ def test_power_lagrange_and_model_identities(models, name):
             np.testing.assert_allclose(ddt_d + g, w, atol=1e-9)
 
 
+@pytest.mark.parametrize("name", ["planar_2r", "ur5", "tree"])
+def test_lagrangian_friction_part_is_gs_friction(models, name):
+    """``lagrangian_friction_rows``: exactly G's friction columns (the only ones of
+    G that friction touches), for the URDF models and the analytic 2R."""
+    model = models[name]
+    n = model.num_joints
+    q, v, _ = _trajectory(n, np.linspace(0.0, 3.0, 7))
+    providers = [model] + ([Planar2RRows()] if name == "planar_2r" else [])
+    for rows in providers:
+        _, g, _ = rows.model_rows("lagrangian", q, v, np.zeros_like(q))
+        columns, values = rows.lagrangian_friction_rows(v)
+        np.testing.assert_array_equal(g[:, :, columns], values)
+        kinds = len(rows.friction)  # ur5: viscous, Coulomb and offset
+        assert columns.size == n * kinds and np.any(values != 0.0)
+        # Joint i's row holds its own friction only.
+        others = np.ones((n, n * kinds), dtype=bool)
+        for i in range(n):
+            others[i, i * kinds : (i + 1) * kinds] = False
+        np.testing.assert_array_equal(values[:, others], 0.0)
+
+
 # ---------------------------------------------------------------- base parameter counts
 
 

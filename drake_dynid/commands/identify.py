@@ -384,13 +384,14 @@ def final_bootstrap(
 
     Returns:
         The JSON ``bootstrap`` object (``applied``, ``replicates``,
-        ``valid_replicates``, ``position_noise``, ``torque_noise``, ``std``,
-        ``reason``) and ``line``, the text report's line.
+        ``valid_replicates``, ``method``, ``position_noise``, ``torque_noise``,
+        ``std``, ``reason``) and ``line``, the text report's line.
     """
     out: dict[str, Any] = {
         "applied": False,
         "replicates": int(replicates),
         "valid_replicates": 0,
+        "method": None,
         "position_noise": None,
         "torque_noise": None,
         "std": None,
@@ -438,6 +439,7 @@ def final_bootstrap(
     except ValueError as error:  # e.g. a window a detected change left short
         return skipped(str(error).removeprefix("bootstrap_std: "))
     out["valid_replicates"] = result.replicates
+    out["method"] = result.method
     theta = np.asarray(trace.theta[last_valid])
     scale = np.fmax(np.abs(theta), np.asarray(trace.std[last_valid]))
     if not np.all(np.abs(result.nominal - theta) <= 1e-6 * scale):

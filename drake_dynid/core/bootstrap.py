@@ -26,6 +26,7 @@ max(σ, σ_B) per parameter for its final estimate; the accuracy benchmark
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,11 +50,15 @@ class BootstrapStd:
         nominal: (p,) θ̂ of the unperturbed window (its direct quadrature: the
             identifier's estimate to round-off); NaN when that window is not valid.
         replicates: the replicates whose window was valid.
+        method: ``"linearized"`` (the raw rows' replicates to first order,
+            ``core.raw_rows.linearized_channels``) or ``"exact"`` (each
+            replicate's window solved again from its signals).
     """
 
     std: np.ndarray
     nominal: np.ndarray
     replicates: int
+    method: str = "exact"
 
 
 def window_start(settings: Any, time_step: float, end: int) -> int:
@@ -87,6 +92,7 @@ def bootstrap_std(
     *,
     replicates: int = DEFAULT_REPLICATES,
     seed: int = 0,
+    linearized: bool = True,
 ) -> BootstrapStd:
     """σ of the estimate of the window ending at ``end``, by parametric bootstrap.
 
@@ -104,12 +110,15 @@ def bootstrap_std(
             positions [rad or m] and the torques [N·m or N].
         replicates: K >= 2.
         seed: seed of ``numpy.random.default_rng`` (the result is reproducible).
+        linearized: with raw rows of a Lagrangian model whose provider gives its
+            friction part apart, solve the replicates from the window's rows
+            perturbed to first order (``core.raw_rows.linearized_channels``: one
+            row evaluation per bank sample instead of D; the same draws); False:
+            solve each replicate's window again from its signals.
 
     Returns:
         :class:`BootstrapStd`.
     """
-    from drake_dynid.core.replay import window_estimate
-
     owner = "bootstrap_std"
     n = int(rows.num_joints)
     p = int(rows.num_parameters)
@@ -145,23 +154,85 @@ def bootstrap_std(
     q_window = np.asarray(q[start : end + 1], dtype=float)
     tau_window = np.asarray(tau[start : end + 1], dtype=float)
     last = int(end) - start
-
-    def solve(qk: np.ndarray, tauk: np.ndarray) -> np.ndarray | None:
-        result = window_estimate(rows, s, qk, tauk, last, h)
-        return np.asarray(result.theta) if result.valid else None
-
-    nominal = solve(q_window, tau_window)
     rng = np.random.default_rng(seed)
-    draws = []
-    for _ in range(replicates):
-        qk = q_window + sigma_q * rng.standard_normal(q_window.shape)
-        tauk = tau_window + sigma_tau * rng.standard_normal(tau_window.shape)
-        theta = solve(qk, tauk)
-        if theta is not None:
-            draws.append(theta)
+    noise = (
+        (
+            sigma_q * rng.standard_normal(q_window.shape),
+            sigma_tau * rng.standard_normal(tau_window.shape),
+        )
+        for _ in range(replicates)
+    )
+    solve = (
+        _linearized_solver(rows, s, q_window, tau_window, last, h)
+        if linearized
+        else None
+    )
+    method = "exact" if solve is None else "linearized"
+    if solve is None:
+        solve = _exact_solver(rows, s, q_window, tau_window, last, h)
+    nominal = solve(None, None)
+    draws = [theta for dq, dtau in noise if (theta := solve(dq, dtau)) is not None]
     std = np.std(draws, axis=0, ddof=1) if len(draws) >= 2 else np.full(p, np.nan)
     return BootstrapStd(
         std=std,
         nominal=np.full(p, np.nan) if nominal is None else nominal,
         replicates=len(draws),
+        method=method,
     )
+
+
+Solver = Callable[[np.ndarray | None, np.ndarray | None], np.ndarray | None]
+
+
+def _exact_solver(
+    rows: Any, s: Any, q: np.ndarray, tau: np.ndarray, end: int, h: float
+) -> Solver:
+    """(δq, δτ) -> θ̂ of the window of q + δq, τ + δτ ending at ``end``, or None.
+
+    ``core.replay.window_estimate`` (the unperturbed window for None).
+    """
+    from drake_dynid.core.replay import window_estimate
+
+    def solve(dq: np.ndarray | None, dtau: np.ndarray | None) -> np.ndarray | None:
+        if dq is None or dtau is None:
+            result = window_estimate(rows, s, q, tau, end, h)
+        else:
+            result = window_estimate(rows, s, q + dq, tau + dtau, end, h)
+        return np.asarray(result.theta) if result.valid else None
+
+    return solve
+
+
+def _linearized_solver(
+    rows: Any, s: Any, q: np.ndarray, tau: np.ndarray, end: int, h: float
+) -> Solver | None:
+    """(δq, δτ) -> θ̂ of the window ending at ``end`` with linearised raw rows.
+
+    ``core.raw_rows.linearized_channels`` (None for the unperturbed window, the
+    exact channels); None when it does not apply: rows not raw, a covariance
+    weighting (its Σ would need the perturbed signals), or no
+    ``core.raw_rows.raw_linearization``.
+    """
+    from drake_dynid.core.raw_rows import linearized_channels, raw_linearization
+    from drake_dynid.core.replay import channel_equations, solve_equations
+
+    if s.rows_from != "raw" or s.weighting == "covariance":
+        return None
+    provider = s.row_provider(rows, h)
+    design = s.raw_design(h)
+    index = end - s.decimation(h) * np.arange(s.bank().num_intervals, -1, -1)
+    lin = raw_linearization(design, provider, s.model, q, tau, index)
+    if lin is None:
+        return None
+
+    def solve(dq: np.ndarray | None, dtau: np.ndarray | None) -> np.ndarray | None:
+        if dq is None or dtau is None:
+            channels = lin.channels
+        else:
+            channels = linearized_channels(
+                lin, design, provider, s.model, dq, dtau, index
+            )
+        result = solve_equations(provider, s, *channel_equations(provider, s, channels))
+        return np.asarray(result.theta) if result.valid else None
+
+    return solve

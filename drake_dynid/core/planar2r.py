@@ -51,6 +51,7 @@ from drake_dynid.core.rows import (
     as_batch,
     as_batches,
     check_model_kind,
+    lagrangian_friction_part,
     model_rows_from_parts,
 )
 
@@ -294,6 +295,21 @@ class Planar2RRows:
                     out[row + k] = vi * friction_value(kind_f, vi, sign)
             out[2 * p] = v1 * float(tau[0]) + v2 * float(tau[1])
         return np.array(out)
+
+    def lagrangian_friction_rows(self, v) -> tuple[np.ndarray, np.ndarray]:
+        """G's friction part of the Lagrangian rows: ``(columns, values)``.
+
+        ``core.rows.lagrangian_friction_part``: v (N, 2) [rad/s] -> the friction
+        columns (k,) and their values (N, 2, k) in G.
+        """
+        v = np.asarray(v, dtype=float)
+        return lagrangian_friction_part(
+            v,
+            slice(_NUM_INERTIAL, None),
+            self.friction,
+            self.num_parameters,
+            self.sign,
+        )
 
     def model_rows(
         self, kind: str, q, v, tau

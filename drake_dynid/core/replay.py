@@ -60,8 +60,11 @@ from drake_dynid.core.weighted_lsq import solve_window
 __all__ = [
     "bank_channels",
     "bank_windows",
+    "channel_equations",
+    "filtered_at",
     "filtered_signals",
     "replay_log_core",
+    "solve_equations",
     "window_covariance",
     "window_covariance_at",
     "window_equations",
@@ -120,20 +123,34 @@ def filtered_at(
     """
     smooth, velocity = settings.jacobi_filters(time_step)
     taps = smooth.num_taps
-    lags = index[:, None] - np.arange(taps)
-    before = lags < 0
-    window = np.concatenate(
-        (q[np.maximum(lags, 0)], tau[np.maximum(lags, 0)]), axis=-1
-    )  # (B, N+1, 2n), newest first
-    window[before] = 0.0
-    finite = np.isfinite(window)
-    bad = ~finite.all(axis=(1, 2))
-    if bad.any():
-        window = np.where(finite, window, 0.0)
+    index = np.asarray(index, dtype=int)
     n = q.shape[1]
-    smoothed = np.einsum("t,btc->bc", smooth.taps, window)
-    q_dot = np.einsum("t,btc->bc", velocity.taps, window[:, :, :n])
+    if index.size == 0:
+        empty = np.zeros((0, n))
+        return empty, empty.copy(), empty.copy(), np.zeros(0, dtype=bool)
+    # The span of samples the windows read, once (a stored log is read in part).
+    low = max(0, int(index.min()) - taps + 1)
+    span = np.concatenate(
+        (
+            np.asarray(q[low : int(index.max()) + 1], dtype=float),
+            np.asarray(tau[low : int(index.max()) + 1], dtype=float),
+        ),
+        axis=1,
+    )
+    finite = np.isfinite(span).all(axis=1)
+    if not finite.all():  # filtered as zeros, the windows that hold them invalid
+        span = np.where(np.isfinite(span), span, 0.0)
+    lags = index[:, None] - low - np.arange(taps)  # rows of span, newest first
+    window = span.T[:, np.maximum(lags, 0)]  # (2n, B, N+1)
+    if low == 0 and (lags < 0).any():
+        window[:, lags < 0] = 0.0  # zeros before the first sample
+    smoothed = window @ smooth.taps  # (2n, B)
+    q_dot = window[:n] @ velocity.taps
+    bad_before = np.concatenate(([0], np.cumsum(~finite)))
+    first = np.maximum(index - low - taps + 1, 0)
+    bad = bad_before[index - low + 1] - bad_before[first] > 0
     valid = (index + 1 >= taps) & ~bad
+    smoothed, q_dot = smoothed.T, q_dot.T
     return smoothed[:, :n], q_dot, smoothed[:, n:], valid
 
 
@@ -422,14 +439,49 @@ def window_equations(
             s.raw_design(time_step), rows, s.model, q, tau, index
         )
     else:
-        found = filtered_signals(q, tau, s, time_step) if signals is None else signals
-        q_hat, v_hat, tau_hat = found[:3]
-        channels = bank_channels(
-            rows, s.model, q_hat[index], v_hat[index], tau_hat[index]
-        )
-    m = s.num_equations(int(rows.num_joints))
+        if signals is None:  # the filters' outputs at the bank samples only
+            q_hat, v_hat, tau_hat, _ = filtered_at(q, tau, s, time_step, index)
+        else:
+            q_hat, v_hat, tau_hat = (np.asarray(x)[index] for x in signals[:3])
+        channels = bank_channels(rows, s.model, q_hat, v_hat, tau_hat)
+    return channel_equations(rows, s, channels)
+
+
+def channel_equations(
+    rows: Any, settings: OnlineSettings, channels: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A θ = B`` of one window from its bank channels (direct quadrature).
+
+    ``core.equations.direct_fourier_integrals`` of the (N_bank + 1, c) channels,
+    oldest first, then ``assemble_equations``; ``settings`` resolved for the
+    robot (:meth:`OnlineSettings.for_robot`).
+    """
+    bank = settings.bank()
+    m = settings.num_equations(int(rows.num_joints))
     p = int(rows.num_parameters)
     return assemble_equations(bank, direct_fourier_integrals(bank, channels), m, p)
+
+
+def solve_equations(
+    rows: Any, settings: OnlineSettings, a: np.ndarray, b: np.ndarray, covariance=None
+) -> LeastSquaresResult:
+    """The identifier's solve of one window's ``A θ = B``.
+
+    ``core.lsq.solve_window`` with the weighting, ``max_condition``, row noise and
+    jackknife groups of ``settings`` (resolved for the robot); ``covariance``:
+    :func:`window_covariance_at`'s θ -> Σ, or None.
+    """
+    m = settings.num_equations(int(rows.num_joints))
+    return solve_window(
+        a,
+        b,
+        settings.row_weighting(m),
+        max_condition=settings.max_condition,
+        names=rows.names,
+        noise=settings.row_noise(m),
+        jackknife=settings.jackknife_groups(m),
+        covariance=covariance,
+    )
 
 
 def window_estimate(
@@ -450,19 +502,8 @@ def window_estimate(
     """
     s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, time_step, signals=signals)
-    m = s.num_equations(int(rows.num_joints))
-    return solve_window(
-        a,
-        b,
-        s.row_weighting(m),
-        max_condition=s.max_condition,
-        names=rows.names,
-        noise=s.row_noise(m),
-        jackknife=s.jackknife_groups(m),
-        covariance=window_covariance_at(
-            rows, s, q, tau, end, time_step, signals=signals
-        ),
-    )
+    covariance = window_covariance_at(rows, s, q, tau, end, time_step, signals=signals)
+    return solve_equations(rows, s, a, b, covariance)
 
 
 def window_covariance_at(

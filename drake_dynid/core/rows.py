@@ -35,6 +35,7 @@ __all__ = [
     "as_batches",
     "check_model_kind",
     "check_rows",
+    "lagrangian_friction_part",
     "model_rows_from_parts",
     "num_channels",
     "num_equations",
@@ -234,3 +235,23 @@ def model_rows_from_parts(
         g_rows[:, :, friction_slice] += friction_idim_columns(v, friction, sign)
         y = tau.copy()
     return d_rows, g_rows, y
+
+
+def lagrangian_friction_part(
+    v: np.ndarray,
+    friction_slice: slice,
+    friction: Sequence[str],
+    num_parameters: int,
+    sign: SignLaw = EXACT_SIGN,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The friction part of the Lagrangian G rows of :func:`model_rows_from_parts`.
+
+    ``(columns, values)``: the parameter columns ``friction_slice`` (k,) and
+    ``values`` (N, n, k) with ``G[:, :, columns] = values`` (joint i's row holds
+    v_i, s(v_i), 1 in its own columns; ``core.friction.friction_idim_columns``;
+    the energy has no friction parameter). It depends on v alone and holds G's
+    only non-smooth column, s(v) (the linearised bootstrap,
+    ``core.raw_rows.linearized_channels``, evaluates it exactly).
+    """
+    columns = np.arange(num_parameters)[friction_slice]
+    return columns, friction_idim_columns(v, friction, sign)

@@ -5,6 +5,8 @@ Independent data: the paper's 2R trajectory with Drake's inverse dynamics
 the Monte-Carlo spread over noise draws are the references.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from _drake_dynamics import H, exact_paper_2r
@@ -100,3 +102,31 @@ def test_bad_arguments_are_named(case):
     for end in (1000, 4000, 4990):
         with pytest.raises(ValueError, match=f"window ending at sample {end} is not"):
             bootstrap_std(rows, settings, log.q, log.tau, end, H, NOISE)
+
+
+def test_linearized_replicates_follow_the_exact_re_solves(case):
+    """Raw rows: the replicates' first-order rows (core.raw_rows.linearized_channels)
+    give the exact re-solves' σ_B within 1 % per parameter (the same draws); the
+    nominal is the same window; without ``lagrangian_friction_rows`` or with
+    ``linearized=False`` every replicate is solved again from its signals."""
+    robot, settings, _, _, log, trace = case
+    raw = dataclasses.replace(settings, rows_from="raw")
+    _, end = _final_end(settings, trace)
+    rows = robot.rows_provider()
+    args = (rows, raw, log.q, log.tau, end, H, NOISE)
+    fast = bootstrap_std(*args, replicates=8)
+    exact = bootstrap_std(*args, replicates=8, linearized=False)
+    assert (fast.method, exact.method) == ("linearized", "exact")
+    np.testing.assert_allclose(fast.nominal, exact.nominal, rtol=1e-12)
+    np.testing.assert_allclose(fast.std, exact.std, rtol=0.01)
+
+    class Plain:  # the row contract only: no friction part apart
+        names, num_joints = rows.names, rows.num_joints
+        num_parameters = rows.num_parameters
+        model_rows = staticmethod(rows.model_rows)
+
+    plain = bootstrap_std(Plain(), *args[1:], replicates=8)
+    assert plain.method == "exact"
+    np.testing.assert_allclose(plain.std, exact.std, rtol=1e-9)
+    # Filtered rows are solved exactly (their rows are at the bank samples only).
+    assert bootstrap_std(rows, settings, *args[2:], replicates=2).method == "exact"

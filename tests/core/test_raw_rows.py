@@ -125,3 +125,75 @@ def test_batch_reads_only_the_rows_its_bank_samples_need():
             raw_channels_batch(design, rows, kind, q, tau, ends),
         )
     assert stored_q.largest_read <= 100 + design.history + design.velocity.taps.size
+
+
+def _smooth_log(count: int, seed: int):
+    """A 2R motion whose joint 1 velocity crosses zero slowly, and its torques."""
+    t = H * np.arange(count)
+    rng = np.random.default_rng(seed)
+    q = np.stack([0.3 * np.sin(2.1 * t + 0.4), 0.8 * np.cos(1.3 * t)], axis=1)
+    q += 0.05 * np.sin(np.outer(t, rng.uniform(3.0, 5.0, 2)))
+    tau = np.stack([np.cos(1.7 * t), np.sin(0.9 * t)], axis=1)
+    return q, tau
+
+
+def test_linearized_channels_follow_the_perturbed_rows():
+    """The first-order channels against the exact raw rows of q + δq, τ + δτ.
+
+    No perturbation: the exact channels. White noise: the smooth part within 1 %
+    of the exact change of the channels, G's friction part (Coulomb sign flips
+    where v' crosses zero) and y exact to round-off."""
+    from drake_dynid.core.raw_rows import linearized_channels, raw_linearization
+
+    rows = Planar2RRows(L1=0.8, friction=("viscous", "coulomb", "offset"))
+    design = raw_rows_design(0.04, H, block=10)
+    q, tau = _smooth_log(4000, 1)
+    ends = np.arange(100, 4000, 10)
+    lin = raw_linearization(design, rows, "lagrangian", q, tau, ends)
+    assert lin is not None
+    exact = raw_channels_batch(design, rows, "lagrangian", q, tau, ends)
+    np.testing.assert_array_equal(lin.channels, exact)
+    zero = np.zeros_like(q)
+    np.testing.assert_allclose(
+        linearized_channels(lin, design, rows, "lagrangian", zero, zero, ends),
+        exact,
+        rtol=0,
+        atol=1e-14,
+    )
+    rng = np.random.default_rng(5)
+    dq, dtau = 1e-4 * rng.standard_normal(q.shape), 0.1 * rng.standard_normal(q.shape)
+    moved = linearized_channels(lin, design, rows, "lagrangian", dq, dtau, ends)
+    truth = raw_channels_batch(design, rows, "lagrangian", q + dq, tau + dtau, ends)
+    p = rows.num_parameters
+    friction = lin.positions
+    assert friction.size == 2 * 2 * 3  # 2 joint rows x 6 friction columns
+    np.testing.assert_allclose(moved[:, friction], truth[:, friction], atol=1e-12)
+    np.testing.assert_allclose(moved[:, 4 * p :], truth[:, 4 * p :], atol=1e-12)
+    flips = np.abs(truth[:, friction] - exact[:, friction]).max()
+    assert flips > 0.05  # the Coulomb sign does flip: a real test of that part
+    smooth = np.setdiff1d(np.arange(4 * p), friction)
+    change = truth[:, smooth] - exact[:, smooth]
+    error = moved[:, smooth] - truth[:, smooth]
+    assert np.linalg.norm(error) < 0.01 * np.linalg.norm(change)
+
+
+def test_linearization_needs_the_friction_part_apart():
+    """Power model, a provider without ``lagrangian_friction_rows``, or a
+    non-finite sample: None (the caller solves the perturbed rows exactly)."""
+    from drake_dynid.core.raw_rows import raw_linearization
+
+    rows = Planar2RRows()
+    design = raw_rows_design(0.04, H, block=10)
+    q, tau = _smooth_log(1000, 2)
+    ends = np.arange(100, 1000, 10)
+    assert raw_linearization(design, rows, "power", q, tau, ends) is None
+
+    class Plain:  # the row contract only
+        names, num_joints, num_parameters = rows.names, 2, rows.num_parameters
+        model_rows = staticmethod(rows.model_rows)
+
+    assert raw_linearization(design, Plain(), "lagrangian", q, tau, ends) is None
+    bad = q.copy()
+    bad[500, 1] = np.nan
+    assert raw_linearization(design, rows, "lagrangian", bad, tau, ends) is None
+    assert raw_linearization(design, rows, "lagrangian", q, tau, ends) is not None
