@@ -408,12 +408,15 @@ class RobotRows:
             self._add_motor_friction(kind, v, out[1])
         return tuple(a[0] for a in out) if single else out  # type: ignore[return-value]
 
-    def lagrangian_friction_rows(self, v) -> tuple[np.ndarray, np.ndarray] | None:
+    def lagrangian_friction_rows(
+        self, v, block: int = 1
+    ) -> tuple[np.ndarray, np.ndarray] | None:
         """G's friction part of the Lagrangian rows: ``(columns, values)``.
 
         ``core.rows.lagrangian_friction_part`` on the joint friction's base columns:
-        v (N, n) [rad/s or m/s] -> the columns (k,) and their values (N, n, k) in G.
-        None with drive motors (their friction columns are added elsewhere,
+        v (N, n) [rad/s or m/s] -> the columns (k,) and the means of their values
+        in G over consecutive blocks of ``block`` samples, (N/block, n, k). None
+        with drive motors (their friction columns are added elsewhere,
         ``_add_motor_friction``).
         """
         if self._motors is not None:
@@ -426,6 +429,7 @@ class RobotRows:
             self.friction,
             self.num_parameters,
             self.sign,
+            block,
         )
 
     def _friction_base_slice(self) -> slice:

@@ -392,6 +392,10 @@ def test_lagrangian_friction_part_is_gs_friction(models, name):
         _, g, _ = rows.model_rows("lagrangian", q, v, np.zeros_like(q))
         columns, values = rows.lagrangian_friction_rows(v)
         np.testing.assert_array_equal(g[:, :, columns], values)
+        means = rows.lagrangian_friction_rows(v[:6], 3)[1]  # blocks of 3 samples
+        np.testing.assert_allclose(
+            means, g[:6, :, columns].reshape(2, 3, n, -1).mean(1)
+        )
         kinds = len(rows.friction)  # ur5: viscous, Coulomb and offset
         assert columns.size == n * kinds and np.any(values != 0.0)
         # Joint i's row holds its own friction only.

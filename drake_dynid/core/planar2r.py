@@ -296,11 +296,14 @@ class Planar2RRows:
             out[2 * p] = v1 * float(tau[0]) + v2 * float(tau[1])
         return np.array(out)
 
-    def lagrangian_friction_rows(self, v) -> tuple[np.ndarray, np.ndarray]:
+    def lagrangian_friction_rows(
+        self, v, block: int = 1
+    ) -> tuple[np.ndarray, np.ndarray]:
         """G's friction part of the Lagrangian rows: ``(columns, values)``.
 
         ``core.rows.lagrangian_friction_part``: v (N, 2) [rad/s] -> the friction
-        columns (k,) and their values (N, 2, k) in G.
+        columns (k,) and the means of their values in G over consecutive blocks
+        of ``block`` samples, (N/block, 2, k).
         """
         v = np.asarray(v, dtype=float)
         return lagrangian_friction_part(
@@ -309,6 +312,7 @@ class Planar2RRows:
             self.friction,
             self.num_parameters,
             self.sign,
+            block,
         )
 
     def model_rows(

@@ -307,7 +307,8 @@ def raw_linearization(
 
     None (use :func:`raw_channels_batch` on each perturbed signal instead) unless
     the model is Lagrangian, the provider gives G's friction part apart
-    (``lagrangian_friction_rows``, e.g. ``core.rows.lagrangian_friction_part``)
+    (``lagrangian_friction_rows(v, block)``: the block means of that part, e.g.
+    ``core.rows.lagrangian_friction_part``)
     and every sample read is finite. Arguments as :func:`raw_channels_batch`.
     """
     ends = np.asarray(ends, dtype=int)
@@ -324,14 +325,14 @@ def raw_linearization(
     q_mean, v_mean, tau_mean = (
         x.reshape(count, block, n).mean(axis=1) for x in signals
     )
-    columns, values = part(signals[1])
+    columns, values = part(signals[1], block)
     p = int(rows.num_parameters)
     return RawLinearization(
         channels=raw_channels_batch(design, rows, kind, q, tau, ends),
         centre=_mean_rows(rows, kind, q_mean, v_mean, tau_mean, count),
         means=(q_mean, v_mean, tau_mean),
         velocity=signals[1],
-        friction=values.reshape(count, block, -1).mean(axis=1),
+        friction=values.reshape(count, -1),
         positions=(n * p + p * np.arange(n)[:, None] + columns[None, :]).ravel(),
     )
 
@@ -386,8 +387,8 @@ def linearized_channels(
     )
     moved = _mean_rows(rows, kind, q_mean, v_mean, tau_mean, count)
     out = lin.channels + (moved - lin.centre)
-    _, values = rows.lagrangian_friction_rows(lin.velocity + deltas[1])
-    friction = values.reshape(count, block, -1).mean(axis=1)
+    _, values = rows.lagrangian_friction_rows(lin.velocity + deltas[1], block)
+    friction = values.reshape(count, -1)
     out[:, lin.positions] = lin.channels[:, lin.positions] + (friction - lin.friction)
     return out
 

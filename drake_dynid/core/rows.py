@@ -24,6 +24,7 @@ from drake_dynid.core import _validate
 from drake_dynid.core.friction import (
     EXACT_SIGN,
     SignLaw,
+    friction_column,
     friction_idim_columns,
     friction_power_columns,
 )
@@ -243,15 +244,25 @@ def lagrangian_friction_part(
     friction: Sequence[str],
     num_parameters: int,
     sign: SignLaw = EXACT_SIGN,
+    block: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The friction part of the Lagrangian G rows of :func:`model_rows_from_parts`.
 
     ``(columns, values)``: the parameter columns ``friction_slice`` (k,) and
-    ``values`` (N, n, k) with ``G[:, :, columns] = values`` (joint i's row holds
-    v_i, s(v_i), 1 in its own columns; ``core.friction.friction_idim_columns``;
-    the energy has no friction parameter). It depends on v alone and holds G's
-    only non-smooth column, s(v) (the linearised bootstrap,
-    ``core.raw_rows.linearized_channels``, evaluates it exactly).
+    ``values`` (N/block, n, k), the means over consecutive blocks of ``block``
+    samples of ``G[:, :, columns]`` (joint i's row holds v_i, s(v_i), 1 in its own
+    columns, zeros elsewhere; ``core.friction.friction_idim_columns``; the
+    energy has no friction parameter). It depends on v alone and holds G's only
+    non-smooth column, s(v) (the linearised bootstrap,
+    ``core.raw_rows.linearized_channels``, averages it exactly).
     """
     columns = np.arange(num_parameters)[friction_slice]
-    return columns, friction_idim_columns(v, friction, sign)
+    count, n = v.shape[0] // block, v.shape[1]
+    width = len(friction)
+    values = np.zeros((count, n, n * width))
+    joints = np.arange(n)
+    for k, kind in enumerate(friction):
+        column = friction_column(kind, v[: count * block], sign)
+        means = column.reshape(count, block, n).mean(axis=1)
+        values[:, joints, joints * width + k] = means
+    return columns, values
