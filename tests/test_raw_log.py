@@ -171,3 +171,84 @@ def test_jittered_stamps_go_through_the_log_checks(tmp_path, chain):
         read_raw_log(path, chain, jitter_tolerance=0.1)
     log = read_raw_log(path, chain, resample=True)
     assert any("resampled by linear interpolation" in w for w in log.warnings)
+
+
+def _drive_file(path, count, seed, extra=True):
+    """One jittered drive log (ms stamps from 5e5, degrees, amperes), with an
+    unused column, two empty current cells and the reference conversion."""
+    rng = np.random.default_rng(seed)
+    t = 0.002 * np.arange(count) + 0.0003 * rng.uniform(-1, 1, count)
+    q, current = _signals(t)
+    header = ["stamp", "- a_position", "- b_position", "- a_effort", "- b_effort"]
+    rows = [
+        [repr(float(1000 * s + 5e5)), *(repr(float(v)) for v in (*np.rad2deg(x), *c))]
+        for s, x, c in zip(t, q, current, strict=True)
+    ]
+    rows[40][3] = ""
+    rows[41][4] = ""
+    if extra:
+        header.append("- a_velocity")
+        rows = [[*r, "0"] for r in rows]
+    return _write(path, header, rows)
+
+
+def _in_memory(path, chain):
+    """The whole-file path: every column in memory, converted at once."""
+    from drake_dynid.logs import RobotLog
+
+    table = read_raw_table(path, chain.required_columns(), chain.log.time)
+    t, q, tau = chain.convert(table.columns)
+    return RobotLog.from_arrays(t, q, tau, JOINTS)
+
+
+def test_one_file_is_read_by_blocks_with_the_same_numbers(tmp_path, chain, monkeypatch):
+    """A single drive file is streamed (the plain reader's block parser, the
+    conversion block by block, stored arrays): the numbers of the whole-file
+    conversion, bit for bit; the warnings name the file's rows."""
+    from drake_dynid import log_store, log_table
+    from drake_dynid.core import blocks
+    from drake_dynid.core.blocks import is_stored
+
+    path = _drive_file(tmp_path / "one.csv", 3000, 4)
+    reference = _in_memory(path, chain)
+    monkeypatch.setattr(log_store, "SPILL_BYTES", 512)
+    monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
+    monkeypatch.setattr(log_table, "BLOCK_BYTES", 700)
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 97)
+    log = read_raw_log(path, chain)
+    assert is_stored(log.q) and is_stored(log.tau)
+    assert log.num_samples == reference.num_samples
+    assert log.time_step == reference.time_step
+    assert log.time_offset == reference.time_offset
+    for mine, theirs in (
+        (log.t, reference.t),
+        (log.q, reference.q),
+        (log.tau, reference.tau),
+    ):
+        np.testing.assert_array_equal(np.asarray(mine), np.asarray(theirs))
+    text = " ".join(log.warnings)
+    assert "1 column(s) not used by the drive chain: - a_velocity" in text
+    assert "(rows 42, 43)" in text, log.warnings  # the file's rows, not samples
+
+
+def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch):
+    from drake_dynid.core import blocks
+
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 10)
+    header = ["stamp", "- a_position", "- b_position", "- a_effort", "- b_effort"]
+    rows = [(k, 0.1 * k, 0.2, 0.5, 0.25) for k in range(40)]
+    rows[20], rows[19] = rows[19], rows[20]  # data row 20 opens a block
+    path = _write(tmp_path / "u.csv", header, rows)
+    with pytest.raises(
+        ValueError,
+        match=r"u\.csv: time stamps \('stamp'\) are not increasing at row 22",
+    ):
+        read_raw_log(path, chain)
+    rows = [(k, 0.1 * k, 0.2, 0.5, 0.25) for k in range(40)]
+    rows[30] = ("", 0.1, 0.2, 0.5, 0.25)
+    text = (
+        ",".join(header) + "\n\n" + "".join(",".join(map(str, r)) + "\n" for r in rows)
+    )
+    (tmp_path / "b.csv").write_text(text)  # a blank line after the header
+    with pytest.raises(ValueError, match=r"time stamp \('stamp'\) of row 33 is empty"):
+        read_raw_log(tmp_path / "b.csv", chain)

@@ -266,7 +266,9 @@ class DriveChain:
         log = self.log
         return (log.time, *log.position_columns, *log.torque_columns)
 
-    def convert(self, columns: Mapping[str, Any]) -> JointSignals:
+    def convert(
+        self, columns: Mapping[str, Any], *, first_stamp: float | None = None
+    ) -> JointSignals:
         """Converts raw named log columns to joint space.
 
         t = s_t (t_raw - t_raw[0]·[origin = first]);  position side ``joint``:
@@ -278,6 +280,9 @@ class DriveChain:
         Args:
             columns: ``{column name: (N,) array}``, at least
                 :meth:`required_columns` (extra columns are not looked at).
+            first_stamp: the raw first stamp of the whole log, when ``columns``
+                are a block of it (the time origin ``first``; default: the
+                block's own first stamp).
 
         Returns:
             ``JointSignals(t, q, tau)``: (N,) [s], (N, n) [rad or m], (N, n) [N·m
@@ -307,7 +312,7 @@ class DriveChain:
             )
         t = data[log.time]
         if log.time_origin == "first" and t.size:
-            t = t - t[0]
+            t = t - (t[0] if first_stamp is None else float(first_stamp))
         t = t * log.time_scale
         raw_q = np.column_stack([data[c] for c in log.position_columns])
         position = (raw_q - log.position_offset) * log.position_scale
