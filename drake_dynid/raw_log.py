@@ -15,17 +15,14 @@ currents. :func:`read_raw_log` reads such a log:
    equal the first file's is taken as is;
 3. ``DriveChain.convert``: units, motor side, currents, offsets, time origin;
 4. the uniform-grid checks and repairs of ``drake_dynid.logs`` (jitter, dropped
-   samples, ``resample``) on the converted arrays (:func:`_robot_log`, the one
-   call into ``drake_dynid.logs``).
+   samples, ``resample``: ``drake_dynid.log_repair.repair``).
 
-One file is streamed (:func:`_read_one`): the plain reader's block parser
-(``drake_dynid.log_table``) reads the needed columns, the stamps are checked and
-the conversion applied a block at a time into row stores, and the grid repair
-(``drake_dynid.log_repair.repair``) reads them a block at a time: memory is
-bounded for any length (a 3.6 M-sample 8-joint TIAGo drive log: 216 MB peak,
-1.7 GB when read whole), and messages name the file's rows. Several files are
-joined in memory (their interpolation onto the first file's stamps reads whole
-columns).
+Everything is streamed (:func:`_read_streamed`): each file is parsed by the plain
+reader's block parser (``drake_dynid.log_table``), the join, the conversion and the
+repair run a block at a time on row stores. Memory: a few blocks and the stamps (8
+bytes a row of each file): a 3.6 M-sample 8-joint TIAGo drive log, 216 MB peak in
+one file and 270 MB in two (1.7 GB when read whole); messages name the first
+file's rows. :func:`read_raw_table` is the whole-column join (the reference).
 
 :func:`write_raw_log` writes the inverse: joint signals in a drive chain's raw
 columns (``DriveChain.to_columns``), one file that :func:`read_raw_log` reads back
@@ -285,19 +282,12 @@ def read_raw_log(
         The uniformly sampled log in joint space (SI units, ``chain.joint_names``
         order), with the warnings of the join, the conversion and the grid.
     """
-    if isinstance(paths, (str, os.PathLike)) or len(paths) == 1:
-        path = os.fspath(paths if isinstance(paths, (str, os.PathLike)) else paths[0])
-        return _read_one(path, chain, jitter_tolerance, resample)
-    table = read_raw_table(paths, chain.required_columns(), chain.log.time)
-    warnings = list(table.warnings) + _extra_note(table.extra)
-    t, q, tau = chain.convert(table.columns)
     if isinstance(paths, (str, os.PathLike)):
-        label = os.fspath(paths)
-    else:
-        label = " + ".join(os.fspath(p) for p in paths)
-    return _robot_log(
-        label, t, q, tau, chain.joint_names, jitter_tolerance, resample, warnings
-    )
+        paths = [paths]
+    files = [os.fspath(p) for p in paths]
+    if not files:
+        raise ValueError("log: no file given.")
+    return _read_streamed(files, chain, jitter_tolerance, resample)
 
 
 def _extra_note(extra: Sequence[str]) -> list[str]:
@@ -310,60 +300,128 @@ def _extra_note(extra: Sequence[str]) -> list[str]:
     return [f"{len(extra)} column(s) not used by the drive chain: {listed}{more}."]
 
 
-def _read_one(
-    path: str, chain: DriveChain, jitter_tolerance: float, resample: bool
+def _read_streamed(
+    files: list[str], chain: DriveChain, jitter_tolerance: float, resample: bool
 ) -> Any:
-    """One raw file, streamed: the plain reader's block parser, converted by blocks.
+    """One or several raw files, streamed (module docstring).
 
-    ``drake_dynid.log_table.read_table`` reads the needed columns a block of text
-    at a time (a long log's numbers go to temporary files); the stamps are checked
-    and ``chain.convert`` applied block by block (the time origin ``first``: the
-    file's first stamp) into row stores; ``drake_dynid.log_repair.repair`` puts
-    them on the grid, reading them a block at a time. Memory is bounded for any
-    length (a 1-hour 1 kHz log: a few blocks), and messages name the file's rows.
+    Each file's needed columns are read by ``drake_dynid.log_table``'s block
+    parser (a long log's numbers go to temporary files) and its stamps checked a
+    block at a time; the first file's stamps are the time base (its rows inside
+    the files' common span), every other file's columns are taken as they are
+    when its stamps equal the base's, else interpolated linearly onto them, a
+    block of base rows at a time (the same numbers as :func:`read_raw_table`'s
+    ``np.interp`` over whole columns); ``chain.convert`` then runs a block at a
+    time (the time origin ``first``: the first kept stamp) into row stores, and
+    ``drake_dynid.log_repair.repair`` puts them on the grid. Memory: a few blocks
+    and the stamps (8 bytes a row of each file); messages name the first file's
+    rows.
     """
     from drake_dynid.core._threads import release_heap
     from drake_dynid.log_repair import Options, repair
     from drake_dynid.log_store import RowSink
-    from drake_dynid.log_table import read_table
+    from drake_dynid.log_table import LineNumbers, read_table
     from drake_dynid.logs import RobotLog
 
-    header = _header(path)
+    if len(set(files)) != len(files):
+        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
     log = chain.log
     time = log.time
-    needed = list(chain.required_columns())
-    _owners([path], {path: header}, list(dict.fromkeys(needed)), time)
-    extra = tuple(name for name in header if name not in needed)
-    positions, torques = list(log.position_columns), list(log.torque_columns)
-    with open(path, "rb") as stream:
-        table = read_table(
-            path, stream, [time, *positions, *torques], (len(positions), len(torques))
+    headers = {path: _header(path) for path in files}
+    wanted = list(dict.fromkeys([time, *chain.required_columns()]))
+    owner = _owners(files, headers, wanted, time)
+    if len(files) > 1:
+        lacking = [path for path in files if time not in headers[path]]
+        if lacking:
+            raise ValueError(
+                f"log {lacking[0]}: no time column '{time}'; every file of a "
+                "multi-file log needs it (the files are joined on it)."
+            )
+    warnings: list[str] = []
+    notes: list[str] = []
+    tables: dict[str, tuple[list[str], Any, Any, Any]] = {}  # names, t, values, rows
+    for path in files:
+        names = [n for n in wanted if n != time and owner[n] == path]
+        if not names and path != files[0]:
+            warnings.append(f"file {path}: holds no needed column; not used.")
+            continue
+        with open(path, "rb") as stream:
+            table = read_table(path, stream, [time, *names], (len(names),))
+        stamps = np.empty(len(table.rows))  # 8 bytes a row: the join needs them
+        previous = None
+        for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
+            _check_block_stamps(path, block, start, previous, table.rows, time)
+            stamps[start : start + block.size] = block
+            previous = float(block[-1])
+        tables[path] = (names, stamps, table.parts[0], table.rows)
+        notes += table.notes
+    base = files[0]
+    t = tables[base][1]
+    low, high = 0, t.size  # the base rows inside every file's span
+    for path, (_, other, _, _) in tables.items():
+        if path != base:
+            low = max(low, int(np.searchsorted(t, other[0], side="left")))
+            high = min(high, int(np.searchsorted(t, other[-1], side="right")))
+    if high <= low:
+        raise ValueError(
+            f"log {', '.join(files)}: the files have no common time span "
+            f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
-    raw_q, raw_tau = table.parts
+    same = {
+        path: other.shape == t.shape and bool(np.array_equal(other, t))
+        for path, (_, other, _, _) in tables.items()
+    }
+    for path, (names, _, _, _) in tables.items():
+        if not same[path]:
+            warnings.append(
+                f"file {path}: {len(names)} column(s) interpolated linearly onto "
+                f"the time stamps of {base} over the common span "
+                f"{t[low]:.9g} .. {t[high - 1]:.9g} ('{time}')."
+            )
+    if t.size - (high - low):
+        warnings.append(
+            f"{t.size - (high - low)} row(s) of {base} outside the common time span "
+            "of the files dropped."
+        )
+    extra = tuple(
+        dict.fromkeys(
+            name for path in files for name in headers[path] if name not in owner
+        )
+    )
     n = len(chain.joint_names)
     sinks = RowSink(1), RowSink(n), RowSink(n)
-    first = previous = None
-    for start, stamps in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
-        _check_block_stamps(path, stamps, start, previous, table.rows, time)
-        if first is None:
-            first = float(stamps[0])
-        previous = float(stamps[-1])
-        stop = start + stamps.size
-        columns = {time: stamps}
-        for names, part in ((positions, raw_q), (torques, raw_tau)):
-            block = np.asarray(part[start:stop], dtype=float)
+    first = float(t[low])
+    for start in range(low, high, _blocks.BLOCK_ROWS):
+        stop = min(high, start + _blocks.BLOCK_ROWS)
+        here = t[start:stop]
+        columns = {time: here}
+        for path, (names, other, values, _) in tables.items():
+            if same[path]:
+                block = np.asarray(values[start:stop], dtype=float)
+            else:  # the other file's rows around these stamps, interpolated
+                a = max(0, int(np.searchsorted(other, here[0], side="right")) - 1)
+                b = int(np.searchsorted(other, here[-1], side="left")) + 1
+                part = np.asarray(values[a:b], dtype=float)
+                block = np.column_stack(
+                    [np.interp(here, other[a:b], column) for column in part.T]
+                )
             columns.update(zip(names, block.T, strict=True))
         converted = chain.convert(columns, first_stamp=first)
-        for sink, values in zip(sinks, converted, strict=True):
-            sink.append(values)
-    t, q, tau = (sink.finish(vector=k == 0) for k, sink in enumerate(sinks))
+        for sink, values_ in zip(sinks, converted, strict=True):
+            sink.append(values_)
+    rows = tables[base][3]
+    if isinstance(rows, LineNumbers):
+        rows = LineNumbers(rows.first + low, high - low)
+    else:
+        rows = np.asarray(rows[low:high])
+    del tables
+    q_t, q, tau = (sink.finish(vector=k == 0) for k, sink in enumerate(sinks))
+    label = " + ".join(files)
     options = Options.checked(
-        f"log {path}", jitter_tolerance, resample, FILL_GAPS, None
+        f"log {label}", jitter_tolerance, resample, FILL_GAPS, None
     )
-    notes = _extra_note(extra) + table.notes
-    rows = table.rows
-    del table, raw_q, raw_tau
-    repaired = repair(f"log {path}", "row", t, None, q, tau, rows, options, notes)
+    notes = warnings + _extra_note(extra) + notes
+    repaired = repair(f"log {label}", "row", q_t, None, q, tau, rows, options, notes)
     release_heap()  # the reader's temporaries: not under the next phase's peak
     return RobotLog._named(repaired, tuple(chain.joint_names))
 
@@ -394,32 +452,6 @@ def _check_block_stamps(
             f"log {path}: time stamps ('{time}') are not increasing at row "
             f"{rows[start + i]}; sort the file by time and remove duplicated rows."
         )
-
-
-def _robot_log(label, t, q, tau, joint_names, jitter_tolerance, resample, warnings):
-    """The one call into ``drake_dynid.logs`` for converted arrays.
-
-    ``RobotLog.from_arrays`` checks the stamps and puts the samples on a uniform
-    grid (least-squares grid, jitter snapped, outlier stamps dropped, short gaps
-    filled, or ``resample``), as ``read_log`` does for a file; the raw reader's
-    warnings come first, and an error names the files.
-    """
-    from dataclasses import replace
-
-    from drake_dynid.logs import RobotLog
-
-    try:
-        log = RobotLog.from_arrays(
-            np.asarray(t, dtype=float),
-            np.asarray(q, dtype=float),
-            np.asarray(tau, dtype=float),
-            tuple(joint_names),
-            jitter_tolerance=jitter_tolerance,
-            resample=resample,
-        )
-    except ValueError as error:
-        raise ValueError(f"log {label}: {error}") from None
-    return replace(log, warnings=(*warnings, *log.warnings))
 
 
 def write_raw_log(

@@ -173,49 +173,73 @@ def test_jittered_stamps_go_through_the_log_checks(tmp_path, chain):
     assert any("resampled by linear interpolation" in w for w in log.warnings)
 
 
-def _drive_file(path, count, seed, extra=True):
-    """One jittered drive log (ms stamps from 5e5, degrees, amperes), with an
-    unused column, two empty current cells and the reference conversion."""
+def _drive_files(folder, count, seed, layout):
+    """A jittered drive log (ms stamps from 5e5, degrees, amperes) with an unused
+    column and two empty current cells: one file (``"one"``), or positions and
+    currents apart with the same stamps (``"same"``) or the currents at their own
+    stamps, from 1 ms later to the end (``"other"``)."""
     rng = np.random.default_rng(seed)
     t = 0.002 * np.arange(count) + 0.0003 * rng.uniform(-1, 1, count)
     q, current = _signals(t)
-    header = ["stamp", "- a_position", "- b_position", "- a_effort", "- b_effort"]
-    rows = [
-        [repr(float(1000 * s + 5e5)), *(repr(float(v)) for v in (*np.rad2deg(x), *c))]
-        for s, x, c in zip(t, q, current, strict=True)
+    stamps = [repr(float(1000 * s + 5e5)) for s in t]
+    position = [[*map(repr, map(float, np.rad2deg(x))), "0"] for x in q]
+    effort = [list(map(repr, map(float, c))) for c in current]
+    effort[40][0] = ""
+    effort[41][1] = ""
+    names_q = ["- a_position", "- b_position", "- a_velocity"]
+    names_e = ["- a_effort", "- b_effort"]
+    if layout == "one":
+        rows = [[s, *p, *e] for s, p, e in zip(stamps, position, effort, strict=True)]
+        return [_write(folder / "one.csv", ["stamp", *names_q, *names_e], rows)]
+    if layout == "other":
+        t_e = t[::3] + 0.001
+        stamps_e = [repr(float(1000 * s + 5e5)) for s in t_e]
+        effort = [list(map(repr, map(float, c))) for c in _signals(t_e)[1]]
+        effort[20][1] = ""
+    else:
+        stamps_e = stamps
+    return [
+        _write(
+            folder / "pos.csv",
+            ["stamp", *names_q],
+            [[s, *p] for s, p in zip(stamps, position, strict=True)],
+        ),
+        _write(
+            folder / "eff.csv",
+            ["stamp", *names_e],
+            [[s, *e] for s, e in zip(stamps_e, effort, strict=True)],
+        ),
     ]
-    rows[40][3] = ""
-    rows[41][4] = ""
-    if extra:
-        header.append("- a_velocity")
-        rows = [[*r, "0"] for r in rows]
-    return _write(path, header, rows)
 
 
-def _in_memory(path, chain):
-    """The whole-file path: every column in memory, converted at once."""
+def _in_memory(paths, chain):
+    """The whole-file path: every column in memory, joined and converted at once."""
     from drake_dynid.logs import RobotLog
 
-    table = read_raw_table(path, chain.required_columns(), chain.log.time)
+    table = read_raw_table(paths, chain.required_columns(), chain.log.time)
     t, q, tau = chain.convert(table.columns)
     return RobotLog.from_arrays(t, q, tau, JOINTS)
 
 
-def test_one_file_is_read_by_blocks_with_the_same_numbers(tmp_path, chain, monkeypatch):
-    """A single drive file is streamed (the plain reader's block parser, the
-    conversion block by block, stored arrays): the numbers of the whole-file
-    conversion, bit for bit; the warnings name the file's rows."""
+@pytest.mark.parametrize("layout", ["one", "same", "other"])
+def test_raw_files_are_read_by_blocks_with_the_same_numbers(
+    tmp_path, chain, monkeypatch, layout
+):
+    """Raw files are streamed (the plain reader's block parser, the join and the
+    conversion block by block, stored arrays): the numbers of the whole-file join
+    and conversion (``read_raw_table``), bit for bit; the warnings name the first
+    file's rows."""
     from drake_dynid import log_store, log_table
     from drake_dynid.core import blocks
     from drake_dynid.core.blocks import is_stored
 
-    path = _drive_file(tmp_path / "one.csv", 3000, 4)
-    reference = _in_memory(path, chain)
+    paths = _drive_files(tmp_path, 3000, 4, layout)
+    reference = _in_memory(paths, chain)
     monkeypatch.setattr(log_store, "SPILL_BYTES", 512)
     monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
     monkeypatch.setattr(log_table, "BLOCK_BYTES", 700)
     monkeypatch.setattr(blocks, "BLOCK_ROWS", 97)
-    log = read_raw_log(path, chain)
+    log = read_raw_log(paths, chain)
     assert is_stored(log.q) and is_stored(log.tau)
     assert log.num_samples == reference.num_samples
     assert log.time_step == reference.time_step
@@ -228,7 +252,13 @@ def test_one_file_is_read_by_blocks_with_the_same_numbers(tmp_path, chain, monke
         np.testing.assert_array_equal(np.asarray(mine), np.asarray(theirs))
     text = " ".join(log.warnings)
     assert "1 column(s) not used by the drive chain: - a_velocity" in text
-    assert "(rows 42, 43)" in text, log.warnings  # the file's rows, not samples
+    if layout == "other":  # interpolated: the NaN spreads to its neighbours
+        assert "interpolated linearly onto the time stamps of" in text
+        assert "row(s) of" in text and "outside the common time span" in text
+    else:
+        assert "(rows 42, 43)" in text, log.warnings  # the file's rows, not samples
+    if layout == "same":
+        assert "interpolated" not in text
 
 
 def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch):
