@@ -215,11 +215,24 @@ def _fast(body: str, width: int, index: list[int], last: bool = True):
     clean = body.rstrip("\n \t") if last else body[:-1]
     if '"' in body or _blank_line(clean):
         return None
+    lines = _lines(body)
+    columns = None
+    if lines and lines[0].rstrip().endswith(","):  # a logger's trailing commas?
+        if not all(
+            line.count(",") == width and line.rstrip().endswith(",") for line in lines
+        ):
+            return None
+        columns = range(width)  # every row: width cells and one empty one
     try:
         with warnings_module.catch_warnings():
             warnings_module.simplefilter("error")  # "input contained no data"
             numbers = np.loadtxt(
-                _lines(body), delimiter=",", ndmin=2, dtype=float, comments=None
+                lines,
+                delimiter=",",
+                ndmin=2,
+                dtype=float,
+                comments=None,
+                usecols=columns,
             )
     except Exception:  # any parse failure: the cell-by-cell reader names it
         return None
@@ -260,6 +273,10 @@ def _slow(path, records, header, index, wanted):
     """Cell by cell, with messages naming the row and the column."""
     data = np.empty((len(records), len(index)))
     for r, (row, record) in enumerate(records):
+        if len(record) > len(header) and not any(
+            c.strip() for c in record[len(header) :]
+        ):
+            record = record[: len(header)]  # trailing commas: empty extra cells
         if len(record) != len(header):
             raise ValueError(
                 f"log {path}: row {row} has {len(record)} cells; the header has "

@@ -313,9 +313,15 @@ def _read_streamed(
     block of base rows at a time (the same numbers as :func:`read_raw_table`'s
     ``np.interp`` over whole columns); ``chain.convert`` then runs a block at a
     time (the time origin ``first``: the first kept stamp) into row stores, and
-    ``drake_dynid.log_repair.repair`` puts them on the grid. Memory: a few blocks
-    and the stamps (8 bytes a row of each file); messages name the first file's
-    rows.
+    ``drake_dynid.log_repair.repair`` puts them on the grid. The numbers are those
+    of the whole-column path (``read_raw_table``, ``convert``,
+    ``RobotLog.from_arrays``): bit for bit with a diagonal drive, to round-off
+    (4e-16) with a coupled one (its matrix products by blocks). Memory: a few
+    blocks and the stamps (8 bytes a row of each file); messages name the first
+    file's rows. Stricter than ``read_raw_table``'s ``np.loadtxt`` (as the plain
+    reader): a row with an extra non-empty cell or a ``#`` comment line is an
+    error naming the row, a cut-short last row is dropped with a warning;
+    trailing commas (empty extra cells) are read.
     """
     from drake_dynid.core._threads import release_heap
     from drake_dynid.log_repair import Options, repair
@@ -345,15 +351,17 @@ def _read_streamed(
         if not names and path != files[0]:
             warnings.append(f"file {path}: holds no needed column; not used.")
             continue
-        with open(path, "rb") as stream:
-            table = read_table(path, stream, [time, *names], (len(names),))
+        with open(path, "rb") as stream:  # the first file: its stamps at least
+            groups = (len(names),) if names else ()
+            table = read_table(path, stream, [time, *names], groups)
         stamps = np.empty(len(table.rows))  # 8 bytes a row: the join needs them
         previous = None
         for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
             _check_block_stamps(path, block, start, previous, table.rows, time)
             stamps[start : start + block.size] = block
             previous = float(block[-1])
-        tables[path] = (names, stamps, table.parts[0], table.rows)
+        values = table.parts[0] if names else None
+        tables[path] = (names, stamps, values, table.rows)
         notes += table.notes
     base = files[0]
     t = tables[base][1]
@@ -372,7 +380,7 @@ def _read_streamed(
         for path, (_, other, _, _) in tables.items()
     }
     for path, (names, _, _, _) in tables.items():
-        if not same[path]:
+        if not same[path] and names:
             warnings.append(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
@@ -396,6 +404,8 @@ def _read_streamed(
         here = t[start:stop]
         columns = {time: here}
         for path, (names, other, values, _) in tables.items():
+            if not names:
+                continue
             if same[path]:
                 block = np.asarray(values[start:stop], dtype=float)
             else:  # the other file's rows around these stamps, interpolated

@@ -227,8 +227,8 @@ def test_raw_files_are_read_by_blocks_with_the_same_numbers(
 ):
     """Raw files are streamed (the plain reader's block parser, the join and the
     conversion block by block, stored arrays): the numbers of the whole-file join
-    and conversion (``read_raw_table``), bit for bit; the warnings name the first
-    file's rows."""
+    and conversion (``read_raw_table``), bit for bit (a diagonal drive); the
+    warnings name the first file's rows."""
     from drake_dynid import log_store, log_table
     from drake_dynid.core import blocks
     from drake_dynid.core.blocks import is_stored
@@ -282,3 +282,63 @@ def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch)
     (tmp_path / "b.csv").write_text(text)  # a blank line after the header
     with pytest.raises(ValueError, match=r"time stamp \('stamp'\) of row 33 is empty"):
         read_raw_log(tmp_path / "b.csv", chain)
+
+
+def test_a_first_file_of_stamps_only_is_the_time_base(tmp_path, chain):
+    """The first file may hold the time column alone (e.g. a controller's clock):
+    its stamps are the base, as in read_raw_table."""
+    header_q = ["stamp", "- a_position", "- b_position"]
+    header_e = ["stamp", "- a_effort", "- b_effort"]
+    clock = _write(
+        tmp_path / "clock.csv", ["stamp", "x"], [(k, 0) for k in range(5, 30)]
+    )
+    positions = _write(
+        tmp_path / "p.csv", header_q, [(k, 0.1 * k, 0.2) for k in range(40)]
+    )
+    efforts = _write(tmp_path / "e.csv", header_e, [(k, 0.5, 0.25) for k in range(40)])
+    files = [clock, positions, efforts]
+    log = read_raw_log(files, chain)
+    reference = _in_memory(files, chain)
+    assert log.num_samples == reference.num_samples == 25
+    np.testing.assert_array_equal(np.asarray(log.q), np.asarray(reference.q))
+
+
+def test_trailing_commas_are_read_and_a_longer_row_is_named(
+    tmp_path, chain, monkeypatch
+):
+    """A logger's trailing comma on every row (an empty extra cell) is accepted by
+    both readers, fast path or not; a row with an extra non-empty cell is an error
+    naming it (it would shift the columns)."""
+    from drake_dynid.logs import read_log
+
+    header = ["stamp", "- a_position", "- b_position", "- a_effort", "- b_effort"]
+    rows = [(k, 0.1 * k, 0.2, 0.5, 0.25) for k in range(60)]
+    text = (
+        ",".join(header) + "\n" + "".join(",".join(map(str, r)) + ",\n" for r in rows)
+    )
+    (tmp_path / "t.csv").write_text(text)
+    plain = _write(tmp_path / "clean.csv", header, rows)
+    from drake_dynid import log_table
+
+    with monkeypatch.context() as patch:  # numpy's C parser, not cell by cell
+        patch.setattr(log_table, "_slow", None)
+        np.testing.assert_array_equal(
+            np.asarray(read_raw_log(tmp_path / "t.csv", chain).q),
+            np.asarray(read_raw_log(plain, chain).q),
+        )
+    quoted = text.replace("\n0,", '\n"0",', 1)  # the cell-by-cell reader
+    (tmp_path / "q.csv").write_text(quoted)
+    assert read_raw_log(tmp_path / "q.csv", chain).num_samples == 60
+    t = 0.01 * np.arange(60)
+    lines = "t,q_a,q_b,tau_a,tau_b\n" + "".join(
+        f"{float(x)!r},0.1,0.2,0.3,0.4,\n" for x in t
+    )
+    (tmp_path / "p.csv").write_text(lines)
+    assert read_log(tmp_path / "p.csv", JOINTS).num_samples == 60
+    longer = text.replace("\n30,3.0,0.2,0.5,0.25,\n", "\n30,3.0,0.2,0.5,0.25,7\n")
+    assert longer != text
+    (tmp_path / "l.csv").write_text(longer)
+    with pytest.raises(
+        ValueError, match=r"l\.csv: row 32 has 6 cells; the header has 5"
+    ):
+        read_raw_log(tmp_path / "l.csv", chain)
