@@ -145,6 +145,28 @@ def _check_stamps(path: str, t: np.ndarray, time: str) -> None:
     _check_block_stamps(path, t, 0, None, np.arange(2, t.size + 2), time)
 
 
+def _checked_headers(
+    files: list[str], wanted: list[str], time: str
+) -> tuple[dict[str, list[str]], dict[str, str]]:
+    """``({file: header}, {column: the file holding it})``, or the error.
+
+    A file given twice, missing or without a header, a column in no file or in
+    two, a file of a multi-file log without the ``time`` column.
+    """
+    if len(set(files)) != len(files):
+        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
+    headers = {path: _header(path) for path in files}
+    owner = _owners(files, headers, wanted, time)
+    if len(files) > 1:
+        lacking = [path for path in files if time not in headers[path]]
+        if lacking:
+            raise ValueError(
+                f"log {lacking[0]}: no time column '{time}'; every file of a "
+                "multi-file log needs it (the files are joined on it)."
+            )
+    return headers, owner
+
+
 def _owners(
     files: list[str], headers: dict[str, list[str]], wanted: list[str], time: str
 ) -> dict[str, str]:
@@ -194,18 +216,8 @@ def read_raw_table(
     files = [os.fspath(p) for p in paths]
     if not files:
         raise ValueError("log: no file given.")
-    if len(set(files)) != len(files):
-        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
-    headers = {path: _header(path) for path in files}
     wanted = [name for name in dict.fromkeys([time, *columns])]
-    owner = _owners(files, headers, wanted, time)
-    if len(files) > 1:
-        lacking = [path for path in files if time not in headers[path]]
-        if lacking:
-            raise ValueError(
-                f"log {lacking[0]}: no time column '{time}'; every file of a "
-                "multi-file log needs it (the files are joined on it)."
-            )
+    headers, owner = _checked_headers(files, wanted, time)
     warnings: list[str] = []
     data: dict[str, np.ndarray] = {}
     stamps: dict[str, np.ndarray] = {}
@@ -329,20 +341,10 @@ def _read_streamed(
     from drake_dynid.log_table import LineNumbers, read_table
     from drake_dynid.logs import RobotLog
 
-    if len(set(files)) != len(files):
-        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
     log = chain.log
     time = log.time
-    headers = {path: _header(path) for path in files}
     wanted = list(dict.fromkeys([time, *chain.required_columns()]))
-    owner = _owners(files, headers, wanted, time)
-    if len(files) > 1:
-        lacking = [path for path in files if time not in headers[path]]
-        if lacking:
-            raise ValueError(
-                f"log {lacking[0]}: no time column '{time}'; every file of a "
-                "multi-file log needs it (the files are joined on it)."
-            )
+    headers, owner = _checked_headers(files, wanted, time)
     warnings: list[str] = []
     notes: list[str] = []
     tables: dict[str, tuple[list[str], Any, Any, Any]] = {}  # names, t, values, rows
