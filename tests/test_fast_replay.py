@@ -182,9 +182,12 @@ def test_filters_at_the_bank_samples_equal_the_whole_log_filters():
         np.array([taps - 2, taps - 1, 1499, 1500, 1500 + taps - 1, 1500 + taps]),
         np.array([2999]),
     ):
-        at = filtered_at(q, tau, settings, 1e-3, index)
-        np.testing.assert_array_equal(at[3], whole[3][index])
-        for mine, reference in zip(at[:3], whole[:3], strict=True):
-            np.testing.assert_allclose(mine, reference[index], rtol=1e-12, atol=1e-12)
+        for by_fft in (False, True):
+            at = filtered_at(q, tau, settings, 1e-3, index, by_fft=by_fft)
+            np.testing.assert_array_equal(at[3], whole[3][index])
+            for mine, reference in zip(at[:3], whole[:3], strict=True):
+                np.testing.assert_allclose(
+                    mine, reference[index], rtol=1e-12, atol=1e-12
+                )
     assert not filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps - 1]))[3][0]
     assert filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps]))[3][0]

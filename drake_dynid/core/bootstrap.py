@@ -172,7 +172,9 @@ def bootstrap_std(
         solve = _exact_solver(rows, s, q_window, tau_window, last, h)
     nominal = solve(None, None)
     draws = [theta for dq, dtau in noise if (theta := solve(dq, dtau)) is not None]
-    std = np.std(draws, axis=0, ddof=1) if len(draws) >= 2 else np.full(p, np.nan)
+    std = np.full(p, np.nan)
+    if len(draws) >= 2:  # about the first draw: equal draws give 0 exactly
+        std = np.std(np.asarray(draws) - draws[0], axis=0, ddof=1)
     return BootstrapStd(
         std=std,
         nominal=np.full(p, np.nan) if nominal is None else nominal,

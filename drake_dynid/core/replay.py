@@ -114,12 +114,20 @@ def filtered_at(
     settings: OnlineSettings,
     time_step: float,
     index: np.ndarray,
+    *,
+    by_fft: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`filtered_signals` at the samples ``index`` only (no full-rate array).
 
     ``(q̂, v̂, τ̂, valid)`` at each index k: ``Σ_j taps[j] x_{k-j}`` over the last
     N + 1 samples (zeros before the first), valid once k + 1 >= N + 1 and no
-    non-finite sample is in that window. Memory: ``len(index)·(N + 1)·2n`` floats.
+    non-finite sample is in that window: each window's dot products
+    (``len(index)·(N + 1)·2n`` floats). ``by_fft`` (one window's equations,
+    :func:`window_equations`), when the windows overlap much: one FFT
+    convolution of the span they read instead, whose round-off (1e-16 of the
+    span's largest value) reaches every output, also those whose window does
+    not hold that value: not for a replay, where one glitch must not touch the
+    windows it is not in (tests/test_bad_values.py).
     """
     smooth, velocity = settings.jacobi_filters(time_step)
     taps = smooth.num_taps
@@ -140,12 +148,24 @@ def filtered_at(
     finite = np.isfinite(span).all(axis=1)
     if not finite.all():  # filtered as zeros, the windows that hold them invalid
         span = np.where(np.isfinite(span), span, 0.0)
-    lags = index[:, None] - low - np.arange(taps)  # rows of span, newest first
-    window = span.T[:, np.maximum(lags, 0)]  # (2n, B, N+1)
-    if low == 0 and (lags < 0).any():
-        window[:, lags < 0] = 0.0  # zeros before the first sample
-    smoothed = window @ smooth.taps  # (2n, B)
-    q_dot = window[:n] @ velocity.taps
+    rows = index - low  # rows of span
+    length = span.shape[0]
+    if by_fft and index.size * taps > 8 * length:  # the FIRs over the span
+        size = 1 << int(length + taps - 2).bit_length()  # linear, not circular
+        spectrum = np.fft.rfft(span, size, axis=0)
+        smoothed = np.fft.irfft(
+            spectrum * np.fft.rfft(smooth.taps, size)[:, None], size, axis=0
+        )[rows].T
+        q_dot = np.fft.irfft(
+            spectrum[:, :n] * np.fft.rfft(velocity.taps, size)[:, None], size, axis=0
+        )[rows].T
+    else:  # each window's dot products
+        lags = rows[:, None] - np.arange(taps)  # newest first
+        window = np.ascontiguousarray(span.T)[:, np.maximum(lags, 0)]  # (2n, B, N+1)
+        if low == 0 and (lags < 0).any():
+            window[:, lags < 0] = 0.0  # zeros before the first sample
+        smoothed = window @ smooth.taps  # (2n, B)
+        q_dot = window[:n] @ velocity.taps
     bad_before = np.concatenate(([0], np.cumsum(~finite)))
     first = np.maximum(index - low - taps + 1, 0)
     bad = bad_before[index - low + 1] - bad_before[first] > 0
@@ -440,7 +460,9 @@ def window_equations(
         )
     else:
         if signals is None:  # the filters' outputs at the bank samples only
-            q_hat, v_hat, tau_hat, _ = filtered_at(q, tau, s, time_step, index)
+            q_hat, v_hat, tau_hat, _ = filtered_at(
+                q, tau, s, time_step, index, by_fft=True
+            )
         else:
             q_hat, v_hat, tau_hat = (np.asarray(x)[index] for x in signals[:3])
         channels = bank_channels(rows, s.model, q_hat, v_hat, tau_hat)
