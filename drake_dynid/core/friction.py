@@ -258,21 +258,26 @@ def friction_value(kind: str, velocity: float, sign: SignLaw = EXACT_SIGN) -> fl
 
 
 def friction_idim_columns(
-    v: np.ndarray, friction: Sequence[str], sign: SignLaw = EXACT_SIGN
+    v: np.ndarray, friction: Sequence[str], sign: SignLaw = EXACT_SIGN, block: int = 1
 ) -> np.ndarray:
     """Friction columns of the inverse-dynamics rows, shape ``(N, n, n·len(friction))``.
 
     Joint i's row has, in joint i's columns: ``v_i`` [rad/s] (viscous), ``s(v_i)``
     (Coulomb), ``1`` (offset), so that τ_f,i = FV_i v_i + FC_i s(v_i) + OFF_i
-    [N·m]. The Lagrangian model uses the same columns.
+    [N·m]. The Lagrangian model uses the same columns. ``block`` > 1: their means
+    over consecutive blocks of that many samples, shape ``(N/block, n, ...)``
+    (each column averaged before it is placed: no (N, n, n·len) array).
     """
     num_samples, num_joints = v.shape
+    count = num_samples // block
     width = len(friction)
-    out = np.zeros((num_samples, num_joints, num_joints * width))
+    out = np.zeros((count, num_joints, num_joints * width))
+    joints = np.arange(num_joints)
     for k, kind in enumerate(friction):
-        value = friction_column(kind, v, sign)
-        for i in range(num_joints):
-            out[:, i, i * width + k] = value[:, i]
+        value = friction_column(kind, v[: count * block], sign)
+        if block > 1:
+            value = value.reshape(count, block, num_joints).mean(axis=1)
+        out[:, joints, joints * width + k] = value
     return out
 
 

@@ -24,7 +24,6 @@ from drake_dynid.core import _validate
 from drake_dynid.core.friction import (
     EXACT_SIGN,
     SignLaw,
-    friction_column,
     friction_idim_columns,
     friction_power_columns,
 )
@@ -257,12 +256,4 @@ def lagrangian_friction_part(
     ``core.raw_rows.linearized_channels``, averages it exactly).
     """
     columns = np.arange(num_parameters)[friction_slice]
-    count, n = v.shape[0] // block, v.shape[1]
-    width = len(friction)
-    values = np.zeros((count, n, n * width))
-    joints = np.arange(n)
-    for k, kind in enumerate(friction):
-        column = friction_column(kind, v[: count * block], sign)
-        means = column.reshape(count, block, n).mean(axis=1)
-        values[:, joints, joints * width + k] = means
-    return columns, values
+    return columns, friction_idim_columns(v, friction, sign, block)
