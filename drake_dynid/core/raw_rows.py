@@ -230,9 +230,21 @@ def raw_channels_batch(
         that reads a non-finite sample).
     """
     ends = np.asarray(ends, dtype=int)  # q, τ: arrays or stored logs, read in part
+    return _channels(design, rows, kind, *_padded_signals(design, q, tau, ends))
+
+
+def _channels(
+    design: RawRowsDesign,
+    rows: Any,
+    kind: str,
+    q_pad: np.ndarray,
+    velocity: np.ndarray,
+    tau_pad: np.ndarray,
+    samples: np.ndarray,
+) -> np.ndarray:
+    """The bank samples' mean rows from :func:`_padded_signals`, a chunk at a time."""
     m, block = design.delay_samples, design.block
-    q_pad, velocity, tau_pad, samples = _padded_signals(design, q, tau, ends)
-    width = num_channels(num_equations(kind, q.shape[1]), int(rows.num_parameters))
+    width = num_channels(num_equations(kind, q_pad.shape[1]), int(rows.num_parameters))
     out = [np.zeros((0, width))]
     chunk = max(1, _CHUNK // block) * block  # whole bank samples per call
     for start in range(0, samples.size, chunk):
@@ -317,18 +329,17 @@ def raw_linearization(
     if kind != "lagrangian" or part is None or part(np.zeros((1, n))) is None:
         return None
     m, block = design.delay_samples, design.block
-    q_pad, velocity, tau_pad, samples = _padded_signals(design, q, tau, ends)
+    padded = _padded_signals(design, q, tau, ends)
+    q_pad, velocity, tau_pad, samples = padded
     signals = q_pad[samples - m], velocity[samples], tau_pad[samples - m]
     if not all(np.isfinite(x).all() for x in signals):
         return None
     count = ends.size
-    q_mean, v_mean, tau_mean = (
-        x.reshape(count, block, n).mean(axis=1) for x in signals
-    )
+    q_mean, v_mean, tau_mean = (_block_means(x, count, block) for x in signals)
     columns, values = part(signals[1], block)
     p = int(rows.num_parameters)
     return RawLinearization(
-        channels=raw_channels_batch(design, rows, kind, q, tau, ends),
+        channels=_channels(design, rows, kind, *padded),
         centre=_mean_rows(rows, kind, q_mean, v_mean, tau_mean, count),
         means=(q_mean, v_mean, tau_mean),
         velocity=signals[1],
@@ -379,10 +390,10 @@ def linearized_channels(
     lin = linearization
     m, block = design.delay_samples, design.block
     dq_pad, dv, dtau_pad, samples = _padded_signals(design, dq, dtau, ends)
-    count, n = ends.size, dq.shape[1]
+    count = ends.size
     deltas = dq_pad[samples - m], dv[samples], dtau_pad[samples - m]
     q_mean, v_mean, tau_mean = (
-        x + d.reshape(count, block, n).mean(axis=1)
+        x + _block_means(d, count, block)
         for x, d in zip(lin.means, deltas, strict=True)
     )
     moved = _mean_rows(rows, kind, q_mean, v_mean, tau_mean, count)
@@ -391,6 +402,11 @@ def linearized_channels(
     friction = values.reshape(count, -1)
     out[:, lin.positions] = lin.channels[:, lin.positions] + (friction - lin.friction)
     return out
+
+
+def _block_means(x: np.ndarray, count: int, block: int) -> np.ndarray:
+    """(count, n) means of ``count`` consecutive blocks of ``block`` rows of x."""
+    return x.reshape(count, block, -1).mean(axis=1)
 
 
 def _padded(x: Any, pad: int, start: int, stop: int) -> np.ndarray:
