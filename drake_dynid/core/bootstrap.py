@@ -216,13 +216,17 @@ def _linearized_solver(
     ``core.raw_rows.raw_linearization``.
     """
     from drake_dynid.core.raw_rows import linearized_channels, raw_linearization
-    from drake_dynid.core.replay import channel_equations, solve_equations
+    from drake_dynid.core.replay import (
+        channel_equations,
+        solve_equations,
+        window_bank_samples,
+    )
 
     if s.rows_from != "raw" or s.weighting == "covariance":
         return None
     provider = s.row_provider(rows, h)
     design = s.raw_design(h)
-    index = end - s.decimation(h) * np.arange(s.bank().num_intervals, -1, -1)
+    index = window_bank_samples(s, h, end)
     lin = raw_linearization(design, provider, s.model, q, tau, index)
     if lin is None:
         return None

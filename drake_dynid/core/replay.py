@@ -65,6 +65,7 @@ __all__ = [
     "filtered_signals",
     "replay_log_core",
     "solve_equations",
+    "window_bank_samples",
     "window_covariance",
     "window_covariance_at",
     "window_equations",
@@ -452,8 +453,7 @@ def window_equations(
     """
     s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
     rows = s.row_provider(rows, time_step)
-    bank = s.bank()
-    index = end - s.decimation(time_step) * np.arange(bank.num_intervals, -1, -1)
+    index = window_bank_samples(s, time_step, end)
     if s.rows_from == "raw":
         channels = raw_channels_batch(
             s.raw_design(time_step), rows, s.model, q, tau, index
@@ -467,6 +467,18 @@ def window_equations(
             q_hat, v_hat, tau_hat = (np.asarray(x)[index] for x in signals[:3])
         channels = bank_channels(rows, s.model, q_hat, v_hat, tau_hat)
     return channel_equations(rows, s, channels)
+
+
+def window_bank_samples(
+    settings: OnlineSettings, time_step: float, end: int
+) -> np.ndarray:
+    """The signal samples ``end - j·D``, j = N_bank .. 0, of one window's bank samples.
+
+    Oldest first; ``settings`` put on the grid of ``time_step`` (D =
+    bank_time_step/h).
+    """
+    count = settings.bank().num_intervals
+    return end - settings.decimation(time_step) * np.arange(count, -1, -1)
 
 
 def channel_equations(
