@@ -338,7 +338,7 @@ def _read_streamed(
     from drake_dynid.core._threads import release_heap
     from drake_dynid.log_repair import Options, repair
     from drake_dynid.log_store import RowSink
-    from drake_dynid.log_table import LineNumbers, read_table
+    from drake_dynid.log_table import LineNumbers
     from drake_dynid.logs import RobotLog
 
     log = chain.log
@@ -353,18 +353,9 @@ def _read_streamed(
         if not names and path != files[0]:
             warnings.append(f"file {path}: holds no needed column; not used.")
             continue
-        with open(path, "rb") as stream:  # the first file: its stamps at least
-            groups = (len(names),) if names else ()
-            table = read_table(path, stream, [time, *names], groups)
-        stamps = np.empty(len(table.rows))  # 8 bytes a row: the join needs them
-        previous = None
-        for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
-            _check_block_stamps(path, block, start, previous, table.rows, time)
-            stamps[start : start + block.size] = block
-            previous = float(block[-1])
-        values = table.parts[0] if names else None
-        tables[path] = (names, stamps, values, table.rows)
-        notes += table.notes
+        stamps, values, rows, read_notes = _read_file(path, names, time)
+        tables[path] = (names, stamps, values, rows)
+        notes += read_notes
     base = files[0]
     t = tables[base][1]
     low, high = 0, t.size  # the base rows inside every file's span
@@ -436,6 +427,30 @@ def _read_streamed(
     repaired = repair(f"log {label}", "row", q_t, None, q, tau, rows, options, notes)
     release_heap()  # the reader's temporaries: not under the next phase's peak
     return RobotLog._named(repaired, tuple(chain.joint_names))
+
+
+def _read_file(
+    path: str, names: list[str], time: str
+) -> tuple[np.ndarray, Any, Any, list[str]]:
+    """``(stamps, values, rows, notes)`` of one file of a raw log, streamed.
+
+    ``drake_dynid.log_table.read_table`` of the ``time`` column and ``names``
+    (values: (R, len(names)), an array or a stored array; None without names),
+    the stamps checked a block at a time and kept (8 bytes a row: the join needs
+    them), the file's row numbers and the parser's notes.
+    """
+    from drake_dynid.log_table import read_table
+
+    with open(path, "rb") as stream:
+        groups = (len(names),) if names else ()
+        table = read_table(path, stream, [time, *names], groups)
+    stamps = np.empty(len(table.rows))
+    previous = None
+    for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
+        _check_block_stamps(path, block, start, previous, table.rows, time)
+        stamps[start : start + block.size] = block
+        previous = float(block[-1])
+    return stamps, table.parts[0] if names else None, table.rows, table.notes
 
 
 def _check_block_stamps(
