@@ -25,10 +25,16 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION, LeastSquaresResult
 from drake_dynid.core.weighted_lsq import solve_window
 
-__all__ = ["IdentifierState", "Status", "identifier_init", "identifier_update"]
+__all__ = [
+    "IdentifierState",
+    "Status",
+    "identifier_apply",
+    "identifier_init",
+    "identifier_update",
+]
 
 
 class Status(IntEnum):
@@ -143,7 +149,7 @@ def identifier_update(
             solve (``core.row_covariance``; weighting, noise and jackknife unused).
     """
     if not window_valid:
-        return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
+        return identifier_apply(state, False, None)
     result = solve_window(
         A,
         B,
@@ -154,6 +160,20 @@ def identifier_update(
         jackknife=jackknife,
         covariance=covariance,
     )
+    return identifier_apply(state, True, result)
+
+
+def identifier_apply(
+    state: IdentifierState, window_valid: bool, result: LeastSquaresResult | None
+) -> IdentifierState:
+    """The new state from one window's solve (:func:`identifier_update`'s step).
+
+    ``result``: the window's ``core.weighted_lsq.solve_window`` (not read when
+    ``window_valid`` is False; the core replay solves windows stacked,
+    ``core.weighted_lsq.solve_windows``, then applies them one by one).
+    """
+    if not window_valid or result is None:
+        return dataclasses.replace(state, valid=False, status=Status.WINDOW_NOT_READY)
     unidentified = np.zeros(state.num_parameters)
     if result.valid:
         return IdentifierState(

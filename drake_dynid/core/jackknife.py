@@ -19,7 +19,7 @@ import numpy as np
 
 from drake_dynid.core import _validate as v
 
-__all__ = ["jackknife_std"]
+__all__ = ["jackknife_std", "stacked_jackknife_std"]
 
 
 def jackknife_std(
@@ -87,26 +87,74 @@ def jackknife_std(
             return nan
         R_inv = np.linalg.inv(R)
     residual = B - Q @ (Q.T @ B)
+    return stacked_jackknife_std(
+        Q[None], residual[None], groups, R_inv[None], norms[None]
+    )[0]
+
+
+def stacked_jackknife_std(
+    Q: np.ndarray,
+    residual: np.ndarray,
+    groups: np.ndarray,
+    R_inv: np.ndarray,
+    norms: np.ndarray,
+) -> np.ndarray:
+    """:func:`jackknife_std` of K solves with the same row groups, stacked.
+
+    Args:
+        Q: (K, r, p) orthonormal factors ``A S⁻¹ R⁻¹`` of the (weighted) regressors.
+        residual: (K, r) their residuals ``B - Q Qᵀ B``.
+        groups: (r,) integer group of every row (at least two groups).
+        R_inv: (K, p, p) the triangular factors' inverses.
+        norms: (K, p) the column norms S.
+
+    Returns:
+        (K, p) σ_J; NaN for a solve where deleting a group leaves θ undetermined.
+    """
+    K, _, p = Q.shape
+    labels = np.unique(groups)
     # Groups of one size (the modulated equations' pairs of functions): all the
     # downdates in stacked calls; else one group at a time.
     sizes = np.unique(np.bincount(np.searchsorted(labels, groups)))
     if sizes.size == 1:
         order = np.argsort(groups, kind="stable")
         g = labels.size
-        stacks = [(Q[order].reshape(g, -1, p), residual[order].reshape(g, -1))]
+        stacks = [
+            (Q[:, order].reshape(K, g, -1, p), residual[:, order].reshape(K, g, -1))
+        ]
     else:
         stacks = [
-            (Q[groups == label][None], residual[groups == label][None])
+            (Q[:, groups == label][:, None], residual[:, groups == label][:, None])
             for label in labels
         ]
+    determined = np.ones(K, dtype=bool)
     deleted = []
     for Qg, eg in stacks:
-        leverage = np.eye(Qg.shape[1]) - Qg @ np.swapaxes(Qg, -1, -2)
-        if np.linalg.eigvalsh(leverage)[:, 0].min() <= 1e-10:
-            return nan  # the other groups alone do not determine θ
+        Qg_t = np.swapaxes(Qg, -1, -2)
+        leverage = np.eye(Qg.shape[2]) - Qg @ Qg_t
+        # Below 1e-10 the other groups alone do not determine θ.
+        fine = _smallest_above(leverage, 1e-10)
+        determined &= fine
+        leverage[~fine] = np.eye(Qg.shape[2])
         solved = np.linalg.solve(leverage, eg[..., None])
-        deleted.append((np.swapaxes(Qg, -1, -2) @ solved)[..., 0] @ R_inv.T)
-    estimates = np.concatenate(deleted)
-    spread = estimates - estimates.mean(axis=0)
+        deleted.append((Qg_t @ solved)[..., 0] @ np.swapaxes(R_inv, 1, 2))
+    estimates = np.concatenate(deleted, axis=1)  # (K, G, p)
+    spread = estimates - estimates.mean(axis=1, keepdims=True)
     count = labels.size
-    return np.sqrt((count - 1) / count * np.sum(spread**2, axis=0)) / norms
+    out = np.sqrt((count - 1) / count * np.sum(spread**2, axis=1)) / norms
+    out[~determined] = np.nan
+    return out
+
+
+def _smallest_above(matrices: np.ndarray, limit: float) -> np.ndarray:
+    """Whether the smallest eigenvalue of each symmetric (K, g, n, n) is > ``limit``.
+
+    Per K: all g of them. ``M - limit·I`` has a Cholesky factor exactly when every
+    eigenvalue of M is above the limit (to round-off): one stacked factorisation,
+    a tenth of the eigenvalues' cost; when one fails, the eigenvalues decide.
+    """
+    try:
+        np.linalg.cholesky(matrices - limit * np.eye(matrices.shape[-1]))
+    except np.linalg.LinAlgError:
+        return np.linalg.eigvalsh(matrices)[..., 0].min(axis=1) > limit
+    return np.ones(matrices.shape[0], dtype=bool)

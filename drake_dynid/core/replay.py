@@ -26,7 +26,10 @@ Vectorised and streamed: the FIRs are evaluated at the bank samples only
 (``core.raw_rows.raw_channels_batch``) there, and their rows (one
 ``rows.model_rows`` call) a block of :data:`ROWS_CHUNK` bank samples at a time,
 when the solves reach them; the bank's ``push_many`` between two solves, and a
-solve only at the solve times. Cost per log sample: a few µs, independent of the
+solve only at the solve times, those of a stack of windows in one call
+(``core.weighted_lsq.solve_windows``, the same results; :data:`STACK_ENTRIES`)
+when they do not depend on the identifier's state (no change detection, no
+covariance weighting). Cost per log sample: a few µs, independent of the
 window T and of the log's length; memory beyond the log and the traces: a few
 blocks. :func:`filtered_signals` filters a whole log and :func:`window_estimate`
 solves one window by direct quadrature (the references the accuracy benchmark
@@ -35,6 +38,7 @@ uses; :func:`window_equations` gives its equations).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -49,13 +53,17 @@ from drake_dynid.core.change import (
     tracking_update,
 )
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
-from drake_dynid.core.identifier import identifier_init, identifier_update
+from drake_dynid.core.identifier import (
+    identifier_apply,
+    identifier_init,
+    identifier_update,
+)
 from drake_dynid.core.jacobi_stream import jacobi_batch
 from drake_dynid.core.lsq import LeastSquaresResult
 from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings, OnlineTrace
 from drake_dynid.core.raw_rows import raw_channels_batch
 from drake_dynid.core.rows import check_rows, num_channels, pack_rows
-from drake_dynid.core.weighted_lsq import solve_window
+from drake_dynid.core.weighted_lsq import solve_window, solve_windows
 
 __all__ = [
     "bank_channels",
@@ -315,10 +323,24 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     unidentified = np.zeros((num_logs, p))
     state = identifier_init(p)
     windows = bank_windows(log, rows, entry, bank, m, p, log_times)
+    solve = dict(
+        weighting=weighting,
+        max_condition=entry.max_condition,
+        names=names,
+        noise=noise,
+        jackknife=jackknife,
+    )
     # Change detection (core.change): the tracker's outputs per logged solve.
     design = change_design(entry, h, m, p)
     tracker = None if design is None else tracker_init(design)
     change = np.zeros((num_logs if design else 0, 3 + p))
+    # Without change detection or covariance weighting the windows' solves do not
+    # depend on the state: solved STACK_WINDOWS at a time (solve_windows).
+    stacked = (
+        _stacked_results(windows, solve)
+        if design is None and covariance is None
+        else None
+    )
     for index, s in enumerate(log_times):
         # Record the state after the solves at t < t_s.
         theta[index], std[index] = state.theta, state.std
@@ -328,26 +350,23 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             change[index] = tracker_outputs(tracker, design)
         if s > count - 1:
             break
+        if stacked is not None:
+            state = identifier_apply(state, *next(stacked))
+            continue
         # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
         ready, a, b, window = next(windows)
-        solve = dict(
-            weighting=weighting,
-            max_condition=entry.max_condition,
-            names=names,
-            noise=noise,
-            jackknife=jackknife,
-        )
+        call = dict(solve)
         if covariance is not None and ready:  # the window's K bank samples
             upto = int(np.searchsorted(bank_times, s, side="right"))
             samples = bank_times[upto - covariance.num_samples : upto]
-            solve["covariance"] = window_covariance(
+            call["covariance"] = window_covariance(
                 covariance, plain_rows, log, entry, samples
             )
         if design is None or tracker is None:
-            state = identifier_update(state, ready, a, b, **solve)
+            state = identifier_update(state, ready, a, b, **call)
         else:
             tracker, state = tracking_update(
-                tracker, state, design, ready, a, b, window, **solve
+                tracker, state, design, ready, a, b, window, **call
             )
     return OnlineTrace(
         settings=entry,
@@ -365,6 +384,41 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         tracking=change[:, 2],
         changed=change[:, 3:],
     )
+
+
+STACK_ENTRIES = 1 << 18
+"""Entries of A (2 MB) of the windows the core replay solves in one stacked call
+(larger stacks leave the cache: 1.5x the cost per window at 8 MB)."""
+
+
+def _stacked_results(
+    windows: Iterator[tuple[bool, Any, Any, Any]],
+    solve: dict[str, Any],
+) -> Iterator[tuple[bool, LeastSquaresResult | None]]:
+    """(ready, result) of every window of ``windows``, solved a stack at a time.
+
+    ``core.weighted_lsq.solve_windows`` of the ready windows among the next
+    ``STACK_ENTRIES / (r·p)`` (the same results as one ``solve_window`` each;
+    one window at a time until the first ready one gives r × p).
+    """
+    size = 1
+    while True:
+        batch = [(ready, a, b) for ready, a, b, _ in itertools.islice(windows, size)]
+        if not batch:
+            return
+        ready = [k for k, (valid, _, _) in enumerate(batch) if valid]
+        results: list[LeastSquaresResult | None] = [None] * len(batch)
+        if ready:
+            solved = solve_windows(
+                np.stack([batch[k][1] for k in ready]),
+                np.stack([batch[k][2] for k in ready]),
+                **solve,
+            )
+            for k, one in zip(ready, solved, strict=True):
+                results[k] = one
+            size = max(1, STACK_ENTRIES // batch[ready[0]][1].size)
+        for (valid, _, _), outcome in zip(batch, results, strict=True):
+            yield valid, outcome
 
 
 def replay_log_core(

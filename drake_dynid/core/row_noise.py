@@ -44,6 +44,7 @@ __all__ = [
     "honest_std",
     "noise_model_std",
     "row_noise",
+    "stacked_honest_std",
 ]
 
 #: Fewest effective residual degrees of freedom of a window reported valid: with
@@ -122,34 +123,38 @@ def noise_model_std(
     times too large on 5 s windows (benchmarks/bench_sigma.py).
 
     Args:
-        residual: (r,) residuals ``B - A X̂`` [unit of B].
+        residual: (r,) residuals ``B - A X̂`` [unit of B], or (K, r): K windows
+            with the same rows, each fitted apart.
         frequency: (r,) frequency index ν of each row.
         group: (r,) equation of each row.
 
     Returns:
-        (r,) σ_i [unit of B] (ones for an equation whose residuals are all 0).
+        σ_i [unit of B] of the shape of ``residual`` (ones for an equation whose
+        residuals are all 0).
     """
     labels, index = np.unique(group, return_inverse=True)
     index = index.reshape(-1)
     count = labels.size
-    scale = np.zeros(count)
-    np.maximum.at(scale, index, np.abs(residual))
+    stacked = np.reshape(residual, (-1, index.size))
+    windows = np.arange(stacked.shape[0])[:, None]
+    scale = np.zeros((stacked.shape[0], count))
+    np.maximum.at(scale, (windows, index), np.abs(stacked))
     nu2 = frequency**2
     model = np.stack([np.ones_like(nu2), nu2, nu2 * nu2], axis=1)
     top = np.zeros((count, 3))
     np.maximum.at(top, index, model)
     top[top == 0.0] = 1.0
     fitted = scale > 0.0
-    safe = np.where(fitted, scale, 1.0)
+    safe = np.where(fitted, scale, 1.0)[:, index]
     model = model / top[index]
-    coefficients = nonnegative_fit(model, (residual / safe[index]) ** 2, index, count)
-    variance = np.einsum("ik,ik->i", model, coefficients[index])
-    peak = np.zeros(count)
-    np.maximum.at(peak, index, variance)
-    use = (fitted & (peak > 0.0))[index]
-    out = np.ones_like(residual)
-    out[use] = (safe[index] * np.sqrt(np.maximum(variance, 1e-3 * peak[index])))[use]
-    return out
+    coefficients = nonnegative_fit(model, (stacked / safe) ** 2, index, count)
+    variance = np.einsum("ik,wik->wi", model, coefficients[:, index])
+    peak = np.zeros(scale.shape)
+    np.maximum.at(peak, (windows, index), variance)
+    use = (fitted & (peak > 0.0))[:, index]
+    out = np.ones_like(stacked)
+    out[use] = (safe * np.sqrt(np.maximum(variance, 1e-3 * peak[:, index])))[use]
+    return out.reshape(np.shape(residual))
 
 
 def nonnegative_fit(
@@ -162,51 +167,52 @@ def nonnegative_fit(
     feasible (all coefficients >= 0) support solution of least cost among the 8
     supports (the empty one costs 0). The support solves use the groups' Gram
     matrices (columns scaled to at most 1 by the caller) in closed form,
-    vectorised over groups; the fitted values equal scipy's ``nnls`` to
-    round-off (tests/core/test_row_noise.py).
+    vectorised over groups and over the leading axes of ``y``; the fitted values
+    equal scipy's ``nnls`` to round-off (tests/core/test_row_noise.py).
 
     Args:
         model: (r, 3) columns M of every row.
-        y: (r,) observations.
+        y: (r,) observations, or (..., r): as many fits of the same M.
         index: (r,) group of every row, in 0..count-1.
         count: number of groups.
 
     Returns:
-        (count, 3) coefficients (zeros for a group whose best fit is 0).
+        (..., count, 3) coefficients (zeros for a group whose best fit is 0).
     """
     rows = model.shape[0]
     member = np.zeros((count, rows))
     member[index, np.arange(rows)] = 1.0
     products = (model[:, :, None] * model[:, None, :]).reshape(rows, 9)
     gram = (member @ products).reshape(count, 3, 3)
-    c = member @ (model * y[:, None])
+    c = member @ (model * y[..., None])  # (..., count, 3)
     d = np.diagonal(gram, axis1=1, axis2=2)
-    candidates = np.zeros((count, 8, 3))  # supports: {}, 3 singles, 3 pairs, all
+    # Supports: {}, 3 singles, 3 pairs, all; usable (count, 8) from M alone.
+    candidates = np.zeros((*c.shape[:-1], 8, 3))
     usable = np.zeros((count, 8), dtype=bool)
     usable[:, 0] = True
     with np.errstate(divide="ignore", invalid="ignore"):
         for k in range(3):  # one column
             usable[:, 1 + k] = d[:, k] > 0.0
-            candidates[:, 1 + k, k] = c[:, k] / d[:, k]
+            candidates[..., 1 + k, k] = c[..., k] / d[:, k]
         for slot, (i, j) in enumerate(((0, 1), (0, 2), (1, 2))):  # two, Cramer
             g = gram[:, i, j]
             det = d[:, i] * d[:, j] - g * g
             # Hadamard ratio det/(g_ii g_jj) near 0: a dependent pair.
             usable[:, 4 + slot] = det > 1e-10 * d[:, i] * d[:, j]
-            candidates[:, 4 + slot, i] = (c[:, i] * d[:, j] - c[:, j] * g) / det
-            candidates[:, 4 + slot, j] = (c[:, j] * d[:, i] - c[:, i] * g) / det
+            candidates[..., 4 + slot, i] = (c[..., i] * d[:, j] - c[..., j] * g) / det
+            candidates[..., 4 + slot, j] = (c[..., j] * d[:, i] - c[..., i] * g) / det
         det = np.linalg.det(gram)
         full = det > 1e-10 * np.prod(d, axis=1)
         usable[:, 7] = full
         if full.any():
-            candidates[full, 7] = np.linalg.solve(gram[full], c[full][..., None])[
-                ..., 0
-            ]
-    candidates[~usable] = 0.0
-    cost = -np.einsum("gsk,gk->gs", candidates, c)  # ‖y - Mx‖² - ‖y‖² at each LS
-    feasible = usable & (candidates >= 0.0).all(axis=2)
-    best = np.argmin(np.where(feasible, cost, np.inf), axis=1)
-    return candidates[np.arange(count), best]
+            candidates[..., full, 7, :] = np.linalg.solve(
+                gram[full], c[..., full, :, None]
+            )[..., 0]
+    candidates[..., ~usable, :] = 0.0
+    cost = -np.einsum("...gsk,...gk->...gs", candidates, c)  # ‖y-Mx‖² - ‖y‖² at LS
+    feasible = usable & (candidates >= 0.0).all(axis=-1)
+    best = np.argmin(np.where(feasible, cost, np.inf), axis=-1)
+    return np.take_along_axis(candidates, best[..., None, None], axis=-2)[..., 0, :]
 
 
 @dataclass(frozen=True)
@@ -252,49 +258,95 @@ def honest_std(
         :class:`HonestStd` (std NaN and dof 0 when the residual has no degree of
         freedom left).
     """
-    Aw = A * weights[:, None]
     if factor is None:
+        Aw = A * weights[:, None]
         scale = np.max(np.abs(Aw), axis=0)
         scale[scale == 0.0] = 1.0
         norms = scale * np.sqrt(np.einsum("ij,ij->j", Aw / scale, Aw / scale))
-        As = Aw / norms
-        R_inv = np.linalg.inv(np.asarray(np.linalg.qr(As, mode="r")))
+        R_inv = np.linalg.inv(np.asarray(np.linalg.qr(Aw / norms, mode="r")))
     else:
         R_inv, norms = factor
-        As = Aw / norms
-    inverse = R_inv @ R_inv.T
+    std, residual_std, dof = stacked_honest_std(
+        A[None],
+        B[None],
+        theta[None],
+        weights[None],
+        relative_std[None],
+        noise,
+        R_inv[None],
+        norms[None],
+    )
+    std = std[0]
+    std.flags.writeable = False
+    return HonestStd(std=std, residual_std=float(residual_std[0]), dof=float(dof[0]))
+
+
+def stacked_honest_std(
+    A: np.ndarray,
+    B: np.ndarray,
+    theta: np.ndarray,
+    weights: np.ndarray,
+    relative_std: np.ndarray,
+    noise: RowNoise,
+    R_inv: np.ndarray,
+    norms: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`honest_std` of K windows with the same rows, in stacked products.
+
+    Args:
+        A: (K, r, p) regressors (unweighted).
+        B: (K, r) observations.
+        theta: (K, p) the estimates.
+        weights: (K, r) row weights of the solves.
+        relative_std: (K, r) modelled noise std of the rows.
+        noise: the rows' :class:`RowNoise`.
+        R_inv: (K, p, p) R⁻¹ of the QR of each ``W A`` with its columns divided by
+            ``norms``.
+        norms: (K, p) those column norms.
+
+    Returns:
+        ``(std (K, p), residual_std (K,), dof (K,))``: NaN, NaN and 0 for a window
+        whose residual has no degree of freedom left.
+    """
+    K, _, p = A.shape
+    As = (A * weights[..., None]) / norms[:, None, :]
+    inverse = R_inv @ np.swapaxes(R_inv, 1, 2)
     s = weights * relative_std
-    s = s / np.sqrt(np.mean(s * s))  # one overall scale, fitted below
-    p = A.shape[1]
+    s = s / np.sqrt(np.mean(s * s, axis=1, keepdims=True))  # one scale, fitted below
     # Σ_j = S_j C S_j = (S_j F)(S_j F)ᵀ with F the correlation's factor (R1 × k):
     # Ãᵀ Σ Ã = YᵀY with Y = (S F)ᵀ Ã, (Σ Ã)ᵀ(Σ Ã) = Yᵀ G Y with G = (S F)ᵀ(S F),
     # every group j (R1 rows each, in order) in stacked products.
     F = noise.factor
     order = np.argsort(noise.group, kind="stable")
     count = order.size // F.shape[0]
-    SF = s[order].reshape(count, -1, 1) * F  # (g, R1, k)
-    Y = np.swapaxes(SF, 1, 2) @ As[order].reshape(count, -1, p)  # (g, k, p)
-    G = np.swapaxes(SF, 1, 2) @ SF  # (g, k, k)
-    stacked = Y.reshape(-1, p)
-    meat = stacked.T @ stacked
-    meat_sq = stacked.T @ (G @ Y).reshape(-1, p)
-    trace_s = float(np.sum(s * s))
-    trace_s2 = float(np.sum(G * G))
+    SF = s[:, order].reshape(K, count, -1, 1) * F  # (K, g, R1, k)
+    SFt = np.swapaxes(SF, 2, 3)
+    Y = SFt @ As[:, order].reshape(K, count, -1, p)  # (K, g, k, p)
+    G = SFt @ SF  # (K, g, k, k)
+    stacked = Y.reshape(K, -1, p)
+    stacked_t = np.swapaxes(stacked, 1, 2)
+    meat = stacked_t @ stacked
+    meat_sq = stacked_t @ (G @ Y).reshape(K, -1, p)
+    trace_s = np.sum(s * s, axis=1)
+    trace_s2 = np.sum(G * G, axis=(1, 2, 3))
     hat = inverse @ meat
-    dof_num = trace_s - float(np.trace(hat))
-    nan = np.full(p, np.nan)
-    if not dof_num > 0.0:
-        return HonestStd(std=nan, residual_std=np.nan, dof=0.0)
+    dof_num = trace_s - np.trace(hat, axis1=1, axis2=2)
     denominator = (
         trace_s2
-        - 2.0 * float(np.einsum("ij,ji->", inverse, meat_sq))
-        + float(np.sum(hat * hat.T))
+        - 2.0 * np.einsum("kij,kji->k", inverse, meat_sq)
+        + np.sum(hat * np.swapaxes(hat, 1, 2), axis=(1, 2))
     )
-    dof = dof_num**2 / denominator if denominator > 0.0 else 0.0
-    residual = (B - A @ theta) * weights
-    r_scale = float(np.max(np.abs(residual))) or 1.0
-    sigma2 = r_scale**2 * float(np.sum((residual / r_scale) ** 2)) / dof_num
-    variance = sigma2 * np.einsum("ij,ji->i", hat, inverse)  # diag(H P⁻¹) σ̂²
+    has_dof = dof_num > 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        dof = np.where(has_dof & (denominator > 0.0), dof_num**2 / denominator, 0.0)
+        residual = (B - (A @ theta[..., None])[..., 0]) * weights
+        r_scale = np.max(np.abs(residual), axis=1)
+        r_scale[r_scale == 0.0] = 1.0
+        sigma2 = (
+            r_scale**2 * np.sum((residual / r_scale[:, None]) ** 2, axis=1) / dof_num
+        )
+        variance = sigma2[:, None] * np.einsum("kij,kji->ki", hat, inverse)
     std = np.sqrt(np.clip(variance, 0.0, None)) / norms
-    std.flags.writeable = False
-    return HonestStd(std=std, residual_std=float(np.sqrt(sigma2)), dof=float(dof))
+    std[~has_dof] = np.nan
+    sigma = np.where(has_dof, np.sqrt(np.where(has_dof, sigma2, 0.0)), np.nan)
+    return std, sigma, dof

@@ -33,6 +33,7 @@ __all__ = [
     "frequency_noise_weights",
     "solve_frequency_weighted_least_squares",
     "solve_window",
+    "solve_windows",
     "with_jackknife",
 ]
 
@@ -43,22 +44,24 @@ def _nonnegative_lines(
     """Per group g: ``argmin ‖a + b x - y‖²`` over rows of g with a, b >= 0.
 
     A two-column non-negative least squares in closed form, vectorised over the
-    groups (``index`` (r,) in 0..count-1): the unconstrained line when both
-    coefficients are >= 0, else the best of the one-coefficient fits a = max(0,
-    ȳ), b = max(0, Σxy/Σx²) and a = b = 0 (the optimum of a convex problem lies
-    on one of these faces). The fitted values a + b x are unique: those of
-    scipy's ``nnls`` to round-off.
+    groups (``index`` (r,) in 0..count-1) and over the leading axes of ``y``
+    (..., r), ``x`` (r,) shared: the unconstrained line when both coefficients
+    are >= 0, else the best of the one-coefficient fits a = max(0, ȳ), b = max(0,
+    Σxy/Σx²) and a = b = 0 (the optimum of a convex problem lies on one of these
+    faces). The fitted values a + b x are unique: those of scipy's ``nnls`` to
+    round-off. Returns a, b of shape (..., count).
     """
     member = (index == np.arange(count)[:, None]).astype(float)
-    moments = np.stack((np.ones_like(x), x, y, x * x, x * y), axis=1)
-    rows, sx, sy, sxx, sxy = (member @ moments).T
+    x = np.broadcast_to(x, y.shape)
+    moments = np.stack((np.ones_like(y), x, y, x * x, x * y), axis=-1)
+    rows, sx, sy, sxx, sxy = np.moveaxis(member @ moments, -1, 0)
     mean_x, mean_y = sx / rows, sy / rows
     # Centred moments (a well-conditioned 2×2 system).
     spread = sxx - sx * mean_x
-    slope = np.divide(sxy - sx * mean_y, spread, out=np.zeros(count), where=spread > 0)
+    zero = np.zeros_like(spread)
+    slope = np.divide(sxy - sx * mean_y, spread, out=zero.copy(), where=spread > 0)
     free = (mean_y - slope * mean_x, slope)
-    only_b = np.divide(sxy, sxx, out=np.zeros(count), where=sxx > 0)
-    zero = np.zeros(count)
+    only_b = np.divide(sxy, sxx, out=zero.copy(), where=sxx > 0)
     faces = ((np.maximum(mean_y, 0.0), zero), (zero, np.maximum(only_b, 0.0)))
     # ‖a + b x - y‖² - Σy² from the group sums, for each face.
     costs = [
@@ -70,6 +73,34 @@ def _nonnegative_lines(
     best_b = np.where(use_b, faces[1][1], 0.0)
     feasible = (spread > 0) & (free[0] >= 0.0) & (free[1] >= 0.0)
     return np.where(feasible, free[0], best_a), np.where(feasible, free[1], best_b)
+
+
+def _frequency_weights(
+    residual: np.ndarray,
+    frequency: np.ndarray,
+    index: np.ndarray,
+    count: int,
+    floor: float,
+) -> np.ndarray:
+    """:func:`frequency_noise_weights` of the (K, r) residuals of K windows.
+
+    ``index`` (r,): the rows' groups in 0..count-1. Returns (K, r) weights.
+    """
+    # Residuals scaled by their largest magnitude: squares never overflow.
+    scale = np.max(np.abs(residual), axis=-1, initial=0.0)
+    safe = np.where(scale > 0.0, scale, 1.0)[:, None]
+    squared = frequency**2
+    a, b = _nonnegative_lines(squared, (residual / safe) ** 2, index, count)
+    variance = a[:, index] + b[:, index] * squared
+    windows = np.arange(residual.shape[0])[:, None]
+    top = np.zeros(a.shape)
+    np.maximum.at(top, (windows, index), variance)
+    bottom = floor * top[:, index]
+    weights = np.ones_like(residual)
+    fitted = (top[:, index] > 0.0) & (scale > 0.0)[:, None]
+    sigma = safe * np.sqrt(np.maximum(variance, bottom))
+    weights[fitted] = 1.0 / sigma[fitted]
+    return weights
 
 
 def frequency_noise_weights(
@@ -112,22 +143,10 @@ def frequency_noise_weights(
     floor = v.positive(owner, "floor", floor)
     if floor > 1.0:
         v.fail(owner, f"floor must be in (0, 1]; got {floor:g}.")
-    # Residuals scaled by their largest magnitude: squares never overflow.
-    scale = float(np.max(np.abs(residual), initial=0.0))
-    if scale == 0.0:
-        return np.ones_like(residual)
     labels, index = np.unique(group, return_inverse=True)
-    index = index.reshape(-1)
-    squared = frequency**2
-    a, b = _nonnegative_lines(squared, (residual / scale) ** 2, index, labels.size)
-    variance = a[index] + b[index] * squared
-    top = np.zeros(labels.size)
-    np.maximum.at(top, index, variance)
-    bottom = floor * top[index]
-    weights = np.ones_like(residual)
-    fitted = top[index] > 0.0
-    weights[fitted] = 1.0 / (scale * np.sqrt(np.maximum(variance, bottom)[fitted]))
-    return weights
+    return _frequency_weights(
+        residual[None], frequency, index.reshape(-1), labels.size, floor
+    )[0]
 
 
 def solve_frequency_weighted_least_squares(
@@ -236,9 +255,7 @@ def solve_window(
         )
     if noise is None:
         if weighting is None:
-            result = solve_least_squares(
-                A, B, max_condition=max_condition, names=names
-            )
+            result = solve_least_squares(A, B, max_condition=max_condition, names=names)
             weights = None
         else:
             frequency, group = weighting
@@ -343,3 +360,202 @@ def _with_inverse(factor: _Factor) -> _Factor:
         return factor
     p = factor.norms.size
     return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))
+
+
+def _stacked_factor(
+    A: np.ndarray, B: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """R of ``[A S⁻¹ | B/b]`` for each of K windows: (R_aug, norms S, b).
+
+    The scaling of ``core.lsq._decompose`` (columns by their norms, B by its
+    largest magnitude), every window's QR in one stacked call. The caller has
+    checked every entry finite and every column non-zero.
+    """
+    peak = np.max(np.abs(A), axis=1)
+    scaled = A / peak[:, None, :]
+    norms = peak * np.sqrt(np.einsum("kij,kij->kj", scaled, scaled))
+    b_scale = np.max(np.abs(B), axis=1)
+    b_scale[b_scale == 0.0] = 1.0
+    augmented = np.empty((A.shape[0], A.shape[1], A.shape[2] + 1))
+    np.divide(A, norms[:, None, :], out=augmented[..., :-1])
+    np.divide(B, b_scale[:, None], out=augmented[..., -1])
+    return np.asarray(np.linalg.qr(augmented, mode="r")), norms, b_scale
+
+
+def _stacked_solve(
+    A: np.ndarray,
+    B: np.ndarray,
+    weighting: tuple[Any, Any] | None,
+    max_condition: float,
+    noise: Any,
+    jackknife: Any,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The steps of :func:`solve_window` (with ``noise``) for K windows, stacked.
+
+    Returns ``(done, values)``: which windows took the common path (finite,
+    first pass shown valid by the condition bound, full rank, condition <=
+    ``max_condition``, enough residual degrees of freedom), and their theta,
+    std, condition and residual_std (rows of the windows done, in order). The
+    others are left to :func:`solve_window`, which gives their reasons.
+    """
+    from drake_dynid.core.jackknife import stacked_jackknife_std
+    from drake_dynid.core.row_noise import (
+        MIN_RESIDUAL_DOF,
+        noise_model_std,
+        stacked_honest_std,
+    )
+
+    _, rows, p = A.shape
+    done = np.isfinite(A).all(axis=(1, 2)) & np.isfinite(B).all(axis=1)
+    done[done] = (np.max(np.abs(A[done]), axis=1) > np.finfo(float).tiny).all(axis=1)
+    if rows <= p:
+        done[:] = False
+    eps = np.finfo(float).eps
+    frequency = np.asarray(noise.frequency, dtype=float)
+    labels, index = np.unique(noise.group, return_inverse=True)
+    index = index.reshape(-1)
+
+    def keep(mask: np.ndarray, *arrays: np.ndarray) -> list[np.ndarray]:
+        done[np.flatnonzero(done)[~mask]] = False
+        return [x[mask] for x in arrays]
+
+    A, B = A[done], B[done]
+    if not done.any():
+        return done, {}
+    try:
+        if weighting is None:
+            weights = np.ones_like(B)
+        else:
+            # First pass: X̂₀ when the bound ‖R‖_F ‖R⁻¹‖_F shows it valid.
+            R_aug, norms, b_scale = _stacked_factor(A, B)
+            R_inv = np.linalg.inv(R_aug[:, :p, :p])
+            bound = np.linalg.norm(R_aug[:, :p, :p], axis=(1, 2)) * np.linalg.norm(
+                R_inv, axis=(1, 2)
+            )
+            limit = min(max_condition, 1.0 / (max(rows, p) * eps))
+            A, B, R_aug, norms, b_scale, R_inv = keep(
+                bound <= limit, A, B, R_aug, norms, b_scale, R_inv
+            )
+            if not done.any():
+                return done, {}
+            theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
+            residual = B - (A @ theta[..., None])[..., 0]
+            weights = _frequency_weights(residual, frequency, index, labels.size, 1e-3)
+        Aw, Bw = A * weights[..., None], B * weights
+        R_aug, norms, b_scale = _stacked_factor(Aw, Bw)
+        singular = np.linalg.svd(R_aug[:, :p, :p], compute_uv=False)
+        tolerance = singular[:, 0] * max(rows, p) * eps
+        with np.errstate(divide="ignore"):
+            condition = singular[:, 0] / singular[:, -1]
+        good = (singular[:, -1] > tolerance) & (condition <= max_condition)
+        A, B, weights, Aw, Bw, R_aug, norms, b_scale, condition = keep(
+            good, A, B, weights, Aw, Bw, R_aug, norms, b_scale, condition
+        )
+        if not done.any():
+            return done, {}
+        R_inv = np.linalg.inv(R_aug[:, :p, :p])
+    except np.linalg.LinAlgError:  # an exactly singular R: every window one by one
+        done[:] = False
+        return done, {}
+    theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
+    residual = B - (A @ theta[..., None])[..., 0]
+    relative = noise_model_std(residual, frequency, noise.group)
+    std, residual_std, dof = stacked_honest_std(
+        A, B, theta, weights, relative, noise, R_inv, norms
+    )
+    enough = dof >= MIN_RESIDUAL_DOF
+    values = dict(theta=theta, std=std, condition=condition, residual_std=residual_std)
+    if jackknife is not None and np.unique(jackknife).size >= 2:
+        Q = (Aw / norms[:, None, :]) @ R_inv
+        left = Bw - (Q @ (np.swapaxes(Q, 1, 2) @ Bw[..., None]))[..., 0]
+        spread = stacked_jackknife_std(Q, left, np.asarray(jackknife), R_inv, norms)
+        values["std"] = np.fmax(std, spread)
+    arrays = keep(enough, *values.values())
+    return done, dict(zip(values, arrays, strict=True))
+
+
+def solve_windows(
+    A: Any,
+    B: Any,
+    weighting: tuple[Any, Any] | None = None,
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+    noise: Any = None,
+    jackknife: Any = None,
+) -> list[LeastSquaresResult]:
+    """:func:`solve_window` of K windows with the same rows: the same results.
+
+    With ``noise`` (the honest σ) the common path of every window (the two QR,
+    the noise models, the sandwich σ and the jackknife) runs in stacked numpy
+    calls, a fraction of K separate solves' Python overhead; a window off that
+    path (non-finite, rank deficient, ill-conditioned, too few residual degrees
+    of freedom, or a first pass the condition bound does not show valid) is
+    solved by :func:`solve_window`, which gives its reason. Without ``noise``,
+    :func:`solve_window` one window at a time.
+
+    Args:
+        A: (K, r, p) regressors.
+        B: (K, r) observations.
+        weighting: as :func:`solve_window`.
+        max_condition: as :func:`solve_window`.
+        names: as :func:`solve_window`.
+        noise: as :func:`solve_window` (one for every window).
+        jackknife: as :func:`solve_window` (one for every window).
+
+    Returns:
+        K :class:`~drake_dynid.core.lsq.LeastSquaresResult`, in order.
+    """
+    owner = "solve_windows"
+    A = v.array(owner, "A", A, finite=False)
+    if A.ndim != 3 or A.shape[2] < 1:
+        v.fail(owner, f"A must have shape (K, rows, p) with p >= 1; got {A.shape}.")
+    K, rows, p = A.shape
+    B = v.array(owner, "B", B, shape=(K, rows), finite=False)
+    if names is not None and len(names) != p:
+        v.fail(owner, f"names must have {p} entries; got {len(names)}.")
+
+    def one(k: int) -> LeastSquaresResult:
+        return solve_window(
+            A[k],
+            B[k],
+            weighting,
+            max_condition=max_condition,
+            names=names,
+            noise=noise,
+            jackknife=jackknife,
+        )
+
+    if noise is None or K == 0 or rows != noise.num_rows:
+        return [one(k) for k in range(K)]
+    done, values = _stacked_solve(A, B, weighting, max_condition, noise, jackknife)
+    labels = (
+        tuple(f"x{i}" for i in range(p))
+        if names is None
+        else tuple(str(name) for name in names)
+    )
+    out: list[LeastSquaresResult] = []
+    row = 0
+    for k in range(K):
+        if not done[k]:
+            out.append(one(k))
+            continue
+        theta, std = values["theta"][row], values["std"][row]
+        theta.flags.writeable = False
+        result = LeastSquaresResult(
+            theta=theta,
+            std=std,
+            relative_std_percent=std,
+            condition_number=float(values["condition"][row]),
+            rank=p,
+            residual_std=float(values["residual_std"][row]),
+            num_rows=rows,
+            valid=True,
+            reason="",
+            names=labels,
+            unidentified=(),
+            unidentified_indices=(),
+        )
+        out.append(_with_std(result, std))
+        row += 1
+    return out
