@@ -25,10 +25,12 @@ columns and τ are decimated at the full rate, while the rigid-body columns, the
 expensive ones, are evaluated only every D1-th sample, D = D1·D2, with the
 decimation in two stages (an anti-alias FIR to f_s/D1 on τ and friction, then
 the order-8 Butterworth at f_d on every column at f_s/D1). Memory does not grow
-with the log length beyond the decimated rows (:func:`offline_rows`; a long log
-read from a file stays on disk and is read a block at a time, and the least
-squares factor the rows a block at a time), and on a 7-DOF arm the regressor runs
-on about one sample in 40 instead of all of them.
+with the log length: a long log read from a file stays on disk and is read a
+block at a time, and each block of decimated rows is reduced by QR per joint into
+the equations so far (:func:`offline_rows`, ``core.idim.reduce_rows``), which
+step 5 solves (``core.idim.idim_solve``); only ``keep_rows`` (the physically
+consistent solve, ``drake_dynid.physical``) keeps the K decimated rows. On a 7-DOF
+arm the regressor runs on about one sample in 40 instead of all of them.
 ``regressor_decimation=1`` evaluates every sample: the one-stage parallel
 decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
 The estimates of the two agree to a small fraction of their σ (tests/test_offline.py).
@@ -65,7 +67,13 @@ from drake_dynid.core import idim_stream
 from drake_dynid.core._threads import release_heap, thread_limit
 from drake_dynid.core.blocks import is_stored, segment
 from drake_dynid.core.friction import EXACT_SIGN
-from drake_dynid.core.idim import default_padding, default_trim, idim_least_squares
+from drake_dynid.core.idim import (
+    ReducedRows,
+    default_padding,
+    default_trim,
+    idim_solve,
+    reduce_rows,
+)
 from drake_dynid.core.idim_auto import (
     DECIMATION_BAND_FACTOR,
     MAX_AUTO_CUTOFF_HZ,
@@ -159,8 +167,12 @@ class OfflineRows:
 
     Attributes:
         names: (p,) column names (base parameters).
-        W: (K, n, p) decimated rows, all segments stacked [N·m or N per unit].
-        tau: (K, n) decimated torques [N·m or N].
+        reduced: the K decimated equations of all segments, reduced by QR per
+            joint as they were computed (``core.idim.reduce_rows``; solved by
+            ``core.idim.idim_solve``).
+        W: with ``keep_rows``, (K, n, p) the decimated rows, all segments stacked
+            [N·m or N per unit]; else None.
+        tau: with ``keep_rows``, (K, n) the decimated torques [N·m or N]; else None.
         settings: the filter settings (see :class:`OfflineResult`).
         num_samples: samples in the log.
         num_samples_used: samples of the finite segments minus the trimmed ends.
@@ -169,8 +181,9 @@ class OfflineRows:
     """
 
     names: tuple[str, ...]
-    W: np.ndarray
-    tau: np.ndarray
+    reduced: ReducedRows
+    W: np.ndarray | None
+    tau: np.ndarray | None
     settings: dict[str, Any]
     num_samples: int
     num_samples_used: int
@@ -203,11 +216,14 @@ def offline_rows(
     decimation_cutoff_hz: float | None = None,
     filter_order: int = 4,
     regressor_decimation: int | None = None,
+    keep_rows: bool = False,
 ) -> OfflineRows:
     """Steps 1-4 of the chain: the decimated rows and torques of every segment.
 
-    Arguments as :func:`identify_offline`. Memory: the decimated rows
-    (K·n·p floats, K ≈ N/D) plus a few blocks, whatever the log length.
+    Arguments as :func:`identify_offline`. Each block of decimated rows is
+    reduced by QR into the equations so far (``core.idim.reduce_rows``) as it
+    comes. Memory: a few blocks and n (p + 1)² floats, whatever the log length;
+    with ``keep_rows``, the decimated rows too (K·n·p floats, K ≈ N/D).
     """
     owner = "identify_offline"
     rows = _provider(robot)
@@ -311,10 +327,15 @@ def offline_rows(
 
     release_heap()  # the automatic settings' spectra: not under the rows' peak
     used = [(start, stop) for start, stop in segments if stop - start >= minimum]
-    # Rows of each segment: ceil((N - 2·trim)/D); W allocated once (no copies).
+    # Rows of each segment: ceil((N - 2·trim)/D); W allocated once (no copies)
+    # when kept, else each block reduced into the equations so far.
     counts = [-(-(stop - start - 2 * trim) // decimation) for start, stop in used]
-    W = np.zeros((sum(counts), n, len(names)))
-    tau_out = np.empty((sum(counts), n))
+    total = sum(counts) if keep_rows else 0
+    W = np.zeros((total, n, len(names)))
+    tau_out = np.empty((total, n))
+    reduced = ReducedRows(
+        R=np.zeros((n, len(names) + 1, len(names) + 1)), num_samples=0
+    )
     row = 0
     for start, stop in used:
         for W_rigid, F, tau_d in idim_stream.decimated_chunks(
@@ -326,13 +347,17 @@ def offline_rows(
             sign,
         ):
             count = tau_d.shape[0]
-            part = W[row : row + count]
+            part = (
+                W[row : row + count] if keep_rows else np.zeros((count, *W.shape[1:]))
+            )
             part[..., rigid_index] = W_rigid
             for c, (column, _, joint) in enumerate(layout):
                 part[:, joint, column] = F[:, c]
-            tau_out[row : row + count] = tau_d
+            reduced = reduce_rows(part, tau_d, reduced)
+            if keep_rows:
+                tau_out[row : row + count] = tau_d
             row += count
-    assert row == W.shape[0]
+    assert row == sum(counts)
     used_samples = sum(stop - start - 2 * trim for start, stop in used)
     if not used:
         check.fail(
@@ -359,8 +384,9 @@ def offline_rows(
     }
     return OfflineRows(
         names=names,
-        W=W,
-        tau=tau_out,
+        reduced=reduced,
+        W=W if keep_rows else None,
+        tau=tau_out if keep_rows else None,
         settings=settings,
         num_samples=int(q.shape[0]),
         num_samples_used=int(used_samples),
@@ -504,10 +530,10 @@ def identify_offline(
             decimation_cutoff_hz=decimation_cutoff_hz,
             filter_order=filter_order,
             regressor_decimation=regressor_decimation,
+            keep_rows=keep_rows,
         )
-        fit = idim_least_squares(
-            rows.W,
-            rows.tau,
+        fit = idim_solve(
+            rows.reduced,
             weighted=weighted,
             names=rows.names,
             max_condition=max_condition,
@@ -533,6 +559,6 @@ def identify_offline(
         num_segments=rows.num_segments,
         num_segments_used=rows.num_segments_used,
         unidentified=tuple(fit.unidentified),
-        rows=rows.W if keep_rows else None,
-        torques=rows.tau if keep_rows else None,
+        rows=rows.W,
+        torques=rows.tau,
     )

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from drake_dynid.core.idim import default_trim
+from drake_dynid.core.idim import default_trim, idim_least_squares
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.diagrams import SimulationSettings, simulate_identification
 from drake_dynid.logs import RobotLog
@@ -13,6 +13,7 @@ from drake_dynid.offline import (
     auto_decimation,
     auto_decimation_cutoff,
     identify_offline,
+    offline_rows,
 )
 from drake_dynid.plants import RobotModel, model_path
 
@@ -97,6 +98,23 @@ def test_noise_free_log_recovers_the_base_parameters(robot, clean_log, weighted)
     assert np.all(error < 0.01), error
     assert np.all(result.relative_std_percent < 1.0)
     assert 1.0 < result.condition_number < 20.0
+
+
+def test_the_rows_are_reduced_as_they_come_unless_kept(robot, noisy_log):
+    # Memory independent of the log's length: no decimated rows held by default;
+    # kept ones (for the physical solve) give the same fit by the one-shot path.
+    rows = offline_rows(noisy_log, robot)
+    assert rows.W is None and rows.tau is None
+    p = robot.num_parameters
+    assert rows.reduced.R.shape == (2, p + 1, p + 1)
+    kept = identify_offline(noisy_log, robot, weighted=True, keep_rows=True)
+    assert kept.rows.shape[0] == rows.reduced.num_samples
+    direct = idim_least_squares(kept.rows, kept.torques, weighted=True)
+    np.testing.assert_allclose(kept.theta, direct.theta, rtol=1e-9)
+    np.testing.assert_allclose(kept.std, direct.std, rtol=1e-9)
+    plain = identify_offline(noisy_log, robot, weighted=True)
+    assert plain.rows is None
+    np.testing.assert_allclose(plain.theta, kept.theta, rtol=1e-12)
 
 
 def test_snr_30db_log_is_identified_with_an_automatic_cutoff(robot, noisy_log):

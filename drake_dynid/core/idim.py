@@ -14,7 +14,9 @@ Gautier's off-line practice, implemented here as plain functions:
    to every column of W and to τ, which removes the equation noise above the
    dynamics bandwidth while keeping ``τ = W X``.
 3. :func:`idim_least_squares`: ordinary LS, or weighted LS with one weight
-   ``1/σ_j`` per joint, ``σ_j`` from a per-joint OLS.
+   ``1/σ_j`` per joint, ``σ_j`` from a per-joint OLS. Both from the equations
+   reduced by QR per joint (:func:`reduce_rows`, :func:`idim_solve`): a log's
+   rows can be reduced a block at a time, in memory independent of its length.
 
 Everything is generic: W comes from any rows callable (analytic 2R rows, the
 numeric Drake regressor, ...).
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,17 +36,19 @@ from drake_dynid.core.lsq import (
     DEFAULT_MAX_CONDITION,
     LeastSquaresResult,
     solve_least_squares,
-    solve_weighted_least_squares,
 )
 
 __all__ = [
     "DECIMATION_FILTER_ORDER",
+    "ReducedRows",
     "default_padding",
     "default_trim",
     "idim_least_squares",
+    "idim_solve",
     "joint_noise_std",
     "offline_derivatives",
     "parallel_decimation",
+    "reduce_rows",
 ]
 
 
@@ -255,6 +260,84 @@ def _stacked(owner: str, W: Any, tau: Any) -> tuple[np.ndarray, np.ndarray]:
     return W, tau
 
 
+@dataclass(frozen=True, eq=False)
+class ReducedRows:
+    """The equations ``τ = W X`` of K samples reduced by QR, joint by joint.
+
+    Attributes:
+        R: (n, p + 1, p + 1) the upper-triangular R_j of ``[W_j | τ_j]`` (joint
+            j's K rows; zero rows below while K < p + 1), so that
+            ``‖W_j X - τ_j‖ = ‖R_j [X; -1]‖`` for every X.
+        num_samples: K.
+    """
+
+    R: np.ndarray
+    num_samples: int
+
+    @property
+    def num_parameters(self) -> int:
+        """The number of parameters p."""
+        return int(self.R.shape[2] - 1)
+
+
+def reduce_rows(W: Any, tau: Any, previous: ReducedRows | None = None) -> ReducedRows:
+    """``[W_j | τ_j]`` of every joint reduced to its R factor (Q never formed).
+
+    With ``previous``, the R of ``[R_previous; new rows]``: the reduction of
+    every row so far (that of the whole up to the signs of its rows, which no
+    result depends on), so a log's rows can be reduced a block at a time in
+    memory of one block.
+
+    Args:
+        W: (K, n, p) regressor samples [unit of τ / unit of X].
+        tau: (K, n) torques.
+        previous: the reduction of the earlier rows (same n and p), or None.
+    """
+    owner = "reduce_rows"
+    W, tau = _stacked(owner, W, tau)
+    samples, joints, p = W.shape
+    stack = np.concatenate([W, tau[..., None]], axis=2).transpose(1, 0, 2)
+    done = 0
+    if previous is not None:
+        if previous.R.shape != (joints, p + 1, p + 1):
+            v.fail(
+                owner,
+                f"previous must reduce {joints} joints and {p} parameters; got R "
+                f"{previous.R.shape}.",
+            )
+        stack = np.concatenate([previous.R, stack], axis=1)
+        done = previous.num_samples
+    R = np.zeros((joints, p + 1, p + 1))
+    if stack.shape[1]:
+        factor = np.asarray(np.linalg.qr(stack, mode="r"))
+        R[:, : factor.shape[1]] = factor
+    return ReducedRows(R=R, num_samples=done + samples)
+
+
+def _reduced_noise_std(reduced: ReducedRows) -> np.ndarray:
+    """:func:`joint_noise_std` of the reduced equations (the same numbers).
+
+    ``‖W_j X - τ_j‖² = ‖R_j[:p, :p] X - R_j[:p, p]‖² + R_j[p, p]²``: the per-joint
+    least squares of R_j, its rank decided with the tolerance numpy's ``lstsq``
+    gives the K × p W_j (same singular values).
+    """
+    samples = reduced.num_samples
+    p = reduced.num_parameters
+    out = np.empty(reduced.R.shape[0])
+    rcond = np.finfo(float).eps * max(samples, p)
+    for j, R in enumerate(reduced.R):
+        fit, _, rank, _ = np.linalg.lstsq(R[:p, :p], R[:p, p], rcond=rcond)
+        if samples <= rank:
+            v.fail(
+                "joint_noise_std",
+                f"joint {j} needs more than {rank} samples; got {samples}.",
+            )
+        residual = R[:p, :p] @ fit - R[:p, p]
+        squares = float(residual @ residual) + float(R[p, p]) ** 2
+        out[j] = math.sqrt(squares / (samples - rank))
+    return out
+
+
 def joint_noise_std(W: Any, tau: Any) -> np.ndarray:
     """Per-joint error std σ_j from an OLS on joint j's equations alone (Gautier).
 
@@ -271,18 +354,7 @@ def joint_noise_std(W: Any, tau: Any) -> np.ndarray:
         (n,) σ_j [unit of τ_j].
     """
     W, tau = _stacked("joint_noise_std", W, tau)
-    samples, joints, _ = W.shape
-    out = np.empty(joints)
-    for j in range(joints):
-        fit, _, rank, _ = np.linalg.lstsq(W[:, j, :], tau[:, j], rcond=None)
-        if samples <= rank:
-            v.fail(
-                "joint_noise_std",
-                f"joint {j} needs more than {rank} samples; got {samples}.",
-            )
-        residual = tau[:, j] - W[:, j, :] @ fit
-        out[j] = math.sqrt(float(residual @ residual) / (samples - rank))
-    return out
+    return _reduced_noise_std(reduce_rows(W, tau))
 
 
 def idim_least_squares(
@@ -313,18 +385,50 @@ def idim_least_squares(
     """
     W, tau = _stacked("idim_least_squares", W, tau)
     samples, joints, p = W.shape
-    A = W.reshape(samples * joints, p)
-    B = tau.reshape(samples * joints)
-    if not weighted:
-        return solve_least_squares(A, B, max_condition=max_condition, names=names)
     if not (np.isfinite(W).all() and np.isfinite(tau).all()):
-        # Let the solver report the non-finite input.
-        return solve_least_squares(A, B, max_condition=max_condition, names=names)
-    sigma = joint_noise_std(W, tau)
-    # A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite
-    # weight: floor σ_j at 1e-12 of the largest (or 1 if all are zero).
-    floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
-    weights = np.tile(1.0 / np.maximum(sigma, floor), samples)
-    return solve_weighted_least_squares(
-        A, B, weights, max_condition=max_condition, names=names
+        # The solver names the non-finite values and their columns.
+        A = W.reshape(samples * joints, p)
+        return solve_least_squares(
+            A, tau.reshape(-1), max_condition=max_condition, names=names
+        )
+    return idim_solve(
+        reduce_rows(W, tau), weighted=weighted, names=names, max_condition=max_condition
+    )
+
+
+def idim_solve(
+    reduced: ReducedRows,
+    *,
+    weighted: bool = False,
+    names: Sequence[str] | None = None,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+) -> LeastSquaresResult:
+    """:func:`idim_least_squares` of equations reduced by :func:`reduce_rows`.
+
+    IDIM-LS: ``solve_least_squares`` of the stacked R_j, counted as the K·n
+    equations they reduce (``num_rows``: the same X̂, σ, condition number and
+    residual σ). IDIM-WLS: each R_j divided by σ_j first
+    (:func:`joint_noise_std`, floored at 1e-12 of the largest).
+
+    Args:
+        reduced: the reduced equations (finite).
+        weighted: IDIM-WLS instead of IDIM-LS.
+        names: p parameter names.
+        max_condition: largest accepted scaled condition number.
+    """
+    R = reduced.R
+    joints, width, _ = R.shape
+    if weighted and reduced.num_samples > 0:
+        sigma = _reduced_noise_std(reduced)
+        # A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite
+        # weight: floor σ_j at 1e-12 of the largest (or 1 if all are zero).
+        floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
+        R = R / np.maximum(sigma, floor)[:, None, None]
+    stack = R.reshape(joints * width, width)
+    return solve_least_squares(
+        stack[:, :-1],
+        stack[:, -1],
+        max_condition=max_condition,
+        names=names,
+        num_rows=reduced.num_samples * joints,
     )

@@ -182,6 +182,7 @@ def _decompose(
     names: Sequence[str] | None,
     *,
     bound_first: bool = False,
+    num_rows: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray, LeastSquaresResult | _Factor]:
     """Checks and factors ``A X ≈ B``: (A, B as arrays, an invalid result or the QR).
 
@@ -189,7 +190,9 @@ def _decompose(
     ``bound_first`` (a first pass that needs X̂ only), R⁻¹ is formed first and the
     SVD skipped when ``‖R‖_F ‖R⁻¹‖_F``, an upper bound of the condition number,
     already shows the problem valid (full rank and cond <= ``max_condition``):
-    the same decision, without the condition number's value.
+    the same decision, without the condition number's value. ``num_rows``: the
+    equations A and B stand for when they are a QR reduction (see
+    :func:`solve_least_squares`).
     """
     owner = "solve_least_squares"
     A = v.array(owner, "A", A, finite=False)
@@ -197,6 +200,8 @@ def _decompose(
         v.fail(owner, f"A must have shape (rows, p) with p >= 1; got {A.shape}.")
     rows, p = A.shape
     B = v.array(owner, "B", B, shape=(rows,), finite=False)
+    if num_rows is not None:
+        rows = v.integer(owner, "num_rows", num_rows, minimum=0)
     max_condition = v.greater_than(owner, "max_condition", max_condition, 1.0)
     if names is None:
         names = tuple(f"x{i}" for i in range(p))
@@ -358,6 +363,7 @@ def solve_least_squares(
     *,
     max_condition: float = DEFAULT_MAX_CONDITION,
     names: Sequence[str] | None = None,
+    num_rows: int | None = None,
 ) -> LeastSquaresResult:
     """Least squares ``X̂ = argmin ‖B - A X‖`` by QR, with Gautier's σ.
 
@@ -370,6 +376,10 @@ def solve_least_squares(
         B: (r,) observations.
         max_condition: largest accepted scaled condition number (> 1).
         names: p parameter names used in ``reason`` and ``unidentified``.
+        num_rows: None, or r when ``[A | B]`` is the R factor of a taller system
+            of r equations (``‖A X - B‖`` equal to its residual for every X, e.g.
+            ``core.idim.reduce_rows``): the rows check, σ_ρ's r - p and the rank
+            tolerance use r.
 
     Returns:
         A :class:`LeastSquaresResult`; ``valid`` is False (with NaN estimates and a
@@ -381,7 +391,7 @@ def solve_least_squares(
             not have p entries, or max_condition <= 1.
         TypeError: A or B are not arrays of real numbers.
     """
-    _, _, factor = _decompose(A, B, max_condition, names)
+    _, _, factor = _decompose(A, B, max_condition, names, num_rows=num_rows)
     return factor if isinstance(factor, LeastSquaresResult) else _estimate(factor)
 
 

@@ -4,11 +4,14 @@ import numpy as np
 import pytest
 
 from drake_dynid.core.idim import (
+    ReducedRows,
     default_trim,
     idim_least_squares,
+    idim_solve,
     joint_noise_std,
     offline_derivatives,
     parallel_decimation,
+    reduce_rows,
 )
 from drake_dynid.core.noise import add_noise
 
@@ -137,6 +140,42 @@ def test_idim_wls_on_exact_data_and_unexcited_parameter():
     W[:, :, 3] = 0.0
     result = idim_least_squares(W, W @ X, weighted=True, names=list("abcd"))
     assert not result.valid and result.unidentified == ("d",)
+
+
+def test_rows_reduced_a_block_at_a_time_give_the_same_solve():
+    # Seed 27; joint 2 does not see parameters 0 and 1: its own least squares
+    # has rank 2, the reduction keeps that (the oracle: lstsq on W_j itself).
+    W, _, tau = _two_joint_problem(seed=27, samples=3000)
+    reduced = None
+    for start in range(0, 3000, 700):  # 5 blocks, the last one short
+        reduced = reduce_rows(W[start : start + 700], tau[start : start + 700], reduced)
+    assert reduced.num_samples == 3000 and reduced.R.shape == (2, 5, 5)
+    whole = reduce_rows(W, tau)
+    for weighted in (False, True):
+        blocks = idim_solve(reduced, weighted=weighted)
+        direct = idim_least_squares(W, tau, weighted=weighted)
+        assert blocks.valid and blocks.num_rows == direct.num_rows == 6000
+        np.testing.assert_allclose(blocks.theta, direct.theta, rtol=1e-10)
+        np.testing.assert_allclose(blocks.std, direct.std, rtol=1e-10)
+        assert blocks.condition_number == pytest.approx(direct.condition_number)
+        assert blocks.residual_std == pytest.approx(direct.residual_std, rel=1e-10)
+        np.testing.assert_allclose(
+            idim_solve(whole, weighted=weighted).theta, direct.theta, rtol=1e-10
+        )
+    oracle = []
+    for j in range(2):
+        fit, _, rank, _ = np.linalg.lstsq(W[:, j], tau[:, j], rcond=None)
+        residual = tau[:, j] - W[:, j] @ fit
+        oracle.append(np.sqrt(residual @ residual / (3000 - rank)))
+    np.testing.assert_allclose(joint_noise_std(W, tau), oracle, rtol=1e-9)
+    # Fewer samples than p + 1: zero rows below; no sample at all: too few rows.
+    few = reduce_rows(W[:3], tau[:3])
+    np.testing.assert_array_equal(few.R[:, 3:], 0.0)
+    empty = ReducedRows(R=np.zeros((2, 5, 5)), num_samples=0)
+    result = idim_solve(empty)
+    assert not result.valid and "0 rows" in result.reason
+    with pytest.raises(ValueError, match="previous must reduce 2 joints and 3"):
+        reduce_rows(W[:, :, :3], tau, reduced)
 
 
 def test_one_joint_pipeline_from_noisy_positions():
