@@ -28,8 +28,9 @@ the order-8 Butterworth at f_d on every column at f_s/D1). Memory does not grow
 with the log length: a long log read from a file stays on disk and is read a
 block at a time, and each block of decimated rows is reduced by QR per joint into
 the equations so far (:func:`offline_rows`, ``core.idim.reduce_rows``), which
-step 5 solves (``core.idim.idim_solve``); only ``keep_rows`` (the physically
-consistent solve, ``drake_dynid.physical``) keeps the K decimated rows. On a 7-DOF
+step 5 solves (``core.idim.idim_solve``; the physically consistent solve too,
+``drake_dynid.physical.solve_physical_reduced``); only ``keep_rows`` keeps the K
+decimated rows. On a 7-DOF
 arm the regressor runs on about one sample in 40 instead of all of them.
 ``regressor_decimation=1`` evaluates every sample: the one-stage parallel
 decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
@@ -129,6 +130,9 @@ class OfflineResult:
         rows: with ``keep_rows=True``, the stacked decimated rows W (M, n, p)
             that entered the least squares (unweighted); else None.
         torques: with ``keep_rows=True``, the matching torques τ (M, n).
+        reduced: those equations reduced by QR per joint
+            (``core.idim.reduce_rows``, n (p + 1)² numbers whatever the log's
+            length), e.g. for ``drake_dynid.physical.solve_physical_reduced``.
     """
 
     names: tuple[str, ...]
@@ -148,6 +152,7 @@ class OfflineResult:
     unidentified: tuple[str, ...] = ()
     rows: np.ndarray | None = None
     torques: np.ndarray | None = None
+    reduced: ReducedRows | None = None
 
     @property
     def model(self) -> str:
@@ -561,4 +566,5 @@ def identify_offline(
         unidentified=tuple(fit.unidentified),
         rows=rows.W,
         torques=rows.tau,
+        reduced=rows.reduced,
     )

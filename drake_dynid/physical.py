@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.idim import joint_noise_std
+from drake_dynid.core.idim import ReducedRows, joint_noise_std_of, reduce_rows
 from drake_dynid.physical_sdp import (
     SdpProblem,
     link_names,
@@ -71,6 +71,7 @@ __all__ = [
     "project_physical",
     "pseudo_inertia",
     "solve_physical",
+    "solve_physical_reduced",
 ]
 
 
@@ -383,7 +384,7 @@ def solve_physical(
     The stacked rows are reduced once by QR (W = Q R, c = Qᵀτ, so
     ‖Wθ − τ‖² = ‖Rθ − c‖² + ρ²) and divided by the unconstrained residual std
     σ̂ = ρ/√(r − p); the program then has p + p_std cone entries whatever the log
-    length.
+    length. :func:`solve_physical_reduced` with ``core.idim.reduce_rows(W, tau)``.
 
     Args:
         robot: the :class:`~drake_dynid.plants.RobotModel` (base parameters, URDF
@@ -413,27 +414,74 @@ def solve_physical(
             f"W must have shape (N, n, {p}) and tau (N, n); got W {W.shape} and tau "
             f"{tau.shape}.",
         )
-    if W.shape[0] * W.shape[1] <= p:
+    return _physical_of_reduced(
+        owner, robot, reduce_rows(W, tau), weighted, regularization
+    )
+
+
+def solve_physical_reduced(
+    robot: Any,
+    reduced: ReducedRows,
+    *,
+    weighted: bool = False,
+    regularization: float = DEFAULT_REGULARIZATION,
+) -> PhysicalResult:
+    """:func:`solve_physical` of equations already reduced by QR per joint.
+
+    ``reduced``: ``core.idim.reduce_rows`` of the rows, e.g. ``OfflineResult.reduced``
+    of :func:`drake_dynid.offline.identify_offline` (kept whatever the log's
+    length: n (p + 1)² numbers). With ``weighted``, each joint's R_j is divided
+    by its σ_j (IDIM-WLS); then ``[R | c]`` of the stacked R_j, ρ its last
+    diagonal entry, σ̂ = ρ/√(K·n − p).
+
+    Args:
+        robot: the :class:`~drake_dynid.plants.RobotModel`.
+        reduced: the reduced equations (n joints, the robot's p parameters).
+        weighted: weight joint j's equations by 1/σ_j.
+        regularization: λ ≥ 0 (see :data:`DEFAULT_REGULARIZATION`).
+    """
+    owner = "solve_physical_reduced"
+    check.having(owner, "robot", robot, ("num_parameters", "base"), "a RobotModel")
+    if not isinstance(reduced, ReducedRows):
+        raise TypeError(
+            f"{owner}: reduced must be a ReducedRows (core.idim.reduce_rows); got "
+            f"{type(reduced).__name__}."
+        )
+    if reduced.num_parameters != robot.num_parameters:
         check.fail(
             owner,
-            f"W must have more than {p} rows (N·n); got {W.shape[0] * W.shape[1]}.",
+            f"reduced must have the robot's {robot.num_parameters} parameters; got "
+            f"{reduced.num_parameters}.",
         )
+    return _physical_of_reduced(owner, robot, reduced, weighted, regularization)
+
+
+def _physical_of_reduced(
+    owner: str,
+    robot: Any,
+    reduced: ReducedRows,
+    weighted: bool,
+    regularization: float,
+) -> PhysicalResult:
+    p = robot.num_parameters
+    rows = reduced.num_samples * reduced.R.shape[0]
+    if rows <= p:
+        check.fail(owner, f"W must have more than {p} rows (N·n); got {rows}.")
+    if not np.isfinite(reduced.R).all():
+        check.fail(owner, "the reduced rows must be finite (the rows held a NaN).")
     regularization = _regularization(owner, regularization)
+    R_joints = reduced.R
     if weighted:
-        sigma = joint_noise_std(W, tau)
+        sigma = joint_noise_std_of(reduced)
         floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
-        weights = 1.0 / np.maximum(sigma, floor)
-        W = W * weights[None, :, None]
-        tau = tau * weights[None, :]
-    A = W.reshape(-1, p)
-    b = tau.reshape(-1)
-    Q, R = np.linalg.qr(A)
-    c = Q.T @ b
-    residual = max(float(b @ b - c @ c), 0.0)
-    sigma_hat = math.sqrt(residual / (A.shape[0] - p))
-    sigma_hat = max(
-        sigma_hat, SIGMA_FLOOR * math.sqrt(float(b @ b) / A.shape[0]), 1e-300
-    )
+        R_joints = R_joints / np.maximum(sigma, floor)[:, None, None]
+    stack = R_joints.reshape(-1, p + 1)
+    R_aug = np.asarray(np.linalg.qr(stack, mode="r"))
+    R, c = R_aug[:p, :p], R_aug[:p, p]
+    total = float(np.sum(stack[:, p] ** 2))  # ‖τ‖² (weighted)
+    residual = float(R_aug[p, p]) ** 2 if R_aug.shape[0] > p else 0.0
+    sigma_hat = math.sqrt(residual / (rows - p))
+    sigma_hat = max(sigma_hat, SIGMA_FLOOR * math.sqrt(total / rows), 1e-300)
     return _constrained(owner, robot, R / sigma_hat, c / sigma_hat, regularization)
 
 

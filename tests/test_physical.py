@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy import optimize
 
+from drake_dynid.core.idim import reduce_rows
 from drake_dynid.physical import (
     PhysicalResult,
     check_physical,
@@ -18,6 +19,7 @@ from drake_dynid.physical import (
     project_physical,
     pseudo_inertia,
     solve_physical,
+    solve_physical_reduced,
 )
 from drake_dynid.plants import RobotModel, model_path
 
@@ -216,6 +218,17 @@ def test_consistent_estimates_are_kept_and_unseen_directions_stay_at_the_urdf(ii
     assert values["M1"] == pytest.approx(iiwa.standard_parameters()["M1"], rel=1e-6)
     weighted = solve_physical(iiwa, W, tau, weighted=True)
     np.testing.assert_allclose(weighted.theta, result.theta, rtol=1e-3, atol=1e-5)
+    # The rows reduced a block at a time (as identify_offline keeps them, whatever
+    # the log's length): the same program to round-off.
+    reduced = None
+    for start in range(0, W.shape[0], 70):
+        reduced = reduce_rows(W[start : start + 70], tau[start : start + 70], reduced)
+    for weights in (False, True):
+        blocks = solve_physical_reduced(iiwa, reduced, weighted=weights)
+        whole = weighted if weights else result
+        np.testing.assert_allclose(blocks.theta, whole.theta, rtol=1e-6, atol=1e-9)
+    with pytest.raises(TypeError, match="reduced must be a ReducedRows"):
+        solve_physical_reduced(iiwa, (W, tau))
 
 
 def test_projection_is_the_closest_consistent_point(robot_2r):

@@ -62,8 +62,8 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     add_validation_arguments(parser)
 
 
-def wants_rows(args: argparse.Namespace) -> bool:
-    """Whether the fit must keep its stacked rows (for the physical solve)."""
+def wants_physical(args: argparse.Namespace) -> bool:
+    """Whether the physically consistent solve runs (--physical, --urdf-out)."""
     return bool(args.physical or args.urdf_out)
 
 
@@ -121,15 +121,14 @@ def _comparison_lines(result: Any, physical: Any) -> list[str]:
 
 
 def _physical(args: argparse.Namespace, robot: Any, result: Any):
-    from drake_dynid.physical import DEFAULT_REGULARIZATION, solve_physical
+    from drake_dynid.physical import DEFAULT_REGULARIZATION, solve_physical_reduced
 
     regularization = (
         DEFAULT_REGULARIZATION if args.regularization is None else args.regularization
     )
-    physical = solve_physical(
+    physical = solve_physical_reduced(
         robot,
-        result.rows,
-        result.torques,
+        result.reduced,
         weighted=bool(result.settings.get("weighted")),
         regularization=regularization,
     )
@@ -181,7 +180,7 @@ def finish_offline(
         robot, result.theta, args.quiet, "the estimate"
     )
     estimates: dict[str, np.ndarray] = {result.model: result.theta}
-    if wants_rows(args):
+    if wants_physical(args):
         physical, document["physical"] = _physical(args, robot, result)
         estimates["physical"] = physical.theta
         if args.urdf_out:

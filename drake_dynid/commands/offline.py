@@ -13,7 +13,6 @@ from drake_dynid.commands._arguments import (
 from drake_dynid.commands._model import (
     add_model_arguments,
     finish_offline,
-    wants_rows,
 )
 from drake_dynid.commands._options import FILTER_OPTIONS, option_message
 from drake_dynid.commands._report import (
@@ -90,7 +89,6 @@ def run(args: argparse.Namespace) -> int:
             decimation=args.decimation,
             decimation_cutoff_hz=args.decimation_cutoff,
             weighted=args.weighted,
-            keep_rows=wants_rows(args),
         )
     except ValueError as error:
         message = option_message(str(error), FILTER_OPTIONS, ("identify_offline",))

@@ -46,6 +46,7 @@ __all__ = [
     "idim_least_squares",
     "idim_solve",
     "joint_noise_std",
+    "joint_noise_std_of",
     "offline_derivatives",
     "parallel_decimation",
     "reduce_rows",
@@ -314,8 +315,8 @@ def reduce_rows(W: Any, tau: Any, previous: ReducedRows | None = None) -> Reduce
     return ReducedRows(R=R, num_samples=done + samples)
 
 
-def _reduced_noise_std(reduced: ReducedRows) -> np.ndarray:
-    """:func:`joint_noise_std` of the reduced equations (the same numbers).
+def joint_noise_std_of(reduced: ReducedRows) -> np.ndarray:
+    """:func:`joint_noise_std` of the reduced equations (the same numbers) [unit of τ].
 
     ``‖W_j X - τ_j‖² = ‖R_j[:p, :p] X - R_j[:p, p]‖² + R_j[p, p]²``: the per-joint
     least squares of R_j, its rank decided with the tolerance numpy's ``lstsq``
@@ -354,7 +355,7 @@ def joint_noise_std(W: Any, tau: Any) -> np.ndarray:
         (n,) σ_j [unit of τ_j].
     """
     W, tau = _stacked("joint_noise_std", W, tau)
-    return _reduced_noise_std(reduce_rows(W, tau))
+    return joint_noise_std_of(reduce_rows(W, tau))
 
 
 def idim_least_squares(
@@ -419,7 +420,7 @@ def idim_solve(
     R = reduced.R
     joints, width, _ = R.shape
     if weighted and reduced.num_samples > 0:
-        sigma = _reduced_noise_std(reduced)
+        sigma = joint_noise_std_of(reduced)
         # A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite
         # weight: floor σ_j at 1e-12 of the largest (or 1 if all are zero).
         floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
