@@ -30,8 +30,8 @@ block at a time, and each block of decimated rows is reduced by QR per joint int
 the equations so far (:func:`offline_rows`, ``core.idim.reduce_rows``), which
 step 5 solves (``core.idim.idim_solve``; the physically consistent solve too,
 ``drake_dynid.physical.solve_physical_reduced``); only ``keep_rows`` keeps the K
-decimated rows. On a 7-DOF
-arm the regressor runs on about one sample in 40 instead of all of them.
+decimated rows. On a 7-DOF arm the regressor runs on about one sample in 40
+instead of all of them.
 ``regressor_decimation=1`` evaluates every sample: the one-stage parallel
 decimation (:func:`drake_dynid.core.idim.parallel_decimation`) to round-off.
 The estimates of the two agree to a small fraction of their σ (tests/test_offline.py).
@@ -127,8 +127,9 @@ class OfflineResult:
         num_segments: finite segments in the log.
         num_segments_used: segments long enough to give rows.
         unidentified: names of the parameters that the data does not excite.
-        rows: with ``keep_rows=True``, the stacked decimated rows W (M, n, p)
-            that entered the least squares (unweighted); else None.
+        rows: with ``keep_rows=True``, a copy of the stacked decimated rows W
+            (M, n, p) whose reduction (``reduced``) the least squares solved
+            (unweighted); else None.
         torques: with ``keep_rows=True``, the matching torques τ (M, n).
         reduced: those equations reduced by QR per joint
             (``core.idim.reduce_rows``, n (p + 1)² numbers whatever the log's

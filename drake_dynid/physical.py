@@ -466,7 +466,9 @@ def _physical_of_reduced(
     p = robot.num_parameters
     rows = reduced.num_samples * reduced.R.shape[0]
     if rows <= p:
-        check.fail(owner, f"W must have more than {p} rows (N·n); got {rows}.")
+        check.fail(
+            owner, f"the rows must be more than {p} equations (N·n); got {rows}."
+        )
     if not np.isfinite(reduced.R).all():
         check.fail(owner, "the reduced rows must be finite (the rows held a NaN).")
     regularization = _regularization(owner, regularization)
@@ -478,10 +480,11 @@ def _physical_of_reduced(
     stack = R_joints.reshape(-1, p + 1)
     R_aug = np.asarray(np.linalg.qr(stack, mode="r"))
     R, c = R_aug[:p, :p], R_aug[:p, p]
-    total = float(np.sum(stack[:, p] ** 2))  # ‖τ‖² (weighted)
-    residual = float(R_aug[p, p]) ** 2 if R_aug.shape[0] > p else 0.0
-    sigma_hat = math.sqrt(residual / (rows - p))
-    sigma_hat = max(sigma_hat, SIGMA_FLOOR * math.sqrt(total / rows), 1e-300)
+    # ρ = |R[p, p]|, ‖τ‖ (weighted) = ‖[c; ρ]‖ by hypot (no square overflows).
+    rho = abs(float(R_aug[p, p])) if R_aug.shape[0] > p else 0.0
+    total = float(np.hypot.reduce(R_aug[:, p]))
+    sigma_hat = rho / math.sqrt(rows - p)
+    sigma_hat = max(sigma_hat, SIGMA_FLOOR * total / math.sqrt(rows), 1e-300)
     return _constrained(owner, robot, R / sigma_hat, c / sigma_hat, regularization)
 
 

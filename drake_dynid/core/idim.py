@@ -333,9 +333,9 @@ def joint_noise_std_of(reduced: ReducedRows) -> np.ndarray:
                 "joint_noise_std",
                 f"joint {j} needs more than {rank} samples; got {samples}.",
             )
-        residual = R[:p, :p] @ fit - R[:p, p]
-        squares = float(residual @ residual) + float(R[p, p]) ** 2
-        out[j] = math.sqrt(squares / (samples - rank))
+        residual = np.append(R[:p, :p] @ fit - R[:p, p], R[p, p])
+        # ‖residual‖ by hypot: no square overflows (entries up to 1e308).
+        out[j] = float(np.hypot.reduce(residual)) / math.sqrt(samples - rank)
     return out
 
 
@@ -419,6 +419,8 @@ def idim_solve(
     """
     R = reduced.R
     joints, width, _ = R.shape
+    if not np.isfinite(R).all():  # the solver reports the non-finite columns
+        weighted = False
     if weighted and reduced.num_samples > 0:
         sigma = joint_noise_std_of(reduced)
         # A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite

@@ -135,6 +135,8 @@ def noise_model_std(
     labels, index = np.unique(group, return_inverse=True)
     index = index.reshape(-1)
     count = labels.size
+    if index.size == 0:
+        return np.ones(np.shape(residual))
     stacked = np.reshape(residual, (-1, index.size))
     windows = np.arange(stacked.shape[0])[:, None]
     scale = np.zeros((stacked.shape[0], count))

@@ -382,6 +382,11 @@ def _stacked_factor(
     return np.asarray(np.linalg.qr(augmented, mode="r")), norms, b_scale
 
 
+def _invertible(R_aug: np.ndarray, p: int) -> np.ndarray:
+    """Whether each triangular R (K, ≥p, p + 1) has no zero on its diagonal."""
+    return (np.diagonal(R_aug[:, :p, :p], axis1=1, axis2=2) != 0.0).all(axis=1)
+
+
 def _stacked_solve(
     A: np.ndarray,
     B: np.ndarray,
@@ -426,12 +431,19 @@ def _stacked_solve(
         if weighting is None:
             weights = np.ones_like(B)
         else:
-            # First pass: X̂₀ when the bound ‖R‖_F ‖R⁻¹‖_F shows it valid.
+            # First pass: X̂₀ when the bound ‖R‖_F ‖R⁻¹‖_F shows it valid (an
+            # exactly singular R, a zero on its diagonal, to solve_window).
             R_aug, norms, b_scale = _stacked_factor(A, B)
-            R_inv = np.linalg.inv(R_aug[:, :p, :p])
-            bound = np.linalg.norm(R_aug[:, :p, :p], axis=(1, 2)) * np.linalg.norm(
-                R_inv, axis=(1, 2)
+            A, B, R_aug, norms, b_scale = keep(
+                _invertible(R_aug, p), A, B, R_aug, norms, b_scale
             )
+            if not done.any():
+                return done, {}
+            with np.errstate(all="ignore"):  # a huge R⁻¹ only fails the bound
+                R_inv = np.linalg.inv(R_aug[:, :p, :p])
+                bound = np.linalg.norm(R_aug[:, :p, :p], axis=(1, 2)) * np.linalg.norm(
+                    R_inv, axis=(1, 2)
+                )
             limit = min(max_condition, 1.0 / (max(rows, p) * eps))
             A, B, R_aug, norms, b_scale, R_inv = keep(
                 bound <= limit, A, B, R_aug, norms, b_scale, R_inv
@@ -448,13 +460,14 @@ def _stacked_solve(
         with np.errstate(divide="ignore"):
             condition = singular[:, 0] / singular[:, -1]
         good = (singular[:, -1] > tolerance) & (condition <= max_condition)
+        good &= _invertible(R_aug, p)
         A, B, weights, Aw, Bw, R_aug, norms, b_scale, condition = keep(
             good, A, B, weights, Aw, Bw, R_aug, norms, b_scale, condition
         )
         if not done.any():
             return done, {}
         R_inv = np.linalg.inv(R_aug[:, :p, :p])
-    except np.linalg.LinAlgError:  # an exactly singular R: every window one by one
+    except np.linalg.LinAlgError:  # LAPACK failed (no convergence): one by one
         done[:] = False
         return done, {}
     theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
@@ -489,9 +502,10 @@ def solve_windows(
     With ``noise`` (the honest σ) the common path of every window (the two QR,
     the noise models, the sandwich σ and the jackknife) runs in stacked numpy
     calls, a fraction of K separate solves' Python overhead; a window off that
-    path (non-finite, rank deficient, ill-conditioned, too few residual degrees
-    of freedom, or a first pass the condition bound does not show valid) is
-    solved by :func:`solve_window`, which gives its reason. Without ``noise``,
+    path (non-finite, an exactly singular R, rank deficient, ill-conditioned,
+    too few residual degrees of freedom, or a first pass the condition bound
+    does not show valid) is solved by :func:`solve_window`, which gives its
+    reason (the whole stack only when LAPACK itself fails). Without ``noise``,
     :func:`solve_window` one window at a time.
 
     Args:
@@ -512,8 +526,14 @@ def solve_windows(
         v.fail(owner, f"A must have shape (K, rows, p) with p >= 1; got {A.shape}.")
     K, rows, p = A.shape
     B = v.array(owner, "B", B, shape=(K, rows), finite=False)
+    max_condition = v.greater_than(owner, "max_condition", max_condition, 1.0)
     if names is not None and len(names) != p:
         v.fail(owner, f"names must have {p} entries; got {len(names)}.")
+    if jackknife is not None and np.shape(jackknife) != (rows,):
+        v.fail(
+            owner,
+            f"jackknife must have shape ({rows},); got {np.shape(jackknife)}.",
+        )
 
     def one(k: int) -> LeastSquaresResult:
         return solve_window(

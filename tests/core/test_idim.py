@@ -168,6 +168,14 @@ def test_rows_reduced_a_block_at_a_time_give_the_same_solve():
         residual = tau[:, j] - W[:, j] @ fit
         oracle.append(np.sqrt(residual @ residual / (3000 - rank)))
     np.testing.assert_allclose(joint_noise_std(W, tau), oracle, rtol=1e-9)
+    # Values near 1e155 (squares beyond the largest float): the same weighted fit.
+    huge = idim_least_squares(W * 1e155, tau * 1e155, weighted=True)
+    plain = idim_least_squares(W, tau, weighted=True)
+    assert huge.valid
+    np.testing.assert_allclose(huge.theta, plain.theta, rtol=1e-9)
+    np.testing.assert_allclose(
+        joint_noise_std(W * 1e155, tau * 1e155), np.multiply(oracle, 1e155)
+    )
     # Fewer samples than p + 1: zero rows below; no sample at all: too few rows.
     few = reduce_rows(W[:3], tau[:3])
     np.testing.assert_array_equal(few.R[:, 3:], 0.0)

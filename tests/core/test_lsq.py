@@ -20,6 +20,7 @@ def test_former_import_path_of_the_weighted_solves_still_works():
     assert lsq.solve_window is solve_window
     assert lsq.frequency_noise_weights is frequency_noise_weights
 
+
 NAMES = ("ZZ1R", "ZZ2", "FV1", "FC1")
 
 

@@ -179,3 +179,53 @@ def test_jackknife_is_nan_where_a_group_alone_determines_a_parameter():
     assert np.isnan(jackknife_std(A, B, groups)).all()
     full = rng.standard_normal((24, 3))
     assert np.isfinite(jackknife_std(full, B, groups)).all()
+
+
+def test_a_singular_window_leaves_the_others_stacked_and_warns_nothing(monkeypatch):
+    # One exactly singular R (a zero on its diagonal) and one nearly singular
+    # (R⁻¹ ~ 1e170: its first-pass bound overflows, silently) among valid ones:
+    # only those two are solved one by one (tests run with warnings as errors).
+    from drake_dynid.core import weighted_lsq
+
+    noise, groups = _design()
+    valid = [
+        (a, b)
+        for a, b in _windows(noise, seed=11)
+        if solve_window(a, b).condition_number < 100.0
+    ][:6]
+    A = np.stack([a for a, _ in valid])
+    B = np.stack([b for _, b in valid])
+    singular = np.zeros_like(A[0])
+    singular[:P, :P] = np.eye(P)
+    singular[:, P - 1] = singular[:, 0]
+    near = singular.copy()
+    near[P - 1, P - 1] = 1e-170
+    A[1], A[4] = singular, near
+    alone = []
+    one = weighted_lsq.solve_window
+    monkeypatch.setattr(
+        weighted_lsq, "solve_window", lambda *a, **k: alone.append(1) or one(*a, **k)
+    )
+    for weighting in (None, (noise.frequency, noise.group)):
+        alone.clear()
+        many = weighted_lsq.solve_windows(
+            A, B, weighting, noise=noise, jackknife=groups
+        )
+        assert len(alone) == 2
+        assert [r.valid for r in many] == [True, False, True, True, False, True]
+        for a, b, result in zip(A, B, many, strict=True):
+            _same(one(a, b, weighting, noise=noise, jackknife=groups), result)
+
+
+def test_stacked_arguments_are_checked_as_the_single_solve_checks_them():
+    noise, groups = _design()
+    A, B = (np.stack(x) for x in zip(*_windows(noise, seed=3)[:2], strict=True))
+    with pytest.raises(ValueError, match=r"jackknife must have shape \(72,\)"):
+        solve_windows(A, B, noise=noise, jackknife=groups[:36])
+    with pytest.raises(ValueError, match="max_condition must be finite"):
+        solve_windows(A, B, noise=noise, max_condition=np.inf)
+    with pytest.raises(ValueError, match="names must have 6 entries"):
+        solve_windows(A, B, noise=noise, names=["a"])
+    with pytest.raises(ValueError, match=r"A must have shape \(K, rows, p\)"):
+        solve_windows(A[0], B[0], noise=noise)
+    assert noise_model_std(np.zeros(0), np.zeros(0), np.zeros(0, int)).shape == (0,)
