@@ -29,6 +29,11 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
    replay and off-line paths) and Pinocchio's regressor side by side (alternating
    rounds, median of the rounds' ratios), µs of CPU time per sample;
    ``--rows-only`` runs this section alone (about 15 s).
+8. Window solves of the iiwa7 (``dynid identify``'s default solve: weighted,
+   honest σ, jackknife; 32 consecutive windows of the 60 s log's raw rows, T = 20
+   s): one ``solve_window`` per window against ``solve_windows`` of the 32
+   stacked, side by side (CPU time, alternating rounds, median of the rounds'
+   ratios); ``--solves-only`` runs this section alone.
 
 The process runs with ``dynid``'s settings (``configure_process``: BLAS pools of
 one thread, glibc's allocator tuned), as the ``dynid`` command does.
@@ -149,10 +154,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--rows-only", action="store_true", help="only section 7 (a few seconds)"
     )
+    parser.add_argument(
+        "--solves-only", action="store_true", help="only section 8 (a few seconds)"
+    )
     args = parser.parse_args(argv)
     configure_process()
     quick = args.quick
     repeats = 1 if quick else args.repeats
+    if args.solves_only:
+        results_solves: dict[str, dict] = {}
+        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
+        print(_solves_table(results_solves, arm7, quick))
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as handle:
+                json.dump(results_solves, handle, indent=2)
+        return 0
     if args.rows_only:
         results_rows: dict[str, dict] = {}
         arm7 = RobotModel.from_urdf(model_path("iiwa7"))
@@ -342,6 +358,8 @@ def main(argv: list[str] | None = None) -> int:
     # 6-7. 7-DOF logs end to end, the Pinocchio + scipy reference, rows.
     out.append(_arm_table(results, arm, repeats, quick))
     out.append(_rows_table(results, arm, repeats, quick))
+    # 8. Window solves, one by one and stacked.
+    out.append(_solves_table(results, arm, quick))
     text = "\n".join(out)
     print(text)
     if args.json:
@@ -698,6 +716,71 @@ def _rows_table(results: dict, arm, repeats: int, quick: bool) -> str:
         f"Regressor rows, iiwa7 ({arm.num_parameters} base parameters)",
         ("rows", "µs per sample (CPU time)"),
         table,
+    )
+
+
+def _solves_table(results: dict, arm, quick: bool) -> str:
+    """Section 8: µs of CPU time per window solve, one by one and stacked."""
+    from _arm7 import arm_samples
+
+    from drake_dynid.core.replay import window_bank_samples, window_equations
+    from drake_dynid.core.weighted_lsq import solve_window, solve_windows
+
+    duration, window, count = (12.0, 4.0, 8) if quick else (60.0, 20.0, 32)
+    t, q, tau = arm_samples(arm, duration)
+    h = float(t[1] - t[0])
+    rows = arm.rows_provider()
+    n, p = arm.num_joints, arm.num_parameters
+    settings = OnlineSettings(window=window, rows_from="raw").for_robot(h, n, p)
+    m = settings.num_equations(n)
+    solve = dict(
+        weighting=settings.row_weighting(m),
+        max_condition=settings.max_condition,
+        names=rows.names,
+        noise=settings.row_noise(m),
+        jackknife=settings.jackknife_groups(m),
+    )
+    last = t.size - 1
+    last -= last % settings.decimation(h)
+    step = settings.solve_decimation(h)
+    ends = [last - k * step for k in range(count)][::-1]
+    first = window_bank_samples(settings, h, ends[0])[0]
+    assert first > settings.raw_design(h).history, "the windows must be full"
+    systems = [window_equations(rows, settings, q, tau, end, h) for end in ends]
+    A = np.stack([a for a, _ in systems])
+    B = np.stack([b for _, b in systems])
+    assert all(r.valid for r in solve_windows(A, B, **solve))
+    samples = time_side_by_side(
+        {
+            "one by one": lambda: [solve_window(a, b, **solve) for a, b in systems],
+            "stacked": lambda: solve_windows(A, B, **solve),
+        },
+        rounds=3 if quick else 11,
+        min_time=0.05 if quick else 0.3,
+        clock=time.process_time,
+    )
+    per_window = {
+        name: 1e6 * statistics.median(values) / count
+        for name, values in samples.items()
+    }
+    ratio = median_ratio(samples, "one by one", "stacked")
+    results["solves"] = {
+        "windows": count,
+        "rows": int(A.shape[1]),
+        "parameters": int(A.shape[2]),
+        "one_by_one_us": per_window["one by one"],
+        "stacked_us": per_window["stacked"],
+        "speed_up": ratio,
+    }
+    return _table(
+        f"Window solves, iiwa7 ({A.shape[1]} rows × {A.shape[2]} parameters, "
+        f"{count} windows, CPU time)",
+        ("solve", "µs per window"),
+        [
+            ("solve_window, one per window", per_window["one by one"]),
+            ("solve_windows, stacked", per_window["stacked"]),
+            ("speed-up (median of the rounds' ratios)", ratio),
+        ],
     )
 
 
