@@ -32,6 +32,7 @@ def load_benchmark(name, monkeypatch):
         "bench_bank",
         "bench_bootstrap",
         "bench_jacobi",
+        "bench_long_logs",
         "bench_physical",
         "bench_pipeline",
         "bench_regressors",
