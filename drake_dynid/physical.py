@@ -52,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.idim import ReducedRows, joint_noise_std_of, reduce_rows
+from drake_dynid.core.idim import ReducedRows, joint_weighted, reduce_rows
 from drake_dynid.physical_sdp import (
     SdpProblem,
     link_names,
@@ -472,11 +472,7 @@ def _physical_of_reduced(
     if not np.isfinite(reduced.R).all():
         check.fail(owner, "the reduced rows must be finite (the rows held a NaN).")
     regularization = _regularization(owner, regularization)
-    R_joints = reduced.R
-    if weighted:
-        sigma = joint_noise_std_of(reduced)
-        floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
-        R_joints = R_joints / np.maximum(sigma, floor)[:, None, None]
+    R_joints = joint_weighted(reduced) if weighted else reduced.R
     stack = R_joints.reshape(-1, p + 1)
     R_aug = np.asarray(np.linalg.qr(stack, mode="r"))
     R, c = R_aug[:p, :p], R_aug[:p, p]

@@ -47,6 +47,7 @@ __all__ = [
     "idim_solve",
     "joint_noise_std",
     "joint_noise_std_of",
+    "joint_weighted",
     "offline_derivatives",
     "parallel_decimation",
     "reduce_rows",
@@ -339,6 +340,18 @@ def joint_noise_std_of(reduced: ReducedRows) -> np.ndarray:
     return out
 
 
+def joint_weighted(reduced: ReducedRows) -> np.ndarray:
+    """IDIM-WLS's rows: each R_j divided by σ_j (:func:`joint_noise_std_of`).
+
+    A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite
+    weight: σ_j is floored at 1e-12 of the largest (or 1 if all are zero).
+    Returns the (n, p + 1, p + 1) weighted R_j.
+    """
+    sigma = joint_noise_std_of(reduced)
+    floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
+    return reduced.R / np.maximum(sigma, floor)[:, None, None]
+
+
 def joint_noise_std(W: Any, tau: Any) -> np.ndarray:
     """Per-joint error std σ_j from an OLS on joint j's equations alone (Gautier).
 
@@ -408,8 +421,7 @@ def idim_solve(
 
     IDIM-LS: ``solve_least_squares`` of the stacked R_j, counted as the K·n
     equations they reduce (``num_rows``: the same X̂, σ, condition number and
-    residual σ). IDIM-WLS: each R_j divided by σ_j first
-    (:func:`joint_noise_std`, floored at 1e-12 of the largest).
+    residual σ). IDIM-WLS: each R_j divided by σ_j first (:func:`joint_weighted`).
 
     Args:
         reduced: the reduced equations (finite).
@@ -419,14 +431,9 @@ def idim_solve(
     """
     R = reduced.R
     joints, width, _ = R.shape
-    if not np.isfinite(R).all():  # the solver reports the non-finite columns
-        weighted = False
-    if weighted and reduced.num_samples > 0:
-        sigma = joint_noise_std_of(reduced)
-        # A joint fitted exactly (σ_j = 0, noise-free data) would get an infinite
-        # weight: floor σ_j at 1e-12 of the largest (or 1 if all are zero).
-        floor = 1e-12 * sigma.max() if sigma.max() > 0 else 1.0
-        R = R / np.maximum(sigma, floor)[:, None, None]
+    # Non-finite rows: unweighted, the solver reports the non-finite columns.
+    if weighted and reduced.num_samples > 0 and np.isfinite(R).all():
+        R = joint_weighted(reduced)
     stack = R.reshape(joints * width, width)
     return solve_least_squares(
         stack[:, :-1],

@@ -424,6 +424,11 @@ def _stacked_solve(
         done[np.flatnonzero(done)[~mask]] = False
         return [x[mask] for x in arrays]
 
+    def fit(A, B, R_inv, R_aug, b_scale, norms) -> tuple[np.ndarray, np.ndarray]:
+        """(X̂, B - A X̂) of stacked windows, from their scaled QR."""
+        theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
+        return theta, B - (A @ theta[..., None])[..., 0]
+
     A, B = A[done], B[done]
     if not done.any():
         return done, {}
@@ -450,8 +455,7 @@ def _stacked_solve(
             )
             if not done.any():
                 return done, {}
-            theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
-            residual = B - (A @ theta[..., None])[..., 0]
+            _, residual = fit(A, B, R_inv, R_aug, b_scale, norms)
             weights = _frequency_weights(residual, frequency, index, labels.size, 1e-3)
         Aw, Bw = A * weights[..., None], B * weights
         R_aug, norms, b_scale = _stacked_factor(Aw, Bw)
@@ -470,8 +474,7 @@ def _stacked_solve(
     except np.linalg.LinAlgError:  # LAPACK failed (no convergence): one by one
         done[:] = False
         return done, {}
-    theta = (R_inv @ R_aug[:, :p, p, None])[..., 0] * (b_scale[:, None] / norms)
-    residual = B - (A @ theta[..., None])[..., 0]
+    theta, residual = fit(A, B, R_inv, R_aug, b_scale, norms)
     relative = noise_model_std(residual, frequency, noise.group)
     std, residual_std, dof = stacked_honest_std(
         A, B, theta, weights, relative, noise, R_inv, norms
