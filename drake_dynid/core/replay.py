@@ -322,7 +322,9 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     status = np.zeros(num_logs)
     unidentified = np.zeros((num_logs, p))
     state = identifier_init(p)
-    windows = bank_windows(log, rows, entry, bank, m, p, log_times)
+    # The solves at t_s, s <= count - 1 (the last logged time only records).
+    solve_times = log_times[log_times <= count - 1]
+    windows = bank_windows(log, rows, entry, bank, m, p, solve_times)
     solve = dict(
         weighting=weighting,
         max_condition=entry.max_condition,
@@ -335,7 +337,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     tracker = None if design is None else tracker_init(design)
     change = np.zeros((num_logs if design else 0, 3 + p))
     # Without change detection or covariance weighting the windows' solves do not
-    # depend on the state: solved STACK_WINDOWS at a time (solve_windows).
+    # depend on the state: solved a stack at a time (solve_windows, STACK_ENTRIES).
     stacked = (
         _stacked_results(windows, solve)
         if design is None and covariance is None
