@@ -36,7 +36,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FLEET_COMMANDS", "output_paths", "run_fleet", "run_one"]
+__all__ = ["FLEET_COMMANDS", "output_paths", "run_fleet", "run_one", "task_options"]
 
 #: The commands a fleet runs (each has ``run(args)`` and a ``--json`` output).
 FLEET_COMMANDS = ("identify", "offline")
@@ -64,6 +64,19 @@ def output_paths(logs: Sequence[str], out_dir: str | os.PathLike) -> list[str]:
                 "overwrites an input: choose another --out-dir."
             )
     return out
+
+
+def task_options(
+    command: str, options: dict[str, Any], *, parallel: bool
+) -> dict[str, Any]:
+    """The options each log runs with: ``--parallel off`` if the logs run in parallel.
+
+    For ``identify``, unless ``--parallel`` was given: the workers fill the CPUs,
+    and a second process per log would only compete with them.
+    """
+    if command == "identify" and parallel and options.get("parallel") is None:
+        return {**options, "parallel": "off"}
+    return options
 
 
 def run_one(
@@ -153,6 +166,10 @@ def run_fleet(
         raise ValueError(f"fleet: jobs must be >= 1; got {jobs}.")
     paths = output_paths(logs, out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
+    local = min(jobs or os.cpu_count() or 1, len(logs))
+    options = task_options(
+        command, options, parallel=scheduler is not None or local > 1
+    )
     tasks = [
         (command, options, log, path) for log, path in zip(logs, paths, strict=True)
     ]
@@ -166,7 +183,7 @@ def run_fleet(
     if scheduler is not None:
         _run_on_dask(scheduler, tasks, done)
     else:
-        workers = min(jobs or os.cpu_count() or 1, len(tasks))
+        workers = local
         if workers == 1:
             for index, task in enumerate(tasks):
                 done(index, run_one(*task))

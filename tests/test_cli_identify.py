@@ -412,3 +412,64 @@ def test_final_bootstrap_skips_a_window_that_is_not_full(simulation):
     out = final_bootstrap(4, log, robot, settings, trace, 3)  # end = 0.2 s
     assert out["applied"] is False and out["std"] is None
     assert "is not full" in out["reason"] and "no bootstrap" in out["line"]
+
+
+def test_the_bootstrap_beside_the_replay_gives_the_same_result(
+    simulation, tmp_path, monkeypatch
+):
+    """By default the final window's bootstrap runs in a forked child beside the
+    replay (2+ CPUs); ``--parallel off`` computes it here: the same JSON."""
+    from drake_dynid.commands import identify
+    from drake_dynid.commands._background import Background, can_fork
+
+    forked = []
+
+    class Spy(Background):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            forked.append(self.forked)
+
+    monkeypatch.setattr(identify, "Background", Spy)
+    noisy = tmp_path / "noisy.csv"
+    rng = np.random.default_rng(3)
+    q = simulation.q + 1e-3 * rng.standard_normal(simulation.q.shape)
+    write_log(noisy, simulation.t, q, simulation.tau, simulation.joint_names)
+    documents = []
+    for extra in ([], ["--parallel", "off"]):
+        out = tmp_path / f"b{len(extra)}.json"
+        argv = ["identify", str(noisy), "--urdf", URDF, *FAST, "--quiet"]
+        assert cli.main([*argv, "--bootstrap", "4", "--json", str(out), *extra]) == 0
+        documents.append(json.loads(out.read_text()))
+    assert forked == [can_fork(), False]
+    assert documents[0]["bootstrap"]["applied"] is True
+    assert documents[0] == documents[1]
+
+
+def test_a_final_solve_that_is_not_valid_gets_its_own_window_bootstrap(simulation):
+    """The window computed beside the replay is the last solve's: when the
+    estimate comes from an earlier solve, that child's work is dropped and the
+    estimate's own window is bootstrapped (here: not full, so skipped)."""
+    from types import SimpleNamespace
+
+    from drake_dynid.commands._background import Background
+    from drake_dynid.commands.identify import _final_bootstrap
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.logs import RobotLog
+
+    robot = RobotModel.from_urdf(URDF)
+    log = RobotLog(
+        simulation.t, simulation.q, simulation.tau, simulation.joint_names, 1e-3
+    )
+    settings = OnlineSettings(window=2.0, bandwidth=2.0).on_grid(1e-3)
+    valid = np.zeros(20)
+    valid[3] = 1.0  # only the estimate logged at index 3 (end = 0.2 s)
+
+    def not_wanted() -> dict:
+        raise AssertionError("the last solve's window was not the estimate's")
+
+    trace = SimpleNamespace(theta=np.ones((20, 8)), std=np.ones((20, 8)), valid=valid)
+    background = Background(not_wanted, enabled=False)
+    out = _final_bootstrap(4, log, robot, settings, trace, background, 19)
+    assert out["applied"] is False and "is not full" in out["reason"]
+    none = SimpleNamespace(valid=np.zeros(20))
+    assert _final_bootstrap(4, log, robot, settings, none, background, 19) == {}

@@ -107,3 +107,16 @@ def test_fleet_errors(logs, tmp_path, capsys):
     assert "never overwrites an input" in capsys.readouterr().err
     assert cli.main(["fleet"]) == 2  # no command
     assert "choose the command" in capsys.readouterr().err
+
+
+def test_logs_run_in_parallel_do_not_fork_a_second_process_each():
+    """``identify --parallel off`` per log when the fleet's workers run in
+    parallel (they fill the CPUs), unless the user chose ``--parallel``."""
+    from drake_dynid.fleet import task_options
+
+    given = {"urdf": "r.urdf", "parallel": None}
+    assert task_options("identify", given, parallel=True)["parallel"] == "off"
+    assert task_options("identify", given, parallel=False) is given
+    chosen = {**given, "parallel": "auto"}
+    assert task_options("identify", chosen, parallel=True) is chosen
+    assert "parallel" not in task_options("offline", {}, parallel=True)

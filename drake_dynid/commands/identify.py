@@ -15,6 +15,7 @@ from drake_dynid.commands._arguments import (
     load_robot_and_log,
     model_settings,
 )
+from drake_dynid.commands._background import Background
 from drake_dynid.commands._noise import (
     add_noise_arguments,
     measured_noise,
@@ -362,6 +363,62 @@ def bootstrap_replicates(args: argparse.Namespace, settings: Any) -> int:
     return 0 if settings.weighting == "covariance" else DEFAULT_REPLICATES
 
 
+def bootstrap_end(settings: Any, time_step: float, last_valid: int) -> int:
+    """The newest bank sample of the solve whose estimate is logged at ``last_valid``.
+
+    The solve at the previous logged time (``core.replay``: the trace records at
+    t_s the state after the solves at t < t_s).
+    """
+    sample = (last_valid - 1) * settings.solve_decimation(time_step)
+    return int(sample - sample % settings.decimation(time_step))
+
+
+def final_solve_index(log: Any, settings: Any) -> int:
+    """The logged index of the last solve's estimate (``last_valid`` when it is valid).
+
+    The replay logs at s = 0, U, ... <= N (U the solve period in samples).
+    """
+    return int(log.num_samples // settings.solve_decimation(log.time_step))
+
+
+def window_bootstrap(
+    replicates: int, log: Any, robot: Any, settings: Any, end: int
+) -> dict[str, Any]:
+    """``core.bootstrap.bootstrap_std`` of the window ending at ``end`` (K >= 2).
+
+    With the white noise measured on the log (``measured_noise``; the settings'
+    ``position_noise``/``torque_noise`` when given). Needs no trace: ``dynid
+    identify`` runs it beside the replay (``commands._background``).
+
+    Returns:
+        ``{"noise": (σ_q, σ_τ), "result": BootstrapStd or None, "error": the
+        reason bootstrap_std refused the window, or None}``.
+    """
+    n = int(robot.num_joints)
+    noise = []
+    given = (settings.position_noise, settings.torque_noise)
+    for value, kind in zip(given, ("position", "torque"), strict=True):
+        if value is None:
+            noise.append(measured_noise(log, kind))
+        else:  # one value or one per joint
+            noise.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
+    try:
+        result = bootstrap_std(
+            robot.rows_provider(),
+            settings,
+            log.q,
+            log.tau,
+            end,
+            log.time_step,
+            (noise[0], noise[1]),
+            replicates=int(replicates),
+        )
+    except ValueError as error:  # e.g. a window a detected change left short
+        message = str(error).removeprefix("bootstrap_std: ")
+        return {"noise": tuple(noise), "result": None, "error": message}
+    return {"noise": tuple(noise), "result": result, "error": None}
+
+
 def final_bootstrap(
     replicates: int,
     log: Any,
@@ -369,18 +426,18 @@ def final_bootstrap(
     settings: Any,
     trace: Any,
     last_valid: int,
+    computed: Any = None,
 ) -> dict[str, Any]:
     """The parametric bootstrap of the final estimate's window (``--bootstrap``).
 
     ``replicates``: K (0: none; :func:`bootstrap_replicates`).
 
-    ``core.bootstrap.bootstrap_std`` on the window of the solve that gave the
-    estimate logged at ``last_valid`` (the solve at the previous logged time; its
-    newest bank sample), with the white noise measured on the log
-    (``measured_noise``; the settings' ``position_noise``/``torque_noise`` when
-    given). Not applied (with the reason) when switched off, when
-    fewer than 2 replicates are valid, or when the window's direct quadrature
-    does not reproduce the estimate (a change detection restarted the window).
+    :func:`window_bootstrap` on the window of the solve that gave the estimate
+    logged at ``last_valid`` (:func:`bootstrap_end`), or ``computed``: its value
+    for that window, computed already (beside the replay). Not applied (with the
+    reason) when switched off, when fewer than 2 replicates are valid, or when the
+    window's direct quadrature does not reproduce the estimate (a change detection
+    restarted the window).
 
     Returns:
         The JSON ``bootstrap`` object (``applied``, ``replicates``,
@@ -410,34 +467,14 @@ def final_bootstrap(
             else "the covariance weighting's σ models the regressor noise; "
             "--bootstrap K adds it"
         )
-    h = log.time_step
-    sample = (last_valid - 1) * settings.solve_decimation(h)  # the solve's sample
-    end = sample - sample % settings.decimation(h)  # its newest bank sample
-    # The noise levels given for the rows' noise model (--position-noise,
-    # --torque-noise: the settings), else those measured on the log.
-    n = int(robot.num_joints)
-    noise = []
-    given = (settings.position_noise, settings.torque_noise)
-    for value, kind in zip(given, ("position", "torque"), strict=True):
-        if value is None:
-            noise.append(measured_noise(log, kind))
-        else:  # one value or one per joint
-            noise.append(np.broadcast_to(np.asarray(value, dtype=float), (n,)))
+    if computed is None:
+        end = bootstrap_end(settings, log.time_step, last_valid)
+        computed = window_bootstrap(replicates, log, robot, settings, end)
+    noise, result = computed["noise"], computed["result"]
     out["position_noise"] = [json_number(x) for x in noise[0]]
     out["torque_noise"] = [json_number(x) for x in noise[1]]
-    try:
-        result = bootstrap_std(
-            robot.rows_provider(),
-            settings,
-            log.q,
-            log.tau,
-            end,
-            h,
-            (noise[0], noise[1]),
-            replicates=int(replicates),
-        )
-    except ValueError as error:  # e.g. a window a detected change left short
-        return skipped(str(error).removeprefix("bootstrap_std: "))
+    if result is None:
+        return skipped(computed["error"])
     out["valid_replicates"] = result.replicates
     out["method"] = result.method
     theta = np.asarray(trace.theta[last_valid])
@@ -457,6 +494,34 @@ def final_bootstrap(
         "with the white noise measured on the log added; --bootstrap 0 to skip)"
     )
     return out
+
+
+def _final_bootstrap(
+    replicates: int,
+    log: Any,
+    robot: Any,
+    settings: Any,
+    trace: Any,
+    background: Background[dict[str, Any]],
+    last_solve: int,
+) -> dict[str, Any]:
+    """:func:`final_bootstrap`, from the window computed beside the replay if it fits.
+
+    That window is the last solve's: used when that solve was valid. {} when no
+    solve was valid.
+    """
+    valid = np.flatnonzero(np.asarray(trace.valid) > 0.5)
+    if valid.size == 0:
+        return {}  # no estimate at all: run() says so
+    last_valid = int(valid[-1])
+    computed = None
+    if replicates > 0 and last_valid == last_solve:
+        computed = background.result()
+    else:  # another window (or none): the child's work is not wanted
+        background.cancel()
+    return final_bootstrap(
+        replicates, log, robot, settings, trace, last_valid, computed
+    )
 
 
 def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
@@ -604,6 +669,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "LeafSystems stepped in a Simulator (the reference; the test suite checks "
         "that both give the same estimates)",
     )
+    group.add_argument(
+        "--parallel",
+        choices=("auto", "off"),
+        default=None,
+        help="auto (default): the final window's bootstrap runs in a second "
+        "process (a fork) beside the replay when 2 or more CPUs are available, "
+        "with the same result; off: everything in this process (dynid fleet "
+        "sets it when its own workers fill the CPUs)",
+    )
     outputs = parser.add_argument_group("outputs")
     outputs.add_argument(
         "--out",
@@ -720,7 +794,19 @@ def run(args: argparse.Namespace) -> int:
         from drake_dynid.core.replay import replay_log_core as replay
 
     progress = bool(sys.stderr.isatty()) and not args.quiet
-    (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
+    replicates = bootstrap_replicates(args, settings)
+    # The bootstrap of the last solve's window needs no trace: it runs beside the
+    # replay (commands._background), and is used if that solve gave the estimate.
+    last_solve = final_solve_index(log, settings)
+    end = bootstrap_end(settings, log.time_step, last_solve)
+    with Background(
+        lambda: window_bootstrap(replicates, log, robot, settings, end),
+        enabled=replicates > 0 and getattr(args, "parallel", None) != "off",
+    ) as background:
+        (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
+        bootstrap = _final_bootstrap(
+            replicates, log, robot, settings, trace, background, last_solve
+        )
     valid = np.asarray(trace.valid) > 0.5
     if not valid.any():
         finite = trace.condition_number[np.isfinite(trace.condition_number)]
@@ -754,8 +840,6 @@ def run(args: argparse.Namespace) -> int:
     last_valid = int(np.flatnonzero(valid)[-1])
     final = trace.final()
     theta, std = final["theta"], final["std"]
-    replicates = bootstrap_replicates(args, settings)
-    bootstrap = final_bootstrap(replicates, log, robot, settings, trace, last_valid)
     if bootstrap["applied"]:
         std = np.fmax(std, np.asarray(bootstrap["std"], dtype=float))
     final_valid = bool(valid[-1])
