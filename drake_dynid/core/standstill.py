@@ -54,6 +54,9 @@ __all__ = [
 
 #: The dead-zone half-width in multiples of the measured velocity noise σ_v.
 DEAD_ZONE_FACTOR = 3.0
+#: Residuals held at once by :func:`velocity_noise` (32 MB): the joints whose
+#: residuals fit are filtered together.
+GROUP_ENTRIES = 1 << 22
 _MAD_TO_STD = 1.4826  # 1/Φ⁻¹(3/4): the MAD of a Gaussian variable times this is σ
 _OWNER = "velocity_noise"
 #: Velocity samples a run needs beyond the edge trims (the order-8 zero-phase
@@ -115,17 +118,22 @@ def velocity_noise(
         )
     spans = [filters.kept(q.shape[0] - 2 * trim) for q in checked]
     total = sum(b - a for a, b in spans)
-    sigma = np.empty(checked[0].shape[1])
-    for j in range(sigma.size):  # one joint at a time: memory of one (N,) array
-        r = np.empty(total)
+    n = checked[0].shape[1]
+    sigma = np.empty(n)
+    # As many joints at a time as fit in GROUP_ENTRIES residuals (all of them on
+    # a minute's log; one at a time on hours): one filter call per group.
+    group = max(1, min(n, GROUP_ENTRIES // max(total, 1)))
+    for j0 in range(0, n, group):
+        joints = slice(j0, min(n, j0 + group))
+        r = np.empty((total, joints.stop - j0))
         at = 0
         for q, span in zip(checked, spans, strict=True):
-            for part in filters.residual(q, j, trim, span):
-                r[at : at + part.size] = part
-                at += part.size
-        r -= np.median(r, overwrite_input=True)
+            for part in filters.residual(q, joints, trim, span):
+                r[at : at + part.shape[0]] = part
+                at += part.shape[0]
+        r -= np.median(r, axis=0, overwrite_input=True)
         np.abs(r, out=r)
-        sigma[j] = _MAD_TO_STD * np.median(r, overwrite_input=True)
+        sigma[joints] = _MAD_TO_STD * np.median(r, axis=0, overwrite_input=True)
     return sigma
 
 
@@ -165,8 +173,8 @@ class _Filters:
             return self.edge, count - self.edge
         return 0, count
 
-    def residual(self, q: Any, j: int, trim: int, span: tuple[int, int]):
-        """The residual v - low-pass(v) of joint j at velocity samples [a, b).
+    def residual(self, q: Any, joints: slice, trim: int, span: tuple[int, int]):
+        """The residuals v - low-pass(v) of ``joints`` at velocity samples [a, b).
 
         Velocity sample k is position sample trim + k (central differences of
         the position filter's output, as ``core.idim.offline_derivatives``).
@@ -184,7 +192,7 @@ class _Filters:
             lo, hi = trim + u0 - 1, trim + u1 + 1  # positions behind and ahead
             a = max(0, lo - self.position_margin)
             b = min(count, hi + self.position_margin)
-            x = np.asarray(q[a:b], dtype=float)[:, j : j + 1]
+            x = np.asarray(q[a:b], dtype=float)[:, joints]
             q_f = zero_phase_span(
                 self.position,
                 x,
@@ -200,7 +208,7 @@ class _Filters:
                 pad_right=pad_v if u1 == velocities else 0,
                 padtype="odd",
             )
-            yield (v - low)[r0 - u0 : r1 - u0, 0]
+            yield (v - low)[r0 - u0 : r1 - u0]
 
 
 def dead_zone_widths(

@@ -86,6 +86,23 @@ def test_a_burst_and_short_runs_do_not_move_the_measure():
         dead_zone_widths([q], H, cutoff_hz=FC, band_cutoff_hz=FD, factor=0.0)
 
 
+def test_joints_filtered_together_or_apart_give_the_same_noise(monkeypatch):
+    """``velocity_noise`` filters as many joints at once as GROUP_ENTRIES allows
+    (all on a short log, one at a time on hours): the same σ_v either way."""
+    from drake_dynid.core import standstill
+
+    rng = np.random.default_rng(2)
+    t = H * np.arange(6000)
+    motion = np.sin(2 * np.pi * 0.2 * t)[:, None] * np.arange(1, 6)
+    q = motion + np.array([1e-4, 3e-4, 1e-3, 2e-3, 5e-4]) * rng.normal(size=(6000, 5))
+    runs = [q[:2500], q[2600:]]
+    together = velocity_noise(runs, H, cutoff_hz=FC, band_cutoff_hz=FD)
+    for entries in (1, 2 * 5800, 3 * 5800):  # groups of 1, 2 and 3 joints
+        monkeypatch.setattr(standstill, "GROUP_ENTRIES", entries)
+        apart = velocity_noise(runs, H, cutoff_hz=FC, band_cutoff_hz=FD)
+        np.testing.assert_allclose(apart, together, rtol=1e-9)
+
+
 def test_combined_widths_of_coupled_motors():
     # TX40 motor 6: row N (e5 + e6): u/ρ = v5 + v6, independent noises.
     rows = np.array([[45.0, 0.0], [32.0, 32.0]])
