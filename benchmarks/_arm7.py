@@ -38,7 +38,7 @@ H = 1e-3
 
 # Runs one case; prints {"seconds": in-process wall, "peak_mb": ru_maxrss, ...}.
 _RUNNER = r"""
-import json, resource, sys, time
+import json, os, resource, sys, time
 start = time.perf_counter()
 from drake_dynid.core._threads import configure_process
 configure_process()  # dynid's settings for every case, the reference included
@@ -57,6 +57,11 @@ elif case["kind"] == "api":
     from _arm7 import api_offline
     out = api_offline(case["duration"], case["step"])
 out["seconds"] = time.perf_counter() - start
+# CPU time of the process and of its children (dynid identify's forked bootstrap).
+times = os.times()
+out["cpu"] = times.user + times.system + times.children_user + times.children_system
+children = resource.getrusage(resource.RUSAGE_CHILDREN)
+out["children_peak_mb"] = children.ru_maxrss / 1024.0
 out["peak_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 try:  # Linux keeps the parent's high-water mark in ru_maxrss across exec
     with open("/proc/self/status") as status:

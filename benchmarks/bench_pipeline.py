@@ -17,14 +17,16 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
 5. Per block: µs per 1 kHz step and state size; the sliding integrals against a
    direct quadrature of the whole window at every bank step.
 6. 7-DOF iiwa7 logs (60 s and 600 s, 1 kHz; benchmarks/_arm7.py): ``dynid offline``
-   and ``dynid identify`` end to end (at 60 s also with ``--rows-from filtered`` and
-   with ``--bootstrap 0``, without the final σ's bootstrap), each run in a fresh
-   process (start, imports, URDF, CSV, compute, JSON) with its own peak memory,
+   and ``dynid identify`` end to end (at 60 s also with ``--rows-from filtered``,
+   with ``--bootstrap 0``, without the final σ's bootstrap, and with ``--parallel
+   off``, its bootstrap in the same process instead of a forked child beside the
+   replay), each run in a fresh process (start, imports, URDF, CSV, compute, JSON)
+   with its wall and CPU time (the child's included) and its own peak memory,
    beside a Pinocchio + scipy
    off-line reference of the same algorithm (60 s); both commands on a 1-hour CSV
    log (1.08 GB, written to a temporary file; not with ``--quick``); the off-line
    API on a 1-hour log built in memory (peak memory with and without the log's own
-   arrays).
+   arrays). ``--arm-only`` runs this section alone (minutes).
 7. Regressor rows of the iiwa7: one sample (the blocks' path), batches (the
    replay and off-line paths) and Pinocchio's regressor side by side (alternating
    rounds, median of the rounds' ratios), µs of CPU time per sample;
@@ -157,10 +159,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--solves-only", action="store_true", help="only section 8 (a few seconds)"
     )
+    parser.add_argument(
+        "--arm-only",
+        action="store_true",
+        help="only section 6 (the 7-DOF commands end to end; minutes)",
+    )
     args = parser.parse_args(argv)
     configure_process()
     quick = args.quick
     repeats = 1 if quick else args.repeats
+    if args.arm_only:
+        results_arm: dict[str, dict] = {}
+        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
+        print(_arm_table(results_arm, arm7, repeats, quick))
+        if args.json:
+            with open(args.json, "w", encoding="utf-8") as handle:
+                json.dump(results_arm, handle, indent=2)
+        return 0
     if args.solves_only:
         results_solves: dict[str, dict] = {}
         arm7 = RobotModel.from_urdf(model_path("iiwa7"))
@@ -495,6 +510,7 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
             if duration == durations[0]:  # the rows chosen on the log are raw here
                 variants.append(("identify", ["--rows-from", "filtered"]))
                 variants.append(("identify", ["--bootstrap", "0"]))
+                variants.append(("identify", ["--parallel", "off"]))
             for command, extra in variants:
                 json_path = os.path.join(folder, f"{command}{duration:g}.json")
                 argv = [command, log, "--urdf", urdf, "--json", json_path, "--quiet"]
@@ -507,12 +523,15 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
                 label = command + {
                     "--rows-from": " filtered rows",
                     "--bootstrap": " --bootstrap 0",
+                    "--parallel": " --parallel off",
                 }.get(extra[0] if extra else "", "")
                 cases[f"{label} {duration:g} s"] = {
                     "duration": duration,
                     "wall": statistics.median(r["wall"] for r in runs),
                     "seconds": statistics.median(r["seconds"] for r in runs),
+                    "cpu": statistics.median(r["cpu"] for r in runs),
                     "peak_mb": max(r["peak_mb"] for r in runs),
+                    "children_peak_mb": max(r["children_peak_mb"] for r in runs),
                     "valid": bool(document["valid"]),
                 }
                 if command == "offline" and duration == durations[0]:
@@ -541,7 +560,9 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
                     "duration": duration,
                     "wall": statistics.median(r["wall"] for r in runs),
                     "seconds": statistics.median(r["seconds"] for r in runs),
+                    "cpu": statistics.median(r["cpu"] for r in runs),
                     "peak_mb": max(r["peak_mb"] for r in runs),
+                    "children_peak_mb": max(r["children_peak_mb"] for r in runs),
                     "rows_seconds": statistics.median(r["rows_seconds"] for r in runs),
                     "residual_std": runs[0]["residual_std"],
                     "offline_residual_std": offline_residual,
@@ -572,14 +593,24 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
             case["wall"],
             case["duration"] / case["wall"],
             case["seconds"],
+            case["cpu"],
             case["peak_mb"],
+            case["children_peak_mb"] if case["children_peak_mb"] > 0 else "",
         )
         for name, case in cases.items()
     ]
     text = _table(
         "7-DOF iiwa7 logs, 1 kHz, end to end in a fresh process (median of "
-        f"{repeats} at {first:g} s)",
-        ("case", "wall [s]", "× real time", "in process [s]", "peak memory [MB]"),
+        f"{repeats} at {first:g} s; CPU: the process and its forked bootstrap)",
+        (
+            "case",
+            "wall [s]",
+            "× real time",
+            "in process [s]",
+            "CPU [s]",
+            "peak memory [MB]",
+            "child's peak [MB]",
+        ),
         rows,
     )
     lines = [
@@ -631,7 +662,9 @@ def _hour_csv_cases(arm, urdf: str, folder: str) -> dict[str, dict]:
             "duration": 3600.0,
             "wall": run["wall"],
             "seconds": run["seconds"],
+            "cpu": run["cpu"],
             "peak_mb": run["peak_mb"],
+            "children_peak_mb": run["children_peak_mb"],
             "valid": valid,
             "csv_mb": size,
             "csv_write_seconds": written,

@@ -46,8 +46,13 @@ def test_an_exception_in_the_child_is_raised_again():
     def bad() -> None:
         raise ValueError("bootstrap_std: the window ending at sample 3 is not full")
 
-    with Background(bad) as background, pytest.raises(ValueError, match="not full"):
+    with (
+        Background(bad) as background,
+        pytest.raises(ValueError, match="not full") as raised,
+    ):
         background.result()
+    notes = "".join(getattr(raised.value, "__notes__", []))
+    assert "forked child" in notes and "in bad" in notes  # the child's traceback
 
 
 @forking

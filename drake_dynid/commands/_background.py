@@ -8,10 +8,10 @@ command's critical path (7-DOF 60 s log: about 0.45 s of 1.9 s, README
 modules, the URDF's model and the log's arrays without copying or pickling them,
 and sends back only its (small) result, pickled through a pipe.
 
-Nothing is lost when that cannot be done: without ``os.fork`` (Windows), with
-fewer than 2 CPUs available, with other Python threads running (a fork copies
-only the calling thread; a lock another thread holds would stay locked in the
-child), or when the child dies without an answer, :meth:`Background.result`
+Nothing is lost when that cannot be done: off Linux, with fewer than 2 CPUs
+available, with other threads running (a fork copies only the calling thread; a
+lock another thread holds would stay locked in the child: :func:`can_fork`), or
+when the child dies without an answer, :meth:`Background.result`
 calls the function in this process instead. An exception the function raises in
 the child is raised again by :meth:`Background.result`, as if it had been
 called here. The result is the same either way: the function must be
@@ -26,11 +26,12 @@ import pickle
 import signal
 import sys
 import threading
+import traceback
 from collections.abc import Callable
 from types import TracebackType
 from typing import Any, Generic, TypeVar
 
-__all__ = ["Background", "available_cpus", "can_fork"]
+__all__ = ["Background", "available_cpus", "can_fork", "native_threads"]
 
 T = TypeVar("T")
 
@@ -43,13 +44,28 @@ def available_cpus() -> int:
         return os.cpu_count() or 1
 
 
+def native_threads() -> int | None:
+    """Threads of this process (Linux: ``/proc/self/task``; None elsewhere)."""
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return None
+
+
 def can_fork() -> bool:
-    """A fork is possible and safe here: ``os.fork``, 2+ CPUs, one Python thread."""
+    """A fork is possible and safe here.
+
+    Linux (``os.fork``; elsewhere a fork is not tried: macOS's system libraries
+    are not fork-safe), 2+ CPUs, and this process has one thread (a lock another
+    thread holds at the fork, Python's or a library's, would stay locked in the
+    child; with ``DYNID_THREADS=auto`` the BLAS pool's threads count).
+    """
     return (
-        hasattr(os, "fork")
-        and sys.platform != "win32"
+        sys.platform.startswith("linux")
+        and hasattr(os, "fork")
         and available_cpus() >= 2
         and threading.active_count() == 1
+        and native_threads() == 1
     )
 
 
@@ -95,12 +111,14 @@ class Background(Generic[T]):
                 os.close(read)
                 signal.signal(signal.SIGINT, signal.SIG_DFL)
                 try:
-                    message = pickle.dumps(("value", self._function()))
+                    message = pickle.dumps(("value", self._function(), ""))
                 except Exception as error:  # raised again in the parent
+                    where = traceback.format_exc()
                     try:
-                        message = pickle.dumps(("error", error))
+                        message = pickle.dumps(("error", error, where))
                     except Exception:
-                        message = pickle.dumps(("error", RuntimeError(repr(error))))
+                        unpicklable = RuntimeError(repr(error))
+                        message = pickle.dumps(("error", unpicklable, where))
                 with os.fdopen(write, "wb") as stream:
                     stream.write(message)
             except BaseException:  # nothing sent: the parent computes it itself
@@ -117,12 +135,13 @@ class Background(Generic[T]):
         message = self._collect()
         if message is None:  # the child died without an answer
             return self._function()
-        kind, payload = message
+        kind, payload, where = message
         if kind == "error":
+            payload.add_note(f"(raised in dynid's forked child process)\n{where}")
             raise payload
         return payload  # type: ignore[no-any-return]
 
-    def _collect(self) -> tuple[str, Any] | None:
+    def _collect(self) -> tuple[str, Any, str] | None:
         """Reads the child's message and reaps it; None if it sent none."""
         assert self._pid is not None and self._read is not None
         chunks = []

@@ -674,9 +674,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("auto", "off"),
         default=None,
         help="auto (default): the final window's bootstrap runs in a second "
-        "process (a fork) beside the replay when 2 or more CPUs are available, "
-        "with the same result; off: everything in this process (dynid fleet "
-        "sets it when its own workers fill the CPUs)",
+        "process (a fork, on Linux) beside the replay when 2 or more CPUs are "
+        "available, with the same result; off: everything in this process "
+        "(dynid fleet sets it when its own workers fill the CPUs)",
     )
     outputs = parser.add_argument_group("outputs")
     outputs.add_argument(
