@@ -364,3 +364,49 @@ def test_resampling_by_chunks_equals_one_piece_on_random_logs(seed, monkeypatch)
         np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
     assert chunked.warnings == whole.warnings
     assert chunked.time_offset == whole.time_offset
+
+
+def test_a_long_replay_keeps_its_traces_on_disk_with_the_same_numbers(
+    tmp_path, monkeypatch
+):
+    """The core replay's (M, p) traces (θ, σ, unidentified, changed) go to a
+    temporary file beyond SPILL_BYTES, as a long log does: the same numbers, and
+    ``dynid identify --out`` writes the same CSV from them."""
+    import json
+
+    import drake_dynid.core.replay as replay
+    from drake_dynid import cli
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.replay import replay_log_core
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    t, q, tau = _arm_log(robot, 12.0)
+    log = RobotLog(t, q, tau, robot.joint_names, 1e-3)
+    settings = [
+        OnlineSettings(window=3.0, bandwidth=1.0, update_period=0.05),
+        OnlineSettings(window=3.0, bandwidth=1.0, detect_changes=True),
+    ]
+    path = tmp_path / "log.csv"
+    write_log(path, t, q, tau, robot.joint_names)
+    argv = ["identify", str(path), "--urdf", model_path("planar_2r"), "--window", "3"]
+    argv += ["--bootstrap", "0", "--quiet"]
+    fields = ("theta", "std", "unidentified", "changed", "valid", "change_time")
+    traces, outputs = [], []
+    for spilled in (False, True):
+        if spilled:  # every trace longer than the limits; rows flushed by 7
+            monkeypatch.setattr(log_store, "SPILL_BYTES", 512)
+            monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
+            monkeypatch.setattr(replay, "TRACE_CHUNK", 7)
+        traces.append(replay_log_core(log, robot.rows_provider(), settings))
+        csv_path, json_path = tmp_path / f"{spilled}.csv", tmp_path / f"{spilled}.json"
+        assert cli.main([*argv, "--out", str(csv_path), "--json", str(json_path)]) == 0
+        outputs.append((csv_path.read_text(), json.loads(json_path.read_text())))
+    for memory, stored in zip(*traces, strict=True):
+        assert not is_stored(memory.theta) and is_stored(stored.theta)
+        for name in fields:
+            np.testing.assert_array_equal(
+                np.asarray(getattr(stored, name)), getattr(memory, name)
+            )
+        assert stored.final()["unidentified"] == memory.final()["unidentified"]
+    assert is_stored(traces[1][1].changed)  # detection on: its (M, p) flags too
+    assert outputs[0] == outputs[1]

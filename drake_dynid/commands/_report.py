@@ -34,6 +34,8 @@ __all__ = [
 #: A parameter whose relative standard deviation exceeds this is "not identified".
 NOT_IDENTIFIED_PERCENT = 30.0
 
+_CSV_BLOCK = 4096  # rows of the traces read at a time by write_estimates_csv
+
 
 def json_number(value: Any) -> float | None:
     """A float for JSON, None for NaN and infinities (JSON has neither)."""
@@ -244,13 +246,22 @@ def write_estimates_csv(
         writer = csv.writer(stream)
         stds = [] if std is None else [f"std_{name}" for name in names]
         writer.writerow(["t", "valid", *names, *stds])
-        for k in range(len(t)):
-            values = [] if k < first else [*theta[k], *([] if std is None else std[k])]
-            writer.writerow(
-                [
-                    f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
-                    int(is_valid[k]),
-                    *(f"{x:.17g}" for x in values),
-                    *([""] * (columns - len(values))),
-                ]
-            )
+        # A block of rows at a time: a long replay's traces are read from their
+        # temporary files (core.replay, drake_dynid.log_store).
+        for a in range(0, len(t), _CSV_BLOCK):
+            b = min(len(t), a + _CSV_BLOCK)
+            estimates = np.asarray(theta[a:b])
+            sigmas = None if std is None else np.asarray(std[a:b])
+            for k in range(a, b):
+                values = []
+                if k >= first:
+                    values = [*estimates[k - a]]
+                    values += [] if sigmas is None else [*sigmas[k - a]]
+                writer.writerow(
+                    [
+                        f"{round(float(t[k]), 9) + 0.0:.15g}",  # + 0.0: no "-0"
+                        int(is_valid[k]),
+                        *(f"{x:.17g}" for x in values),
+                        *([""] * (columns - len(values))),
+                    ]
+                )

@@ -31,7 +31,8 @@ solve only at the solve times, those of a stack of windows in one call
 when they do not depend on the identifier's state (no change detection, no
 covariance weighting). Cost per log sample: a few µs, independent of the
 window T and of the log's length; memory beyond the log and the traces: a few
-blocks. :func:`filtered_signals` filters a whole log and :func:`window_estimate`
+blocks, and the (M, p) traces go to temporary files beyond 32 MiB each, as a
+long log's q and τ do (:class:`_TraceRows`). :func:`filtered_signals` filters a whole log and :func:`window_estimate`
 solves one window by direct quadrature (the references the accuracy benchmark
 uses; :func:`window_equations` gives its equations).
 """
@@ -315,12 +316,12 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     # <= count.
     log_times = np.arange(0, count + 1, solve_every)
     num_logs = len(log_times)
-    theta = np.zeros((num_logs, p))
-    std = np.full((num_logs, p), np.inf)
+    # The (M, p) traces in a temporary file when large (_TraceRows); the
+    # (M,) ones in memory.
+    theta, std, unidentified = (_TraceRows(num_logs, p) for _ in range(3))
     condition = np.full(num_logs, np.inf)
     valid = np.zeros(num_logs)
     status = np.zeros(num_logs)
-    unidentified = np.zeros((num_logs, p))
     state = identifier_init(p)
     # The solves at t_s, s <= count - 1 (the last logged time only records).
     solve_times = log_times[log_times <= count - 1]
@@ -335,7 +336,8 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     # Change detection (core.change): the tracker's outputs per logged solve.
     design = change_design(entry, h, m, p)
     tracker = None if design is None else tracker_init(design)
-    change = np.zeros((num_logs if design else 0, 3 + p))
+    change = np.zeros((num_logs if design else 0, 3))
+    changed = _TraceRows(num_logs if design else 0, p)
     # Without change detection or covariance weighting the windows' solves do not
     # depend on the state: solved a stack at a time (solve_windows, STACK_ENTRIES).
     stacked = (
@@ -345,11 +347,15 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     )
     for index, s in enumerate(log_times):
         # Record the state after the solves at t < t_s.
-        theta[index], std[index] = state.theta, state.std
+        theta.add(state.theta)
+        std.add(state.std)
+        unidentified.add(state.unidentified)
         condition[index], valid[index] = state.condition_number, float(state.valid)
-        status[index], unidentified[index] = float(state.status), state.unidentified
+        status[index] = float(state.status)
         if design is not None and tracker is not None:
-            change[index] = tracker_outputs(tracker, design)
+            outputs = tracker_outputs(tracker, design)
+            change[index] = outputs[:3]
+            changed.add(outputs[3:])
         if s > count - 1:
             break
         if stacked is not None:
@@ -374,23 +380,62 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         settings=entry,
         names=names,
         t=log_times * h,
-        theta=theta,
-        std=std,
+        theta=theta.finish(),
+        std=std.finish(),
         condition_number=condition,
         valid=valid,
         delay=entry.delay(h) + SOLVE_OFFSET * h,
         status=status,
-        unidentified=unidentified,
+        unidentified=unidentified.finish(),
         change=change[:, 0],
         change_time=change[:, 1],
         tracking=change[:, 2],
-        changed=change[:, 3:],
+        changed=changed.finish(),
     )
+
+
+class _TraceRows:
+    """(M, p) rows of a trace added one at a time, kept by a ``RowSink``.
+
+    ``drake_dynid.log_store.RowSink``: an array up to ``SPILL_BYTES`` (32 MiB:
+    about 70 000 solves of 57 parameters, two hours of a 7-DOF arm at 10 solves
+    per second), beyond a ``StoredArray`` in a temporary file, as a long log's q
+    and τ: the replay's memory does not grow with the log (a 10-hour log's three
+    (M, p) traces would take 600 MB). Rows are buffered :data:`TRACE_CHUNK` at a
+    time.
+    """
+
+    def __init__(self, count: int, width: int):
+        from drake_dynid import log_store
+
+        self.count, self.width = int(count), int(width)
+        self.sink = log_store.RowSink(self.width, limit=log_store.SPILL_BYTES)
+        self.buffer = np.empty((min(TRACE_CHUNK, self.count), self.width))
+        self.used = 0
+
+    def add(self, row: Any) -> None:
+        """Appends one (p,) row."""
+        if self.used == len(self.buffer):
+            self.sink.append(self.buffer)
+            self.used = 0
+        self.buffer[self.used] = row
+        self.used += 1
+
+    def finish(self) -> Any:
+        """The (M, p) rows: an array, or a ``StoredArray`` beyond SPILL_BYTES."""
+        self.sink.append(self.buffer[: self.used])
+        self.used = 0
+        if self.sink.rows != self.count:  # every logged time records a row
+            raise AssertionError(f"{self.sink.rows} trace rows for {self.count}")
+        return self.sink.finish()
 
 
 STACK_ENTRIES = 1 << 18
 """Entries of A (2 MB) of the windows the core replay solves in one stacked call
 (larger stacks leave the cache: 1.5x the cost per window at 8 MB)."""
+
+TRACE_CHUNK = 4096
+"""Rows of a (M, p) trace gathered before they go to its ``RowSink``."""
 
 
 def _stacked_results(

@@ -23,6 +23,11 @@ __all__ = ["OnlineTrace"]
 class OnlineTrace:
     """Estimates of one on-line identifier over time (one row per solve).
 
+    The core replay of a long log (``core.replay``) keeps the (M, p) arrays
+    (``theta``, ``std``, ``unidentified``, ``changed``) beyond 32 MiB each in
+    temporary files, as ``drake_dynid.log_store.StoredArray`` (indexed like an
+    array, reading only the rows asked; ``np.asarray`` reads it all).
+
     Attributes:
         settings: the identifier's settings (on the signal grid).
         names: base parameter names (p).
