@@ -168,30 +168,19 @@ def main(argv: list[str] | None = None) -> int:
     configure_process()
     quick = args.quick
     repeats = 1 if quick else args.repeats
-    if args.arm_only:
-        results_arm: dict[str, dict] = {}
-        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
-        print(_arm_table(results_arm, arm7, repeats, quick))
-        if args.json:
-            with open(args.json, "w", encoding="utf-8") as handle:
-                json.dump(results_arm, handle, indent=2)
-        return 0
-    if args.solves_only:
-        results_solves: dict[str, dict] = {}
-        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
-        print(_solves_table(results_solves, arm7, quick))
-        if args.json:
-            with open(args.json, "w", encoding="utf-8") as handle:
-                json.dump(results_solves, handle, indent=2)
-        return 0
-    if args.rows_only:
-        results_rows: dict[str, dict] = {}
-        arm7 = RobotModel.from_urdf(model_path("iiwa7"))
-        print(_rows_table(results_rows, arm7, repeats, quick))
-        if args.json:
-            with open(args.json, "w", encoding="utf-8") as handle:
-                json.dump(results_rows, handle, indent=2)
-        return 0
+    only = {
+        "arm_only": lambda r, arm: _arm_table(r, arm, repeats, quick),
+        "solves_only": lambda r, arm: _solves_table(r, arm, quick),
+        "rows_only": lambda r, arm: _rows_table(r, arm, repeats, quick),
+    }
+    for flag, section in only.items():
+        if getattr(args, flag):  # one 7-DOF section alone
+            results_one: dict[str, dict] = {}
+            print(section(results_one, RobotModel.from_urdf(model_path("iiwa7"))))
+            if args.json:
+                with open(args.json, "w", encoding="utf-8") as handle:
+                    json.dump(results_one, handle, indent=2)
+            return 0
     window = 2.0 if quick else 20.0
     log_duration = 4.0 if quick else 60.0
     results: dict[str, dict] = {}
