@@ -9,17 +9,30 @@ import numpy as np
 import pytest
 
 from drake_dynid.commands import _background
-from drake_dynid.commands._background import Background, can_fork
+from drake_dynid.commands._background import Background, can_fork, native_threads
 
-forking = pytest.mark.skipif(not can_fork(), reason="needs os.fork and 2+ CPUs")
+
+@pytest.fixture
+def forking():
+    """Skips unless a fork is possible now (Linux, 2+ CPUs, one thread: an
+    earlier test's thread, e.g. a Dask client's, may still be alive)."""
+    if not can_fork():
+        pytest.skip("needs Linux, 2+ CPUs and no other thread")
+
+
+def _joined(thread: threading.Thread) -> None:
+    """Joins ``thread`` and waits until the system no longer lists it."""
+    thread.join()
+    deadline = time.monotonic() + 5.0
+    while native_threads() not in (None, 1) and time.monotonic() < deadline:
+        time.sleep(0.001)
 
 
 def _in_child() -> int:
     return os.getpid()
 
 
-@forking
-def test_the_value_comes_from_a_child_process():
+def test_the_value_comes_from_a_child_process(forking):
     parent = os.getpid()
     with Background(_in_child) as background:
         assert background.forked
@@ -28,8 +41,7 @@ def test_the_value_comes_from_a_child_process():
     assert not background.forked  # reaped
 
 
-@forking
-def test_arrays_cross_and_the_caller_works_meanwhile():
+def test_arrays_cross_and_the_caller_works_meanwhile(forking):
     x = np.random.default_rng(0).standard_normal((300, 50))
 
     def work() -> np.ndarray:
@@ -41,8 +53,7 @@ def test_arrays_cross_and_the_caller_works_meanwhile():
     np.testing.assert_array_equal(there, here)
 
 
-@forking
-def test_an_exception_in_the_child_is_raised_again():
+def test_an_exception_in_the_child_is_raised_again(forking):
     def bad() -> None:
         raise ValueError("bootstrap_std: the window ending at sample 3 is not full")
 
@@ -55,8 +66,7 @@ def test_an_exception_in_the_child_is_raised_again():
     assert "forked child" in notes and "in bad" in notes  # the child's traceback
 
 
-@forking
-def test_an_exception_that_does_not_pickle_still_says_what_failed():
+def test_an_exception_that_does_not_pickle_still_says_what_failed(forking):
     class Local(Exception):  # a local class does not pickle
         pass
 
@@ -67,8 +77,7 @@ def test_an_exception_that_does_not_pickle_still_says_what_failed():
         background.result()
 
 
-@forking
-def test_a_child_that_dies_without_an_answer_is_computed_here():
+def test_a_child_that_dies_without_an_answer_is_computed_here(forking):
     parent = os.getpid()
 
     def dies_in_the_child() -> str:
@@ -102,18 +111,107 @@ def test_no_fork_with_other_python_threads_or_one_cpu(monkeypatch):
         assert not Background(_in_child).forked
     finally:
         stop.set()
-        thread.join()
+        _joined(thread)
     monkeypatch.setattr(_background, "available_cpus", lambda: 1)
     assert not can_fork()
     assert Background(_in_child).result() == os.getpid()
 
 
-@forking
-def test_leaving_the_block_kills_the_child():
+def test_leaving_the_block_kills_the_child(forking):
     start = time.perf_counter()
     with pytest.raises(KeyError), Background(lambda: time.sleep(30)) as background:
+        assert background.forked
         pid = background._pid
         raise KeyError("the caller's own error")
     assert time.perf_counter() - start < 10.0
     with pytest.raises(ChildProcessError):  # reaped: no such child any more
         os.waitpid(pid, os.WNOHANG)
+
+
+def test_a_value_that_does_not_pickle_or_no_memory_is_computed_here(forking):
+    parent = os.getpid()
+
+    def lock() -> object:
+        return threading.Lock()  # does not pickle
+
+    with Background(lock) as background:
+        assert background.forked
+        assert type(background.result()) is type(threading.Lock())
+
+    def memory() -> str:
+        if os.getpid() != parent:
+            raise MemoryError
+        return "computed here"
+
+    with Background(memory) as background:
+        assert background.forked
+        assert background.result() == "computed here"
+
+
+def test_the_result_is_computed_once(forking):
+    calls = []
+
+    def work() -> int:
+        calls.append(1)  # in this process only when computed here
+        return 3
+
+    with Background(work) as background:
+        assert background.result() == background.result() == 3
+    assert calls == []  # the child's list, not this one
+    here = Background(work, enabled=False)
+    assert here.result() == here.result() == 3 and calls == [1]
+
+
+def test_no_fork_when_sigchld_is_ignored():
+    """The system would reap the child itself (its id free for another process
+    before a cancel): computed here instead."""
+    previous = signal.signal(signal.SIGCHLD, signal.SIG_IGN)
+    try:
+        assert not can_fork()
+        background = Background(_in_child)
+        assert not background.forked and background.result() == os.getpid()
+    finally:
+        signal.signal(signal.SIGCHLD, previous)
+
+
+def test_the_child_dies_with_its_parent(tmp_path):
+    """A parent killed mid-work takes its child with it (PR_SET_PDEATHSIG)."""
+    import subprocess
+    import sys
+
+    pid_file = tmp_path / "child.pid"
+    code = (
+        "import os, time, pathlib\n"
+        "from drake_dynid.commands._background import Background, can_fork\n"
+        "if not can_fork(): raise SystemExit(3)\n"
+        "def work():\n"
+        f"    pathlib.Path({str(pid_file)!r}).write_text(str(os.getpid()))\n"
+        "    time.sleep(60)\n"
+        "b = Background(work)\n"
+        "time.sleep(60)\n"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", code])
+    deadline = time.monotonic() + 30.0
+    while not pid_file.exists() and parent.poll() is None:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    if parent.poll() == 3:
+        pytest.skip("no fork in the subprocess")
+    while not pid_file.read_text():
+        time.sleep(0.01)
+    child = int(pid_file.read_text())
+    parent.kill()
+    parent.wait()
+    deadline = time.monotonic() + 10.0
+    while _alive(child):
+        assert time.monotonic() < deadline, "the child outlived its parent"
+        time.sleep(0.01)
+
+
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat") as stream:
+            return stream.read().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False

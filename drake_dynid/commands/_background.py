@@ -11,10 +11,12 @@ and sends back only its (small) result, pickled through a pipe.
 Nothing is lost when that cannot be done: off Linux, with fewer than 2 CPUs
 available, with other threads running (a fork copies only the calling thread; a
 lock another thread holds would stay locked in the child: :func:`can_fork`), or
-when the child dies without an answer, :meth:`Background.result`
-calls the function in this process instead. An exception the function raises in
-the child is raised again by :meth:`Background.result`, as if it had been
-called here. The result is the same either way: the function must be
+when the child dies without an answer (or its value does not pickle, or it ran
+out of memory), :meth:`Background.result` calls the function in this process
+instead. The child dies with its parent (Linux's ``PR_SET_PDEATHSIG``). An
+exception the function raises in the child is raised again by
+:meth:`Background.result`, as if it had been called here, with the child's
+traceback as a note. The result is the same either way: the function must be
 deterministic (the bootstrap's draws are seeded).
 """
 
@@ -56,9 +58,11 @@ def can_fork() -> bool:
     """A fork is possible and safe here.
 
     Linux (``os.fork``; elsewhere a fork is not tried: macOS's system libraries
-    are not fork-safe), 2+ CPUs, and this process has one thread (a lock another
+    are not fork-safe), 2+ CPUs, this process has one thread (a lock another
     thread holds at the fork, Python's or a library's, would stay locked in the
-    child; with ``DYNID_THREADS=auto`` the BLAS pool's threads count).
+    child; with ``DYNID_THREADS=auto`` the BLAS pool's threads count), and
+    SIGCHLD is not ignored (the system would reap the child itself, and its
+    process id could be another process's by the time it is cancelled).
     """
     return (
         sys.platform.startswith("linux")
@@ -66,7 +70,43 @@ def can_fork() -> bool:
         and available_cpus() >= 2
         and threading.active_count() == 1
         and native_threads() == 1
+        and signal.getsignal(signal.SIGCHLD) != signal.SIG_IGN
     )
+
+
+def _message(function: Callable[[], Any]) -> bytes | None:
+    """The child's pickled ``(kind, payload, traceback)``; None: nothing to send.
+
+    None (the parent then computes it itself) for a value that does not pickle
+    and for a MemoryError (the parent has the child's memory back).
+    """
+    try:
+        value = function()
+    except MemoryError:
+        return None
+    except Exception as error:  # raised again in the parent
+        where = traceback.format_exc()
+        try:
+            return pickle.dumps(("error", error, where))
+        except Exception:
+            return pickle.dumps(("error", RuntimeError(repr(error)), where))
+    try:
+        return pickle.dumps(("value", value, ""))
+    except Exception:
+        return None
+
+
+def _die_with_parent(parent: int) -> None:
+    """Asks Linux to kill this (child) process when its parent dies."""
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:  # it died before the request
+        os._exit(1)
 
 
 class Background(Generic[T]):
@@ -84,6 +124,8 @@ class Background(Generic[T]):
         self._function = function
         self._pid: int | None = None
         self._read: int | None = None
+        self._done = False
+        self._value: Any = None
         if enabled and can_fork():
             self._start()
 
@@ -99,6 +141,7 @@ class Background(Generic[T]):
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(Exception):
                 stream.flush()
+        parent = os.getpid()
         try:
             pid = os.fork()
         except OSError:  # no process left: compute here instead
@@ -106,30 +149,34 @@ class Background(Generic[T]):
             os.close(write)
             return
         if pid == 0:  # the child: compute, send, leave without any clean-up
-            status = 0
+            status = 1  # nothing sent: the parent computes it itself
             try:
                 os.close(read)
                 signal.signal(signal.SIGINT, signal.SIG_DFL)
-                try:
-                    message = pickle.dumps(("value", self._function(), ""))
-                except Exception as error:  # raised again in the parent
-                    where = traceback.format_exc()
-                    try:
-                        message = pickle.dumps(("error", error, where))
-                    except Exception:
-                        unpicklable = RuntimeError(repr(error))
-                        message = pickle.dumps(("error", unpicklable, where))
-                with os.fdopen(write, "wb") as stream:
-                    stream.write(message)
-            except BaseException:  # nothing sent: the parent computes it itself
-                status = 1
+                _die_with_parent(parent)
+                message = _message(self._function)
+                if message is not None:
+                    with os.fdopen(write, "wb") as stream:
+                        stream.write(message)
+                    status = 0
+            except BaseException:
+                pass
             finally:
                 os._exit(status)
         os.close(write)
         self._pid, self._read = pid, read
 
     def result(self) -> T:
-        """The function's value (or its exception raised), from the child or here."""
+        """The function's value (or its exception raised), from the child or here.
+
+        Computed once: a second call returns the same value.
+        """
+        if not self._done:
+            self._value = self._compute()
+            self._done = True
+        return self._value
+
+    def _compute(self) -> T:
         if self._pid is None:
             return self._function()
         message = self._collect()
@@ -149,7 +196,10 @@ class Background(Generic[T]):
             self._read = None
             while chunk := stream.read(1 << 16):
                 chunks.append(chunk)
-        _, status = os.waitpid(self._pid, 0)
+        try:
+            _, status = os.waitpid(self._pid, 0)
+        except ChildProcessError:  # reaped by the system: the message decides
+            status = 0
         self._pid = None
         if status != 0 or not chunks:
             return None
@@ -170,6 +220,10 @@ class Background(Generic[T]):
             with contextlib.suppress(ChildProcessError):
                 os.waitpid(self._pid, 0)
             self._pid = None
+
+    def __del__(self) -> None:
+        with contextlib.suppress(Exception):
+            self.cancel()
 
     def __enter__(self) -> Background[T]:
         return self

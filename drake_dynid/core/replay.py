@@ -32,9 +32,10 @@ when they do not depend on the identifier's state (no change detection, no
 covariance weighting). Cost per log sample: a few µs, independent of the
 window T and of the log's length; memory beyond the log and the traces: a few
 blocks, and the (M, p) traces go to temporary files beyond 32 MiB each, as a
-long log's q and τ do (:class:`_TraceRows`). :func:`filtered_signals` filters a whole log and :func:`window_estimate`
-solves one window by direct quadrature (the references the accuracy benchmark
-uses; :func:`window_equations` gives its equations).
+long log's q and τ do (:class:`_TraceRows`). :func:`filtered_signals` filters a
+whole log and :func:`window_estimate` solves one window by direct quadrature (the
+references the accuracy benchmark uses; :func:`window_equations` gives its
+equations).
 """
 
 from __future__ import annotations
