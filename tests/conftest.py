@@ -1,12 +1,21 @@
 """Shared pytest configuration.
 
-Figures are written with matplotlib's non-interactive Agg backend; hypothesis runs
+The process is set up as the ``dynid`` command sets itself up (below); figures are
+written with matplotlib's non-interactive Agg backend; hypothesis runs
 deterministically (see below).
 """
 
 import os
 
-from hypothesis import settings
+from drake_dynid.core._threads import configure_process
+
+# As the dynid command does, before numpy is imported: BLAS/OpenMP pools of one
+# thread (a busy 2-core machine runs the suite far slower with OpenBLAS's own
+# pool), and so no pool thread in the process: commands._background forks only
+# from a process with one thread (the forked bootstrap is tested, not skipped).
+configure_process()
+
+from hypothesis import settings  # noqa: E402
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
