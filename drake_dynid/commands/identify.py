@@ -376,9 +376,12 @@ def bootstrap_end(settings: Any, time_step: float, last_valid: int) -> int:
 def final_solve_index(log: Any, settings: Any) -> int:
     """The logged index of the last solve's estimate (``last_valid`` when it is valid).
 
-    The replay logs at s = 0, U, ... <= N (U the solve period in samples).
+    The last of ``core.replay.logged_samples``.
     """
-    return int(log.num_samples // settings.solve_decimation(log.time_step))
+    from drake_dynid.core.replay import logged_samples
+
+    every = settings.solve_decimation(log.time_step)
+    return len(logged_samples(log.num_samples, every)) - 1
 
 
 def window_bootstrap(

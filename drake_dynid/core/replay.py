@@ -73,6 +73,7 @@ __all__ = [
     "channel_equations",
     "filtered_at",
     "filtered_signals",
+    "logged_samples",
     "replay_log_core",
     "solve_equations",
     "window_bank_samples",
@@ -315,7 +316,7 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
 
     # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
     # <= count.
-    log_times = np.arange(0, count + 1, solve_every)
+    log_times = logged_samples(count, solve_every)
     num_logs = len(log_times)
     # The (M, p) traces in a temporary file when large (_TraceRows); the
     # (M,) ones in memory.
@@ -393,6 +394,16 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         tracking=change[:, 2],
         changed=changed.finish(),
     )
+
+
+def logged_samples(count: int, solve_every: int) -> np.ndarray:
+    """The samples s = 0, U, 2U, ... <= N at which a replay logs its state.
+
+    ``count`` = N samples, U = ``solve_every`` (the solve period in samples);
+    the state logged at s is the one after the solves at t < t_s (module
+    docstring): the trace's rows, its last one the last solve's estimate.
+    """
+    return np.arange(0, int(count) + 1, int(solve_every))
 
 
 class _TraceRows:
