@@ -505,18 +505,19 @@ def _final_bootstrap(
     robot: Any,
     settings: Any,
     trace: Any,
+    valid: np.ndarray,
     background: Background[dict[str, Any]],
     last_solve: int,
 ) -> dict[str, Any]:
     """:func:`final_bootstrap`, from the window computed beside the replay if it fits.
 
-    That window is the last solve's: used when that solve was valid. {} when no
-    solve was valid.
+    ``valid``: the trace's (M,) bool validity. The window computed beside the
+    replay is the last solve's: used when that solve was valid. {} when no solve
+    was valid.
     """
-    valid = np.flatnonzero(np.asarray(trace.valid) > 0.5)
-    if valid.size == 0:
+    if not valid.any():
         return {}  # no estimate at all: run() says so
-    last_valid = int(valid[-1])
+    last_valid = int(np.flatnonzero(valid)[-1])
     computed = None
     if replicates > 0 and last_valid == last_solve:
         computed = background.result()
@@ -807,10 +808,10 @@ def run(args: argparse.Namespace) -> int:
         enabled=replicates > 0 and getattr(args, "parallel", None) != "off",
     ) as background:
         (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
+        valid = np.asarray(trace.valid) > 0.5
         bootstrap = _final_bootstrap(
-            replicates, log, robot, settings, trace, background, last_solve
+            replicates, log, robot, settings, trace, valid, background, last_solve
         )
-    valid = np.asarray(trace.valid) > 0.5
     if not valid.any():
         finite = trace.condition_number[np.isfinite(trace.condition_number)]
         best = f"{finite.min():.3g}" if finite.size else "inf"
