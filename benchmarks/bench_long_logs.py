@@ -11,11 +11,14 @@ currents with the drive file's chain (current = τ / (ratio · motor constant),
 docs/DRIVE.md), white noise on q (1e-4) and on the currents (1 % of their std),
 numpy default_rng(0). Each length runs ``dynid offline`` once in a fresh process
 (``_arm7.run_case``: end to end, its own resident high-water mark); with
-``--identify``, ``dynid identify`` too (about 1 s per minute of log). The peak
+``--identify``, ``dynid identify`` too (about 1 s per minute of log); with
+``--validate``, ``dynid validate`` of the off-line estimate on the same log with
+``--plot`` (the compared samples stay on disk, the plot draws envelopes). The peak
 must not grow with the length: the reader streams the CSV into temporary files
 and the off-line fit reduces its rows by QR as they come (README, Performance).
 
-Usage: ``python benchmarks/bench_long_logs.py [--hours 2.5 10] [--identify]``
+Usage: ``python benchmarks/bench_long_logs.py [--hours 2.5 10] [--identify]
+[--validate]``
 (the 10-hour log is a 1.3 GB CSV in a temporary folder).
 """
 
@@ -93,12 +96,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--hours", type=float, nargs="+", default=[2.5, 10.0])
     parser.add_argument("--identify", action="store_true", help="also dynid identify")
+    parser.add_argument(
+        "--validate",
+        action="store_true",
+        help="also dynid validate --plot of the off-line estimate",
+    )
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
     configure_process()
     hours = [2.0 / 60.0] if args.quick else args.hours
-    commands = ("offline", "identify") if args.identify else ("offline",)
+    commands = ["offline"] + ["identify"] * args.identify
+    commands += ["validate"] * (args.validate or args.quick)
     results: dict[str, dict] = {}
     lines = [
         "\n### Long TIAGo drive logs (8 joints, 100 Hz, --drive), end to end\n",
@@ -127,6 +136,10 @@ def main(argv: list[str] | None = None) -> int:
                     out,
                     "--quiet",
                 ]
+                if command == "validate":  # the off-line estimate, plotted
+                    params = os.path.join(folder, "offline.json")
+                    plot = os.path.join(folder, "validate.png")
+                    argv_case += ["--params", params, "--plot", plot]
                 case = run_case({"kind": "cli", "argv": argv_case})
                 key = f"{command}_{length:g}h"
                 results[key] = {

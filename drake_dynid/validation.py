@@ -32,6 +32,15 @@ Per joint j, over the compared samples (e = τ_f − τ̂_f)::
     R² = 1 − Σ e² / Σ (τ_f − mean τ_f)²
     residual std = std(e)                               [N·m or N]
 
+Steps 2-3 are streamed (:func:`drake_dynid.core.idim_stream.decimated_chunks`
+with D = 1): the zero-phase filters run on blocks whose margins let their
+transients decay to 1e-12, the metrics are summed a block at a time and the
+compared samples of a long log stay in temporary files, so memory does not grow
+with the log (hours of a 7-DOF arm: ``benchmarks/bench_long_logs.py``). The
+numbers equal the chain on whole segments (scipy's ``sosfiltfilt``) to 1e-12 of
+the torques; the predictions, through v̇ (a second difference of q_f: 1/h²),
+to about 1e-8 (tests/test_validation.py).
+
 Pure numpy/scipy (the rows come from the robot object).
 """
 
@@ -47,13 +56,11 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.idim import (
-    default_padding,
-    default_trim,
-    offline_derivatives,
-    parallel_decimation,
-)
+from drake_dynid.core import idim_stream
+from drake_dynid.core.blocks import is_stored, segment
+from drake_dynid.core.idim import default_padding, default_trim
 from drake_dynid.core.idim_checks import check_filter_frequency
+from drake_dynid.log_store import RowSink
 from drake_dynid.offline import auto_cutoff, auto_decimation_cutoff
 
 __all__ = [
@@ -81,6 +88,11 @@ class TorqueValidation:
         raw_measured: (M, n) torques as logged at the same samples.
         raw_predicted: (M, n) W·θ before the low-pass.
         segment: (M,) index of the finite segment each sample comes from.
+
+        On a long log (beyond ``log_store.SPILL_BYTES`` per array, about 10
+        minutes of a 7-DOF arm at 1 kHz) these (M, ·) arrays are
+        ``log_store.StoredArray`` (temporary files; they index like arrays and
+        ``np.asarray`` loads them; ``segment`` then holds floats).
         relative_rms_percent: (n,) 100·RMS(residual)/RMS(measured) [%].
         r_squared: (n,) coefficient of determination (NaN for a constant torque).
         residual_std: (n,) standard deviation of the residual [N·m, N].
@@ -117,34 +129,61 @@ class TorqueValidation:
         return int(self.t.shape[0])
 
 
-def _relative_rms(residual: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    rms_e = np.sqrt(np.mean(residual**2, axis=0))
-    rms_ref = np.sqrt(np.mean(reference**2, axis=0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(rms_ref > 0, 100.0 * rms_e / rms_ref, np.inf)
+class _Moments:
+    """Per-column sums of the metrics, merged a block of samples at a time.
 
+    Means and centred sums of squares are combined as in Chan, Golub & LeVeque's
+    pairwise update (no cancellation from Σx² - N·mean²): the same numbers as
+    numpy's whole-array ``mean``/``std`` to round-off.
+    """
 
-def _metrics(measured, predicted, raw_measured, raw_predicted) -> dict[str, Any]:
-    residual = measured - predicted
-    centred = measured - measured.mean(axis=0)
-    total = np.sum(centred**2, axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r_squared = np.where(
-            total > 0, 1.0 - np.sum(residual**2, axis=0) / total, np.nan
-        )
-    norm = float(np.linalg.norm(measured))
-    return {
-        "relative_rms_percent": _relative_rms(residual, measured),
-        "r_squared": r_squared,
-        "residual_std": residual.std(axis=0),
-        "rms_measured": np.sqrt(np.mean(measured**2, axis=0)),
-        "raw_relative_rms_percent": _relative_rms(
-            raw_measured - raw_predicted, raw_measured
-        ),
-        "total_relative_rms_percent": (
-            100.0 * float(np.linalg.norm(residual)) / norm if norm > 0 else math.inf
-        ),
-    }
+    def __init__(self, n: int):
+        self.count = 0
+        self.mean = np.zeros((2, n))  # [measured, residual]
+        self.centred = np.zeros((2, n))  # Σ (x - mean)²
+        self.squares = np.zeros((4, n))  # Σ measured², e², raw measured², raw e²
+
+    def add(self, measured, predicted, raw_measured, raw_predicted) -> None:
+        residual = measured - predicted
+        raw_residual = raw_measured - raw_predicted
+        k = measured.shape[0]
+        if k == 0:
+            return
+        block = np.stack([measured, residual])
+        mean = block.mean(axis=1)
+        centred = np.sum((block - mean[:, None]) ** 2, axis=1)
+        total = self.count + k
+        delta = mean - self.mean
+        self.centred += centred + delta**2 * (self.count * k / total)
+        self.mean += delta * (k / total)
+        self.count = total
+        for i, x in enumerate((measured, residual, raw_measured, raw_residual)):
+            self.squares[i] += np.einsum("ij,ij->j", x, x)
+
+    def metrics(self) -> dict[str, Any]:
+        measured, residual, raw_measured, raw_residual = self.squares
+        total = self.centred[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r_squared = np.where(total > 0, 1.0 - residual / total, np.nan)
+            relative = np.where(
+                measured > 0, 100.0 * np.sqrt(residual / measured), np.inf
+            )
+            raw = np.where(
+                raw_measured > 0, 100.0 * np.sqrt(raw_residual / raw_measured), np.inf
+            )
+        norm = float(np.sum(measured))
+        return {
+            "relative_rms_percent": relative,
+            "r_squared": r_squared,
+            "residual_std": np.sqrt(self.centred[1] / self.count),
+            "rms_measured": np.sqrt(measured / self.count),
+            "raw_relative_rms_percent": raw,
+            "total_relative_rms_percent": (
+                100.0 * math.sqrt(float(np.sum(residual)) / norm)
+                if norm > 0
+                else math.inf
+            ),
+        }
 
 
 def _rows(robot: Any) -> Any:
@@ -204,13 +243,15 @@ def validate_torques(
         check.fail(owner, f"theta must have shape ({p},); got {theta.shape}.")
     h = check.positive(owner, "time_step", log.time_step, "s")
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
-    q = np.asarray(log.q, dtype=float)
-    tau = np.asarray(log.tau, dtype=float)
+    # A long log read from a file stays on disk, read a block at a time.
+    q = log.q if is_stored(log.q) else np.asarray(log.q, dtype=float)
+    tau = log.tau if is_stored(log.tau) else np.asarray(log.tau, dtype=float)
+    times = log.t if is_stored(log.t) else np.asarray(log.t, dtype=float)
     segments = log.good_segments()
     if not segments:
         check.fail(owner, "the log has no finite sample (every row has a NaN).")
     longest = max(segments, key=lambda s: s[1] - s[0])
-    q_longest = q[longest[0] : longest[1]]
+    q_longest = segment(q, *longest)
     # Given cutoffs against the log before any filter (core/idim_checks.py): below
     # Nyquist and long enough for two periods at each end of the longest segment.
     given = (("cutoff_hz", cutoff_hz), ("decimation_cutoff_hz", decimation_cutoff_hz))
@@ -238,40 +279,65 @@ def validate_torques(
     )
     trim = default_trim(h, cutoff_hz)
     padding = default_padding(h, cutoff_hz)
-    parts: dict[str, list[np.ndarray]] = {
-        k: [] for k in ("t", "m", "p", "rm", "rp", "s")
-    }
+    # The dynid offline chain without down-sampling (D = 1): the position filter,
+    # central differences, τ̂ = W θ at every sample and the order-8 low-pass of
+    # τ̂ and τ, streamed (core.idim_stream): memory independent of the log length.
+    plan = idim_stream.stream_plan(
+        h,
+        cutoff_hz=cutoff_hz,
+        filter_order=filter_order,
+        trim=trim,
+        padding=padding,
+        decimation=1,
+        decimation_cutoff_hz=decimation_cutoff_hz,
+        factor=1,
+        block=idim_stream.BLOCK_SAMPLES,
+    )
+
+    def predict(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
+        return (np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta)[
+            ..., None
+        ]
+
+    n = q.shape[1]
+    sinks = {key: RowSink(n) for key in ("m", "p", "rm", "rp")}
+    sinks["t"], sinks["s"] = RowSink(1), RowSink(1)
+    moments = _Moments(n)
     for index, (start, stop) in enumerate(segments):
         if stop - start < 2 * trim + 1:
             continue
-        q_f, v, vdot = offline_derivatives(
-            q[start:stop],
-            h,
-            cutoff_hz=cutoff_hz,
-            filter_order=filter_order,
-            trim=trim,
-            padding=padding,
-        )
-        predicted = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta
-        measured = tau[start + trim : stop - trim]
-        smooth, smooth_measured = parallel_decimation(
-            predicted[..., None], measured, 1, cutoff=decimation_cutoff_hz * h
-        )
-        parts["t"].append(np.asarray(log.t, dtype=float)[start + trim : stop - trim])
-        parts["m"].append(smooth_measured)
-        parts["p"].append(smooth[..., 0])
-        parts["rm"].append(measured)
-        parts["rp"].append(predicted)
-        parts["s"].append(np.full(measured.shape[0], index))
-    if not parts["t"]:
+        row = start + trim
+        for (
+            smooth,
+            _,
+            smooth_measured,
+            raw,
+            _,
+            measured,
+        ) in idim_stream.decimated_chunks(
+            segment(q, start, stop), segment(tau, start, stop), plan, predict, raw=True
+        ):
+            count = measured.shape[0]
+            predicted, raw_predicted = smooth[..., 0], raw[..., 0]
+            moments.add(smooth_measured, predicted, measured, raw_predicted)
+            for key, part in (
+                ("t", np.asarray(times[row : row + count], dtype=float)),
+                ("m", smooth_measured),
+                ("p", predicted),
+                ("rm", measured),
+                ("rp", raw_predicted),
+                ("s", np.full(count, float(index))),
+            ):
+                sinks[key].append(part)
+            row += count
+    if moments.count == 0:
         check.fail(
             owner,
             f"no finite segment of the log is long enough: the longest has "
             f"{longest[1] - longest[0]} samples and the cutoff {cutoff_hz:.3g} Hz "
             f"needs at least {2 * trim + 1} ({trim} are dropped at each end).",
         )
-    joined = {k: np.concatenate(v) for k, v in parts.items()}
-    metrics = _metrics(joined["m"], joined["p"], joined["rm"], joined["rp"])
+    joined = {key: sink.finish(vector=key in ("t", "s")) for key, sink in sinks.items()}
     settings = {
         "cutoff_hz": float(cutoff_hz),
         "cutoff_rule": cutoff_rule,
@@ -282,6 +348,7 @@ def validate_torques(
         "padding": int(padding),
         "time_step": float(h),
     }
+    segment_index = joined["s"]
     return TorqueValidation(
         joint_names=tuple(log.joint_names),
         t=joined["t"],
@@ -289,10 +356,12 @@ def validate_torques(
         predicted=joined["p"],
         raw_measured=joined["rm"],
         raw_predicted=joined["rp"],
-        segment=joined["s"],
+        segment=segment_index
+        if is_stored(segment_index)
+        else segment_index.astype(np.int64),
         settings=settings,
         num_samples=int(q.shape[0]),
-        **metrics,
+        **moments.metrics(),
     )
 
 

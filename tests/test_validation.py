@@ -315,3 +315,101 @@ def test_bad_validation_input_exits_2(logs, tmp_path, capsys):
     assert "--split must be in (0, 1)" in _error(capsys)
     assert cli.main([*base[:4], "--params", str(tmp_path / "none.json")]) == 2
     assert "no such file" in _error(capsys)
+
+
+@pytest.mark.parametrize("stored", [False, True])
+def test_the_streamed_validation_is_the_whole_segment_chain(
+    robot, tmp_path, monkeypatch, stored
+):
+    """validate_torques filters a block at a time (core.idim_stream, D = 1); it
+    equals the chain on whole segments (offline_derivatives, W·θ, the parallel
+    decimation's low-pass) to the blocks' 1e-12, and a long log's compared samples
+    stay in temporary files."""
+    from drake_dynid import log_store
+    from drake_dynid.core import idim_stream
+    from drake_dynid.core.blocks import is_stored
+    from drake_dynid.core.idim import offline_derivatives, parallel_decimation
+    from drake_dynid.logs import read_log
+
+    log = _pinocchio_log(5, 4.0, noise=1.0)
+    q = log.q.copy()
+    q[2500:2510] = np.nan  # two segments
+    path = tmp_path / "gappy.csv"
+    write_log(path, log.t, q, log.tau, log.joint_names)
+    theta = robot.base_values * 1.05
+    if stored:  # every array on disk; the filters in blocks of 700 samples
+        monkeypatch.setattr(log_store, "SPILL_BYTES", 512)
+        monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
+        monkeypatch.setattr(idim_stream, "BLOCK_SAMPLES", 700)
+    gappy = read_log(path, log.joint_names)
+    assert is_stored(gappy.q) == stored
+    result = validate_torques(gappy, robot, theta, cutoff_hz=6.0)
+    assert is_stored(result.predicted) == stored
+    settings = result.settings
+    trim, padding = settings["trim"], settings["padding"]
+    parts = {k: [] for k in ("t", "m", "p", "rm", "rp", "s")}
+    q_all, tau_all = np.asarray(gappy.q), np.asarray(gappy.tau)
+    for index, (start, stop) in enumerate(gappy.good_segments()):
+        q_f, v, vdot = offline_derivatives(
+            q_all[start:stop], H, cutoff_hz=6.0, trim=trim, padding=padding
+        )
+        predicted = robot.idim_rows(q_f, v, vdot) @ theta
+        measured = tau_all[start + trim : stop - trim]
+        smooth, smooth_measured = parallel_decimation(
+            predicted[..., None],
+            measured,
+            1,
+            cutoff=settings["decimation_cutoff_hz"] * H,
+        )
+        for key, value in zip(
+            parts,
+            (
+                np.asarray(gappy.t)[start + trim : stop - trim],
+                smooth_measured,
+                smooth[..., 0],
+                measured,
+                predicted,
+                np.full(measured.shape[0], index),
+            ),
+            strict=True,
+        ):
+            parts[key].append(value)
+    whole = {k: np.concatenate(v) for k, v in parts.items()}
+    scale = np.abs(whole["rm"]).max()
+    np.testing.assert_array_equal(np.asarray(result.t), whole["t"])
+    np.testing.assert_array_equal(np.asarray(result.segment), whole["s"])
+    np.testing.assert_array_equal(np.asarray(result.raw_measured), whole["rm"])
+    # The filtered torque to the blocks' 1e-12. The predictions hold v̇, a second
+    # difference (1/h² = 1e6) of q_f, whose round-off differs by 1e-12 between the
+    # filters' implementations (core.iir's and scipy's): 1e-8 of the torques.
+    for name, key, tolerance in (
+        ("measured", "m", 1e-11),
+        ("raw_predicted", "rp", 1e-7),
+        ("predicted", "p", 1e-7),
+    ):
+        np.testing.assert_allclose(
+            np.asarray(getattr(result, name)),
+            whole[key],
+            rtol=0,
+            atol=tolerance * scale,
+        )
+    residual = whole["m"] - whole["p"]
+    rms = np.sqrt(np.mean(whole["m"] ** 2, axis=0))
+    np.testing.assert_allclose(
+        result.relative_rms_percent,
+        100 * np.sqrt(np.mean(residual**2, axis=0)) / rms,
+        rtol=1e-6,
+    )
+    np.testing.assert_allclose(result.residual_std, residual.std(axis=0), rtol=1e-6)
+    centred = whole["m"] - whole["m"].mean(axis=0)
+    np.testing.assert_allclose(
+        result.r_squared,
+        1 - np.sum(residual**2, axis=0) / np.sum(centred**2, axis=0),
+        rtol=1e-9,
+    )
+    raw = whole["rm"] - whole["rp"]
+    np.testing.assert_allclose(
+        result.raw_relative_rms_percent,
+        100 * np.sqrt(np.sum(raw**2, axis=0) / np.sum(whole["rm"] ** 2, axis=0)),
+        rtol=1e-6,
+    )

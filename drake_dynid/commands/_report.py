@@ -12,7 +12,7 @@ import argparse
 import csv
 import json
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,11 +20,15 @@ import numpy as np
 
 __all__ = [
     "NOT_IDENTIFIED_PERCENT",
+    "PLOT_BUCKETS",
+    "bucket_extremes",
+    "bucket_times",
     "estimates_table",
     "json_number",
     "log_document",
     "matplotlib_pyplot",
     "parameters_document",
+    "trace_envelope",
     "write_estimates_csv",
     "write_json",
     "write_plot",
@@ -35,6 +39,10 @@ __all__ = [
 NOT_IDENTIFIED_PERCENT = 30.0
 
 _CSV_BLOCK = 4096  # rows of the traces read at a time by write_estimates_csv
+
+#: ``--plot`` draws a trace of more solves than this as the extremes of as many
+#: buckets of consecutive solves (a 6-inch panel at 100 dpi is 600 pixels wide).
+PLOT_BUCKETS = 2000
 
 
 def json_number(value: Any) -> float | None:
@@ -148,19 +156,120 @@ def matplotlib_pyplot() -> Any:
 
 
 def _invalid_runs(
-    t: np.ndarray, valid: np.ndarray, step: float
+    t: np.ndarray, valid: np.ndarray, step: float, merge: float = 0.0
 ) -> Iterator[tuple[float, float]]:
-    """(start, stop) time spans where ``valid`` is 0."""
+    """(start, stop) time spans where ``valid`` is 0.
+
+    Spans less than ``merge`` seconds apart are drawn as one (a decimated plot:
+    thousands of runs narrower than a pixel would each be a patch).
+    """
     bad = np.concatenate([[False], valid < 0.5, [False]]).astype(np.int8)
     edges = np.flatnonzero(np.diff(bad))
+    span: tuple[float, float] | None = None
     for start, stop in zip(edges[::2], edges[1::2], strict=True):
-        yield t[start], t[stop - 1] + step
+        begin, end = float(t[start]), float(t[stop - 1] + step)
+        if span is not None and begin - span[1] < merge:
+            span = (span[0], end)
+            continue
+        if span is not None:
+            yield span
+        span = (begin, end)
+    if span is not None:
+        yield span
 
 
-def write_plot(
-    path: str, t: np.ndarray, theta: np.ndarray, std: np.ndarray, valid, names, title
-) -> None:
-    """One subplot per parameter: estimate, ±σ band, invalid periods shaded."""
+def bucket_extremes(
+    count: int,
+    read: Callable[[int, int], Sequence[np.ndarray]],
+    buckets: int = PLOT_BUCKETS,
+    breaks: Any = (),
+) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The least and greatest values of runs of rows, read a block at a time.
+
+    Rows 0 … count-1 fall in buckets of s = ⌈count / buckets⌉ consecutive rows,
+    a bucket also ending before each row in ``breaks`` (the first row of a new
+    segment: no bucket spans two). ``read(a, b)`` returns the arrays of rows
+    [a, b), each (b - a, c_k); it is called on about ``_CSV_BLOCK`` rows at a
+    time, so that a long replay's ``StoredArray`` traces are never loaded whole.
+    NaN values are left out (a bucket with none is NaN).
+
+    Returns:
+        (edges, extremes): edges (B + 1,) the first row of each bucket, then
+        ``count``; extremes, per array of ``read``, (B, 2, c_k) its least and
+        greatest value in each bucket.
+    """
+    size = max(1, math.ceil(count / buckets))
+    inside = [int(b) for b in breaks if 0 < b < count]
+    edges = np.union1d(np.arange(0, count, size), inside).astype(np.int64)
+    edges = np.append(edges, count)
+    limit = max(_CSV_BLOCK, size)
+    parts: list[list[np.ndarray]] = []
+    i = 0
+    while i < edges.size - 1:
+        j = max(i + 1, int(np.searchsorted(edges, edges[i] + limit, "right")) - 1)
+        a, b = int(edges[i]), int(edges[j])
+        starts = edges[i:j] - a
+        reduced = [
+            np.stack(
+                [
+                    np.fmin.reduceat(x, starts, axis=0),
+                    np.fmax.reduceat(x, starts, axis=0),
+                ],
+                axis=1,
+            )
+            for x in read(a, b)
+        ]
+        parts.append(reduced)
+        i = j
+    return edges, [np.concatenate(column) for column in zip(*parts, strict=True)]
+
+
+def bucket_times(t: Any, edges: np.ndarray) -> np.ndarray:
+    """(2B,) the first and last time of each bucket of :func:`bucket_extremes` [s]."""
+    first = np.asarray(t[edges[:-1]], dtype=float)
+    last = np.asarray(t[edges[1:] - 1], dtype=float)
+    return np.column_stack([first, last]).ravel()
+
+
+def trace_envelope(
+    t: Any, theta: Any, std: Any, first: int, buckets: int = PLOT_BUCKETS
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A long trace reduced to the extremes of ``buckets`` runs of solves.
+
+    Per bucket of :func:`bucket_extremes` and parameter i: θ's least and
+    greatest value and the band's extremes min(θ - σ) and max(θ + σ) (NaN θ
+    before ``first``, the first valid solve, and non-finite σ are left out).
+
+    Returns:
+        (x, line, lower, upper): x (2B,) the first and last time of each bucket
+        [s]; line (2B, p) θ's least then greatest value of each bucket (at
+        either end: the bucket is narrower than a pixel); lower, upper (2B, p)
+        the band, equal at both ends of a bucket.
+    """
+
+    def read(a: int, b: int) -> list[np.ndarray]:
+        estimates = np.array(theta[a:b], dtype=float)
+        estimates[: max(0, first - a)] = np.nan
+        sigmas = np.asarray(std[a:b], dtype=float)
+        sigmas = np.where(np.isfinite(sigmas), sigmas, np.nan)
+        return [estimates, estimates - sigmas, estimates + sigmas]
+
+    edges, (line, low, high) = bucket_extremes(len(t), read, buckets)
+    return (
+        bucket_times(t, edges),
+        line.reshape(-1, line.shape[2]),
+        np.repeat(low[:, 0], 2, axis=0),
+        np.repeat(high[:, 1], 2, axis=0),
+    )
+
+
+def write_plot(path: str, t: Any, theta: Any, std: Any, valid, names, title) -> None:
+    """One subplot per parameter: estimate, ±σ band, invalid periods shaded.
+
+    A trace of more than ``PLOT_BUCKETS`` solves is drawn as its envelope
+    (:func:`trace_envelope`): the plot of a replay of hours costs the same time
+    and memory as a minute's, and loads none of its stored traces whole.
+    """
     plt = matplotlib_pyplot()
     p = len(names)
     columns = 2 if p > 4 else 1
@@ -169,24 +278,28 @@ def write_plot(
         rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
     )
     axes = np.atleast_1d(axes).ravel()
-    step = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    valid = np.asarray(valid, dtype=float)
+    times = np.asarray(t, dtype=float)
+    step = float(np.median(np.diff(times))) if len(times) > 1 else 0.0
     # Nothing to show before the first valid solve (the block holds zeros).
-    first = int(np.argmax(np.asarray(valid) > 0.5))
-    theta = np.array(theta, dtype=float)
-    theta[:first] = np.nan
-    finite_std = np.where(np.isfinite(std), std, np.nan)
+    first = int(np.argmax(valid > 0.5))
+    merge = 0.0
+    if len(times) > PLOT_BUCKETS:
+        x, line, lower, upper = trace_envelope(times, theta, std, first)
+        merge = (times[-1] - times[0]) / PLOT_BUCKETS
+    else:
+        x = times
+        line = np.array(theta, dtype=float)
+        line[:first] = np.nan
+        sigmas = np.asarray(std, dtype=float)
+        sigmas = np.where(np.isfinite(sigmas), sigmas, np.nan)
+        lower, upper = line - sigmas, line + sigmas
+    spans = list(_invalid_runs(times, valid, step, merge))
     for i, name in enumerate(names):
         axis = axes[i]
-        axis.plot(t, theta[:, i], color="C0", lw=1.0)
-        axis.fill_between(
-            t,
-            theta[:, i] - finite_std[:, i],
-            theta[:, i] + finite_std[:, i],
-            color="C0",
-            alpha=0.25,
-            lw=0.0,
-        )
-        for start, stop in _invalid_runs(t, valid, step):
+        axis.plot(x, line[:, i], color="C0", lw=1.0)
+        axis.fill_between(x, lower[:, i], upper[:, i], color="C0", alpha=0.25, lw=0.0)
+        for start, stop in spans:
             axis.axvspan(start, stop, color="0.85", lw=0.0, zorder=0)
         axis.set_ylabel(name)
         axis.grid(True, alpha=0.3)
@@ -216,8 +329,8 @@ def write_trace_outputs(
         write_plot(
             args.plot,
             t,
-            np.asarray(trace.theta),
-            np.asarray(trace.std),
+            trace.theta,
+            trace.std,
             trace.valid,
             trace.names,
             title,

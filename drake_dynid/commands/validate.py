@@ -225,10 +225,73 @@ def validation_document(
     }
 
 
+def _segment_breaks(segment: Any) -> np.ndarray:
+    """Rows where a new finite segment starts (a block at a time: may be stored)."""
+    from drake_dynid.core.blocks import blocks
+
+    out, previous = [], None
+    for start, block in blocks(segment):
+        values = block.ravel()
+        if previous is not None and values.size and values[0] != previous:
+            out.append(np.array([start]))
+        out.append(start + 1 + np.flatnonzero(np.diff(values)))
+        previous = values[-1] if values.size else previous
+    return np.concatenate(out) if out else np.zeros(0, np.int64)
+
+
+def _torque_series(validations: Mapping[str, Any]) -> tuple[np.ndarray, list[Any]]:
+    """Times and the plotted (·, n) series, NaN rows between segments.
+
+    The series: the measured torque, then per estimate its prediction and its
+    residual. More than ``PLOT_BUCKETS`` compared samples are drawn as the
+    extremes of as many buckets (``_report.bucket_extremes``), read a block at a
+    time: a validation of hours costs the plot what one of a minute does.
+    """
+    from drake_dynid.commands._report import (
+        PLOT_BUCKETS,
+        bucket_extremes,
+        bucket_times,
+    )
+
+    first = next(iter(validations.values()))
+    results = list(validations.values())
+    breaks = _segment_breaks(first.segment)
+    count = first.num_samples_used
+    if count <= PLOT_BUCKETS:
+
+        def gapped(values):
+            return np.insert(np.asarray(values, dtype=float), breaks, np.nan, axis=0)
+
+        series = [gapped(first.measured)]
+        for result in results:
+            predicted = np.asarray(result.predicted, dtype=float)
+            residual = np.asarray(result.measured, dtype=float) - predicted
+            series += [gapped(predicted), gapped(residual)]
+        return gapped(first.t), series
+
+    def read(a: int, b: int) -> list[np.ndarray]:
+        out = [np.asarray(first.measured[a:b], dtype=float)]
+        for result in results:
+            predicted = np.asarray(result.predicted[a:b], dtype=float)
+            out += [
+                predicted,
+                np.asarray(result.measured[a:b], dtype=float) - predicted,
+            ]
+        return out
+
+    edges, extremes = bucket_extremes(count, read, PLOT_BUCKETS, breaks)
+    gaps = 2 * np.flatnonzero(np.isin(edges[:-1], breaks))
+    t = np.insert(bucket_times(first.t, edges), gaps, np.nan)
+    return t, [
+        np.insert(e.reshape(-1, e.shape[2]), gaps, np.nan, axis=0) for e in extremes
+    ]
+
+
 def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> None:
     """One panel per joint: measured (low-passed) torque and each prediction.
 
     The thin lines on the right axis are the residuals (measured - predicted).
+    A long validation is drawn as its envelope (``_torque_series``).
     """
     from drake_dynid.commands._report import matplotlib_pyplot
 
@@ -241,33 +304,21 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
         rows, columns, sharex=True, figsize=(6.0 * columns, 1.8 * rows + 0.8)
     )
     axes = np.atleast_1d(axes).ravel()
-    # Break the lines between finite segments.
-    breaks = np.flatnonzero(np.diff(first.segment)) + 1
-
-    def gapped(values):
-        return np.insert(np.asarray(values, dtype=float), breaks, np.nan, axis=0)
-
-    t = gapped(first.t)
+    t, series = _torque_series(validations)
     for j, name in enumerate(first.joint_names):
         axis = axes[j]
         residuals = axis.twinx()  # right axis: measured - predicted
-        axis.plot(t, gapped(first.measured[:, j]), color="k", lw=1.2, label="measured")
+        axis.plot(t, series[0][:, j], color="k", lw=1.2, label="measured")
         for k, (label, result) in enumerate(validations.items()):
             axis.plot(
                 t,
-                gapped(result.predicted[:, j]),
+                series[1 + 2 * k][:, j],
                 color=f"C{k}",
                 lw=0.9,
                 ls="--" if k else "-",
                 label=f"{label} ({result.relative_rms_percent[j]:.2f} %)",
             )
-            residuals.plot(
-                t,
-                gapped(result.measured[:, j] - result.predicted[:, j]),
-                color=f"C{k}",
-                lw=0.5,
-                alpha=0.5,
-            )
+            residuals.plot(t, series[2 + 2 * k][:, j], color=f"C{k}", lw=0.5, alpha=0.5)
         residuals.tick_params(labelsize=7, colors="0.4")
         axis.set_ylabel(f"{name}\n[N·m]")
         axis.grid(True, alpha=0.3)

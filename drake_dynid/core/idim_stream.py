@@ -370,9 +370,12 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
 
 
 def _stage_two(
-    chunks: Iterator[np.ndarray], count: int, plan: StreamPlan
+    chunks: Iterator[np.ndarray], count: int, plan: StreamPlan, raw: bool = False
 ) -> Iterator[np.ndarray]:
-    """Zero-phase order-8 low-pass at f_d and one sample in D2, block by block."""
+    """Zero-phase order-8 low-pass at f_d and one sample in D2, block by block.
+
+    ``raw``: the same samples before the low-pass follow as many more columns.
+    """
     D2 = plan.decimation // plan.factor
     margin = plan.decimation_margin
     pad = min(plan.decimation_padding, count - 1)
@@ -397,6 +400,8 @@ def _stage_two(
                     padtype="even",
                 )
                 parts.append(y[done - u0 : r1 - u0 : D2].copy())  # y freed
+            if raw:
+                parts.append(span[done - u0 : r1 - u0 : D2].copy())
             yield np.concatenate(parts, axis=1)
             done = r1
             keep = max(0, done - margin) - start
@@ -411,7 +416,8 @@ def decimated_chunks(
     rows: RigidRows,
     friction: Sequence[tuple[str, int]] = (),
     sign: SignLaw = EXACT_SIGN,
-) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    raw: bool = False,
+) -> Iterator[tuple[np.ndarray, ...]]:
     """Decimated rigid-body rows, friction columns and torques of one finite segment.
 
     Row i refers to sample ``trim + i·D`` of the segment (as
@@ -428,12 +434,14 @@ def decimated_chunks(
             :data:`FRICTION_KINDS`, joint 0-based.
         sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
             (N, n) velocity; default the exact sign).
+        raw: also yield the same rows before stage 2's low-pass (with D = 1,
+            e.g. ``drake_dynid.validation``: the unfiltered samples).
 
     Yields:
         ``(W_rb, F, tau_d)`` chunks of (k, n, p_rb) rigid-body rows, (k,
         len(friction)) friction columns (column c belongs to row
         ``friction[c][1]``) and (k, n) torques; K = ceil((N - 2·trim)/D) rows in
-        all.
+        all. With ``raw``, followed by ``(W_rb, F, tau)`` before the low-pass.
     """
     owner = "decimated_chunks"
     q = checked_rows(owner, "q", q)  # a stored log: read a block at a time
@@ -451,13 +459,17 @@ def decimated_chunks(
             check.fail(owner, f"bad friction column ({kind!r}, {joint}).")
     n, width = q.shape[1], len(friction)
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
-    for data in _stage_two(_stage_one(q, tau, plan, rows, friction, sign), count, plan):
-        rigid = data[:, n + width :]
-        yield (
-            rigid.reshape(rigid.shape[0], n, -1),
-            data[:, n : n + width],
-            data[:, :n],
-        )
+    chunks = _stage_one(q, tau, plan, rows, friction, sign)
+    for data in _stage_two(chunks, count, plan, raw):
+        out: tuple[np.ndarray, ...] = ()
+        for part in np.split(data, 2, axis=1) if raw else (data,):
+            rigid = part[:, n + width :]
+            out += (
+                rigid.reshape(rigid.shape[0], n, -1),
+                part[:, n : n + width],
+                part[:, :n],
+            )
+        yield out
 
 
 def decimated_segment(
