@@ -128,6 +128,7 @@ _LAZY: dict[str, str] = {
     # systems (pydrake)
     "CausalJacobiDifferentiator": "drake_dynid.systems.jacobi",
     "JointFriction": "drake_dynid.systems.friction",
+    "HeldSamples": "drake_dynid.systems.held_samples",
     "DriveForces": "drake_dynid.systems.drive_forces",
     "DriveFeedforward": "drake_dynid.systems.drive_forces",
     "ModelRows": "drake_dynid.systems.identification",

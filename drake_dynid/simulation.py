@@ -161,6 +161,7 @@ def simulate_identification(
     from pydrake.trajectories import PiecewisePolynomial
 
     from drake_dynid.systems.friction import JointFriction
+    from drake_dynid.systems.held_samples import HeldSamples
     from drake_dynid.urdf import load_plant, read_urdf_friction
 
     h = simulation.time_step
@@ -232,17 +233,11 @@ def simulate_identification(
     # White noise: sample k drawn from numpy.random.default_rng(seed) and held over
     # [t_k - h/2, t_k + h/2), so every block reading it at t_k and the logger see
     # the same value (Drake's RandomSource updates before discrete updates, which
-    # would make the log one sample off what the blocks saw).
+    # would make the log one sample off what the blocks saw). HeldSamples, not a
+    # zero-order-hold TrajectorySource: 2 KB per step of a 7-DOF arm's Polynomials.
     steps = round(simulation.duration / h) + 2
     draws = np.random.default_rng(int(simulation.seed)).standard_normal((steps, 2 * n))
-    noise = builder.AddSystem(
-        TrajectorySource(
-            PiecewisePolynomial.ZeroOrderHold(
-                h * (np.arange(steps + 1) - 0.5),
-                np.vstack([draws, draws[-1:]]).T * noise_std[:, None],
-            )
-        )
-    )
+    noise = builder.AddSystem(HeldSamples([draws * noise_std], h))
     measured = builder.AddSystem(Adder(2, 2 * n))
     builder.Connect(clean.get_output_port(), measured.get_input_port(0))
     builder.Connect(noise.get_output_port(), measured.get_input_port(1))

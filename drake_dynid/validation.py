@@ -373,7 +373,9 @@ def split_log(log: Any, fraction: float) -> tuple[Any, Any]:
         fraction: share of the samples in the first part, in (0, 1).
 
     Returns:
-        ``(first, rest)``, two ``RobotLog``s (the warnings stay with the first).
+        ``(first, rest)``, two ``RobotLog``s (the warnings stay with the first;
+        both keep the time offset and their rows' ``filled`` flags). A long
+        log's stored t, q and τ are split into lazy views, not loaded.
     """
     owner = "split_log"
     fraction = check.real(owner, "fraction", fraction)
@@ -387,11 +389,21 @@ def split_log(log: Any, fraction: float) -> tuple[Any, Any]:
             "fewer than 2 samples.",
         )
     kind = type(log)
-    first = kind(
-        log.t[:k], log.q[:k], log.tau[:k], log.joint_names, log.time_step, log.warnings
-    )
-    rest = kind(log.t[k:], log.q[k:], log.tau[k:], log.joint_names, log.time_step)
-    return first, rest
+    filled = getattr(log, "filled", None)
+    offset = getattr(log, "time_offset", 0.0)
+    parts = []
+    for a, b, warnings in ((0, k, log.warnings), (k, log.num_samples, ())):
+        parts.append(
+            kind(
+                *(segment(x, a, b) for x in (log.t, log.q, log.tau)),
+                log.joint_names,
+                log.time_step,
+                warnings,
+                offset,
+                None if filled is None else np.asarray(filled)[a:b],
+            )
+        )
+    return parts[0], parts[1]
 
 
 # ----------------------------------------------------------------------------------

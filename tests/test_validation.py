@@ -413,3 +413,31 @@ def test_the_streamed_validation_is_the_whole_segment_chain(
         100 * np.sqrt(np.sum(raw**2, axis=0) / np.sum(whole["rm"] ** 2, axis=0)),
         rtol=1e-6,
     )
+
+
+def test_splitting_a_stored_log_keeps_it_on_disk(tmp_path, monkeypatch):
+    from drake_dynid import log_store
+    from drake_dynid.core.blocks import is_stored
+    from drake_dynid.logs import read_log
+
+    log = _pinocchio_log(4, 1.0)
+    path = tmp_path / "log.csv"
+    write_log(path, 1e9 + log.t, log.q, log.tau, log.joint_names)  # epoch seconds
+    memory = read_log(path, log.joint_names)
+    monkeypatch.setattr(log_store, "SPILL_BYTES", 512)
+    monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
+    stored = read_log(path, log.joint_names)
+    assert is_stored(stored.q) and stored.time_offset == memory.time_offset == 1e9
+    for whole, parts in (
+        (memory, split_log(memory, 0.3)),
+        (stored, split_log(stored, 0.3)),
+    ):
+        assert [part.num_samples for part in parts] == [300, 701]
+        for part, rows in zip(parts, (slice(0, 300), slice(300, None)), strict=True):
+            assert is_stored(part.q) == (whole is stored)
+            assert part.time_offset == 1e9 and part.filled.shape == (part.num_samples,)
+            for name in ("t", "q", "tau"):
+                np.testing.assert_array_equal(
+                    np.asarray(getattr(part, name)),
+                    np.asarray(getattr(memory, name))[rows],
+                )

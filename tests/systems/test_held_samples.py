@@ -1,0 +1,72 @@
+"""``HeldSamples``: a log played back as Drake's zero-order hold, in bounded memory."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.systems.primitives import TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from drake_dynid import log_store
+from drake_dynid.log_store import RowSink
+from drake_dynid.systems import held_samples
+from drake_dynid.systems.held_samples import HeldSamples, held_index
+
+H = 1e-3
+
+
+def _output(system, t):
+    context = system.CreateDefaultContext()
+    context.SetTime(t)
+    return system.get_output_port(0).Eval(context)
+
+
+def test_it_holds_each_row_as_the_zero_order_hold_does(monkeypatch):
+    monkeypatch.setattr(held_samples, "BLOCK_ROWS", 7)  # many cache refills
+    rng = np.random.default_rng(0)
+    q, tau = rng.standard_normal((50, 2)), rng.standard_normal((50, 3))
+    values = np.hstack([q, tau]).T
+    reference = TrajectorySource(
+        PiecewisePolynomial.ZeroOrderHold(
+            H * (np.arange(51) - 0.5), np.hstack([values, values[:, -1:]])
+        )
+    )
+    held = HeldSamples([q, tau], H)
+    k = np.arange(-3, 55)
+    # Sample times, the bank's (t_k + h/2: a boundary) and the solves' (+3h/4),
+    # out of order: the read cache must not matter.
+    times = np.concatenate([k * H, k * H + 0.5 * H, k * H + 0.75 * H, 0.25 * H + k * H])
+    for t in rng.permutation(times):
+        np.testing.assert_array_equal(_output(held, t), _output(reference, t))
+    assert held_index(0.5 * H + 9 * H, 0.0, H, 50) == 10  # the later sample
+    assert held_index(-1.0, 0.0, H, 50) == 0 and held_index(1.0, 0.0, H, 50) == 49
+
+
+def test_a_stored_log_is_read_a_block_at_a_time(monkeypatch):
+    monkeypatch.setattr(log_store, "BUFFER_BYTES", 256)
+    rng = np.random.default_rng(1)
+    rows = rng.standard_normal((9000, 4))
+    sink = RowSink(4, limit=0)
+    for a in range(0, 9000, 1000):
+        sink.append(rows[a : a + 1000])
+    stored = sink.finish()
+    assert isinstance(stored, log_store.StoredArray)
+    held = HeldSamples([stored], H, start_time=2.0)
+    for k in (0, 4095, 4096, 8999, 17, 6000):
+        np.testing.assert_array_equal(_output(held, 2.0 + k * H), rows[k])
+    assert held._rows.shape[0] <= held_samples.BLOCK_ROWS  # one block in memory
+
+
+@pytest.mark.parametrize(
+    "tables,step,message",
+    [
+        ([], H, "at least one"),
+        ([np.zeros((4, 2)), np.zeros((5, 2))], H, "same N"),
+        ([np.zeros(4)], H, r"\(N, m_i\)"),
+        ([np.zeros((0, 2))], H, "at least one row"),
+        ([np.zeros((4, 2))], 0.0, "time_step"),
+    ],
+)
+def test_bad_tables_are_refused(tables, step, message):
+    with pytest.raises(ValueError, match=message):
+        HeldSamples(tables, step)
