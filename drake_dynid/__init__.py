@@ -144,6 +144,7 @@ _LAZY: dict[str, str] = {
     "identify_offline": "drake_dynid.offline",
     # validation, physical consistency, identified URDF
     "TorqueValidation": "drake_dynid.validation",
+    "validate_estimates": "drake_dynid.validation",
     "validate_torques": "drake_dynid.validation",
     "split_log": "drake_dynid.validation",
     "PhysicalCheck": "drake_dynid.physical",

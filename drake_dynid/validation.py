@@ -69,6 +69,7 @@ __all__ = [
     "read_estimates",
     "read_results",
     "split_log",
+    "validate_estimates",
     "validate_torques",
 ]
 
@@ -203,7 +204,8 @@ def validate_torques(
     """Predicts the torques of ``log`` from base parameters θ and compares them.
 
     See the module docstring for the filtering (the ``dynid offline`` chain
-    without the down-sampling) and the metrics.
+    without the down-sampling) and the metrics; :func:`validate_estimates`
+    compares several θ in one pass.
 
     Args:
         log: a :class:`~drake_dynid.logs.RobotLog` with the robot's joints.
@@ -223,7 +225,65 @@ def validate_torques(
         ValueError: joints that differ from the robot's, θ of the wrong size, or
             no finite segment long enough for the filter.
     """
-    owner = "validate_torques"
+    return _validate(
+        "validate_torques",
+        log,
+        robot,
+        {"theta": theta},
+        cutoff_hz,
+        decimation_cutoff_hz,
+        filter_order,
+    )["theta"]
+
+
+def validate_estimates(
+    log: Any,
+    robot: Any,
+    estimates: Mapping[str, Any],
+    *,
+    cutoff_hz: float | None = None,
+    decimation_cutoff_hz: float | None = None,
+    filter_order: int = 4,
+) -> dict[str, TorqueValidation]:
+    """:func:`validate_torques` of several estimates on one log, in one pass.
+
+    The positions are filtered and the rows W(q_f, v, v̇) evaluated once for all
+    of them (τ̂ = W·[θ_1 … θ_k]): k estimates cost about one validation
+    (``dynid validate --compare-urdf``, identify's and offline's held-out
+    checks). The results share their ``t``, ``measured``, ``raw_measured`` and
+    ``segment`` arrays; each equals :func:`validate_torques` of its θ.
+
+    Args:
+        log: as for :func:`validate_torques`.
+        robot: as for :func:`validate_torques`.
+        estimates: ``{label: θ}``, each (p,) in ``robot.names`` order.
+        cutoff_hz: as for :func:`validate_torques`.
+        decimation_cutoff_hz: as for :func:`validate_torques`.
+        filter_order: as for :func:`validate_torques`.
+
+    Returns:
+        ``{label: TorqueValidation}`` in the order of ``estimates``.
+    """
+    return _validate(
+        "validate_estimates",
+        log,
+        robot,
+        estimates,
+        cutoff_hz,
+        decimation_cutoff_hz,
+        filter_order,
+    )
+
+
+def _validate(
+    owner: str,
+    log: Any,
+    robot: Any,
+    estimates: Mapping[str, Any],
+    cutoff_hz: float | None,
+    decimation_cutoff_hz: float | None,
+    filter_order: int,
+) -> dict[str, TorqueValidation]:
     for attribute in ("t", "q", "tau", "time_step", "joint_names"):
         if not hasattr(log, attribute):
             raise TypeError(
@@ -238,9 +298,17 @@ def validate_torques(
             f"{', '.join(log.joint_names)}.",
         )
     p = len(rows.names)
-    theta = check.array(owner, "theta", theta)
-    if theta.shape != (p,):
-        check.fail(owner, f"theta must have shape ({p},); got {theta.shape}.")
+    if not estimates:
+        check.fail(owner, "estimates must hold at least one θ.")
+    labels = list(estimates)
+    thetas = []
+    for label, value in estimates.items():
+        name = "theta" if label == "theta" else f"theta '{label}'"
+        theta = check.array(owner, name, value)
+        if theta.shape != (p,):
+            check.fail(owner, f"{name} must have shape ({p},); got {theta.shape}.")
+        thetas.append(theta)
+    theta = np.stack(thetas, axis=1)  # (p, k)
     h = check.positive(owner, "time_step", log.time_step, "s")
     filter_order = check.integer(owner, "filter_order", filter_order, minimum=1)
     # A long log read from a file stays on disk, read a block at a time.
@@ -295,14 +363,13 @@ def validate_torques(
     )
 
     def predict(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
-        return (np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta)[
-            ..., None
-        ]
+        return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta
 
-    n = q.shape[1]
-    sinks = {key: RowSink(n) for key in ("m", "p", "rm", "rp")}
+    n, k = q.shape[1], len(labels)
+    sinks = {key: RowSink(n) for key in ("m", "rm")}
     sinks["t"], sinks["s"] = RowSink(1), RowSink(1)
-    moments = _Moments(n)
+    predictions = [(RowSink(n), RowSink(n)) for _ in labels]  # low-passed, raw
+    moments = [_Moments(n) for _ in labels]
     for index, (start, stop) in enumerate(segments):
         if stop - start < 2 * trim + 1:
             continue
@@ -318,19 +385,19 @@ def validate_torques(
             segment(q, start, stop), segment(tau, start, stop), plan, predict, raw=True
         ):
             count = measured.shape[0]
-            predicted, raw_predicted = smooth[..., 0], raw[..., 0]
-            moments.add(smooth_measured, predicted, measured, raw_predicted)
+            for j in range(k):
+                moments[j].add(smooth_measured, smooth[..., j], measured, raw[..., j])
+                predictions[j][0].append(smooth[..., j])
+                predictions[j][1].append(raw[..., j])
             for key, part in (
                 ("t", np.asarray(times[row : row + count], dtype=float)),
                 ("m", smooth_measured),
-                ("p", predicted),
                 ("rm", measured),
-                ("rp", raw_predicted),
                 ("s", np.full(count, float(index))),
             ):
                 sinks[key].append(part)
             row += count
-    if moments.count == 0:
+    if moments[0].count == 0:
         check.fail(
             owner,
             f"no finite segment of the log is long enough: the longest has "
@@ -349,20 +416,25 @@ def validate_torques(
         "time_step": float(h),
     }
     segment_index = joined["s"]
-    return TorqueValidation(
-        joint_names=tuple(log.joint_names),
-        t=joined["t"],
-        measured=joined["m"],
-        predicted=joined["p"],
-        raw_measured=joined["rm"],
-        raw_predicted=joined["rp"],
-        segment=segment_index
-        if is_stored(segment_index)
-        else segment_index.astype(np.int64),
-        settings=settings,
-        num_samples=int(q.shape[0]),
-        **moments.metrics(),
-    )
+    if not is_stored(segment_index):
+        segment_index = segment_index.astype(np.int64)
+    return {
+        label: TorqueValidation(
+            joint_names=tuple(log.joint_names),
+            t=joined["t"],
+            measured=joined["m"],
+            predicted=smooth_sink.finish(),
+            raw_measured=joined["rm"],
+            raw_predicted=raw_sink.finish(),
+            segment=segment_index,
+            settings=dict(settings),
+            num_samples=int(q.shape[0]),
+            **sums.metrics(),
+        )
+        for label, (smooth_sink, raw_sink), sums in zip(
+            labels, predictions, moments, strict=True
+        )
+    }
 
 
 def split_log(log: Any, fraction: float) -> tuple[Any, Any]:

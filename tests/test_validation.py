@@ -441,3 +441,39 @@ def test_splitting_a_stored_log_keeps_it_on_disk(tmp_path, monkeypatch):
                     np.asarray(getattr(part, name)),
                     np.asarray(getattr(memory, name))[rows],
                 )
+
+
+def test_several_estimates_are_validated_in_one_pass(robot):
+    from drake_dynid.validation import validate_estimates
+
+    log = _pinocchio_log(5, 3.0, noise=1.0)
+    estimates = {"fit": robot.base_values * 1.02, "a-priori": robot.base_values}
+    together = validate_estimates(log, robot, estimates, cutoff_hz=6.0)
+    assert list(together) == ["fit", "a-priori"]
+    assert together["fit"].measured is together["a-priori"].measured  # shared
+    scale = np.abs(log.tau).max()
+    for label, theta in estimates.items():
+        alone = validate_torques(log, robot, theta, cutoff_hz=6.0)
+        both = together[label]
+        # W·[θ_1 θ_2] and W·θ differ in the last bit; the narrow low-pass filters
+        # amplify that to about 1e-12 of the torques.
+        for name in ("predicted", "raw_predicted"):
+            np.testing.assert_allclose(
+                getattr(both, name), getattr(alone, name), rtol=0, atol=1e-10 * scale
+            )
+        for name in ("relative_rms_percent", "r_squared", "residual_std"):
+            np.testing.assert_allclose(
+                getattr(both, name), getattr(alone, name), rtol=1e-7
+            )
+        np.testing.assert_array_equal(both.measured, alone.measured)
+        assert both.settings == alone.settings
+    # θ = 0 next to the truth: 100 % against ~0 %.
+    pair = validate_estimates(
+        log, robot, {"zero": np.zeros(robot.num_parameters), "true": robot.base_values}
+    )
+    np.testing.assert_allclose(pair["zero"].relative_rms_percent, 100.0)
+    assert np.all(pair["true"].relative_rms_percent < 5.0)
+    with pytest.raises(ValueError, match=r"theta 'bad' must have shape \(8,\)"):
+        validate_estimates(log, robot, {"fit": robot.base_values, "bad": np.ones(3)})
+    with pytest.raises(ValueError, match="at least one"):
+        validate_estimates(log, robot, {})

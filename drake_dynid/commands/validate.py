@@ -117,19 +117,16 @@ def run_validations(
     cutoff_hz: float | None = None,
     decimation_cutoff_hz: float | None = None,
 ) -> dict[str, Any]:
-    """``{label: TorqueValidation}`` of every estimate on ``log``."""
-    from drake_dynid.validation import validate_torques
+    """``{label: TorqueValidation}`` of every estimate on ``log``, in one pass."""
+    from drake_dynid.validation import validate_estimates
 
-    return {
-        label: validate_torques(
-            log,
-            robot,
-            theta,
-            cutoff_hz=cutoff_hz,
-            decimation_cutoff_hz=decimation_cutoff_hz,
-        )
-        for label, theta in estimates.items()
-    }
+    return validate_estimates(
+        log,
+        robot,
+        estimates,
+        cutoff_hz=cutoff_hz,
+        decimation_cutoff_hz=decimation_cutoff_hz,
+    )
 
 
 def _cell(value: float, digits: int = 4) -> str:
@@ -359,7 +356,8 @@ def report_validation(
             decimation_cutoff_hz=getattr(args, "decimation_cutoff", None),
         )
     except ValueError as error:
-        message = option_message(str(error), FILTER_OPTIONS, ("validate_torques",))
+        owners = ("validate_estimates", "validate_torques")
+        message = option_message(str(error), FILTER_OPTIONS, owners)
         raise ValueError(f"validation on {description}: {message}") from None
     if not args.quiet:
         print()
