@@ -19,6 +19,7 @@ found is loaded without geometry, with a note.
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from collections.abc import Sequence
@@ -31,8 +32,9 @@ from drake_dynid.core import _validate as check
 
 __all__ = ["Replay", "replay_in_meshcat"]
 
-#: Most animation frames of one replay (an hour at 32 frames per second).
-MAX_FRAMES = 115_200
+#: Most animation frames of one replay (an hour at 32 frames per second, both
+#: ends included).
+MAX_FRAMES = 115_201
 
 
 @dataclass(frozen=True)
@@ -111,10 +113,16 @@ def replay_in_meshcat(
     fps = check.positive(owner, "frames_per_second", frames_per_second, "Hz")
     frames = int(np.floor((t[-1] - t[0]) * fps + 1e-9)) + 1
     if frames > MAX_FRAMES:
+        # The largest rate that fits, rounded down to 3 significant digits.
+        fitting = (MAX_FRAMES - 1) / (t[-1] - t[0])
+        digits = 2 - math.floor(math.log10(fitting))
+        fitting = math.floor(fitting * 10.0**digits) / 10.0**digits
         check.fail(
             owner,
             f"the replay must have at most {MAX_FRAMES} frames; got {frames} "
-            f"({t[-1] - t[0]:g} s at frames_per_second {fps:g} Hz).",
+            f"({t[-1] - t[0]:g} s at frames_per_second {fps:g} Hz): lower "
+            f"frames_per_second to {fitting:g} Hz or less, or replay part of the "
+            "log.",
         )
     builder, plant, notes = _load(urdf)
     positions = []

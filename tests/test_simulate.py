@@ -264,7 +264,8 @@ def test_replay_of_a_trajectory_and_its_bad_options(experiment, tmp_path, capsys
     assert page.is_file()
     for extra, message in [
         (["--fps", "0"], "--fps must be > 0 [Hz]"),
-        (["--fps", "1e9"], "at most 115200 frames"),
+        (["--fps", "1e9"], "at most 115201 frames"),
+        (["--fps", "1e9"], "Hz or less, or replay part of the log"),
         (["--html", traj], "--html "),
     ]:
         assert cli.main(["replay", urdf, traj, *extra]) == 2
