@@ -51,7 +51,11 @@ with the one-stage path to a small fraction of their σ.
 margins long enough for their start-up transients to decay to 1e-12
 (:func:`settle_samples`); at the true ends of the segment the padding of the
 whole-segment filter is reproduced exactly, so a segment that fits in one block
-gives the whole-segment filtering bit for bit, and longer ones agree to round-off.
+gives :func:`zero_phase_span` of the whole segment bit for bit, and longer ones
+agree to the margins' 1e-12. Against ``scipy.signal.sosfiltfilt`` both differ by
+the round-off of ``core.iir``'s block filter, about 1e-12 of the positions
+(measured on a 4th-order 6 Hz filter at 1 kHz), which the second difference v̇
+(1/h²) turns into about 1e-8 of the accelerations.
 Working memory is a few blocks of n + friction + rigid-body columns, independent of
 the log length; only the decimated rows (N/D of them) are kept.
 """
