@@ -37,9 +37,10 @@ with D = 1): the zero-phase filters run on blocks whose margins let their
 transients decay to 1e-12, the metrics are summed a block at a time and the
 compared samples of a long log stay in temporary files, so memory does not grow
 with the log (hours of a 7-DOF arm: ``benchmarks/bench_long_logs.py``). The
-numbers equal the chain on whole segments (scipy's ``sosfiltfilt``) to 1e-12 of
-the torques; the predictions, through v̇ (a second difference of q_f: 1/h²),
-to about 1e-8 (tests/test_validation.py).
+numbers equal the chain on whole segments (scipy's ``sosfiltfilt``) to a few
+1e-11 of the torques (the round-off of ``core.iir``'s block filter through the
+narrow order-8 low-pass); the predictions, through v̇ (a second difference of
+q_f: 1/h²), to about 1e-8 (tests/test_validation.py).
 
 Pure numpy/scipy (the rows come from the robot object).
 """
@@ -90,10 +91,11 @@ class TorqueValidation:
         raw_predicted: (M, n) W·θ before the low-pass.
         segment: (M,) index of the finite segment each sample comes from.
 
-        On a long log (beyond ``log_store.SPILL_BYTES`` per array, about 10
-        minutes of a 7-DOF arm at 1 kHz) these (M, ·) arrays are
-        ``log_store.StoredArray`` (temporary files; they index like arrays and
-        ``np.asarray`` loads them; ``segment`` then holds floats).
+        On a long log these arrays are ``log_store.StoredArray`` (temporary
+        files; they index like arrays and ``np.asarray`` loads them): each one
+        beyond ``log_store.SPILL_BYTES``, so the (M, n) ones from about 10
+        minutes of a 7-DOF arm at 1 kHz, ``t`` and ``segment`` (then floats)
+        from about 70.
         relative_rms_percent: (n,) 100·RMS(residual)/RMS(measured) [%].
         r_squared: (n,) coefficient of determination (NaN for a constant torque).
         residual_std: (n,) standard deviation of the residual [N·m, N].
@@ -163,7 +165,9 @@ class _Moments:
 
     def metrics(self) -> dict[str, Any]:
         measured, residual, raw_measured, raw_residual = self.squares
-        total = self.centred[0]
+        # A constant torque: the blocks' merge leaves round-off (1e-29) where the
+        # centred sum is 0; below 1e-20 of Σ τ² the torque is constant to 1e-10.
+        total = np.where(self.centred[0] > 1e-20 * measured, self.centred[0], 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             r_squared = np.where(total > 0, 1.0 - residual / total, np.nan)
             relative = np.where(

@@ -174,3 +174,32 @@ def test_a_long_validation_is_plotted_as_envelopes_broken_between_segments(
     path = tmp_path / "torques.png"
     validate.write_torque_plot(str(path), {"fit": stored}, "x")
     assert path.stat().st_size > 1000
+
+
+def test_bucket_times_read_a_stored_time_a_block_at_a_time():
+    from drake_dynid.commands._report import bucket_times
+    from drake_dynid.core.blocks import BLOCK_ROWS
+
+    count = 3 * BLOCK_ROWS + 11
+    t = 0.01 * np.arange(count)
+    edges = np.array([0, 5, BLOCK_ROWS - 1, BLOCK_ROWS, 2 * BLOCK_ROWS + 3, count])
+    expected = bucket_times(t, edges)
+    np.testing.assert_array_equal(
+        expected,
+        t[
+            [
+                0,
+                4,
+                5,
+                BLOCK_ROWS - 2,
+                BLOCK_ROWS - 1,
+                BLOCK_ROWS - 1,
+                BLOCK_ROWS,
+                2 * BLOCK_ROWS + 2,
+                2 * BLOCK_ROWS + 3,
+                count - 1,
+            ]
+        ],
+    )
+    sliced = _NoWholeLoad(t, BLOCK_ROWS)  # slices of a block at most, no arrays
+    np.testing.assert_array_equal(bucket_times(sliced, edges), expected)

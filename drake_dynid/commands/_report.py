@@ -225,10 +225,22 @@ def bucket_extremes(
 
 
 def bucket_times(t: Any, edges: np.ndarray) -> np.ndarray:
-    """(2B,) the first and last time of each bucket of :func:`bucket_extremes` [s]."""
-    first = np.asarray(t[edges[:-1]], dtype=float)
-    last = np.asarray(t[edges[1:] - 1], dtype=float)
-    return np.column_stack([first, last]).ravel()
+    """(2B,) the first and last time of each bucket of :func:`bucket_extremes` [s].
+
+    A stored ``t`` is read a block of rows at a time (an index array would read
+    every row between its extremes at once).
+    """
+    rows = np.column_stack([edges[:-1], edges[1:] - 1]).ravel()
+    if isinstance(t, np.ndarray):
+        return np.asarray(t[rows], dtype=float).ravel()
+    from drake_dynid.core.blocks import blocks
+
+    out = np.empty(rows.size)
+    for start, block in blocks(t):
+        values = block.ravel()
+        inside = (rows >= start) & (rows < start + values.size)
+        out[inside] = values[rows[inside] - start]
+    return out
 
 
 def trace_envelope(

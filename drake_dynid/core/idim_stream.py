@@ -65,6 +65,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
 
@@ -411,6 +412,36 @@ def _stage_two(
             keep = max(0, done - margin) - start
             buffer = buffer[keep:].copy()
             start += keep
+
+
+_Chunk = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+@overload
+def decimated_chunks(
+    q: np.ndarray,
+    tau: np.ndarray,
+    plan: StreamPlan,
+    rows: RigidRows,
+    friction: Sequence[tuple[str, int]] = (),
+    sign: SignLaw = EXACT_SIGN,
+    raw: Literal[False] = False,
+) -> Iterator[_Chunk]: ...
+
+
+@overload
+def decimated_chunks(
+    q: np.ndarray,
+    tau: np.ndarray,
+    plan: StreamPlan,
+    rows: RigidRows,
+    friction: Sequence[tuple[str, int]] = (),
+    sign: SignLaw = EXACT_SIGN,
+    *,
+    raw: Literal[True],
+) -> Iterator[
+    tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+]: ...
 
 
 def decimated_chunks(

@@ -25,11 +25,18 @@ def held_index(t: float, start: float, time_step: float, count: int) -> int:
     """k(t) = clip(⌊(t - t_0)/h + 1/2⌋, 0, N - 1): the sample held at time t.
 
     Sample k is held over [t_0 + (k - 1/2)·h, t_0 + (k + 1/2)·h); the first one
-    before, the last one after. A time within 1e-9·h below a boundary counts as
-    past it.
+    before, the last one after (t = ±∞ included). A time within 1e-9·h below a
+    boundary counts as past it.
+
+    Raises:
+        ValueError: a NaN time.
     """
-    k = math.floor((t - start) / time_step + 0.5 + _EDGE)
-    return min(max(k, 0), count - 1)
+    x = (t - start) / time_step + 0.5 + _EDGE
+    if x != x:
+        raise ValueError(f"HeldSamples: the time must be a number; got {t}.")
+    if x >= count:
+        return count - 1
+    return max(math.floor(x), 0) if x >= 0 else 0
 
 
 class HeldSamples(LeafSystem):
@@ -45,15 +52,20 @@ class HeldSamples(LeafSystem):
     of each table c_i (N, m_i), side by side, held over [t_k - h/2, t_k + h/2),
     t_k = t_0 + k·h, so that a block updating at t_k reads sample k whatever the
     rounding of the event times (docs/CONVENTIONS.md §2); the first row before,
-    the last after. The same output as ``TrajectorySource(PiecewisePolynomial.
-    ZeroOrderHold(t_0 + h·(k - 1/2), rows))`` (tests/systems/test_held_samples.py)
-    without its N·Σm_i ``Polynomial`` objects, which took about 2 KB per sample
-    of a 7-DOF log ([q; τ]): 1.8 GB for a 10-minute log at 1 kHz.
+    the last after. It replaces ``TrajectorySource(PiecewisePolynomial.
+    ZeroOrderHold(t_0 + h·(k - 1/2), rows))``, without its N·Σm_i ``Polynomial``
+    objects, which took about 2 KB per sample of a 7-DOF log ([q; τ]): 1.8 GB
+    for a 10-minute log at 1 kHz. The same output at the sample times and away
+    from the boundaries (tests/systems/test_held_samples.py); at a boundary
+    t_k + h/2 itself, this block gives sample k + 1 (the convention) where the
+    zero-order hold gave k or k + 1 with the rounding of t_k + h/2 against its
+    breaks (k from 500 on at 1 kHz). The identification blocks read it at t_k.
 
     No state: the output is a function of the time. The tables may be arrays or
     a long log's ``StoredArray`` columns; they are read ``BLOCK_ROWS`` rows at a
-    time into a read cache (the rows last read: it does not change the output,
-    so any number of Contexts may share the block).
+    time into a read cache (the rows last read, replaced as one tuple: it does
+    not change the output, so any number of Contexts may share the block).
+    Double only (a Python system: no AutoDiffXd/Expression scalar conversion).
     """
 
     def __init__(
@@ -80,11 +92,11 @@ class HeldSamples(LeafSystem):
         self._count = int(shapes[0][0])
         if self._count < 1:
             check.fail(owner, "tables must hold at least one row.")
-        self._first = 0
-        self._rows = np.zeros((0, sum(s[1] for s in shapes)))
+        width = sum(s[1] for s in shapes)
+        self._cache: tuple[int, np.ndarray] = (0, np.zeros((0, width)))
         self._y = self.DeclareVectorOutputPort(
             "y",
-            self._rows.shape[1],
+            width,
             self._CalcY,
             prerequisites_of_calc={self.time_ticket()},
         )
@@ -94,14 +106,15 @@ class HeldSamples(LeafSystem):
         return self._y
 
     def _row(self, k: int) -> np.ndarray:
-        if not self._first <= k < self._first + self._rows.shape[0]:
-            a = k - k % BLOCK_ROWS
-            b = min(self._count, a + BLOCK_ROWS)
-            self._rows = np.hstack(
-                [np.asarray(c[a:b], dtype=float) for c in self._tables]
+        first, rows = self._cache
+        if not first <= k < first + rows.shape[0]:
+            first = k - k % BLOCK_ROWS
+            b = min(self._count, first + BLOCK_ROWS)
+            rows = np.hstack(
+                [np.asarray(c[first:b], dtype=float) for c in self._tables]
             )
-            self._first = a
-        return self._rows[k - self._first]
+            self._cache = (first, rows)
+        return rows[k - first]
 
     def _CalcY(self, context: Context, output: BasicVector) -> None:
         k = held_index(context.get_time(), self._t0, self._h, self._count)
