@@ -220,3 +220,42 @@ def _alive(pid: int) -> bool:
             return stream.read().split(")")[-1].split()[0] != "Z"
     except OSError:
         return False
+
+
+@pytest.mark.parametrize("how", ["blocked", "stopped"])
+def test_a_stuck_child_is_killed_and_computed_here(forking, monkeypatch, how):
+    """A child silent for as long again as it ran (at least PATIENCE) is presumed
+    stuck: killed, reaped, and the value computed here."""
+    monkeypatch.setattr(_background, "PATIENCE", 0.3)
+    parent = os.getpid()
+
+    def stuck_in_the_child() -> str:
+        if os.getpid() != parent:
+            time.sleep(60.0)  # a lock that never comes free
+        return "computed here"
+
+    with Background(stuck_in_the_child) as background:
+        assert background.forked
+        pid = background._pid
+        if how == "stopped":
+            os.kill(pid, signal.SIGSTOP)
+        start = time.monotonic()
+        assert background.result() == "computed here"
+        waited = time.monotonic() - start
+    assert 0.25 < waited < 5.0, waited
+    assert not background.forked
+    with pytest.raises(ChildProcessError):  # reaped
+        os.waitpid(pid, os.WNOHANG)
+
+
+def test_a_slow_child_gets_as_long_again_as_it_ran(forking, monkeypatch):
+    monkeypatch.setattr(_background, "PATIENCE", 0.1)
+    parent = os.getpid()
+
+    def slow() -> int:
+        time.sleep(0.6)
+        return os.getpid()
+
+    with Background(slow) as background:
+        time.sleep(0.5)  # the caller's own work: the child then gets 0.5 s more
+        assert background.result() != parent  # the child's answer, not a rerun

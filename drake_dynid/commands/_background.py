@@ -18,6 +18,12 @@ exception the function raises in the child is raised again by
 :meth:`Background.result`, as if it had been called here, with the child's
 traceback as a note. The result is the same either way: the function must be
 deterministic (the bootstrap's draws are seeded).
+
+A child that has not answered when :meth:`Background.result` has waited for it
+as long again as it has already run (at least :data:`PATIENCE` seconds) is
+presumed stuck (stopped, or blocked on a lock a library's hidden thread held at
+the fork): it is killed and the function computed here, so a stuck child costs
+time, never the result.
 """
 
 from __future__ import annotations
@@ -25,17 +31,22 @@ from __future__ import annotations
 import contextlib
 import os
 import pickle
+import select
 import signal
 import sys
 import threading
+import time
 import traceback
 from collections.abc import Callable
 from types import TracebackType
 from typing import Any, Generic, TypeVar
 
-__all__ = ["Background", "available_cpus", "can_fork", "native_threads"]
+__all__ = ["PATIENCE", "Background", "available_cpus", "can_fork", "native_threads"]
 
 T = TypeVar("T")
+
+#: The least time [s] :meth:`Background.result` waits for a silent child.
+PATIENCE = 10.0
 
 
 def available_cpus() -> int:
@@ -124,6 +135,7 @@ class Background(Generic[T]):
         self._function = function
         self._pid: int | None = None
         self._read: int | None = None
+        self._started = time.monotonic()
         self._done = False
         self._value: Any = None
         if enabled and can_fork():
@@ -165,6 +177,7 @@ class Background(Generic[T]):
                 os._exit(status)
         os.close(write)
         self._pid, self._read = pid, read
+        self._started = time.monotonic()
 
     def result(self) -> T:
         """The function's value (or its exception raised), from the child or here.
@@ -189,13 +202,27 @@ class Background(Generic[T]):
         return payload  # type: ignore[no-any-return]
 
     def _collect(self) -> tuple[str, Any, str] | None:
-        """Reads the child's message and reaps it; None if it sent none."""
+        """Reads the child's message and reaps it; None if it sent none.
+
+        None too, the child killed, when it stays silent past the deadline (the
+        module docstring).
+        """
         assert self._pid is not None and self._read is not None
+        now = time.monotonic()
+        deadline = now + max(PATIENCE, now - self._started)
         chunks = []
-        with os.fdopen(self._read, "rb") as stream:
-            self._read = None
-            while chunk := stream.read(1 << 16):
-                chunks.append(chunk)
+        while True:
+            left = deadline - time.monotonic()
+            ready, _, _ = select.select([self._read], [], [], max(0.0, left))
+            if not ready:  # stuck: killed and reaped, computed here
+                self.cancel()
+                return None
+            chunk = os.read(self._read, 1 << 16)
+            if not chunk:
+                break
+            chunks.append(chunk)
+        os.close(self._read)
+        self._read = None
         try:
             _, status = os.waitpid(self._pid, 0)
         except ChildProcessError:  # reaped by the system: the message decides
