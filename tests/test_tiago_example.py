@@ -139,3 +139,24 @@ def test_online_and_offline_coulomb_agree_with_the_dead_zone(tiago):
     # Measured: 1.13 σ with the exact sign, 0.39 σ with the dead zone.
     assert _coulomb_gap(robot, log) > 0.8
     assert _coulomb_gap(zoned, log) < 0.5
+
+
+def test_the_readme_shows_what_dynid_offline_prints_on_the_full_log(
+    tmp_path, capsys, monkeypatch
+):
+    """The printed block of the README's TIAGo section is the command's output
+    (its lines but the '...' elisions), so that it cannot drift from the code."""
+    _, commands = _walkthrough()
+    argv = next(c for c in commands if c[0] == "offline")
+    k = argv.index("--json") + 1
+    argv = [*argv[:k], str(tmp_path / argv[k]), *argv[k + 1 :]]
+    monkeypatch.chdir(ROOT)
+    assert cli.main(argv) == 0
+    printed = capsys.readouterr().out.splitlines()
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Identify your own robot: a real TIAGo", 1)[1]
+    shown = re.search(r"What `dynid offline` prints.*?```\n(.*?)```", section, re.S)
+    lines = [line for line in shown.group(1).splitlines() if line not in ("", "...")]
+    assert len(lines) > 30
+    missing = [line for line in lines if line not in printed]
+    assert not missing, missing
