@@ -1,7 +1,10 @@
-"""The README quick start holds exactly two commands, and CI runs the second."""
+"""The README quick start holds exactly two commands, and CI runs the second; the
+README's snippets and shown outputs are what the code runs and prints."""
 
 import pathlib
 import re
+
+import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -57,3 +60,41 @@ def test_compose_snippet_runs(tmp_path, monkeypatch, capsys):
     )
     np.testing.assert_allclose(theta[:4], TRUE_VALUES[:4], rtol=0.02)
     assert re.search(r"^valid \[1\.\]", printed, re.M)
+
+
+@pytest.mark.slow
+def test_try_it_shows_what_the_commands_print(tmp_path, monkeypatch, capsys):
+    """The "Try it on your own URDF" console block, run as written (from a folder
+    holding the repository's ``models``): every line it shows after a command is a
+    line that command prints (the '...' elisions and the timings apart), so that the
+    README cannot drift from the code (it had, by a few digits)."""
+    import shlex
+
+    from drake_dynid import cli
+
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Try it on your own URDF", 1)[1]
+    block = re.search(r"```console\n(.*?)```", section, re.S).group(1)
+    runs: list[tuple[list[str], list[str]]] = []
+    for line in block.splitlines():
+        if line.startswith("$ "):
+            runs.append((shlex.split(line[2:]), []))
+        elif line and line != "..." and not re.search(r"real time|iterations, ", line):
+            runs[-1][1].append(line)
+    assert [words[1] for words, _ in runs] == [
+        "params",
+        "excite",
+        "simulate",
+        "offline",
+        "identify",
+        "simulate",
+        "validate",
+    ]
+    (tmp_path / "models").symlink_to(ROOT / "models")
+    monkeypatch.chdir(tmp_path)
+    for words, shown in runs:
+        assert words[0] == "dynid"
+        assert cli.main(words[1:]) == 0, words
+        printed = capsys.readouterr().out.splitlines()
+        missing = [line for line in shown if line not in printed]
+        assert not missing, (words, missing)
