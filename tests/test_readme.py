@@ -63,17 +63,34 @@ def test_compose_snippet_runs(tmp_path, monkeypatch, capsys):
 
 
 @pytest.mark.slow
-def test_try_it_shows_what_the_commands_print(tmp_path, monkeypatch, capsys):
-    """The "Try it on your own URDF" console block, run as written (from a folder
-    holding the repository's ``models``): every line it shows after a command is a
-    line that command prints (the '...' elisions and the timings apart), so that the
-    README cannot drift from the code (it had, by a few digits)."""
+@pytest.mark.parametrize(
+    "heading,commands,folder",
+    [
+        (
+            "## Try it on your own URDF",
+            "params excite simulate offline identify simulate validate".split(),
+            "models",
+        ),
+        (
+            "### Motors, gears, a coupled wrist: `--drive`",
+            "excite simulate head offline".split(),
+            "tests",
+        ),
+    ],
+)
+def test_console_blocks_show_what_the_commands_print(
+    heading, commands, folder, tmp_path, monkeypatch, capsys
+):
+    """A README console block, run as written (from a folder holding the
+    repository's ``models`` or ``tests``): every line it shows after a command is
+    a line that command prints (the '...' elisions and the timings apart), so
+    that the README cannot drift from the code (both had, by a few digits)."""
     import shlex
 
     from drake_dynid import cli
 
     text = (ROOT / "README.md").read_text()
-    section = text.split("## Try it on your own URDF", 1)[1]
+    section = text.split(heading, 1)[1]
     block = re.search(r"```console\n(.*?)```", section, re.S).group(1)
     runs: list[tuple[list[str], list[str]]] = []
     for line in block.splitlines():
@@ -81,20 +98,18 @@ def test_try_it_shows_what_the_commands_print(tmp_path, monkeypatch, capsys):
             runs.append((shlex.split(line[2:]), []))
         elif line and line != "..." and not re.search(r"real time|iterations, ", line):
             runs[-1][1].append(line)
-    assert [words[1] for words, _ in runs] == [
-        "params",
-        "excite",
-        "simulate",
-        "offline",
-        "identify",
-        "simulate",
-        "validate",
-    ]
-    (tmp_path / "models").symlink_to(ROOT / "models")
+    assert [words[1] if words[0] == "dynid" else words[0] for words, _ in runs] == (
+        commands
+    )
+    (tmp_path / folder).symlink_to(ROOT / folder)
     monkeypatch.chdir(tmp_path)
     for words, shown in runs:
-        assert words[0] == "dynid"
-        assert cli.main(words[1:]) == 0, words
-        printed = capsys.readouterr().out.splitlines()
+        if words[0] == "head":  # head -N FILE
+            lines = pathlib.Path(words[2]).read_text().splitlines()
+            printed = lines[: int(words[1][1:])]
+        else:
+            assert words[0] == "dynid"
+            assert cli.main(words[1:]) == 0, words
+            printed = capsys.readouterr().out.splitlines()
         missing = [line for line in shown if line not in printed]
         assert not missing, (words, missing)
