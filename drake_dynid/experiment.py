@@ -24,6 +24,14 @@ joint, the time and the limit when the motion leaves the position limits, the
 state becomes non-finite, a command exceeds ``effort_factor`` (10) times the
 effort limit, or the tracking error exceeds ``max_tracking_error``: a diverging
 simulation never produces a log.
+
+Memory: the Simulator advances :data:`CHUNK_SECONDS` at a time; after each
+chunk the loggers hand over the rows the log keeps (positions and commands at
+the log rate) and are cleared, and the reference source holds the cubic Hermite
+pieces of that chunk only (Drake's ``PiecewisePolynomial`` takes about 4 KB per
+knot of a 7-DOF trajectory: 250 MB for 10 minutes at 100 Hz). Each Hermite piece
+depends only on its two knots, so the chunks give the same log bit for bit
+(tests/test_simulate.py).
 """
 
 from __future__ import annotations
@@ -48,6 +56,9 @@ __all__ = [
     "ExperimentSettings",
     "simulate_experiment",
 ]
+
+#: Simulated time between the loggers' hand-overs [s] (module docstring).
+CHUNK_SECONDS = 10.0
 
 
 def _sample_checks(reference: Any, settings: ExperimentSettings, duration: float):
@@ -201,11 +212,19 @@ def simulate_experiment(
         )
     controller_context = controller_plant.CreateDefaultContext()
     configure_plant(controller_plant, controller_context, drive)
-    t_ref = reference.t - reference.t[0]
+    t_ref = np.asarray(reference.t - reference.t[0], dtype=float)
+    q_ref, v_ref = np.asarray(reference.q), np.asarray(reference.v)
+
+    def piece(start: float, stop: float) -> Any:
+        """The reference's cubic Hermite over [start, stop] (and a knot more)."""
+        a = max(0, int(np.searchsorted(t_ref, start, "right")) - 2)
+        b = min(t_ref.size, int(np.searchsorted(t_ref, stop, "left")) + 2)
+        return PiecewisePolynomial.CubicHermite(t_ref[a:b], q_ref[a:b].T, v_ref[a:b].T)
+
+    chunk = max(1, round(CHUNK_SECONDS / h))  # steps per chunk
     source = builder.AddSystem(
         TrajectorySource(
-            PiecewisePolynomial.CubicHermite(t_ref, reference.q.T, reference.v.T),
-            output_derivative_order=2,
+            piece(0.0, min(chunk * h, t_ref[-1])), output_derivative_order=2
         )
     )
     controller, _ = add_tracking_controller(
@@ -280,8 +299,31 @@ def simulate_experiment(
 
     simulator.set_monitor(monitor)
     steps = round(duration / h)
+    # The loggers' rows at the log rate (sample k kept when k % decimation = 0),
+    # handed over and cleared after every chunk (module docstring).
+    kept: dict[str, list[np.ndarray]] = {"q": [], "command": []}
+    logged = {"q": 0, "command": 0}
+
+    def hand_over() -> None:
+        for key, logger, width in (("q", state_log, n), ("command", command_log, n)):
+            log = logger.FindMutableLog(context)
+            data = log.data()
+            first = (-logged[key]) % settings.decimation
+            kept[key].append(np.array(data[:width, first :: settings.decimation].T))
+            logged[key] += data.shape[1]
+            log.Clear()
+
+    done = 0
     try:
-        simulator.AdvanceTo(steps * h)
+        while True:
+            stop = min(steps, done + chunk)
+            if done:  # the first piece is in the source already
+                source.UpdateTrajectory(piece(done * h, stop * h))
+            simulator.AdvanceTo(stop * h)
+            hand_over()
+            done = stop
+            if done >= steps:
+                break
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else ""
         raise ValueError(
@@ -291,16 +333,16 @@ def simulate_experiment(
     if failure:
         raise ValueError(f"{owner}: {failure[0]}.")
 
-    state = state_log.FindLog(context).data().T
-    command = command_log.FindLog(context).data().T
-    count = min(state.shape[0], command.shape[0], steps + 1)
+    count = min(logged["q"], logged["command"], steps + 1)
     keep = np.arange(0, count, settings.decimation)
+    state = np.concatenate(kept["q"])[: keep.size]
+    command = np.concatenate(kept["command"])[: keep.size]
     urdf_effort = np.array(
         [plant.GetJointActuatorByName(a).effort_limit() for a in _actuators(plant)]
     )
-    applied = np.clip(command[keep], -urdf_effort, urdf_effort)
-    saturated = int(np.count_nonzero(np.any(applied != command[keep], axis=1)))
-    q_true, tau_true = state[keep, :n], applied
+    applied = np.clip(command, -urdf_effort, urdf_effort)
+    saturated = int(np.count_nonzero(np.any(applied != command, axis=1)))
+    q_true, tau_true = state, applied
     noise_std = _noise_std(q_true, tau_true, settings)
     draws = np.random.default_rng(settings.seed).standard_normal((keep.size, 2 * n))
     return ExperimentLog(

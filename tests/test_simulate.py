@@ -271,3 +271,25 @@ def test_replay_of_a_trajectory_and_its_bad_options(experiment, tmp_path, capsys
         assert cli.main(["replay", urdf, traj, *extra]) == 2
         err = capsys.readouterr().err
         assert message in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("rate", [1000.0, 250.0])
+def test_the_simulation_in_chunks_is_the_simulation_in_one_piece(monkeypatch, rate):
+    """The Simulator advances CHUNK_SECONDS at a time, the loggers handing over the
+    kept rows and the reference holding that chunk's Hermite pieces: the same log,
+    bit for bit, as one AdvanceTo with the whole reference (chunks of 0.37 s, not
+    a multiple of the knots' 10 ms nor of the decimation)."""
+    from drake_dynid import experiment
+
+    urdf = model_path("planar_2r")
+    settings = ExperimentSettings(rate=rate, seed=5)
+    logs = []
+    for seconds in (1e9, 0.37):
+        monkeypatch.setattr(experiment, "CHUNK_SECONDS", seconds)
+        logs.append(simulate_experiment(urdf, _sine(), _limits_2r(), settings))
+    whole, chunked = logs
+    for name in ("t", "q", "tau", "q_true", "tau_true", "noise_std"):
+        np.testing.assert_array_equal(getattr(chunked, name), getattr(whole, name))
+    np.testing.assert_array_equal(chunked.max_tracking_error, whole.max_tracking_error)
+    assert chunked.saturated == whole.saturated
+    assert whole.t.size == round(2.0 * rate) + 1
