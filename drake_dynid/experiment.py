@@ -322,7 +322,7 @@ def simulate_experiment(
             simulator.AdvanceTo(stop * h)
             hand_over()
             done = stop
-            if done >= steps:
+            if done >= steps or failure:  # the monitor stopped the run
                 break
     except RuntimeError as error:
         first = str(error).strip().splitlines()[0] if str(error).strip() else ""

@@ -259,3 +259,38 @@ def test_a_slow_child_gets_as_long_again_as_it_ran(forking, monkeypatch):
     with Background(slow) as background:
         time.sleep(0.5)  # the caller's own work: the child then gets 0.5 s more
         assert background.result() != parent  # the child's answer, not a rerun
+
+
+def test_a_child_sending_a_large_value_is_not_cut_off(forking, monkeypatch):
+    """The wait is renewed while the answer arrives: 100 MB through the pipe take
+    longer than PATIENCE, and the value still comes from the child."""
+    monkeypatch.setattr(_background, "PATIENCE", 0.3)
+
+    def large() -> tuple[int, bytes]:
+        return os.getpid(), bytes(100 << 20)
+
+    parent = os.getpid()
+    with Background(large) as background:
+        pid, value = background.result()
+    assert pid != parent and len(value) == 100 << 20
+
+
+def test_it_waits_on_a_descriptor_above_1024(forking):
+    """poll(), not select(): a process with many files open still gets the child's
+    value."""
+    import resource
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    if hard != resource.RLIM_INFINITY and hard < 1200:
+        pytest.skip(f"the hard limit on open files is {hard}")
+    resource.setrlimit(resource.RLIMIT_NOFILE, (max(soft, 1200), hard))
+    opened = [os.open(os.devnull, os.O_RDONLY) for _ in range(1100)]
+    try:
+        parent = os.getpid()
+        with Background(_in_child) as background:
+            assert background._read > 1024
+            assert background.result() != parent
+    finally:
+        for fd in opened:
+            os.close(fd)
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))

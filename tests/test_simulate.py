@@ -293,3 +293,28 @@ def test_the_simulation_in_chunks_is_the_simulation_in_one_piece(monkeypatch, ra
     np.testing.assert_array_equal(chunked.max_tracking_error, whole.max_tracking_error)
     assert chunked.saturated == whole.saturated
     assert whole.t.size == round(2.0 * rate) + 1
+
+
+def test_a_run_the_monitor_stops_is_not_continued(monkeypatch):
+    """A failure mid-chunk ends the run: no later chunk steps on from the failed
+    state (review: it used to, and a later divergence could change the error)."""
+    from pydrake.systems.primitives import TrajectorySource
+
+    from drake_dynid import experiment
+
+    monkeypatch.setattr(experiment, "CHUNK_SECONDS", 0.1)
+    pieces = []
+    update = TrajectorySource.UpdateTrajectory
+    monkeypatch.setattr(
+        TrajectorySource,
+        "UpdateTrajectory",
+        lambda self, piece: (pieces.append(piece.end_time()), update(self, piece)),
+    )
+    with pytest.raises(ValueError, match=r"tracking error of joint joint\d reached"):
+        simulate_experiment(
+            model_path("planar_2r"),
+            _sine(),
+            _limits_2r(),
+            ExperimentSettings(max_tracking_error=1e-6),
+        )
+    assert len(pieces) <= 1, pieces  # 2 s in chunks of 0.1 s: 19 before the fix

@@ -29,6 +29,7 @@ time, never the result.
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import pickle
 import select
@@ -211,16 +212,19 @@ class Background(Generic[T]):
         now = time.monotonic()
         deadline = now + max(PATIENCE, now - self._started)
         chunks = []
+        poller = select.poll()  # not select(): any descriptor number
+        poller.register(self._read, select.POLLIN)
         while True:
             left = deadline - time.monotonic()
-            ready, _, _ = select.select([self._read], [], [], max(0.0, left))
-            if not ready:  # stuck: killed and reaped, computed here
-                self.cancel()
+            if not poller.poll(max(0, math.ceil(1000.0 * left))):
+                self.cancel()  # stuck: killed and reaped, computed here
                 return None
             chunk = os.read(self._read, 1 << 16)
             if not chunk:
                 break
             chunks.append(chunk)
+            # Sending: it has PATIENCE more for its next part.
+            deadline = max(deadline, time.monotonic() + PATIENCE)
         os.close(self._read)
         self._read = None
         try:
