@@ -107,6 +107,17 @@ def _sine(duration=2.0, amplitude=1.0, frequency=0.5):
     return _reference(q, v, t)
 
 
+def _too_tight_tracking():
+    """A tracking threshold below what the controller achieves: the run stops."""
+    with pytest.raises(ValueError, match=r"tracking error of joint joint\d reached"):
+        simulate_experiment(
+            model_path("planar_2r"),
+            _sine(),
+            _limits_2r(),
+            ExperimentSettings(max_tracking_error=1e-6),
+        )
+
+
 def test_noise_is_seeded_and_decimated():
     urdf = model_path("planar_2r")
     settings = ExperimentSettings(rate=500.0, seed=3)
@@ -146,13 +157,7 @@ def test_divergence_is_stopped_with_the_joint_and_the_time():
     with pytest.raises(ValueError, match=r"diverged: .* at t = 0\.99"):
         simulate_experiment(model_path("planar_2r"), jump, _limits_2r())
     # A threshold below what the controller achieves.
-    with pytest.raises(ValueError, match=r"tracking error of joint joint\d reached"):
-        simulate_experiment(
-            model_path("planar_2r"),
-            _sine(),
-            _limits_2r(),
-            ExperimentSettings(max_tracking_error=1e-6),
-        )
+    _too_tight_tracking()
 
 
 def test_motion_leaving_the_limits_during_the_run(tmp_path, capsys):
@@ -310,11 +315,5 @@ def test_a_run_the_monitor_stops_is_not_continued(monkeypatch):
         "UpdateTrajectory",
         lambda self, piece: (pieces.append(piece.end_time()), update(self, piece)),
     )
-    with pytest.raises(ValueError, match=r"tracking error of joint joint\d reached"):
-        simulate_experiment(
-            model_path("planar_2r"),
-            _sine(),
-            _limits_2r(),
-            ExperimentSettings(max_tracking_error=1e-6),
-        )
+    _too_tight_tracking()
     assert len(pieces) <= 1, pieces  # 2 s in chunks of 0.1 s: 19 before the fix
