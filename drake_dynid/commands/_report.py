@@ -243,6 +243,19 @@ def bucket_times(t: Any, edges: np.ndarray) -> np.ndarray:
     return out
 
 
+def _band_rows(theta: Any, std: Any, first: int, a: int, b: int) -> list[np.ndarray]:
+    """Rows [a, b) of θ, θ - σ and θ + σ as plotted.
+
+    NaN θ before ``first`` (the first valid solve: the identifier holds zeros
+    there); no band where σ is not finite.
+    """
+    estimates = np.array(theta[a:b], dtype=float)
+    estimates[: max(0, first - a)] = np.nan
+    sigmas = np.asarray(std[a:b], dtype=float)
+    sigmas = np.where(np.isfinite(sigmas), sigmas, np.nan)
+    return [estimates, estimates - sigmas, estimates + sigmas]
+
+
 def trace_envelope(
     t: Any, theta: Any, std: Any, first: int, buckets: int = PLOT_BUCKETS
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -260,11 +273,7 @@ def trace_envelope(
     """
 
     def read(a: int, b: int) -> list[np.ndarray]:
-        estimates = np.array(theta[a:b], dtype=float)
-        estimates[: max(0, first - a)] = np.nan
-        sigmas = np.asarray(std[a:b], dtype=float)
-        sigmas = np.where(np.isfinite(sigmas), sigmas, np.nan)
-        return [estimates, estimates - sigmas, estimates + sigmas]
+        return _band_rows(theta, std, first, a, b)
 
     edges, (line, low, high) = bucket_extremes(len(t), read, buckets)
     return (
@@ -301,11 +310,7 @@ def write_plot(path: str, t: Any, theta: Any, std: Any, valid, names, title) -> 
         merge = (times[-1] - times[0]) / PLOT_BUCKETS
     else:
         x = times
-        line = np.array(theta, dtype=float)
-        line[:first] = np.nan
-        sigmas = np.asarray(std, dtype=float)
-        sigmas = np.where(np.isfinite(sigmas), sigmas, np.nan)
-        lower, upper = line - sigmas, line + sigmas
+        line, lower, upper = _band_rows(theta, std, first, 0, len(times))
     spans = list(_invalid_runs(times, valid, step, merge))
     for i, name in enumerate(names):
         axis = axes[i]

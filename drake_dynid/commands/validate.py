@@ -254,17 +254,6 @@ def _torque_series(validations: Mapping[str, Any]) -> tuple[np.ndarray, list[Any
     results = list(validations.values())
     breaks = _segment_breaks(first.segment)
     count = first.num_samples_used
-    if count <= PLOT_BUCKETS:
-
-        def gapped(values):
-            return np.insert(np.asarray(values, dtype=float), breaks, np.nan, axis=0)
-
-        series = [gapped(first.measured)]
-        for result in results:
-            predicted = np.asarray(result.predicted, dtype=float)
-            residual = np.asarray(result.measured, dtype=float) - predicted
-            series += [gapped(predicted), gapped(residual)]
-        return gapped(first.t), series
 
     def read(a: int, b: int) -> list[np.ndarray]:
         out = [np.asarray(first.measured[a:b], dtype=float)]
@@ -276,6 +265,12 @@ def _torque_series(validations: Mapping[str, Any]) -> tuple[np.ndarray, list[Any
             ]
         return out
 
+    if count <= PLOT_BUCKETS:  # every sample
+
+        def gapped(values: Any) -> np.ndarray:
+            return np.insert(np.asarray(values, dtype=float), breaks, np.nan, axis=0)
+
+        return gapped(first.t), [gapped(values) for values in read(0, count)]
     edges, extremes = bucket_extremes(count, read, PLOT_BUCKETS, breaks)
     gaps = 2 * np.flatnonzero(np.isin(edges[:-1], breaks))
     t = np.insert(bucket_times(first.t, edges), gaps, np.nan)
