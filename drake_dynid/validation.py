@@ -132,42 +132,64 @@ class TorqueValidation:
         return int(self.t.shape[0])
 
 
-class _Moments:
-    """Per-column sums of the metrics, merged a block of samples at a time.
+def _merged(
+    count: int, mean: np.ndarray, centred: np.ndarray, block: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, Σ (x - mean)²) of ``count`` samples and the ``block``'s rows.
 
-    Means and centred sums of squares are combined as in Chan, Golub & LeVeque's
-    pairwise update (no cancellation from Σx² - N·mean²): the same numbers as
-    numpy's whole-array ``mean``/``std`` to round-off.
+    Chan, Golub & LeVeque's pairwise update: no cancellation from Σx² - N·mean².
+    """
+    rows = block.shape[0]
+    total = count + rows
+    block_mean = block.mean(axis=0)
+    delta = block_mean - mean
+    block_centred = np.sum((block - block_mean) ** 2, axis=0)
+    return (
+        mean + delta * (rows / total),
+        centred + block_centred + delta**2 * (count * rows / total),
+    )
+
+
+class _Moments:
+    """Per-column sums of the metrics of k estimates, merged a block at a time.
+
+    The measured torque's sums are kept once, the residuals' per estimate: the
+    same numbers as numpy's whole-array ``mean``/``std`` to round-off.
     """
 
-    def __init__(self, n: int):
+    def __init__(self, n: int, k: int):
         self.count = 0
-        self.mean = np.zeros((2, n))  # [measured, residual]
-        self.centred = np.zeros((2, n))  # Σ (x - mean)²
-        self.squares = np.zeros((4, n))  # Σ measured², e², raw measured², raw e²
+        self.mean = np.zeros(n)  # of the measured torque
+        self.centred = np.zeros(n)  # its Σ (x - mean)²
+        self.residual_mean = np.zeros((n, k))
+        self.residual_centred = np.zeros((n, k))
+        self.squares = np.zeros((2, n))  # Σ measured², raw measured²
+        self.residual_squares = np.zeros((2, n, k))  # Σ e², raw e²
 
     def add(self, measured, predicted, raw_measured, raw_predicted) -> None:
-        residual = measured - predicted
-        raw_residual = raw_measured - raw_predicted
-        k = measured.shape[0]
-        if k == 0:
+        """Adds (c, n) torques and their (c, n, k) predictions."""
+        if measured.shape[0] == 0:
             return
-        block = np.stack([measured, residual])
-        mean = block.mean(axis=1)
-        centred = np.sum((block - mean[:, None]) ** 2, axis=1)
-        total = self.count + k
-        delta = mean - self.mean
-        self.centred += centred + delta**2 * (self.count * k / total)
-        self.mean += delta * (k / total)
-        self.count = total
-        for i, x in enumerate((measured, residual, raw_measured, raw_residual)):
+        residual = measured[..., None] - predicted
+        raw_residual = raw_measured[..., None] - raw_predicted
+        self.mean, self.centred = _merged(self.count, self.mean, self.centred, measured)
+        self.residual_mean, self.residual_centred = _merged(
+            self.count, self.residual_mean, self.residual_centred, residual
+        )
+        self.count += measured.shape[0]
+        for i, (x, e) in enumerate(
+            ((measured, residual), (raw_measured, raw_residual))
+        ):
             self.squares[i] += np.einsum("ij,ij->j", x, x)
+            self.residual_squares[i] += np.einsum("ijk,ijk->jk", e, e)
 
-    def metrics(self) -> dict[str, Any]:
-        measured, residual, raw_measured, raw_residual = self.squares
+    def metrics(self, j: int) -> dict[str, Any]:
+        """The metrics of estimate j."""
+        measured, raw_measured = self.squares
+        residual, raw_residual = self.residual_squares[..., j]
         # A constant torque: the blocks' merge leaves round-off (1e-29) where the
         # centred sum is 0; below 1e-20 of Σ τ² the torque is constant to 1e-10.
-        total = np.where(self.centred[0] > 1e-20 * measured, self.centred[0], 0.0)
+        total = np.where(self.centred > 1e-20 * measured, self.centred, 0.0)
         with np.errstate(divide="ignore", invalid="ignore"):
             r_squared = np.where(total > 0, 1.0 - residual / total, np.nan)
             relative = np.where(
@@ -180,7 +202,7 @@ class _Moments:
         return {
             "relative_rms_percent": relative,
             "r_squared": r_squared,
-            "residual_std": np.sqrt(self.centred[1] / self.count),
+            "residual_std": np.sqrt(self.residual_centred[:, j] / self.count),
             "rms_measured": np.sqrt(measured / self.count),
             "raw_relative_rms_percent": raw,
             "total_relative_rms_percent": (
@@ -373,7 +395,7 @@ def _validate(
     sinks = {key: RowSink(n) for key in ("m", "rm")}
     sinks["t"], sinks["s"] = RowSink(1), RowSink(1)
     predictions = [(RowSink(n), RowSink(n)) for _ in labels]  # low-passed, raw
-    moments = [_Moments(n) for _ in labels]
+    moments = _Moments(n, k)
     for index, (start, stop) in enumerate(segments):
         if stop - start < 2 * trim + 1:
             continue
@@ -389,8 +411,8 @@ def _validate(
             segment(q, start, stop), segment(tau, start, stop), plan, predict, raw=True
         ):
             count = measured.shape[0]
+            moments.add(smooth_measured, smooth, measured, raw)
             for j in range(k):
-                moments[j].add(smooth_measured, smooth[..., j], measured, raw[..., j])
                 predictions[j][0].append(smooth[..., j])
                 predictions[j][1].append(raw[..., j])
             for key, part in (
@@ -401,7 +423,7 @@ def _validate(
             ):
                 sinks[key].append(part)
             row += count
-    if moments[0].count == 0:
+    if moments.count == 0:
         check.fail(
             owner,
             f"no finite segment of the log is long enough: the longest has "
@@ -433,10 +455,10 @@ def _validate(
             segment=segment_index,
             settings=dict(settings),
             num_samples=int(q.shape[0]),
-            **sums.metrics(),
+            **moments.metrics(j),
         )
-        for label, (smooth_sink, raw_sink), sums in zip(
-            labels, predictions, moments, strict=True
+        for j, (label, (smooth_sink, raw_sink)) in enumerate(
+            zip(labels, predictions, strict=True)
         )
     }
 

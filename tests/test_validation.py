@@ -488,17 +488,19 @@ def test_the_metrics_summed_by_blocks_equal_the_whole_arrays():
     measured[:, 2] = 0.3  # a constant torque: R² undefined (NaN)
     predicted = measured + 0.01 * rng.standard_normal((1000, 3))
     raw_m, raw_p = measured + 0.1, predicted - 0.1
-    whole, blocks = _Moments(3), _Moments(3)
-    whole.add(measured, predicted, raw_m, raw_p)
+    whole, blocks = _Moments(3, 1), _Moments(3, 1)  # one estimate
+    whole.add(measured, predicted[..., None], raw_m, raw_p[..., None])
     for a, b in ((0, 1), (1, 1), (1, 250), (250, 999), (999, 1000)):
-        blocks.add(measured[a:b], predicted[a:b], raw_m[a:b], raw_p[a:b])
+        blocks.add(
+            measured[a:b], predicted[a:b, :, None], raw_m[a:b], raw_p[a:b, :, None]
+        )
     residual = measured - predicted
-    got = blocks.metrics()
+    got = blocks.metrics(0)
     np.testing.assert_allclose(got["residual_std"], residual.std(axis=0), rtol=1e-12)
     centred = np.sum((measured - measured.mean(axis=0)) ** 2, axis=0)[:2]
     np.testing.assert_allclose(
         got["r_squared"][:2], 1 - np.sum(residual**2, axis=0)[:2] / centred, rtol=1e-12
     )
-    assert np.isnan(got["r_squared"][2]) and np.isnan(whole.metrics()["r_squared"][2])
-    for key, value in whole.metrics().items():
+    assert np.isnan(got["r_squared"][2]) and np.isnan(whole.metrics(0)["r_squared"][2])
+    for key, value in whole.metrics(0).items():
         np.testing.assert_allclose(got[key], value, rtol=1e-12)
