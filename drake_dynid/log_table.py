@@ -329,6 +329,37 @@ class _Stamps:
         return (t, exact) if np.isfinite(np.asarray(t)).any() else (t, None)
 
 
+def _header_block(
+    path: str, texts: Iterator[tuple[str, bool]]
+) -> tuple[list[str], str, int, bool]:
+    """(header cells, rest of the block, its first line number, last block)."""
+    line = 1
+    text, last = "", True
+    for item in texts:  # leading blank lines: until the header
+        text, last = item
+        if text.strip():
+            break
+        line += text.count("\n")
+    if not text.strip():
+        raise ValueError(f"log {path}: the file is empty; expected a header row.")
+    header, body, body_line = _split_header(path, text, line)
+    return header, body, body_line, last
+
+
+def read_header(path: str, stream: Any) -> list[str]:
+    """The header's cells (the first non-blank row), reading one block at most.
+
+    Args:
+        path: the file, for the messages.
+        stream: the file opened in binary mode.
+
+    Raises:
+        ValueError: an empty file, a header that is not CSV, bytes that are not
+            UTF-8 (the messages of :func:`read_table`).
+    """
+    return _header_block(path, _texts(path, stream))[0]
+
+
 def read_table(
     path: str, stream: Any, wanted: list[str], groups: Sequence[int]
 ) -> Table:
@@ -342,16 +373,7 @@ def read_table(
             ``Table.parts`` (e.g. n positions, n torques).
     """
     texts = _texts(path, stream)
-    line = 1
-    text, last = "", True
-    for item in texts:  # leading blank lines: until the header
-        text, last = item
-        if text.strip():
-            break
-        line += text.count("\n")
-    if not text.strip():
-        raise ValueError(f"log {path}: the file is empty; expected a header row.")
-    header, body, body_line = _split_header(path, text, line)
+    header, body, body_line, last = _header_block(path, texts)
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
         names = ", ".join(f"'{name}'" for name in duplicated)

@@ -38,14 +38,14 @@ from __future__ import annotations
 
 import csv
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from drake_dynid.core._threads import release_heap
-from drake_dynid.core.blocks import blocks
+from drake_dynid.core.blocks import blocks, segment
 from drake_dynid.log_repair import (
     FILL_GAPS,
     JITTER_TOLERANCE,
@@ -54,9 +54,11 @@ from drake_dynid.log_repair import (
     Repaired,
     repair,
 )
-from drake_dynid.log_table import read_table
+from drake_dynid.log_table import read_header, read_table
 
-__all__ = ["RobotLog", "read_log", "write_log"]
+__all__ = ["RobotLog", "header_joints", "read_log", "write_log"]
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -187,6 +189,36 @@ class RobotLog:
         edges = np.flatnonzero(np.diff(good))
         return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
 
+    def on_longest_run(self, function: Callable[[Any, float], T]) -> T:
+        """``function(q[a:b], time_step)`` on the longest run of good samples.
+
+        Computed once per log and function. The automatic filter rules measure a log's
+        longest finite run (its position spectrum: ``core.idim_auto.auto_cutoff``; its
+        velocity band: ``measured_velocity_band``). The dead zone, the off-line chain,
+        the validation and ``dynid identify`` ask the same log for the same measure; it
+        is computed for the first (a 7-DOF 60 s log: 0.035 s per velocity band).
+        ``function`` must be a pure function of its arguments, and the log's arrays are
+        not changed in place (a log is a value). An exception is not kept: the next call
+        raises it again. The run is the first of the longest ones; on a long log its q
+        is a stored segment (``core.blocks.segment``). The kept values are not pickled.
+
+        Raises:
+            ValueError: the log has no good sample.
+        """
+        measures = self.__dict__.setdefault("_measures", {})
+        if function not in measures:
+            runs = self.good_segments()
+            if not runs:
+                raise ValueError("the log has no finite sample (every row has a NaN).")
+            start, stop = max(runs, key=lambda run: run[1] - run[0])
+            measures[function] = function(segment(self.q, start, stop), self.time_step)
+        return measures[function]  # type: ignore[no-any-return]
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state.pop("_measures", None)  # functions as keys: not all pickle
+        return state
+
 
 def write_log(
     path: str | os.PathLike,
@@ -282,6 +314,28 @@ def read_log(
     del table
     release_heap()  # the reader's temporaries: not under the next phase's peak
     return RobotLog._named(repaired, names)
+
+
+def header_joints(path: str | os.PathLike) -> tuple[str, ...]:
+    """The joints a log's header names, in its column order.
+
+    Each ``<joint>`` with both a ``q_<joint>`` and a ``tau_<joint>`` column.
+    Reads only the header. What a log holds before the robot is known: ``dynid
+    identify`` reads the log with these names while the URDF loads, and uses that
+    read when they are the robot's joints (``commands._arguments.
+    load_robot_and_log``).
+
+    Raises:
+        OSError: the file cannot be opened.
+        ValueError: an empty file or a header that is not CSV (named).
+    """
+    path = os.fspath(path)
+    with open(path, "rb") as stream:
+        header = read_header(path, stream)
+    torques = {name[4:] for name in header if name.startswith("tau_")}
+    return tuple(
+        name[2:] for name in header if name.startswith("q_") and name[2:] in torques
+    )
 
 
 def _joint_names(owner: str, joint_names: Any) -> tuple[str, ...]:

@@ -81,6 +81,8 @@ from drake_dynid.core.idim_auto import (
     auto_cutoff,
     auto_decimation,
     auto_decimation_cutoff,
+    decimation_cutoff,
+    measured_velocity_band,
 )
 from drake_dynid.core.idim_checks import check_offline_settings
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
@@ -257,7 +259,6 @@ def offline_rows(
         owner=owner,
     )
     longest = max(segments, key=lambda s: s[1] - s[0])
-    longest_q = segment(q, *longest)
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
         if longest[1] - longest[0] < 16:
@@ -266,14 +267,15 @@ def offline_rows(
                 f"the longest finite segment has {longest[1] - longest[0]} samples; "
                 "at least 16 are needed to choose the cutoff.",
             )
-        cutoff_hz = auto_cutoff(longest_q, h)
+        cutoff_hz = log.on_longest_run(auto_cutoff)
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     decimation_rule = "given" if decimation is not None else "auto"
     if decimation is not None:
         decimation = check.integer(owner, "decimation", decimation, minimum=1)
     decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
-        decimation_cutoff_hz = auto_decimation_cutoff(longest_q, h, cutoff_hz)
+        band = log.on_longest_run(measured_velocity_band)
+        decimation_cutoff_hz = decimation_cutoff(band, cutoff_hz)
         if decimation is not None:
             decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
     decimation_cutoff_hz = check.below_nyquist(
@@ -453,11 +455,12 @@ def standstill_widths(
     if not segments or max(len(s) for s in segments) < 16:
         return None
     longest = max(segments, key=len)
-    fc = auto_cutoff(longest, h) if cutoff_hz is None else cutoff_hz
+    fc = log.on_longest_run(auto_cutoff) if cutoff_hz is None else cutoff_hz
     if len(longest) < 2 * default_trim(h, fc) + MIN_RUN:
         return None
     if decimation_cutoff_hz is None:
-        decimation_cutoff_hz = auto_decimation_cutoff(longest, h, fc)
+        band = log.on_longest_run(measured_velocity_band)
+        decimation_cutoff_hz = decimation_cutoff(band, fc)
     widths = dead_zone_widths(
         segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
     )

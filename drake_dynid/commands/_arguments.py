@@ -279,7 +279,6 @@ def read_robot_log(
     Otherwise the files are joined on time and converted by the robot's drive
     chain (``drake_dynid.raw_log``; an identity chain without ``--drive``).
     """
-    label = " + ".join(files)
     if robot.drive is None and len(files) == 1:
         from drake_dynid.logs import read_log
 
@@ -292,9 +291,15 @@ def read_robot_log(
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         log = read_raw_log(files, chain, resample=resample)
+    print_log_warnings(log, files, command)
+    return log
+
+
+def print_log_warnings(log: Any, files: Sequence[str], command: str) -> None:
+    """Each of the reader's warnings as one line on stderr, naming the log."""
+    label = " + ".join(files)
     for warning in log.warnings:
         print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
-    return log
 
 
 def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
@@ -385,14 +390,101 @@ def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
     return out
 
 
+PREFETCH_BYTES = 64 << 20
+"""Largest log file [bytes] read in a second process while the URDF loads.
+
+Its arrays then stay in memory (``log_store.SPILL_BYTES`` per array is about 150
+MB of CSV text), so they can be sent back; a longer log is read here, where the
+overlap would be a small part of its reading anyway.
+"""
+
+
 def load_robot_and_log(args: argparse.Namespace, command: str):
     """Loads the URDF model (with its drive chain) and the log.
 
     Prints the reader's warnings on stderr and applies ``--dead-zone`` (measured
     on the whole log, before any ``--split``).
+
+    With ``args.parallel`` present and not ``"off"`` (``dynid identify``), a
+    one-file log of at most :data:`PREFETCH_BYTES` is read in a forked child
+    process (``commands._background``) while this process loads the URDF
+    (mostly importing Drake's library): about 0.1 s of a 7-DOF 60 s run. The
+    child reads the joints its header names (``logs.header_joints``); the read is
+    used when they are the robot's joints and the robot has no drive chain,
+    with its columns put in the robot's order (the reader treats every column
+    alike, so the log and its warnings are those of the read here, tested). In
+    any other case, or when the child fails, the log is read here, and its
+    errors are the usual ones.
     """
-    robot = robot_from_args(args, command)
-    log = read_robot_log(
-        log_files(args), robot, resample=args.resample, command=command
-    )
+    from drake_dynid.commands._background import Background
+
+    files = log_files(args)
+    prefetch = _log_prefetch(files, args)
+    with Background(prefetch or _no_log, enabled=prefetch is not None) as early:
+        robot = robot_from_args(args, command)
+        log = None
+        if early.forked and robot.drive is None:
+            log = _in_joint_order(early.result(), robot.joint_names)
+    if log is None:
+        log = read_robot_log(files, robot, resample=args.resample, command=command)
+    else:
+        print_log_warnings(log, files, command)
     return apply_dead_zone(args, robot, log), log
+
+
+def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
+    """The child's read of :func:`load_robot_and_log` (None: none is tried)."""
+    import os
+
+    if len(files) != 1 or getattr(args, "parallel", "off") == "off":
+        return None
+    if getattr(args, "drive", None):
+        return None
+    try:
+        if os.path.getsize(files[0]) > PREFETCH_BYTES:
+            return None
+    except OSError:
+        return None  # the read here names the problem
+    path = files[0]
+    resample = bool(args.resample)
+
+    def read() -> Any:
+        import warnings
+
+        from drake_dynid.core.blocks import is_stored
+        from drake_dynid.logs import header_joints, read_log
+
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                log = read_log(path, header_joints(path), resample=resample)
+        except Exception:
+            return None  # read here again: its own message
+        if caught or any(is_stored(x) for x in (log.t, log.q, log.tau)):
+            return None  # warnings are printed by the read here
+        return log
+
+    return read
+
+
+def _no_log() -> None:
+    return None
+
+
+def _in_joint_order(log: Any, names: Sequence[str]) -> Any:
+    """``log`` with its columns in the order of ``names``; None: other joints."""
+    import dataclasses
+
+    import numpy as np
+
+    if log is None or sorted(log.joint_names) != sorted(names):
+        return None
+    if tuple(log.joint_names) == tuple(names):
+        return log
+    order = [log.joint_names.index(name) for name in names]
+    return dataclasses.replace(
+        log,
+        q=np.ascontiguousarray(log.q[:, order]),
+        tau=np.ascontiguousarray(log.tau[:, order]),
+        joint_names=tuple(names),
+    )

@@ -280,21 +280,19 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
     Nyquist frequency and ``core.fourier_bank.MAX_FUNCTIONS`` functions; a noisy or
     unexcited log measures a wide band that only noise fills.
     """
-    from drake_dynid.core.blocks import segment
-    from drake_dynid.core.idim_auto import velocity_bandwidth
+    from drake_dynid.core.idim_auto import measured_velocity_band
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
-    q = segment(log.q, start, stop)  # a long log stays on disk
-    run = q.shape[0]
+    run = stop - start
     if run < 64:
         raise ValueError(
             f"cannot measure the excitation band: no run of 64 finite samples in the "
             f"log (the longest has {run}, {run * log.time_step:g} s); give "
             "--bandwidth or --frequencies."
         )
-    try:
-        measured = float(velocity_bandwidth(q, log.time_step))
-    except ValueError:
+    # The dead zone measured it on this log already (RobotLog.on_longest_run).
+    measured = log.on_longest_run(measured_velocity_band)
+    if measured is None:
         bad = int(np.count_nonzero(log.bad_samples))
         where = (
             f"the longest run of finite samples ({(run - 1) * log.time_step:g} s of "
@@ -306,7 +304,7 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
             "cannot measure the excitation band: the positions show no motion above "
             f"their noise floor on {where}: the robot did not move, or too little to "
             "identify anything (give --bandwidth or --frequencies to try anyway)."
-        ) from None
+        )
     band = max(measured, 2.0 / window)
     if settings is not None:
         band = min(band, usable_band(settings, log.time_step))
@@ -677,9 +675,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--parallel",
         choices=("auto", "off"),
         default=None,
-        help="auto (default): the final window's bootstrap runs in a second "
-        "process (a fork, on Linux) beside the replay when 2 or more CPUs are "
-        "available, with the same result; off: everything in this process "
+        help="auto (default): the log is read in a second process (a fork, on "
+        "Linux) while the URDF loads, and the final window's bootstrap runs in "
+        "one beside the replay, when 2 or more CPUs are available, with the "
+        "same result; off: everything in this process "
         "(dynid fleet sets it when its own workers fill the CPUs)",
     )
     outputs = parser.add_argument_group("outputs")

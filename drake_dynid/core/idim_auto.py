@@ -57,6 +57,8 @@ __all__ = [
     "auto_cutoff",
     "auto_decimation",
     "auto_decimation_cutoff",
+    "decimation_cutoff",
+    "measured_velocity_band",
     "noise_limited_cutoff",
     "velocity_bandwidth",
 ]
@@ -192,13 +194,32 @@ def auto_decimation_cutoff(q: Any, time_step: float, cutoff_hz: float) -> float:
         time_step: sample period h [s].
         cutoff_hz: the position filter's cutoff f_c [Hz].
     """
+    return decimation_cutoff(measured_velocity_band(q, time_step), cutoff_hz)
+
+
+def decimation_cutoff(band_hz: float | None, cutoff_hz: float) -> float:
+    """``min(f_c, 1.5·B)`` [Hz]; f_c when the band B [Hz] is None (not measured)."""
+    if band_hz is None:
+        return float(cutoff_hz)
+    return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band_hz))
+
+
+def measured_velocity_band(q: Any, time_step: float) -> float | None:
+    """:func:`velocity_bandwidth` [Hz], or None when it cannot be measured.
+
+    None: no joint moves above the noise, or fewer than 64 samples.
+
+    Args:
+        q: (N, n) finite positions [rad or m] (a stored log's segment stays on
+            disk).
+        time_step: sample period h [s].
+    """
     try:
-        band = velocity_bandwidth(
+        return velocity_bandwidth(
             q if is_stored(q) else np.asarray(q, dtype=float), time_step
         )
     except ValueError:
-        return float(cutoff_hz)
-    return float(min(cutoff_hz, DECIMATION_BAND_FACTOR * band))
+        return None
 
 
 def velocity_bandwidth(q: np.ndarray, time_step: float) -> float:

@@ -1,0 +1,199 @@
+"""``dynid identify`` reads a log in a forked child while the URDF loads
+(``commands._arguments.load_robot_and_log``): the same log, warnings and errors
+as the read in the command's own process (``--parallel off``)."""
+
+import os
+
+import numpy as np
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.commands import _arguments
+from drake_dynid.commands._background import can_fork
+from drake_dynid.logs import header_joints
+from drake_dynid.plants import model_path
+
+URDF = model_path("planar_2r")
+
+
+def _messy_log(path, n=3000, seed=5):
+    """A 2R log whose columns are not in the robot's order, with an extra column,
+    jittered stamps, three dropped rows and a bad cell (each one a repair)."""
+    rng = np.random.default_rng(seed)
+    h = 1e-3
+    t = (h * np.arange(n) + 0.2 * h * rng.uniform(-1, 1, n) + 1.7e9).tolist()
+    q = np.cumsum(1e-3 * rng.standard_normal((n, 2)), axis=0).tolist()
+    tau = rng.standard_normal((n, 2)).tolist()
+    lines = ["tau_joint2,q_joint2,temperature,t,q_joint1,tau_joint1"]
+    for k in range(n):
+        if k in (500, 501, 502):
+            continue
+        q1 = "nan" if k == 900 else repr(q[k][0])
+        lines.append(f"{tau[k][1]!r},{q[k][1]!r},40.5,{t[k]!r},{q1},{tau[k][0]!r}")
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+def _load(argv, monkeypatch):
+    """(robot, log, reads in this process) of ``load_robot_and_log``."""
+    reads = []
+    original = _arguments.read_robot_log
+
+    def counted(*args, **kwargs):
+        reads.append(1)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(_arguments, "read_robot_log", counted)
+    args = cli.build_parser().parse_args(argv)
+    robot, log = _arguments.load_robot_and_log(args, "identify")
+    return robot, log, len(reads)
+
+
+def _same_log(a, b):
+    assert a.joint_names == b.joint_names
+    assert a.warnings == b.warnings
+    assert a.time_step == b.time_step and a.time_offset == b.time_offset
+    for name in ("t", "q", "tau", "filled"):
+        x, y = np.asarray(getattr(a, name)), np.asarray(getattr(b, name))
+        assert x.dtype == y.dtype and x.flags.c_contiguous and y.flags.c_contiguous
+        np.testing.assert_array_equal(x, y, err_msg=name)
+
+
+def test_header_joints_are_the_q_and_tau_pairs_in_column_order(tmp_path):
+    path = tmp_path / "h.csv"
+    path.write_text(
+        '\ufeff\n  \nt,q_b,q_a,tau_a,x,tau_b,q_c,"q_d,1","tau_d,1"\n'
+        "0,1,2,3,4,5,6,7,8\n",
+        encoding="utf-8",
+    )
+    assert header_joints(path) == ("b", "a", "d,1")
+    (tmp_path / "empty.csv").write_text("\n\n")
+    with pytest.raises(ValueError, match="empty"):
+        header_joints(tmp_path / "empty.csv")
+
+
+@pytest.mark.parametrize("resample", [False, True])
+def test_the_log_read_beside_the_urdf_is_the_log_read_here(
+    tmp_path, monkeypatch, capfd, resample
+):
+    path = _messy_log(tmp_path / "messy.csv")
+    argv = ["identify", path, "--urdf", URDF] + (["--resample"] if resample else [])
+    _, here, reads_here = _load([*argv, "--parallel", "off"], monkeypatch)
+    printed_here = capfd.readouterr().err
+    robot, beside, reads_beside = _load(argv, monkeypatch)
+    printed_beside = capfd.readouterr().err
+    assert reads_here == 1
+    assert reads_beside == (0 if can_fork() else 1)  # the child's log was used
+    assert robot.joint_names == ("joint1", "joint2")
+    assert len(here.warnings) >= 3  # ignored column, filled rows, bad cell, ...
+    _same_log(beside, here)
+    assert printed_beside == printed_here and "temperature" in printed_here
+
+
+def test_a_log_of_other_joints_is_read_here(tmp_path, monkeypatch):
+    """The child read both joints; the robot identifies one: read again here."""
+    path = _messy_log(tmp_path / "messy.csv")
+    argv = ["identify", path, "--urdf", URDF, "--joints", "joint2"]
+    _, here, _ = _load([*argv, "--parallel", "off"], monkeypatch)
+    _, beside, reads = _load(argv, monkeypatch)
+    assert reads == 1 and beside.joint_names == ("joint2",)
+    _same_log(beside, here)
+
+
+def test_a_malformed_log_gives_the_usual_error(tmp_path, capsys):
+    path = tmp_path / "bad.csv"
+    path.write_text(
+        "t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n0.001,0,zz,0,0\n"
+    )
+    messages = []
+    for extra in ([], ["--parallel", "off"]):
+        argv = ["identify", str(path), "--urdf", URDF, *extra]
+        assert cli.main(argv) == 2
+        messages.append(capsys.readouterr().err)
+    assert messages[0] == messages[1]
+    assert "row 3, column 'q_joint2': 'zz' is not a number" in messages[0]
+
+
+def test_a_bad_urdf_stops_the_read_beside_it(tmp_path, capsys, monkeypatch):
+    """The URDF's error is the message; the child reading the log is killed and
+    reaped (no process left behind)."""
+    from drake_dynid.commands import _background
+
+    children = []
+
+    class Spy(_background.Background):
+        def _start(self):
+            super()._start()
+            children.append(self._pid)
+
+    monkeypatch.setattr(_background, "Background", Spy)
+    path = _messy_log(tmp_path / "messy.csv")
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text("<robot name='x'><link name='a'/>")
+    assert cli.main(["identify", path, "--urdf", str(urdf)]) == 2
+    assert "bad.urdf" in capsys.readouterr().err
+    assert len(children) == (1 if can_fork() else 0)
+    for pid in children:
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)
+
+
+def test_a_log_measures_its_longest_run_once(tmp_path):
+    import pickle
+
+    from drake_dynid.logs import RobotLog
+
+    t = 1e-3 * np.arange(400)
+    q = np.column_stack([np.sin(t), np.cos(t)])
+    q[100, 0] = np.nan  # runs [0, 100), [101, 250), [251, 400): the first longest
+    q[250, 1] = np.nan
+    log = RobotLog(t, q, np.zeros_like(q), ("a", "b"), 1e-3)
+    calls = []
+
+    def measure(q_run, h):
+        calls.append((q_run.shape, h))
+        return float(q_run[0, 0])
+
+    assert log.on_longest_run(measure) == q[101, 0]
+    assert log.on_longest_run(measure) == q[101, 0]
+    assert calls == [((149, 2), 1e-3)]
+    copy = pickle.loads(pickle.dumps(log))  # a local function as a key
+    copy.on_longest_run(measure)
+    assert len(calls) == 2
+
+    def failing(q_run, h):
+        calls.append("failed")
+        raise ValueError("no motion")
+
+    for _ in range(2):
+        with pytest.raises(ValueError, match="no motion"):
+            log.on_longest_run(failing)
+    assert calls[2:] == ["failed", "failed"]
+    empty = RobotLog(t[:2], np.full((2, 2), np.nan), np.zeros((2, 2)), ("a", "b"), 1e-3)
+    with pytest.raises(ValueError, match="no finite sample"):
+        empty.on_longest_run(measure)
+
+
+@pytest.mark.parametrize("command", ["identify", "offline"])
+def test_the_commands_measure_the_velocity_band_once(tmp_path, monkeypatch, command):
+    """The dead zone, the off-line chain and identify's band share the measure."""
+    from drake_dynid.core import idim_auto
+
+    calls = []
+    original = idim_auto.velocity_bandwidth
+
+    def counted(q, h):
+        calls.append(q.shape)
+        return original(q, h)
+
+    monkeypatch.setattr(idim_auto, "velocity_bandwidth", counted)
+    path = _messy_log(tmp_path / "messy.csv", n=6000)
+    argv = [command, path, "--urdf", URDF, "--quiet", "--parallel", "off"]
+    if command == "identify":
+        argv += ["--window", "2", "--jacobi-window", "0.05", "--bootstrap", "0"]
+        argv += ["--bank-time-step", "0.005", "--update-period", "0.05"]
+    else:
+        argv.remove("--parallel")
+        argv.remove("off")
+    assert cli.main(argv) == 0
+    assert len(calls) == 1
