@@ -91,12 +91,24 @@ def test_the_log_read_beside_the_urdf_is_the_log_read_here(
 
 
 def test_a_log_of_other_joints_is_read_here(tmp_path, monkeypatch):
-    """The child read both joints; the robot identifies one: read again here."""
+    """The child reads both joints; the robot identifies one: the header says so,
+    the child is not waited for, and the log is read here."""
+    from drake_dynid.commands import _background
+
+    waited = []
+
+    class Spy(_background.Background):
+        def result(self):
+            waited.append(self.forked)
+            return super().result()
+
+    monkeypatch.setattr(_background, "Background", Spy)
     path = _messy_log(tmp_path / "messy.csv")
     argv = ["identify", path, "--urdf", URDF, "--joints", "joint2"]
     _, here, _ = _load([*argv, "--parallel", "off"], monkeypatch)
     _, beside, reads = _load(argv, monkeypatch)
     assert reads == 1 and beside.joint_names == ("joint2",)
+    assert waited == []
     _same_log(beside, here)
 
 

@@ -406,15 +406,15 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
     on the whole log, before any ``--split``).
 
     With ``args.parallel`` present and not ``"off"`` (``dynid identify``), a
-    one-file log of at most :data:`PREFETCH_BYTES` is read in a forked child
-    process (``commands._background``) while this process loads the URDF
-    (mostly importing Drake's library): about 0.1 s of a 7-DOF 60 s run. The
-    child reads the joints its header names (``logs.header_joints``); the read is
-    used when they are the robot's joints and the robot has no drive chain,
-    with its columns put in the robot's order (the reader treats every column
-    alike, so the log and its warnings are those of the read here, tested). In
-    any other case, or when the child fails, the log is read here, and its
-    errors are the usual ones.
+    one-file log of at most :data:`PREFETCH_BYTES` is read in a forked child process
+    (``commands._background``) while this process loads the URDF (mostly importing
+    Drake's library): about 0.1 s of a 7-DOF 60 s run. The child reads the joints
+    its header names (``logs.header_joints``); the read is used when they are the
+    robot's joints and the robot has no drive chain (checked on the header before
+    waiting for it), with its columns put in the robot's order (the reader treats
+    every column alike, so the log and its warnings are those of the read here,
+    tested). In any other case, or when the child fails, the log is read here, and
+    its errors are the usual ones.
     """
     from drake_dynid.commands._background import Background
 
@@ -423,7 +423,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
     with Background(prefetch or _no_log, enabled=prefetch is not None) as early:
         robot = robot_from_args(args, command)
         log = None
-        if early.forked and robot.drive is None:
+        if early.forked and _header_has(files[0], robot):  # else not waited for
             log = _in_joint_order(early.result(), robot.joint_names)
     if log is None:
         log = read_robot_log(files, robot, resample=args.resample, command=command)
@@ -465,6 +465,18 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
         return log
 
     return read
+
+
+def _header_has(path: str, robot: Any) -> bool:
+    """Whether the log's header names exactly the joints of ``robot`` (no drive)."""
+    from drake_dynid.logs import header_joints
+
+    if robot.drive is not None:
+        return False
+    try:
+        return sorted(header_joints(path)) == sorted(robot.joint_names)
+    except (OSError, ValueError):
+        return False  # the read here names the problem
 
 
 def _no_log() -> None:
