@@ -57,7 +57,7 @@ elif case["kind"] == "api":
     from _arm7 import api_offline
     out = api_offline(case["duration"], case["step"])
 out["seconds"] = time.perf_counter() - start
-# CPU time of the process and of its children (dynid identify's forked bootstrap).
+# CPU time of the process and its children (identify's forked log read, bootstrap).
 times = os.times()
 out["cpu"] = times.user + times.system + times.children_user + times.children_system
 children = resource.getrusage(resource.RUSAGE_CHILDREN)

@@ -19,10 +19,10 @@ Tables (medians over ``--repeats``; ratios measured side by side in one run):
 6. 7-DOF iiwa7 logs (60 s and 600 s, 1 kHz; benchmarks/_arm7.py): ``dynid offline``
    and ``dynid identify`` end to end (at 60 s also with ``--rows-from filtered``,
    with ``--bootstrap 0``, without the final σ's bootstrap, and with ``--parallel
-   off``, its bootstrap in the same process instead of a forked child beside the
-   replay), each run in a fresh process (start, imports, URDF, CSV, compute, JSON)
-   with its wall and CPU time (the child's included) and its own peak memory,
-   beside a Pinocchio + scipy
+   off``: the log read and the bootstrap in the same process instead of forked
+   children beside the URDF's load and the replay), each run in a fresh process
+   (start, imports, URDF, CSV, compute, JSON) with its wall and CPU time (the
+   children's included) and its own peak memory, beside a Pinocchio + scipy
    off-line reference of the same algorithm (60 s); both commands on a 1-hour CSV
    log (1.08 GB, written to a temporary file; not with ``--quick``); the off-line
    API on a 1-hour log built in memory (peak memory with and without the log's own
@@ -590,7 +590,8 @@ def _arm_table(results: dict, arm, repeats: int, quick: bool) -> str:
     ]
     text = _table(
         "7-DOF iiwa7 logs, 1 kHz, end to end in a fresh process (median of "
-        f"{repeats} at {first:g} s; CPU: the process and its forked bootstrap)",
+        f"{repeats} at {first:g} s; CPU: the process and its forked children, "
+        "the log read and the bootstrap)",
         (
             "case",
             "wall [s]",
