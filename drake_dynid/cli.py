@@ -5,7 +5,9 @@ Subcommands live in ``drake_dynid.commands.<name>``; each module defines ``HELP`
 only inside ``run`` so that ``dynid --help`` stays fast.
 
 Exit codes: 0 success, 2 bad input (a one-line message on stderr, no traceback),
-1 internal error (a traceback: please report it).
+1 internal error (a traceback: please report it). A closed standard output (``dynid
+... | head``) is not an error: the rest of the printout is dropped, the command
+runs to its end and writes its files (:class:`_ClosableStdout`).
 
 Before anything else, :func:`main` sets the process up
 (``drake_dynid.core._threads.configure_process``): BLAS/OpenMP pools of one thread
@@ -23,6 +25,7 @@ import sys
 import traceback
 import warnings
 from collections.abc import Sequence
+from typing import Any
 
 from drake_dynid import __version__
 from drake_dynid.core._threads import configure_process
@@ -43,6 +46,46 @@ SUBCOMMANDS = (
 EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
+
+
+class _ClosableStdout:
+    """``sys.stdout`` whose reader may go away (``dynid offline ... | head``).
+
+    The first write or flush that meets a closed pipe (``BrokenPipeError``) sends
+    this and every later output to ``os.devnull`` (file descriptor 1 too, so
+    that nothing fails at exit): the command runs to its end and writes its
+    files, as if the printout had been read, instead of stopping with an error
+    at its first lost line.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+
+    def _closed(self) -> None:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        except (OSError, ValueError, AttributeError):
+            pass  # not a file descriptor (a test's capture): only this stream
+        finally:
+            os.close(devnull)
+        self._stream = open(os.devnull, "w", encoding="utf-8")
+
+    def write(self, text: str) -> int:
+        try:
+            return int(self._stream.write(text))
+        except BrokenPipeError:
+            self._closed()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._closed()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -117,6 +160,18 @@ def _configure(argv: list[str]) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``dynid`` on ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    stdout = sys.stdout
+    sys.stdout = _ClosableStdout(stdout)  # type: ignore[assignment]
+    try:
+        return _main(argv)
+    finally:
+        sys.stdout.flush()
+        if sys.stdout._stream is not stdout:  # type: ignore[attr-defined]
+            sys.stdout._stream.close()  # type: ignore[attr-defined]
+        sys.stdout = stdout
+
+
+def _main(argv: list[str]) -> int:
     _configure(argv)
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -295,6 +295,26 @@ def test_installed_entry_point_runs_offline(log_file, tmp_path):
     assert done.stderr.startswith("dynid identify: error: log nope.csv: no such file")
 
 
+def test_a_closed_stdout_drops_the_printout_not_the_run(log_file, tmp_path):
+    """``dynid offline ... | head``: the reader has gone away (here before the
+    first line, so that every write meets the closed pipe); the command still
+    runs to its end and writes its JSON, with no error."""
+    import os
+
+    out_json = tmp_path / "piped.json"
+    argv = [sys.executable, "-m", "drake_dynid.cli", "offline", log_file]
+    argv += ["--urdf", URDF, "--json", str(out_json)]
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        done = subprocess.run(argv, stdout=write, stderr=subprocess.PIPE, check=False)
+    finally:
+        os.close(write)
+    assert done.returncode == 0, done.stderr.decode()
+    assert done.stderr == b""
+    assert json.loads(out_json.read_text())["model"] == "idim-ls"
+
+
 def test_identify_engines_agree(log_file, tmp_path):
     # The default engine (vectorised core) and the Drake blocks give the same JSON.
     import json
