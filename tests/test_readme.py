@@ -96,6 +96,13 @@ def _shown(line: str, digits: bool) -> str:
             "tests",
             False,
         ),
+        # The UR5's excite too: its digits are this machine's (README says so).
+        (
+            "### Validate, constrain, export",
+            "excite excite simulate simulate offline validate".split(),
+            "models",
+            False,
+        ),
     ],
 )
 def test_console_blocks_show_what_the_commands_print(

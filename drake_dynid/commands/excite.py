@@ -296,10 +296,11 @@ def run(args: argparse.Namespace) -> int:
         f"{design.iterations} SLSQP iterations, {elapsed:.1f} s"
     )
     say("")
-    say("joint            position  velocity  effort   (max % of the limit)")
+    width = max(16, *(len(name) for name in limits.joint_names))
+    say(f"{'joint':<{width}} position  velocity  effort   (max % of the limit)")
     for j, name in enumerate(limits.joint_names):
         usage = [100 * design.usage[k][j] for k in ("position", "velocity", "effort")]
-        say(f"{name:<16} {usage[0]:8.1f}  {usage[1]:8.1f}  {usage[2]:6.1f}")
+        say(f"{name:<{width}} {usage[0]:8.1f}  {usage[1]:8.1f}  {usage[2]:6.1f}")
     if math.isfinite(design.clearance):
         say(f"smallest self-collision clearance: {design.clearance:.3g} m")
     say("")
