@@ -347,17 +347,23 @@ def _header_block(
 
 
 def read_header(path: str, stream: Any) -> list[str]:
-    """The header's cells (the first non-blank row), reading one block at most.
+    """The header's cells (the first non-blank row), reading no further.
 
     Args:
         path: the file, for the messages.
-        stream: the file opened in binary mode.
+        stream: the file opened in binary mode (read a line at a time).
 
     Raises:
         ValueError: an empty file, a header that is not CSV, bytes that are not
-            UTF-8 (the messages of :func:`read_table`).
+            UTF-8 up to the header's end (the messages of :func:`read_table`).
     """
-    return _header_block(path, _texts(path, stream))[0]
+    raw = b""
+    while True:
+        line = stream.readline()
+        raw += line
+        text = decode(path, raw)
+        if text.strip() or not line:
+            return _header_block(path, iter([(text, not line)]))[0]
 
 
 def read_table(

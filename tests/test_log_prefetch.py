@@ -10,7 +10,7 @@ import pytest
 from drake_dynid import cli
 from drake_dynid.commands import _arguments
 from drake_dynid.commands._background import can_fork
-from drake_dynid.logs import header_joints
+from drake_dynid.logs import header_joints, write_log
 from drake_dynid.plants import model_path
 
 URDF = model_path("planar_2r")
@@ -55,8 +55,20 @@ def _same_log(a, b):
     assert a.time_step == b.time_step and a.time_offset == b.time_offset
     for name in ("t", "q", "tau", "filled"):
         x, y = np.asarray(getattr(a, name)), np.asarray(getattr(b, name))
-        assert x.dtype == y.dtype and x.flags.c_contiguous and y.flags.c_contiguous
+        assert x.dtype == y.dtype, name
+        # The same memory layout too (reductions may round by it).
+        assert x.flags.c_contiguous == y.flags.c_contiguous, name
+        assert x.flags.f_contiguous == y.flags.f_contiguous, name
         np.testing.assert_array_equal(x, y, err_msg=name)
+
+
+def _clean_log(path, n=500):
+    """A log that needs no repair, its columns not in the robot's order."""
+    rng = np.random.default_rng(2)
+    t = 1e-3 * np.arange(n)
+    q, tau = rng.standard_normal((n, 2)), rng.standard_normal((n, 2))
+    write_log(path, t, q[:, ::-1], tau[:, ::-1], ["joint2", "joint1"])
+    return str(path)
 
 
 def test_header_joints_are_the_q_and_tau_pairs_in_column_order(tmp_path):
@@ -88,6 +100,57 @@ def test_the_log_read_beside_the_urdf_is_the_log_read_here(
     assert len(here.warnings) >= 3  # ignored column, filled rows, bad cell, ...
     _same_log(beside, here)
     assert printed_beside == printed_here and "temperature" in printed_here
+
+
+def test_a_clean_log_keeps_the_readers_memory_layout(tmp_path, monkeypatch):
+    """Nothing repaired: the reader's q and τ are in Fortran order, whatever the
+    column order; the child's log, reordered, keeps that layout."""
+    path = _clean_log(tmp_path / "clean.csv")
+    argv = ["identify", path, "--urdf", URDF]
+    _, here, _ = _load([*argv, "--parallel", "off"], monkeypatch)
+    _, beside, reads = _load(argv, monkeypatch)
+    assert reads == (0 if can_fork() else 1)
+    assert here.q.flags.f_contiguous and not here.q.flags.c_contiguous
+    _same_log(beside, here)
+
+
+def test_only_a_regular_file_is_read_beside(tmp_path, monkeypatch):
+    """A FIFO (or a pipe) can be read once: read here, not by a child first."""
+    import subprocess
+
+    path = _clean_log(tmp_path / "clean.csv")
+    fifo = tmp_path / "log.fifo"
+    os.mkfifo(fifo)
+    writer = subprocess.Popen(["sh", "-c", f"cat '{path}' > '{fifo}'"])
+    try:
+        _, piped, reads = _load(["identify", str(fifo), "--urdf", URDF], monkeypatch)
+    finally:
+        writer.wait(timeout=30)
+    _, here, _ = _load(
+        ["identify", path, "--urdf", URDF, "--parallel", "off"], monkeypatch
+    )
+    assert reads == 1
+    np.testing.assert_array_equal(piped.q, here.q)
+
+
+def test_a_log_that_would_spill_to_disk_is_read_here(tmp_path, monkeypatch):
+    """Its arrays could not be sent back: no child is started (estimated on the
+    file's start: commas and line ends)."""
+    from drake_dynid import log_store
+
+    path = _messy_log(tmp_path / "messy.csv")
+    args = cli.build_parser().parse_args(["identify", path, "--urdf", URDF])
+    assert _arguments._log_prefetch([path], args) is not None
+    size = os.path.getsize(path)
+    monkeypatch.setattr(log_store, "SPILL_BYTES", size // 10)
+    assert _arguments._log_prefetch([path], args) is None
+
+
+def test_the_header_is_read_alone(tmp_path):
+    """Bad bytes below the header do not concern it (the log's read names them)."""
+    path = tmp_path / "bad.csv"
+    path.write_bytes(b"\n t,q_a,tau_a\n0,1,2\n\xff\xfe,1,2\n" + b"0,1,2\n" * 100000)
+    assert header_joints(path) == ("a",)
 
 
 def test_a_log_of_other_joints_is_read_here(tmp_path, monkeypatch):

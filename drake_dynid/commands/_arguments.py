@@ -390,12 +390,14 @@ def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
     return out
 
 
-PREFETCH_BYTES = 64 << 20
+PREFETCH_BYTES = 32 << 20
 """Largest log file [bytes] read in a second process while the URDF loads.
 
-Its arrays then stay in memory (``log_store.SPILL_BYTES`` per array is about 150
-MB of CSV text), so they can be sent back; a longer log is read here, where the
-overlap would be a small part of its reading anyway.
+The overlap saves the URDF's load (about 0.13 s); on a larger log, sending the
+arrays back and the two processes' contention eat it (measured: none left at 53
+MB), and it would be a small part of the reading anyway. A file whose numbers
+are so short that an array would spill to disk (``log_store.SPILL_BYTES``, sent
+back it cannot be) is read here too (:func:`_log_prefetch`).
 """
 
 
@@ -406,15 +408,15 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
     on the whole log, before any ``--split``).
 
     With ``args.parallel`` present and not ``"off"`` (``dynid identify``), a
-    one-file log of at most :data:`PREFETCH_BYTES` is read in a forked child process
-    (``commands._background``) while this process loads the URDF (mostly importing
-    Drake's library): about 0.1 s of a 7-DOF 60 s run. The child reads the joints
-    its header names (``logs.header_joints``); the read is used when they are the
-    robot's joints and the robot has no drive chain (checked on the header before
-    waiting for it), with its columns put in the robot's order (the reader treats
-    every column alike, so the log and its warnings are those of the read here,
-    tested). In any other case, or when the child fails, the log is read here, and
-    its errors are the usual ones.
+    one-file log (a regular file of at most :data:`PREFETCH_BYTES`) is read in a
+    forked child process (``commands._background``) while this process loads the
+    URDF (mostly importing Drake's library): about 0.1 s of a 7-DOF 60 s run. The
+    child reads the joints its header names (``logs.header_joints``); the read is
+    used when they are the robot's joints and the robot has no drive chain (checked
+    on the header before waiting for it), with its columns put in the robot's order
+    (the reader treats every column alike, so the log and its warnings are those of
+    the read here, tested). In any other case, or when the child fails, the log is
+    read here, and its errors are the usual ones.
     """
     from drake_dynid.commands._background import Background
 
@@ -435,17 +437,29 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
 def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
     """The child's read of :func:`load_robot_and_log` (None: none is tried)."""
     import os
+    import stat
+
+    from drake_dynid.log_store import SPILL_BYTES
 
     if len(files) != 1 or getattr(args, "parallel", "off") == "off":
         return None
     if getattr(args, "drive", None):
         return None
+    path = files[0]
     try:
-        if os.path.getsize(files[0]) > PREFETCH_BYTES:
+        status = os.stat(path)
+        # A regular file only: a pipe or FIFO can be read once (by the child).
+        if not stat.S_ISREG(status.st_mode) or status.st_size > PREFETCH_BYTES:
             return None
+        with open(path, "rb") as stream:
+            sample = stream.read(1 << 16)
     except OSError:
         return None  # the read here names the problem
-    path = files[0]
+    # Numbers in the file (commas and line ends counted on its start): q or τ
+    # holds less than half of them, 8 bytes each, and must stay in memory.
+    numbers = (sample.count(b",") + sample.count(b"\n")) / max(1, len(sample))
+    if 4.0 * numbers * status.st_size > SPILL_BYTES:
+        return None
     resample = bool(args.resample)
 
     def read() -> Any:
@@ -494,9 +508,13 @@ def _in_joint_order(log: Any, names: Sequence[str]) -> Any:
     if tuple(log.joint_names) == tuple(names):
         return log
     order = [log.joint_names.index(name) for name in names]
+
+    def ordered(x: np.ndarray) -> np.ndarray:
+        # The reader's memory layout (Fortran order when nothing was repaired),
+        # which does not depend on the column order: the read here has it too.
+        fortran = x.flags.f_contiguous and not x.flags.c_contiguous
+        return (np.asfortranarray if fortran else np.ascontiguousarray)(x[:, order])
+
     return dataclasses.replace(
-        log,
-        q=np.ascontiguousarray(log.q[:, order]),
-        tau=np.ascontiguousarray(log.tau[:, order]),
-        joint_names=tuple(names),
+        log, q=ordered(log.q), tau=ordered(log.tau), joint_names=tuple(names)
     )

@@ -6,7 +6,9 @@ or more CPUs it runs in a child process beside the replay, which takes it off th
 command's critical path (7-DOF 60 s log: about 0.45 s of 1.9 s, README
 "Performance"). The child is a ``fork`` of this process: it shares the loaded
 modules, the URDF's model and the log's arrays without copying or pickling them,
-and sends back only its (small) result, pickled through a pipe.
+and sends back only its result, pickled through a pipe (the bootstrap's σ: small;
+``dynid identify``'s log read beside the URDF's load: the log's arrays, a file of
+at most 32 MB, ``commands._arguments.load_robot_and_log``).
 
 Nothing is lost when that cannot be done: off Linux, with fewer than 2 CPUs
 available, with other threads running (a fork copies only the calling thread; a
