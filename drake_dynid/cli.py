@@ -7,7 +7,8 @@ only inside ``run`` so that ``dynid --help`` stays fast.
 Exit codes: 0 success, 2 bad input (a one-line message on stderr, no traceback),
 1 internal error (a traceback: please report it). A closed standard output (``dynid
 ... | head``) is not an error: the rest of the printout is dropped, the command
-runs to its end and writes its files (:class:`_ClosableStdout`).
+runs to its end and writes its files (:class:`_ClosableStream`; so for a
+closed standard error).
 
 Before anything else, :func:`main` sets the process up
 (``drake_dynid.core._threads.configure_process``): BLAS/OpenMP pools of one thread
@@ -48,28 +49,31 @@ EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
 
 
-class _ClosableStdout:
-    """``sys.stdout`` whose reader may go away (``dynid offline ... | head``).
+class _ClosableStream:
+    """``sys.stdout`` or ``sys.stderr`` whose reader may go away.
 
-    The first write or flush that meets a closed pipe (``BrokenPipeError``) sends
-    this and every later output to ``os.devnull`` (file descriptor 1 too, so
-    that nothing fails at exit): the command runs to its end and writes its
-    files, as if the printout had been read, instead of stopping with an error
-    at its first lost line.
+    ``dynid offline ... | head``, ``2>&1 | head``: the first write or flush that
+    meets a closed pipe (``BrokenPipeError``) sends this and every later output to
+    ``os.devnull`` (its file descriptor too, so that nothing fails at exit): the
+    command runs to its end and writes its files, as if the printout had been read,
+    instead of stopping with an error at its first lost line. Other write errors (a
+    full disk) are raised.
     """
 
     def __init__(self, stream: Any) -> None:
         self._stream = stream
+        self._original = stream
 
     def _closed(self) -> None:
         devnull = os.open(os.devnull, os.O_WRONLY)
         try:
-            os.dup2(devnull, self._stream.fileno())
+            os.dup2(devnull, self._original.fileno())
         except (OSError, ValueError, AttributeError):
             pass  # not a file descriptor (a test's capture): only this stream
         finally:
             os.close(devnull)
-        self._stream = open(os.devnull, "w", encoding="utf-8")
+        if self._stream is self._original:
+            self._stream = open(os.devnull, "w", encoding="utf-8")
 
     def write(self, text: str) -> int:
         try:
@@ -83,6 +87,11 @@ class _ClosableStdout:
             self._stream.flush()
         except BrokenPipeError:
             self._closed()
+
+    def release(self) -> None:
+        """Closes the ``os.devnull`` stream, if any (the original stays open)."""
+        if self._stream is not self._original:
+            self._stream.close()
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
@@ -160,15 +169,30 @@ def _configure(argv: list[str]) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs ``dynid`` on ``argv`` (default ``sys.argv[1:]``); returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    stdout = sys.stdout
-    sys.stdout = _ClosableStdout(stdout)  # type: ignore[assignment]
+    # A missing stream (``dynid ... >&-``: None, print() drops the text) stays so.
+    saved = {name: getattr(sys, name) for name in ("stdout", "stderr")}
+    wrapped = {
+        name: _ClosableStream(stream)
+        for name, stream in saved.items()
+        if stream is not None
+    }
+    for name, wrapper in wrapped.items():
+        setattr(sys, name, wrapper)
     try:
-        return _main(argv)
+        code = _main(argv)
+        out = wrapped.get("stdout")
+        if out is not None:
+            try:
+                out.flush()  # what is left: a write error is the command's
+            except OSError as error:  # not a closed pipe: a full disk, ...
+                print(f"dynid: error: standard output: {error}", file=sys.stderr)
+                out._closed()  # the unwritten text is dropped, not reported at exit
+                code = EXIT_BAD_INPUT
+        return code
     finally:
-        sys.stdout.flush()
-        if sys.stdout._stream is not stdout:  # type: ignore[attr-defined]
-            sys.stdout._stream.close()  # type: ignore[attr-defined]
-        sys.stdout = stdout
+        for name, wrapper in wrapped.items():
+            setattr(sys, name, saved[name])
+            wrapper.release()
 
 
 def _main(argv: list[str]) -> int:

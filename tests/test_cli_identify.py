@@ -315,6 +315,43 @@ def test_a_closed_stdout_drops_the_printout_not_the_run(log_file, tmp_path):
     assert json.loads(out_json.read_text())["model"] == "idim-ls"
 
 
+def _run_dynid(argv, **streams):
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    command = [sys.executable, "-m", "drake_dynid.cli", *argv]
+    return subprocess.run(command, check=False, env=env, **streams)
+
+
+def test_no_stdout_and_a_full_disk(log_file, tmp_path):
+    """``>&-`` (no standard output: Python's sys.stdout is None) runs as before;
+    a standard output that cannot be written (``> /dev/full``) is one line on
+    stderr and exit 2, not a traceback; a closed stderr (``2>&1 | head``) loses
+    the message, not the exit code."""
+    import os
+
+    out_json = tmp_path / "none.json"
+    argv = ["offline", log_file, "--urdf", URDF, "--json", str(out_json)]
+    done = _run_dynid(argv, stderr=subprocess.PIPE, preexec_fn=lambda: os.close(1))
+    assert done.returncode == 0, done.stderr.decode()
+    assert json.loads(out_json.read_text())["model"] == "idim-ls"
+    if os.path.exists("/dev/full"):
+        with open("/dev/full", "w") as full:
+            done = _run_dynid(argv, stdout=full, stderr=subprocess.PIPE)
+        assert done.returncode == 2
+        assert done.stderr.decode().splitlines()[-1].startswith("dynid")
+        assert "No space left on device" in done.stderr.decode()
+        assert "Traceback" not in done.stderr.decode()
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        bad = ["offline", str(tmp_path / "missing.csv"), "--urdf", URDF]
+        done = _run_dynid(bad, stdout=write, stderr=write)
+    finally:
+        os.close(write)
+    assert done.returncode == 2
+
+
 def test_identify_engines_agree(log_file, tmp_path):
     # The default engine (vectorised core) and the Drake blocks give the same JSON.
     import json
