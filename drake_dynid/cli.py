@@ -88,11 +88,6 @@ class _ClosableStream:
         except BrokenPipeError:
             self._closed()
 
-    def release(self) -> None:
-        """Closes the ``os.devnull`` stream, if any (the original stays open)."""
-        if self._stream is not self._original:
-            self._stream.close()
-
     def __getattr__(self, name: str) -> Any:
         return getattr(self._stream, name)
 
@@ -190,9 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                 code = EXIT_BAD_INPUT
         return code
     finally:
-        for name, wrapper in wrapped.items():
+        # Restored; a wrapper kept by a logging handler still writes through
+        # (to os.devnull once its pipe closed: that stream is left open).
+        for name in wrapped:
             setattr(sys, name, saved[name])
-            wrapper.release()
 
 
 def _main(argv: list[str]) -> int:
