@@ -184,10 +184,20 @@ class RobotLog:
         return out
 
     def good_segments(self) -> list[tuple[int, int]]:
-        """[start, stop) sample ranges of the runs of good (finite) samples."""
-        good = np.concatenate([[False], ~self.bad_samples, [False]]).astype(np.int8)
-        edges = np.flatnonzero(np.diff(good))
-        return [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+        """[start, stop) sample ranges of the runs of good (finite) samples.
+
+        Found once per log (a pass over q and τ, read from disk on a long log; a
+        log is a value: its arrays are not changed in place); a new list each call.
+        """
+        runs = self.__dict__.get("_good_segments")
+        if runs is None:
+            good = np.concatenate([[False], ~self.bad_samples, [False]])
+            edges = np.flatnonzero(np.diff(good.astype(np.int8)))
+            runs = tuple(
+                (int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)
+            )
+            self.__dict__["_good_segments"] = runs
+        return list(runs)
 
     def on_longest_run(self, function: Callable[[Any, float], T]) -> T:
         """``function(q[a:b], time_step)`` on the longest run of good samples.

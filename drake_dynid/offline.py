@@ -96,6 +96,7 @@ __all__ = [
     "auto_decimation",
     "auto_decimation_cutoff",
     "identify_offline",
+    "log_decimation_cutoff",
     "offline_rows",
     "standstill_widths",
 ]
@@ -274,8 +275,7 @@ def offline_rows(
         decimation = check.integer(owner, "decimation", decimation, minimum=1)
     decimation_cutoff_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
-        band = log.on_longest_run(measured_velocity_band)
-        decimation_cutoff_hz = decimation_cutoff(band, cutoff_hz)
+        decimation_cutoff_hz = log_decimation_cutoff(log, cutoff_hz)
         if decimation is not None:
             decimation_cutoff_hz = min(decimation_cutoff_hz, 0.4 / (decimation * h))
     decimation_cutoff_hz = check.below_nyquist(
@@ -403,6 +403,16 @@ def offline_rows(
     )
 
 
+def log_decimation_cutoff(log: Any, cutoff_hz: float) -> float:
+    """:func:`auto_decimation_cutoff` on the log's longest run of good samples.
+
+    ``min(f_c, 1.5·B)`` [Hz] with the velocity band B measured once per log
+    (``RobotLog.on_longest_run``): the dead zone, the off-line chain and the
+    validation of one log share it.
+    """
+    return decimation_cutoff(log.on_longest_run(measured_velocity_band), cutoff_hz)
+
+
 def standstill_widths(
     log: Any,
     *,
@@ -459,8 +469,7 @@ def standstill_widths(
     if len(longest) < 2 * default_trim(h, fc) + MIN_RUN:
         return None
     if decimation_cutoff_hz is None:
-        band = log.on_longest_run(measured_velocity_band)
-        decimation_cutoff_hz = decimation_cutoff(band, fc)
+        decimation_cutoff_hz = log_decimation_cutoff(log, fc)
     widths = dead_zone_widths(
         segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
     )

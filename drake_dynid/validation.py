@@ -60,13 +60,10 @@ from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
 from drake_dynid.core.blocks import is_stored, segment
 from drake_dynid.core.idim import default_padding, default_trim
-from drake_dynid.core.idim_auto import (
-    auto_cutoff,
-    decimation_cutoff,
-    measured_velocity_band,
-)
+from drake_dynid.core.idim_auto import auto_cutoff
 from drake_dynid.core.idim_checks import check_filter_frequency
 from drake_dynid.log_store import RowSink
+from drake_dynid.offline import log_decimation_cutoff
 
 __all__ = [
     "TorqueValidation",
@@ -371,8 +368,7 @@ def _validate(
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:
-        band = log.on_longest_run(measured_velocity_band)
-        decimation_cutoff_hz = decimation_cutoff(band, cutoff_hz)
+        decimation_cutoff_hz = log_decimation_cutoff(log, cutoff_hz)
     decimation_cutoff_hz = check.below_nyquist(
         owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
     )
