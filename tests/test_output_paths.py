@@ -125,3 +125,46 @@ def test_two_outputs_are_never_one_file(files, capsys):
     argv += ["--json", "same.json", "--out", "./same.json"]
     assert cli.main(argv) == 2
     assert "are the same file" in capsys.readouterr().err
+
+
+MISSING_FOLDER = [
+    "identify {log} --urdf {urdf} --plot {missing}/p.png",
+    "offline {log} --urdf {urdf} --json {missing}/out.json",
+    "validate {log} --urdf {urdf} --params {params} --json {missing}/v.json",
+    "simulate {urdf} --trajectory {trajectory} --out {missing}/log.csv",
+    "excite {urdf} --out {missing}/t.csv",
+    "params {urdf} --json {missing}/p.json",
+]
+
+
+@pytest.mark.parametrize("command", MISSING_FOLDER)
+def test_an_output_in_a_missing_folder_is_refused_before_any_work(
+    files, capsys, tmp_path, command
+):
+    """Found by a review: ``--plot nodir/p.png`` failed after the whole run."""
+    missing = tmp_path / "no" / "such"
+    argv = command.format(missing=missing, **files).split()
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"the folder {missing} does not exist" in err, err
+    assert not (tmp_path / "no").exists()
+
+
+def test_an_output_in_a_folder_that_cannot_be_written_is_refused(
+    files, capsys, tmp_path, monkeypatch
+):
+    """The permission test is ``os.access`` (root may write anywhere: patched)."""
+    from drake_dynid.commands import _paths
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    real = os.access
+    monkeypatch.setattr(
+        _paths.os, "access", lambda p, mode: Path(p) != locked and real(p, mode)
+    )
+    argv = ["offline", files["log"], "--urdf", files["urdf"]]
+    argv += ["--json", str(locked / "out.json")]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"the folder {locked} cannot be written" in err, err

@@ -65,11 +65,33 @@ def _paths(value: Any) -> list[str]:
     return []
 
 
+def _check_parent(option: str, path: str) -> None:
+    """Raises ValueError unless the folder of an output exists and can be written.
+
+    Checked before any work, so a long run does not end on a missing folder.
+    """
+    parent = Path(path).parent
+    if not parent.exists():
+        raise ValueError(
+            f"{option} {path}: the folder {parent} does not exist; create it first "
+            "or choose another path."
+        )
+    if not parent.is_dir():
+        raise ValueError(f"{option} {path}: {parent} is not a folder.")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(
+            f"{option} {path}: the folder {parent} cannot be written; choose another "
+            "path."
+        )
+
+
 def check_outputs(
     outputs: Mapping[str, str | os.PathLike | None],
     inputs: Sequence[str | os.PathLike | None] | Mapping[str, Any],
 ) -> None:
     """Raises ValueError if an output would overwrite an input or another output.
+
+    Also if the output's folder is missing or cannot be written.
 
     Args:
         outputs: option name (e.g. ``"--out"``) -> path (None: not written).
@@ -94,6 +116,7 @@ def check_outputs(
                 )
         if Path(path).is_dir():
             raise ValueError(f"{option} {path} is a directory; give a file path.")
+        _check_parent(option, path)
     for i, (option, path) in enumerate(given):
         for other, other_path in given[i + 1 :]:
             if _same(path, other_path):
