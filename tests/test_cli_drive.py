@@ -247,3 +247,41 @@ def test_physical_fit_and_urdf_with_coupled_motor_columns(files, tmp_path, capsy
     assert cli.main([*argv, "--urdf-out", str(urdf_out)]) == 0
     assert "(not written, no URDF field: FVm4, FCm4)" in capsys.readouterr().out
     assert urdf_out.is_file()
+
+
+def test_validate_finds_the_results_drive_file_or_says_it_is_missing(
+    files, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: a drive path recorded relative to the fit's folder was
+    dropped without a word when validating from elsewhere."""
+    _, raw, drive = files
+    fit_folder = tmp_path / "fit"
+    fit_folder.mkdir()
+    (fit_folder / "wrist4.toml").write_text(drive.read_text())
+    monkeypatch.chdir(fit_folder)
+    common = ["--urdf", URDF, "--rotor-inertia", "--split", "0.7"]
+    fit = _run(["offline", *raw, *common, "--drive", "wrist4.toml"], tmp_path, "fit")
+    assert fit["settings"]["drive"] == "wrist4.toml"
+    results = fit_folder / "fit.json"
+    results.write_text(json.dumps(fit))
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    argv = ["validate", *raw, "--urdf", URDF, "--params", str(results)]
+    check = _run(argv, tmp_path, "check")  # found next to the results file
+    errors = [
+        j["relative_rms_percent"] for j in check["estimates"]["idim-ls"]["joints"]
+    ]
+    assert max(errors) < 5.0
+    # An output never overwrites the drive file found that way.
+    target = str(fit_folder / "wrist4.toml")
+    before = drive.read_text()
+    assert cli.main([*argv, "--json", target]) == 2
+    assert "drive file" in _error(capsys)
+    assert (fit_folder / "wrist4.toml").read_text() == before
+    # Not found at all: an error naming it, never a silent drop.
+    (fit_folder / "wrist4.toml").unlink()
+    assert cli.main(argv) == 2
+    line = _error(capsys)
+    assert "its drive file wrist4.toml (settings.drive) is not found" in line
+    assert "--drive" in line

@@ -33,6 +33,35 @@ def _from_results(document: Mapping[str, Any], key: str) -> Any:
     return document.get(key)
 
 
+def results_drive(args: argparse.Namespace, drive: str) -> str:
+    """The drive file a results file names (``settings.drive``), found on disk.
+
+    The path as recorded (relative to the folder the fit ran in), else relative
+    to the results file's folder. A drive file that cannot be found is an error
+    (never dropped: the log would be read without the drive's units and
+    columns); no output of the command may overwrite it.
+
+    Raises:
+        ValueError: naming the results file, the drive file and ``--drive``.
+    """
+    from drake_dynid.commands._paths import check_output_paths
+
+    recorded = Path(drive)
+    candidates = [recorded]
+    if not recorded.is_absolute():
+        candidates.append(Path(args.params).parent / recorded)
+    for candidate in candidates:
+        if candidate.is_file():
+            check_output_paths(
+                args, inputs={"the results file's drive file": str(candidate)}
+            )
+            return str(candidate)
+    raise ValueError(
+        f"results file {args.params}: its drive file {drive} (settings.drive) is not "
+        f"found from {Path.cwd()} nor next to the results file; give --drive FILE."
+    )
+
+
 def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     """The model of the results file: its joints, locks, rotor inertia, drive.
 
@@ -55,8 +84,8 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         if width > 0:
             options["coulomb_width"] = float(width)
     drive = _from_results(document, "drive")
-    if not args.drive and isinstance(drive, str) and Path(drive).is_file():
-        options["drive"] = drive
+    if not args.drive and isinstance(drive, str) and drive:
+        options["drive"] = results_drive(args, drive)
     try:
         return robot_from_args(args, "validate", **options)
     except ValueError:
