@@ -263,10 +263,14 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
         )
     samples = log.t.size
     duration = (samples - 1) * log.time_step
+    unit_hint = _unit_hint(log.time_step)
+    if unit_hint:
+        warnings.append(unit_hint)
     if options.min_duration is not None and duration < options.min_duration:
         raise ValueError(
             f"{owner}: the log lasts {duration:.6g} s ({samples} samples of "
             f"{log.time_step:.6g} s); at least {options.min_duration:.6g} s are needed."
+            + (f" ({unit_hint})" if unit_hint else "")
         )
     return Repaired(
         log.t,
@@ -276,6 +280,22 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
         tuple(warnings),
         base + log.time_offset,
         log.filled,
+    )
+
+
+#: A fitted step at or above this [s] is said to be suspect: robot logs are sampled
+#: at 10 Hz to 10 kHz; stamps in ms, µs or ns read as seconds give 1 s and more.
+SLOW_STEP = 0.5
+
+
+def _unit_hint(step: float) -> str:
+    """A warning when the step suggests time stamps in another unit ('' if not)."""
+    if step < SLOW_STEP:
+        return ""
+    return (
+        f"the time step is {step:.6g} s, long for a robot log (1e-4 to 0.1 s): if "
+        "the time column is in ms, us or ns, say so with a drive file holding "
+        '[log] time_unit = "ms" (docs/DRIVE.md).'
     )
 
 

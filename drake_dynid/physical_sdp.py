@@ -15,9 +15,14 @@ T_j J_j T_j, T_j = diag(1/L_j, 1/L_j, 1/L_j, 1)/√m_j, whose entries are of ord
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
+import os
 import re
+import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -244,6 +249,42 @@ class SdpProblem:
         return t
 
 
+class _Hold(logging.Filter):
+    """Drops every record of Drake's logger (a solver's own log lines)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return False
+
+
+@contextlib.contextmanager
+def _quiet_solver() -> Iterator[None]:
+    """A solve's own output kept off the user's terminal.
+
+    Drake's logger lines (``SCS returns code -2 ...``) are dropped, and what the
+    solvers' C code prints on file descriptor 1 (``WARNING - large complementary
+    slackness residual``) goes to ``os.devnull``: a failed solve is said once, in
+    :func:`solve_program`'s error.
+    """
+    drake_logger = logging.getLogger("drake")
+    hold = _Hold()
+    drake_logger.addFilter(hold)
+    saved = None
+    try:
+        with contextlib.suppress(AttributeError, OSError, ValueError):
+            if sys.stdout is not None:
+                sys.stdout.flush()
+        with contextlib.suppress(OSError):
+            saved = os.dup(1)
+            with open(os.devnull, "wb") as sink:
+                os.dup2(sink.fileno(), 1)
+        yield
+    finally:
+        if saved is not None:
+            os.dup2(saved, 1)
+            os.close(saved)
+        drake_logger.removeFilter(hold)
+
+
 def solve_program(owner: str, prog, accept) -> tuple[Any, str, float]:
     """Clarabel, then SCS; ValueError when neither gives an acceptable solution.
 
@@ -259,7 +300,8 @@ def solve_program(owner: str, prog, accept) -> tuple[Any, str, float]:
         if not (solver.available() and solver.enabled()):
             failures.append(f"{name}: not available")
             continue
-        result = solver.Solve(prog)
+        with _quiet_solver():
+            result = solver.Solve(prog)
         if not result.is_success():
             failures.append(f"{name}: {result.get_solution_result().name}")
             continue

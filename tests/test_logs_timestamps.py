@@ -283,3 +283,30 @@ def test_fill_short_runs_cubic_is_exact_on_cubics_and_leaves_the_rest():
     assert mask[:, 0].sum() == 4 and not mask[:, 1].any()
     linear, _ = fill_short_runs(data, 3)
     assert linear[11, 0] == pytest.approx((col[9] + col[13]) / 2)
+
+
+@pytest.mark.parametrize(("scale", "unit"), [(1e3, "ms"), (1e9, "ns")])
+def test_stamps_in_another_unit_are_said_with_the_fix(tmp_path, scale, unit):
+    """Found by a review: ms or relative ns stamps read as seconds (h = 1 s, 1e6 s)
+    gave nonsense estimates and option errors without a word about the unit."""
+    k = np.arange(2000)
+    write_log(
+        tmp_path / "u.csv",
+        1e-3 * scale * k,
+        np.zeros((k.size, 2)),
+        np.zeros((k.size, 2)),
+        JOINTS,
+    )
+    log = read_log(tmp_path / "u.csv", JOINTS)
+    (note,) = log.warnings
+    assert f"the time step is {1e-3 * scale:g} s" in note and "time_unit" in note
+    with pytest.raises(ValueError, match="time_unit"):  # also in a length error
+        read_log(tmp_path / "u.csv", JOINTS, min_duration=1e12)
+    write_log(
+        tmp_path / "s.csv",
+        0.1 * k,
+        np.zeros((k.size, 2)),
+        np.zeros((k.size, 2)),
+        JOINTS,
+    )
+    assert read_log(tmp_path / "s.csv", JOINTS).warnings == ()  # 10 Hz: no note

@@ -6,6 +6,8 @@ for the optimality of the semidefinite program. Seeds: default_rng(0), (1), (2),
 (3), (5).
 """
 
+import json
+
 import numpy as np
 import pytest
 from scipy import optimize
@@ -276,3 +278,62 @@ def test_bad_arguments(robot_2r):
     # A noise-free fit (σ̂ = 0) stays solvable and exact.
     result = solve_physical(robot_2r, W, tau)
     np.testing.assert_allclose(result.theta, robot_2r.base_values, rtol=1e-6)
+
+
+def test_a_failed_solve_says_it_once_and_prints_nothing_else(capfd, caplog):
+    """Found by a review: SCS's log line (``SCS returns code -2``) and its C
+    ``WARNING - large complementary slackness residual`` reached the terminal
+    beside the error. θ: the 2R fit of a log whose ns stamps were read as seconds
+    (h = 1e6 s)."""
+    import logging
+
+    theta = [7.997486e11, -3.203678e11, 2.295677e12, -4.040246e11, 3.943860e7]
+    theta += [-0.3527695, -7.342464e5, 0.1836887]
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    capfd.readouterr()
+    with caplog.at_level(logging.INFO), pytest.raises(ValueError, match="SCS: "):
+        check_physical(robot, theta)
+    out, err = capfd.readouterr()
+    assert out == "" and err == "", (out, err)
+    assert not [r for r in caplog.records if r.name.startswith("drake")]
+    print("still printed")  # the standard output is restored
+    assert capfd.readouterr().out == "still printed\n"
+
+
+def test_a_physical_check_that_cannot_be_solved_does_not_stop_offline(
+    tmp_path, capsys, monkeypatch
+):
+    """The check nobody asked for: reported as not done, the JSON still written."""
+    from drake_dynid import cli, physical
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+    from drake_dynid.logs import write_log
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.25,
+        max_velocity=2.0,
+        rng=np.random.default_rng(4),
+    )
+    t = np.arange(20001) * 1e-3
+    q, v, vdot = trajectory.evaluate(t)
+    write_log(
+        tmp_path / "log.csv",
+        t,
+        q,
+        robot.idim_rows(q, v, vdot) @ robot.base_values,
+        robot.joint_names,
+    )
+
+    def unsolvable(*args, **kwargs):
+        raise ValueError("check_physical: the semidefinite program could not be solved")
+
+    monkeypatch.setattr(physical, "check_physical", unsolvable)
+    out = tmp_path / "fit.json"
+    argv = ["offline", str(tmp_path / "log.csv"), "--urdf", model_path("planar_2r")]
+    assert cli.main([*argv, "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "physical check of the estimate: not done (check_physical: " in printed
+    check = json.loads(out.read_text())["physical_check"]
+    assert check["consistent"] is None and check["summary"].startswith("not done")

@@ -81,7 +81,15 @@ def consistency(robot: Any, theta, quiet: bool, what: str) -> dict[str, Any]:
 
     if not np.all(np.isfinite(theta)):
         return {"consistent": None, "summary": "no finite estimate"}
-    check = check_physical(robot, theta)
+    try:
+        check = check_physical(robot, theta)
+    except ValueError as error:
+        # A check nobody asked for never stops the command: the fit and its
+        # files are still written, and the check says why it was not done.
+        summary = f"not done ({error})"
+        if not quiet:
+            print(f"physical check of {what}: {summary}")
+        return {"consistent": None, "summary": summary}
     if not quiet:
         print(f"physical check of {what}: {check.summary()}")
     return {
