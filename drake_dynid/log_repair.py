@@ -330,7 +330,8 @@ def _check_filled(owner, count: int, total: int, what: str) -> None:
             f"({100 * count / total:.3g} %) would be interpolated ({what}); "
             "filling more than "
             f"{100 * MAX_FILLED_FRACTION:g} % would invent data: repair the log, or "
-            "read it with fill_gaps=0 to keep them as bad samples."
+            "keep them as bad samples that the windows skip (--fill-gaps 0; "
+            "read_log(..., fill_gaps=0))."
         )
 
 

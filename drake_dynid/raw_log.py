@@ -279,6 +279,7 @@ def read_raw_log(
     *,
     jitter_tolerance: float = JITTER_TOLERANCE,
     resample: bool = False,
+    fill_gaps: int = FILL_GAPS,
 ):
     """Reads a raw log through a drive chain into a ``drake_dynid.logs.RobotLog``.
 
@@ -289,6 +290,7 @@ def read_raw_log(
             plain ``t, q_<joint>, tau_<joint>`` format split over several files).
         jitter_tolerance: as ``drake_dynid.logs.read_log``.
         resample: as ``drake_dynid.logs.read_log``.
+        fill_gaps: as ``drake_dynid.logs.read_log``.
 
     Returns:
         The uniformly sampled log in joint space (SI units, ``chain.joint_names``
@@ -299,7 +301,7 @@ def read_raw_log(
     files = [os.fspath(p) for p in paths]
     if not files:
         raise ValueError("log: no file given.")
-    return _read_streamed(files, chain, jitter_tolerance, resample)
+    return _read_streamed(files, chain, jitter_tolerance, resample, fill_gaps)
 
 
 def _extra_note(extra: Sequence[str]) -> list[str]:
@@ -313,7 +315,11 @@ def _extra_note(extra: Sequence[str]) -> list[str]:
 
 
 def _read_streamed(
-    files: list[str], chain: DriveChain, jitter_tolerance: float, resample: bool
+    files: list[str],
+    chain: DriveChain,
+    jitter_tolerance: float,
+    resample: bool,
+    fill_gaps: int = FILL_GAPS,
 ) -> Any:
     """One or several raw files, streamed (module docstring).
 
@@ -421,7 +427,7 @@ def _read_streamed(
     q_t, q, tau = (sink.finish(vector=k == 0) for k, sink in enumerate(sinks))
     label = " + ".join(files)
     options = Options.checked(
-        f"log {label}", jitter_tolerance, resample, FILL_GAPS, None
+        f"log {label}", jitter_tolerance, resample, fill_gaps, None
     )
     notes = warnings + _extra_note(extra) + notes
     repaired = repair(f"log {label}", "row", q_t, None, q, tau, rows, options, notes)

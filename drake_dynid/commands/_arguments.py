@@ -245,6 +245,35 @@ def add_log_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def fill_gaps_count(text: str) -> int:
+    """``--fill-gaps N``: an integer >= 0 (argparse type)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be a whole number of samples >= 0; got {text!r}"
+        ) from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0; got {value}")
+    return value
+
+
+def add_fill_gaps_argument(parser: argparse.ArgumentParser) -> None:
+    """``--fill-gaps N``: the reader's longest interpolated run (``read_log``)."""
+    from drake_dynid.log_repair import FILL_GAPS
+
+    parser.add_argument(
+        "--fill-gaps",
+        type=fill_gaps_count,
+        default=FILL_GAPS,
+        metavar="N",
+        help="longest run of missing samples or bad cells interpolated "
+        f"(default {FILL_GAPS}); longer runs are kept as bad samples, which the "
+        "windows holding them skip. 0: never interpolate (a log with more than 5 "
+        "%% of its samples to fill is refused unless this is lowered)",
+    )
+
+
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``dynid identify`` and ``dynid offline``."""
     add_log_argument(parser)
@@ -262,6 +291,7 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         "instead of snapping stamps to it (for samples really taken at jittered "
         "times; accepts non-uniform sampling; off by default: it changes the data)",
     )
+    add_fill_gaps_argument(parser)
     parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
     parser.add_argument(
         "--quiet",
@@ -271,18 +301,27 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def read_robot_log(
-    files: Sequence[str], robot: Any, *, resample: bool, command: str
+    files: Sequence[str],
+    robot: Any,
+    *,
+    resample: bool,
+    command: str,
+    fill_gaps: int | None = None,
 ) -> Any:
     """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
     One file and no drive chain: the plain CSV format (``drake_dynid.logs``).
     Otherwise the files are joined on time and converted by the robot's drive
     chain (``drake_dynid.raw_log``; an identity chain without ``--drive``).
+    ``fill_gaps``: ``--fill-gaps`` (None: the reader's default).
     """
+    from drake_dynid.log_repair import FILL_GAPS
+
+    gaps = FILL_GAPS if fill_gaps is None else fill_gaps
     if robot.drive is None and len(files) == 1:
         from drake_dynid.logs import read_log
 
-        log = read_log(files[0], robot.joint_names, resample=resample)
+        log = read_log(files[0], robot.joint_names, resample=resample, fill_gaps=gaps)
     else:
         from drake_dynid.core.drive import DriveChain
         from drake_dynid.raw_log import read_raw_log
@@ -290,7 +329,7 @@ def read_robot_log(
         chain = robot.drive
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
-        log = read_raw_log(files, chain, resample=resample)
+        log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
     print_log_warnings(log, files, command)
     return log
 
@@ -428,7 +467,13 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
         if early.forked and _header_has(files[0], robot):  # else not waited for
             log = _in_joint_order(early.result(), robot.joint_names)
     if log is None:
-        log = read_robot_log(files, robot, resample=args.resample, command=command)
+        log = read_robot_log(
+            files,
+            robot,
+            resample=args.resample,
+            command=command,
+            fill_gaps=getattr(args, "fill_gaps", None),
+        )
     else:
         print_log_warnings(log, files, command)
     return apply_dead_zone(args, robot, log), log
@@ -461,6 +506,9 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
     if 4.0 * numbers * status.st_size > SPILL_BYTES:
         return None
     resample = bool(args.resample)
+    options: dict[str, Any] = {"resample": resample}
+    if getattr(args, "fill_gaps", None) is not None:
+        options["fill_gaps"] = int(args.fill_gaps)
 
     def read() -> Any:
         import warnings
@@ -471,7 +519,7 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                log = read_log(path, header_joints(path), resample=resample)
+                log = read_log(path, header_joints(path), **options)
         except Exception:
             return None  # read here again: its own message
         if caught or any(is_stored(x) for x in (log.t, log.q, log.tau)):

@@ -924,6 +924,7 @@ def run(args: argparse.Namespace) -> int:
                 "friction": list(robot.friction),
                 "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
+                "fill_gaps": int(args.fill_gaps),
                 **model_settings(args, robot),
                 "bandwidth_measured": band_measured,
                 "rows_from_measured": rows_measured,

@@ -147,6 +147,7 @@ def run(args: argparse.Namespace) -> int:
                 "friction": list(robot.friction),
                 "coulomb_width": robot.coulomb_width,
                 "resample": bool(args.resample),
+                "fill_gaps": int(args.fill_gaps),
                 **model_settings(args, robot),
             },
             "urdf": str(args.urdf),

@@ -185,12 +185,20 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
         robot = results_robot(args, document)
         arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
         log = read_robot_log(
-            log_files(args), robot, resample=args.resample, command="payload"
+            log_files(args),
+            robot,
+            resample=args.resample,
+            command="payload",
+            fill_gaps=args.fill_gaps,
         )
         return results_sign(args, document, robot, log), log, arm, str(args.params)
     robot = robot_from_args(args, "payload")
     log = read_robot_log(
-        log_files(args), robot, resample=args.resample, command="payload"
+        log_files(args),
+        robot,
+        resample=args.resample,
+        command="payload",
+        fill_gaps=args.fill_gaps,
     )
     return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf"
 

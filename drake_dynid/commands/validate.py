@@ -18,6 +18,7 @@ from drake_dynid.commands._arguments import (
     LogFiles,
     add_dead_zone_argument,
     add_drive_arguments,
+    add_fill_gaps_argument,
     add_joint_arguments,
     add_log_argument,
     dead_zone_line,
@@ -104,6 +105,7 @@ def validation_split(
             robot,
             resample=args.resample,
             command=getattr(args, "command", "dynid"),
+            fill_gaps=getattr(args, "fill_gaps", None),
         )
         return log, held, str(other)
     return log, None, ""
@@ -405,6 +407,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="accept a non-uniformly sampled log (linear interpolation)",
     )
+    add_fill_gaps_argument(parser)
     parser.add_argument("--json", metavar="FILE", help="write the errors as JSON")
     parser.add_argument(
         "--plot", metavar="FILE.png", help="plot measured and predicted torques"
@@ -430,7 +433,11 @@ def run(args: argparse.Namespace) -> int:
     labels = {"fit": model, "physical": "physical"}
     estimates = {labels[k]: v for k, v in estimates.items()}
     log = read_robot_log(
-        log_files(args), robot, resample=args.resample, command="validate"
+        log_files(args),
+        robot,
+        resample=args.resample,
+        command="validate",
+        fill_gaps=args.fill_gaps,
     )
     robot = results_sign(args, document, robot, log)
     if not args.quiet:
