@@ -331,7 +331,90 @@ def read_robot_log(
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
     print_log_warnings(log, files, command)
+    _warn_locked_motion(files, robot, command)
     return log
+
+
+def _warn_locked_motion(files: Sequence[str], robot: Any, command: str) -> None:
+    """:func:`locked_motion`'s warning on stderr (one-file plain logs)."""
+    if len(files) == 1:
+        warning = locked_motion(files[0], robot)
+        if warning:
+            print(
+                f"dynid {command}: warning: log {files[0]}: {warning}", file=sys.stderr
+            )
+
+
+#: A joint that is not identified is said to move in the log when its recorded
+#: position leaves its locked value by more than this [rad or m].
+LOCKED_TOLERANCE = 1e-3
+
+#: Chunks of the file read by :func:`locked_motion` and their size [bytes].
+_CHUNKS, _CHUNK_BYTES = 16, 1 << 16
+
+
+def locked_motion(path: str, robot: Any) -> str | None:
+    """A warning when the log records motion of a joint the model holds fixed.
+
+    The joints outside ``--joints`` are welded at their ``locked`` positions (0
+    unless ``--lock``); a log whose ``q_<joint>`` column of such a joint moves
+    gives torques that model cannot predict (a review found the held-out error
+    10 times larger, with only "ignored extra column" said). Reads 16 chunks of
+    64 KiB spread over the file (start, end and between; not the whole file),
+    plain one-file logs only (a drive file names its own columns).
+    """
+    import os
+
+    from drake_dynid.log_table import read_header
+
+    locked = getattr(robot, "locked", None)
+    if not locked or robot.drive is not None:
+        return None
+    try:
+        with open(path, "rb") as stream:
+            header = read_header(path, stream)
+            start = stream.tell()
+            columns = {
+                name: header.index(f"q_{name}")
+                for name in locked
+                if f"q_{name}" in header
+            }
+            if not columns:
+                return None
+            size = os.fstat(stream.fileno()).st_size
+            low = {name: math.inf for name in columns}
+            high = {name: -math.inf for name in columns}
+            span = max(0, size - start - _CHUNK_BYTES)
+            for k in range(_CHUNKS):
+                offset = start + span * k // max(1, _CHUNKS - 1)
+                stream.seek(offset)
+                lines = stream.read(_CHUNK_BYTES).split(b"\n")
+                for line in lines[(1 if offset > start else 0) : -1]:
+                    cells = line.split(b",")
+                    for name, at in columns.items():
+                        try:
+                            value = float(cells[at])
+                        except (IndexError, ValueError):
+                            continue
+                        if math.isfinite(value):
+                            low[name] = min(low[name], value)
+                            high[name] = max(high[name], value)
+    except (OSError, ValueError):
+        return None  # the read names the problem
+    moving = [
+        f"{name} from {low[name]:.4g} to {high[name]:.4g}"
+        for name in columns
+        if max(abs(low[name] - locked[name]), abs(high[name] - locked[name]))
+        > LOCKED_TOLERANCE
+    ]
+    if not moving:
+        return None
+    held = ", ".join(f"{name} = {locked[name]:g}" for name in columns)
+    return (
+        f"joint(s) not identified move in the log ({'; '.join(moving)}) while the "
+        f"model holds them fixed ({held}): the torques they cause are not modelled. "
+        "Add them to --joints, or --lock them at the position they keep."
+    )
 
 
 def print_log_warnings(log: Any, files: Sequence[str], command: str) -> None:
@@ -476,6 +559,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
         )
     else:
         print_log_warnings(log, files, command)
+        _warn_locked_motion(files, robot, command)
     return apply_dead_zone(args, robot, log), log
 
 
