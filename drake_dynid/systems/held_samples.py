@@ -52,8 +52,9 @@ class HeldSamples(LeafSystem):
     of each table c_i (N, m_i), side by side, held over [t_k - h/2, t_k + h/2),
     t_k = t_0 + k·h, so that a block updating at t_k reads sample k whatever the
     rounding of the event times (docs/CONVENTIONS.md §2); the first row before,
-    the last after. It replaces ``TrajectorySource(PiecewisePolynomial.
-    ZeroOrderHold(t_0 + h·(k - 1/2), rows))``, without its N·Σm_i ``Polynomial``
+    the last after (or NaN after it with ``after_end="nan"``). It replaces
+    ``TrajectorySource(PiecewisePolynomial.ZeroOrderHold(t_0 + h·(k - 1/2),
+    rows))``, without its N·Σm_i ``Polynomial``
     objects, which took about 2 KB per sample of a 7-DOF log ([q; τ]): 1.8 GB
     for a 10-minute log at 1 kHz. The same output at the sample times and away
     from the boundaries (tests/systems/test_held_samples.py); at a boundary
@@ -69,7 +70,12 @@ class HeldSamples(LeafSystem):
     """
 
     def __init__(
-        self, tables: Sequence[Any], time_step: float, start_time: float = 0.0
+        self,
+        tables: Sequence[Any],
+        time_step: float,
+        start_time: float = 0.0,
+        *,
+        after_end: str = "hold",
     ):
         """Builds the block.
 
@@ -78,11 +84,17 @@ class HeldSamples(LeafSystem):
                 rows such as ``log_store.StoredArray``), the same N >= 1.
             time_step: the sample period h [s].
             start_time: t_0, the time of row 0 [s].
+            after_end: from t_{N-1} + h/2 on, ``"hold"`` the last row (a
+                trajectory that stays where it ends) or ``"nan"`` (a recording
+                that has ended: no sample to read, see ``diagrams.log_source``).
         """
         super().__init__()
         owner = "HeldSamples"
         self._h = check.positive(owner, "time_step", time_step, "s")
         self._t0 = check.real(owner, "start_time", start_time, "s")
+        if after_end not in ("hold", "nan"):
+            check.fail(owner, f"after_end must be 'hold' or 'nan'; got {after_end!r}.")
+        self._nan_after = after_end == "nan"
         self._tables = list(tables)
         if not self._tables:
             check.fail(owner, "tables must hold at least one (N, m) table.")
@@ -117,5 +129,8 @@ class HeldSamples(LeafSystem):
         return rows[k - first]
 
     def _CalcY(self, context: Context, output: BasicVector) -> None:
-        k = held_index(context.get_time(), self._t0, self._h, self._count)
-        output.SetFromVector(self._row(k))
+        t = context.get_time()
+        if self._nan_after and (t - self._t0) / self._h + 0.5 + _EDGE >= self._count:
+            output.SetFromVector(np.full(output.size(), np.nan))  # the log has ended
+            return
+        output.SetFromVector(self._row(held_index(t, self._t0, self._h, self._count)))

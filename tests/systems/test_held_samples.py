@@ -77,3 +77,81 @@ def test_a_stored_log_is_read_a_block_at_a_time(monkeypatch):
 def test_bad_tables_are_refused(tables, step, message):
     with pytest.raises(ValueError, match=message):
         HeldSamples(tables, step)
+
+
+def test_after_end_nan_says_the_recording_has_ended():
+    rows = np.arange(8.0).reshape(4, 2)
+    h = 1e-3
+    system = HeldSamples([rows], h, after_end="nan")
+    context = system.CreateDefaultContext()
+
+    def y(t):
+        context.SetTime(t)
+        return system.get_output_port_y().Eval(context)
+
+    np.testing.assert_array_equal(y(3 * h), rows[3])
+    np.testing.assert_array_equal(y(3.49 * h), rows[3])
+    assert np.isnan(y(3.5 * h)).all() and np.isnan(y(10.0)).all()
+    held = HeldSamples([rows], h)  # "hold": a trajectory stays where it ends
+    hold_context = held.CreateDefaultContext()
+    hold_context.SetTime(10.0)
+    np.testing.assert_array_equal(held.get_output_port_y().Eval(hold_context), rows[3])
+    with pytest.raises(ValueError, match="after_end must be 'hold' or 'nan'"):
+        HeldSamples([rows], h, after_end="zero")
+
+
+def test_a_chain_run_past_the_end_of_its_log_holds_its_last_valid_estimate():
+    """Found by a review: a Simulator advanced past the log's end read the last
+    sample repeated and reported "valid" estimates of it (FV1 -78 ± 34 for 0.3,
+    later ZZ1R = 299 held)."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+    from drake_dynid.diagrams import add_online_identifier, log_source
+    from drake_dynid.logs import RobotLog
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.25,
+        max_velocity=2.0,
+        rng=np.random.default_rng(4),
+    )
+    h = 1e-3
+    t = np.arange(8001) * h
+    q, v, vdot = trajectory.evaluate(t)
+    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    log = RobotLog(t, q, tau, robot.joint_names, h)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    settings = OnlineSettings.for_model("lagrangian", window=5.0)
+    chain = add_online_identifier(
+        builder, robot.rows_provider(), source.get_output_port(), h, settings
+    )
+    simulator = Simulator(builder.Build())
+    identifier = chain.identifier
+
+    def outputs():
+        context = identifier.GetMyContextFromRoot(simulator.get_context())
+        return (
+            identifier.get_output_port_valid().Eval(context)[0],
+            identifier.get_output_port_theta().Eval(context).copy(),
+        )
+
+    simulator.AdvanceTo(8.0)
+    assert outputs()[0] == 1.0
+    # Once the window reaches the end (the bank lags by the Jacobi delay) the
+    # solves are invalid and the last valid estimate, of real samples, is held.
+    simulator.AdvanceTo(9.0)
+    valid, last = outputs()
+    assert valid == 0.0
+    np.testing.assert_allclose(last[:4], robot.base_values[:4], rtol=0.02)
+    for end in (10.0, 14.0):
+        simulator.AdvanceTo(end)
+        valid, theta = outputs()
+        assert valid == 0.0, end
+        np.testing.assert_array_equal(theta, last)
