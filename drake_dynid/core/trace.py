@@ -31,7 +31,10 @@ class OnlineTrace:
     Attributes:
         settings: the identifier's settings (on the signal grid).
         names: base parameter names (p).
-        t: (M,) times of the solves [s].
+        t: (M,) times at which the estimates were logged [s], every update
+            period U: at t_s the state after the solves at t < t_s (the left
+            limit, as Drake's loggers record it), i.e. the estimate of the solve
+            at t_s - U + 3h/4 on the samples up to t_s - U.
         theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
         std: (M, p) standard deviations (``settings.uncertainty``; inf before the
             first valid solve).
@@ -40,8 +43,12 @@ class OnlineTrace:
         status: (M,) the identifier's status code (``core.identifier.Status``: 0
             ok, 1 window not ready or holding a bad sample, 2 not identifiable).
         unidentified: (M, p) 1 for the parameters found not excited by that solve.
-        delay: latency of the estimate [s]: the differentiator delay plus one sample
-            per block (the window ends at t - delay).
+        delay: latency of a solve [s]: the differentiator delay (or the raw
+            rows' delay) plus the solve's offset 3h/4. The solve at t_u + 3h/4
+            uses the samples up to t_u, which estimate the signals at t_u minus
+            the differentiator delay; so the window of the estimate logged at
+            t_s ends at t_s - U - (delay - 3h/4). A trace shows an estimate up to
+            U - 3h/4 after the solve made it.
         change: (M,) with ``settings.detect_changes`` (else empty): 1 at the solve
             that detected an abrupt change (``core.change``).
         change_time: (M,) estimated time of the last detected change [s] (NaN

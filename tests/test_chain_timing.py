@@ -1,0 +1,115 @@
+"""A chain of blocks in a Simulator over a replayed log: the timing of its traces
+and what it does past the log's end (both found by a review). The 2R arm on a
+random Fourier reference (default_rng(4)), torques from the library's rows (the
+timing is checked, not the accuracy)."""
+
+import numpy as np
+
+
+def test_a_chain_run_past_the_end_of_its_log_holds_its_last_valid_estimate():
+    """Found by a review: a Simulator advanced past the log's end read the last
+    sample repeated and reported "valid" estimates of it (FV1 -78 ± 34 for 0.3,
+    later ZZ1R = 299 held)."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+    from drake_dynid.diagrams import add_online_identifier, log_source
+    from drake_dynid.logs import RobotLog
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.25,
+        max_velocity=2.0,
+        rng=np.random.default_rng(4),
+    )
+    h = 1e-3
+    t = np.arange(8001) * h
+    q, v, vdot = trajectory.evaluate(t)
+    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    log = RobotLog(t, q, tau, robot.joint_names, h)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    settings = OnlineSettings.for_model("lagrangian", window=5.0)
+    chain = add_online_identifier(
+        builder, robot.rows_provider(), source.get_output_port(), h, settings
+    )
+    simulator = Simulator(builder.Build())
+    identifier = chain.identifier
+
+    def outputs():
+        context = identifier.GetMyContextFromRoot(simulator.get_context())
+        return (
+            identifier.get_output_port_valid().Eval(context)[0],
+            identifier.get_output_port_theta().Eval(context).copy(),
+        )
+
+    simulator.AdvanceTo(8.0)
+    assert outputs()[0] == 1.0
+    # Once the window reaches the end (the bank lags by the Jacobi delay) the
+    # solves are invalid and the last valid estimate, of real samples, is held.
+    simulator.AdvanceTo(9.0)
+    valid, last = outputs()
+    assert valid == 0.0
+    np.testing.assert_allclose(last[:4], robot.base_values[:4], rtol=0.02)
+    for end in (10.0, 14.0):
+        simulator.AdvanceTo(end)
+        valid, theta = outputs()
+        assert valid == 0.0, end
+        np.testing.assert_array_equal(theta, last)
+
+
+def test_a_trace_row_is_the_solve_one_update_period_before():
+    """The documented timing of ``OnlineTrace.t`` (a review found the docstring's
+    "times of the solves, the window ends at t - delay" one period U off): the
+    row logged at t_s is the solve at t_s - U + 3h/4."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings
+    from drake_dynid.core.trajectory import random_fourier_trajectory
+    from drake_dynid.diagrams import add_online_identifier, chain_trace, log_source
+    from drake_dynid.logs import RobotLog
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.25,
+        max_velocity=2.0,
+        rng=np.random.default_rng(4),
+    )
+    h = 1e-3
+    t = np.arange(7001) * h
+    q, v, vdot = trajectory.evaluate(t)
+    log = RobotLog(
+        t, q, robot.idim_rows(q, v, vdot) @ robot.base_values, robot.joint_names, h
+    )
+    settings = OnlineSettings.for_model("lagrangian", window=5.0)
+    period = settings.on_grid(h).resolved("update_period")
+
+    def run(end):
+        builder = DiagramBuilder()
+        source = builder.AddSystem(log_source(log))
+        chain = add_online_identifier(
+            builder, robot.rows_provider(), source.get_output_port(), h, settings
+        )
+        simulator = Simulator(builder.Build())
+        simulator.AdvanceTo(end)
+        context = chain.identifier.GetMyContextFromRoot(simulator.get_context())
+        valid = chain.identifier.get_output_port_valid().Eval(context)[0]
+        theta = chain.identifier.get_output_port_theta().Eval(context).copy()
+        return chain_trace(chain, simulator.get_context(), h), valid, theta
+
+    trace, _, _ = run(6.0)
+    first = int(np.flatnonzero(trace.valid > 0.5)[0])
+    solve = trace.t[first] - period + SOLVE_OFFSET * h
+    _, before, _ = run(solve - h / 8)
+    _, after, theta = run(solve + h / 8)
+    assert before == 0.0 and after == 1.0
+    np.testing.assert_array_equal(theta, trace.theta[first])
