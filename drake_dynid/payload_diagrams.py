@@ -11,7 +11,7 @@ arm's known column) and ending in the ``PayloadIdentifier`` block::
 with the same event offsets (docs/CONVENTIONS.md §2) and the same settings
 (``core.payload_step.payload_settings``). :func:`replay_payload_log` runs it over
 a recorded log in a Simulator; ``core.payload_replay.replay_payload_core`` gives
-the same trace without one (``tests/test_payload_blocks.py``).
+the same trace without one (``tests/systems/test_payload_block.py``).
 """
 
 from __future__ import annotations

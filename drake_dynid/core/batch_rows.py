@@ -470,7 +470,7 @@ def batch_lagrangian_mean_rows(
     block, ``[S; ad(V^W) S]`` of its samples side by side times their
     ``X_bᵀ [K(V_b) | K([0; -g_b])]`` stacked: no per-sample rows are formed.
     Equal to ``RobotModel.mean_packed_rows``'s general path to round-off
-    (tests/test_batch_rows.py).
+    (tests/test_idim_base_rows.py).
 
     Args:
         plan: from :func:`batch_rows_plan`.

@@ -44,8 +44,8 @@ position filter's cutoff (|H_c| < 1.5e-5 there). Stage 2 is applied to both side
 identically. The decimated equation therefore differs from the one-stage parallel
 decimation only by the filter that shapes the noise (the two-stage filter instead
 of the one-stage one), not by a model error. Measured on simulated 2R and 7-DOF
-logs (tests/test_offline.py, benchmarks/bench_offline.py), the estimates agree
-with the one-stage path to a small fraction of their σ.
+logs (tests/test_offline_stream.py), the estimates agree with the one-stage path
+to a small fraction of their σ.
 
 **Bounded memory.** Both zero-phase IIR filters are applied to blocks with
 margins long enough for their start-up transients to decay to 1e-12

@@ -2,8 +2,8 @@
 
 :func:`replay_payload_core` computes what ``drake_dynid.payload_diagrams.
 replay_payload_log`` (the Drake blocks in a Simulator) computes, to round-off,
-without a Simulator (``tests/test_payload_blocks.py`` checks it). The timing is
-the on-line identifier's (docs/CONVENTIONS.md §2, ``core.replay``): the bank
+without a Simulator (``tests/systems/test_payload_block.py`` checks it). The
+timing is the on-line identifier's (docs/CONVENTIONS.md §2, ``core.replay``): the bank
 updates at t_j + h/2 with the rows of sample j (filtered or raw rows of
 ``core.payload.PayloadRows``), the solver at t_u + 3h/4 with the bank's window
 up to t_u (:func:`core.payload_step.payload_update`), and the trace records, at
