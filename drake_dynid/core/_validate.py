@@ -147,9 +147,10 @@ def array(
         if not ok:
             sizes = ", ".join("any" if s is None else str(s) for s in shape)
             want_text = f"({sizes})"
-            raise ValueError(
-                f"{owner}: {name} must have shape {want_text}; got {out.shape}."
-            )
+            if tuple(shape) == (None,):
+                want_text = "(N,), a 1-D array of any length"
+            got = f"{out.shape}" + (" (a single number)" if out.ndim == 0 else "")
+            raise ValueError(f"{owner}: {name} must have shape {want_text}; got {got}.")
     if finite and not np.all(np.isfinite(out)):
         bad = int(np.size(out) - np.count_nonzero(np.isfinite(out)))
         raise ValueError(

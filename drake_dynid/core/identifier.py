@@ -3,7 +3,8 @@
 Every solve period the identifier reads the bank's window (``window_valid`` and
 the stacked equations ``A θ = B``, docs/MATH.md §3-§4) and updates its state::
 
-    window not ready            → hold θ̂, σ; valid = 0; status WINDOW_NOT_READY
+    window not ready, or A or B
+    not finite (a bad sample)   → hold θ̂, σ; valid = 0; status WINDOW_NOT_READY
     solved, accepted            → θ̂, σ from the solve; valid = 1; status OK
     rank deficient or cond > C  → hold θ̂, σ; valid = 0; status NOT_IDENTIFIABLE,
                                   ``unidentified`` flags the unexcited parameters
@@ -148,7 +149,8 @@ def identifier_update(
         covariance: None, or θ -> Σ of the window's rows: the covariance-weighted
             solve (``core.row_covariance``; weighting, noise and jackknife unused).
     """
-    if not window_valid:
+    if not window_valid or not (np.isfinite(A).all() and np.isfinite(B).all()):
+        # A window holding a non-finite entry is a window holding a bad sample.
         return identifier_apply(state, False, None)
     result = solve_window(
         A,

@@ -209,9 +209,13 @@ def jacobi_history(ring: JacobiRing, state: np.ndarray) -> np.ndarray:
 
 
 def jacobi_valid(ring: JacobiRing, state: np.ndarray) -> bool:
-    """True once the ring holds L = N+1 real samples (the transient is over)."""
+    """True once the ring holds L = N+1 real samples, all of them finite.
+
+    Until then the transient is not over; a NaN or inf sample makes the outputs
+    non-finite for the L samples it stays in the ring (not valid then).
+    """
     _check_ring("jacobi_valid", ring, state)
-    return bool(state[-1] >= ring.num_taps)
+    return bool(state[-1] >= ring.num_taps) and bool(np.isfinite(state[:-2]).all())
 
 
 def _check_ring(owner: str, ring: Any, state: Any = None) -> None:

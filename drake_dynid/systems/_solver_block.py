@@ -75,6 +75,13 @@ class SolverBlock:
         """Checks and stores the solve settings; returns the checked offset [s]."""
         p = check.integer(owner, "num_parameters", num_parameters, 1)
         r = check.integer(owner, "num_rows", num_rows, 1)
+        if r <= p:
+            check.fail(
+                owner,
+                f"num_rows must exceed num_parameters: {r} rows cannot identify {p} "
+                "parameters and their σ (the residual needs degrees of freedom); "
+                "give the bank more rows (ModulatingIntegralBank.num_rows).",
+            )
         self._period = check.positive(owner, "update_period", update_period, "s")
         offset = check.real(owner, "offset", offset, "s")
         if offset < 0.0:

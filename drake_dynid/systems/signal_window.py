@@ -54,6 +54,7 @@ class SignalWindow(LeafSystem):
         super().__init__()
         owner = "SignalWindow"
         self._n = check.integer(owner, "num_joints", num_joints, 1)
+        check.integer(owner, "num_samples", num_samples, 1)
         period = check.positive(owner, "time_step", time_step, "s")
         offset = check.real(owner, "offset", offset, "s")
         if offset < 0.0:

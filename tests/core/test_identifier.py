@@ -51,3 +51,21 @@ def test_init_checks_its_arguments():
         identifier_init(0)
     with pytest.raises(ValueError, match=r"initial_theta must have shape \(2\)"):
         identifier_init(2, [1.0])
+
+
+@pytest.mark.parametrize("where", ["A", "B"])
+def test_a_non_finite_window_is_a_window_holding_a_bad_sample(where):
+    """Found by a review: NaN in A was NOT_IDENTIFIABLE, flagging parameter 0 as
+    not excited, and inf in B flagged nothing; it is a bad sample (status 1)."""
+    rng = np.random.default_rng(12)
+    a = rng.normal(size=(40, 3))
+    b = a @ np.array([1.0, -2.0, 0.5])
+    solved = identifier_update(identifier_init(3), True, a, b)
+    if where == "A":
+        a[0, 0] = np.nan
+    else:
+        b[5] = np.inf
+    held = identifier_update(solved, True, a, b)
+    assert not held.valid and held.status is Status.WINDOW_NOT_READY
+    np.testing.assert_array_equal(held.theta, solved.theta)
+    np.testing.assert_array_equal(held.unidentified, solved.unidentified)

@@ -532,3 +532,20 @@ def test_matched_bank_is_one_low_pass_on_every_derivative(kappa, mu, q):
     # The unmatched order-0 filter does not have this property.
     g0 = jacobi_filters((0, 1), 0.2, h, kappa=kappa, mu=mu, q=q)[0]
     assert np.max(np.abs(jacobi_batch(g0, xdot)[400:] - derivative)) > 1e-2
+
+
+def test_a_non_finite_sample_is_not_valid_while_it_is_in_the_ring():
+    """Found by a review: ``valid`` counted samples only, so the block alone said
+    1 while its outputs were NaN for the N+1 samples after a NaN input."""
+    ring = jacobi_ring([jacobi_filter(1, 0.02, 1e-3, kappa=1.0, mu=1.0, q=1)], 2)
+    state = jacobi_initial_state(ring)
+    for k in range(ring.num_taps):
+        state = jacobi_step(ring, state, [k * 1e-3, 1.0])
+    assert jacobi_valid(ring, state)
+    state = jacobi_step(ring, state, [np.nan, 1.0])
+    for _ in range(ring.num_taps - 1):
+        assert not jacobi_valid(ring, state)
+        assert not np.isfinite(jacobi_outputs(ring, state)).all()
+        state = jacobi_step(ring, state, [0.0, 1.0])
+    state = jacobi_step(ring, state, [0.0, 1.0])  # the NaN has left the ring
+    assert jacobi_valid(ring, state) and np.isfinite(jacobi_outputs(ring, state)).all()

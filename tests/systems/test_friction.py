@@ -93,3 +93,14 @@ def test_block_equals_the_core_function(smoothing):
             rtol=1e-14,
             atol=1e-15,
         )
+
+
+def test_a_single_number_for_every_joint_is_named_as_such():
+    """Found by a review: "coulomb must have shape (any); got ()"."""
+    from drake_dynid.systems.friction import JointFriction
+    from drake_dynid.systems.signal_window import SignalWindow
+
+    with pytest.raises(ValueError, match=r"coulomb must have shape \(N,\), a 1-D"):
+        JointFriction(0.1, 0.2)
+    with pytest.raises(ValueError, match="SignalWindow: num_samples must be >= 1"):
+        SignalWindow(2, 0, 0.02)

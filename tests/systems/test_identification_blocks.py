@@ -358,3 +358,15 @@ def test_bank_block_takes_any_modulating_bank_design():
         outputs.append(block.get_output_port_B().Eval(context).copy())
     np.testing.assert_array_equal(outputs[0], outputs[1])
     assert wrapped.pushes == 30
+
+
+@pytest.mark.parametrize("rows", [2, 3])
+def test_a_window_that_can_never_be_solved_is_refused(rows):
+    """Found by a review: num_rows <= num_parameters built, then every solve was
+    status 2 with a NaN condition number and nothing flagged."""
+    from drake_dynid.systems.identifier import SlidingQRIdentifier
+    from drake_dynid.systems.payload import PayloadIdentifier
+
+    for block in (SlidingQRIdentifier, PayloadIdentifier):
+        with pytest.raises(ValueError, match="num_rows must exceed num_parameters"):
+            block(3, rows, 0.1)
