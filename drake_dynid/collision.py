@@ -76,7 +76,7 @@ class SelfCollision:
         from drake_dynid.urdf import load_plant
 
         builder = DiagramBuilder()
-        plant = load_plant(path, builder=builder, geometry=True)
+        plant = load_plant(path, builder=builder, geometry="collision")
         scene_graph = next(
             s for s in builder.GetSystems() if s.get_name() == "scene_graph"
         )

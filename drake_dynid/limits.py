@@ -68,9 +68,17 @@ def read_limits_file(path: str | Path) -> dict[str, dict[str, float]]:
         ValueError: unreadable or malformed file (the message says what to fix).
     """
     file = Path(path)
+    if file.is_dir():
+        raise ValueError(f"limits file {file} is a directory, expected a file.")
     if not file.is_file():
         raise ValueError(f"limits file not found: {file}.")
-    text = file.read_text()
+    try:
+        text = file.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"limits file {file} is not UTF-8 text (byte {error.start}); save it as "
+            "UTF-8."
+        ) from None
     if file.suffix.lower() == ".toml":
         try:
             import tomllib

@@ -71,8 +71,14 @@ def _check_file(owner: str, path: Any) -> Path:
     if not isinstance(path, (str, Path)):
         raise TypeError(f"{owner}: path must be a str or Path; got {type(path)}.")
     file = Path(path)
+    if file.is_dir():
+        raise ValueError(f"{owner}: URDF {file} is a directory, expected a file.")
     if not file.is_file():
-        raise ValueError(f"{owner}: URDF file not found: {file}.")
+        available = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.urdf")))
+        raise ValueError(
+            f"{owner}: URDF file not found: {file} (the dynid command also takes "
+            f"the name of a packaged model: {available})."
+        )
     return file
 
 
@@ -157,13 +163,17 @@ def read_urdf_mimic(path: str | Path) -> dict[str, tuple[str, float, float]]:
 # the rest of the file (namespaces, drake: tags) reaches Drake unchanged.
 _COMMENT = re.compile(r"<!--.*?-->", re.S)
 _GEOMETRY = re.compile(r"<(visual|collision)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
+_VISUAL = re.compile(r"<(visual)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
 _RELATIVE_FILE = re.compile(
     r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://|/)([^"']+)\2"""
 )
 
 
-def _strip_geometry(text: str, directory: Path) -> str:
+def _strip_geometry(text: str, directory: Path, keep_collision: bool = False) -> str:
     """URDF text without comments, ``<visual>`` and ``<collision>``.
+
+    ``keep_collision``: only the ``<visual>`` elements are removed (a collision
+    check needs no visual mesh, and a missing one must not stop it).
 
     Each removed element leaves its newlines, so Drake's messages keep the file's
     line numbers. Any other relative ``filename`` left is made absolute (relative
@@ -173,7 +183,9 @@ def _strip_geometry(text: str, directory: Path) -> str:
     def blank(match: re.Match) -> str:
         return "\n" * match.group(0).count("\n")
 
-    text = _GEOMETRY.sub(blank, _COMMENT.sub(blank, text))
+    text = (_VISUAL if keep_collision else _GEOMETRY).sub(
+        blank, _COMMENT.sub(blank, text)
+    )
     return _RELATIVE_FILE.sub(
         lambda m: (
             f"{m.group(1)}{m.group(2)}{(directory / m.group(3)).as_posix()}{m.group(2)}"
@@ -249,7 +261,7 @@ def load_plant(
     gravity: Sequence[float] | None = None,
     weld_root: bool = True,
     sampled_output_ports: bool = False,
-    geometry: bool = False,
+    geometry: bool | str = False,
 ) -> Any:
     """Loads a URDF robot into a finalized ``MultibodyPlant``.
 
@@ -272,7 +284,7 @@ def load_plant(
 
 
 def _parse(
-    owner: str, plant: Any, file: Path, geometry: bool
+    owner: str, plant: Any, file: Path, geometry: bool | str
 ) -> tuple[list[Any], str | None]:
     """Adds the models of ``file`` to ``plant``; returns them and the summary."""
     from pydrake.multibody.parsing import Parser
@@ -282,9 +294,16 @@ def _parse(
     drake_logger.addFilter(log)
     try:
         parser = Parser(plant)
-        if file.suffix.lower() == ".urdf" and not geometry:
+        if file.suffix.lower() == ".urdf" and geometry in (False, "collision"):
+            try:
+                source = file.read_bytes().decode("utf-8-sig")
+            except UnicodeDecodeError as error:
+                raise ValueError(
+                    f"{owner}: URDF {file} is not UTF-8 text (byte {error.start}); "
+                    "save it as UTF-8."
+                ) from None
             text = _strip_geometry(
-                file.read_text(encoding="utf-8"), file.resolve().parent
+                source, file.resolve().parent, keep_collision=geometry == "collision"
             )
             instances = parser.AddModelsFromString(text, "urdf")
         else:
@@ -292,9 +311,14 @@ def _parse(
     except RuntimeError as error:
         message = str(error).strip().splitlines()[0] if str(error).strip() else ""
         message = message.replace("<literal-string>.urdf", file.name)
+        hint = (
+            "a file it names is missing"
+            if "does not exist" in message
+            else "valid XML, every joint's parent and child links defined"
+        )
         raise ValueError(
-            f"{owner}: could not parse {file}: {message}. Fix the URDF (valid XML, "
-            "every joint's parent and child links defined)."
+            f"{owner}: could not parse {file}: {message.rstrip('.')}. Fix the URDF "
+            f"({hint})."
         ) from None
     finally:
         drake_logger.removeFilter(log)
@@ -341,7 +365,7 @@ def load_urdf(
     gravity: Sequence[float] | None = None,
     weld_root: bool = True,
     sampled_output_ports: bool = False,
-    geometry: bool = False,
+    geometry: bool | str = False,
 ) -> LoadedUrdf:
     """Loads a URDF robot into a finalized ``MultibodyPlant``, with the notes.
 
@@ -364,7 +388,8 @@ def load_urdf(
             q_{k+1} with the torque computed from x_k. Live ports give every block
             x_k at t_k (docs/CONVENTIONS.md §2; tested).
         geometry: keep ``<visual>`` and ``<collision>`` (for a visualisation; every
-            mesh must then resolve). Identification needs none: by default they
+            mesh must then resolve); ``"collision"``: keep ``<collision>`` only
+            (a self-collision check). Identification needs none: by default they
             are stripped.
 
     Returns:

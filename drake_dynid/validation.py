@@ -517,11 +517,19 @@ def read_results(path: str | os.PathLike) -> dict[str, Any]:
         ValueError: not JSON, or no ``parameters`` list.
     """
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(
+            f"results file {path}: is a directory, expected a file."
+        )
     if not os.path.isfile(path):
         raise FileNotFoundError(f"results file {path}: no such file.")
     try:
-        with open(path) as stream:
-            document = json.load(stream)
+        with open(path, "rb") as stream:
+            document = json.loads(stream.read().decode("utf-8-sig"))
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"results file {path}: not UTF-8 text (byte {error.start})."
+        ) from None
     except json.JSONDecodeError as error:
         raise ValueError(f"results file {path}: not valid JSON ({error}).") from None
     if not isinstance(document, dict) or not isinstance(

@@ -189,6 +189,16 @@ def test_identify_reads_raw_files_through_the_drive(files, tmp_path):
             ('torque_unit = "A"', 'torque_units = "A"'),
             r"unknown key\(s\) torque_units in log",
         ),
+        # A field of the wrong type (found by a review: a traceback, exit 1).
+        (
+            ("gear_ratio = 50", 'gear_ratio = "50"'),
+            "motors.m1.gear_ratio must be a real number; got '50' of type str",
+        ),
+        (
+            ("m4 = 90.0", 'm4 = "a"'),
+            r"log.position_offset.m4 must be a real number \[deg\]",
+        ),
+        (("gear_ratio = 50", "gear_ratio = 1e300"), "motors.m1.gear_ratio must be "),
     ],
 )
 def test_bad_drive_input_exits_2_naming_the_field(
@@ -285,3 +295,24 @@ def test_validate_finds_the_results_drive_file_or_says_it_is_missing(
     line = _error(capsys)
     assert "its drive file wrist4.toml (settings.drive) is not found" in line
     assert "--drive" in line
+
+
+def test_a_drive_file_that_is_not_utf8_text_or_a_folder_is_named(
+    files, tmp_path, capsys
+):
+    _, raw, _ = files
+    for name, content in [
+        ("utf16.toml", DRIVE.encode("utf-16")),
+        ("bom.toml", b"\xef\xbb\xbf" + DRIVE.encode()),
+    ]:
+        path = tmp_path / name
+        path.write_bytes(content)
+        code = cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(path)])
+        if name == "bom.toml":  # a byte-order mark is accepted, as in logs
+            assert code == 0
+            capsys.readouterr()
+        else:
+            assert code == 2
+            assert "not UTF-8 text (byte 0); save it as UTF-8" in _error(capsys)
+    assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(tmp_path)]) == 2
+    assert "is a directory, expected a file" in _error(capsys)

@@ -245,6 +245,24 @@ def add_log_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def urdf_argument(text: str) -> str:
+    """A URDF option (argparse type): a file, or the name of a packaged model.
+
+    ``iiwa7``, ``ur5``, ``planar_2r``, ... (``drake_dynid/models``) when no file of
+    that name exists, so an installed package's robots need no path.
+    """
+    import os
+    from pathlib import Path
+
+    if os.path.exists(text) or os.sep in text or text.lower().endswith(".urdf"):
+        return text
+    packaged = Path(__file__).resolve().parents[1] / "models" / f"{text}.urdf"
+    return str(packaged) if packaged.is_file() else text
+
+
+URDF_HELP = "the robot's URDF file, or the name of a packaged model (iiwa7, ur5, ...)"
+
+
 def fill_gaps_count(text: str) -> int:
     """``--fill-gaps N``: an integer >= 0 (argparse type)."""
     try:
@@ -278,7 +296,11 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``dynid identify`` and ``dynid offline``."""
     add_log_argument(parser)
     parser.add_argument(
-        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
+        "--urdf",
+        required=True,
+        metavar="MODEL.urdf",
+        type=urdf_argument,
+        help=URDF_HELP,
     )
     add_friction_argument(parser)
     add_joint_arguments(parser)

@@ -12,9 +12,11 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import (
+    URDF_HELP,
     add_drive_arguments,
     add_friction_argument,
     robot_from_args,
+    urdf_argument,
 )
 from drake_dynid.commands._options import option_message
 from drake_dynid.commands._paths import check_output_paths
@@ -45,7 +47,9 @@ WEAK_PERCENT = 1.0
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid excite`` arguments."""
-    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    parser.add_argument(
+        "urdf", metavar="MODEL.urdf", type=urdf_argument, help=URDF_HELP
+    )
     add_drive_arguments(parser)
     parser.add_argument(
         "--duration",

@@ -9,10 +9,12 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.commands._arguments import (
+    URDF_HELP,
     add_drive_arguments,
     add_friction_argument,
     add_joint_arguments,
     robot_from_args,
+    urdf_argument,
 )
 
 HELP = "standard and base parameters of a URDF robot"
@@ -32,7 +34,9 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid params`` arguments."""
-    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    parser.add_argument(
+        "urdf", metavar="MODEL.urdf", type=urdf_argument, help=URDF_HELP
+    )
     add_friction_argument(parser)
     add_joint_arguments(parser)
     add_drive_arguments(parser)

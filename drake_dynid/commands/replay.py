@@ -7,11 +7,13 @@ import contextlib
 import sys
 
 from drake_dynid.commands._arguments import (
+    URDF_HELP,
     add_joint_arguments,
     add_log_argument,
     log_files,
     read_robot_log,
     robot_from_args,
+    urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
 
@@ -30,7 +32,9 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid replay`` arguments."""
-    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    parser.add_argument(
+        "urdf", metavar="MODEL.urdf", type=urdf_argument, help=URDF_HELP
+    )
     add_log_argument(parser)
     parser.add_argument(
         "--drive",

@@ -12,7 +12,12 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_dynid.commands._arguments import add_friction_argument, parse_friction
+from drake_dynid.commands._arguments import (
+    URDF_HELP,
+    add_friction_argument,
+    parse_friction,
+    urdf_argument,
+)
 from drake_dynid.commands._paths import check_output_paths
 
 HELP = "simulate a robot log (the URDF arm tracking a trajectory, with noise)"
@@ -38,7 +43,9 @@ DESCRIPTION = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid simulate`` arguments."""
-    parser.add_argument("urdf", metavar="MODEL.urdf", help="the robot's URDF file")
+    parser.add_argument(
+        "urdf", metavar="MODEL.urdf", type=urdf_argument, help=URDF_HELP
+    )
     parser.add_argument(
         "--trajectory",
         required=True,

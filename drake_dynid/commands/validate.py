@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import (
+    URDF_HELP,
     LogFiles,
     add_dead_zone_argument,
     add_drive_arguments,
@@ -24,6 +25,7 @@ from drake_dynid.commands._arguments import (
     dead_zone_line,
     log_files,
     read_robot_log,
+    urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
 
@@ -372,7 +374,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid validate`` arguments."""
     add_log_argument(parser)
     parser.add_argument(
-        "--urdf", required=True, metavar="MODEL.urdf", help="the robot's URDF file"
+        "--urdf",
+        required=True,
+        metavar="MODEL.urdf",
+        type=urdf_argument,
+        help=URDF_HELP,
     )
     parser.add_argument(
         "--params",

@@ -363,23 +363,36 @@ def read_drive(
     """Reads a TOML drive file (docs/DRIVE.md) and resolves it (see from_dict).
 
     Raises:
-        FileNotFoundError: no such file. ValueError: not TOML, or an invalid field
-            (the message starts with ``drive file <path>:`` and names the field).
+        FileNotFoundError: no such file (IsADirectoryError: a folder).
+        ValueError: not UTF-8, not TOML, or an invalid field or field type (the
+            message starts with ``drive file <path>:`` and names the field).
     """
     import tomllib  # standard library since Python 3.11
 
     path = os.fspath(path)
+    if os.path.isdir(path):
+        raise IsADirectoryError(f"drive file {path}: is a directory, expected a file.")
     if not os.path.isfile(path):
         raise FileNotFoundError(f"drive file {path}: no such file.")
+    with open(path, "rb") as stream:
+        raw = stream.read()
     try:
-        with open(path, "rb") as stream:
-            data = tomllib.load(stream)
+        text = raw.decode("utf-8-sig")  # a byte-order mark is accepted, as in logs
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"drive file {path}: not UTF-8 text (byte {error.start}); save it as UTF-8."
+        ) from None
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ValueError(f"drive file {path}: not valid TOML: {error}.") from None
-    return DriveChain.from_dict(
-        data,
-        joint_names,
-        prismatic_joints=prismatic_joints,
-        urdf=urdf,
-        source=f"drive file {path}",
-    )
+    try:
+        return DriveChain.from_dict(
+            data,
+            joint_names,
+            prismatic_joints=prismatic_joints,
+            urdf=urdf,
+            source=f"drive file {path}",
+        )
+    except TypeError as error:  # a field of the wrong type: bad input, named
+        raise ValueError(str(error)) from None

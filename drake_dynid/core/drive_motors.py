@@ -93,6 +93,12 @@ def _row_text(row: Mapping[str, float]) -> str:
     return "{" + ", ".join(f"{j} = {r:g}" for j, r in row.items()) + "}"
 
 
+#: Magnitudes accepted for a gear ratio or a coupling entry [motor rad per joint
+#: rad]: real drives lie within 1e-3 … 1e4; beyond 1e-6 … 1e6 the coupling matrix
+#: loses its rank to round-off, so the message names the ratio instead.
+RATIO_RANGE = (1e-6, 1e6)
+
+
 class _Builder:
     """Validates the drive dict and resolves the motors (see DriveChain.from_dict)."""
 
@@ -120,6 +126,11 @@ class _Builder:
         out = real(self.owner, field, value)
         if out == 0.0:
             self.fail(f"{field} must be non-zero [motor rad per joint rad]; got 0.")
+        if not RATIO_RANGE[0] <= abs(out) <= RATIO_RANGE[1]:
+            self.fail(
+                f"{field} must be within ±{RATIO_RANGE[0]:g} … ±{RATIO_RANGE[1]:g} "
+                f"[motor rad per joint rad] (a gear ratio); got {out:g}."
+            )
         return out
 
     def row_from_table(self, field: str, table: Any) -> dict[str, float]:
