@@ -103,6 +103,20 @@ def _block_rows(p: int) -> int:
     return max(4 * (p + 1), _BLOCK_ENTRIES // (p + 1))
 
 
+#: A column whose norm is at most this fraction of the largest column's is not
+#: excited: round-off, not data (a frozen encoder's filtered velocity is 1e-13 of
+#: the moving joints'; scaled to unit norm, such a column gave FV1 = -4.7e16 with
+#: %σ 29, "identified"). Real columns differ by units and excitation, never by 10
+#: orders of magnitude.
+ROUND_OFF_COLUMN = 1e-10
+
+
+def round_off_floor(norms: np.ndarray) -> float:
+    """The norm at or below which a column is zero (:data:`ROUND_OFF_COLUMN`)."""
+    largest = float(np.max(norms)) if np.size(norms) else 0.0
+    return max(np.finfo(float).tiny, ROUND_OFF_COLUMN * largest)
+
+
 def _column_norms(A: np.ndarray) -> np.ndarray:
     """‖A_:j‖, scaled by the column's largest entry (no overflow).
 
@@ -257,13 +271,14 @@ def _decompose(
             ),
         )
     norms = _column_norms(A)
-    zero = np.flatnonzero(norms <= np.finfo(float).tiny)
+    zero = np.flatnonzero(norms <= round_off_floor(norms))
     if zero.size:
         return (
             A,
             B,
             invalid(
-                f"rank deficient: zero column(s), parameter(s) not excited: "
+                "rank deficient: zero or round-off column(s) (at most "
+                f"{ROUND_OFF_COLUMN:g} of the largest), parameter(s) not excited: "
                 f"{_describe(names, zero)}.",
                 condition=np.inf,
                 rank=p - zero.size,

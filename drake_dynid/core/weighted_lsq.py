@@ -14,6 +14,7 @@ core replay both call, optionally with the honest sandwich σ of
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -22,6 +23,7 @@ import numpy as np
 from drake_dynid.core import _validate as v
 from drake_dynid.core.lsq import (
     DEFAULT_MAX_CONDITION,
+    ROUND_OFF_COLUMN,
     LeastSquaresResult,
     _decompose,
     _estimate,
@@ -412,7 +414,13 @@ def _stacked_solve(
 
     _, rows, p = A.shape
     done = np.isfinite(A).all(axis=(1, 2)) & np.isfinite(B).all(axis=1)
-    done[done] = (np.max(np.abs(A[done]), axis=1) > np.finfo(float).tiny).all(axis=1)
+    # Windows that may hold a zero or round-off column (core.lsq: a norm at most
+    # ROUND_OFF_COLUMN of the largest; peak <= norm <= sqrt(rows)·peak) go to
+    # solve_window, which names them.
+    peaks = np.max(np.abs(A[done]), axis=1)  # (windows, p)
+    floor = ROUND_OFF_COLUMN * math.sqrt(rows) * np.max(peaks, axis=1, initial=0.0)
+    floor = np.maximum(floor, np.finfo(float).tiny)
+    done[done] = (peaks > floor[:, None]).all(axis=1)
     if rows <= p:
         done[:] = False
     eps = np.finfo(float).eps

@@ -319,3 +319,18 @@ def test_lean_weighted_solve_equals_the_two_full_solves():
     # Well conditioned (R's Frobenius bound suffices), moderate (the SVD decides),
     # ill-conditioned (the first pass's invalid result).
     assert conditions[0] < 20 and 1e3 < conditions[3] < 1e4 < conditions[4]
+
+
+def test_a_round_off_column_is_not_excited():
+    """Found by a review: a frozen encoder's filtered velocity (1e-13 of the other
+    columns) passed the exact-zero test; scaled to unit norm it gave FV1 = -4.7e16
+    with %σ 29, not flagged. A column at most 1e-10 of the largest is zero."""
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(60, 3))
+    B = A @ np.array([1.0, 2.0, 3.0]) + 0.01 * rng.normal(size=60)
+    A[:, 1] = 1e-13 * rng.normal(size=60)
+    result = solve_least_squares(A, B, names=("a", "b", "c"))
+    assert not result.valid and result.unidentified == ("b",)
+    assert "round-off" in result.reason
+    A[:, 1] *= 1e6  # 1e-7 of the others: data (the floor is 1e-10)
+    assert solve_least_squares(A, B).valid
