@@ -191,7 +191,10 @@ def _split_header(path: str, text: str, first_line: int) -> tuple[list[str], str
         raise ValueError(
             f"log {path}: row {header_line}: the header is not valid CSV ({error})."
         ) from None
-    return [cell.strip() for cell in header], text[end + 1 :], header_line + 1
+    cells = [cell.strip() for cell in header]
+    while len(cells) > 1 and cells[-1] == "":  # a logger's trailing commas
+        cells.pop()
+    return cells, text[end + 1 :], header_line + 1
 
 
 def _blank_line(text: str) -> bool:
@@ -400,8 +403,33 @@ def read_table(
     notes: list[str] = []
     count = 0
 
+    def drop_unended(body: str, first: int) -> str:
+        """The block without the file's last row when that row has no line end.
+
+        A logger interrupted mid-row may have cut its last cell ('-1.7012' read
+        as '-1'); dropped when at least 2 rows remain.
+        """
+        cut = body.rfind("\n") + 1
+        tail, kept = body[cut:], body[:cut]
+        rows_before = count + sum(1 for line in kept.split("\n") if line.strip())
+        if not tail.strip() or rows_before < 2:
+            return body
+        row = first + kept.count("\n")
+        cells = next(csv.reader([tail]), [])
+        shown = (
+            f"cut short ({len(cells)} of {len(header)} cells, no line end"
+            if len(cells) < len(header)
+            else "without a line end (its last cell may be cut"
+        )
+        notes.append(
+            f"the last row {row} is {shown}: was the logger interrupted?): dropped."
+        )
+        return kept
+
     def parse(body: str, first: int, final: bool) -> None:
         nonlocal count
+        if final and body and not body.endswith("\n"):
+            body = drop_unended(body, first)
         data = _fast(body, len(header), index, final)
         lines: Any
         if data is not None:
@@ -413,15 +441,6 @@ def read_table(
 
         else:
             records = _records(path, body, first)
-            truncated = final and not body.endswith("\n")
-            if truncated and count + len(records) >= 3:
-                if records and len(records[-1][1]) < len(header):
-                    row, record = records.pop()
-                    notes.append(
-                        f"the last row {row} is cut short ({len(record)} of "
-                        f"{len(header)} cells, no line end: was the logger "
-                        "interrupted?): dropped."
-                    )
             data, lines = _slow(path, records, header, index, wanted)
 
             def cells() -> list[str]:

@@ -161,6 +161,27 @@ def test_a_last_row_cut_short_without_a_line_end_is_dropped(tmp_path):
     assert any("last row 12 is cut short" in w for w in log.warnings)
 
 
+@pytest.mark.parametrize(
+    "tail", ["0.01,10,20,30,-", "0.01,10,20,30,4e", "0.01,10,20,30,-1"]
+)
+def test_a_last_row_cut_inside_its_last_cell_is_dropped(tmp_path, tail):
+    """Found by a review: cut to '-' or '4e' it was an error, cut to '-1' (from
+    '-1.70') it was read as -1 without a word. A last row without a line end may
+    be cut anywhere: it is dropped, said."""
+    path = write_text(tmp_path / "cut.csv", HEADER + rows(10) + tail)
+    log = read_log(path, JOINTS)
+    assert log.num_samples == 10
+    assert any("last row 12 is without a line end" in w for w in log.warnings)
+
+
+def test_a_trailing_comma_in_the_header_and_the_rows_is_read_silently(tmp_path):
+    """Found by a review: it warned "ignored extra column(s) ." (an empty name)."""
+    text = HEADER.replace("\n", ",\n") + rows(10).replace("\n", ",\n")
+    log = read_log(write_text(tmp_path / "t.csv", text), JOINTS)
+    assert log.num_samples == 10 and log.warnings == ()
+    np.testing.assert_array_equal(log.q[:, 0], np.arange(10))
+
+
 def test_blank_lines_keep_the_row_numbers_of_the_file(tmp_path):
     path = write_text(
         tmp_path / "blank.csv", "\n" + HEADER + "0,1,2,3,4\n\n0.001,x,2,3,4\n"
