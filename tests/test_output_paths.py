@@ -168,3 +168,21 @@ def test_an_output_in_a_folder_that_cannot_be_written_is_refused(
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert f"the folder {locked} cannot be written" in err, err
+
+
+@pytest.mark.parametrize("name", ["fit.xyz", "fit"])
+def test_a_plot_in_an_unknown_format_is_refused_before_any_work(files, capsys, name):
+    """Found by a review: "Format 'xyz' is not supported" after the whole fit."""
+    argv = ["offline", files["log"], "--urdf", files["urdf"], "--plot", name]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert f"--plot {name}: a figure file ends in " in err and ".png" in err, err
+
+
+def test_bootstrap_has_a_ceiling(files, capsys):
+    """Found by a review: --bootstrap 1000000 ran for minutes."""
+    argv = ["identify", files["log"], "--urdf", files["urdf"], "--bootstrap", "1001"]
+    assert cli.main(argv) == 2
+    assert "--bootstrap must be 0 (no bootstrap) or a number of replicates in 2" in (
+        capsys.readouterr().err
+    )

@@ -45,6 +45,13 @@ OUTPUTS: dict[str, str] = {
 }
 
 
+#: The figure formats ``--plot`` writes (matplotlib's Agg canvas), by extension.
+FIGURE_SUFFIXES = frozenset(
+    {".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif"}
+    | {".tiff", ".webp", ".pgf", ".raw", ".rgba", ".gif", ".avif"}
+)
+
+
 def _same(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     first, second = Path(a), Path(b)
     try:
@@ -117,6 +124,12 @@ def check_outputs(
         if Path(path).is_dir():
             raise ValueError(f"{option} {path} is a directory; give a file path.")
         _check_parent(option, path)
+        if option == "--plot" and Path(path).suffix.lower() not in FIGURE_SUFFIXES:
+            raise ValueError(
+                f"--plot {path}: a figure file ends in "
+                f"{', '.join(sorted(FIGURE_SUFFIXES))} (matplotlib's formats); got "
+                f"{Path(path).suffix or 'no extension'}."
+            )
     for i, (option, path) in enumerate(given):
         for other, other_path in given[i + 1 :]:
             if _same(path, other_path):

@@ -31,7 +31,11 @@ from drake_dynid.commands._report import (
     write_estimates_csv,
     write_trace_outputs,
 )
-from drake_dynid.core.bootstrap import DEFAULT_REPLICATES, bootstrap_std
+from drake_dynid.core.bootstrap import (
+    DEFAULT_REPLICATES,
+    MAX_REPLICATES,
+    bootstrap_std,
+)
 from drake_dynid.core.rows import MODEL_KINDS
 
 HELP = "on-line identification (modulating functions + sliding QR) over a robot log"
@@ -739,10 +743,13 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.commands.validate import check_output_paths, validation_split
 
     check_output_paths(args)
-    if args.bootstrap is not None and (args.bootstrap < 0 or args.bootstrap == 1):
+    if args.bootstrap is not None and (
+        args.bootstrap < 0 or args.bootstrap == 1 or args.bootstrap > MAX_REPLICATES
+    ):
         raise ValueError(
-            f"--bootstrap must be 0 (no bootstrap) or a number of replicates >= 2; "
-            f"got {args.bootstrap}."
+            f"--bootstrap must be 0 (no bootstrap) or a number of replicates in 2 … "
+            f"{MAX_REPLICATES} (σ from K replicates is within about 1/sqrt(2K) of "
+            f"its value: 2 % at {MAX_REPLICATES}); got {args.bootstrap}."
         )
     settings = online_settings(args)  # every value checked, nothing allocated
     if args.plot:

@@ -34,11 +34,21 @@ import numpy as np
 
 from drake_dynid.core import _validate as v
 
-__all__ = ["DEFAULT_REPLICATES", "BootstrapStd", "bootstrap_std", "window_start"]
+__all__ = [
+    "DEFAULT_REPLICATES",
+    "MAX_REPLICATES",
+    "BootstrapStd",
+    "bootstrap_std",
+    "window_start",
+]
 
 #: Replicates of the default bootstrap: the sample std of K normal draws is within
 #: ±18 % (one σ of its sampling spread, 1/√(2(K-1))) at K = 16.
 DEFAULT_REPLICATES = 16
+
+#: The most replicates ``dynid identify --bootstrap`` takes (a ceiling on the work
+#: per option value: about 35 s on a 7-DOF window; σ then within 2 %).
+MAX_REPLICATES = 1000
 
 
 @dataclass(frozen=True)
