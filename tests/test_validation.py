@@ -504,3 +504,15 @@ def test_the_metrics_summed_by_blocks_equal_the_whole_arrays():
     assert np.isnan(got["r_squared"][2]) and np.isnan(whole.metrics(0)["r_squared"][2])
     for key, value in whole.metrics(0).items():
         np.testing.assert_allclose(got[key], value, rtol=1e-12)
+
+
+def test_a_held_out_part_too_short_is_refused_before_the_fit(logs, tmp_path, capsys):
+    """Found by a review: --split 0.999 ran the whole fit (and wrote --out) before
+    the validation found 30 samples for 103 needed."""
+    log_path = logs["fit"][0]
+    out = tmp_path / "fit.csv"
+    argv = ["offline", log_path, "--urdf", URDF, "--split", "0.99", "--out", str(out)]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "is long enough" in err or "at least 16 are needed" in err, err
+    assert "use a smaller --split" in err and not out.exists()

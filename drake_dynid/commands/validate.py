@@ -83,6 +83,19 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _check_held_out(args: argparse.Namespace, held: Any, description: str) -> None:
+    """The held-out log is long enough to validate on, checked before the fit."""
+    from drake_dynid.validation import check_validation_length
+
+    try:
+        check_validation_length(held, getattr(args, "cutoff", None))
+    except ValueError as error:
+        text = str(error)
+        if getattr(args, "split", None):
+            text = f"{text.rstrip('.')}; use a smaller --split."
+        raise ValueError(f"validation on {description}: {text}") from None
+
+
 def validation_split(
     args: argparse.Namespace, log: Any, robot: Any
 ) -> tuple[Any, Any, str]:
@@ -100,7 +113,9 @@ def validation_split(
         from drake_dynid.validation import split_log  # scipy.signal: only here
 
         first, rest = split_log(log, split)
-        return first, rest, f"{args.log} after the first {100 * split:g} %"
+        description = f"{args.log} after the first {100 * split:g} %"
+        _check_held_out(args, rest, description)
+        return first, rest, description
     if other:
         held = read_robot_log(
             log_files(args, "validate"),
@@ -109,6 +124,7 @@ def validation_split(
             command=getattr(args, "command", "dynid"),
             fill_gaps=getattr(args, "fill_gaps", None),
         )
+        _check_held_out(args, held, str(other))
         return log, held, str(other)
     return log, None, ""
 
