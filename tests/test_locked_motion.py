@@ -52,3 +52,21 @@ def test_the_command_prints_it(tmp_path, capsys):
     assert "joint(s) not identified move in the log (joint2 from " in err, err
     cli.main(["offline", path, "--urdf", URDF, "--quiet"])
     assert "not identified move" not in capsys.readouterr().err
+
+
+def test_columns_that_never_change_are_said(tmp_path, capsys):
+    """Found by a review: all-zero torques gave "final window: valid" and an
+    all-zero estimate, and a frozen encoder confident nonsense, without a word
+    about the log."""
+    from drake_dynid.commands._arguments import constant_channels
+    from drake_dynid.logs import read_log
+
+    path = _log(tmp_path / "log.csv", None)
+    log = read_log(path, ("joint1", "joint2"))  # tau = 1 everywhere in _log
+    warning = constant_channels(log)
+    assert "tau_joint1 = 1, tau_joint2 = 1 never change" in warning
+    assert "q_" not in warning
+    frozen = _log(tmp_path / "frozen.csv", 0.25)
+    cli.main(["offline", frozen, "--urdf", URDF, "--quiet"])
+    err = capsys.readouterr().err
+    assert "q_joint2 = 0.25 never change: a joint that does not move" in err, err
