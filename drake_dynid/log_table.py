@@ -244,11 +244,16 @@ def _fast(body: str, width: int, index: list[int], last: bool = True):
     return numbers[:, index]
 
 
-def _cell(path: str, text: str, row: int, column: str) -> float:
+def parse_cell(path: str, text: str, row: int, column: str) -> float:
+    """One CSV cell as a number: empty is NaN, anything but a number a ValueError."""
     text = text.strip()
     if text == "":
         return float("nan")
     try:
+        # Python's float() also reads '0_5' (as 5) and non-ASCII digits ('１７'):
+        # not numbers a logger writes, and not what numpy's parser accepts.
+        if "_" in text or not text.isascii():
+            raise ValueError(text)
         return float(text)
     except ValueError:
         shown = text if len(text) <= 40 else text[:40] + "..."
@@ -286,7 +291,7 @@ def _slow(path, records, header, index, wanted):
                 f"{len(header)}."
             )
         for c, i in enumerate(index):
-            data[r, c] = _cell(path, record[i], row, wanted[c])
+            data[r, c] = parse_cell(path, record[i], row, wanted[c])
     rows = np.array([row for row, _ in records], dtype=np.int64)
     return data, rows
 

@@ -48,6 +48,7 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
+from drake_dynid.log_table import parse_cell
 
 __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
@@ -91,18 +92,6 @@ def _header(path: str) -> list[str]:
     raise ValueError(f"log {path}: the file is empty; expected a header row.")
 
 
-def _cell(text: str, path: str, row: int, column: str) -> float:
-    text = text.strip()
-    if text == "":
-        return np.nan
-    try:
-        return float(text)
-    except ValueError:
-        raise ValueError(
-            f"log {path}: row {row}, column '{column}': '{text}' is not a number."
-        ) from None
-
-
 def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:
     """(N, len(names)) numbers of the named columns; fast path, then cell by cell."""
     index = [header.index(name) for name in names]
@@ -136,7 +125,7 @@ def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:
                 f"{len(header)}."
             )
         for c, i in enumerate(index):
-            out[r, c] = _cell(row[i], path, line, names[c])
+            out[r, c] = parse_cell(path, row[i], line, names[c])
     return out
 
 

@@ -329,3 +329,12 @@ def test_good_segments_are_the_runs_of_finite_samples():
     assert not log.filled.any() and log.time_offset == 0.0
     empty = RobotLog(np.arange(3) * 1e-3, np.full((3, 2), np.nan), q[:3], JOINTS, 1e-3)
     assert empty.good_segments() == []
+
+
+@pytest.mark.parametrize("cell", ["0_5", "１７"])
+def test_cells_python_reads_but_a_logger_never_writes_are_errors(tmp_path, cell):
+    """Found by a review: '0_5' was read as 5 and '１７' as 17 (Python's float)."""
+    body = rows(10).replace("\n5,", f"\n{cell},", 1).replace(",5,", f",{cell},", 1)
+    path = write_text(tmp_path / "u.csv", HEADER + body)
+    with pytest.raises(ValueError, match=f"'{cell}' is not a number"):
+        read_log(path, JOINTS)
