@@ -45,16 +45,22 @@ FLEET_COMMANDS = ("identify", "offline")
 def output_paths(logs: Sequence[str], out_dir: str | os.PathLike) -> list[str]:
     """One JSON path per log in ``out_dir``: ``<stem>.json``, ``<stem>-2.json``, ...
 
+    Every path is distinct (a log named ``log-2.csv`` beside two ``log.csv``
+    gets ``log-2-2.json``), and none is ``summary.json``, the fleet's summary.
+
     Raises:
         ValueError: an output path is one of the logs (never overwrite an input).
     """
     folder = Path(out_dir)
-    used: dict[str, int] = {}
+    taken = {"summary"}  # the fleet's own summary.json
     out = []
     for log in logs:
         stem = Path(log).stem or "log"
-        used[stem] = used.get(stem, 0) + 1
-        name = stem if used[stem] == 1 else f"{stem}-{used[stem]}"
+        name, k = stem, 1
+        while name in taken:  # a later log's own name is never taken over
+            k += 1
+            name = f"{stem}-{k}"
+        taken.add(name)
         out.append(str(folder / f"{name}.json"))
     inputs = {Path(log).resolve() for log in logs}
     for path in out:

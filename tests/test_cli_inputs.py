@@ -69,3 +69,18 @@ def test_a_missing_visual_mesh_does_not_stop_the_collision_check(tmp_path, capsy
     argv += ["--out", str(tmp_path / "t.csv")]
     assert cli.main(argv) == 0, capsys.readouterr().err
     assert (tmp_path / "t.csv").is_file()
+
+
+def test_replay_shows_bad_samples_at_the_last_good_pose(capsys):
+    """Found by a review: a log with a run of NaN samples (read as bad samples by
+    identify and offline) failed replay with "q must be finite"."""
+    import numpy as np
+
+    from drake_dynid.commands.replay import _held_over_bad_samples
+
+    q = np.arange(12.0).reshape(6, 2)
+    q[0] = np.nan
+    q[3:5, 1] = np.nan
+    held = _held_over_bad_samples(q)
+    np.testing.assert_array_equal(held[:, 0], [2, 2, 4, 4, 4, 10])
+    assert "3 bad sample(s) shown at the last good pose" in capsys.readouterr().err

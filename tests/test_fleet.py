@@ -120,3 +120,23 @@ def test_logs_run_in_parallel_do_not_fork_a_second_process_each():
     chosen = {**given, "parallel": "auto"}
     assert task_options("identify", chosen, parallel=True) is chosen
     assert "parallel" not in task_options("offline", {}, parallel=True)
+
+
+def test_output_names_never_collide_nor_take_the_summary():
+    """Found by a review: a log named summary.csv had its JSON overwritten by the
+    summary, and a third log named log-2.csv took the second log.csv's name."""
+    from drake_dynid.fleet import output_paths
+
+    paths = output_paths(["a/log.csv", "b/log.csv", "log-2.csv", "summary.csv"], "o")
+    assert paths == ["o/log.json", "o/log-2.json", "o/log-2-2.json", "o/summary-2.json"]
+    assert len(set(paths)) == 4
+
+
+def test_out_dir_that_is_a_file_is_named(tmp_path, capsys):
+    from drake_dynid import cli
+
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n")
+    argv = ["fleet", "offline", str(log), "--urdf", "planar_2r", "--out-dir", str(log)]
+    assert cli.main(argv) == 2
+    assert f"--out-dir {log} is a file; give a folder" in capsys.readouterr().err

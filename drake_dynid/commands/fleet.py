@@ -119,6 +119,35 @@ def summary_table(items: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def _check_out_dir(args: argparse.Namespace) -> None:
+    """``--out-dir`` is a folder (or can be made one) whose files are no input.
+
+    Its per-log JSON files and summary.json are checked like any output
+    (``commands._paths``: never an input, never two at one path).
+    """
+    from pathlib import Path
+
+    from drake_dynid.commands._paths import INPUTS, check_outputs
+    from drake_dynid.fleet import output_paths
+
+    folder = Path(args.out_dir)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"--out-dir {folder} is a file; give a folder.")
+    outputs = {
+        f"--out-dir's {Path(path).name} (log {log})": path
+        for log, path in zip(args.logs, output_paths(args.logs, folder), strict=True)
+    }
+    outputs["--out-dir's summary.json"] = str(folder / "summary.json")
+    inputs = {"a log": args.logs}
+    for attribute, description in INPUTS.items():
+        if attribute not in ("log", "logs"):
+            inputs[description] = getattr(args, attribute, None)
+    if folder.is_dir():
+        check_outputs(outputs, inputs)
+    else:  # created by the run: only the inputs can collide
+        check_outputs({}, inputs)
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the command over the logs; prints the summary; exit 2 if a log failed."""
     import json
@@ -134,6 +163,7 @@ def run(args: argparse.Namespace) -> int:
             f"{', '.join(given)} would write one file for every log; a fleet writes "
             "each log's results in --out-dir (its JSON)."
         )
+    _check_out_dir(args)
     quiet = bool(args.quiet)
 
     def progress(item: dict[str, Any], done: int, total: int) -> None:

@@ -6,6 +6,8 @@ import argparse
 import contextlib
 import sys
 
+import numpy as np
+
 from drake_dynid.commands._arguments import (
     URDF_HELP,
     add_joint_arguments,
@@ -74,6 +76,28 @@ def _is_trajectory(path: str, joint_names) -> bool:
     return all(f"v_{name}" in header for name in joint_names)
 
 
+def _held_over_bad_samples(q: np.ndarray) -> np.ndarray:
+    """Q with each bad sample (a non-finite cell) shown at the last good pose.
+
+    The identification skips bad samples; an animation needs a pose at every
+    frame (the first good one before any). A note says how many were held.
+    """
+    bad = ~np.isfinite(q).all(axis=1)
+    if not bad.any():
+        return q
+    good = np.flatnonzero(~bad)
+    if good.size == 0:
+        raise ValueError("the log has no sample with finite positions to show.")
+    source = np.maximum.accumulate(np.where(bad, 0, np.arange(q.shape[0])))
+    source[: good[0]] = good[0]
+    print(
+        f"dynid replay: note: {int(bad.sum())} bad sample(s) shown at the last good "
+        "pose.",
+        file=sys.stderr,
+    )
+    return q[source]
+
+
 def run(args: argparse.Namespace) -> int:
     """Replays the file(s) in Meshcat. Returns 0."""
     from drake_dynid.commands._options import option_message
@@ -97,11 +121,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         motion = read_robot_log(files, robot, resample=False, command="replay")
         kind = "log"
+    q = _held_over_bad_samples(np.asarray(motion.q, dtype=float))
     try:
         replay = replay_in_meshcat(
             args.urdf,
             motion.t,
-            motion.q,
+            q,
             robot.joint_names,
             html=args.html,
             frames_per_second=args.fps,
