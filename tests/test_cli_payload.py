@@ -131,6 +131,8 @@ def test_offset_frames_and_bad_input(log_file, tmp_path, capsys):
         (["--frame", "gripper"], "--frame must be a body or frame of the URDF"),
         (["--frame", "iiwa_link_0"], "does not move rigidly with any identified link"),
         (["--offset", "1,2"], "--offset must be X,Y,Z"),
+        (["--offset", "1e300,0,0"], "|X|, |Y|, |Z| <= 100 m"),  # was NaN rows
+        (["--frequencies", "0"], "use more modulating functions (--frequencies"),
         (["--every", "-1"], "--every must be > 0"),
         (["--window", "-1"], "--window must be > 0"),
         (["--params", str(planar)], "holds 8 base parameters"),

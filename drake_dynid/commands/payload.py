@@ -56,6 +56,11 @@ _SETTING_OPTIONS = (
 )
 
 
+#: Largest payload offset accepted [m] (a tool is centimetres to a metre away;
+#: 1e300 made the rows overflow to NaN).
+MAX_OFFSET = 100.0
+
+
 def _triple_or_six(text: str | None) -> tuple[list[float], list[float]] | None:
     """``--offset X,Y,Z[,ROLL,PITCH,YAW]`` -> (xyz [m], rpy [rad])."""
     if text is None:
@@ -64,10 +69,14 @@ def _triple_or_six(text: str | None) -> tuple[list[float], list[float]] | None:
         values = [float(x) for x in text.split(",")]
     except ValueError:
         values = []
-    if len(values) not in (3, 6) or not all(map(math.isfinite, values)):
+    if (
+        len(values) not in (3, 6)
+        or not all(map(math.isfinite, values))
+        or max(map(abs, values[:3])) > MAX_OFFSET
+    ):
         raise ValueError(
             "--offset must be X,Y,Z [m] or X,Y,Z,ROLL,PITCH,YAW [m, rad] (finite "
-            f"numbers); got {text!r}."
+            f"numbers, |X|, |Y|, |Z| <= {MAX_OFFSET:g} m); got {text!r}."
         )
     return values[:3], (values[3:] or [0.0, 0.0, 0.0])
 
@@ -270,9 +279,10 @@ def run(args: argparse.Namespace) -> int:
             f"no window of the log gave a valid payload estimate ({trace.t.size} "
             f"solves): the payload's {rows.num_payload} parameters "
             f"({', '.join(rows.payload_names)}) are not all excited within "
-            f"--window {settings.window:g} s. Move the arm more (every joint, "
-            "changing orientation and accelerations), lengthen --window, or raise "
-            "--max-condition."
+            f"--window {settings.window:g} s with {len(settings.ell())} modulating "
+            "function(s). Move the arm more (every joint, changing orientation and "
+            "accelerations), lengthen --window, use more modulating functions "
+            "(--frequencies, default 0,1,2,3), or raise --max-condition."
         )
     t = log.t[0] + np.asarray(trace.t)
     last = int(np.flatnonzero(valid)[-1])
