@@ -227,7 +227,11 @@ def check_physical(
     prog.AddLinearCost(np.ones(robot.num_joints), 0.0, slack)
     # Keep the free directions bounded (no cost on them: a cost would trade slack
     # for distance where the feasible set is thin).
-    prog.AddBoundingBoxConstraint(problem.prior - _BOX, problem.prior + _BOX, x)
+    # The box holds the least-norm standard parameters of θ (an estimate far from
+    # the URDF's scale, e.g. torques logged in another unit, stays feasible).
+    reach = np.linalg.lstsq(rows, theta[keep], rcond=None)[0] - problem.prior
+    box = max(_BOX, 10.0 * float(np.max(np.abs(reach), initial=0.0)))
+    prog.AddBoundingBoxConstraint(problem.prior - box, problem.prior + box, x)
 
     def accept(result) -> str | None:
         xs = np.asarray(result.GetSolution(x), dtype=float)

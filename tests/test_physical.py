@@ -337,3 +337,12 @@ def test_a_physical_check_that_cannot_be_solved_does_not_stop_offline(
     assert "physical check of the estimate: not done (check_physical: " in printed
     check = json.loads(out.read_text())["physical_check"]
     assert check["consistent"] is None and check["summary"].startswith("not done")
+
+
+def test_an_estimate_far_from_the_urdfs_scale_is_still_checked():
+    """Found by a review: torques logged in mN·m (θ 1e4 times the URDF's) made the
+    feasibility program infeasible (its box was ±1e4 scale units around the URDF)
+    and stopped dynid offline. A consistent robot scaled by 1e6 is consistent."""
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    check = check_physical(robot, 1e6 * robot.base_values)
+    assert check.consistent, check.summary()
