@@ -186,3 +186,10 @@ def test_bootstrap_has_a_ceiling(files, capsys):
     assert "--bootstrap must be 0 (no bootstrap) or a number of replicates in 2" in (
         capsys.readouterr().err
     )
+
+
+def test_regularization_beyond_its_range_is_refused_before_the_fit(files, capsys):
+    """Found by a review: --regularization 1e300 failed in the solver after the fit."""
+    argv = ["offline", files["log"], "--urdf", files["urdf"], "--physical"]
+    assert cli.main([*argv, "--regularization", "1e300"]) == 2
+    assert "--regularization must be in [0, 1e6]" in capsys.readouterr().err

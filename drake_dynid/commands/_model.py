@@ -165,6 +165,16 @@ def _physical(args: argparse.Namespace, robot: Any, result: Any):
     return physical, entry
 
 
+def check_regularization(args: argparse.Namespace) -> None:
+    """``--regularization`` in [0, 1e6] (checked before the fit)."""
+    value = getattr(args, "regularization", None)
+    if value is not None and not 0.0 <= value <= 1e6:
+        raise ValueError(
+            "--regularization must be in [0, 1e6] (1e6: the URDF's values, almost "
+            f"regardless of the data); got {value:g}."
+        )
+
+
 def finish_offline(
     args: argparse.Namespace,
     robot: Any,
@@ -179,8 +189,7 @@ def finish_offline(
     """
     from drake_dynid.commands._report import write_estimates_csv
 
-    if args.regularization is not None and args.regularization < 0:
-        raise ValueError(f"--regularization must be >= 0; got {args.regularization}.")
+    check_regularization(args)
     document: dict[str, Any] = {}
     if not args.quiet:
         print()

@@ -12,6 +12,7 @@ from drake_dynid.commands._arguments import (
 )
 from drake_dynid.commands._model import (
     add_model_arguments,
+    check_regularization,
     finish_offline,
 )
 from drake_dynid.commands._options import FILTER_OPTIONS, option_message
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.offline import identify_offline
 
     check_output_paths(args)
+    check_regularization(args)
     if args.plot:
         matplotlib_pyplot()  # fail before the fit
     robot, log = load_robot_and_log(args, "offline")
