@@ -290,7 +290,23 @@ def read_raw_log(
     files = [os.fspath(p) for p in paths]
     if not files:
         raise ValueError("log: no file given.")
+    _check_distinct(files)
     return _read_streamed(files, chain, jitter_tolerance, resample, fill_gaps)
+
+
+def _check_distinct(files: Sequence[str]) -> None:
+    """ValueError when one file is given twice (by any spelling or link)."""
+    for i, first in enumerate(files):
+        for second in files[i + 1 :]:
+            try:
+                same = os.path.samefile(first, second)
+            except OSError:
+                same = os.path.abspath(first) == os.path.abspath(second)
+            if same:
+                raise ValueError(
+                    f"log: {first} and {second} are the same file, given twice; give "
+                    "each file of the log once."
+                )
 
 
 def _extra_note(extra: Sequence[str]) -> list[str]:

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -119,13 +120,15 @@ def read_trajectory(
             f"{', '.join(joint_names)} (a_<joint> optional)."
         )
     try:
-        data = np.loadtxt(file, delimiter=",", skiprows=1, ndmin=2, dtype=float)
+        with warnings.catch_warnings():  # "input contained no data": said below
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(file, delimiter=",", skiprows=1, ndmin=2, dtype=float)
     except ValueError as error:
         raise ValueError(f"trajectory {file}: not a numeric CSV: {error}.") from None
     if data.shape[0] < 2 or data.shape[1] != len(header):
         raise ValueError(
             f"trajectory {file}: needs at least 2 rows of {len(header)} numbers; "
-            f"got shape {data.shape}."
+            + ("got no data rows." if data.size == 0 else f"got shape {data.shape}.")
         )
 
     def columns(kind: str) -> np.ndarray:

@@ -84,3 +84,22 @@ def test_replay_shows_bad_samples_at_the_last_good_pose(capsys):
     held = _held_over_bad_samples(q)
     np.testing.assert_array_equal(held[:, 0], [2, 2, 4, 4, 4, 10])
     assert "3 bad sample(s) shown at the last good pose" in capsys.readouterr().err
+
+
+def test_a_log_file_given_twice_is_named(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n1,0,0,0,0\n")
+    argv = ["offline", "log.csv", "./log.csv", "--urdf", model_path("planar_2r")]
+    assert cli.main(argv) == 2
+    assert "log.csv and ./log.csv are the same file, given twice" in _error(capsys)
+
+
+def test_a_trajectory_file_without_rows_is_said_without_numpys_warning(
+    tmp_path, capsys
+):
+    trajectory = tmp_path / "t.csv"
+    trajectory.write_text("t,q_joint1,q_joint2,v_joint1,v_joint2\n")
+    argv = ["simulate", model_path("planar_2r"), "--trajectory", str(trajectory)]
+    assert cli.main([*argv, "--out", str(tmp_path / "log.csv")]) == 2
+    assert "got no data rows" in _error(capsys)
