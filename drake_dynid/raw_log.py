@@ -142,8 +142,7 @@ def _checked_headers(
     A file given twice, missing or without a header, a column in no file or in
     two, a file of a multi-file log without the ``time`` column.
     """
-    if len(set(files)) != len(files):
-        raise ValueError(f"log: a file is given twice: {', '.join(files)}.")
+    _check_distinct(files)
     headers = {path: _header(path) for path in files}
     owner = _owners(files, headers, wanted, time)
     if len(files) > 1:
@@ -290,7 +289,6 @@ def read_raw_log(
     files = [os.fspath(p) for p in paths]
     if not files:
         raise ValueError("log: no file given.")
-    _check_distinct(files)
     return _read_streamed(files, chain, jitter_tolerance, resample, fill_gaps)
 
 
@@ -304,8 +302,8 @@ def _check_distinct(files: Sequence[str]) -> None:
                 same = os.path.abspath(first) == os.path.abspath(second)
             if same:
                 raise ValueError(
-                    f"log: {first} and {second} are the same file, given twice; give "
-                    "each file of the log once."
+                    f"log: a file is given twice: {first} and {second} are the same "
+                    "file; give each file of the log once."
                 )
 
 
