@@ -172,7 +172,10 @@ def test_identify_reads_raw_files_through_the_drive(files, tmp_path):
 @pytest.mark.parametrize(
     ("edit", "message"),
     [
-        (('joint = "j2"', 'joint = "j9"'), "motors.m2.joint: unknown joint 'j9'"),
+        (
+            ('joint = "j2"', 'joint = "j9"'),
+            r"motors.m2.joint: unknown joint 'j9'.*drop the other motors from a copy",
+        ),
         (
             ('joint = "j3"\ngear_ratio = 30', "joints = { j3 = 30, j4 = 30 }"),
             "must have rank 4 .* singular coupling",

@@ -118,7 +118,9 @@ class _Builder:
         if name not in self.index:
             self.fail(
                 f"{field}: unknown joint {name!r}; the identified joints are "
-                f"{', '.join(self.joint_names)}."
+                f"{', '.join(self.joint_names)} (a drive file describes the motors "
+                "of the identified joints only: with a subset of --joints, drop the "
+                "other motors from a copy of the file)."
             )
         return self.index[name]
 
