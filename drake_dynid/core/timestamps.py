@@ -395,12 +395,26 @@ def fit_time_grid(
         budget = max_outliers - int(np.count_nonzero(~keep))
         isolated = not np.any(off[1:] & off[:-1])
         if attempt or np.count_nonzero(off) > budget or not isolated or s.count < 5:
+            if np.count_nonzero(off) > 0.1 * s.count:
+                # Most stamps off: the grid fit itself failed; the spread of the
+                # steps says more than the worst stamp against a wrong grid.
+                low, high = np.quantile(_steps(t) / h0, [0.001, 0.999])
+                detail = (
+                    f"{np.count_nonzero(off)} of {s.count} stamps are more than "
+                    f"{tolerance:g} step off any uniform grid: the steps between "
+                    f"stamps range from {low:.2f} to {high:.2f} times their median "
+                    f"{h0:.6g} s"
+                )
+            else:
+                detail = (
+                    f"{where(s.row(worst))} is {jitter:.2f} steps off the uniform "
+                    f"grid of step {h:.6g} s fitted to the time stamps "
+                    f"({np.count_nonzero(off)} stamp(s) beyond the tolerance of "
+                    f"{tolerance:g} step)"
+                )
             raise NonUniformSampling(
-                f"{owner}: non-uniform sampling: {where(s.row(worst))} is "
-                f"{jitter:.2f} steps off the uniform grid of step "
-                f"{h:.6g} s fitted to the time stamps ({np.count_nonzero(off)} "
-                f"stamp(s) beyond the tolerance of {tolerance:g} step); resample it "
-                "onto a uniform grid first, or allow linear interpolation "
+                f"{owner}: non-uniform sampling: {detail}; resample it onto a "
+                "uniform grid first, or allow linear interpolation "
                 "(dynid: --resample).",
                 keep,
                 h0,
