@@ -517,7 +517,8 @@ def _resampled(owner, noun, s, samples, labels, step, grid, options, warnings, r
     warnings.append(
         f"{reason}: resampled by linear interpolation onto a uniform grid of step "
         f"{h:.6g} s ({count} samples); {bad_after} bad, "
-        f"{int(bridged.sum())} bridging a gap."
+        f"{int(bridged.sum())} interpolated across more than 1.5 steps between "
+        "stamps or across bad cells."
     )
     t = GridTimes(h, count) if is_stored(q_grid) else h * np.arange(count)
     return Repaired(t, q_grid, tau_grid, h, (), origin + h * k0 + zero, bridged)
