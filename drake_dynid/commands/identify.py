@@ -740,7 +740,11 @@ def _invalid_reason(trace: Any) -> str:
 def run(args: argparse.Namespace) -> int:
     """Replays the log through the on-line identifier; prints and writes results."""
     from drake_dynid.commands._model import finish_identify
-    from drake_dynid.commands.validate import check_output_paths, validation_split
+    from drake_dynid.commands.validate import (
+        check_output_paths,
+        log_line,
+        validation_split,
+    )
 
     check_output_paths(args)
     if args.bootstrap is not None and (
@@ -755,6 +759,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         matplotlib_pyplot()  # fail before the long replay
     robot, log = load_robot_and_log(args, "identify")
+    total_samples = log.num_samples
     log, held, held_description = validation_split(args, log, robot)
     check_log_values(args, log, settings)
     band_measured = args.bandwidth is None and (
@@ -856,7 +861,7 @@ def run(args: argparse.Namespace) -> int:
     reason = "" if final_valid else _invalid_reason(trace)
     condition = float(trace.condition_number[last_valid])
     if not args.quiet:
-        print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+        print(log_line(args, log, total_samples))
         line = dead_zone_line(robot, args)
         if line:
             print(line)

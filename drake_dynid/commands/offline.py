@@ -24,7 +24,11 @@ from drake_dynid.commands._report import (
     parameters_document,
     write_json,
 )
-from drake_dynid.commands.validate import check_output_paths, validation_split
+from drake_dynid.commands.validate import (
+    check_output_paths,
+    log_line,
+    validation_split,
+)
 
 HELP = "off-line IDIM-LS/WLS (zero-phase filtering, parallel decimation) on a log"
 DESCRIPTION = (
@@ -82,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         matplotlib_pyplot()  # fail before the fit
     robot, log = load_robot_and_log(args, "offline")
+    total_samples = log.num_samples
     log, held, held_description = validation_split(args, log, robot)
     try:
         result = identify_offline(
@@ -104,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
             "friction columns (--friction), or another --cutoff."
         )
     if not args.quiet:
-        print(f"log: {args.log} ({log.num_samples} samples, h = {log.time_step:g} s)")
+        print(log_line(args, log, total_samples))
         line = dead_zone_line(robot, args)
         if line:
             print(line)

@@ -96,6 +96,14 @@ def _check_held_out(args: argparse.Namespace, held: Any, description: str) -> No
         raise ValueError(f"validation on {description}: {text}") from None
 
 
+def log_line(args: argparse.Namespace, fitted: Any, total: int) -> str:
+    """``log: FILE (N samples, h = ...)``; with ``--split``, the part fitted too."""
+    line = f"log: {args.log} ({total} samples, h = {fitted.time_step:g} s"
+    if getattr(args, "split", None) is not None:
+        line += f"; fitted on the first {fitted.num_samples} (--split {args.split:g})"
+    return line + ")"
+
+
 def validation_split(
     args: argparse.Namespace, log: Any, robot: Any
 ) -> tuple[Any, Any, str]:
