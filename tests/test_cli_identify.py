@@ -533,3 +533,26 @@ def test_a_final_solve_that_is_not_valid_gets_its_own_window_bootstrap(simulatio
     assert out["applied"] is False and "is not full" in out["reason"]
     none = np.zeros(20, bool)
     assert _final_bootstrap(4, log, robot, settings, trace, none, background, 19) == {}
+
+
+def test_the_readme_json_example_has_the_keys_identify_writes(log_file, tmp_path):
+    """The README's JSON block names every key identify writes at the top level and
+    in settings, and no key it does not write (a review found it drifted)."""
+    import pathlib
+
+    out = tmp_path / "id.json"
+    argv = ["identify", log_file, "--urdf", URDF, *FAST, "--json", str(out)]
+    assert cli.main([*argv, "--quiet"]) == 0
+    document = json.loads(out.read_text())
+    readme = (pathlib.Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = readme.split("### JSON (`--json`)", 1)[1].split("```json\n", 1)[1]
+    block = block.split("```", 1)[0]
+    shown = set(re.findall(r'"(\w+)":', block))
+    written = set(document) | set(document["settings"]) | set(document["bootstrap"])
+    written |= set(document["log"]) | set(document["physical_check"])
+    written |= set(document["parameters"][0]) | set(document["log"])
+    written |= set(document["parameters"][0]["definition"])
+    written |= set(document["settings"]["coulomb_dead_zone"])
+    top = set(document) | set(document["settings"])
+    assert top <= shown, sorted(top - shown)
+    assert shown <= written, sorted(shown - written)
