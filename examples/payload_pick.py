@@ -28,7 +28,7 @@ from drake_dynid.core.payload import payload_parameters
 from drake_dynid.core.payload_report import payload_summary
 from drake_dynid.core.payload_step import payload_settings
 from drake_dynid.core.trajectory import random_fourier_trajectory
-from drake_dynid.logs import RobotLog
+from drake_dynid.logs import RobotLog, write_log
 from drake_dynid.payload import payload_model
 from drake_dynid.robot import RobotModel
 from drake_dynid.simulation import SimulationSettings, simulate_identification
@@ -119,6 +119,11 @@ def main(argv=None) -> int:
     parser.add_argument("--engine", choices=("core", "blocks"), default="core")
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
+    parser.add_argument(
+        "--log",
+        metavar="FILE.csv",
+        help="also write the noisy log (for dynid payload, README)",
+    )
     args = parser.parse_args(argv)
     pick, place, duration = args.pick, args.place, args.duration
     if args.quick:
@@ -154,6 +159,9 @@ def main(argv=None) -> int:
         robot.joint_names,
         robot.plant.time_step() or 1e-3,
     )
+    if args.log:
+        write_log(args.log, log.t, log.q, log.tau, log.joint_names)
+        print(f"wrote {args.log}")
     settings = payload_settings()
     if args.engine == "blocks":
         from drake_dynid.payload_diagrams import replay_payload_log as replay
