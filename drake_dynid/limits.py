@@ -72,13 +72,7 @@ def read_limits_file(path: str | Path) -> dict[str, dict[str, float]]:
         raise ValueError(f"limits file {file} is a directory, expected a file.")
     if not file.is_file():
         raise ValueError(f"limits file not found: {file}.")
-    try:
-        text = file.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError as error:
-        raise ValueError(
-            f"limits file {file} is not UTF-8 text (byte {error.start}); save it as "
-            "UTF-8."
-        ) from None
+    text = check.utf8_text(file.read_bytes(), f"limits file {file}")
     if file.suffix.lower() == ".toml":
         try:
             import tomllib

@@ -295,13 +295,7 @@ def _parse(
     try:
         parser = Parser(plant)
         if file.suffix.lower() == ".urdf" and geometry in (False, "collision"):
-            try:
-                source = file.read_bytes().decode("utf-8-sig")
-            except UnicodeDecodeError as error:
-                raise ValueError(
-                    f"{owner}: URDF {file} is not UTF-8 text (byte {error.start}); "
-                    "save it as UTF-8."
-                ) from None
+            source = _validate.utf8_text(file.read_bytes(), f"{owner}: URDF {file}")
             text = _strip_geometry(
                 source, file.resolve().parent, keep_collision=geometry == "collision"
             )

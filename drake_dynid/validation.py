@@ -553,13 +553,10 @@ def read_results(path: str | os.PathLike) -> dict[str, Any]:
         )
     if not os.path.isfile(path):
         raise FileNotFoundError(f"results file {path}: no such file.")
+    with open(path, "rb") as stream:
+        text = check.utf8_text(stream.read(), f"results file {path}")
     try:
-        with open(path, "rb") as stream:
-            document = json.loads(stream.read().decode("utf-8-sig"))
-    except UnicodeDecodeError as error:
-        raise ValueError(
-            f"results file {path}: not UTF-8 text (byte {error.start})."
-        ) from None
+        document = json.loads(text)
     except json.JSONDecodeError as error:
         raise ValueError(f"results file {path}: not valid JSON ({error}).") from None
     if not isinstance(document, dict) or not isinstance(

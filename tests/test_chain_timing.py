@@ -1,9 +1,10 @@
 """A chain of blocks in a Simulator over a replayed log: the timing of its traces
 and what it does past the log's end (both found by a review). The 2R arm on a
 random Fourier reference (default_rng(4)), torques from the library's rows (the
-timing is checked, not the accuracy)."""
+timing is checked, not the accuracy: tests/_motions.py)."""
 
 import numpy as np
+from _motions import fourier_2r
 
 
 def test_a_chain_run_past_the_end_of_its_log_holds_its_last_valid_estimate():
@@ -14,23 +15,11 @@ def test_a_chain_run_past_the_end_of_its_log_holds_its_last_valid_estimate():
     from pydrake.systems.framework import DiagramBuilder
 
     from drake_dynid.core.online import OnlineSettings
-    from drake_dynid.core.trajectory import random_fourier_trajectory
     from drake_dynid.diagrams import add_online_identifier, log_source
     from drake_dynid.logs import RobotLog
-    from drake_dynid.plants import RobotModel, model_path
 
-    robot = RobotModel.from_urdf(model_path("planar_2r"))
-    trajectory = random_fourier_trajectory(
-        2,
-        harmonics=3,
-        base_frequency=2 * np.pi * 0.25,
-        max_velocity=2.0,
-        rng=np.random.default_rng(4),
-    )
     h = 1e-3
-    t = np.arange(8001) * h
-    q, v, vdot = trajectory.evaluate(t)
-    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    robot, t, q, tau = fourier_2r(8001, h)
     log = RobotLog(t, q, tau, robot.joint_names, h)
     builder = DiagramBuilder()
     source = builder.AddSystem(log_source(log))
@@ -71,25 +60,12 @@ def test_a_trace_row_is_the_solve_one_update_period_before():
     from pydrake.systems.framework import DiagramBuilder
 
     from drake_dynid.core.online import SOLVE_OFFSET, OnlineSettings
-    from drake_dynid.core.trajectory import random_fourier_trajectory
     from drake_dynid.diagrams import add_online_identifier, chain_trace, log_source
     from drake_dynid.logs import RobotLog
-    from drake_dynid.plants import RobotModel, model_path
 
-    robot = RobotModel.from_urdf(model_path("planar_2r"))
-    trajectory = random_fourier_trajectory(
-        2,
-        harmonics=3,
-        base_frequency=2 * np.pi * 0.25,
-        max_velocity=2.0,
-        rng=np.random.default_rng(4),
-    )
     h = 1e-3
-    t = np.arange(7001) * h
-    q, v, vdot = trajectory.evaluate(t)
-    log = RobotLog(
-        t, q, robot.idim_rows(q, v, vdot) @ robot.base_values, robot.joint_names, h
-    )
+    robot, t, q, tau = fourier_2r(7001, h)
+    log = RobotLog(t, q, tau, robot.joint_names, h)
     settings = OnlineSettings.for_model("lagrangian", window=5.0)
     period = settings.on_grid(h).resolved("update_period")
 

@@ -12,6 +12,7 @@ import re
 
 import numpy as np
 import pytest
+from _cli import error_line
 
 from drake_dynid import cli
 from drake_dynid.core.trajectory import random_fourier_trajectory
@@ -51,14 +52,6 @@ joints = { j3 = 25, j4 = 25 }
 torque_constant = 0.05
 rotor_inertia = 5e-5
 """
-
-
-def _error(capsys):
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    lines = [line for line in err.strip().splitlines() if ": note: " not in line]
-    assert len(lines) == 1, lines
-    return lines[0]
 
 
 @pytest.fixture(scope="module")
@@ -212,7 +205,7 @@ def test_bad_drive_input_exits_2_naming_the_field(
     assert edit[0] in DRIVE
     bad.write_text(DRIVE.replace(*edit))
     assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(bad)]) == 2
-    line = _error(capsys)
+    line = error_line(capsys)
     assert line.startswith("dynid offline: error: ")
     assert re.search(message, line), line
 
@@ -221,16 +214,18 @@ def test_bad_options_exit_2(files, tmp_path, capsys):
     plain, raw, drive = files
     base = ["offline", *raw, "--urdf", URDF, "--drive", str(drive)]
     assert cli.main([*base, "--dead-zone", "wide"]) == 2
-    assert "--dead-zone must be auto, none or a width >= 0" in _error(capsys)
+    assert "--dead-zone must be auto, none or a width >= 0" in error_line(capsys)
     assert cli.main([*base, "--json", raw[1]]) == 2
-    assert f"--json {raw[1]} is an input of this command (the log" in _error(capsys)
+    assert f"--json {raw[1]} is an input of this command (the log" in error_line(capsys)
     assert cli.main([*base, "--json", str(drive)]) == 2
-    assert "is an input of this command (--drive" in _error(capsys)
+    assert "is an input of this command (--drive" in error_line(capsys)
     assert cli.main(["offline", str(plain), raw[0], "--urdf", URDF]) == 2
-    assert "enc.csv: no time column 't'; every file of a multi-file" in _error(capsys)
+    assert "enc.csv: no time column 't'; every file of a multi-file" in error_line(
+        capsys
+    )
     missing = tmp_path / "none.toml"
     assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(missing)]) == 2
-    assert "none.toml: no such file" in _error(capsys)
+    assert "none.toml: no such file" in error_line(capsys)
 
 
 def test_excite_designs_for_the_motor_columns(files, tmp_path, capsys):
@@ -290,12 +285,12 @@ def test_validate_finds_the_results_drive_file_or_says_it_is_missing(
     target = str(fit_folder / "wrist4.toml")
     before = drive.read_text()
     assert cli.main([*argv, "--json", target]) == 2
-    assert "drive file" in _error(capsys)
+    assert "drive file" in error_line(capsys)
     assert (fit_folder / "wrist4.toml").read_text() == before
     # Not found at all: an error naming it, never a silent drop.
     (fit_folder / "wrist4.toml").unlink()
     assert cli.main(argv) == 2
-    line = _error(capsys)
+    line = error_line(capsys)
     assert "its drive file wrist4.toml (settings.drive) is not found" in line
     assert "--drive" in line
 
@@ -316,6 +311,6 @@ def test_a_drive_file_that_is_not_utf8_text_or_a_folder_is_named(
             capsys.readouterr()
         else:
             assert code == 2
-            assert "not UTF-8 text (byte 0); save it as UTF-8" in _error(capsys)
+            assert "not UTF-8 text (byte 0); save it as UTF-8" in error_line(capsys)
     assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(tmp_path)]) == 2
-    assert "is a directory, expected a file" in _error(capsys)
+    assert "is a directory, expected a file" in error_line(capsys)

@@ -1,39 +1,26 @@
 """``--fill-gaps N``: the reader's longest interpolated run, from the command line.
 
 Found by a review: a log with 6 % bad cells was refused with "read it with
-fill_gaps=0", an option only the Python API had. The log: the paper's 2R arm on a
-random Fourier reference (default_rng(4)), torques from the library's rows (these
-tests check the reading, not the accuracy), 40 s, with every other row's torque
-cells empty from 30 to 34.4 s (5.5 % of the samples: a logger that dropped
-half its messages for a while).
+fill_gaps=0", an option only the Python API had. The log: the 2R test motion of
+tests/_motions.py, 40 s, with every other row's torque cells empty from 30 to
+34.4 s (5.5 % of the samples: a logger that dropped half its messages for a
+while).
 """
 
 import json
 
 import numpy as np
 import pytest
+from _motions import URDF_2R as URDF
+from _motions import fourier_2r
 
 from drake_dynid import cli
-from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.logs import write_log
-from drake_dynid.plants import RobotModel, model_path
-
-URDF = model_path("planar_2r")
 
 
 @pytest.fixture(scope="module")
 def holed(tmp_path_factory):
-    robot = RobotModel.from_urdf(URDF)
-    trajectory = random_fourier_trajectory(
-        2,
-        harmonics=3,
-        base_frequency=2 * np.pi * 0.25,
-        max_velocity=2.0,
-        rng=np.random.default_rng(4),
-    )
-    t = np.arange(40001) * 1e-3
-    q, v, vdot = trajectory.evaluate(t)
-    tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+    robot, t, q, tau = fourier_2r(40001)
     tau[30000:34400:2] = np.nan
     path = tmp_path_factory.mktemp("fill_gaps") / "holed.csv"
     write_log(path, t, q, tau, robot.joint_names)

@@ -5,16 +5,10 @@ that is a folder or not UTF-8 text, a URDF whose visual mesh is missing."""
 import json
 from pathlib import Path
 
+from _cli import error_line
+
 from drake_dynid import cli
 from drake_dynid.plants import model_path
-
-
-def _error(capsys):
-    err = capsys.readouterr().err
-    assert "Traceback" not in err
-    lines = [line for line in err.strip().splitlines() if ": note: " not in line]
-    assert len(lines) == 1, lines
-    return lines[0]
 
 
 def test_a_packaged_robot_by_its_name(capsys, tmp_path, monkeypatch):
@@ -22,32 +16,32 @@ def test_a_packaged_robot_by_its_name(capsys, tmp_path, monkeypatch):
     assert cli.main(["params", "iiwa7"]) == 0
     assert f"robot: {model_path('iiwa7')}" in capsys.readouterr().out
     assert cli.main(["params", "no_such_robot"]) == 2
-    line = _error(capsys)
+    line = error_line(capsys)
     assert "URDF file not found: no_such_robot" in line and "iiwa7" in line
     (tmp_path / "iiwa7").mkdir()  # a file or folder of that name wins
     assert cli.main(["params", "iiwa7"]) == 2
-    assert "URDF iiwa7 is a directory, expected a file" in _error(capsys)
+    assert "URDF iiwa7 is a directory, expected a file" in error_line(capsys)
 
 
 def test_files_that_are_not_utf8_text_are_named(tmp_path, capsys):
     urdf = tmp_path / "robot.urdf"
     urdf.write_bytes(Path(model_path("planar_2r")).read_text().encode("utf-16"))
     assert cli.main(["params", str(urdf)]) == 2
-    assert f"URDF {urdf} is not UTF-8 text (byte 0)" in _error(capsys)
+    assert f"URDF {urdf}: not UTF-8 text (byte 0)" in error_line(capsys)
     limits = tmp_path / "limits.json"
     limits.write_bytes(json.dumps({"joint1": {"position": 1.0}}).encode("utf-16"))
     argv = ["excite", model_path("planar_2r"), "--limits", str(limits)]
     assert cli.main([*argv, "--out", str(tmp_path / "t.csv")]) == 2
-    assert f"limits file {limits} is not UTF-8 text (byte 0)" in _error(capsys)
+    assert f"limits file {limits}: not UTF-8 text (byte 0)" in error_line(capsys)
     params = tmp_path / "fit.json"
     params.write_bytes(b"\xff\xfe{")
     log = tmp_path / "log.csv"
     log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n1,0,0,0,0\n")
     argv = ["validate", str(log), "--urdf", model_path("planar_2r")]
     assert cli.main([*argv, "--params", str(params)]) == 2
-    assert f"results file {params}: not UTF-8 text" in _error(capsys)
+    assert f"results file {params}: not UTF-8 text" in error_line(capsys)
     assert cli.main([*argv, "--params", str(tmp_path)]) == 2
-    assert "is a directory, expected a file" in _error(capsys)
+    assert "is a directory, expected a file" in error_line(capsys)
 
 
 def test_a_missing_visual_mesh_does_not_stop_the_collision_check(tmp_path, capsys):
@@ -92,7 +86,7 @@ def test_a_log_file_given_twice_is_named(tmp_path, capsys, monkeypatch):
     log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n1,0,0,0,0\n")
     argv = ["offline", "log.csv", "./log.csv", "--urdf", model_path("planar_2r")]
     assert cli.main(argv) == 2
-    line = _error(capsys)
+    line = error_line(capsys)
     assert "a file is given twice: log.csv and ./log.csv are the same file" in line
 
 
@@ -103,4 +97,4 @@ def test_a_trajectory_file_without_rows_is_said_without_numpys_warning(
     trajectory.write_text("t,q_joint1,q_joint2,v_joint1,v_joint2\n")
     argv = ["simulate", model_path("planar_2r"), "--trajectory", str(trajectory)]
     assert cli.main([*argv, "--out", str(tmp_path / "log.csv")]) == 2
-    assert "got no data rows" in _error(capsys)
+    assert "got no data rows" in error_line(capsys)

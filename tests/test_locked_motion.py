@@ -1,14 +1,14 @@
 """A joint outside ``--joints`` that moves in the log is said (a review: it was
 welded at 0 with only "ignored extra column(s)" said, and the held-out error grew
 tenfold). The 2R arm identified as one joint; its log from a random Fourier
-reference (default_rng(4)), joint 2 moving, still at 0, or still at 0.5 rad."""
+reference (tests/_motions.py), joint 2 moving, still at 0, or still at 0.5 rad."""
 
 import numpy as np
 import pytest
+from _motions import fourier_2r
 
 from drake_dynid import cli
 from drake_dynid.commands._arguments import locked_motion
-from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.logs import write_log
 from drake_dynid.plants import RobotModel, model_path
 
@@ -16,15 +16,7 @@ URDF = model_path("planar_2r")
 
 
 def _log(path, joint2):
-    trajectory = random_fourier_trajectory(
-        2,
-        harmonics=3,
-        base_frequency=2 * np.pi * 0.25,
-        max_velocity=2.0,
-        rng=np.random.default_rng(4),
-    )
-    t = np.arange(30001) * 1e-3
-    q, _, _ = trajectory.evaluate(t)
+    _, t, q, _ = fourier_2r(30001)
     if joint2 is not None:
         q[:, 1] = joint2
     write_log(path, t, q, np.ones_like(q), ("joint1", "joint2"))

@@ -304,27 +304,13 @@ def test_a_physical_check_that_cannot_be_solved_does_not_stop_offline(
     tmp_path, capsys, monkeypatch
 ):
     """The check nobody asked for: reported as not done, the JSON still written."""
+    from _motions import fourier_2r
+
     from drake_dynid import cli, physical
-    from drake_dynid.core.trajectory import random_fourier_trajectory
     from drake_dynid.logs import write_log
 
-    robot = RobotModel.from_urdf(model_path("planar_2r"))
-    trajectory = random_fourier_trajectory(
-        2,
-        harmonics=3,
-        base_frequency=2 * np.pi * 0.25,
-        max_velocity=2.0,
-        rng=np.random.default_rng(4),
-    )
-    t = np.arange(20001) * 1e-3
-    q, v, vdot = trajectory.evaluate(t)
-    write_log(
-        tmp_path / "log.csv",
-        t,
-        q,
-        robot.idim_rows(q, v, vdot) @ robot.base_values,
-        robot.joint_names,
-    )
+    robot, t, q, tau = fourier_2r(20001)
+    write_log(tmp_path / "log.csv", t, q, tau, robot.joint_names)
 
     def unsolvable(*args, **kwargs):
         raise ValueError("check_physical: the semidefinite program could not be solved")

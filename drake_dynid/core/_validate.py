@@ -18,6 +18,20 @@ from typing import Any
 import numpy as np
 
 
+def utf8_text(raw: bytes, what: str) -> str:
+    """``raw`` decoded as UTF-8 (a byte-order mark accepted, as in logs).
+
+    Raises:
+        ValueError: ``"<what>: not UTF-8 text (byte k); save it as UTF-8."``
+    """
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"{what}: not UTF-8 text (byte {error.start}); save it as UTF-8."
+        ) from None
+
+
 def _unit(unit: str | None) -> str:
     return f" [{unit}]" if unit else ""
 

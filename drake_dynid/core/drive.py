@@ -33,6 +33,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from drake_dynid.core import _validate
 from drake_dynid.core.drive_log import LogFormat, check_table, parse_log
 from drake_dynid.core.drive_motors import Motor, resolve_motors
 
@@ -376,12 +377,7 @@ def read_drive(
         raise FileNotFoundError(f"drive file {path}: no such file.")
     with open(path, "rb") as stream:
         raw = stream.read()
-    try:
-        text = raw.decode("utf-8-sig")  # a byte-order mark is accepted, as in logs
-    except UnicodeDecodeError as error:
-        raise ValueError(
-            f"drive file {path}: not UTF-8 text (byte {error.start}); save it as UTF-8."
-        ) from None
+    text = _validate.utf8_text(raw, f"drive file {path}")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
