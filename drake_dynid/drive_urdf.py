@@ -70,8 +70,14 @@ class UrdfDrive:
         return tuple(n for n, kind in self.joint_types.items() if kind == "prismatic")
 
     def as_dict(self) -> dict[str, Any]:
-        """``{"motors": ...}``: the ``urdf`` argument of ``DriveChain.from_dict``."""
-        return {"motors": {name: dict(table) for name, table in self.motors.items()}}
+        """``{"motors": ..., "joints": [...]}``: ``DriveChain.from_dict``'s ``urdf``.
+
+        The joints tell a joint that is not identified from a typo in a drive file.
+        """
+        return {
+            "motors": {name: dict(table) for name, table in self.motors.items()},
+            "joints": sorted(self.joint_types),
+        }
 
 
 class _Reader:

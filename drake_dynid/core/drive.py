@@ -104,7 +104,9 @@ class DriveChain:
                 file overrides them: a ``[motors.NAME]`` table of the same name
                 overrides field by field (a new joint/joints/gear_ratio replaces the
                 row), and a URDF motor driving a joint that the drive file's rows
-                mention is dropped.
+                mention is dropped. With ``"joints"`` (every joint of the URDF), a
+                drive-file motor of joints outside ``joint_names`` only is
+                skipped: a drive file of the whole robot serves any ``--joints``.
             source: the owner named in error messages.
 
         Raises:

@@ -108,6 +108,7 @@ class _Builder:
         self.index = {name: j for j, name in enumerate(joint_names)}
         self.notes: list[str] = []
         self.locked: set[str] = set()
+        self.urdf_joints: set[str] = set()  # every joint of the URDF, when known
 
     def fail(self, message: str) -> NoReturn:
         raise ValueError(f"{self.owner}: {message}")
@@ -116,11 +117,16 @@ class _Builder:
         if not isinstance(name, str):
             raise TypeError(f"{self.owner}: {field} must be a joint name (a string).")
         if name not in self.index:
+            if name in self.urdf_joints:
+                self.fail(
+                    f"{field}: joint {name!r} is not identified (--joints) but this "
+                    "motor also drives identified joints; identify it too, or "
+                    f"describe the motor without it. Identified: "
+                    f"{', '.join(self.joint_names)}."
+                )
             self.fail(
                 f"{field}: unknown joint {name!r}; the identified joints are "
-                f"{', '.join(self.joint_names)} (a drive file describes the motors "
-                "of the identified joints only: with a subset of --joints, drop the "
-                "other motors from a copy of the file)."
+                f"{', '.join(self.joint_names)}."
             )
         return self.index[name]
 
@@ -205,7 +211,7 @@ class _Builder:
 
     def urdf_motors(self, urdf: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
         """URDF motors touching identified joints: name -> {row, rotor_inertia}."""
-        check_table(self.owner, "urdf", urdf, ("motors",))
+        check_table(self.owner, "urdf", urdf, ("motors", "joints"))
         out = {}
         for name, table in dict(urdf.get("motors", {})).items():
             field = f"URDF actuator {name}"
@@ -227,8 +233,32 @@ class _Builder:
             out[name] = entry
         return out
 
+    def not_identified(self, table: Mapping[str, Any], urdf: Any) -> list[str] | None:
+        """The joints of a motor that drives only URDF joints outside ``--joints``.
+
+        Such a motor is skipped (a drive file of the whole robot serves a subset of
+        its joints). None when the motor drives an identified joint, or a name the
+        URDF does not have (a typo: :meth:`joint` names it).
+        """
+        if not self.urdf_joints:
+            return None
+        if "joint" in table:
+            named = [table["joint"]]
+        elif isinstance(table.get("joints"), Mapping):
+            named = list(table["joints"])
+        else:
+            return None
+        if named and all(
+            isinstance(j, str) and j in self.urdf_joints and j not in self.index
+            for j in named
+        ):
+            return [str(j) for j in named]
+        return None
+
     def motors(self, data: Mapping[str, Any], urdf: Mapping[str, Any] | None):
         urdf_motors = self.urdf_motors(urdf) if urdf is not None else {}
+        if urdf is not None:
+            self.urdf_joints = {str(j) for j in urdf.get("joints", ())}
         tables = data.get("motors", {})
         if not isinstance(tables, Mapping):
             self.fail(
@@ -245,6 +275,13 @@ class _Builder:
                 self.fail(
                     f"{field}: give its joints one way only; got {' and '.join(ways)}."
                 )
+            outside = self.not_identified(table, urdf)
+            if outside is not None:
+                self.notes.append(
+                    f"{field} drives {', '.join(outside)}, not identified (--joints): "
+                    "skipped."
+                )
+                continue
             if "gear_ratio" in table and "joint" not in table:
                 base = urdf_motors.get(name, {}).get("row", {})
                 if len(base) != 1:
@@ -355,7 +392,9 @@ def resolve_motors(
         prismatic: (n,) prismatic flags (an implicit drive of a prismatic joint, or
             a simple drive without ``linear``, is linear).
         urdf: ``{"motors": {name: {"joints": {joint: ratio}, "rotor_inertia":
-            Ia}}}`` from the URDF transmissions, or None.
+            Ia}}, "joints": [every joint of the URDF]}`` from the URDF, or None. A
+            drive-file motor that drives only URDF joints outside ``joint_names``
+            is skipped (a note).
 
     Returns:
         ``(motors, notes)``: the m motors, sorted by their sorted joint indices
