@@ -3,6 +3,8 @@ welded at 0 with only "ignored extra column(s)" said, and the held-out error gre
 tenfold). The 2R arm identified as one joint; its log from a random Fourier
 reference (tests/_motions.py), joint 2 moving, still at 0, or still at 0.5 rad."""
 
+import pathlib
+
 import numpy as np
 import pytest
 from _motions import fourier_2r
@@ -62,3 +64,27 @@ def test_columns_that_never_change_are_said(tmp_path, capsys):
     cli.main(["offline", frozen, "--urdf", URDF, "--quiet"])
     err = capsys.readouterr().err
     assert "q_joint2 = 0.25 never change: a joint that does not move" in err, err
+
+
+def test_a_mimic_joint_that_does_not_follow_its_leader_is_said(tmp_path):
+    """Found by a review: with a URDF whose joint2 mimics 2·joint1, a log where
+    joint2 moves on its own was read without a word."""
+    text = pathlib.Path(URDF).read_text()
+    anchor = '<joint name="joint2" type="continuous">'
+    assert anchor in text
+    urdf = tmp_path / "mimic.urdf"
+    urdf.write_text(
+        text.replace(anchor, anchor + '<mimic joint="joint1" multiplier="2"/>', 1)
+    )
+    robot = RobotModel.from_urdf(str(urdf))
+    assert dict(robot.mimic) == {"joint2": ("joint1", 2.0, 0.0)}
+    _, t, q, _ = fourier_2r(30001)
+    own = tmp_path / "own.csv"
+    write_log(own, t, q, np.ones_like(q), ("joint1", "joint2"))
+    warning = locked_motion(str(own), robot)
+    assert "mimic joint(s) do not follow their URDF relation" in warning
+    assert "joint2 departs from 2·joint1 + 0 by up to " in warning
+    q[:, 1] = 2.0 * q[:, 0]
+    follows = tmp_path / "follows.csv"
+    write_log(follows, t, q, np.ones_like(q), ("joint1", "joint2"))
+    assert locked_motion(str(follows), robot) is None

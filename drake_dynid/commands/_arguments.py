@@ -376,36 +376,48 @@ _CHUNKS, _CHUNK_BYTES = 16, 1 << 16
 
 
 def locked_motion(path: str, robot: Any) -> str | None:
-    """A warning when the log records motion of a joint the model holds fixed.
+    """A warning when the log records joints moving otherwise than the model.
 
     The joints outside ``--joints`` are welded at their ``locked`` positions (0
-    unless ``--lock``); a log whose ``q_<joint>`` column of such a joint moves
-    gives torques that model cannot predict (a review found the held-out error
-    10 times larger, with only "ignored extra column" said). Reads 16 chunks of
-    64 KiB spread over the file (start, end and between; not the whole file),
-    plain one-file logs only (a drive file names its own columns).
+    unless ``--lock``), and a mimic joint follows its leader (q = k·q_leader +
+    offset, from the URDF). A log whose ``q_<joint>`` column of such a joint
+    moves otherwise gives torques that model cannot predict (a review found the
+    held-out error 10 times larger, with only "ignored extra column" said). Reads
+    16 chunks of 64 KiB spread over the file (start, end and between; not the
+    whole file), plain one-file logs only (a drive file names its own columns).
     """
     import os
 
     from drake_dynid.log_table import read_header
 
-    locked = getattr(robot, "locked", None)
-    if not locked or robot.drive is not None:
+    locked = dict(getattr(robot, "locked", None) or {})
+    mimic = dict(getattr(robot, "mimic", None) or {})
+    if not (locked or mimic) or robot.drive is not None:
         return None
     try:
         with open(path, "rb") as stream:
             header = read_header(path, stream)
             start = stream.tell()
-            columns = {
-                name: header.index(f"q_{name}")
-                for name in locked
+            # joint -> (its column, its leader's column or -1, multiplier, offset)
+            model = {
+                name: (header.index(f"q_{name}"), -1, 0.0, float(value))
+                for name, value in locked.items()
                 if f"q_{name}" in header
             }
-            if not columns:
+            for name, (leader, multiplier, offset) in mimic.items():
+                if f"q_{name}" in header and f"q_{leader}" in header:
+                    model[name] = (
+                        header.index(f"q_{name}"),
+                        header.index(f"q_{leader}"),
+                        float(multiplier),
+                        float(offset),
+                    )
+            if not model:
                 return None
             size = os.fstat(stream.fileno()).st_size
-            low = {name: math.inf for name in columns}
-            high = {name: -math.inf for name in columns}
+            low = {name: math.inf for name in model}
+            high = {name: -math.inf for name in model}
+            worst = dict.fromkeys(model, 0.0)
             span = max(0, size - start - _CHUNK_BYTES)
             for k in range(_CHUNKS):
                 offset = start + span * k // max(1, _CHUNKS - 1)
@@ -413,30 +425,49 @@ def locked_motion(path: str, robot: Any) -> str | None:
                 lines = stream.read(_CHUNK_BYTES).split(b"\n")
                 for line in lines[(1 if offset > start else 0) : -1]:
                     cells = line.split(b",")
-                    for name, at in columns.items():
+                    for name, (at, lead, multiplier, shift) in model.items():
                         try:
                             value = float(cells[at])
+                            expected = shift
+                            if lead >= 0:
+                                expected += multiplier * float(cells[lead])
                         except (IndexError, ValueError):
                             continue
-                        if math.isfinite(value):
+                        if math.isfinite(value) and math.isfinite(expected):
                             low[name] = min(low[name], value)
                             high[name] = max(high[name], value)
+                            worst[name] = max(worst[name], abs(value - expected))
     except (OSError, ValueError):
         return None  # the read names the problem
+    off = [name for name in model if worst[name] > LOCKED_TOLERANCE]
     moving = [
         f"{name} from {low[name]:.4g} to {high[name]:.4g}"
-        for name in columns
-        if max(abs(low[name] - locked[name]), abs(high[name] - locked[name]))
-        > LOCKED_TOLERANCE
+        for name in off
+        if name in locked
     ]
-    if not moving:
+    astray = [
+        f"{name} departs from {mimic[name][1]:g}·{mimic[name][0]} + "
+        f"{mimic[name][2]:g} by up to {worst[name]:.3g}"
+        for name in off
+        if name not in locked
+    ]
+    parts = []
+    if moving:
+        held = ", ".join(f"{name} = {locked[name]:g}" for name in off if name in locked)
+        parts.append(
+            f"joint(s) not identified move in the log ({'; '.join(moving)}) while "
+            f"the model holds them fixed ({held}): add them to --joints, or --lock "
+            "them at the position they keep"
+        )
+    if astray:
+        parts.append(
+            f"mimic joint(s) do not follow their URDF relation in the log "
+            f"({'; '.join(astray)}): fix the URDF's <mimic>, or identify the joint "
+            "on its own"
+        )
+    if not parts:
         return None
-    held = ", ".join(f"{name} = {locked[name]:g}" for name in columns)
-    return (
-        f"joint(s) not identified move in the log ({'; '.join(moving)}) while the "
-        f"model holds them fixed ({held}): the torques they cause are not modelled. "
-        "Add them to --joints, or --lock them at the position they keep."
-    )
+    return "; ".join(parts) + ". The torques they cause are not modelled."
 
 
 def _constant_columns(values: Any) -> list[tuple[int, float]]:
