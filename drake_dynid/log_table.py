@@ -191,10 +191,25 @@ def _split_header(path: str, text: str, first_line: int) -> tuple[list[str], str
         raise ValueError(
             f"log {path}: row {header_line}: the header is not valid CSV ({error})."
         ) from None
-    cells = [cell.strip() for cell in header]
-    while len(cells) > 1 and cells[-1] == "":  # a logger's trailing commas
-        cells.pop()
-    return cells, text[end + 1 :], header_line + 1
+    return [cell.strip() for cell in header], text[end + 1 :], header_line + 1
+
+
+def unused_columns(header: Sequence[str], used: Any) -> list[str]:
+    """The named columns of ``header`` not in ``used``, for the reader's warning.
+
+    A column without a name is not listed when it is the last one (a logger's
+    trailing comma on every row, the header included); elsewhere it is named by
+    its position ("unnamed column 3").
+    """
+    out = []
+    for k, name in enumerate(header):
+        if name in used:
+            continue
+        if name:
+            out.append(name)
+        elif k < len(header) - 1:
+            out.append(f"unnamed column {k + 1}")
+    return out
 
 
 def _blank_line(text: str) -> bool:

@@ -54,7 +54,7 @@ from drake_dynid.log_repair import (
     Repaired,
     repair,
 )
-from drake_dynid.log_table import read_header, read_table
+from drake_dynid.log_table import read_header, read_table, unused_columns
 
 __all__ = ["RobotLog", "header_joints", "read_log", "write_log"]
 
@@ -306,7 +306,7 @@ def read_log(
     n = len(names)
     with open(path, "rb") as stream:
         table = read_table(path, stream, wanted, (n, n))
-    extra = [name for name in table.header if name not in wanted]
+    extra = unused_columns(table.header, wanted)
     notes = [f"ignored extra column(s) {', '.join(extra)}."] if extra else []
     q, tau = table.parts
     repaired = repair(

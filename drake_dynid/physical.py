@@ -169,6 +169,29 @@ class PhysicalCheck:
         return "physically impossible: " + "; ".join(parts) + "."
 
 
+#: A median |θ / θ_URDF| from which the estimate is taken to be in another unit.
+_UNIT_SCALE = 100.0
+
+
+def _unit_scale(robot: Any, theta: np.ndarray) -> float:
+    """The feasibility box's factor: median |θ_i / θ_URDF,i| when >= 100, else 1.
+
+    Torques logged in another unit (mN·m: θ 1e3-1e4 times the URDF's) scale every
+    parameter alike; the box grows with them (its ±1e4 scale units around the
+    URDF made the program infeasible). Not for smaller factors: the verdict of a
+    link whose data barely decide it depends on the box (the TIAGo's arm_6_link,
+    median 6.8, would pass through a decomposition 4e4 scale units away), and not
+    the largest ratio: one poorly determined parameter must not widen it.
+    """
+    reference = np.abs(np.asarray(robot.base_values, dtype=float))
+    used = reference > 1e-9 * float(np.max(reference, initial=0.0))
+    if not used.any():
+        return 1.0
+    ratio = np.abs(np.asarray(theta, dtype=float)[used]) / reference[used]
+    scale = float(np.median(ratio))
+    return scale if scale >= _UNIT_SCALE else 1.0
+
+
 def check_physical(
     robot: Any, theta: Any, *, tolerance: float = FEASIBILITY_TOLERANCE
 ) -> PhysicalCheck:
@@ -177,7 +200,8 @@ def check_physical(
     Friction and rotor inertias that are base parameters on their own are checked
     by sign. The rest is the feasibility SDP (module docstring): find θ_std with
     ``matrix·θ_std = θ_base``, ``T_j J_j(θ_std) T_j + s_j·1 ⪰ 0``, regrouped
-    ``IAj ≥ −s_j·scale``, s_j ≥ 0, |x − x₀| ≤ 1e4 (scale units), minimising Σ s_j.
+    ``IAj ≥ −s_j·scale``, s_j ≥ 0, |x − x₀| ≤ 1e4 (scale units; times the
+    estimate's unit factor when it is >= 100: :func:`_unit_scale`), minimising Σ s_j.
     Links with s_j > ``tolerance`` are infeasible. Which links carry the slack is
     not unique when base parameters regroup several links: the L1 cost puts it on
     few links, and ``involved`` names every base parameter those links enter.
@@ -227,10 +251,7 @@ def check_physical(
     prog.AddLinearCost(np.ones(robot.num_joints), 0.0, slack)
     # Keep the free directions bounded (no cost on them: a cost would trade slack
     # for distance where the feasible set is thin).
-    # The box holds the least-norm standard parameters of θ (an estimate far from
-    # the URDF's scale, e.g. torques logged in another unit, stays feasible).
-    reach = np.linalg.lstsq(rows, theta[keep], rcond=None)[0] - problem.prior
-    box = max(_BOX, 10.0 * float(np.max(np.abs(reach), initial=0.0)))
+    box = _BOX * _unit_scale(robot, theta)
     prog.AddBoundingBoxConstraint(problem.prior - box, problem.prior + box, x)
 
     def accept(result) -> str | None:

@@ -48,7 +48,7 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
-from drake_dynid.log_table import parse_cell
+from drake_dynid.log_table import parse_cell, unused_columns
 
 __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
@@ -255,7 +255,7 @@ def read_raw_table(
         )
     extra = tuple(
         dict.fromkeys(
-            name for path in files for name in headers[path] if name not in owner
+            name for path in files for name in unused_columns(headers[path], owner)
         )
     )
     return RawTable(out, tuple(warnings), extra)
@@ -395,7 +395,7 @@ def _read_streamed(
         )
     extra = tuple(
         dict.fromkeys(
-            name for path in files for name in headers[path] if name not in owner
+            name for path in files for name in unused_columns(headers[path], owner)
         )
     )
     n = len(chain.joint_names)

@@ -260,8 +260,11 @@ def test_physical_fit_and_urdf_with_coupled_motor_columns(files, tmp_path, capsy
 def test_validate_finds_the_results_drive_file_or_says_it_is_missing(
     files, tmp_path, capsys, monkeypatch
 ):
-    """Found by a review: a drive path recorded relative to the fit's folder was
-    dropped without a word when validating from elsewhere."""
+    """Found by two reviews: a drive path recorded relative to the fit's folder was
+    dropped without a word when validating from elsewhere, then not found. It is
+    recorded absolute, and looked for beside the results file when both moved."""
+    import shutil
+
     _, raw, drive = files
     fit_folder = tmp_path / "fit"
     fit_folder.mkdir()
@@ -269,30 +272,34 @@ def test_validate_finds_the_results_drive_file_or_says_it_is_missing(
     monkeypatch.chdir(fit_folder)
     common = ["--urdf", URDF, "--rotor-inertia", "--split", "0.7"]
     fit = _run(["offline", *raw, *common, "--drive", "wrist4.toml"], tmp_path, "fit")
-    assert fit["settings"]["drive"] == "wrist4.toml"
+    assert fit["settings"]["drive"] == str(fit_folder / "wrist4.toml")  # absolute
     results = fit_folder / "fit.json"
     results.write_text(json.dumps(fit))
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
-    argv = ["validate", *raw, "--urdf", URDF, "--params", str(results)]
-    check = _run(argv, tmp_path, "check")  # found next to the results file
-    errors = [
-        j["relative_rms_percent"] for j in check["estimates"]["idim-ls"]["joints"]
-    ]
-    assert max(errors) < 5.0
+
+    def check(params):
+        argv = ["validate", *raw, "--urdf", URDF, "--params", str(params)]
+        document = _run(argv, tmp_path, "check")
+        joints = document["estimates"]["idim-ls"]["joints"]
+        assert max(j["relative_rms_percent"] for j in joints) < 5.0
+        return argv
+
+    argv = check(results)  # from another folder: the absolute path
     # An output never overwrites the drive file found that way.
-    target = str(fit_folder / "wrist4.toml")
     before = drive.read_text()
-    assert cli.main([*argv, "--json", target]) == 2
+    assert cli.main([*argv, "--json", str(fit_folder / "wrist4.toml")]) == 2
     assert "drive file" in error_line(capsys)
     assert (fit_folder / "wrist4.toml").read_text() == before
+    # Both moved together: found beside the results file, by its name.
+    moved = shutil.move(str(fit_folder), str(tmp_path / "moved"))
+    argv = check(pathlib.Path(moved) / "fit.json")
     # Not found at all: an error naming it, never a silent drop.
-    (fit_folder / "wrist4.toml").unlink()
+    (pathlib.Path(moved) / "wrist4.toml").unlink()
     assert cli.main(argv) == 2
     line = error_line(capsys)
-    assert "its drive file wrist4.toml (settings.drive) is not found" in line
-    assert "--drive" in line
+    assert "wrist4.toml (settings.drive) is not found" in line and "--drive" in line
 
 
 def test_a_drive_file_that_is_not_utf8_text_or_a_folder_is_named(

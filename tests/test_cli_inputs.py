@@ -18,9 +18,12 @@ def test_a_packaged_robot_by_its_name(capsys, tmp_path, monkeypatch):
     assert cli.main(["params", "no_such_robot"]) == 2
     line = error_line(capsys)
     assert "URDF file not found: no_such_robot" in line and "iiwa7" in line
-    (tmp_path / "iiwa7").mkdir()  # a file or folder of that name wins
-    assert cli.main(["params", "iiwa7"]) == 2
-    assert "URDF iiwa7 is a directory, expected a file" in error_line(capsys)
+    (tmp_path / "iiwa7").mkdir()  # a folder is no URDF: the packaged robot
+    assert cli.main(["params", "iiwa7"]) == 0
+    assert f"robot: {model_path('iiwa7')}" in capsys.readouterr().out
+    (tmp_path / "ur5").write_text(Path(model_path("planar_2r")).read_text())
+    assert cli.main(["params", "ur5"]) == 2  # a file of that name wins (Drake
+    assert "could not parse ur5" in error_line(capsys)  # wants its extension)
 
 
 def test_files_that_are_not_utf8_text_are_named(tmp_path, capsys):

@@ -88,3 +88,22 @@ def test_a_mimic_joint_that_does_not_follow_its_leader_is_said(tmp_path):
     follows = tmp_path / "follows.csv"
     write_log(follows, t, q, np.ones_like(q), ("joint1", "joint2"))
     assert locked_motion(str(follows), robot) is None
+
+
+def test_cells_the_sampler_cannot_read_say_nothing(tmp_path):
+    """Found by a review: a locked joint's column all NaN, or every cell quoted,
+    gave "iiwa_joint_7 from inf to -inf"."""
+    robot = RobotModel.from_urdf(URDF, joints=["joint1"])
+    _, t, q, _ = fourier_2r(3001)
+    q[:, 1] = np.nan
+    empty = tmp_path / "nan.csv"
+    write_log(empty, t, q, np.ones_like(q), ("joint1", "joint2"))
+    assert locked_motion(str(empty), robot) is None
+    _, t, q, _ = fourier_2r(3001)
+    lines = ["t,q_joint1,q_joint2,tau_joint1,tau_joint2"]
+    rows = zip(t, q[:, 0], q[:, 1], strict=True)
+    lines += [f'"{a}","{b}","{c}","1","1"' for a, b, c in rows]
+    quoted = tmp_path / "quoted.csv"
+    quoted.write_text("\n".join(lines) + "\n")
+    warning = locked_motion(str(quoted), robot)
+    assert warning is not None and "joint2 from -" in warning, warning

@@ -338,3 +338,15 @@ def test_cells_python_reads_but_a_logger_never_writes_are_errors(tmp_path, cell)
     path = write_text(tmp_path / "u.csv", HEADER + body)
     with pytest.raises(ValueError, match=f"'{cell}' is not a number"):
         read_log(path, JOINTS)
+
+
+def test_an_unnamed_last_column_with_data_is_read_around(tmp_path):
+    """Found by a review of the trailing-comma fix: a last column without a name
+    but with numbers became an error ("row 2 has 6 cells; the header has 5")."""
+    text = HEADER.replace("\n", ",\n") + rows(10).replace("\n", ",7\n")
+    log = read_log(write_text(tmp_path / "u.csv", text), JOINTS)
+    assert log.num_samples == 10 and log.warnings == ()
+    body = "".join(line.replace(",", ",7,", 1) + "\n" for line in rows(10).split())
+    middle = HEADER.replace("t,", "t,,", 1) + body
+    log = read_log(write_text(tmp_path / "m.csv", middle), JOINTS)
+    assert any("unnamed column 2" in w for w in log.warnings)

@@ -193,3 +193,23 @@ def test_regularization_beyond_its_range_is_refused_before_the_fit(files, capsys
     argv = ["offline", files["log"], "--urdf", files["urdf"], "--physical"]
     assert cli.main([*argv, "--regularization", "1e300"]) == 2
     assert "--regularization must be in [0, 1e6]" in capsys.readouterr().err
+
+
+def test_an_existing_writable_file_in_a_locked_folder_is_accepted(
+    files, capsys, tmp_path, monkeypatch
+):
+    """Found by a review: --json /dev/null (a writable file in a folder a user
+    cannot write) was refused: the file is written in place."""
+    from drake_dynid.commands import _paths
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    target = locked / "out.json"
+    target.write_text("{}")
+    real = os.access
+    monkeypatch.setattr(
+        _paths.os, "access", lambda p, mode: Path(p) != locked and real(p, mode)
+    )
+    argv = ["offline", files["log"], "--urdf", files["urdf"], "--json", str(target)]
+    cli.main(argv)  # the one-row log fails later, on its own terms
+    assert "cannot be written" not in capsys.readouterr().err

@@ -254,9 +254,10 @@ def urdf_argument(text: str) -> str:
     import os
     from pathlib import Path
 
-    if os.path.exists(text) or os.sep in text or text.lower().endswith(".urdf"):
+    if os.sep in text or text.lower().endswith(".urdf") or os.path.isfile(text):
         return text
     packaged = Path(__file__).resolve().parents[1] / "models" / f"{text}.urdf"
+    # A folder of that name is no URDF: the packaged robot is meant.
     return str(packaged) if packaged.is_file() else text
 
 
@@ -427,10 +428,10 @@ def locked_motion(path: str, robot: Any) -> str | None:
                     cells = line.split(b",")
                     for name, (at, lead, multiplier, shift) in model.items():
                         try:
-                            value = float(cells[at])
+                            value = float(cells[at].strip(b' "'))
                             expected = shift
                             if lead >= 0:
-                                expected += multiplier * float(cells[lead])
+                                expected += multiplier * float(cells[lead].strip(b' "'))
                         except (IndexError, ValueError):
                             continue
                         if math.isfinite(value) and math.isfinite(expected):
@@ -439,7 +440,12 @@ def locked_motion(path: str, robot: Any) -> str | None:
                             worst[name] = max(worst[name], abs(value - expected))
     except (OSError, ValueError):
         return None  # the read names the problem
-    off = [name for name in model if worst[name] > LOCKED_TOLERANCE]
+    # A column with no finite value read says nothing (all NaN, or unparsed).
+    off = [
+        name
+        for name in model
+        if low[name] <= high[name] and worst[name] > LOCKED_TOLERANCE
+    ]
     moving = [
         f"{name} from {low[name]:.4g} to {high[name]:.4g}"
         for name in off
@@ -616,17 +622,28 @@ def dead_zone_line(robot: Any, args: Any = None) -> str | None:
     return f"Coulomb dead zone (|v| <= w: sign(v) = 0): {text}"
 
 
+def absolute(path: str | None) -> str | None:
+    """A path as a results file records it: absolute (None stays None).
+
+    ``dynid validate`` then finds it from any folder.
+    """
+    import os
+
+    return os.path.abspath(path) if path else None
+
+
 def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
     """The model entries of a results file's ``settings`` (read back by validate).
 
-    Identified and locked joints, rotor inertia, the drive file and its chain,
-    and the Coulomb dead zone (``--dead-zone`` and the widths used).
+    Identified and locked joints, rotor inertia, the drive file (its absolute
+    path) and its chain, and the Coulomb dead zone (``--dead-zone`` and the widths
+    used).
     """
     out: dict[str, Any] = {
         "joints": list(robot.joint_names),
         "locked": dict(robot.locked),
         "rotor_inertia": bool(robot.rotor_inertia),
-        "drive": getattr(args, "drive", None),
+        "drive": absolute(getattr(args, "drive", None)),
         "dead_zone": getattr(args, "dead_zone", None),
         "coulomb_dead_zone": dead_zone_widths(robot),
     }

@@ -73,11 +73,18 @@ def _paths(value: Any) -> list[str]:
 
 
 def _check_parent(option: str, path: str) -> None:
-    """Raises ValueError unless the folder of an output exists and can be written.
+    """Raises ValueError unless an output can be written where it goes.
 
-    Checked before any work, so a long run does not end on a missing folder.
+    An existing file is written in place: its own permission decides (``--json
+    /dev/null`` in a folder a user cannot write). A new file needs its folder to
+    exist and be writable. Checked before any work, so a long run does not end on
+    a missing folder.
     """
-    parent = Path(path).parent
+    file, parent = Path(path), Path(path).parent
+    if file.exists():  # written in place: the file's own permission decides
+        if not os.access(file, os.W_OK):
+            raise ValueError(f"{option} {path}: the file cannot be written.")
+        return
     if not parent.exists():
         raise ValueError(
             f"{option} {path}: the folder {parent} does not exist; create it first "

@@ -36,8 +36,10 @@ def _from_results(document: Mapping[str, Any], key: str) -> Any:
 def results_drive(args: argparse.Namespace, drive: str) -> str:
     """The drive file a results file names (``settings.drive``), found on disk.
 
-    The path as recorded (relative to the folder the fit ran in), else relative
-    to the results file's folder. A drive file that cannot be found is an error
+    The path as recorded (absolute since this was written; older files hold it as
+    given, relative to the folder the fit ran in), else relative to the results
+    file's folder, else a file of its name beside the results file (both moved
+    together). A drive file that cannot be found is an error
     (never dropped: the log would be read without the drive's units and
     columns); no output of the command may overwrite it.
 
@@ -47,9 +49,10 @@ def results_drive(args: argparse.Namespace, drive: str) -> str:
     from drake_dynid.commands._paths import check_output_paths
 
     recorded = Path(drive)
-    candidates = [recorded]
+    beside = Path(args.params).parent
+    candidates = [recorded, beside / recorded.name]
     if not recorded.is_absolute():
-        candidates.append(Path(args.params).parent / recorded)
+        candidates.insert(1, beside / recorded)
     for candidate in candidates:
         if candidate.is_file():
             check_output_paths(

@@ -10,6 +10,7 @@ from typing import Any
 
 from drake_dynid.commands._arguments import (
     URDF_HELP,
+    absolute,
     add_drive_arguments,
     add_friction_argument,
     add_joint_arguments,
@@ -135,7 +136,7 @@ def params_document(model: Any, urdf: Any, drive: Any = None) -> dict[str, Any]:
             "coulomb_width": model.coulomb_width,
             "rotor_inertia": model.rotor_inertia,
             "gravity": model.gravity.tolist(),
-            "drive": drive,
+            "drive": absolute(drive),
         },
         **({"drive_chain": model.drive.summary()} if model.drive is not None else {}),
     }

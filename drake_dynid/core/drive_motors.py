@@ -93,10 +93,11 @@ def _row_text(row: Mapping[str, float]) -> str:
     return "{" + ", ".join(f"{j} = {r:g}" for j, r in row.items()) + "}"
 
 
-#: Magnitudes accepted for a gear ratio or a coupling entry [motor rad per joint
-#: rad]: real drives lie within 1e-3 … 1e4; beyond 1e-6 … 1e6 the coupling matrix
-#: loses its rank to round-off, so the message names the ratio instead.
-RATIO_RANGE = (1e-6, 1e6)
+#: Magnitudes accepted for a gear ratio [motor rad per joint rad, or per m]: real
+#: rotary drives lie within 1e-3 … 1e4, screws up to about 1e6 rad/m (a 1 mm lead
+#: behind a 160:1 gear); 1e300 made the coupling matrix lose its rank to
+#: round-off ("singular coupling"), so the message names the ratio instead.
+RATIO_RANGE = (1e-9, 1e9)
 
 
 class _Builder:
@@ -137,7 +138,8 @@ class _Builder:
         if not RATIO_RANGE[0] <= abs(out) <= RATIO_RANGE[1]:
             self.fail(
                 f"{field} must be within ±{RATIO_RANGE[0]:g} … ±{RATIO_RANGE[1]:g} "
-                f"[motor rad per joint rad] (a gear ratio); got {out:g}."
+                "[motor rad per joint rad, or per m for a prismatic joint] (a gear "
+                f"ratio); got {out:g}."
             )
         return out
 

@@ -461,3 +461,14 @@ def test_every_toml_example_of_the_drive_documentation_is_valid():
     assert [m.torque_constant for m in chain.motors] == [
         m.torque_constant for m in tiago.motors
     ]
+
+
+def test_a_screw_ratio_in_rad_per_m_is_accepted_and_absurd_ratios_are_named():
+    """A 1 mm lead screw behind a 160:1 gear is 1.005e6 rad/m (a review found the
+    first ratio bound, 1e6, refusing it); 1e300 gave 'singular coupling'."""
+    screw = {"motors": {"m": {"joint": "lift", "gear_ratio": 1005310.0}}}
+    chain = DriveChain.from_dict(screw, ("lift",), prismatic_joints=("lift",))
+    assert chain.motors[0].row[0] == 1005310.0
+    absurd = {"motors": {"m": {"joint": "lift", "gear_ratio": 1e300}}}
+    with pytest.raises(ValueError, match=r"motors.m.gear_ratio must be within"):
+        DriveChain.from_dict(absurd, ("lift",), prismatic_joints=("lift",))
