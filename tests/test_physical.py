@@ -332,3 +332,17 @@ def test_an_estimate_far_from_the_urdfs_scale_is_still_checked():
     robot = RobotModel.from_urdf(model_path("planar_2r"))
     check = check_physical(robot, 1e6 * robot.base_values)
     assert check.consistent, check.summary()
+
+
+def test_the_box_grows_only_for_an_estimate_in_another_unit():
+    """A review found the TIAGo's arm_6_link verdict changed when the box grew
+    with any estimate far from the URDF: only a unit factor (median >= 100)
+    widens it."""
+    from drake_dynid.physical import _unit_scale
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    theta = robot.base_values.copy()
+    assert _unit_scale(robot, 6.8 * theta) == 1.0
+    theta[0] *= 1e6  # one wild parameter
+    assert _unit_scale(robot, theta) == 1.0
+    assert _unit_scale(robot, 1e4 * robot.base_values) == pytest.approx(1e4)
