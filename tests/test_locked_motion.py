@@ -107,3 +107,21 @@ def test_cells_the_sampler_cannot_read_say_nothing(tmp_path):
     quoted.write_text("\n".join(lines) + "\n")
     warning = locked_motion(str(quoted), robot)
     assert warning is not None and "joint2 from -" in warning, warning
+
+
+def test_a_drive_file_log_of_moving_locked_joints_is_said(capsys):
+    """The TIAGo recording identified for arm_1..arm_4 with the robot's drive file
+    (its torso and wrist move): the joint-side template names their columns."""
+    data = pathlib.Path(__file__).parent / "data" / "tiago"
+    logs = [
+        str(data / "tiago_position_excerpt.csv"),
+        str(data / "tiago_effort_excerpt.csv"),
+    ]
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"),
+        joints=[f"arm_{k}_joint" for k in range(1, 5)],
+        drive=pathlib.Path(model_path("tiago_no_hand")).with_name("tiago.toml"),
+    )
+    warning = locked_motion(logs, robot)
+    assert warning is not None and "joint(s) not identified move in the log" in warning
+    assert "arm_5_joint from " in warning, warning

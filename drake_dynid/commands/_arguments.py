@@ -359,13 +359,11 @@ def read_robot_log(
 
 
 def _warn_locked_motion(files: Sequence[str], robot: Any, command: str) -> None:
-    """:func:`locked_motion`'s warning on stderr (one-file plain logs)."""
-    if len(files) == 1:
-        warning = locked_motion(files[0], robot)
-        if warning:
-            print(
-                f"dynid {command}: warning: log {files[0]}: {warning}", file=sys.stderr
-            )
+    """:func:`locked_motion`'s warning on stderr."""
+    warning = locked_motion(files, robot)
+    if warning:
+        label = " + ".join(files)
+        print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
 
 
 #: A joint that is not identified is said to move in the log when its recorded
@@ -376,74 +374,94 @@ LOCKED_TOLERANCE = 1e-3
 _CHUNKS, _CHUNK_BYTES = 16, 1 << 16
 
 
-def locked_motion(path: str, robot: Any) -> str | None:
+def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
+    """What :func:`locked_motion` reads: ``(file, checks)`` per file.
+
+    Each check is ``(joint, column, leader column or -1, multiplier, offset,
+    scale)``.
+
+    Plain logs: ``q_<joint>`` of the locked and the mimic joints. Drive-file logs
+    with a joint-side ``{joint}`` position template: the locked joints' columns
+    (their reading times the angle unit's scale, in rad).
+    """
+    from drake_dynid.core.drive_log import ANGLE_UNITS
+    from drake_dynid.log_table import read_header
+
+    locked = dict(getattr(robot, "locked", None) or {})
+    mimic = dict(getattr(robot, "mimic", None) or {})
+    if robot.drive is None:
+        if len(files) != 1:
+            return []
+        column = "q_{joint}"
+        scale = 1.0
+    else:
+        template = getattr(robot.drive.log, "joint_position_template", None)
+        if template is None:
+            return []
+        column, mimic = template, {}
+        scale = float(ANGLE_UNITS[robot.drive.log.angle_unit])
+    out = []
+    for path in files:
+        with open(path, "rb") as stream:
+            header = read_header(path, stream)
+        checks = [
+            (name, header.index(column.format(joint=name)), -1, 0.0, value, scale)
+            for name, value in locked.items()
+            if column.format(joint=name) in header
+        ]
+        for name, (leader, multiplier, offset) in mimic.items():
+            mine, theirs = column.format(joint=name), column.format(joint=leader)
+            if mine in header and theirs in header:
+                at, lead = header.index(mine), header.index(theirs)
+                checks.append((name, at, lead, float(multiplier), float(offset), 1.0))
+        if checks:
+            out.append((path, checks))
+    return out
+
+
+def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:
     """A warning when the log records joints moving otherwise than the model.
 
     The joints outside ``--joints`` are welded at their ``locked`` positions (0
     unless ``--lock``), and a mimic joint follows its leader (q = k·q_leader +
-    offset, from the URDF). A log whose ``q_<joint>`` column of such a joint
-    moves otherwise gives torques that model cannot predict (a review found the
-    held-out error 10 times larger, with only "ignored extra column" said). Reads
-    16 chunks of 64 KiB spread over the file (start, end and between; not the
-    whole file), plain one-file logs only (a drive file names its own columns).
+    offset, from the URDF). A log whose column of such a joint moves otherwise
+    gives torques that model cannot predict (a review found the held-out error
+    10 times larger, with only "ignored extra column" said). Reads 16 chunks of
+    64 KiB spread over each file (start, end and between; not the whole file).
+    Plain logs (``q_<joint>``) and drive-file logs whose positions are a
+    joint-side ``{joint}`` template (the TIAGo's ``- {joint}_position``).
     """
     import os
 
     from drake_dynid.log_table import read_header
 
+    files = [files] if isinstance(files, str) else list(files)
     locked = dict(getattr(robot, "locked", None) or {})
     mimic = dict(getattr(robot, "mimic", None) or {})
-    if not (locked or mimic) or robot.drive is not None:
+    if not (locked or mimic):
         return None
+    low: dict[str, float] = {}
+    high: dict[str, float] = {}
+    worst: dict[str, float] = {}
     try:
-        with open(path, "rb") as stream:
-            header = read_header(path, stream)
-            start = stream.tell()
-            # joint -> (its column, its leader's column or -1, multiplier, offset)
-            model = {
-                name: (header.index(f"q_{name}"), -1, 0.0, float(value))
-                for name, value in locked.items()
-                if f"q_{name}" in header
-            }
-            for name, (leader, multiplier, offset) in mimic.items():
-                if f"q_{name}" in header and f"q_{leader}" in header:
-                    model[name] = (
-                        header.index(f"q_{name}"),
-                        header.index(f"q_{leader}"),
-                        float(multiplier),
-                        float(offset),
-                    )
-            if not model:
-                return None
-            size = os.fstat(stream.fileno()).st_size
-            low = {name: math.inf for name in model}
-            high = {name: -math.inf for name in model}
-            worst = dict.fromkeys(model, 0.0)
-            span = max(0, size - start - _CHUNK_BYTES)
-            for k in range(_CHUNKS):
-                offset = start + span * k // max(1, _CHUNKS - 1)
-                stream.seek(offset)
-                lines = stream.read(_CHUNK_BYTES).split(b"\n")
-                for line in lines[(1 if offset > start else 0) : -1]:
-                    cells = line.split(b",")
-                    for name, (at, lead, multiplier, shift) in model.items():
-                        try:
-                            value = float(cells[at].strip(b' "'))
-                            expected = shift
-                            if lead >= 0:
-                                expected += multiplier * float(cells[lead].strip(b' "'))
-                        except (IndexError, ValueError):
-                            continue
-                        if math.isfinite(value) and math.isfinite(expected):
-                            low[name] = min(low[name], value)
-                            high[name] = max(high[name], value)
-                            worst[name] = max(worst[name], abs(value - expected))
+        for path, checks in _motion_checks(files, robot):
+            with open(path, "rb") as stream:
+                read_header(path, stream)
+                start = stream.tell()
+                size = os.fstat(stream.fileno()).st_size
+                span = max(0, size - start - _CHUNK_BYTES)
+                for k in range(_CHUNKS):
+                    offset = start + span * k // max(1, _CHUNKS - 1)
+                    stream.seek(offset)
+                    lines = stream.read(_CHUNK_BYTES).split(b"\n")
+                    for line in lines[(1 if offset > start else 0) : -1]:
+                        _sample_line(line.split(b","), checks, low, high, worst)
     except (OSError, ValueError):
         return None  # the read names the problem
     # A column with no finite value read says nothing (all NaN, or unparsed).
     off = [
         name
-        for name in model
+        for name in worst
         if low[name] <= high[name] and worst[name] > LOCKED_TOLERANCE
     ]
     moving = [
@@ -474,6 +492,22 @@ def locked_motion(path: str, robot: Any) -> str | None:
     if not parts:
         return None
     return "; ".join(parts) + ". The torques they cause are not modelled."
+
+
+def _sample_line(cells, checks, low, high, worst) -> None:
+    """One sampled row into the running range and departure of each check."""
+    for name, at, lead, multiplier, shift, scale in checks:
+        try:
+            value = scale * float(cells[at].strip(b' "'))
+            expected = shift
+            if lead >= 0:
+                expected += multiplier * float(cells[lead].strip(b' "'))
+        except (IndexError, ValueError):
+            continue
+        if math.isfinite(value) and math.isfinite(expected):
+            low[name] = min(low.get(name, math.inf), value)
+            high[name] = max(high.get(name, -math.inf), value)
+            worst[name] = max(worst.get(name, 0.0), abs(value - expected))
 
 
 def _constant_columns(values: Any) -> list[tuple[int, float]]:

@@ -135,6 +135,9 @@ class LogFormat:
         torque_columns: the torque column names, same order.
         torque_unit: ``"N*m"``/``"N"`` (SI) or ``"A"``/``"mA"`` (currents).
         current_scale: scale of a current to A, None for SI efforts.
+        joint_position_template: ``log.position`` when it is a joint-side
+            template with ``{joint}`` (the column of any joint, identified or
+            not: the check that a locked joint does not move reads it), else None.
     """
 
     time: str
@@ -153,6 +156,7 @@ class LogFormat:
     torque_columns: tuple[str, ...]
     torque_unit: str
     current_scale: float | None
+    joint_position_template: str | None = None
 
 
 def _choice(owner: str, field: str, value: Any, choices: Sequence[str]) -> str:
@@ -329,4 +333,11 @@ def parse_log(
         torque_columns=torques,
         torque_unit=torque_unit,
         current_scale=CURRENT_UNITS.get(torque_unit),
+        joint_position_template=(
+            spec["position"]
+            if position_side == "joint"
+            and isinstance(spec["position"], str)
+            and "{joint}" in spec["position"]
+            else None
+        ),
     )
