@@ -122,13 +122,22 @@ def read_limits_file(path: str | Path) -> dict[str, dict[str, float]]:
 def joint_limits(robot: Any, limits_file: str | Path | None = None) -> JointLimits:
     """The URDF's limits, completed or overridden by ``limits_file`` when given.
 
+    A limits file of the whole robot serves any ``--joints``: the entries of the
+    URDF's joints that are not identified (locked or mimic: the experiment does
+    not move them on their own) are not used.
+
     Raises:
         ValueError: a malformed file, an unknown joint or key in it, or bad values.
     """
     limits = urdf_limits(robot)
     if limits_file is None:
         return limits
-    overrides = read_limits_file(limits_file)
+    outside = {*getattr(robot, "locked", {}), *getattr(robot, "mimic", {})}
+    overrides = {
+        joint: entries
+        for joint, entries in read_limits_file(limits_file).items()
+        if joint not in outside
+    }
     try:
         return limits.with_overrides(overrides)
     except ValueError as error:

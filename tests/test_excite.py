@@ -272,3 +272,14 @@ def test_cli_excite_missing_limits_and_never_overwrites(tmp_path, capsys):
     ]  # fmt: skip
     assert cli.main(argv) == 0
     assert "collision geometries" in capsys.readouterr().out
+
+
+def test_a_limits_file_of_the_whole_robot_serves_a_subset_of_its_joints():
+    """Found by a review: a limits file naming a joint outside --joints (a locked
+    or mimic one) was 'unknown joint'; its entry is not used."""
+    subset = RobotModel.from_urdf(
+        model_path("ur5"), joints=["shoulder_pan_joint", "shoulder_lift_joint"]
+    )
+    limits = joint_limits(subset, MODELS_DIR / "ur5_limits.json")
+    assert limits.joint_names == ("shoulder_pan_joint", "shoulder_lift_joint")
+    assert limits.velocity[0] == pytest.approx(3.1416)
