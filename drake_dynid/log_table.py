@@ -194,6 +194,37 @@ def _split_header(path: str, text: str, first_line: int) -> tuple[list[str], str
     return [cell.strip() for cell in header], text[end + 1 :], header_line + 1
 
 
+def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
+    """What the header suggests when wanted columns are missing ('' if nothing)."""
+    if len(header) == 1 and any(sep in header[0] for sep in ";\t|"):
+        return (
+            "; the header looks separated by another character than a comma: "
+            "the log must be comma-separated (CSV)"
+        )
+    joints = [name[2:] for name in wanted if name.startswith("q_")]
+    present = [j for j in joints if f"q_{j}" in header and f"tau_{j}" in header]
+    if present and len(present) < len(joints):
+        return (
+            f"; the log holds {', '.join(present)} only: --joints "
+            f"{','.join(present)} identifies those alone"
+        )
+    logged = [n[2:] for n in header if n.startswith("q_") and f"tau_{n[2:]}" in header]
+    if logged and not present:
+        shown = ", ".join(logged[:4]) + (", ..." if len(logged) > 4 else "")
+        return f"; the log holds the joints {shown}: not this robot's (check --urdf)"
+    if "t" not in header and wanted and wanted[0] == "t":
+        named = [n for n in header if n.lower() in ("time", "timestamp", "stamp", "ts")]
+        if named:
+            return (
+                f"; a time column named {named[0]!r}: rename it t, or describe the "
+                f'log in a drive file ([log] time = "{named[0]}", docs/DRIVE.md)'
+            )
+    return (
+        "; other column names are described in a drive file ([log] time, position "
+        "and torque templates, docs/DRIVE.md)"
+    )
+
+
 def unused_columns(header: Sequence[str], used: Any) -> list[str]:
     """The named columns of ``header`` not in ``used``, for the reader's warning.
 
@@ -412,7 +443,7 @@ def read_table(
         raise ValueError(
             f"log {path}: missing column(s) {', '.join(missing)}; the header must hold "
             "t, q_<joint> and tau_<joint> for every joint "
-            f"(found: {', '.join(header)})."
+            f"(found: {', '.join(header)}){_format_hint(header, wanted)}."
         )
     index = [header.index(name) for name in wanted]
     bounds = np.cumsum([1, *groups])

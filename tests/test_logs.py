@@ -350,3 +350,24 @@ def test_an_unnamed_last_column_with_data_is_read_around(tmp_path):
     middle = HEADER.replace("t,", "t,,", 1) + body
     log = read_log(write_text(tmp_path / "m.csv", middle), JOINTS)
     assert any("unnamed column 2" in w for w in log.warnings)
+
+
+@pytest.mark.parametrize(
+    ("header", "hint"),
+    [
+        ("t;q_shoulder;q_elbow;tau_shoulder;tau_elbow\n", "must be comma-separated"),
+        ("time,q_shoulder,q_elbow,tau_shoulder,tau_elbow\n", "named 'time': rename"),
+        ("t,q_shoulder,tau_shoulder\n", "holds shoulder only: --joints shoulder"),
+        ("t,q_a1,q_a2,tau_a1,tau_a2\n", "holds the joints a1, a2: not this robot's"),
+        ("t,pos1,pos2,eff1,eff2\n", "described in a drive file"),
+    ],
+)
+def test_a_header_without_the_columns_says_what_it_looks_like(tmp_path, header, hint):
+    """Found by a review: the missing-columns error never mentioned the separator,
+    the time column's name, --joints or drive files."""
+    separator = ";" if ";" in header else ","
+    cells = header.count(separator) + 1
+    body = "".join(separator.join(["0.001"] * cells) + "\n" for _ in range(3))
+    path = write_text(tmp_path / "h.csv", header + body)
+    with pytest.raises(ValueError, match=hint):
+        read_log(path, JOINTS)
