@@ -340,6 +340,13 @@ def test_a_drive_file_of_the_whole_robot_serves_a_subset_of_its_joints(
     err = capsys.readouterr().err
     assert "motors.torso_lift_motor drives torso_lift_joint, not identified" in err
     assert "motors.arm_5_motor drives arm_5_joint, not identified" in err
+    # The URDF's differential wrist (arm_6, arm_7) split by --joints: the drive
+    # file's simple row for arm_6_motor replaces the URDF's mixed one.
+    to_6 = f"{joints},arm_5_joint,arm_6_joint"
+    assert cli.main(["params", urdf, "--joints", to_6, "--drive", drive]) == 0
+    assert "motors.arm_7_motor drives arm_7_joint, not identified" in (
+        capsys.readouterr().err
+    )
     text = pathlib.Path(drive).read_text()
     coupled = tmp_path / "coupled.toml"
     old = 'joint = "arm_1_joint"'

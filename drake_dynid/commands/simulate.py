@@ -14,6 +14,7 @@ import numpy as np
 
 from drake_dynid.commands._arguments import (
     URDF_HELP,
+    absolute,
     add_friction_argument,
     parse_friction,
     urdf_argument,
@@ -301,7 +302,7 @@ def _simulation_entry(args, settings, log, robot) -> dict:
         "time_step": float(args.time_step),
         "seed": int(args.seed),
         "friction": list(settings.friction),
-        "drive": args.drive,
+        "drive": absolute(args.drive),
         "rotor_inertia": bool(robot.rotor_inertia),
         "snr_db": args.snr,
         "noise_std_q": log.noise_std[:n].tolist(),

@@ -13,7 +13,7 @@ the motors numbered by the first joint they drive. Pure numpy.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any, NoReturn
@@ -211,8 +211,16 @@ class _Builder:
             out["linear"] = table["linear"]
         return out
 
-    def urdf_motors(self, urdf: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-        """URDF motors touching identified joints: name -> {row, rotor_inertia}."""
+    def urdf_motors(
+        self, urdf: Mapping[str, Any], rewritten: Collection[str] = ()
+    ) -> dict[str, dict[str, Any]]:
+        """URDF motors touching identified joints: name -> {row, rotor_inertia}.
+
+        ``rewritten``: the motors whose row the drive file gives anew (``joint``
+        or ``joints``): a URDF row that mixes identified and non-identified
+        joints is then not an error (the TIAGo's differential wrist, identified
+        up to arm_6 with the drive file's simple rows).
+        """
         check_table(self.owner, "urdf", urdf, ("motors", "joints"))
         out = {}
         for name, table in dict(urdf.get("motors", {})).items():
@@ -223,6 +231,8 @@ class _Builder:
             if not inside:
                 self.locked.add(name)  # drives only non-identified (locked) joints
                 continue
+            if len(inside) != len(row) and name in rewritten:
+                continue  # the drive file's own row replaces it
             if len(inside) != len(row):
                 outside = sorted(set(row) - set(inside))
                 self.fail(
@@ -258,7 +268,18 @@ class _Builder:
         return None
 
     def motors(self, data: Mapping[str, Any], urdf: Mapping[str, Any] | None):
-        urdf_motors = self.urdf_motors(urdf) if urdf is not None else {}
+        tables = data.get("motors", {})
+        rewritten = (
+            [
+                name
+                for name, table in tables.items()
+                if isinstance(table, Mapping)
+                and ("joint" in table or "joints" in table)
+            ]
+            if isinstance(tables, Mapping)
+            else []
+        )
+        urdf_motors = self.urdf_motors(urdf, rewritten) if urdf is not None else {}
         if urdf is not None:
             self.urdf_joints = {str(j) for j in urdf.get("joints", ())}
         tables = data.get("motors", {})

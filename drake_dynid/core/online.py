@@ -216,7 +216,9 @@ class OnlineSettings:
             estimate's noise, which no weighting per row can use); it needs both
             stds and the filtered rows, its default ℓ set covers the
             differentiator's pass band (``core.ell_rule``), and σ is the
-            generalised least squares' (``uncertainty`` is not used). On the
+            generalised least squares', with ``uncertainty`` ``"jackknife"`` the
+            larger of it and a jackknife over the whitened rows (docs/MATH.md
+            §4). On the
             paper's 2R at SNR 30 dB it halves the power model's friction and
             inertial errors (README, Accuracy).
         rows_from: ``"filtered"`` (default): the model rows of the matched-filtered
