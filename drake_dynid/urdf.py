@@ -19,6 +19,7 @@ joints). Any such description loads:
 from __future__ import annotations
 
 import logging
+import math
 import re
 import xml.etree.ElementTree as ElementTree
 from collections import Counter
@@ -322,9 +323,35 @@ def _parse(
     return instances, summary
 
 
-def _actuate_all(plant: Any, mimic: dict[str, Any]) -> str | None:
-    """Adds an actuator to every movable joint without one (not to mimic joints)."""
+def _urdf_efforts(root: Any) -> dict[str, float]:
+    """``{joint: effort}`` of the URDF's ``<limit effort=...>`` (> 0 only)."""
+    out: dict[str, float] = {}
+    if root is None:
+        return out
+    for joint in root.iter("joint"):
+        limit = joint.find("limit")
+        if limit is None:
+            continue
+        try:
+            effort = float(limit.attrib.get("effort", "0"))
+        except ValueError:
+            continue
+        if effort > 0.0:
+            out[joint.attrib.get("name", "")] = effort
+    return out
+
+
+def _actuate_all(
+    plant: Any, mimic: dict[str, Any], efforts: dict[str, float] | None = None
+) -> str | None:
+    """Adds an actuator to every movable joint without one (not to mimic joints).
+
+    Its effort limit is the joint's URDF ``<limit effort>`` when given (Drake
+    reads that value only through a transmission), else none.
+    """
     from pydrake.multibody.tree import JointActuatorIndex, JointIndex
+
+    efforts = efforts or {}
 
     actuated = {
         plant.get_joint_actuator(JointActuatorIndex(i)).joint().index()
@@ -338,16 +365,25 @@ def _actuate_all(plant: Any, mimic: dict[str, Any]) -> str | None:
             and joint.index() not in actuated
             and joint.name() not in mimic
         ):
-            plant.AddJointActuator(f"{joint.name()}_dynid_actuator", joint)
+            effort = efforts.get(joint.name(), math.inf)
+            plant.AddJointActuator(f"{joint.name()}_dynid_actuator", joint, effort)
             added.append(joint.name())
     if not added:
         return None
     shown = ", ".join(added[:8])
     if len(added) > 8:
         shown += f", … ({len(added)} in all)"
+    limited = sum(name in efforts for name in added)
+    which = (
+        "effort limit from the URDF's <limit>"
+        if limited == len(added)
+        else "no effort limit"
+        if limited == 0
+        else f"effort limit from the URDF's <limit> for {limited} of them"
+    )
     return (
         f"{len(added)} joint{'s' if len(added) > 1 else ''} without a (simple) "
-        f"<transmission> treated as actuated (no effort limit): {shown}"
+        f"<transmission> treated as actuated ({which}): {shown}"
     )
 
 
@@ -463,7 +499,7 @@ def load_urdf(
             f"{owner}: {file} has no movable joint (revolute, continuous or "
             "prismatic); there is nothing to identify."
         )
-    actuated = _actuate_all(plant, mimic)
+    actuated = _actuate_all(plant, mimic, _urdf_efforts(root))
     plant.Finalize()
     inertia = None
     if root is not None:

@@ -236,3 +236,19 @@ def test_simulated_setup_refuses_a_model_with_locked_joints(gripper):
         simulate_identification(
             model, trajectory, SimulationSettings(duration=1.0), [OnlineSettings()]
         )
+
+
+def test_a_joint_actuated_for_want_of_a_transmission_keeps_its_urdf_effort():
+    """Found by a review: <limit effort="50"> was ignored for joints without a
+    <transmission> (no effort limit; excite then asked for a limits file)."""
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("tiago_no_hand"))
+    plant = robot.plant
+    limits = {
+        plant.get_joint_actuator(i).joint().name(): plant.get_joint_actuator(
+            i
+        ).effort_limit()
+        for i in plant.GetJointActuatorIndices()
+    }
+    assert limits["arm_6_joint"] == 6.6 and limits["arm_7_joint"] == 6.6
