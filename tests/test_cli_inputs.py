@@ -101,3 +101,26 @@ def test_a_trajectory_file_without_rows_is_said_without_numpys_warning(
     argv = ["simulate", model_path("planar_2r"), "--trajectory", str(trajectory)]
     assert cli.main([*argv, "--out", str(tmp_path / "log.csv")]) == 2
     assert "got no data rows" in error_line(capsys)
+
+
+def test_an_unloadable_collision_mesh_skips_the_check_with_its_reason(tmp_path, capsys):
+    """Found by a review: excite failed on the shipped TIAGo (package:// collision
+    meshes of another workspace) with a misleading "Fix the URDF" hint."""
+    text = Path(model_path("planar_2r")).read_text()
+    link = text.index("<inertial>")
+    mesh = '<mesh filename="package://no_such_package/arm.stl"/>'
+    text = (
+        text[:link]
+        + f"<collision><geometry>{mesh}</geometry></collision>"
+        + (text[link:])
+    )
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(text)
+    limits = tmp_path / "limits.json"
+    joint = {"lower": -3.0, "upper": 3.0, "velocity": 3.0, "effort": 100.0}
+    limits.write_text(json.dumps({"joint1": joint, "joint2": joint}))
+    argv = ["excite", str(urdf), "--limits", str(limits), "--duration", "10"]
+    assert cli.main([*argv, "--out", str(tmp_path / "t.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "self-collision: not checked (its collision geometry cannot be loaded" in out
+    assert "no_such_package" in out

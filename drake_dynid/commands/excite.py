@@ -197,6 +197,18 @@ def _percent(value: float) -> str:
     return f"{value:.2g}" if math.isfinite(value) else "inf"
 
 
+def _missing_geometry(message: str) -> str:
+    """Why the self-collision check is skipped: the loader's reason, or re-raise.
+
+    Only a collision mesh that cannot be found (a missing file or an unknown
+    ``package://``) skips it; any other URDF error stays an error.
+    """
+    if "does not exist" not in message and "unknown package" not in message:
+        raise ValueError(message)
+    detail = message.split(": error: ", 1)[-1].split(". Fix the URDF", 1)[0]
+    return f"its collision geometry cannot be loaded: {detail}"
+
+
 def run(args: argparse.Namespace) -> int:
     """Designs the trajectory, prints the report, writes the files. Returns 0."""
     from drake_dynid.collision import SelfCollision
@@ -249,7 +261,13 @@ def run(args: argparse.Namespace) -> int:
     limits = _limits(robot, args)
     say = (lambda *a: None) if args.quiet else print
     mid = 0.5 * (limits.lower + limits.upper)
-    collision = SelfCollision.from_urdf(args.urdf, mid)
+    unchecked = "the URDF has no collision geometry"
+    try:
+        collision = SelfCollision.from_urdf(args.urdf, mid)
+    except ValueError as error:
+        # A collision mesh the loader cannot find (package:// paths of another
+        # workspace: the shipped TIAGo): the design goes on without the check.
+        collision, unchecked = None, _missing_geometry(str(error))
     say(
         f"robot: {args.urdf} ({robot.num_joints} joints, "
         f"{robot.num_parameters} base parameters)"
@@ -260,7 +278,7 @@ def run(args: argparse.Namespace) -> int:
         f"effort {margins.effort:.0%}, collision {margins.collision:g} m"
     )
     if collision is None:
-        say("self-collision: not checked (the URDF has no collision geometry)")
+        say(f"self-collision: not checked ({unchecked})")
     else:
         ignored = f"; ignored (in contact at mid-range): {', '.join(collision.ignored)}"
         say(
