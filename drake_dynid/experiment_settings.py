@@ -149,6 +149,7 @@ class ExperimentLog:
         joint_names: the n joints.
         max_tracking_error: (n,) largest |q - q_ref| per joint [rad or m].
         saturated: samples whose command exceeded the URDF effort limit (clipped).
+        notes: warnings on the run (a Coulomb friction too stiff for the step).
     """
 
     t: np.ndarray
@@ -160,3 +161,4 @@ class ExperimentLog:
     joint_names: tuple[str, ...]
     max_tracking_error: np.ndarray
     saturated: int
+    notes: tuple[str, ...] = ()

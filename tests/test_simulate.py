@@ -317,3 +317,25 @@ def test_a_run_the_monitor_stops_is_not_continued(monkeypatch):
     )
     _too_tight_tracking()
     assert len(pieces) <= 1, pieces  # 2 s in chunks of 0.1 s: 19 before the fix
+
+
+def test_a_coulomb_friction_too_stiff_for_the_step_is_named():
+    """Found by a review: the UR5's wrist 3 (FC 0.3 N·m on about 1e-4 kg·m²)
+    chatters under the explicit tanh(v/0.01) law at 1 ms, and a failed run said
+    "lower its speed or raise the gains"."""
+    import numpy as np
+
+    from drake_dynid.experiment import stiff_coulomb
+    from drake_dynid.experiment_drive import simulated_drive_of, truth_model
+    from drake_dynid.plants import model_path
+    from drake_dynid.urdf import load_plant
+
+    urdf = model_path("ur5")
+    drive = simulated_drive_of(truth_model(urdf, ("viscous", "coulomb")), 0.01)
+    plant = load_plant(urdf, 1e-3)
+    context = plant.CreateDefaultContext()
+    speed = np.full(6, 2.0)  # rad/s
+    stiff = stiff_coulomb(plant, context, drive, np.zeros((1, 6)), 1e-3, speed)
+    assert set(stiff) == {5}  # wrist_3_joint only: 3.6 rad/s per step
+    assert "--friction viscous" in stiff[5] and "--time-step" in stiff[5]
+    assert stiff_coulomb(plant, context, drive, np.zeros((1, 6)), 1e-6) == {}

@@ -268,6 +268,8 @@ def run(args: argparse.Namespace) -> int:
         f"largest tracking error {log.max_tracking_error.max():.3g} "
         f"(joint {robot.joint_names[int(np.argmax(log.max_tracking_error))]})"
     )
+    for note in log.notes:
+        print(f"dynid simulate: warning: {note}", file=sys.stderr)
     if log.saturated:
         say(
             f"warning: the command exceeded the URDF effort limit in {log.saturated} "
