@@ -125,6 +125,13 @@ def main(argv=None) -> int:
         help="also write the noisy log (for dynid payload, README)",
     )
     args = parser.parse_args(argv)
+    if args.log and (
+        not args.log.lower().endswith(".csv")
+        or (os.path.exists(args.log) and not os.path.isfile(args.log))
+    ):
+        parser.error(f"--log must name a .csv file; got {args.log!r}")
+    if not args.pick < min(args.place, args.duration):
+        parser.error("--pick must come before --place and --duration")
     pick, place, duration = args.pick, args.place, args.duration
     if args.quick:
         pick, place, duration = 1.5, np.inf, 3.2

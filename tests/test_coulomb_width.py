@@ -118,7 +118,7 @@ def test_cli_takes_and_echoes_the_coulomb_width(tanh_log, tmp_path, capsys):
     assert checked["settings"]["coulomb_width"] == WIDTH
     assert cli.main([*argv, "--coulomb-width", "-1"]) == 2
     err = capsys.readouterr().err
-    assert "coulomb_width must be >= 0 [rad/s or m/s]" in err and "-1" in err
+    assert "--coulomb-width must be >= 0 [rad/s or m/s]" in err and "-1" in err
 
 
 def test_bad_widths_are_rejected():

@@ -8,6 +8,8 @@ import importlib.util
 import pathlib
 import re
 
+import pytest
+
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
@@ -81,3 +83,15 @@ def test_paper_table2_quick(tmp_path, capsys):
     lagrangian = re.search(r"\| on-line Lagrangian \| ([0-9.]+) \|", printed)
     # ZZ1R within 3 % with T = 6 s at SNR 30 dB (seed 1).
     assert abs(float(lagrangian.group(1)) - 3.9) < 0.03 * 3.9
+
+
+def test_payload_pick_never_writes_its_log_over_a_script(tmp_path):
+    """Found by a review: --log examples/payload_pick.py replaced the script."""
+    example = load_example("payload_pick")
+    script = tmp_path / "payload_pick.py"
+    script.write_text("print('me')\n")
+    with pytest.raises(SystemExit) as stop:
+        example.main(["--quick", "--log", str(script), "--out", str(tmp_path)])
+    assert stop.value.code == 2 and script.read_text() == "print('me')\n"
+    with pytest.raises(SystemExit):
+        example.main(["--pick", "8", "--place", "7", "--out", str(tmp_path)])

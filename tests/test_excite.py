@@ -283,3 +283,14 @@ def test_a_limits_file_of_the_whole_robot_serves_a_subset_of_its_joints():
     limits = joint_limits(subset, MODELS_DIR / "ur5_limits.json")
     assert limits.joint_names == ("shoulder_pan_joint", "shoulder_lift_joint")
     assert limits.velocity[0] == pytest.approx(3.1416)
+
+
+def test_noise_tau_is_checked_before_the_design(tmp_path, capsys):
+    """Found by a review: --noise-tau -1 ran the design, then named an internal
+    argument (excitation_report: noise_fraction)."""
+    from drake_dynid import cli
+
+    argv = ["excite", model_path("ur5"), "--noise-tau", "-1"]
+    assert cli.main([*argv, "--out", str(tmp_path / "t.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "--noise-tau must be > 0" in err and "noise_fraction" not in err

@@ -226,6 +226,12 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
     if getattr(args, "drive", None):
         options["drive"] = args.drive
     options.update(kwargs)
+    width = options.get("coulomb_width", 0.0)
+    if not (isinstance(width, (int, float)) and math.isfinite(width) and width >= 0):
+        raise ValueError(
+            "--coulomb-width must be >= 0 [rad/s or m/s] (0: the exact sign); got "
+            f"{width}."
+        )
     robot = RobotModel.from_urdf(args.urdf, **options)
     for note in robot.notes:
         print(f"dynid {command}: note: {note}", file=sys.stderr)

@@ -254,6 +254,11 @@ def run(args: argparse.Namespace) -> int:
                 f"{option} x --duration must give at most {MAX_SAMPLES:g} samples; "
                 f"got {rate:g} Hz x {settings.duration:g} s = {samples:.3g}."
             )
+    if not (math.isfinite(args.noise_tau) and args.noise_tau > 0.0):
+        raise ValueError(
+            "--noise-tau must be > 0 (the torque noise as a fraction of each joint's "
+            f"torque std); got {args.noise_tau:g}."
+        )
     robot = robot_from_args(args, "excite")
     if args.online_window is not None:
         _check_online_window(args, robot)  # before the (long) design
