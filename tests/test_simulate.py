@@ -339,3 +339,25 @@ def test_a_coulomb_friction_too_stiff_for_the_step_is_named():
     assert set(stiff) == {5}  # wrist_3_joint only: 3.6 rad/s per step
     assert "--friction viscous" in stiff[5] and "--time-step" in stiff[5]
     assert stiff_coulomb(plant, context, drive, np.zeros((1, 6)), 1e-6) == {}
+
+
+def test_speeds_and_torques_beyond_the_limits_are_said():
+    """Found by a review: a trajectory designed on the URDF's inflated limits ran
+    an iiwa at 4.4x its datasheet speed under --limits without a word."""
+    import types
+
+    import numpy as np
+
+    from drake_dynid.commands.simulate import _beyond_limits
+    from drake_dynid.limits import joint_limits
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("ur5"))
+    limits = joint_limits(robot)
+    speed = 2.0 * np.asarray(limits.velocity)
+    reference = types.SimpleNamespace(v=np.vstack([0.5 * speed, speed]))
+    log = types.SimpleNamespace(tau_true=np.zeros((2, 6)))
+    notes = _beyond_limits(reference, log, limits)
+    assert len(notes) == 6 and "2x its limit" in notes[0], notes
+    reference.v = 0.5 * reference.v
+    assert _beyond_limits(reference, log, limits) == []

@@ -9,6 +9,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -164,6 +165,31 @@ def truth_path(out: str, suffix: str = ".truth.json") -> Path:
     return path.with_name(f"{path.stem if path.suffix else path.name}{suffix}")
 
 
+def _beyond_limits(reference: Any, log: Any, limits: Any) -> list[str]:
+    """The joints whose reference speed or simulated torque exceeds its limit.
+
+    The run stops on position limits and on commands beyond 10x the effort
+    limit; a trajectory designed against other limits (the URDF's inflated ones
+    instead of ``--limits``) is said here (a review found an iiwa at 6.6 rad/s
+    against a datasheet 1.48 rad/s without a word).
+    """
+    out = []
+    speed = np.max(np.abs(np.asarray(reference.v, dtype=float)), axis=0)
+    torque = np.max(np.abs(np.asarray(log.tau_true, dtype=float)), axis=0)
+    for j, name in enumerate(limits.joint_names):
+        units = limits.units(j)
+        for what, value, limit, unit in (
+            ("speed", speed[j], limits.velocity[j], units[1]),
+            ("torque", torque[j], limits.effort[j], units[3]),
+        ):
+            if np.isfinite(limit) and value > limit * (1 + 1e-9):
+                out.append(
+                    f"joint {name}'s {what} reaches {value:.4g} {unit}, "
+                    f"{value / limit:.2g}x its limit {limit:.4g} {unit}"
+                )
+    return out
+
+
 def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
     """The dynid offline command line that scores the log against its truth.
 
@@ -268,7 +294,7 @@ def run(args: argparse.Namespace) -> int:
         f"largest tracking error {log.max_tracking_error.max():.3g} "
         f"(joint {robot.joint_names[int(np.argmax(log.max_tracking_error))]})"
     )
-    for note in log.notes:
+    for note in (*log.notes, *_beyond_limits(reference, log, limits)):
         print(f"dynid simulate: warning: {note}", file=sys.stderr)
     if log.saturated:
         say(
