@@ -50,22 +50,23 @@ def test_files_that_are_not_utf8_text_are_named(tmp_path, capsys):
 def test_a_missing_visual_mesh_does_not_stop_the_collision_check(tmp_path, capsys):
     """excite loads the collision geometry only; a missing visual mesh was an
     error there while every other command read the URDF."""
+    geometry = '<mesh filename="meshes/missing.dae"/>'
+    argv = _excite_with(tmp_path, f"<visual><geometry>{geometry}</geometry></visual>")
+    assert cli.main(argv) == 0, capsys.readouterr().err
+    assert (tmp_path / "t.csv").is_file()
+
+
+def _excite_with(tmp_path, element: str) -> list[str]:
+    """``dynid excite`` of the 2R arm with ``element`` added to its first link."""
     text = Path(model_path("planar_2r")).read_text()
     link = text.index("<inertial>")
-    text = (
-        text[:link]
-        + '<visual><geometry><mesh filename="meshes/missing.dae"/></geometry></visual>'
-        + text[link:]
-    )
     urdf = tmp_path / "robot.urdf"
-    urdf.write_text(text)
+    urdf.write_text(text[:link] + element + text[link:])
     limits = tmp_path / "limits.json"
     joint = {"lower": -3.0, "upper": 3.0, "velocity": 3.0, "effort": 100.0}
     limits.write_text(json.dumps({"joint1": joint, "joint2": joint}))
     argv = ["excite", str(urdf), "--limits", str(limits), "--duration", "10"]
-    argv += ["--out", str(tmp_path / "t.csv")]
-    assert cli.main(argv) == 0, capsys.readouterr().err
-    assert (tmp_path / "t.csv").is_file()
+    return [*argv, "--out", str(tmp_path / "t.csv")]
 
 
 def test_replay_shows_bad_samples_at_the_last_good_pose(capsys):
@@ -106,21 +107,9 @@ def test_a_trajectory_file_without_rows_is_said_without_numpys_warning(
 def test_an_unloadable_collision_mesh_skips_the_check_with_its_reason(tmp_path, capsys):
     """Found by a review: excite failed on the shipped TIAGo (package:// collision
     meshes of another workspace) with a misleading "Fix the URDF" hint."""
-    text = Path(model_path("planar_2r")).read_text()
-    link = text.index("<inertial>")
     mesh = '<mesh filename="package://no_such_package/arm.stl"/>'
-    text = (
-        text[:link]
-        + f"<collision><geometry>{mesh}</geometry></collision>"
-        + (text[link:])
-    )
-    urdf = tmp_path / "robot.urdf"
-    urdf.write_text(text)
-    limits = tmp_path / "limits.json"
-    joint = {"lower": -3.0, "upper": 3.0, "velocity": 3.0, "effort": 100.0}
-    limits.write_text(json.dumps({"joint1": joint, "joint2": joint}))
-    argv = ["excite", str(urdf), "--limits", str(limits), "--duration", "10"]
-    assert cli.main([*argv, "--out", str(tmp_path / "t.csv")]) == 0
+    argv = _excite_with(tmp_path, f"<collision><geometry>{mesh}</geometry></collision>")
+    assert cli.main(argv) == 0
     out = capsys.readouterr().out
     assert "self-collision: not checked (its collision geometry cannot be loaded" in out
     assert "no_such_package" in out
