@@ -38,7 +38,14 @@ class SelfCollision:
         ignored: names of the pairs ignored (in contact at the reference).
     """
 
-    def __init__(self, diagram: Any, plant: Any, scene_graph: Any, q_reference):
+    def __init__(
+        self,
+        diagram: Any,
+        plant: Any,
+        scene_graph: Any,
+        q_reference,
+        embedding: tuple[np.ndarray, np.ndarray, list] | None = None,
+    ):
         for name, value in (("diagram", diagram), ("scene_graph", scene_graph)):
             if not hasattr(
                 value,
@@ -50,6 +57,7 @@ class SelfCollision:
                 )
         self._diagram = diagram
         self._plant = plant
+        self._embedding = embedding
         self._scene_graph = scene_graph
         self._context = diagram.CreateDefaultContext()
         self._plant_context = plant.GetMyMutableContextFromRoot(self._context)
@@ -63,12 +71,18 @@ class SelfCollision:
         self.ignored = tuple(sorted(self._describe(a, b) for a, b in self._ignored))
 
     @classmethod
-    def from_urdf(cls, path: str | Path, q_reference: Any) -> SelfCollision | None:
+    def from_urdf(
+        cls, path: str | Path, q_reference: Any, robot: Any = None
+    ) -> SelfCollision | None:
         """Loads the URDF with a SceneGraph; None if it has no collision geometry.
 
         Args:
             path: the URDF.
             q_reference: (n,) configuration whose contacts are ignored [rad or m].
+            robot: the ``RobotModel`` whose joints q holds (``joint_names``, in
+                that order); the URDF's other joints at their ``locked``
+                positions, its mimic joints following their leaders. None: q is
+                the plant's whole position vector.
         """
         from pydrake.geometry import Role
         from pydrake.systems.framework import DiagramBuilder
@@ -83,7 +97,8 @@ class SelfCollision:
         inspector = scene_graph.model_inspector()
         if inspector.NumGeometriesWithRole(Role.kProximity) == 0:
             return None
-        return cls(builder.Build(), plant, scene_graph, q_reference)
+        embedding = None if robot is None else _embedding(plant, robot)
+        return cls(builder.Build(), plant, scene_graph, q_reference, embedding)
 
     @staticmethod
     def _key(pair: Any) -> tuple[Any, Any]:
@@ -91,6 +106,13 @@ class SelfCollision:
         return (a, b) if a.get_value() < b.get_value() else (b, a)
 
     def _pairs(self, q: np.ndarray) -> list[Any]:
+        if self._embedding is not None:  # the identified joints in the whole plant
+            base, index, mimic = self._embedding
+            full = base.copy()
+            full[index] = q
+            for at, leader, multiplier, offset in mimic:
+                full[at] = multiplier * full[leader] + offset
+            q = full
         self._plant.SetPositions(self._plant_context, q)
         query = self._scene_graph.get_query_output_port().Eval(self._sg_context)
         return query.ComputeSignedDistancePairwiseClosestPoints(MAX_DISTANCE)
@@ -120,3 +142,31 @@ class SelfCollision:
             if pair.distance < best and self._key(pair) not in self._ignored:
                 best, name = pair.distance, self._describe(pair.id_A, pair.id_B)
         return float(best), name
+
+
+def _embedding(plant: Any, robot: Any) -> tuple[np.ndarray, np.ndarray, list]:
+    """The identified joints' q placed in ``plant``'s position vector.
+
+    Returns (the positions with the locked joints at their values, the
+    identified joints' position indices, [(mimic index, leader index,
+    multiplier, offset)]).
+    """
+    base = np.zeros(plant.num_positions())
+    for name, value in dict(getattr(robot, "locked", {})).items():
+        base[plant.GetJointByName(name).position_start()] = value
+    index = np.array(
+        [plant.GetJointByName(n).position_start() for n in robot.joint_names],
+        dtype=int,
+    )
+    mimic = [
+        (
+            plant.GetJointByName(name).position_start(),
+            plant.GetJointByName(leader).position_start(),
+            float(multiplier),
+            float(offset),
+        )
+        for name, (leader, multiplier, offset) in dict(
+            getattr(robot, "mimic", {})
+        ).items()
+    ]
+    return base, index, mimic

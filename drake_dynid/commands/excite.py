@@ -15,6 +15,7 @@ from drake_dynid.commands._arguments import (
     URDF_HELP,
     add_drive_arguments,
     add_friction_argument,
+    add_joint_arguments,
     robot_from_args,
     urdf_argument,
 )
@@ -50,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "urdf", metavar="MODEL.urdf", type=urdf_argument, help=URDF_HELP
     )
+    add_joint_arguments(parser)
     add_drive_arguments(parser)
     parser.add_argument(
         "--duration",
@@ -268,7 +270,7 @@ def run(args: argparse.Namespace) -> int:
     mid = 0.5 * (limits.lower + limits.upper)
     unchecked = "the URDF has no collision geometry"
     try:
-        collision = SelfCollision.from_urdf(args.urdf, mid)
+        collision = SelfCollision.from_urdf(args.urdf, mid, robot)
     except ValueError as error:
         # A collision mesh the loader cannot find (package:// paths of another
         # workspace: the shipped TIAGo): the design goes on without the check.
