@@ -325,3 +325,21 @@ def test_excite_designs_for_a_joint_subset(tmp_path, capsys):
     assert "(2 joints," in out and "self-collision: " in out
     header = (tmp_path / "t.csv").read_text().splitlines()[0]
     assert "q_j1" in header and "q_j3" in header and "q_j2" not in header
+
+
+def test_a_design_worse_than_its_random_start_is_said(tmp_path, capsys):
+    """Found by a review: --margin effort=0.99 gave condition 8.8e4 against the
+    random trajectory's 174 (which breaks those limits) without a word."""
+    from drake_dynid import cli
+
+    argv = [
+        "excite",
+        model_path("iiwa7"),
+        "--limits",
+        str(MODELS_DIR / "iiwa7_limits.json"),
+    ]
+    argv += ["--margin", "effort=0.99", "--duration", "10", "--iterations", "10"]
+    assert cli.main([*argv, "--out", str(tmp_path / "t.csv")]) == 0
+    err = capsys.readouterr().err
+    assert "the design is worse conditioned than the random trajectory" in err
+    assert "--iterations 10" in err

@@ -6,6 +6,7 @@ import argparse
 import dataclasses
 import functools
 import math
+import sys
 import time
 from typing import Any
 
@@ -324,6 +325,20 @@ def run(args: argparse.Namespace) -> int:
         f"trajectory, seed {settings.seed}: {design.baseline_condition_number:.4g}); "
         f"{design.iterations} SLSQP iterations, {elapsed:.1f} s"
     )
+    if design.condition_number > design.baseline_condition_number:
+        # The random start breaks these limits; the feasible design found is worse.
+        stopped = "iteration limit" in design.message.lower()
+        print(
+            "dynid excite: warning: the design is worse conditioned than the random "
+            "trajectory it is compared with, which does not keep these limits"
+            + (
+                f" (the optimiser stopped at --iterations {args.iterations})"
+                if stopped
+                else ""
+            )
+            + ": loosen --margin, or give more --iterations or --harmonics.",
+            file=sys.stderr,
+        )
     say("")
     width = max(16, *(len(name) for name in limits.joint_names))
     say(f"{'joint':<{width}} position  velocity  effort   (max % of the limit)")
