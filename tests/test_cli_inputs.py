@@ -113,3 +113,23 @@ def test_an_unloadable_collision_mesh_skips_the_check_with_its_reason(tmp_path, 
     out = capsys.readouterr().out
     assert "self-collision: not checked (its collision geometry cannot be loaded" in out
     assert "no_such_package" in out
+
+
+def test_replay_shows_a_log_of_positions_only(tmp_path, capsys):
+    """Found by a review: a log without tau columns was refused by replay, which
+    only shows positions."""
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    robot, t, q, tau = fourier_2r(2001)
+    full = tmp_path / "full.csv"
+    write_log(full, t, q, tau, robot.joint_names)
+    lines = full.read_text().splitlines()
+    (tmp_path / "q.csv").write_text(
+        "\n".join(",".join(line.split(",")[:3]) for line in lines) + "\n"
+    )
+    argv = ["replay", model_path("planar_2r"), str(tmp_path / "q.csv")]
+    assert cli.main([*argv, "--html", str(tmp_path / "q.html"), "--fps", "4"]) == 0
+    assert "log (positions)" in capsys.readouterr().out
+    assert (tmp_path / "q.html").stat().st_size > 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -13,6 +14,7 @@ from drake_dynid.commands._arguments import (
     add_joint_arguments,
     add_log_argument,
     log_files,
+    print_log_warnings,
     read_robot_log,
     robot_from_args,
     urdf_argument,
@@ -76,6 +78,57 @@ def _is_trajectory(path: str, joint_names) -> bool:
     return all(f"v_{name}" in header for name in joint_names)
 
 
+def _positions_only(path: str, robot: Any) -> bool:
+    """A plain log with t and every q_<joint> but not every tau_<joint>."""
+    from drake_dynid.log_table import read_header
+
+    try:
+        with open(path, "rb") as stream:
+            header = set(read_header(path, stream))
+    except (OSError, ValueError):
+        return False  # the reader names the problem
+    names = robot.joint_names
+    return (
+        "t" in header
+        and all(f"q_{name}" in header for name in names)
+        and not all(f"tau_{name}" in header for name in names)
+    )
+
+
+def _read_positions(path: str, robot: Any) -> Any:
+    """A log's t and q, with the reader's time grid and repairs (zero torques).
+
+    Its torques are not needed to show the motion.
+    """
+    from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options, repair
+    from drake_dynid.log_table import read_table
+    from drake_dynid.logs import RobotLog
+
+    names = robot.joint_names
+    wanted = ["t", *(f"q_{name}" for name in names)]
+    with open(path, "rb") as stream:
+        table = read_table(path, stream, wanted, (len(names),))
+    (q,) = table.parts
+    q = np.asarray(q, dtype=float)
+    # Resampled when not uniform: an animation only needs poses on the grid.
+    options = Options.checked(f"log {path}", JITTER_TOLERANCE, True, FILL_GAPS, None)
+    repaired = repair(
+        f"log {path}",
+        "row",
+        table.t,
+        table.exact,
+        q,
+        np.zeros_like(q),
+        table.rows,
+        options,
+        table.notes,
+        table.bad,
+    )
+    log = RobotLog._named(repaired, names)
+    print_log_warnings(log, [path], "replay")
+    return log
+
+
 def _held_over_bad_samples(q: np.ndarray) -> np.ndarray:
     """Q with each bad sample (a non-finite cell) shown at the last good pose.
 
@@ -118,6 +171,9 @@ def run(args: argparse.Namespace) -> int:
     ):
         motion = read_trajectory(files[0], robot.joint_names)
         kind = "trajectory"
+    elif len(files) == 1 and not args.drive and _positions_only(files[0], robot):
+        motion = _read_positions(files[0], robot)
+        kind = "log (positions)"
     else:
         motion = read_robot_log(files, robot, resample=False, command="replay")
         kind = "log"
