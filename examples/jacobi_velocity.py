@@ -197,6 +197,8 @@ def main(argv=None) -> int:
     parser.add_argument("--mu", type=float, default=0.0, help="μ (0)")
     parser.add_argument("--q", type=int, default=1, help="q (1)")
     args = parser.parse_args(argv)
+    if not (args.window > 0 and args.kappa > -1 and args.mu > -1 and args.q >= 0):
+        parser.error("--window must be > 0, --kappa and --mu > -1, --q >= 0")
 
     import matplotlib
 

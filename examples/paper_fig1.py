@@ -106,6 +106,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
     args = parser.parse_args(argv)
+    if not args.duration > 0:
+        parser.error("--duration must be > 0")
     duration = 6.0 if args.quick else args.duration
     window = 4.0
     os.makedirs(args.out, exist_ok=True)

@@ -70,6 +70,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
     args = parser.parse_args(argv)
+    if not (0 < args.window < args.duration):
+        parser.error("--window must be > 0 and shorter than --duration")
     window, duration = (3.0, 4.0) if args.quick else (args.window, args.duration)
     os.makedirs(args.out, exist_ok=True)
     robot = RobotModel.from_urdf(model_path("planar_2r"))

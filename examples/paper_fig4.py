@@ -52,6 +52,8 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
     args = parser.parse_args(argv)
+    if not (0 < args.window and 0 < args.jump_time < args.duration):
+        parser.error("--window must be > 0 and --jump-time within (0, --duration)")
     if args.quick:
         window, jump, duration = 3.0, 4.0, 8.0
     else:

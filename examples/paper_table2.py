@@ -108,6 +108,8 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     window = 6.0 if args.quick else args.window
     duration = args.duration or window + 2.0
+    if not (window > 0 and duration > window + 1.0):
+        parser.error("--window must be > 0 and --duration at least --window + 1 s")
     os.makedirs(args.out, exist_ok=True)
 
     robot = RobotModel.from_urdf(model_path("planar_2r"))

@@ -95,3 +95,22 @@ def test_payload_pick_never_writes_its_log_over_a_script(tmp_path):
     assert stop.value.code == 2 and script.read_text() == "print('me')\n"
     with pytest.raises(SystemExit):
         example.main(["--pick", "8", "--place", "7", "--out", str(tmp_path)])
+
+
+@pytest.mark.parametrize(
+    ("name", "argv"),
+    [
+        ("paper_table2", ["--window", "0"]),
+        ("paper_table2", ["--window", "20", "--duration", "10"]),
+        ("paper_fig4", ["--jump-time", "30"]),
+        ("paper_fig3", ["--window", "30"]),
+        ("paper_fig1", ["--duration", "0"]),
+        ("jacobi_velocity", ["--window", "0"]),
+    ],
+)
+def test_examples_refuse_bad_options_before_any_work(name, argv, tmp_path):
+    """Found by a review: --window 0 was a traceback, a duration shorter than the
+    window printed -100 % errors, a jump after the end "from inf s"."""
+    with pytest.raises(SystemExit) as stop:
+        load_example(name).main([*argv, "--out", str(tmp_path)])
+    assert stop.value.code == 2
