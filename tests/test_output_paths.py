@@ -213,3 +213,9 @@ def test_an_existing_writable_file_in_a_locked_folder_is_accepted(
     argv = ["offline", files["log"], "--urdf", files["urdf"], "--json", str(target)]
     cli.main(argv)  # the one-row log fails later, on its own terms
     assert "cannot be written" not in capsys.readouterr().err
+
+
+def test_a_meshcat_page_that_is_not_html_is_refused(files, capsys):
+    argv = ["replay", files["urdf"], files["log"], "--html", "page.txt"]
+    assert cli.main(argv) == 2
+    assert "--html page.txt: a page file ends in .html" in capsys.readouterr().err

@@ -131,6 +131,11 @@ def check_outputs(
         if Path(path).is_dir():
             raise ValueError(f"{option} {path} is a directory; give a file path.")
         _check_parent(option, path)
+        if option == "--html" and Path(path).suffix.lower() not in (".html", ".htm"):
+            raise ValueError(
+                f"--html {path}: a page file ends in .html; got "
+                f"{Path(path).suffix or 'no extension'}."
+            )
         if option == "--plot" and Path(path).suffix.lower() not in FIGURE_SUFFIXES:
             raise ValueError(
                 f"--plot {path}: a figure file ends in "
