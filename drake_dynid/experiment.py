@@ -36,6 +36,7 @@ depends only on its two knots, so the chunks give the same log bit for bit
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -220,9 +221,10 @@ def simulate_experiment(
             controller_plant,
             controller_context,
             drive,
-            q_ref,
+            q_ref[t_ref <= duration + 1e-9],
             h,
-            np.max(np.abs(v_ref), axis=0),
+            np.max(np.abs(v_ref[t_ref <= duration + 1e-9]), axis=0),
+            log_step=settings.decimation * h,
         ).items()
     }
 
@@ -389,6 +391,7 @@ def stiff_coulomb(
     q: np.ndarray,
     h: float,
     speed: np.ndarray | None = None,
+    log_step: float | None = None,
 ) -> dict[int, str]:
     """``{joint index: why}`` for the joints whose Coulomb friction is too stiff.
 
@@ -398,7 +401,9 @@ def stiff_coulomb(
     0.3 N·m on 1.3e-4 kg·m²) chatters at every reversal of the tanh(v/0.01) law.
     Named when the chatter matters: the velocity jump of one step, h·FC·(M⁻¹)_jj,
     above half the joint's largest reference speed ``speed`` (n,) when given
-    (the iiwa7's wrist, 0.2 rad/s against 1.5 rad/s, is not named).
+    (the iiwa7's joint 7, 0.2-0.36 rad/s against 1.5 rad/s, is not named). The
+    step suggested divides ``log_step`` (the log's period: ``simulate`` needs
+    it). The drive's coupled motors' Coulomb friction is not checked.
     """
     coulomb = np.asarray(getattr(drive, "coulomb", ()), dtype=float)
     width = getattr(getattr(drive, "sign", None), "width", None)
@@ -416,16 +421,33 @@ def stiff_coulomb(
         named &= jump > 0.5 * np.asarray(speed, dtype=float)
     out = {}
     for j in np.flatnonzero(named):
+        stable = h * STIFF_COULOMB / ratio[j]
+        if log_step:  # a step that divides the log's period, written exactly
+            stable = _dividing_step(log_step, stable)
         out[int(j)] = (
             f"its Coulomb friction FC = {coulomb[j]:.3g} on an inertia as small as "
             f"{1.0 / mobility[j]:.2g} is too stiff for the {h:g} s step with "
             f"tanh(v/{width:g}) (h·FC/(ε·inertia) = {ratio[j]:.3g} > "
             f"{STIFF_COULOMB:g}): the simulated velocity chatters at reversals, by "
             f"up to {jump[j]:.2g} per step; "
-            f"simulate with --time-step {h * STIFF_COULOMB / ratio[j]:.2g} or less, or "
+            f"simulate with --time-step {stable:.10g} (slow) or less, or "
             "without Coulomb friction (--friction viscous)"
         )
     return out
+
+
+def _dividing_step(period: float, bound: float) -> float:
+    """The largest step <= ``bound`` that divides ``period`` and reads in 3 digits.
+
+    ``simulate`` wants --rate to divide 1/--time-step: the suggestion must be
+    typed back exactly (1e-3/200 = 5e-6, not 1e-3/180 = 5.56e-6).
+    """
+    first = max(1, math.ceil(period / bound - 1e-9))
+    for k in range(first, 4 * first + 1):
+        step = period / k
+        if abs(float(f"{step:.3g}") - step) <= 1e-12 * step:
+            return float(f"{step:.3g}")
+    return period / first
 
 
 def _actuators(plant: Any) -> list[str]:

@@ -211,7 +211,10 @@ def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     logged = [n[2:] for n in header if n.startswith("q_") and f"tau_{n[2:]}" in header]
     if logged and not present:
         shown = ", ".join(logged[:4]) + (", ..." if len(logged) > 4 else "")
-        return f"; the log holds the joints {shown}: not this robot's (check --urdf)"
+        return (
+            f"; the log holds the joints {shown}, not the ones asked for (check "
+            "--urdf and --joints)"
+        )
     if "t" not in header and wanted and wanted[0] == "t":
         named = [n for n in header if n.lower() in ("time", "timestamp", "stamp", "ts")]
         if named:

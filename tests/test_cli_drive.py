@@ -344,8 +344,10 @@ def test_a_drive_file_of_the_whole_robot_serves_a_subset_of_its_joints(
     # file's simple row for arm_6_motor replaces the URDF's mixed one.
     to_6 = f"{joints},arm_5_joint,arm_6_joint"
     assert cli.main(["params", urdf, "--joints", to_6, "--drive", drive]) == 0
-    assert "motors.arm_7_motor drives arm_7_joint, not identified" in (
-        capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "motors.arm_7_motor drives arm_7_joint, not identified" in err
+    assert (
+        "URDF actuator arm_6_motor {arm_6_joint = -1, arm_7_joint = 1} (it also" in err
     )
     text = pathlib.Path(drive).read_text()
     coupled = tmp_path / "coupled.toml"

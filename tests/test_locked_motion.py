@@ -125,3 +125,27 @@ def test_a_drive_file_log_of_moving_locked_joints_is_said(capsys):
     warning = locked_motion(logs, robot)
     assert warning is not None and "joint(s) not identified move in the log" in warning
     assert "arm_5_joint from " in warning, warning
+
+
+def test_a_locked_prismatic_joint_is_read_in_the_length_unit(tmp_path):
+    """Found by a review: a drive log's locked prismatic torso was read in the
+    angle unit (a millimetre log held still was "moving")."""
+    from drake_dynid.commands._arguments import _motion_checks
+
+    data = pathlib.Path(__file__).parent / "data" / "tiago"
+    drive = pathlib.Path(model_path("tiago_no_hand")).with_name("tiago.toml")
+    text = drive.read_text()
+    old = 'length_unit = "m"'
+    assert old in text
+    mm = tmp_path / "tiago_mm.toml"
+    mm.write_text(text.replace(old, 'length_unit = "mm"', 1))
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"),
+        joints=[f"arm_{k}_joint" for k in range(1, 8)],
+        locked={"torso_lift_joint": 0.2},
+        drive=mm,
+    )
+    logs = [str(data / "tiago_position_excerpt.csv")]
+    ((_, checks),) = _motion_checks(logs, robot)
+    scales = {name: scale for name, _, _, _, _, scale in checks}
+    assert scales == {"torso_lift_joint": 1e-3}

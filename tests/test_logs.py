@@ -358,7 +358,7 @@ def test_an_unnamed_last_column_with_data_is_read_around(tmp_path):
         ("t;q_shoulder;q_elbow;tau_shoulder;tau_elbow\n", "must be comma-separated"),
         ("time,q_shoulder,q_elbow,tau_shoulder,tau_elbow\n", "named 'time': rename"),
         ("t,q_shoulder,tau_shoulder\n", "holds shoulder only: --joints shoulder"),
-        ("t,q_a1,q_a2,tau_a1,tau_a2\n", "holds the joints a1, a2: not this robot's"),
+        ("t,q_a1,q_a2,tau_a1,tau_a2\n", "holds the joints a1, a2, not the ones asked"),
         ("t,pos1,pos2,eff1,eff2\n", "described in a drive file"),
     ],
 )

@@ -355,9 +355,22 @@ def test_speeds_and_torques_beyond_the_limits_are_said():
     robot = RobotModel.from_urdf(model_path("ur5"))
     limits = joint_limits(robot)
     speed = 2.0 * np.asarray(limits.velocity)
-    reference = types.SimpleNamespace(v=np.vstack([0.5 * speed, speed]))
-    log = types.SimpleNamespace(tau_true=np.zeros((2, 6)))
+    reference = types.SimpleNamespace(
+        t=np.array([0.0, 1.0, 2.0]), v=np.vstack([0.5 * speed, speed, 3 * speed])
+    )
+    log = types.SimpleNamespace(tau_true=np.zeros((2, 6)), t=np.array([0.0, 1.0]))
     notes = _beyond_limits(reference, log, limits)
-    assert len(notes) == 6 and "2x its limit" in notes[0], notes
+    assert len(notes) == 6 and "2x its limit" in notes[0], notes  # not 3x: unrun
     reference.v = 0.5 * reference.v
     assert _beyond_limits(reference, log, limits) == []
+
+
+def test_the_suggested_step_divides_the_log_period():
+    """Found by a review: 5.6e-06 s was suggested, then refused (--rate must
+    divide 1/--time-step)."""
+    from drake_dynid.experiment import _dividing_step
+
+    assert _dividing_step(1e-3, 5.56e-6) == 5e-6
+    assert _dividing_step(1e-3, 9e-5) == 6.25e-5  # 1e-3 / 16
+    step = _dividing_step(1e-3, 1e-3)
+    assert step == 1e-3

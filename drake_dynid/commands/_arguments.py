@@ -390,7 +390,7 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
     with a joint-side ``{joint}`` position template: the locked joints' columns
     (their reading times the angle unit's scale, in rad).
     """
-    from drake_dynid.core.drive_log import ANGLE_UNITS
+    from drake_dynid.core.drive_log import ANGLE_UNITS, LENGTH_UNITS
     from drake_dynid.log_table import read_header
 
     locked = dict(getattr(robot, "locked", None) or {})
@@ -406,12 +406,20 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
             return []
         column, mimic = template, {}
         scale = float(ANGLE_UNITS[robot.drive.log.angle_unit])
+        length = float(LENGTH_UNITS[robot.drive.log.length_unit])
     out = []
     for path in files:
         with open(path, "rb") as stream:
             header = read_header(path, stream)
         checks = [
-            (name, header.index(column.format(joint=name)), -1, 0.0, value, scale)
+            (
+                name,
+                header.index(column.format(joint=name)),
+                -1,
+                0.0,
+                value,
+                length if _prismatic(robot, name) else scale,
+            )
             for name, value in locked.items()
             if column.format(joint=name) in header
         ]
@@ -423,6 +431,14 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
         if checks:
             out.append((path, checks))
     return out
+
+
+def _prismatic(robot: Any, name: str) -> bool:
+    """Whether ``name`` is a prismatic joint of the robot's plant."""
+    try:
+        return robot.plant.GetJointByName(name).type_name() == "prismatic"
+    except (AttributeError, RuntimeError):
+        return False
 
 
 def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:

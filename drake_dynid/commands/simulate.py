@@ -174,7 +174,8 @@ def _beyond_limits(reference: Any, log: Any, limits: Any) -> list[str]:
     against a datasheet 1.48 rad/s without a word).
     """
     out = []
-    speed = np.max(np.abs(np.asarray(reference.v, dtype=float)), axis=0)
+    simulated = np.asarray(reference.t) - reference.t[0] <= log.t[-1] + 1e-9
+    speed = np.max(np.abs(np.asarray(reference.v, dtype=float)[simulated]), axis=0)
     torque = np.max(np.abs(np.asarray(log.tau_true, dtype=float)), axis=0)
     for j, name in enumerate(limits.joint_names):
         units = limits.units(j)

@@ -232,6 +232,11 @@ class _Builder:
                 self.locked.add(name)  # drives only non-identified (locked) joints
                 continue
             if len(inside) != len(row) and name in rewritten:
+                outside = sorted(set(row) - set(inside))
+                self.notes.append(
+                    f"URDF actuator {name} {_row_text(row)} (it also drives "
+                    f"{', '.join(outside)}, not identified) gets the drive file's row."
+                )
                 continue  # the drive file's own row replaces it
             if len(inside) != len(row):
                 outside = sorted(set(row) - set(inside))
