@@ -273,6 +273,7 @@ def read_log(
     resample: bool = False,
     fill_gaps: int = FILL_GAPS,
     min_duration: float | None = None,
+    torques: bool = True,
 ) -> RobotLog:
     """Reads and checks a robot log; see the module docstring for what is repaired.
 
@@ -289,6 +290,8 @@ def read_log(
             [samples], >= 0 (0: never interpolate; default 5).
         min_duration: shortest accepted duration (N - 1)·h [s] (the caller knows
             what it needs, e.g. window + differentiator window); None: no check.
+        torques: False reads ``t`` and the ``q_<joint>`` columns only, τ = 0 (to
+            show a motion: ``dynid replay`` of a log of positions).
 
     Returns:
         The uniformly sampled log, with the warnings of what was repaired.
@@ -302,13 +305,19 @@ def read_log(
         raise FileNotFoundError(f"log {path}: no such file.")
     if os.path.isdir(path):
         raise IsADirectoryError(f"log {path}: is a directory, expected a CSV file.")
-    wanted = ["t", *(f"q_{j}" for j in names), *(f"tau_{j}" for j in names)]
+    positions = ["t", *(f"q_{j}" for j in names)]
+    wanted = [*positions, *(f"tau_{j}" for j in names)]
     n = len(names)
     with open(path, "rb") as stream:
-        table = read_table(path, stream, wanted, (n, n))
+        if torques:
+            table = read_table(path, stream, wanted, (n, n))
+            q, tau = table.parts
+        else:
+            table = read_table(path, stream, positions, (n,))
+            (q,) = table.parts
+            tau = np.zeros(q.shape)
     extra = unused_columns(table.header, wanted)
     notes = [f"ignored extra column(s) {', '.join(extra)}."] if extra else []
-    q, tau = table.parts
     repaired = repair(
         f"log {path}",
         "row",

@@ -146,6 +146,6 @@ def test_a_locked_prismatic_joint_is_read_in_the_length_unit(tmp_path):
         drive=mm,
     )
     logs = [str(data / "tiago_position_excerpt.csv")]
-    ((_, checks),) = _motion_checks(logs, robot)
+    ((_, _, checks),) = _motion_checks(logs, robot)
     scales = {name: scale for name, _, _, _, _, scale in checks}
     assert scales == {"torso_lift_joint": 1e-3}

@@ -226,13 +226,13 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
     if getattr(args, "drive", None):
         options["drive"] = args.drive
     options.update(kwargs)
-    width = options.get("coulomb_width", 0.0)
-    if not (isinstance(width, (int, float)) and math.isfinite(width) and width >= 0):
-        raise ValueError(
-            "--coulomb-width must be >= 0 [rad/s or m/s] (0: the exact sign); got "
-            f"{width}."
-        )
-    robot = RobotModel.from_urdf(args.urdf, **options)
+    try:
+        robot = RobotModel.from_urdf(args.urdf, **options)
+    except ValueError as error:  # the model's checks, in the command's options
+        from drake_dynid.commands._options import option_message
+
+        names = {"coulomb_width": "--coulomb-width"}
+        raise ValueError(option_message(str(error), names, ("RobotModel",))) from None
     for note in robot.notes:
         print(f"dynid {command}: note: {note}", file=sys.stderr)
     return robot
@@ -258,11 +258,12 @@ def urdf_argument(text: str) -> str:
     that name exists, so an installed package's robots need no path.
     """
     import os
-    from pathlib import Path
+
+    from drake_dynid.urdf import MODELS_DIR
 
     if os.sep in text or text.lower().endswith(".urdf") or os.path.isfile(text):
         return text
-    packaged = Path(__file__).resolve().parents[1] / "models" / f"{text}.urdf"
+    packaged = MODELS_DIR / f"{text}.urdf"
     # A folder of that name is no URDF: the packaged robot is meant.
     return str(packaged) if packaged.is_file() else text
 
@@ -359,17 +360,8 @@ def read_robot_log(
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
-    print_log_warnings(log, files, command)
-    _warn_locked_motion(files, robot, command)
+    print_log_warnings(log, files, command, robot)
     return log
-
-
-def _warn_locked_motion(files: Sequence[str], robot: Any, command: str) -> None:
-    """:func:`locked_motion`'s warning on stderr."""
-    warning = locked_motion(files, robot)
-    if warning:
-        label = " + ".join(files)
-        print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
 
 
 #: A joint that is not identified is said to move in the log when its recorded
@@ -381,14 +373,14 @@ _CHUNKS, _CHUNK_BYTES = 16, 1 << 16
 
 
 def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
-    """What :func:`locked_motion` reads: ``(file, checks)`` per file.
+    """What :func:`locked_motion` reads: ``(file, body offset, checks)`` per file.
 
-    Each check is ``(joint, column, leader column or -1, multiplier, offset,
-    scale)``.
+    The body offset is the first byte after the header. Each check is
+    ``(joint, column, leader column or -1, multiplier, offset, scale)``.
 
     Plain logs: ``q_<joint>`` of the locked and the mimic joints. Drive-file logs
     with a joint-side ``{joint}`` position template: the locked joints' columns
-    (their reading times the angle unit's scale, in rad).
+    (their reading times the angle or length unit's scale, in rad or m).
     """
     from drake_dynid.core.drive_log import ANGLE_UNITS, LENGTH_UNITS
     from drake_dynid.log_table import read_header
@@ -411,6 +403,7 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
     for path in files:
         with open(path, "rb") as stream:
             header = read_header(path, stream)
+            start = stream.tell()
         checks = [
             (
                 name,
@@ -429,7 +422,7 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
                 at, lead = header.index(mine), header.index(theirs)
                 checks.append((name, at, lead, float(multiplier), float(offset), 1.0))
         if checks:
-            out.append((path, checks))
+            out.append((path, start, checks))
     return out
 
 
@@ -455,8 +448,6 @@ def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:
     """
     import os
 
-    from drake_dynid.log_table import read_header
-
     files = [files] if isinstance(files, str) else list(files)
     locked = dict(getattr(robot, "locked", None) or {})
     mimic = dict(getattr(robot, "mimic", None) or {})
@@ -466,10 +457,8 @@ def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:
     high: dict[str, float] = {}
     worst: dict[str, float] = {}
     try:
-        for path, checks in _motion_checks(files, robot):
+        for path, start, checks in _motion_checks(files, robot):
             with open(path, "rb") as stream:
-                read_header(path, stream)
-                start = stream.tell()
                 size = os.fstat(stream.fileno()).st_size
                 span = max(0, size - start - _CHUNK_BYTES)
                 for k in range(_CHUNKS):
@@ -598,14 +587,18 @@ def constant_channels(log: Any) -> str | None:
     )
 
 
-def print_log_warnings(log: Any, files: Sequence[str], command: str) -> None:
+def print_log_warnings(
+    log: Any, files: Sequence[str], command: str, robot: Any = None
+) -> None:
     """Each of the reader's warnings as one line on stderr, naming the log.
 
-    Also :func:`constant_channels`'s.
+    Also :func:`constant_channels`'s, and with ``robot`` :func:`locked_motion`'s.
     """
     label = " + ".join(files)
-    constant = constant_channels(log)
-    for warning in (*log.warnings, *([constant] if constant else [])):
+    extra = [constant_channels(log)]
+    if robot is not None:
+        extra.append(locked_motion(files, robot))
+    for warning in (*log.warnings, *(w for w in extra if w)):
         print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
 
 
@@ -754,8 +747,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
             fill_gaps=getattr(args, "fill_gaps", None),
         )
     else:
-        print_log_warnings(log, files, command)
-        _warn_locked_motion(files, robot, command)
+        print_log_warnings(log, files, command, robot)
     return apply_dead_zone(args, robot, log), log
 
 

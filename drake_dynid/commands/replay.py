@@ -97,33 +97,12 @@ def _positions_only(path: str, robot: Any) -> bool:
 def _read_positions(path: str, robot: Any) -> Any:
     """A log's t and q, with the reader's time grid and repairs (zero torques).
 
-    Its torques are not needed to show the motion.
+    Its torques are not needed to show the motion; resampled when not uniform:
+    an animation only needs poses on the grid.
     """
-    from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options, repair
-    from drake_dynid.log_table import read_table
-    from drake_dynid.logs import RobotLog
+    from drake_dynid.logs import read_log
 
-    names = robot.joint_names
-    wanted = ["t", *(f"q_{name}" for name in names)]
-    with open(path, "rb") as stream:
-        table = read_table(path, stream, wanted, (len(names),))
-    (q,) = table.parts
-    q = np.asarray(q, dtype=float)
-    # Resampled when not uniform: an animation only needs poses on the grid.
-    options = Options.checked(f"log {path}", JITTER_TOLERANCE, True, FILL_GAPS, None)
-    repaired = repair(
-        f"log {path}",
-        "row",
-        table.t,
-        table.exact,
-        q,
-        np.zeros_like(q),
-        table.rows,
-        options,
-        table.notes,
-        table.bad,
-    )
-    log = RobotLog._named(repaired, names)
+    log = read_log(path, robot.joint_names, resample=True, torques=False)
     for warning in log.warnings:  # not the constant-column check: τ is filled in
         print(f"dynid replay: warning: log {path}: {warning}", file=sys.stderr)
     return log
