@@ -33,6 +33,7 @@ from drake_dynid.core import _validate
 __all__ = [
     "MODELS_DIR",
     "LoadedUrdf",
+    "MissingFileError",
     "load_plant",
     "load_urdf",
     "model_path",
@@ -306,21 +307,38 @@ def _parse(
     except RuntimeError as error:
         message = str(error).strip().splitlines()[0] if str(error).strip() else ""
         message = message.replace("<literal-string>.urdf", file.name)
+        missing = "does not exist" in message or "unknown package" in message
         hint = (
             "a file it names is missing"
-            if "does not exist" in message
+            if missing
             else "valid XML, every joint's parent and child links defined"
         )
-        raise ValueError(
+        text = (
             f"{owner}: could not parse {file}: {message.rstrip('.')}. Fix the URDF "
             f"({hint})."
-        ) from None
+        )
+        if missing:
+            detail = message.split("error: ", 1)[-1].rstrip(".")
+            raise MissingFileError(text, detail) from None
+        raise ValueError(text) from None
     finally:
         drake_logger.removeFilter(log)
     summary = log.summary(file)
     if summary:
         summary = summary.replace("<literal-string>.urdf", file.name)
     return instances, summary
+
+
+class MissingFileError(ValueError):
+    """A URDF names a file (a mesh) that cannot be found: ``detail`` says which.
+
+    ``dynid excite`` skips its self-collision check on it, with the reason; every
+    other caller treats it as any URDF error.
+    """
+
+    def __init__(self, message: str, detail: str) -> None:
+        super().__init__(message)
+        self.detail = detail
 
 
 def _urdf_efforts(root: Any) -> dict[str, float]:

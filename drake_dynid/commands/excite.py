@@ -200,18 +200,6 @@ def _percent(value: float) -> str:
     return f"{value:.2g}" if math.isfinite(value) else "inf"
 
 
-def _missing_geometry(message: str) -> str:
-    """Why the self-collision check is skipped: the loader's reason, or re-raise.
-
-    Only a collision mesh that cannot be found (a missing file or an unknown
-    ``package://``) skips it; any other URDF error stays an error.
-    """
-    if "does not exist" not in message and "unknown package" not in message:
-        raise ValueError(message)
-    detail = message.split(": error: ", 1)[-1].split(". Fix the URDF", 1)[0]
-    return f"its collision geometry cannot be loaded: {detail}"
-
-
 def run(args: argparse.Namespace) -> int:
     """Designs the trajectory, prints the report, writes the files. Returns 0."""
     from drake_dynid.collision import SelfCollision
@@ -222,6 +210,7 @@ def run(args: argparse.Namespace) -> int:
         write_coefficients,
         write_trajectory,
     )
+    from drake_dynid.urdf import MissingFileError
 
     check_output_paths(args)
     margins = parse_margins(args.margin)
@@ -272,10 +261,11 @@ def run(args: argparse.Namespace) -> int:
     unchecked = "the URDF has no collision geometry"
     try:
         collision = SelfCollision.from_urdf(args.urdf, mid, robot)
-    except ValueError as error:
+    except MissingFileError as error:
         # A collision mesh the loader cannot find (package:// paths of another
         # workspace: the shipped TIAGo): the design goes on without the check.
-        collision, unchecked = None, _missing_geometry(str(error))
+        collision = None
+        unchecked = f"its collision geometry cannot be loaded: {error.detail}"
     say(
         f"robot: {args.urdf} ({robot.num_joints} joints, "
         f"{robot.num_parameters} base parameters)"
