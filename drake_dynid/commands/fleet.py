@@ -133,6 +133,8 @@ def _check_out_dir(args: argparse.Namespace) -> None:
     folder = Path(args.out_dir)
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--out-dir {folder} is a file; give a folder.")
+    if not folder.exists():
+        return  # created by the run: none of its files can be an input
     outputs = {
         f"--out-dir's {Path(path).name} (log {log})": path
         for log, path in zip(args.logs, output_paths(args.logs, folder), strict=True)
@@ -142,10 +144,7 @@ def _check_out_dir(args: argparse.Namespace) -> None:
     for attribute, description in INPUTS.items():
         if attribute not in ("log", "logs"):
             inputs[description] = getattr(args, attribute, None)
-    if folder.is_dir():
-        check_outputs(outputs, inputs)
-    else:  # created by the run: only the inputs can collide
-        check_outputs({}, inputs)
+    check_outputs(outputs, inputs)
 
 
 def run(args: argparse.Namespace) -> int:
