@@ -37,6 +37,7 @@ depends only on its two knots, so the chunks give the same log bit for bit
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -123,6 +124,7 @@ def simulate_experiment(
     *,
     gravity: Any = None,
     drive: Any = None,
+    locked: Mapping[str, float] | None = None,
 ) -> ExperimentLog:
     """Simulates the arm tracking ``reference``; returns the log (module docstring).
 
@@ -138,6 +140,11 @@ def simulate_experiment(
             ``drake_dynid.core.drive_dynamics.SimulatedDrive`` of the limits'
             joints (``experiment_drive.simulated_drive_of(truth_model(...))``);
             default the URDF's friction of ``settings.friction``, without motors.
+        locked: ``{joint: position [rad or m]}`` of the URDF's joints that are not
+            simulated: each is a weld at that position (a mimic joint of a locked
+            leader follows it; ``urdf.load_urdf``), as ``RobotModel(joints=,
+            locked=)`` models them (``RobotModel.locked``). The reference, the
+            limits and the drive are then the other joints'.
 
     Returns:
         The :class:`ExperimentLog`.
@@ -199,17 +206,35 @@ def simulate_experiment(
     _sample_checks(reference, settings, duration)
     _reference_checks(reference, limits, duration)
     if drive is None:
-        model = truth_model(urdf, settings.friction, gravity=gravity)
+        model = truth_model(
+            urdf, settings.friction, gravity=gravity, joints=names, locked=locked
+        )
         drive = simulated_drive_of(model, settings.coulomb_smoothing)
 
     builder = DiagramBuilder()
-    plant = builder.AddSystem(load_plant(urdf, h, gravity=gravity))
-    controller_plant = load_plant(urdf, h, gravity=gravity)
-    if plant.num_velocities() != n or plant.num_actuators() != n:
+    plant = builder.AddSystem(load_plant(urdf, h, gravity=gravity, locked=locked))
+    controller_plant = load_plant(urdf, h, gravity=gravity, locked=locked)
+    simulated = tuple(a.joint().name() for a in _actuators(plant))
+    if simulated != names or plant.num_velocities() != n:
+        passive = sorted(
+            plant.get_joint(i).name()
+            for i in plant.GetJointIndices()
+            if plant.get_joint(i).num_velocities() == 1
+            and plant.get_joint(i).name() not in simulated
+        )
         check.fail(
             owner,
-            f"every one of the {n} joints must be actuated; the URDF has "
-            f"{plant.num_actuators()} actuators.",
+            f"the simulated joints must be the reference's {n} joints "
+            f"({', '.join(names)}), each actuated; the plant's actuated joints are "
+            f"{', '.join(simulated) or 'none'}"
+            + (
+                f" and {', '.join(passive)} move unactuated (a mimic joint, which "
+                "the simulator does not couple to its leader: lock the leader, "
+                "or simulate without it)"
+                if passive
+                else ""
+            )
+            + ".",
         )
     controller_context = controller_plant.CreateDefaultContext()
     configure_plant(controller_plant, controller_context, drive)
@@ -356,9 +381,7 @@ def simulate_experiment(
     keep = np.arange(0, count, settings.decimation)
     state = np.concatenate(kept["q"])[: keep.size]
     command = np.concatenate(kept["command"])[: keep.size]
-    urdf_effort = np.array(
-        [plant.GetJointActuatorByName(a).effort_limit() for a in _actuators(plant)]
-    )
+    urdf_effort = np.array([a.effort_limit() for a in _actuators(plant)])
     applied = np.clip(command, -urdf_effort, urdf_effort)
     saturated = int(np.count_nonzero(np.any(applied != command, axis=1)))
     q_true, tau_true = state, applied
@@ -450,16 +473,18 @@ def _dividing_step(period: float, bound: float) -> float:
     return period / first
 
 
-def _actuators(plant: Any) -> list[str]:
-    """Actuator names in generalized-velocity order of their joints."""
-    from pydrake.multibody.tree import JointActuatorIndex
-
-    actuators = [
-        plant.get_joint_actuator(JointActuatorIndex(i))
-        for i in range(plant.num_actuators())
-    ]
+def _actuated_joints(plant: Any) -> list[str]:
+    """Names of the actuated joints in generalized-velocity order."""
+    actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
     actuators.sort(key=lambda a: a.joint().velocity_start())
-    return [a.name() for a in actuators]
+    return [a.joint().name() for a in actuators]
+
+
+def _actuators(plant: Any) -> list[Any]:
+    """The plant's joint actuators in generalized-velocity order of their joints."""
+    actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
+    actuators.sort(key=lambda a: a.joint().velocity_start())
+    return actuators
 
 
 def _step_failures(t: float, q: np.ndarray, limits: JointLimits, names) -> list[str]:

@@ -20,6 +20,7 @@ and the controller gets the same parameters (its plant) plus ``DriveFeedforward`
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -42,6 +43,8 @@ def truth_model(
     *,
     drive: Any = None,
     gravity: Any = None,
+    joints: Sequence[str] | None = None,
+    locked: Mapping[str, float] | None = None,
 ) -> Any:
     """The ``RobotModel`` a simulation of ``urdf`` (and ``drive``) reproduces.
 
@@ -54,10 +57,20 @@ def truth_model(
         friction: the friction kinds simulated (``ExperimentSettings.friction``).
         drive: a drive file or ``DriveChain`` (None: none).
         gravity: gravity [m/s²] (default Drake's).
+        joints: the simulated joints (``RobotModel.from_urdf``'s; default every
+            movable joint that is not a mimic).
+        locked: the other joints' positions [rad or m] (``RobotModel.from_urdf``'s;
+            default 0).
     """
     from drake_dynid.robot import RobotModel
 
-    options = {"friction": friction, "drive": drive, "gravity": gravity}
+    options = {
+        "friction": friction,
+        "drive": drive,
+        "gravity": gravity,
+        "joints": None if joints is None else tuple(joints),
+        "locked": None if locked is None else dict(locked),
+    }
     robot = RobotModel.from_urdf(urdf, rotor_inertia=True, **options)
     inertia = [
         value
@@ -95,15 +108,13 @@ def configure_plant(plant: Any, context: Any, drive: SimulatedDrive) -> None:
     gear ratio 1 (Drake adds ρ² I_r to the mass matrix); without ``IAj`` columns
     (``drive.rotor_inertia`` None) the URDF's actuators are left unchanged.
     """
-    from pydrake.multibody.tree import JointActuatorIndex
-
     for j, name in enumerate(drive.joint_names):
         plant.GetJointByName(name).SetDamping(context, float(drive.viscous[j]))
     if drive.rotor_inertia is None:
         return
     index = {name: j for j, name in enumerate(drive.joint_names)}
-    for i in range(plant.num_actuators()):
-        actuator = plant.get_joint_actuator(JointActuatorIndex(i))
+    for i in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(i)
         joint = index.get(actuator.joint().name())
         if joint is not None:
             actuator.SetRotorInertia(context, float(drive.rotor_inertia[joint]))

@@ -32,8 +32,6 @@ def urdf_limits(robot: Any) -> JointLimits:
 
     Effort limits are the actuators' (a joint without actuator gets inf).
     """
-    from pydrake.multibody.tree import JointActuatorIndex
-
     check.having(
         "urdf_limits", "robot", robot, ("plant", "joint_names"), "a RobotModel"
     )
@@ -47,8 +45,8 @@ def urdf_limits(robot: Any) -> JointLimits:
         velocity.append(float(joint.velocity_upper_limits()[0]))
         prismatic.append(joint.type_name() == "prismatic")
     effort = np.full(len(names), np.inf)
-    for index in range(plant.num_actuators()):
-        actuator = plant.get_joint_actuator(JointActuatorIndex(index))
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
         if actuator.joint().name() in names and actuator.effort_limit() > 0.0:
             effort[names.index(actuator.joint().name())] = actuator.effort_limit()
     return JointLimits(

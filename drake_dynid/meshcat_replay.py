@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -74,6 +74,24 @@ def _load(urdf: str) -> tuple[Any, Any, list[str]]:
         return builder, plant, [f"shown without its geometry ({reason})"]
 
 
+def _followers(urdf: str, plant: Any) -> list[tuple[int, int, float, float]]:
+    """(position index, leader's index, multiplier, offset) of the mimic joints."""
+    if not str(urdf).lower().endswith(".urdf"):
+        return []
+    from drake_dynid.urdf import read_urdf_mimic
+
+    return [
+        (
+            plant.GetJointByName(name).position_start(),
+            plant.GetJointByName(leader).position_start(),
+            multiplier,
+            offset,
+        )
+        for name, (leader, multiplier, offset) in read_urdf_mimic(urdf).items()
+        if plant.HasJointNamed(name) and plant.HasJointNamed(leader)
+    ]
+
+
 def replay_in_meshcat(
     urdf: str,
     t: Any,
@@ -83,18 +101,22 @@ def replay_in_meshcat(
     html: str | os.PathLike | None = None,
     frames_per_second: float = 32.0,
     meshcat: Any = None,
+    locked: Mapping[str, float] | None = None,
 ) -> Replay:
     """Records the motion q(t) of the URDF's joints as a Meshcat animation.
 
     Args:
         urdf: the robot's URDF.
         t: (N,) sample times [s], increasing.
-        q: (N, n) positions [rad or m] of ``joint_names`` (other joints stay at 0).
+        q: (N, n) positions [rad or m] of ``joint_names`` (other joints stay at 0,
+            or at their ``locked`` position).
         joint_names: the n joints of q (URDF names).
         html: write the standalone page here (None: do not).
         frames_per_second: animation frames per second of motion [Hz].
         meshcat: a ``Meshcat`` to use (default: ``StartMeshcat()``, a new server
             on the first free port from 7000).
+        locked: ``{joint: position [rad or m]}`` of joints outside ``joint_names``
+            (``RobotModel.locked``); a URDF mimic joint follows its leader.
 
     Raises:
         ValueError: bad arrays, an unknown joint, too many frames.
@@ -130,6 +152,12 @@ def replay_in_meshcat(
         if not plant.HasJointNamed(name):
             check.fail(owner, f"joint {name!r} is not a joint of {urdf}.")
         positions.append(plant.GetJointByName(name).position_start())
+    held = []
+    for name, value in dict(locked or {}).items():
+        if not plant.HasJointNamed(name):
+            check.fail(owner, f"locked joint {name!r} is not a joint of {urdf}.")
+        held.append((plant.GetJointByName(name).position_start(), float(value)))
+    followers = _followers(urdf, plant)
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
     if not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
         notes.append("no <visual> geometry: the links are shown by their inertia")
@@ -148,12 +176,16 @@ def replay_in_meshcat(
     times = t[0] + np.arange(frames) / fps
     path = np.column_stack([np.interp(times, t, q[:, j]) for j in range(len(names))])
     full = plant.GetPositions(plant_context).copy()
+    for index, value in held:
+        full[index] = value
     meshcat.StartRecording(
         frames_per_second=fps, set_visualizations_while_recording=False
     )
     for k, time in enumerate(times):
         context.SetTime(float(time - t[0]))
         full[positions] = path[k]
+        for at, leader, multiplier, offset in followers:
+            full[at] = multiplier * full[leader] + offset
         plant.SetPositions(plant_context, full)
         diagram.ForcedPublish(context)
     meshcat.StopRecording()

@@ -46,9 +46,7 @@ def _pose_matrix(transform: Any) -> np.ndarray:
 
 def movable_joints(plant: Any) -> list[Any]:
     """The plant's non-weld joints in generalized-velocity order."""
-    from pydrake.multibody.tree import JointIndex
-
-    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     return sorted(
         (j for j in joints if j.type_name() != "weld"), key=lambda j: j.velocity_start()
     )
@@ -84,9 +82,7 @@ def extract_tree(
         ``(tree, joints, inertial)`` with ``joints`` the moving joints (link order)
         and ``inertial`` the ``(n, 10)`` standard inertial values.
     """
-    from pydrake.multibody.tree import JointIndex
-
-    all_joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    all_joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     moving = list(movable_joints(plant) if moving is None else moving)
     locked = dict(locked or {})
     n = len(moving)
@@ -205,12 +201,10 @@ def standard_table(
     Returns:
         ``(names, values)``; ``values`` is read-only.
     """
-    from pydrake.multibody.tree import JointActuatorIndex
-
     identified = [joint.name() for joint in moving[:num_identified]]
     rotor = np.zeros(num_identified)
-    for index in range(plant.num_actuators()):
-        actuator = plant.get_joint_actuator(JointActuatorIndex(index))
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
         if actuator.joint().name() in identified:
             gear = actuator.default_gear_ratio()
             rotor[identified.index(actuator.joint().name())] = (

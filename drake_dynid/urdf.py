@@ -23,7 +23,7 @@ import math
 import re
 import xml.etree.ElementTree as ElementTree
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -264,6 +264,7 @@ def load_plant(
     weld_root: bool = True,
     sampled_output_ports: bool = False,
     geometry: bool | str = False,
+    locked: Mapping[str, float] | None = None,
 ) -> Any:
     """Loads a URDF robot into a finalized ``MultibodyPlant``.
 
@@ -279,6 +280,7 @@ def load_plant(
         weld_root=weld_root,
         sampled_output_ports=sampled_output_ports,
         geometry=geometry,
+        locked=locked,
     )
     for note in loaded.notes:
         _LOGGER.info("load_plant: %s.", note)
@@ -341,6 +343,75 @@ class MissingFileError(ValueError):
         self.detail = detail
 
 
+def _lock_joints(
+    owner: str,
+    plant: Any,
+    file: Path,
+    locked: Mapping[str, float],
+    mimic: dict[str, Any],
+) -> None:
+    """Replaces each joint of ``locked`` by a weld at its position (X_FM(q)).
+
+    A revolute joint at θ: X_FM = R(axis, θ); a prismatic one at d: a translation
+    d·axis [m] (the pose ``plant_tree`` lumps the bodies beyond it with). Its
+    actuator (from a ``<transmission>``) goes first, as Drake requires.
+    """
+    from pydrake.common.eigen_geometry import AngleAxis
+    from pydrake.math import RigidTransform
+
+    positions = {str(name): float(value) for name, value in locked.items()}
+    for name, (leader, multiplier, offset) in mimic.items():
+        if leader in positions and name not in positions:
+            positions[name] = multiplier * positions[leader] + offset
+    # Drake removes a joint only from a plant without constraints: the couplers
+    # its parser made of <mimic> (q_mimic = multiplier·q_leader + offset) go, and
+    # those of joints that stay come back after.
+    couplers = [
+        (name, leader, multiplier, offset)
+        for name, (leader, multiplier, offset) in mimic.items()
+        if plant.HasJointNamed(name) and plant.HasJointNamed(leader)
+    ]
+    if plant.num_constraints() not in (0, len(couplers)):
+        raise ValueError(
+            f"{owner}: {file} has constraints other than its <mimic> joints; "
+            "its joints cannot be locked."
+        )
+    restore = plant.num_constraints() > 0
+    for constraint in plant.GetConstraintIds():
+        plant.RemoveConstraint(constraint)
+    for name, position in positions.items():
+        joint = plant.GetJointByName(name) if plant.HasJointNamed(name) else None
+        if joint is None or joint.num_velocities() != 1:
+            raise ValueError(
+                f"{owner}: locked joint {name!r} is not a movable joint of {file}."
+            )
+        if not math.isfinite(position):
+            raise ValueError(
+                f"{owner}: locked joint {name!r} needs a finite position [rad or "
+                f"m]; got {position}."
+            )
+        for index in plant.GetJointActuatorIndices():
+            actuator = plant.get_joint_actuator(index)
+            if actuator.joint().index() == joint.index():
+                plant.RemoveJointActuator(actuator)
+        if joint.type_name() == "prismatic":
+            axis = joint.translation_axis()
+            pose = RigidTransform([position * float(a) for a in axis])
+        else:
+            pose = RigidTransform(AngleAxis(position, joint.revolute_axis()), [0, 0, 0])
+        parent, child = joint.frame_on_parent(), joint.frame_on_child()
+        plant.RemoveJoint(joint)
+        plant.WeldFrames(parent, child, pose)
+    for name, leader, multiplier, offset in couplers if restore else ():
+        if name not in positions and leader not in positions:
+            plant.AddCouplerConstraint(
+                plant.GetJointByName(name),
+                plant.GetJointByName(leader),
+                multiplier,
+                offset,
+            )
+
+
 def _urdf_efforts(root: Any) -> dict[str, float]:
     """``{joint: effort}`` of the URDF's ``<limit effort=...>`` (> 0 only)."""
     out: dict[str, float] = {}
@@ -367,17 +438,15 @@ def _actuate_all(
     Its effort limit is the joint's URDF ``<limit effort>`` when given (Drake
     reads that value only through a transmission), else none.
     """
-    from pydrake.multibody.tree import JointActuatorIndex, JointIndex
-
     efforts = efforts or {}
 
     actuated = {
-        plant.get_joint_actuator(JointActuatorIndex(i)).joint().index()
-        for i in range(plant.num_actuators())
+        plant.get_joint_actuator(i).joint().index()
+        for i in plant.GetJointActuatorIndices()
     }
     added = []
-    for i in range(plant.num_joints()):
-        joint = plant.get_joint(JointIndex(i))
+    for i in plant.GetJointIndices():
+        joint = plant.get_joint(i)
         if (
             joint.num_velocities() == 1
             and joint.index() not in actuated
@@ -414,6 +483,7 @@ def load_urdf(
     weld_root: bool = True,
     sampled_output_ports: bool = False,
     geometry: bool | str = False,
+    locked: Mapping[str, float] | None = None,
 ) -> LoadedUrdf:
     """Loads a URDF robot into a finalized ``MultibodyPlant``, with the notes.
 
@@ -439,6 +509,12 @@ def load_urdf(
             mesh must then resolve); ``"collision"``: keep ``<collision>`` only
             (a self-collision check). Identification needs none: by default they
             are stripped.
+        locked: ``{joint: position [rad or m]}``: each of these movable joints
+            becomes a weld at that position (its actuator removed), as
+            ``RobotModel``'s ``locked=`` treats it; a mimic joint whose leader is
+            locked is welded at multiplier·position + offset. The plant then has
+            the other joints only (``dynid simulate --joints/--lock``). Joint
+            indices then have gaps: iterate ``plant.GetJointIndices()``.
 
     Returns:
         :class:`LoadedUrdf`: the finalized plant (one actuator per movable joint
@@ -448,7 +524,8 @@ def load_urdf(
 
     Raises:
         ValueError: missing or malformed file, a floating base, a joint other than
-            revolute, continuous, prismatic or fixed, or no movable joint.
+            revolute, continuous, prismatic or fixed, no movable joint, or a
+            ``locked`` name that is not a movable joint of the file.
     """
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 
@@ -481,9 +558,7 @@ def load_urdf(
         g = _validate.array(owner, "gravity", gravity, shape=(3,))
         plant.mutable_gravity_field().set_gravity_vector(g)
 
-    from pydrake.multibody.tree import JointIndex
-
-    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     children = {joint.child_body().index() for joint in joints}
     roots = [
         plant.get_body(index)
@@ -517,6 +592,8 @@ def load_urdf(
             f"{owner}: {file} has no movable joint (revolute, continuous or "
             "prismatic); there is nothing to identify."
         )
+    if locked:
+        _lock_joints(owner, plant, file, locked, mimic)
     actuated = _actuate_all(plant, mimic, _urdf_efforts(root))
     plant.Finalize()
     inertia = None

@@ -79,9 +79,7 @@ def _number(value: float) -> str:
 
 def _link_groups(plant: Any, joint_names: tuple[str, ...]) -> dict[str, int]:
     """Body name -> index of the joint whose link it is lumped into (-1: world)."""
-    from pydrake.multibody.tree import JointIndex
-
-    joints = [plant.get_joint(JointIndex(i)) for i in range(plant.num_joints())]
+    joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     group = {plant.world_body().name(): -1}
     for k, name in enumerate(joint_names):
         group[plant.GetJointByName(name).child_body().name()] = k

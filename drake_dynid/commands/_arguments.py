@@ -128,13 +128,18 @@ def parse_friction(text: str) -> tuple[str, ...]:
     return items
 
 
-def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--joints`` (the identified joints) and ``--lock`` (locked positions)."""
+def add_joint_arguments(
+    parser: argparse.ArgumentParser, verb: str = "identify"
+) -> None:
+    """Adds ``--joints`` (the identified joints) and ``--lock`` (locked positions).
+
+    ``verb``: what the command does with the chosen joints (help text).
+    """
     parser.add_argument(
         "--joints",
         metavar="A,B,...",
         help=(
-            "comma-separated joints to identify (default: every movable joint that "
+            f"comma-separated joints to {verb} (default: every movable joint that "
             "is not a mimic joint); every other movable joint is locked, at 0 "
             "unless --lock gives its position; mimic joints follow their leader"
         ),
@@ -144,8 +149,8 @@ def add_joint_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE,...",
         help=(
             "positions [rad or m] of locked joints, e.g. head_1_joint=0.2,"
-            "head_2_joint=-0.1; without --joints, the joints not locked are "
-            "identified"
+            f"head_2_joint=-0.1; without --joints, the joints not locked are "
+            f"{verb.removesuffix('e')}ed"
         ),
     )
 

@@ -17,7 +17,10 @@ from drake_dynid.commands._arguments import (
     URDF_HELP,
     absolute,
     add_friction_argument,
+    add_joint_arguments,
     parse_friction,
+    parse_joints,
+    parse_locked,
     urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
@@ -38,8 +41,10 @@ DESCRIPTION = (
     "--drive the arm also has the drive file's motors (reflected rotor inertia, "
     "motor friction, coupled motors) and the log is written in the drive file's "
     "raw columns (motor side, units, currents, offsets), read back by dynid "
-    "offline/identify/validate --drive. --meshcat replays the simulated motion in "
-    "Drake's Meshcat viewer."
+    "offline/identify/validate --drive. --joints/--lock simulate part of the "
+    "robot (the other joints welded at their positions; the trajectory and the "
+    "log have the chosen joints' columns). --meshcat replays the simulated motion "
+    "in Drake's Meshcat viewer."
 )
 
 
@@ -55,6 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the reference (CSV of dynid excite, or its --json coefficients)",
     )
     add_friction_argument(parser)
+    add_joint_arguments(parser, "simulate")
     parser.add_argument(
         "--drive",
         metavar="FILE.toml",
@@ -201,6 +207,13 @@ def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
     is within 0.6 %).
     """
     parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
+    if args.joints:
+        parts += ["--joints", ",".join(robot.joint_names)]
+    if args.lock:
+        parts += [
+            "--lock",
+            ",".join(f"{k}={v!r}" for k, v in parse_locked(args.lock).items()),
+        ]
     if "coulomb" in robot.friction and smoothing > 0.0:
         parts += ["--coulomb-width", f"{smoothing:g}"]
     if args.drive:
@@ -248,7 +261,13 @@ def run(args: argparse.Namespace) -> int:
             time_step=args.time_step,
             max_tracking_error=args.max_tracking_error,
         )
-    robot = truth_model(args.urdf, friction, drive=args.drive)
+    robot = truth_model(
+        args.urdf,
+        friction,
+        drive=args.drive,
+        joints=parse_joints(args.joints),
+        locked=parse_locked(args.lock),
+    )
     say = (lambda *a: None) if args.quiet else print
     for note in robot.notes:
         print(f"dynid simulate: note: {note}", file=sys.stderr)
@@ -268,7 +287,13 @@ def run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     with _in_option_names():
         log = simulate_experiment(
-            args.urdf, reference, limits, settings, gravity=robot.gravity, drive=drive
+            args.urdf,
+            reference,
+            limits,
+            settings,
+            gravity=robot.gravity,
+            drive=drive,
+            locked=robot.locked,
         )
     elapsed = time.perf_counter() - start
     _write_log(args.out, robot, log)
@@ -364,7 +389,7 @@ def _replay(args, log, robot, html, say) -> None:
     from drake_dynid.meshcat_replay import replay_in_meshcat
 
     replay = replay_in_meshcat(
-        args.urdf, log.t, log.q_true, robot.joint_names, html=html
+        args.urdf, log.t, log.q_true, robot.joint_names, html=html, locked=robot.locked
     )
     for note in replay.notes:
         print(f"dynid simulate: note: Meshcat: {note}", file=sys.stderr)

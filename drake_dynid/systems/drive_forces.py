@@ -249,16 +249,14 @@ class DriveFeedforward(LeafSystem):
 
 def _damping_and_effort(plant: Any, context: Any) -> tuple[np.ndarray, np.ndarray]:
     """(n,) joint damping (velocity order) and actuator effort limits (inf: none)."""
-    from pydrake.multibody.tree import JointActuatorIndex, JointIndex
-
     n = plant.num_velocities()
     damping = np.zeros(n)
-    for i in range(plant.num_joints()):
-        joint = plant.get_joint(JointIndex(i))
+    for i in plant.GetJointIndices():
+        joint = plant.get_joint(i)
         if joint.num_velocities() == 1:
             damping[joint.velocity_start()] = joint.GetDamping(context)
     effort = np.full(n, np.inf)
-    for i in range(plant.num_actuators()):
-        actuator = plant.get_joint_actuator(JointActuatorIndex(i))
+    for i in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(i)
         effort[actuator.joint().velocity_start()] = actuator.effort_limit()
     return damping, effort
