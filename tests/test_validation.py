@@ -466,7 +466,12 @@ def test_several_estimates_are_validated_in_one_pass(robot):
             np.testing.assert_allclose(
                 getattr(both, name), getattr(alone, name), rtol=1e-7
             )
-        np.testing.assert_array_equal(both.measured, alone.measured)
+        # The measured torques are filtered beside different columns in the two
+        # paths: equal to the last bits (bit for bit before numpy 2.4.6/scipy
+        # 1.17.1), which the narrow low-pass amplifies as above.
+        np.testing.assert_allclose(
+            both.measured, alone.measured, rtol=0, atol=1e-10 * scale
+        )
         assert both.settings == alone.settings
     # θ = 0 next to the truth: 100 % against ~0 %.
     pair = validate_estimates(

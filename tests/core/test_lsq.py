@@ -307,9 +307,10 @@ def test_lean_weighted_solve_equals_the_two_full_solves():
         conditions.append(first.condition_number)
         assert new.valid == old.valid and new.reason == old.reason
         # The weights differ by round-off (~1e-15), which the solve amplifies by
-        # the condition number: equal to 1e-12 of each vector's scale, or 2e-15
-        # times the condition number above 500.
-        relative = max(1e-12, 2e-15 * first.condition_number)
+        # the condition number: equal to 1e-12 of each vector's scale, or 1e-14
+        # times the condition number above 100 (numpy 2.4.6's LAPACK measured
+        # 7e-15 times it on one seed, where an earlier build stayed under 2e-15).
+        relative = max(1e-12, 1e-14 * first.condition_number)
         for name in ("theta", "std", "condition_number", "residual_std"):
             expected = np.asarray(getattr(old, name))
             scale = np.nanmax(np.abs(expected)) if np.any(np.isfinite(expected)) else 0
