@@ -76,6 +76,7 @@ from drake_dynid.robot_drive import (
 )
 from drake_dynid.robot_rows import RobotRows
 from drake_dynid.urdf import load_urdf, read_urdf_friction, read_urdf_mimic
+from drake_dynid.urdf_writer import DRIVE_TOTALS
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
@@ -205,7 +206,18 @@ class RobotModel(RobotRows):
                 not match the URDF (the message names the field).
         """
         loaded = load_urdf(path, time_step, gravity=gravity)
-        for note in loaded.notes:
+        notes = loaded.notes
+        if drive is not None and DRIVE_TOTALS in Path(path).read_text(
+            encoding="utf-8", errors="replace"
+        ):
+            notes += (
+                f"{Path(path).name} was written by dynid --urdf-out with a drive "
+                "file: its joint damping, friction and rotor inertia already include "
+                "the motors' reflected values, and the drive file's are added again "
+                "in the a-priori values (dynid params, --compare-urdf); the "
+                "identification itself is not affected",
+            )
+        for note in notes:
             _LOGGER.info("RobotModel: %s.", note)
         return cls.from_plant(
             loaded.plant,
@@ -218,7 +230,7 @@ class RobotModel(RobotRows):
             joints=joints,
             locked=locked,
             mimic=read_urdf_mimic(path),
-            notes=loaded.notes,
+            notes=notes,
             drive=drive,
             coulomb_width=coulomb_width,
         )

@@ -1,8 +1,8 @@
 """Write an identified URDF: a copy of the input URDF with the identified parameters.
 
 From consistent standard parameters (``drake_dynid.physical``; every link's
-pseudo-inertia ⪰ 0, friction and rotor inertia ≥ 0), for each moving joint j and
-its child link (the link that carries the standard parameters ``XXj … Mj``):
+pseudo-inertia ⪰ 0, friction and rotor inertia ≥ 0), for each moving link j (the
+child link of identified joint j, then of each moving mimic joint: ``robot.links``):
 
 * the link's ``<inertial>``: ``mass`` m = Mj, ``origin xyz`` = the centre of mass
   c = (MXj, MYj, MZj)/m in the link frame (``rpy="0 0 0"``), and the inertia about
@@ -11,25 +11,39 @@ its child link (the link that carries the standard parameters ``XXj … Mj``):
 
       I_c = Ī − m (|c|²·1 − c cᵀ),      Ī = [[XX XY XZ] [XY YY YZ] [XZ YZ ZZ]]
 
-* links welded to it (a flange, a tool), whose inertia drake_dynid lumps into the
-  link's standard parameters: their ``<inertial>`` becomes mass 0 with zero
-  inertia (an XML comment says into which link they were lumped). The identified
-  parameters describe the welded assembly; splitting them again between the
-  bodies is not identifiable. Bodies welded to the world are left unchanged;
-* the joint's ``<dynamics damping="FVj" friction="FCj">`` (friction kinds that
-  were not identified keep the input's values; ``OFFj`` has no URDF field and is
-  listed in ``UrdfExport.skipped``);
+* links welded to it (a flange, a tool), and the links beyond a locked joint,
+  whose inertia drake_dynid lumps into the link's standard parameters: their
+  ``<inertial>`` becomes mass 0 with zero inertia (an XML comment says into which
+  link they were lumped). The identified parameters describe the welded
+  assembly; splitting them again between the bodies is not identifiable. Bodies
+  welded to the world are left unchanged;
+* a locked joint (``robot.locked``: outside ``joints=``, at its locked position,
+  or a mimic joint of a locked leader) becomes a ``fixed`` joint at that position
+  (origin = the joint's origin composed with its motion: the lumped inertia holds
+  only there), without its axis, limits, dynamics and transmission;
+* an identified joint's ``<dynamics damping="FVj" friction="FCj">``; a friction
+  kind that was not identified is written as 0 (the identified model has none);
+  ``OFFj`` has no URDF field and is listed in ``UrdfExport.skipped``;
 * with rotor inertia, ``<drake:rotor_inertia value="IAj/g²">`` in the joint's
   ``<transmission><actuator>`` (Drake's tag; g = the actuator's
   ``drake:gear_ratio``, written as 1 when absent), so that Drake's reflected
-  inertia is IAj.
+  inertia is IAj. A joint without a ``<transmission>`` gets a
+  ``SimpleTransmission`` with one actuator. A joint of a transmission with
+  several joints (a differential wrist: Drake reads no such transmission) has no
+  field for its IAj: listed in ``skipped``, as the coupled motors' ``IAmk``,
+  ``FVmk``, ``FCmk``, ``OFFmk``.
 
 Everything else (comments, geometry, limits) is copied; relative mesh file names
 are made absolute when the output goes to another directory; values below 1e-12
-of the link's largest (solver round-off) are written as 0. Drake ignores the
-``friction`` attribute (drake_dynid reads it, ``read_urdf_friction``); Drake's
-``CalcInverseDynamics`` of the written file plus Coulomb friction FCj·sign(vj)
-reproduces the identified model's W·θ (tested on the 2R arm and the iiwa7).
+of the link's largest (solver round-off) are written as 0. A comment at the top
+says what was written, what was not, the fit's Coulomb law and, with a drive
+file, that the joint friction and rotor inertia are the joint-side totals (its
+motors' reflected values included). Drake ignores the ``friction`` attribute
+(drake_dynid reads it, ``read_urdf_friction``); Drake's ``CalcInverseDynamics``
+of the written file plus Coulomb friction FCj·s(vj), s the fit's law (sign(v),
+the dead zone or tanh(v/ε): ``robot.sign``), reproduces the identified model's
+W·θ (tests/test_urdf_writer.py: the 2R, the iiwa7, locked, welded and mimic
+joints).
 """
 
 from __future__ import annotations
@@ -48,6 +62,10 @@ from drake_dynid.core import _validate as check
 __all__ = ["UrdfExport", "write_identified_urdf"]
 
 DRAKE_NAMESPACE = "http://drake.mit.edu"
+#: Written in the header comment of a file identified with a drive file (the
+#: joint friction and rotor inertia are joint-side totals); ``RobotModel``
+#: notes it when such a file is loaded with a drive file again.
+DRIVE_TOTALS = "are joint-side totals, its motors' reflected values included"
 _OWNER = "write_identified_urdf"
 _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 _TOLERANCE = 1e-9  # relative: smallest accepted pseudo-inertia eigenvalue
@@ -64,21 +82,29 @@ class UrdfExport:
         links: the links whose ``<inertial>`` holds identified values.
         lumped: welded links set to mass 0 (lumped into an identified link).
         skipped: identified parameters with no URDF field (``OFFj``, the coupled
-            motors' ``IAmk``, ``FVmk``, ``FCmk``, ``OFFmk``).
+            motors' ``IAmk``, ``FVmk``, ``FCmk``, ``OFFmk``, ``IAj`` of a joint in a
+            transmission of several joints).
+        locked: the joints written as fixed joints at their locked positions.
     """
 
     path: str
     links: tuple[str, ...]
     lumped: tuple[str, ...]
     skipped: tuple[str, ...]
+    locked: tuple[str, ...] = ()
 
 
 def _number(value: float) -> str:
     return repr(float(value) + 0.0)  # + 0.0: no "-0.0"
 
 
-def _link_groups(plant: Any, joint_names: tuple[str, ...]) -> dict[str, int]:
-    """Body name -> index of the joint whose link it is lumped into (-1: world)."""
+def _link_groups(
+    plant: Any, joint_names: tuple[str, ...], locked: frozenset[str] = frozenset()
+) -> dict[str, int]:
+    """Body name -> index of the joint whose link it is lumped into (-1: world).
+
+    A joint of ``locked`` is a weld (``plant_tree.extract_tree``'s lumping).
+    """
     joints = [plant.get_joint(i) for i in plant.GetJointIndices()]
     group = {plant.world_body().name(): -1}
     for k, name in enumerate(joint_names):
@@ -88,7 +114,8 @@ def _link_groups(plant: Any, joint_names: tuple[str, ...]) -> dict[str, int]:
         changed = False
         for joint in joints:
             parent, child = joint.parent_body().name(), joint.child_body().name()
-            if joint.type_name() == "weld" and parent in group and child not in group:
+            welded = joint.type_name() == "weld" or joint.name() in locked
+            if welded and parent in group and child not in group:
                 group[child] = group[parent]
                 changed = True
     return group
@@ -167,28 +194,162 @@ def _dynamics(joint: Any) -> Any:
     return dynamics
 
 
-def _set_rotor_inertia(root: Any, joint: str, value: float) -> None:
+def _set_rotor_inertia(root: Any, joint: str, value: float) -> bool:
+    """Writes IAj in the joint's transmission; False where there is no field.
+
+    A transmission of several joints (a differential) has none. A joint without
+    a transmission gets a ``SimpleTransmission`` (Drake reads its actuator's
+    ``drake:rotor_inertia``; drake_dynid actuates such a joint anyway).
+    """
     drake = f"{{{DRAKE_NAMESPACE}}}"
-    for transmission in root.findall("transmission"):
-        names = [j.attrib.get("name") for j in transmission.iter("joint")]
-        actuator = transmission.find("actuator")
-        if joint not in names or actuator is None:
-            continue
-        ratio_element = actuator.find(f"{drake}gear_ratio")
-        if ratio_element is None:
-            ratio_element = ElementTree.SubElement(actuator, f"{drake}gear_ratio")
-            ratio_element.set("value", "1")
-        ratio = float(ratio_element.attrib.get("value", "1"))
-        rotor = actuator.find(f"{drake}rotor_inertia")
-        if rotor is None:
-            rotor = ElementTree.SubElement(actuator, f"{drake}rotor_inertia")
-        rotor.set("value", _number(value / ratio**2))
-        return
-    check.fail(
-        _OWNER,
-        f"joint {joint!r} has no <transmission> with an <actuator> in the URDF; the "
-        "rotor inertia has nowhere to go (Drake reads drake:rotor_inertia there).",
+    found = [
+        transmission
+        for transmission in root.findall("transmission")
+        if joint in [j.attrib.get("name") for j in transmission.iter("joint")]
+    ]
+    if not found:
+        transmission = ElementTree.SubElement(
+            root, "transmission", name=f"{joint}_dynid_transmission"
+        )
+        kind = ElementTree.SubElement(transmission, "type")
+        kind.text = "transmission_interface/SimpleTransmission"
+        element = ElementTree.SubElement(transmission, "joint", name=joint)
+        ElementTree.SubElement(
+            element, "hardwareInterface"
+        ).text = "EffortJointInterface"
+        found = [transmission]
+    transmission = found[0]
+    joints = {j.attrib.get("name") for j in transmission.iter("joint")}
+    actuators = transmission.findall("actuator")
+    if len(found) > 1 or len(joints) > 1 or len(actuators) > 1:
+        return False
+    if not actuators:
+        actuators = [
+            ElementTree.SubElement(transmission, "actuator", name=f"{joint}_motor")
+        ]
+    actuator = actuators[0]
+    ratio_element = actuator.find(f"{drake}gear_ratio")
+    if ratio_element is None:
+        ratio_element = ElementTree.SubElement(actuator, f"{drake}gear_ratio")
+        ratio_element.set("value", "1")
+    ratio = float(ratio_element.attrib.get("value", "1"))
+    rotor = actuator.find(f"{drake}rotor_inertia")
+    if rotor is None:
+        rotor = ElementTree.SubElement(actuator, f"{drake}rotor_inertia")
+    rotor.set("value", _number(value / ratio**2))
+    return True
+
+
+def _numbers(text: str | None, default: tuple[float, ...]) -> np.ndarray:
+    if text is None or not text.split():
+        return np.array(default, dtype=float)
+    return np.array([float(x) for x in text.split()], dtype=float)
+
+
+def _lock_joint(root: Any, joint: Any, position: float) -> None:
+    """Makes ``joint`` a fixed joint at ``position`` [rad or m] (module docstring).
+
+    X_PC = X_PJ · X_JC(q): the origin composed with a rotation about the axis
+    (revolute, continuous) or a translation along it (prismatic).
+    """
+    from pydrake.common.eigen_geometry import AngleAxis
+    from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+
+    name = joint.attrib.get("name", "")
+    kind = joint.attrib.get("type", "")
+    origin = joint.find("origin")
+    xyz = _numbers(None if origin is None else origin.attrib.get("xyz"), (0, 0, 0))
+    rpy = _numbers(None if origin is None else origin.attrib.get("rpy"), (0, 0, 0))
+    axis_element = joint.find("axis")
+    axis = _numbers(
+        None if axis_element is None else axis_element.attrib.get("xyz"), (1, 0, 0)
     )
+    axis = axis / np.linalg.norm(axis)
+    pose = RigidTransform(RollPitchYaw(rpy), xyz)
+    if kind == "prismatic":
+        motion = RigidTransform(position * axis)
+    else:
+        motion = RigidTransform(RotationMatrix(AngleAxis(position, axis)), np.zeros(3))
+    fixed = pose.multiply(motion)
+    for tag in ("axis", "limit", "dynamics", "mimic", "safety_controller"):
+        for element in joint.findall(tag):
+            joint.remove(element)
+    if origin is None:
+        origin = ElementTree.SubElement(joint, "origin")
+    origin.set("xyz", " ".join(_number(x) for x in fixed.translation()))
+    origin.set(
+        "rpy", " ".join(_number(x) for x in RollPitchYaw(fixed.rotation()).vector())
+    )
+    joint.set("type", "fixed")
+    joint.insert(
+        0,
+        ElementTree.Comment(
+            f" drake_dynid: {kind} joint locked at {position!r} "
+            f"{'m' if kind == 'prismatic' else 'rad'} in the identification (its "
+            "child links are lumped into the identified link: valid there only) "
+        ),
+    )
+    for transmission in root.findall("transmission"):
+        if name in [j.attrib.get("name") for j in transmission.iter("joint")]:
+            root.remove(transmission)
+
+
+def _law(robot: Any) -> str:
+    """The fit's Coulomb law s(v), in words."""
+    sign = getattr(robot, "sign", None)
+    kind = type(sign).__name__
+    width: Any = getattr(sign, "width", 0.0)
+    if kind == "TanhSign":
+        return f"tanh(v/{float(width)!r}) (the fit's coulomb-width)"
+    if kind == "DeadZoneSign":
+        widths = (width,) * robot.num_joints if isinstance(width, float) else width
+        listed = ", ".join(
+            f"{name} {float(w):.3g}"
+            for name, w in zip(robot.joint_names, widths, strict=True)
+        )
+        return f"sign(v), 0 for |v| <= w (dead zone, w: {listed})"
+    return "sign(v)"
+
+
+def _header(
+    robot: Any,
+    source: Path,
+    written: list[str],
+    skipped: list[str],
+    locked: dict[str, float],
+    zeroed: list[str],
+) -> str:
+    """The comment at the top of the written file: what it holds and what not."""
+    drive = getattr(robot, "drive", None)
+    lines = [
+        f"Identified by drake_dynid from {source.name}: <inertial> of "
+        f"{', '.join(written)}; joint damping/friction"
+        + ("; drake:rotor_inertia" if robot.rotor_inertia else "")
+        + ".",
+        f"Coulomb friction of the fit: FCj * {_law(robot)}; Drake ignores the "
+        "friction attribute.",
+    ]
+    if locked:
+        lines.append(
+            "Locked in the identification, fixed here: "
+            + ", ".join(f"{name} = {value!r}" for name, value in locked.items())
+            + "."
+        )
+    if zeroed:
+        lines.append(f"Not identified, written as 0: {', '.join(zeroed)}.")
+    if skipped:
+        lines.append(f"Identified, no URDF field (not written): {', '.join(skipped)}.")
+    if drive is not None:
+        lines.append(
+            f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
+            "friction "
+            f"and rotor inertia {DRIVE_TOTALS}; loaded with the same drive file, its "
+            "motor friction and "
+            "inertia would be counted twice in the a-priori values (dynid params, "
+            "compare-urdf)."
+        )
+    # "--" may not appear in an XML comment (a path may hold it).
+    return " " + "\n     ".join(lines).replace("--", "- -") + " "
 
 
 def write_identified_urdf(
@@ -247,9 +408,15 @@ def write_identified_urdf(
     root = tree.getroot()
     links_by_name = {link.attrib.get("name"): link for link in root.findall("link")}
     joints_by_name = {j.attrib.get("name"): j for j in root.findall("joint")}
-    groups = _link_groups(robot.plant, tuple(robot.joint_names))
-    written, lumped, skipped = [], [], []
-    for k, joint_name in enumerate(robot.joint_names):
+    moving = tuple(getattr(robot, "links", ()) or robot.joint_names)
+    locked = {str(k): float(v) for k, v in dict(getattr(robot, "locked", {})).items()}
+    groups = _link_groups(robot.plant, moving, frozenset(locked))
+    n = len(robot.joint_names)
+    written: list[str] = []
+    lumped: list[str] = []
+    skipped: list[str] = []
+    zeroed: list[str] = []
+    for k, joint_name in enumerate(moving):
         j = k + 1
         link_name = robot.plant.GetJointByName(joint_name).child_body().name()
         parameters = np.array([values[f"{p}{j}"] for p in _INERTIAL])
@@ -258,14 +425,27 @@ def write_identified_urdf(
         )
         written.append(link_name)
         joint = joints_by_name[joint_name]
-        if f"FV{j}" in values:
-            _dynamics(joint).set("damping", _number(values[f"FV{j}"]))
-        if f"FC{j}" in values:
-            _dynamics(joint).set("friction", _number(values[f"FC{j}"]))
+        for kind, attribute in (("FV", "damping"), ("FC", "friction")):
+            # A moving mimic joint (k >= n) has no friction columns.
+            if k < n and f"{kind}{j}" in values:
+                _dynamics(joint).set(attribute, _number(values[f"{kind}{j}"]))
+            else:
+                dynamics = joint.find("dynamics")
+                if dynamics is not None and float(dynamics.get(attribute, 0.0)):
+                    zeroed.append(f"{attribute} of {joint_name}")
+                if dynamics is not None and attribute in dynamics.attrib:
+                    dynamics.set(attribute, "0")
+        if k >= n:
+            continue
         if f"OFF{j}" in values:
             skipped.append(f"OFF{j}")
-        if f"IA{j}" in values:
-            _set_rotor_inertia(root, joint_name, values[f"IA{j}"])
+        if f"IA{j}" in values and not _set_rotor_inertia(
+            root, joint_name, values[f"IA{j}"]
+        ):
+            skipped.append(f"IA{j}")
+    for joint_name, position in locked.items():
+        if joint_name in joints_by_name:
+            _lock_joint(root, joints_by_name[joint_name], position)
     # Coupled motors' parameters (IAmk, FVmk, FCmk, OFFmk) have no URDF field.
     skipped += [name for name in names if re.fullmatch(r"(IA|FV|FC|OFF)m\d+", name)]
     for body, k in groups.items():
@@ -281,13 +461,7 @@ def write_identified_urdf(
         )
         lumped.append(body)
     root.insert(
-        0,
-        ElementTree.Comment(
-            f" Identified by drake_dynid from {source.name}: <inertial> of "
-            f"{', '.join(written)}; joint damping/friction"
-            + ("; drake:rotor_inertia" if robot.rotor_inertia else "")
-            + ". "
-        ),
+        0, ElementTree.Comment(_header(robot, source, written, skipped, locked, zeroed))
     )
     _absolute_filenames(root, source, output)
     ElementTree.indent(tree, space="  ")
@@ -302,4 +476,6 @@ def write_identified_urdf(
         + "\n",
         encoding="utf-8",
     )
-    return UrdfExport(str(output), tuple(written), tuple(lumped), tuple(skipped))
+    return UrdfExport(
+        str(output), tuple(written), tuple(lumped), tuple(skipped), tuple(locked)
+    )

@@ -253,8 +253,24 @@ def test_physical_fit_and_urdf_with_coupled_motor_columns(files, tmp_path, capsy
     capsys.readouterr()
     urdf_out = tmp_path / "identified.urdf"
     assert cli.main([*argv, "--urdf-out", str(urdf_out)]) == 0
-    assert "(not written, no URDF field: FVm4, FCm4)" in capsys.readouterr().out
+    assert "not written, no URDF field: FVm4, FCm4" in capsys.readouterr().out
     assert urdf_out.is_file()
+    # With rotor inertia on this URDF without <transmission>: each joint gets one
+    # (the writer refused after the whole fit, and --json was lost); the motor
+    # columns are listed in the JSON and the file's header too.
+    both = [*argv, "--rotor-inertia", "--urdf-out", str(urdf_out), "--json", str(fit)]
+    assert cli.main([*both, "--quiet"]) == 0
+    physical = json.loads(fit.read_text())["physical"]
+    assert physical["urdf_skipped"] == ["IAm4", "FVm4", "FCm4"]
+    text = urdf_out.read_text()
+    assert "no URDF field (not written): IAm4, FVm4, FCm4" in text
+    assert text.count("_dynid_transmission") == 4
+    # Loaded again with the same drive file: the double count is said.
+    robot = RobotModel.from_urdf(urdf_out, drive=drive, rotor_inertia=True)
+    assert any("already include the motors' reflected values" in n for n in robot.notes)
+    assert not any(
+        "reflected" in n for n in RobotModel.from_urdf(URDF, drive=drive).notes
+    )
 
 
 def test_validate_finds_the_results_drive_file_or_says_it_is_missing(

@@ -20,7 +20,7 @@ def _consistent_values(robot, rng):
     """URDF standard values with each link moved to a random consistent body."""
     values = np.array(robot.standard_values, dtype=float)
     index = {name: k for k, name in enumerate(robot.standard_names)}
-    for j in range(1, robot.num_joints + 1):
+    for j in range(1, len(robot.links) + 1):
         masses = rng.uniform(0.2, 1.5, 3)
         points = 0.2 * rng.normal(size=(3, 3)) + [0.1, 0.05, 0.0]
         inertia = sum(
@@ -43,8 +43,9 @@ def _consistent_values(robot, rng):
             values[index[f"{name}{j}"]] = value
         if f"IA{j}" in index:
             values[index[f"IA{j}"]] = rng.uniform(0.01, 0.3)
-        values[index[f"FV{j}"]] = rng.uniform(0.05, 1.0)
-        values[index[f"FC{j}"]] = rng.uniform(0.05, 1.0)
+        for kind in ("FV", "FC"):
+            if f"{kind}{j}" in index:
+                values[index[f"{kind}{j}"]] = rng.uniform(0.05, 1.0)
     return values
 
 
@@ -163,3 +164,123 @@ def test_refuses_to_overwrite_the_input_or_write_impossible_links(tmp_path):
     with pytest.raises(ValueError, match=r"standard_values must have shape \(24\)"):
         write_identified_urdf(robot, values[:5], tmp_path / "bad.urdf")
     assert not (tmp_path / "bad.urdf").exists()
+
+
+def _drake_full_torques(path, q_full, v_full, a_full):
+    """Drake alone on the written file: every movable joint's torque [N·m, N]."""
+    from pydrake.multibody.tree import MultibodyForces
+
+    from drake_dynid.urdf import load_plant
+
+    plant = load_plant(path)
+    context = plant.CreateDefaultContext()
+    out = []
+    for k in range(q_full.shape[0]):
+        plant.SetPositions(context, q_full[k])
+        plant.SetVelocities(context, v_full[k])
+        forces = MultibodyForces(plant)
+        plant.CalcForceElementsContribution(context, forces)
+        out.append(plant.CalcInverseDynamics(context, a_full[k], forces))
+    return np.array(out)
+
+
+def test_locked_joints_are_written_fixed_with_their_links_lumped(tmp_path):
+    # iiwa7 identified on joints 1, 2, 4, the others locked: the bodies beyond a
+    # locked joint are lumped into the identified link at the locked pose. The
+    # written file has those joints fixed there and those links at mass 0 (a
+    # review found them counted twice: the head of the TIAGo in its torso).
+    locked = {
+        "iiwa_joint_3": 0.4,
+        "iiwa_joint_5": -0.6,
+        "iiwa_joint_6": 0.9,
+        "iiwa_joint_7": 1.0,
+    }
+    joints = ("iiwa_joint_1", "iiwa_joint_2", "iiwa_joint_4")
+    robot = RobotModel.from_urdf(model_path("iiwa7"), joints=joints, locked=locked)
+    rng = np.random.default_rng(5)
+    values = _consistent_values(robot, rng)
+    out = tmp_path / "part.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert set(export.locked) == set(locked)
+    assert set(export.lumped) >= {f"iiwa_link_{i}" for i in (5, 6, 7)}
+    root = ElementTree.parse(out).getroot()
+    kinds = {j.get("name"): j.get("type") for j in root.iter("joint")}
+    assert all(kinds[name] == "fixed" for name in locked)
+    assert "Locked in the identification, fixed here" in out.read_text()
+    q = rng.uniform(-2.0, 2.0, (5, 3))
+    v, vdot = rng.normal(size=(2, 5, 3))
+    expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
+    again = RobotModel.from_urdf(out)
+    assert again.joint_names == joints
+    np.testing.assert_allclose(
+        _drake_torques(out, again, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+
+
+def test_a_moving_mimic_link_is_written(tmp_path):
+    # The gripper: j1, j2, fa identified, fb = 1.5 fa + 0.01 moves with fa (link 4
+    # of the model). Its link's identified inertia is written, its joint's
+    # friction (not in the model) is 0; Drake on the written file with
+    # τ = Pᵀ τ_full (virtual work) gives W·θ.
+    from tests.test_any_urdf import gripper_urdf
+
+    robot = RobotModel.from_urdf(gripper_urdf(tmp_path / "g.urdf"))
+    assert robot.links == ("j1", "j2", "fa", "fb")
+    rng = np.random.default_rng(6)
+    values = _consistent_values(robot, rng)
+    out = tmp_path / "gripper_identified.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert export.links == ("l1", "l2", "fa", "fb")
+    q = rng.uniform(-1.0, 1.0, (5, 3))
+    q[:, 2] = rng.uniform(0.0, 0.02, 5)
+    v, vdot = rng.normal(size=(2, 5, 3))
+
+    def full(x, offset):
+        return np.column_stack([x, 1.5 * x[:, 2] + offset])
+
+    tau = _drake_full_torques(out, full(q, 0.01), full(v, 0.0), full(vdot, 0.0))
+    tau = tau[:, :3] + np.outer(tau[:, 3], [0.0, 0.0, 1.5])
+    coulomb = read_urdf_friction(out)
+    tau += np.array([coulomb.get(n, 0.0) for n in robot.joint_names]) * np.sign(v)
+    expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
+    np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
+    assert coulomb.get("fb", 0.0) == 0.0
+    assert "friction of fb" in out.read_text() and "damping of fb" in out.read_text()
+
+
+def test_unidentified_friction_is_zero_and_rotor_inertia_finds_a_place(tmp_path):
+    # --friction viscous: the URDF's Coulomb values are not the identified model's,
+    # so they are written as 0 (they were kept). Rotor inertia on a URDF without
+    # <transmission>: a SimpleTransmission is added (the writer refused, after
+    # the whole fit).
+    robot = RobotModel.from_urdf(
+        "tests/data/wrist4.urdf", friction=("viscous",), rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(7))
+    index = {name: k for k, name in enumerate(robot.standard_names)}
+    for j in range(1, robot.num_joints + 1):
+        values[index[f"IA{j}"]] = 0.01 * j
+    out = tmp_path / "w.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert export.skipped == ()
+    assert not any(read_urdf_friction(out).values())
+    again = RobotModel.from_urdf(out, friction=("viscous",), rotor_inertia=True)
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+    assert "Not identified, written as 0: friction of" in out.read_text()
+
+
+def test_a_differential_transmission_has_no_rotor_inertia_field(tmp_path):
+    # The TIAGo's wrist (arm_6, arm_7 in one DifferentialTransmission, which Drake
+    # does not read): IA7, IA8 are listed as not written (IA7 went to arm_6's
+    # motor and was overwritten by IA8).
+    joints = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"), joints=joints, rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(8))
+    export = write_identified_urdf(robot, values, tmp_path / "t.urdf")
+    assert export.skipped == ("IA7", "IA8")
+    # The head (locked at 0) is lumped into the torso link and fixed.
+    assert {"head_1_link", "head_2_link"} <= set(export.lumped)
+    assert {"head_1_joint", "head_2_joint"} <= set(export.locked)

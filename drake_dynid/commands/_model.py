@@ -201,24 +201,7 @@ def finish_offline(
         physical, document["physical"] = _physical(args, robot, result)
         estimates["physical"] = physical.theta
         if args.urdf_out:
-            from drake_dynid.urdf_writer import write_identified_urdf
-
-            export = write_identified_urdf(
-                robot, physical.standard_values, args.urdf_out
-            )
-            document["physical"]["urdf"] = export.path
-            if not args.quiet:
-                skipped = (
-                    f" (not written, no URDF field: {', '.join(export.skipped)})"
-                    if export.skipped
-                    else ""
-                )
-                lumped = (
-                    f"; welded links set to mass 0: {', '.join(export.lumped)}"
-                    if export.lumped
-                    else ""
-                )
-                print(f"wrote {export.path}{lumped}{skipped}")
+            _write_urdf(args, robot, physical, document["physical"])
     if args.out:
         write_estimates_csv(
             args.out,
@@ -253,6 +236,47 @@ def finish_offline(
         if not args.quiet:
             print(f"wrote {args.plot}")
     return document
+
+
+def _write_urdf(
+    args: argparse.Namespace, robot: Any, physical: Any, entry: dict[str, Any]
+) -> None:
+    """``--urdf-out``: writes the URDF and records what it holds in ``entry``.
+
+    A writer error does not lose the fit: it is recorded as
+    ``args.urdf_out_error`` and raised once the other outputs are written.
+    """
+    from drake_dynid.urdf_writer import write_identified_urdf
+
+    try:
+        export = write_identified_urdf(robot, physical.standard_values, args.urdf_out)
+    except ValueError as error:
+        args.urdf_out_error = str(error)
+        entry["urdf_error"] = str(error)
+        return
+    entry["urdf"] = export.path
+    entry["urdf_lumped"] = list(export.lumped)
+    entry["urdf_skipped"] = list(export.skipped)
+    entry["urdf_locked"] = list(export.locked)
+    if not args.quiet:
+        parts = [f"wrote {export.path}"]
+        if export.locked:
+            parts.append(f"locked joints written as fixed: {', '.join(export.locked)}")
+        if export.lumped:
+            parts.append(f"welded links set to mass 0: {', '.join(export.lumped)}")
+        if export.skipped:
+            parts.append(f"not written, no URDF field: {', '.join(export.skipped)}")
+        print("; ".join(parts))
+
+
+def raise_urdf_error(args: argparse.Namespace) -> None:
+    """Raises the ``--urdf-out`` error kept by :func:`finish_offline`, if any."""
+    message = getattr(args, "urdf_out_error", None)
+    if message:
+        raise ValueError(
+            f"--urdf-out {args.urdf_out} was not written (the other outputs were): "
+            f"{message}"
+        )
 
 
 def finish_identify(

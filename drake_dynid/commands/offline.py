@@ -14,6 +14,7 @@ from drake_dynid.commands._model import (
     add_model_arguments,
     check_regularization,
     finish_offline,
+    raise_urdf_error,
 )
 from drake_dynid.commands._options import FILTER_OPTIONS, option_message
 from drake_dynid.commands._report import (
@@ -164,4 +165,5 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, document)
         if not args.quiet:
             print(f"wrote {args.json}")
+    raise_urdf_error(args)
     return 0
