@@ -439,7 +439,15 @@ def resolve_motors(
             row[builder.index[joint]] = ratio
         row.setflags(write=False)
         single = [builder.index[j] for j in entry["row"]]
-        linear = entry.get("linear", len(single) == 1 and prismatic[single[0]])
+        # By default only the direct drive (ratio 1) of a prismatic joint is a
+        # linear motor: a rotary motor on a screw has its ratio in rad/m (a review
+        # found a 1256.6 rad/m screw's encoder degrees read as millimetres).
+        direct = (
+            len(single) == 1
+            and prismatic[single[0]]
+            and abs(abs(next(iter(entry["row"].values()))) - 1.0) <= 1e-12
+        )
+        linear = entry.get("linear", direct)
         motors.append(
             Motor(
                 name=name,

@@ -472,3 +472,36 @@ def test_a_screw_ratio_in_rad_per_m_is_accepted_and_absurd_ratios_are_named():
     absurd = {"motors": {"m": {"joint": "lift", "gear_ratio": 1e300}}}
     with pytest.raises(ValueError, match=r"motors.m.gear_ratio must be within"):
         DriveChain.from_dict(absurd, ("lift",), prismatic_joints=("lift",))
+
+
+def test_a_rotary_motor_on_a_screw_reads_its_encoder_in_angle_units():
+    """A motor-side encoder in degrees behind a 1256.6 rad/m screw: slide =
+    radians(reading)/N. A review found every motor of a prismatic joint taken as
+    linear, the degrees read as millimetres (17-57x off, silently). Only the
+    direct drive (ratio 1) of a prismatic joint is linear by default."""
+    log = {
+        "time": "t",
+        "position": "enc_{motor}",
+        "position_side": "motor",
+        "angle_unit": "deg",
+        "length_unit": "mm",
+        "torque": "tau_{joint}",
+    }
+    ratio = 400 * np.pi  # 1256.6 rad/m: a 5 mm lead
+    screw = {"log": log, "motors": {"m": {"joint": "lift", "gear_ratio": ratio}}}
+    chain = DriveChain.from_dict(screw, ("lift",), prismatic_joints=("lift",))
+    assert not chain.motors[0].linear
+    slide = np.array([[0.0], [0.01], [0.25]])  # [m]
+    columns = chain.to_columns(np.arange(3.0), slide, np.zeros((3, 1)))
+    np.testing.assert_allclose(columns["enc_m"], np.degrees(ratio * slide[:, 0]))
+    direct = {"log": log, "motors": {"m": {"joint": "lift", "gear_ratio": 1.0}}}
+    chain = DriveChain.from_dict(direct, ("lift",), prismatic_joints=("lift",))
+    assert chain.motors[0].linear
+    columns = chain.to_columns(np.arange(3.0), slide, np.zeros((3, 1)))
+    np.testing.assert_allclose(columns["enc_m"], 1000.0 * slide[:, 0])
+    explicit = {
+        "log": log,
+        "motors": {"m": {"joint": "lift", "gear_ratio": ratio, "linear": True}},
+    }
+    chain = DriveChain.from_dict(explicit, ("lift",), prismatic_joints=("lift",))
+    assert chain.motors[0].linear
