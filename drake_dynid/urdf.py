@@ -137,7 +137,11 @@ def read_urdf_mimic(path: str | Path) -> dict[str, tuple[str, float, float]]:
     out: dict[str, tuple[str, float, float]] = {}
     for joint in root.iter("joint"):
         mimic = joint.find("mimic")
-        if mimic is None or joint.find("parent") is None:
+        if (
+            mimic is None
+            or joint.find("parent") is None
+            or joint.attrib.get("type") == "fixed"  # follows nothing (load_urdf)
+        ):
             continue
         name = joint.attrib.get("name", "")
         leader = mimic.attrib.get("joint", "")
@@ -166,16 +170,50 @@ def read_urdf_mimic(path: str | Path) -> dict[str, tuple[str, float, float]]:
 _COMMENT = re.compile(r"<!--.*?-->", re.S)
 _GEOMETRY = re.compile(r"<(visual|collision)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
 _VISUAL = re.compile(r"<(visual)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
+_FIXED_JOINT = re.compile(
+    r"""<joint\b[^>]*\btype\s*=\s*(["'])fixed\1[^>]*>.*?</joint\s*>""", re.S
+)
+_MIMIC = re.compile(r"<mimic\b[^>]*/>|<mimic\b.*?</mimic\s*>", re.S)
 _RELATIVE_FILE = re.compile(
     r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://|/)([^"']+)\2"""
 )
 
 
-def _strip_geometry(text: str, directory: Path, keep_collision: bool = False) -> str:
+def _orphan_transmissions(root: Any) -> dict[str, str]:
+    """``{transmission: joint}`` of the transmissions naming a joint not in the file.
+
+    Drake refuses such a file ("Transmission specifies joint ... which does not
+    exist"): the arm-only Talos descriptions keep their torso joint's.
+    """
+    if root is None:
+        return {}
+    joints = {
+        joint.attrib.get("name")
+        for joint in root.iter("joint")
+        if joint.find("parent") is not None
+    }
+    out: dict[str, str] = {}
+    for transmission in root.iter("transmission"):
+        for joint in transmission.iter("joint"):
+            name = joint.attrib.get("name")
+            if name not in joints and transmission.attrib.get("name"):
+                out[transmission.attrib["name"]] = str(name)
+    return out
+
+
+def _fixed_mimic(text: str) -> bool:
+    """Whether a fixed joint of the URDF text carries a ``<mimic>``."""
+    return any(_MIMIC.search(m.group(0)) for m in _FIXED_JOINT.finditer(text))
+
+
+def _strip_geometry(
+    text: str, directory: Path, keep_collision: bool | None = False
+) -> str:
     """URDF text without comments, ``<visual>`` and ``<collision>``.
 
     ``keep_collision``: only the ``<visual>`` elements are removed (a collision
-    check needs no visual mesh, and a missing one must not stop it).
+    check needs no visual mesh, and a missing one must not stop it); None: the
+    geometry is kept. A ``<mimic>`` of a fixed joint is removed too.
 
     Each removed element leaves its newlines, so Drake's messages keep the file's
     line numbers. Any other relative ``filename`` left is made absolute (relative
@@ -185,9 +223,12 @@ def _strip_geometry(text: str, directory: Path, keep_collision: bool = False) ->
     def blank(match: re.Match) -> str:
         return "\n" * match.group(0).count("\n")
 
-    text = (_VISUAL if keep_collision else _GEOMETRY).sub(
-        blank, _COMMENT.sub(blank, text)
-    )
+    text = _COMMENT.sub(blank, text)
+    if keep_collision is not None:
+        text = (_VISUAL if keep_collision else _GEOMETRY).sub(blank, text)
+    # A fixed joint cannot follow another (Drake refuses the file: the Talos
+    # grippers' fixed joints carry <mimic>); its <mimic> means nothing.
+    text = _FIXED_JOINT.sub(lambda m: _MIMIC.sub(blank, m.group(0)), text)
     return _RELATIVE_FILE.sub(
         lambda m: (
             f"{m.group(1)}{m.group(2)}{(directory / m.group(3)).as_posix()}{m.group(2)}"
@@ -288,9 +329,17 @@ def load_plant(
 
 
 def _parse(
-    owner: str, plant: Any, file: Path, geometry: bool | str
+    owner: str,
+    plant: Any,
+    file: Path,
+    geometry: bool | str,
+    orphans: Sequence[str] = (),
 ) -> tuple[list[Any], str | None]:
-    """Adds the models of ``file`` to ``plant``; returns them and the summary."""
+    """Adds the models of ``file`` to ``plant``; returns them and the summary.
+
+    ``orphans``: names of ``<transmission>`` elements to drop (they name a joint
+    the file does not have, which Drake refuses).
+    """
     from pydrake.multibody.parsing import Parser
 
     drake_logger = logging.getLogger("drake")
@@ -298,21 +347,43 @@ def _parse(
     drake_logger.addFilter(log)
     try:
         parser = Parser(plant)
-        if file.suffix.lower() == ".urdf" and geometry in (False, "collision"):
-            source = _validate.utf8_text(file.read_bytes(), f"{owner}: URDF {file}")
-            text = _strip_geometry(
-                source, file.resolve().parent, keep_collision=geometry == "collision"
-            )
+        source = (
+            _validate.utf8_text(file.read_bytes(), f"{owner}: URDF {file}")
+            if file.suffix.lower() == ".urdf"
+            else None
+        )
+        # With its geometry kept, the file is parsed as is (Drake then resolves
+        # package:// next to it) unless a fixed joint carries a <mimic>.
+        if source is not None and (
+            geometry in (False, "collision") or _fixed_mimic(source) or orphans
+        ):
+            keep = None if geometry is True else geometry == "collision"
+            text = _strip_geometry(source, file.resolve().parent, keep_collision=keep)
+            for name in orphans:
+                text = re.sub(
+                    rf"""<transmission\b[^>]*\bname\s*=\s*(["']){re.escape(name)}"""
+                    r"""\1.*?</transmission\s*>""",
+                    lambda m: "\n" * m.group(0).count("\n"),
+                    text,
+                    flags=re.S,
+                )
             instances = parser.AddModelsFromString(text, "urdf")
         else:
             instances = parser.AddModels(str(file))
     except RuntimeError as error:
         message = str(error).strip().splitlines()[0] if str(error).strip() else ""
         message = message.replace("<literal-string>.urdf", file.name)
-        missing = "does not exist" in message or "unknown package" in message
+        # A file (a mesh) the URDF names: "URI 'x' resolved to 'y' which does
+        # not exist" or "refers to unknown package"; a joint a <transmission>
+        # names "does not exist" too (the Talos arms of example-robot-data).
+        missing = "URI " in message and (
+            "does not exist" in message or "unknown package" in message
+        )
         hint = (
             "a file it names is missing"
             if missing
+            else "every joint a <transmission> names must be a joint of the file"
+            if "Transmission" in message
             else "valid XML, every joint's parent and child links defined"
         )
         text = (
@@ -553,7 +624,8 @@ def load_urdf(
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step)
     if time_step > 0.0:
         plant.SetUseSampledOutputPorts(bool(sampled_output_ports))
-    instances, summary = _parse(owner, plant, file, geometry)
+    orphans = _orphan_transmissions(root)
+    instances, summary = _parse(owner, plant, file, geometry, tuple(orphans))
     if gravity is not None:
         g = _validate.array(owner, "gravity", gravity, shape=(3,))
         plant.mutable_gravity_field().set_gravity_vector(g)
@@ -601,5 +673,12 @@ def load_urdf(
         from drake_dynid.urdf_inertia import inertia_note
 
         inertia = inertia_note(root, plant, file.name)
-    notes = tuple(note for note in (actuated, summary, inertia) if note)
+    orphaned = (
+        f"{len(orphans)} <transmission> element(s) naming a joint the file does not "
+        "have ignored: "
+        + ", ".join(f"{name} ({joint})" for name, joint in orphans.items())
+        if orphans
+        else None
+    )
+    notes = tuple(note for note in (actuated, summary, inertia, orphaned) if note)
     return LoadedUrdf(plant=plant, notes=notes)

@@ -252,3 +252,43 @@ def test_a_joint_actuated_for_want_of_a_transmission_keeps_its_urdf_effort():
         for i in plant.GetJointActuatorIndices()
     }
     assert limits["arm_6_joint"] == 6.6 and limits["arm_7_joint"] == 6.6
+
+
+def test_a_fixed_joint_with_mimic_and_an_orphan_transmission_load(tmp_path):
+    # Drake refuses both (the Talos arms of example-robot-data): the <mimic> of
+    # a fixed joint means nothing, and a <transmission> of a joint the file does
+    # not have is ignored, with a note; a missing joint is not "a missing file".
+    links = "".join(
+        f'<link name="{name}">{_inertial()}</link>' for name in ("base", "l1", "l2")
+    )
+    joints = (
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
+        '<axis xyz="0 0 1"/><limit lower="-2" upper="2" effort="10" velocity="1"/>'
+        "</joint>"
+        '<joint name="tip" type="fixed"><parent link="l1"/><child link="l2"/>'
+        '<origin xyz="0.2 0 0"/><mimic joint="j1" multiplier="-1"/></joint>'
+    )
+    transmission = (
+        '<transmission name="{0}_trans"><type>transmission_interface/'
+        'SimpleTransmission</type><joint name="{0}"><hardwareInterface>'
+        "EffortJointInterface</hardwareInterface></joint><actuator "
+        'name="{0}_motor"/></transmission>'
+    )
+    path = tmp_path / "arm.urdf"
+    path.write_text(
+        f'<robot name="arm">{links}{joints}{transmission.format("j1")}'
+        f"{transmission.format('torso_joint')}</robot>"
+    )
+    loaded = load_urdf(path)
+    assert loaded.plant.num_velocities() == 1
+    assert any(
+        "ignored: torso_joint_trans (torso_joint)" in note for note in loaded.notes
+    )
+    assert read_urdf_mimic(path) == {}
+    assert RobotModel.from_urdf(path).joint_names == ("j1",)
+    # Drake's own message for a joint that is missing elsewhere gets its own hint.
+    bad = tmp_path / "bad.urdf"
+    bad.write_text(path.read_text().replace('<child link="l2"/>', '<child link="x"/>'))
+    with pytest.raises(ValueError) as error:
+        load_urdf(bad)
+    assert "a file it names is missing" not in str(error.value)
