@@ -81,6 +81,7 @@ from drake_dynid.core.idim_auto import (
     auto_cutoff,
     auto_decimation,
     auto_decimation_cutoff,
+    decimated_noise_factor,
     decimation_cutoff,
     measured_velocity_band,
 )
@@ -556,16 +557,23 @@ def identify_offline(
             names=rows.names,
             max_condition=max_condition,
         )
+    # The decimated rows' noise is correlated (core.idim_auto.decimated_noise_factor).
+    correlation = decimated_noise_factor(
+        rows.settings["time_step"],
+        rows.settings["decimation"],
+        rows.settings["decimation_cutoff_hz"],
+    )
     settings = {
         **rows.settings,
         "weighted": bool(weighted),
         "max_condition": float(max_condition),
+        "sigma_correlation_factor": float(correlation),
     }
     return OfflineResult(
         names=rows.names,
         theta=fit.theta,
-        std=fit.std,
-        relative_std_percent=fit.relative_std_percent,
+        std=fit.std * correlation,
+        relative_std_percent=fit.relative_std_percent * correlation,
         condition_number=float(fit.condition_number),
         num_rows=int(fit.num_rows),
         residual_std=float(fit.residual_std),

@@ -38,6 +38,7 @@ def load_benchmark(name, monkeypatch):
         "bench_regressors",
         "bench_sigma",
         "bench_sigma_diagnosis",
+        "bench_sigma_offline",
     ],
 )
 def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):

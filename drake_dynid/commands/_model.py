@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -23,15 +23,28 @@ from drake_dynid.commands.validate import (
 )
 
 
-def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--physical``, ``--regularization``, ``--urdf-out``, ``--out``, ``--plot``."""
+def add_physical_arguments(
+    parser: argparse.ArgumentParser, online: bool = False
+) -> Any:
+    """``--physical``, ``--regularization``, ``--urdf-out``; returns their group.
+
+    ``online``: ``dynid identify``'s wording (the final estimate is projected in
+    its window's covariance metric, ``physical.project_physical``).
+    """
     group = parser.add_argument_group("physically consistent model and outputs")
     group.add_argument(
         "--physical",
         action="store_true",
-        help="also solve the identification under physical consistency (every "
-        "link's 4x4 pseudo-inertia positive semidefinite, friction >= 0), a "
-        "semidefinite program (Clarabel)",
+        help=(
+            "also project the final estimate onto the physically consistent set "
+            "(every link's 4x4 pseudo-inertia positive semidefinite, friction >= "
+            "0) in the metric of its window's covariance, a semidefinite program "
+            "(Clarabel)"
+            if online
+            else "also solve the identification under physical consistency (every "
+            "link's 4x4 pseudo-inertia positive semidefinite, friction >= 0), a "
+            "semidefinite program (Clarabel)"
+        ),
     )
     group.add_argument(
         "--regularization",
@@ -47,6 +60,12 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         help="write a copy of the URDF with the consistent identified parameters "
         "(implies --physical)",
     )
+    return group
+
+
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--physical``, ``--regularization``, ``--urdf-out``, ``--out``, ``--plot``."""
+    group = add_physical_arguments(parser)
     group.add_argument(
         "--out",
         metavar="FILE.csv",
@@ -128,31 +147,46 @@ def _comparison_lines(result: Any, physical: Any) -> list[str]:
     return lines
 
 
-def _physical(args: argparse.Namespace, robot: Any, result: Any):
-    from drake_dynid.physical import DEFAULT_REGULARIZATION, solve_physical_reduced
+def _regularization(args: argparse.Namespace) -> float:
+    from drake_dynid.physical import DEFAULT_REGULARIZATION
 
-    regularization = (
-        DEFAULT_REGULARIZATION if args.regularization is None else args.regularization
-    )
+    value = getattr(args, "regularization", None)
+    return DEFAULT_REGULARIZATION if value is None else float(value)
+
+
+def _physical(args: argparse.Namespace, robot: Any, result: Any):
+    from drake_dynid.physical import solve_physical_reduced
+
     physical = solve_physical_reduced(
         robot,
         result.reduced,
         weighted=bool(result.settings.get("weighted")),
-        regularization=regularization,
+        regularization=_regularization(args),
     )
+    cost = "data cost +{:.4g} residual variances"
+    return physical, physical_report(args, robot, result, physical, cost)
+
+
+def physical_report(
+    args: argparse.Namespace, robot: Any, fit: Any, physical: Any, cost: str
+) -> dict[str, Any]:
+    """Prints the consistent estimate beside ``fit`` (names, theta, std); its JSON.
+
+    ``cost``: what ``physical.data_cost`` is, a format of its value.
+    """
+    regularization = _regularization(args)
     if not args.quiet:
         active = ", ".join(physical.active) or "none"
         print()
         print(
             f"physically consistent estimate ({physical.solver}, "
-            f"{physical.solve_time:.3g} s; λ = {regularization:g}): data cost "
-            f"+{physical.data_cost:.4g} residual variances; active constraints: "
-            f"{active}"
+            f"{physical.solve_time:.3g} s; λ = {regularization:g}): "
+            f"{cost.format(physical.data_cost)}; active constraints: {active}"
         )
         print()
-        for line in _comparison_lines(result, physical):
+        for line in _comparison_lines(fit, physical):
             print(line)
-    entry = {
+    return {
         "parameters": _parameters(robot, physical.names, physical.theta),
         "standard": physical.standard_parameters(),
         "active": list(physical.active),
@@ -162,7 +196,6 @@ def _physical(args: argparse.Namespace, robot: Any, result: Any):
         "solver": physical.solver,
         "solve_time": float(physical.solve_time),
     }
-    return physical, entry
 
 
 def check_regularization(args: argparse.Namespace) -> None:
@@ -285,8 +318,15 @@ def finish_identify(
     held: Any,
     description: str,
     estimates: Mapping[str, np.ndarray],
+    fit: Any = None,
+    covariance: Callable[[], np.ndarray] | None = None,
 ) -> dict[str, Any]:
-    """Consistency of the final estimate and its validation (``dynid identify``)."""
+    """Consistency of the final estimate, --physical/--urdf-out, validation.
+
+    ``dynid identify``. ``fit``: the final estimate's ``names``, ``theta``,
+    ``std``; ``covariance``: its (p, p) covariance, computed when --physical or
+    --urdf-out asks for the projection (``physical.project_physical``).
+    """
     document: dict[str, Any] = {}
     theta = next(iter(estimates.values()))
     if not args.quiet:
@@ -294,6 +334,18 @@ def finish_identify(
     document["physical_check"] = consistency(
         robot, theta, args.quiet, "the final estimate"
     )
+    estimates = dict(estimates)
+    if wants_physical(args) and fit is not None and covariance is not None:
+        from drake_dynid.physical import project_physical
+
+        physical = project_physical(
+            robot, theta, covariance(), regularization=_regularization(args)
+        )
+        cost = "Mahalanobis distance² +{:.4g} from the estimate"
+        document["physical"] = physical_report(args, robot, fit, physical, cost)
+        estimates["physical"] = physical.theta
+        if args.urdf_out:
+            _write_urdf(args, robot, physical, document["physical"])
     if held is not None:
         document["validation"] = report_validation(
             args, robot, held, description, with_apriori(args, robot, estimates)

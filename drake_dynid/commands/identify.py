@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -697,9 +698,60 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FILE.png",
         help="plot the estimates over time (needs matplotlib)",
     )
+    from drake_dynid.commands._model import add_physical_arguments
     from drake_dynid.commands.validate import add_validation_arguments
 
+    add_physical_arguments(parser, online=True)
     add_validation_arguments(parser)
+
+
+def final_covariance(
+    log: Any, robot: Any, settings: Any, last_valid: int, std: np.ndarray
+) -> np.ndarray:
+    """C = S K S of the final estimate (``--physical``): the metric of its projection.
+
+    K: the correlation of the final window's (AᵀA)⁻¹ (its equations by direct
+    quadrature, ``core.replay.window_equations``, columns scaled to unit norm);
+    S = diag(σ), the final σ (the window's, or the bootstrap's when larger). A σ
+    that is not finite (a parameter the window does not see) becomes 1e3 times
+    the largest finite one, so that the projection moves it freely. Without the
+    window's equations (a change detection restarted it short), K = 1.
+    """
+    from scipy.linalg import solve_triangular
+
+    from drake_dynid.core.bootstrap import window_start
+    from drake_dynid.core.replay import window_equations
+
+    p = std.size
+    finite = np.isfinite(std) & (std > 0.0)
+    largest = float(np.max(std[finite])) if finite.any() else 1.0
+    sigma = np.where(finite, std, 1e3 * largest)
+    h = log.time_step
+    end = bootstrap_end(settings, h, last_valid)
+    correlation = np.eye(p)
+    try:
+        s = settings.for_robot(h, int(robot.num_joints), p)
+        start = window_start(s, h, end)
+        a, _ = window_equations(
+            robot.rows_provider(),
+            s,
+            np.asarray(log.q[start : end + 1], dtype=float),
+            np.asarray(log.tau[start : end + 1], dtype=float),
+            end - start,
+            h,
+        )
+        a = np.asarray(a, dtype=float).reshape(-1, p)
+        norms = np.linalg.norm(a, axis=0)
+        if np.all(norms > 0.0) and np.all(np.isfinite(a)):
+            r = np.linalg.qr(a / norms, mode="r")
+            inverse = solve_triangular(r, np.eye(p))
+            covariance = inverse @ inverse.T
+            scale = np.sqrt(np.diag(covariance))
+            correlation = covariance / np.outer(scale, scale)
+    except (ValueError, np.linalg.LinAlgError):
+        pass
+    covariance = sigma[:, None] * correlation * sigma[None, :]
+    return 0.5 * (covariance + covariance.T)
 
 
 def _change_lines(changes: list[dict[str, Any]]) -> list[str]:
@@ -739,7 +791,11 @@ def _invalid_reason(trace: Any) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Replays the log through the on-line identifier; prints and writes results."""
-    from drake_dynid.commands._model import finish_identify
+    from drake_dynid.commands._model import (
+        check_regularization,
+        finish_identify,
+        raise_urdf_error,
+    )
     from drake_dynid.commands.validate import (
         check_output_paths,
         log_line,
@@ -747,6 +803,7 @@ def run(args: argparse.Namespace) -> int:
     )
 
     check_output_paths(args)
+    check_regularization(args)
     if args.bootstrap is not None and (
         args.bootstrap < 0 or args.bootstrap == 1 or args.bootstrap > MAX_REPLICATES
     ):
@@ -910,7 +967,13 @@ def run(args: argparse.Namespace) -> int:
             for line in _change_lines(changes):
                 print(line)
     extra = finish_identify(
-        args, robot, held, held_description, {settings.model: theta}
+        args,
+        robot,
+        held,
+        held_description,
+        {settings.model: theta},
+        fit=SimpleNamespace(names=trace.names, theta=theta, std=std),
+        covariance=lambda: final_covariance(log, robot, settings, last_valid, std),
     )
     if args.out:
         write_estimates_csv(
@@ -961,4 +1024,5 @@ def run(args: argparse.Namespace) -> int:
         trace,
         f"dynid identify: {settings.model} model, window {settings.window:g} s",
     )
+    raise_urdf_error(args)
     return 0
