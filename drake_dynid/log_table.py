@@ -20,7 +20,7 @@ import io
 import math
 import re
 import warnings as warnings_module
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -423,8 +423,17 @@ def read_header(path: str, stream: Any) -> list[str]:
             return _header_block(path, iter([(text, not line)]))[0]
 
 
+#: ``parse``'s data not computed yet (None: the fast parser declined the block).
+_UNPARSED = object()
+
+
 def read_table(
-    path: str, stream: Any, wanted: list[str], groups: Sequence[int]
+    path: str,
+    stream: Any,
+    wanted: list[str],
+    groups: Sequence[int],
+    *,
+    beside: Callable[[Callable[[], Any]], Any] | None = None,
 ) -> Table:
     """Parses a log; checks the header against the ``wanted`` columns.
 
@@ -434,6 +443,12 @@ def read_table(
         wanted: the columns to read, the time first.
         groups: widths of the consecutive groups of ``wanted[1:]`` returned as
             ``Table.parts`` (e.g. n positions, n torques).
+        beside: parse the second half of the file's blocks in another process
+            while this one parses the first: ``beside(function)`` is a context
+            manager whose ``result()`` is ``function()`` (e.g.
+            ``commands._background.Background``, a fork). The whole file is then
+            held as text (for a log of at most a few tens of MB); the result is
+            the same table.
     """
     texts = _texts(path, stream)
     header, body, body_line, last = _header_block(path, texts)
@@ -480,11 +495,12 @@ def read_table(
         )
         return kept
 
-    def parse(body: str, first: int, final: bool) -> None:
+    def parse(body: str, first: int, final: bool, data: Any = _UNPARSED) -> None:
         nonlocal count
         if final and body and not body.endswith("\n"):
             body = drop_unended(body, first)
-        data = _fast(body, len(header), index, final)
+        if data is _UNPARSED:
+            data = _fast(body, len(header), index, final)
         lines: Any
         if data is not None:
             lines = (first, data.shape[0])
@@ -509,11 +525,27 @@ def read_table(
         bad.append(~np.all(np.isfinite(data[:, 1:]), axis=1))
         rows.append(lines)
 
-    parse(body, body_line, last)
+    blocks = [(body, body_line, last)]
     line = body_line + body.count("\n")
     for text, last in texts:
-        parse(text, line, last)
+        if beside is None:
+            parse(*blocks.pop())
+        blocks.append((text, line, last))
         line += text.count("\n")
+    half = len(blocks) // 2
+    # The final block is parsed here (its row without a line end is dropped).
+    later = [block for block in blocks[half:] if not block[2]]
+    if beside is not None and half >= 1 and later:
+        width = len(header)
+        with beside(lambda: [_fast(b[0], width, index, False) for b in later]) as other:
+            for block in blocks[:half]:
+                parse(*block)
+            parsed = other.result()
+        for block, data in zip(later, parsed, strict=True):
+            parse(*block, data=data)
+        blocks = [block for block in blocks[half:] if block[2]]
+    for block in blocks:
+        parse(*block)
     if count == 0:
         raise ValueError(f"log {path}: the header has no data rows below it.")
     parts = tuple(sink.finish() for sink in sinks)

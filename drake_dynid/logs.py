@@ -274,6 +274,7 @@ def read_log(
     fill_gaps: int = FILL_GAPS,
     min_duration: float | None = None,
     torques: bool = True,
+    parse_beside: Any = None,
 ) -> RobotLog:
     """Reads and checks a robot log; see the module docstring for what is repaired.
 
@@ -292,6 +293,8 @@ def read_log(
             what it needs, e.g. window + differentiator window); None: no check.
         torques: False reads ``t`` and the ``q_<joint>`` columns only, τ = 0 (to
             show a motion: ``dynid replay`` of a log of positions).
+        parse_beside: ``log_table.read_table``'s ``beside`` (half the file parsed
+            in another process; the same log).
 
     Returns:
         The uniformly sampled log, with the warnings of what was repaired.
@@ -310,10 +313,10 @@ def read_log(
     n = len(names)
     with open(path, "rb") as stream:
         if torques:
-            table = read_table(path, stream, wanted, (n, n))
+            table = read_table(path, stream, wanted, (n, n), beside=parse_beside)
             q, tau = table.parts
         else:
-            table = read_table(path, stream, positions, (n,))
+            table = read_table(path, stream, positions, (n,), beside=parse_beside)
             (q,) = table.parts
             tau = np.zeros(q.shape)
     extra = unused_columns(table.header, wanted)

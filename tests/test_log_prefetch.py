@@ -272,3 +272,55 @@ def test_the_commands_measure_the_velocity_band_once(tmp_path, monkeypatch, comm
         argv.remove("off")
     assert cli.main(argv) == 0
     assert len(calls) == 1
+
+
+@pytest.mark.parametrize("kind", ["clean", "quoted", "unended", "bad cells"])
+def test_half_the_file_parsed_beside_gives_the_same_table(tmp_path, monkeypatch, kind):
+    """``read_table(beside=Background)``: the second half of the blocks parsed in a
+    forked child (``dynid identify``'s read of the log) gives the same table,
+    notes and row numbers, for blocks the fast parser declines too."""
+    import dataclasses
+
+    from drake_dynid import log_table
+    from drake_dynid.commands._background import Background
+
+    monkeypatch.setattr(log_table, "BLOCK_BYTES", 1 << 12)  # many small blocks
+    rng = np.random.default_rng(9)
+    rows = [",".join(f"{x:.17g}" for x in row) for row in rng.normal(size=(900, 4))]
+    lines = [f"{0.001 * k:.17g},{row}" for k, row in enumerate(rows)]
+    if kind == "quoted":  # a quoted cell: the fast parser declines its block
+        cells = lines[700].split(",")
+        lines[700] = ",".join([cells[0], f'"{cells[1]}"', *cells[2:]])
+    if kind == "bad cells":
+        lines[650] = lines[650].rsplit(",", 1)[0] + ",nan"
+        lines[820] = lines[820].rsplit(",", 1)[0] + ",oops"
+    text = "t,q_a,q_b,tau_a,tau_b\n" + "\n".join(lines)
+    path = tmp_path / "log.csv"
+    path.write_text(text if kind == "unended" else text + "\n")
+    wanted, groups = ["t", "q_a", "q_b", "tau_a", "tau_b"], (2, 2)
+
+    def read(beside):
+        with open(path, "rb") as stream:
+            try:
+                return log_table.read_table(str(path), stream, wanted, groups,
+                                            beside=beside)  # fmt: skip
+            except ValueError as error:
+                return str(error)
+
+    here, split = read(None), read(Background)
+    if kind == "bad cells":  # 'oops' is an error, the same one
+        assert "'oops' is not a number" in here and split == here
+        return
+    assert not isinstance(here, str), here
+    assert here.t.size == 900 - (kind == "unended")
+    for field in dataclasses.fields(here):
+        a, b = getattr(here, field.name), getattr(split, field.name)
+        if isinstance(a, tuple) and a and isinstance(a[0], np.ndarray):
+            for x, y in zip(a, b, strict=True):
+                np.testing.assert_array_equal(np.asarray(x), np.asarray(y))
+        elif isinstance(a, np.ndarray):
+            np.testing.assert_array_equal(a, b)
+        elif isinstance(a, log_table.LineNumbers):
+            assert (a.first, a.count) == (b.first, b.count)
+        else:
+            assert a == b, field.name

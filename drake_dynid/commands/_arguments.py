@@ -790,13 +790,18 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
     def read() -> Any:
         import warnings
 
+        from drake_dynid.commands._background import Background
         from drake_dynid.core.blocks import is_stored
         from drake_dynid.logs import header_joints, read_log
 
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                log = read_log(path, header_joints(path), **options)
+                # Half the file parsed in one more child (2 CPUs: this one and
+                # the parent, which loads the URDF meanwhile).
+                log = read_log(
+                    path, header_joints(path), parse_beside=Background, **options
+                )
         except Exception:
             return None  # read here again: its own message
         if caught or any(is_stored(x) for x in (log.t, log.q, log.tau)):
