@@ -18,7 +18,9 @@ The inverse dynamic model (docs/MATH.md §5) is linear in the p base parameters 
    column, then one sample in D; it removes the equation noise above the dynamics
    band and keeps ``τ = W X``;
 5. stack all segments and solve ``min ‖τ - W X‖`` by QR (IDIM-LS), or with one
-   weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (docs/MATH.md §4).
+   weight 1/σ_j per joint (IDIM-WLS), with Gautier's σ (docs/MATH.md §4) times
+   the decimated rows' correlation factor √(f_s/(2·D·B_n))
+   (``core.idim_auto.decimated_noise_factor``, docs/MATH.md §5).
 
 Steps 2-4 are streamed (:mod:`drake_dynid.core.idim_stream`): the friction
 columns and τ are decimated at the full rate, while the rigid-body columns, the
@@ -110,7 +112,8 @@ class OfflineResult:
     Attributes:
         names: (p,) base parameter names.
         theta: (p,) estimate X̂ (NaN when not valid) [units of the parameters].
-        std: (p,) Gautier standard deviations σ_X (NaN when not valid).
+        std: (p,) standard deviations σ_X: Gautier's times
+            ``settings["sigma_correlation_factor"]`` (NaN when not valid).
         relative_std_percent: (p,) 100·σ_X/|X̂| (> 30 %: not identified).
         condition_number: condition number of the column-scaled stacked W.
         num_rows: rows of the least squares (decimated samples × joints).
@@ -501,7 +504,8 @@ def identify_offline(
         X̂ = argmin ‖D(τ) - D(W) X‖ (optionally weighted 1/σ_j per joint)
 
     with D the parallel decimation (zero-phase low-pass at f_d, one sample in D);
-    Gautier's σ_X and the column-scaled condition number (docs/MATH.md §4).
+    Gautier's σ_X times the decimated rows' correlation factor (docs/MATH.md §5)
+    and the column-scaled condition number (docs/MATH.md §4).
 
     Args:
         log: a :class:`~drake_dynid.logs.RobotLog` whose joints are the robot's.

@@ -51,6 +51,7 @@ from __future__ import annotations
 import os
 import re
 import xml.etree.ElementTree as ElementTree
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -92,6 +93,11 @@ class UrdfExport:
     lumped: tuple[str, ...]
     skipped: tuple[str, ...]
     locked: tuple[str, ...] = ()
+
+
+def _comment(text: str) -> Any:
+    """An XML comment of ``text`` ("--" may not appear in one: a name may hold it)."""
+    return ElementTree.Comment(" " + text.replace("--", "- -") + " ")
 
 
 def _number(value: float) -> str:
@@ -283,10 +289,10 @@ def _lock_joint(root: Any, joint: Any, position: float) -> None:
     joint.set("type", "fixed")
     joint.insert(
         0,
-        ElementTree.Comment(
-            f" drake_dynid: {kind} joint locked at {position!r} "
+        _comment(
+            f"drake_dynid: {kind} joint locked at {position!r} "
             f"{'m' if kind == 'prismatic' else 'rad'} in the identification (its "
-            "child links are lumped into the identified link: valid there only) "
+            "child links are lumped into the identified link: valid there only)"
         ),
     )
     for transmission in root.findall("transmission"):
@@ -318,8 +324,8 @@ def _header(
     skipped: list[str],
     locked: dict[str, float],
     zeroed: list[str],
-) -> str:
-    """The comment at the top of the written file: what it holds and what not."""
+) -> list[str]:
+    """The lines of the comment at the top: what the file holds and what not."""
     drive = getattr(robot, "drive", None)
     lines = [
         f"Identified by drake_dynid from {source.name}: <inertial> of "
@@ -348,12 +354,15 @@ def _header(
             "inertia would be counted twice in the a-priori values (dynid params, "
             "compare-urdf)."
         )
-    # "--" may not appear in an XML comment (a path may hold it).
-    return " " + "\n     ".join(lines).replace("--", "- -") + " "
+    return lines
 
 
 def write_identified_urdf(
-    robot: Any, standard_values: Any, path: str | os.PathLike
+    robot: Any,
+    standard_values: Any,
+    path: str | os.PathLike,
+    *,
+    notes: Sequence[str] = (),
 ) -> UrdfExport:
     """Writes a copy of ``robot``'s URDF with the given standard parameters.
 
@@ -365,6 +374,8 @@ def write_identified_urdf(
         standard_values: (p_std,) physically consistent standard values in
             ``robot.standard_names`` order (e.g. ``PhysicalResult.standard_values``).
         path: the output file; never the input URDF.
+        notes: more lines for the header comment (e.g. the parameters the fit
+            flagged as not identified).
 
     Returns:
         A :class:`UrdfExport`.
@@ -416,6 +427,7 @@ def write_identified_urdf(
     lumped: list[str] = []
     skipped: list[str] = []
     zeroed: list[str] = []
+    folded: list[str] = []  # a moving mimic joint's, in its leader's FVj, FCj
     for k, joint_name in enumerate(moving):
         j = k + 1
         link_name = robot.plant.GetJointByName(joint_name).child_body().name()
@@ -432,7 +444,7 @@ def write_identified_urdf(
             else:
                 dynamics = joint.find("dynamics")
                 if dynamics is not None and float(dynamics.get(attribute, 0.0)):
-                    zeroed.append(f"{attribute} of {joint_name}")
+                    (zeroed if k < n else folded).append(f"{attribute} of {joint_name}")
                 if dynamics is not None and attribute in dynamics.attrib:
                     dynamics.set(attribute, "0")
         if k >= n:
@@ -455,14 +467,18 @@ def write_identified_urdf(
         _replace_inertial(link, _inertial_element(0.0, np.zeros(3), np.zeros((3, 3))))
         link.insert(
             0,
-            ElementTree.Comment(
-                f" drake_dynid: inertia lumped into the identified link {written[k]!r} "
+            _comment(
+                f"drake_dynid: inertia lumped into the identified link {written[k]!r}"
             ),
         )
         lumped.append(body)
-    root.insert(
-        0, ElementTree.Comment(_header(robot, source, written, skipped, locked, zeroed))
-    )
+    lines = _header(robot, source, written, skipped, locked, zeroed)
+    if folded:
+        lines.append(
+            "A moving mimic joint's friction is part of its leader's FVj, FCj in "
+            f"drake_dynid's model: written as 0 here: {', '.join(folded)}."
+        )
+    root.insert(0, _comment("\n     ".join([*lines, *notes])))
     _absolute_filenames(root, source, output)
     ElementTree.indent(tree, space="  ")
     # ElementTree drops the comments before the root element: copy them.

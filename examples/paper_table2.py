@@ -12,7 +12,8 @@ and three identifiers run on the same data:
 * off-line IDIM-LS on the recorded log (zero-phase filter + central differences).
 
 Prints the table (true values, the paper's columns, ours, errors and %σ: Gautier's
-off-line, the larger of Gautier's and the jackknife's on-line) and
+times the decimated rows' correlation factor off-line, the larger of Gautier's and
+the jackknife's on-line) and
 writes ``table2.md``, ``table2.csv`` and ``table2_estimates.png`` to ``--out``.
 One noise seed; ``benchmarks/bench_accuracy.py`` gives medians over seeds.
 """

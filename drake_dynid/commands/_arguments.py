@@ -129,11 +129,13 @@ def parse_friction(text: str) -> tuple[str, ...]:
 
 
 def add_joint_arguments(
-    parser: argparse.ArgumentParser, verb: str = "identify"
+    parser: argparse.ArgumentParser,
+    verb: str = "identify",
+    participle: str = "identified",
 ) -> None:
     """Adds ``--joints`` (the identified joints) and ``--lock`` (locked positions).
 
-    ``verb``: what the command does with the chosen joints (help text).
+    ``verb``, ``participle``: what the command does with the chosen joints (help).
     """
     parser.add_argument(
         "--joints",
@@ -150,7 +152,7 @@ def add_joint_arguments(
         help=(
             "positions [rad or m] of locked joints, e.g. head_1_joint=0.2,"
             f"head_2_joint=-0.1; without --joints, the joints not locked are "
-            f"{verb.removesuffix('e')}ed"
+            f"{participle}"
         ),
     )
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable, Mapping
+import sys
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -234,7 +235,7 @@ def finish_offline(
         physical, document["physical"] = _physical(args, robot, result)
         estimates["physical"] = physical.theta
         if args.urdf_out:
-            _write_urdf(args, robot, physical, document["physical"])
+            _write_urdf(args, robot, physical, document["physical"], result)
     if args.out:
         write_estimates_csv(
             args.out,
@@ -272,17 +273,47 @@ def finish_offline(
 
 
 def _write_urdf(
-    args: argparse.Namespace, robot: Any, physical: Any, entry: dict[str, Any]
+    args: argparse.Namespace,
+    robot: Any,
+    physical: Any,
+    entry: dict[str, Any],
+    fit: Any,
+    notes: Sequence[str] = (),
 ) -> None:
     """``--urdf-out``: writes the URDF and records what it holds in ``entry``.
 
-    A writer error does not lose the fit: it is recorded as
-    ``args.urdf_out_error`` and raised once the other outputs are written.
+    The base parameters the fit (``names``, ``theta``, ``std``) did not identify
+    (%σ > 30) are named in the file's header and in a warning: their written
+    values are the projection's, held by the URDF prior. A writer error does not
+    lose the fit: it is recorded as ``args.urdf_out_error`` and raised once the
+    other outputs are written.
     """
     from drake_dynid.urdf_writer import write_identified_urdf
 
+    theta = np.asarray(fit.theta, dtype=float)
+    std = np.asarray(fit.std, dtype=float)
+    with np.errstate(invalid="ignore"):
+        weak = ~(std <= 0.3 * np.abs(theta))
+    flagged = [name for name, bad in zip(fit.names, weak, strict=True) if bad]
+    notes = list(notes)
+    if flagged:
+        notes.append(
+            f"Not identified by the fit (%σ > 30), {len(flagged)} of "
+            f"{len(fit.names)} base parameters: {', '.join(flagged)}; the values "
+            "written for them are the consistent projection's, held near the URDF."
+        )
+        print(
+            f"dynid: warning: --urdf-out: {len(flagged)} of {len(fit.names)} base "
+            f"parameters were not identified (%σ > 30): {', '.join(flagged[:8])}"
+            + (" …" if len(flagged) > 8 else "")
+            + "; the file's header lists them",
+            file=sys.stderr,
+        )
+    entry["urdf_not_identified"] = flagged
     try:
-        export = write_identified_urdf(robot, physical.standard_values, args.urdf_out)
+        export = write_identified_urdf(
+            robot, physical.standard_values, args.urdf_out, notes=notes
+        )
     except ValueError as error:
         args.urdf_out_error = str(error)
         entry["urdf_error"] = str(error)
@@ -320,12 +351,14 @@ def finish_identify(
     estimates: Mapping[str, np.ndarray],
     fit: Any = None,
     covariance: Callable[[], np.ndarray] | None = None,
+    urdf_notes: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Consistency of the final estimate, --physical/--urdf-out, validation.
 
     ``dynid identify``. ``fit``: the final estimate's ``names``, ``theta``,
     ``std``; ``covariance``: its (p, p) covariance, computed when --physical or
-    --urdf-out asks for the projection (``physical.project_physical``).
+    --urdf-out asks for the projection (``physical.project_physical``);
+    ``urdf_notes``: more lines for the written URDF's header.
     """
     document: dict[str, Any] = {}
     theta = next(iter(estimates.values()))
@@ -345,7 +378,7 @@ def finish_identify(
         document["physical"] = physical_report(args, robot, fit, physical, cost)
         estimates["physical"] = physical.theta
         if args.urdf_out:
-            _write_urdf(args, robot, physical, document["physical"])
+            _write_urdf(args, robot, physical, document["physical"], fit, urdf_notes)
     if held is not None:
         document["validation"] = report_validation(
             args, robot, held, description, with_apriori(args, robot, estimates)

@@ -714,8 +714,11 @@ def final_covariance(
     quadrature, ``core.replay.window_equations``, columns scaled to unit norm);
     S = diag(σ), the final σ (the window's, or the bootstrap's when larger). A σ
     that is not finite (a parameter the window does not see) becomes 1e3 times
-    the largest finite one, so that the projection moves it freely. Without the
-    window's equations (a change detection restarted it short), K = 1.
+    the largest finite one, so that the projection moves it freely. K is that of
+    the whole window's unweighted equations (the solve weights them by frequency,
+    and a change detection may have restarted it shorter): the metric, and the
+    printed Mahalanobis distance, are approximate. K = 1 when the window's
+    equations cannot be formed.
     """
     from scipy.linalg import solve_triangular
 
@@ -974,6 +977,12 @@ def run(args: argparse.Namespace) -> int:
         {settings.model: theta},
         fit=SimpleNamespace(names=trace.names, theta=theta, std=std),
         covariance=lambda: final_covariance(log, robot, settings, last_valid, std),
+        urdf_notes=[
+            f"From dynid identify's {'final' if final_valid else 'last valid'} "
+            f"window ({settings.window:g} s ending at t = {t[last_valid]:.6g} s)"
+            + ("" if final_valid else f"; the final window is not valid: {reason}")
+            + "."
+        ],
     )
     if args.out:
         write_estimates_csv(

@@ -43,8 +43,10 @@ DESCRIPTION = (
     "low-pass sits at 1.5 times the velocity bandwidth of the log (the equation is "
     "linear, so it may cut into the band without bias, and it removes the noise of "
     "v̇ above the motion). NaN samples split the log into segments, "
-    "each filtered on its own. Prints the estimates with Gautier's standard "
-    "deviations (%σ > 30 flagged '*' = not identified) and the condition number."
+    "each filtered on its own. Prints the estimates with their standard "
+    "deviations (Gautier's, times sqrt(f_s/(2 D B_n)) for the correlation the "
+    "decimation low-pass leaves between rows; %σ > 30 flagged '*' = not "
+    "identified) and the condition number."
 )
 
 

@@ -60,7 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the reference (CSV of dynid excite, or its --json coefficients)",
     )
     add_friction_argument(parser)
-    add_joint_arguments(parser, "simulate")
+    add_joint_arguments(parser, "simulate", "simulated")
     parser.add_argument(
         "--drive",
         metavar="FILE.toml",

@@ -293,7 +293,18 @@ def parse_log(
     if position_side == "joint":
         linear = list(prismatic)
     else:
-        linear = [mo.linear for mo in motors]
+        unsaid = [mo for mo in motors if mo.linear is None]
+        if unsaid:
+            mo = unsaid[0]
+            joint = joint_names[mo.joints[0]]
+            raise ValueError(
+                f"{owner}: motors.{mo.name} drives prismatic joint {joint!r} with "
+                f"gear_ratio {float(mo.row[mo.joints[0]]):g} and the log holds its "
+                "motor-side position: say what it is, linear = false (a rotary "
+                "motor on a screw, ratio in rad/m, position in angle_unit) or linear "
+                "= true (a linear motor, ratio in m/m, position in length_unit)."
+            )
+        linear = [bool(mo.linear) for mo in motors]
     scale = np.array(
         [LENGTH_UNITS[length] if x else ANGLE_UNITS[angle] for x in linear]
     )

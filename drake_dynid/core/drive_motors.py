@@ -63,7 +63,10 @@ class Motor:
         viscous: motor-side viscous friction [N·m·s/rad], or None.
         coulomb: motor-side Coulomb friction [N·m], or None.
         offset: motor-side torque offset [N·m], or None.
-        linear: a linear motor (positions in the length unit), else rotary.
+        linear: a linear motor (positions in the length unit), else rotary; None:
+            not said, for a motor of a prismatic joint with a ratio other than
+            ±1 (a screw in rad/m or a lever in m/m): motor-side positions then
+            need it said (``core.drive_log``).
         source: where it was described ("drive", "URDF", "URDF + drive",
             "implicit").
     """
@@ -75,7 +78,7 @@ class Motor:
     viscous: float | None = None
     coulomb: float | None = None
     offset: float | None = None
-    linear: bool = False
+    linear: bool | None = False
     source: str = "drive"
 
     @property
@@ -418,7 +421,9 @@ def resolve_motors(
         data: the parsed drive file (only ``motors`` and ``coupling`` are read).
         joint_names: the identified joints.
         prismatic: (n,) prismatic flags (an implicit drive of a prismatic joint, or
-            a simple drive without ``linear``, is linear).
+            a simple drive of ratio ±1 without ``linear``, is linear; another
+            simple drive of a prismatic joint without ``linear`` has ``linear``
+            None).
         urdf: ``{"motors": {name: {"joints": {joint: ratio}, "rotor_inertia":
             Ia}}, "joints": [every joint of the URDF]}`` from the URDF, or None. A
             drive-file motor that drives only URDF joints outside ``joint_names``
@@ -439,20 +444,23 @@ def resolve_motors(
             row[builder.index[joint]] = ratio
         row.setflags(write=False)
         single = [builder.index[j] for j in entry["row"]]
-        # By default only the direct drive (ratio 1) of a prismatic joint is a
-        # linear motor: a rotary motor on a screw has its ratio in rad/m (a review
-        # found a 1256.6 rad/m screw's encoder degrees read as millimetres).
-        direct = (
-            len(single) == 1
-            and prismatic[single[0]]
-            and abs(abs(next(iter(entry["row"].values()))) - 1.0) <= 1e-12
+        # Without ``linear``: the direct drive (ratio ±1) of a prismatic joint is
+        # a linear motor; another motor of a prismatic joint is ambiguous (None: a
+        # rotary motor on a screw, rad/m, or a linear one through a lever, m/m),
+        # which matters only for motor-side positions (core.drive_log asks).
+        # Reviews found a 1256.6 rad/m screw's degrees read as millimetres, and a
+        # 2 m/m linear drive's millimetres read as degrees.
+        prismatic_single = len(single) == 1 and prismatic[single[0]]
+        ratio = abs(next(iter(entry["row"].values())))
+        default = (
+            (True if abs(ratio - 1.0) <= 1e-12 else None) if prismatic_single else False
         )
-        linear = entry.get("linear", direct)
+        linear = entry.get("linear", default)
         motors.append(
             Motor(
                 name=name,
                 row=row,
-                linear=bool(linear),
+                linear=None if linear is None else bool(linear),
                 source=entry["source"],
                 **{key: entry.get(key) for key in keys},
             )

@@ -60,6 +60,7 @@ __all__ = [
     "decimated_noise_factor",
     "decimation_cutoff",
     "measured_velocity_band",
+    "noise_bandwidth",
     "noise_limited_cutoff",
     "velocity_bandwidth",
 ]
@@ -161,30 +162,45 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     return f, power
 
 
+def noise_bandwidth(order: int) -> float:
+    """Equivalent noise bandwidth of the zero-phase Butterworth, in units of f_d.
+
+    The filter applied forwards and backwards passes white noise's power through
+    |H|⁴ = (1 + (f/f_d)^(2N))⁻²:  ∫₀^∞ |H|⁴ df / f_d = (1 - 1/(2N)) · π/(2N·sin(π/(2N)))
+    (0.944 for N = 8, the decimation filter; tests/core/test_idim.py checks
+    it by quadrature).
+    """
+    n = int(order)
+    return (1.0 - 1.0 / (2 * n)) * math.pi / (2 * n * math.sin(math.pi / (2 * n)))
+
+
 def decimated_noise_factor(
     time_step: float, decimation: int, decimation_cutoff_hz: float
 ) -> float:
-    """The factor Gautier's σ of the decimated rows needs: √max(1, f_r/(2·f_d)).
+    """The factor Gautier's σ of the decimated rows needs: √max(1, f_r/(2·B_n)).
 
     Gautier's σ_X = σ_ρ √((WᵀW)⁻¹)_ii counts the K decimated rows as independent.
     Their residual noise went through the anti-alias low-pass at f_d [Hz] and is
     sampled at f_r = 1/(D·h) ≥ 4·f_d (:func:`auto_decimation`): neighbouring rows
     are correlated, and for white measurement noise under regressor columns of
-    the motion band the estimate's variance is that of K·2·f_d/f_r independent
-    rows (the noise's equivalent bandwidth, f_d for the zero-phase order-8
-    Butterworth to 1 %). Hence σ_X × √(f_r/(2·f_d)): √2 at the automatic
-    decimation. Monte-Carlo spread over reported σ without it (torque noise,
+    the motion band the estimate's variance is that of K·2·B_n/f_r independent
+    rows, B_n the noise's equivalent bandwidth (:func:`noise_bandwidth` of the
+    order-8 zero-phase filter: 0.944·f_d). Hence σ_X × √(f_r/(2·B_n)): 1.46 at
+    the automatic decimation. Monte-Carlo spread over Gautier's σ (torque noise,
     IDIM-WLS, 40 seeds on logs of Pinocchio's inverse dynamics, a review): 1.34
-    (UR5), 1.43 (Panda) at D = 320, 1.06 at D = 640, 2.71 at D = 80, against
-    √(f_r/(2·f_d)) = 1.41, 1.0, 2.84; benchmarks/bench_sigma_offline.py.
+    (UR5), 1.43 (Panda) at D = 320, 2.71 at D = 80; benchmarks/
+    bench_sigma_offline.py measures it side by side.
 
     Args:
         time_step: h [s] of the log.
         decimation: D, the rows' decimation.
         decimation_cutoff_hz: f_d [Hz], the anti-alias low-pass cutoff.
     """
+    from drake_dynid.core.idim import DECIMATION_FILTER_ORDER
+
     rate = 1.0 / (float(decimation) * float(time_step))
-    return math.sqrt(max(1.0, rate / (2.0 * float(decimation_cutoff_hz))))
+    band = noise_bandwidth(DECIMATION_FILTER_ORDER) * float(decimation_cutoff_hz)
+    return math.sqrt(max(1.0, rate / (2.0 * band)))
 
 
 def auto_decimation(time_step: float, cutoff_hz: float) -> int:

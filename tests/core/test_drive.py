@@ -474,11 +474,12 @@ def test_a_screw_ratio_in_rad_per_m_is_accepted_and_absurd_ratios_are_named():
         DriveChain.from_dict(absurd, ("lift",), prismatic_joints=("lift",))
 
 
-def test_a_rotary_motor_on_a_screw_reads_its_encoder_in_angle_units():
-    """A motor-side encoder in degrees behind a 1256.6 rad/m screw: slide =
-    radians(reading)/N. A review found every motor of a prismatic joint taken as
-    linear, the degrees read as millimetres (17-57x off, silently). Only the
-    direct drive (ratio 1) of a prismatic joint is linear by default."""
+def test_a_motor_of_a_prismatic_joint_says_whether_it_is_linear():
+    """Motor-side positions of a prismatic joint's motor of ratio other than ±1: a
+    rotary motor on a screw (rad/m, degrees) and a linear motor through a lever
+    (m/m, millimetres) cannot be told apart, so the drive file must say which.
+    Reviews found a 1256.6 rad/m screw's degrees read as millimetres (every such
+    motor was linear), then a 2 m/m linear drive's millimetres read as degrees."""
     log = {
         "time": "t",
         "position": "enc_{motor}",
@@ -487,21 +488,28 @@ def test_a_rotary_motor_on_a_screw_reads_its_encoder_in_angle_units():
         "length_unit": "mm",
         "torque": "tau_{joint}",
     }
-    ratio = 400 * np.pi  # 1256.6 rad/m: a 5 mm lead
-    screw = {"log": log, "motors": {"m": {"joint": "lift", "gear_ratio": ratio}}}
-    chain = DriveChain.from_dict(screw, ("lift",), prismatic_joints=("lift",))
-    assert not chain.motors[0].linear
     slide = np.array([[0.0], [0.01], [0.25]])  # [m]
-    columns = chain.to_columns(np.arange(3.0), slide, np.zeros((3, 1)))
-    np.testing.assert_allclose(columns["enc_m"], np.degrees(ratio * slide[:, 0]))
-    direct = {"log": log, "motors": {"m": {"joint": "lift", "gear_ratio": 1.0}}}
-    chain = DriveChain.from_dict(direct, ("lift",), prismatic_joints=("lift",))
-    assert chain.motors[0].linear
-    columns = chain.to_columns(np.arange(3.0), slide, np.zeros((3, 1)))
-    np.testing.assert_allclose(columns["enc_m"], 1000.0 * slide[:, 0])
-    explicit = {
-        "log": log,
-        "motors": {"m": {"joint": "lift", "gear_ratio": ratio, "linear": True}},
-    }
-    chain = DriveChain.from_dict(explicit, ("lift",), prismatic_joints=("lift",))
-    assert chain.motors[0].linear
+
+    def chain(motor, with_log=True):
+        data = {"motors": {"m": {"joint": "lift", **motor}}}
+        if with_log:
+            data["log"] = log
+        return DriveChain.from_dict(data, ("lift",), prismatic_joints=("lift",))
+
+    def encoder(motor):
+        return chain(motor).to_columns(np.arange(3.0), slide, np.zeros((3, 1)))["enc_m"]
+
+    screw = 400 * np.pi  # 1256.6 rad/m: a 5 mm lead
+    with pytest.raises(ValueError, match=r"motors.m drives prismatic joint 'lift'.*"
+                       r"linear = false \(a rotary motor on a screw"):  # fmt: skip
+        chain({"gear_ratio": screw})
+    np.testing.assert_allclose(
+        encoder({"gear_ratio": screw, "linear": False}), np.degrees(screw * slide[:, 0])
+    )
+    np.testing.assert_allclose(
+        encoder({"gear_ratio": 2.0, "linear": True}), 2000.0 * slide[:, 0]
+    )
+    # A direct drive (ratio ±1) is linear by default; joint-side positions need
+    # nothing said.
+    np.testing.assert_allclose(encoder({"gear_ratio": 1.0}), 1000.0 * slide[:, 0])
+    assert chain({"gear_ratio": screw}, with_log=False).motors[0].linear is None

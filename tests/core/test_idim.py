@@ -230,3 +230,27 @@ def test_validation():
         offline_derivatives(np.zeros(100), H, cutoff_hz=10.0, trim=1, padding=-1)
     with pytest.raises(ValueError, match="W must have shape"):
         idim_least_squares(np.zeros((50, 2, 3)), np.zeros((50, 3)))
+
+
+@pytest.mark.parametrize("order", [2, 4, 8])
+def test_the_noise_bandwidth_of_the_zero_phase_filter(order):
+    # The closed form against quadrature of |H|^4 = (1 + x^(2N))^-2, and against
+    # the filter itself: white noise through the zero-phase sosfiltfilt keeps the
+    # share B_n/(fs/2) of its variance (seeded, 2^18 samples).
+    import math
+
+    from scipy import integrate, signal
+
+    from drake_dynid.core.idim_auto import decimated_noise_factor, noise_bandwidth
+
+    area = integrate.quad(lambda x: (1.0 + x ** (2 * order)) ** -2, 0.0, math.inf)
+    assert noise_bandwidth(order) == pytest.approx(area[0], rel=1e-9)
+    fs, cutoff = 1000.0, 20.0
+    sos = signal.butter(order, cutoff / (fs / 2), output="sos")
+    noise = np.random.default_rng(4).standard_normal(1 << 18)
+    kept = signal.sosfiltfilt(sos, noise).var() / noise.var()
+    assert kept == pytest.approx(noise_bandwidth(order) * cutoff / (fs / 2), rel=0.03)
+    # The factor: sqrt(f_r / (2 B_n)), and 1 for rows no denser than 2 B_n.
+    factor = decimated_noise_factor(1e-3, 10, cutoff)
+    assert factor == pytest.approx(math.sqrt(100.0 / (2 * 0.9435511 * cutoff)))
+    assert decimated_noise_factor(1e-3, 30, cutoff) == 1.0
