@@ -49,22 +49,26 @@ def _consistent_values(robot, rng):
     return values
 
 
-def _drake_torques(path, robot, q, v, vdot):
+def _inverse_dynamics(plant, q, v, vdot):
+    """Drake's CalcInverseDynamics with the force elements (gravity, damping)."""
     from pydrake.multibody.tree import MultibodyForces
 
-    plant = RobotModel.from_urdf(path, rotor_inertia=robot.rotor_inertia).plant
     context = plant.CreateDefaultContext()
-    coulomb = read_urdf_friction(path)
-    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
     out = []
     for k in range(q.shape[0]):
         plant.SetPositions(context, q[k])
         plant.SetVelocities(context, v[k])
         forces = MultibodyForces(plant)
         plant.CalcForceElementsContribution(context, forces)
-        tau = plant.CalcInverseDynamics(context, vdot[k], forces)
-        out.append(tau + fc * np.sign(v[k]))
+        out.append(plant.CalcInverseDynamics(context, vdot[k], forces))
     return np.array(out)
+
+
+def _drake_torques(path, robot, q, v, vdot):
+    plant = RobotModel.from_urdf(path, rotor_inertia=robot.rotor_inertia).plant
+    coulomb = read_urdf_friction(path)
+    fc = np.array([coulomb.get(name, 0.0) for name in robot.joint_names])
+    return _inverse_dynamics(plant, q, v, vdot) + fc * np.sign(v)
 
 
 @pytest.mark.parametrize(
@@ -168,20 +172,9 @@ def test_refuses_to_overwrite_the_input_or_write_impossible_links(tmp_path):
 
 def _drake_full_torques(path, q_full, v_full, a_full):
     """Drake alone on the written file: every movable joint's torque [N·m, N]."""
-    from pydrake.multibody.tree import MultibodyForces
-
     from drake_dynid.urdf import load_plant
 
-    plant = load_plant(path)
-    context = plant.CreateDefaultContext()
-    out = []
-    for k in range(q_full.shape[0]):
-        plant.SetPositions(context, q_full[k])
-        plant.SetVelocities(context, v_full[k])
-        forces = MultibodyForces(plant)
-        plant.CalcForceElementsContribution(context, forces)
-        out.append(plant.CalcInverseDynamics(context, a_full[k], forces))
-    return np.array(out)
+    return _inverse_dynamics(load_plant(path), q_full, v_full, a_full)
 
 
 def test_locked_joints_are_written_fixed_with_their_links_lumped(tmp_path):
