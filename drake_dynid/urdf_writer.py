@@ -71,6 +71,7 @@ _OWNER = "write_identified_urdf"
 _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 _TOLERANCE = 1e-9  # relative: smallest accepted pseudo-inertia eigenvalue
 _ROUND_OFF = 1e-12  # relative: smaller centre-of-mass or inertia entries are 0
+_ROUND_OFF_FRICTION = 1e-9  # relative to the largest friction (or 1): smaller is 0
 _PROLOG = re.compile(r"\A\s*(?:<\?xml[^>]*\?>\s*)?((?:<!--.*?-->\s*)*)", re.S)
 
 
@@ -428,6 +429,9 @@ def write_identified_urdf(
     skipped: list[str] = []
     zeroed: list[str] = []
     folded: list[str] = []  # a moving mimic joint's, in its leader's FVj, FCj
+    friction_scale = max(
+        [1.0, *(abs(v) for name, v in values.items() if name[:2] in ("FV", "FC"))]
+    )
     for k, joint_name in enumerate(moving):
         j = k + 1
         link_name = robot.plant.GetJointByName(joint_name).child_body().name()
@@ -440,7 +444,12 @@ def write_identified_urdf(
         for kind, attribute in (("FV", "damping"), ("FC", "friction")):
             # A moving mimic joint (k >= n) has no friction columns.
             if k < n and f"{kind}{j}" in values:
-                _dynamics(joint).set(attribute, _number(values[f"{kind}{j}"]))
+                value = values[f"{kind}{j}"]
+                # A friction the consistent solve holds at its bound 0 comes out
+                # at 1e-11: written as 0 (Drake's parser warns on any non-zero
+                # friction attribute).
+                value = 0.0 if value <= _ROUND_OFF_FRICTION * friction_scale else value
+                _dynamics(joint).set(attribute, _number(value))
             else:
                 dynamics = joint.find("dynamics")
                 if dynamics is not None and float(dynamics.get(attribute, 0.0)):

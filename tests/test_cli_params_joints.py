@@ -79,3 +79,54 @@ def test_bad_joint_input_exits_2_with_one_line(capsys):
     assert cli.main(["params", model_path("tiago_no_hand"), "--joints", "x"]) == 2
     err = capsys.readouterr().err
     assert "available: wheel_right_joint, wheel_left_joint, torso_lift_joint" in err
+
+
+def test_a_results_file_with_a_locked_mimic_leader_validates(tmp_path, capsys):
+    """Found by a review (every Panda fit with its fingers locked): settings.locked
+    lists the mimic follower of a locked leader, which cannot be locked on its
+    own; validate then fell back to the default joints and said "another robot".
+    The gripper test robot: j1, j2 identified, finger fa locked, fb follows it."""
+    import numpy as np
+
+    from drake_dynid.logs import write_log
+    from drake_dynid.plants import RobotModel
+    from tests.test_any_urdf import gripper_urdf
+
+    urdf = str(gripper_urdf(tmp_path / "g.urdf"))
+    params = tmp_path / "p.json"
+    argv = ["params", urdf, "--joints", "j1,j2", "--lock", "fa=0.02"]
+    assert cli.main([*argv, "--json", str(params)]) == 0
+    assert json.loads(params.read_text())["locked"] == {"fa": 0.02, "fb": 0.04}
+    robot = RobotModel.from_urdf(urdf, joints=("j1", "j2"), locked={"fa": 0.02})
+    t = 0.01 * np.arange(3000)
+    q = np.column_stack([np.sin(0.5 * t), 0.8 * np.sin(0.3 * t + 1.0)])
+    v = np.column_stack([0.5 * np.cos(0.5 * t), 0.24 * np.cos(0.3 * t + 1.0)])
+    a = np.column_stack([-0.25 * np.sin(0.5 * t), -0.072 * np.sin(0.3 * t + 1.0)])
+    tau = robot.idim_rows(q, v, a) @ robot.base_values
+    log = tmp_path / "log.csv"
+    write_log(log, t, q, tau, robot.joint_names)
+    capsys.readouterr()
+    out = tmp_path / "v.json"
+    argv = ["validate", str(log), "--urdf", urdf, "--params", str(params)]
+    assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0, capsys.readouterr()
+    # Locks that name this URDF's joints but do not apply are an error, not
+    # another robot's default model.
+    document = json.loads(params.read_text())
+    document["locked"] = {"j1": 0.1}  # j1 identified and locked
+    params.write_text(json.dumps(document))
+    assert cli.main(argv) == 2
+    assert "its joints and locks (settings.joints" in capsys.readouterr().err
+
+
+def test_a_lock_beyond_the_urdf_limits_is_said(tmp_path, capsys):
+    # A review: --lock panda_finger_joint1=20 (limits 0-0.04 m) was taken silently.
+    from tests.test_any_urdf import gripper_urdf
+
+    urdf = str(gripper_urdf(tmp_path / "g.urdf"))
+    argv = ["params", urdf, "--joints", "j1,j2", "--lock"]
+    assert cli.main([*argv, "fa=20"]) == 0
+    assert "--lock fa=20 is outside its URDF limits [0, 0.04] m" in (
+        capsys.readouterr().err
+    )
+    assert cli.main([*argv, "fa=0.02"]) == 0
+    assert "outside" not in capsys.readouterr().err

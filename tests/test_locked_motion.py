@@ -149,3 +149,25 @@ def test_a_locked_prismatic_joint_is_read_in_the_length_unit(tmp_path):
     ((_, _, checks),) = _motion_checks(logs, robot)
     scales = {name: scale for name, _, _, _, _, scale in checks}
     assert scales == {"torso_lift_joint": 1e-3}
+
+
+def test_a_plain_log_of_a_locked_prismatic_joint(tmp_path, capsys):
+    """Found by a review (a Panda log with its finger columns): a plain log
+    holding a locked prismatic joint's column crashed with a NameError (exit 1).
+    The gripper test robot: j1, j2 identified, finger fa locked (fb mimics it)."""
+    from test_any_urdf import gripper_urdf
+
+    urdf = gripper_urdf(tmp_path / "g.urdf")
+    robot = RobotModel.from_urdf(urdf, joints=("j1", "j2"), locked={"fa": 0.02})
+    _, t, q, _ = fourier_2r(3001)
+    finger = 0.02 + 0.01 * np.sin(t)  # the finger moves: 1 cm
+    columns = np.column_stack([q, finger, 1.5 * finger + 0.01])
+    names = ("j1", "j2", "fa", "fb")
+    log = tmp_path / "log.csv"
+    write_log(log, t, columns, np.ones_like(columns), names)
+    warning = locked_motion(str(log), robot)
+    assert "fa" in warning and "0.02" in warning
+    still = tmp_path / "still.csv"
+    columns[:, 2], columns[:, 3] = 0.02, 0.04
+    write_log(still, t, columns, np.ones_like(columns), names)
+    assert locked_motion(str(still), robot) is None

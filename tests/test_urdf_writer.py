@@ -309,3 +309,19 @@ def test_names_with_a_double_hyphen_make_well_formed_comments(tmp_path):
     np.testing.assert_allclose(
         RobotModel.from_urdf(out).standard_values, robot.standard_values, atol=1e-12
     )
+
+
+def test_a_friction_held_at_zero_is_written_as_zero(tmp_path):
+    # The consistent solve leaves a friction at its bound as 1.7e-11 (a review):
+    # written as 0, as Drake's parser warns on any non-zero friction attribute.
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    values = np.array(robot.standard_values, dtype=float)
+    index = {name: k for k, name in enumerate(robot.standard_names)}
+    values[index["FC1"]], values[index["FV2"]] = 1.7e-11, 0.3
+    out = tmp_path / "out.urdf"
+    write_identified_urdf(robot, values, out)
+    joints = {
+        j.get("name"): j for j in ElementTree.parse(out).getroot().findall("joint")
+    }
+    assert joints["joint1"].find("dynamics").get("friction") == "0.0"
+    assert joints["joint2"].find("dynamics").get("damping") == "0.3"

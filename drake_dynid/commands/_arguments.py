@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 
@@ -242,7 +242,30 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
         raise ValueError(option_message(str(error), names, ("RobotModel",))) from None
     for note in robot.notes:
         print(f"dynid {command}: note: {note}", file=sys.stderr)
+    for line in _locks_beyond_limits(robot, options.get("locked") or {}):
+        print(f"dynid {command}: warning: {line}", file=sys.stderr)
     return robot
+
+
+def _locks_beyond_limits(robot: Any, locked: Mapping[str, float]) -> list[str]:
+    """A locked position outside its joint's URDF limits (a typo, or degrees)."""
+    out = []
+    plant = robot.plant
+    for name, value in locked.items():
+        if not plant.HasJointNamed(name):
+            continue
+        joint = plant.GetJointByName(name)
+        if joint.num_positions() != 1:
+            continue
+        low = float(joint.position_lower_limits()[0])
+        high = float(joint.position_upper_limits()[0])
+        if not low <= value <= high:
+            unit = "m" if joint.type_name() == "prismatic" else "rad"
+            out.append(
+                f"--lock {name}={value:g} is outside its URDF limits [{low:g}, "
+                f"{high:g}] {unit}: the model holds it there."
+            )
+    return out
 
 
 def add_log_argument(parser: argparse.ArgumentParser) -> None:
@@ -398,7 +421,7 @@ def _motion_checks(files: Sequence[str], robot: Any) -> list[tuple[Any, ...]]:
         if len(files) != 1:
             return []
         column = "q_{joint}"
-        scale = 1.0
+        scale = length = 1.0  # a plain log is in rad and m
     else:
         template = getattr(robot.drive.log, "joint_position_template", None)
         if template is None:

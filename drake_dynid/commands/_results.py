@@ -79,7 +79,12 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     if args.joints is None and isinstance(joints, list):
         options["joints"] = [str(name) for name in joints]
     if args.lock is None and isinstance(locked, dict):
-        options["locked"] = {str(k): float(v) for k, v in locked.items()}
+        # settings.locked lists every joint held still, the mimic joints of locked
+        # leaders too, which cannot be locked on their own: they follow.
+        followers = _mimic_joints(args.urdf)
+        options["locked"] = {
+            str(k): float(v) for k, v in locked.items() if str(k) not in followers
+        }
     if not args.rotor_inertia:
         options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
     width = _from_results(document, "coulomb_width")
@@ -91,14 +96,42 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         options["drive"] = results_drive(args, drive)
     try:
         return robot_from_args(args, "validate", **options)
-    except ValueError:
+    except ValueError as error:
         if "joints" not in options and "locked" not in options:
             raise
+        named = [*options.get("joints", ()), *options.get("locked", {})]
+        if named and not set(named) - _joint_names(args.urdf):
+            raise ValueError(
+                f"results file {args.params}: its joints and locks (settings.joints, "
+                f"settings.locked) do not apply to {args.urdf}: {error} Give "
+                "--joints/--lock."
+            ) from None
     # The file's joints are not this URDF's (another robot): load the default
     # joints; the parameter check then names the mismatch.
     options.pop("joints", None)
     options.pop("locked", None)
     return robot_from_args(args, "validate", **options)
+
+
+def _mimic_joints(urdf: Any) -> set[str]:
+    """The URDF's ``<mimic>`` joints (none when it cannot be read: the load says)."""
+    from drake_dynid.urdf import read_urdf_mimic
+
+    try:
+        return set(read_urdf_mimic(urdf))
+    except (OSError, ValueError):
+        return set()
+
+
+def _joint_names(urdf: Any) -> set[str]:
+    """The URDF's joint names (none when it cannot be read)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except (OSError, ElementTree.ParseError):
+        return set()
+    return {joint.get("name", "") for joint in root.iter("joint")}
 
 
 def results_sign(
