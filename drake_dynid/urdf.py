@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import re
 import xml.etree.ElementTree as ElementTree
 from collections import Counter
@@ -347,6 +348,10 @@ def _parse(
     drake_logger.addFilter(log)
     try:
         parser = Parser(plant)
+        # package:// URIs resolve through ROS_PACKAGE_PATH too (a ROS workspace,
+        # example-robot-data's share folder), as in ROS tools.
+        if os.environ.get("ROS_PACKAGE_PATH"):
+            parser.package_map().PopulateFromRosPackagePath()
         source = (
             _validate.utf8_text(file.read_bytes(), f"{owner}: URDF {file}")
             if file.suffix.lower() == ".urdf"

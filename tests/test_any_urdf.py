@@ -292,3 +292,34 @@ def test_a_fixed_joint_with_mimic_and_an_orphan_transmission_load(tmp_path):
     with pytest.raises(ValueError) as error:
         load_urdf(bad)
     assert "a file it names is missing" not in str(error.value)
+
+
+def test_package_uris_resolve_through_ros_package_path(tmp_path, monkeypatch):
+    # A ROS workspace's package://: found through ROS_PACKAGE_PATH, as ROS tools do
+    # (a review: excite's self-collision check could not load a package mesh).
+    package = tmp_path / "ws" / "my_robot"
+    (package / "meshes").mkdir(parents=True)
+    (package / "package.xml").write_text(
+        '<?xml version="1.0"?><package format="2"><name>my_robot</name>'
+        "<version>0.0.0</version><description>d</description>"
+        '<maintainer email="a@b.c">a</maintainer><license>BSD</license></package>'
+    )
+    (package / "meshes" / "box.obj").write_text(
+        "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"
+    )
+    mesh = (
+        '<collision><geometry><mesh filename="package://my_robot/meshes/box.obj"/>'
+        "</geometry></collision>"
+    )
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text(
+        f'<robot name="r"><link name="base"/><link name="l1">{_inertial()}{mesh}'
+        '</link><joint name="j1" type="revolute"><parent link="base"/>'
+        '<child link="l1"/><axis xyz="0 0 1"/></joint></robot>'
+    )
+    monkeypatch.delenv("ROS_PACKAGE_PATH", raising=False)
+    with pytest.raises(ValueError, match="unknown package 'my_robot'"):
+        load_plant(urdf, builder=DiagramBuilder(), geometry="collision")
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path / "ws"))
+    plant = load_plant(urdf, builder=DiagramBuilder(), geometry="collision")
+    assert plant.num_velocities() == 1
