@@ -162,3 +162,19 @@ def test_the_couplers_of_joints_that_stay_are_kept(tmp_path):
     assert load_plant(path).num_constraints() == 1
     assert load_plant(path, locked={"j2": 0.7}).num_constraints() == 1
     assert load_plant(path, locked={"fa": 0.02}).num_constraints() == 0
+
+
+def test_a_lock_of_a_joint_the_written_urdf_fixed_is_explained(tmp_path, capsys):
+    # A review: the written URDF fed back with the fit's --lock said only "not a
+    # movable joint". The writer fixes the locked joints: the message says so.
+    from drake_dynid.plants import RobotModel
+    from drake_dynid.urdf_writer import write_identified_urdf
+
+    robot = RobotModel.from_urdf(
+        model_path("iiwa7"), joints=JOINTS.split(","), locked={"iiwa_joint_3": 0.4}
+    )
+    out = tmp_path / "part.urdf"
+    write_identified_urdf(robot, robot.standard_values, out)
+    argv = ["params", str(out), "--joints", JOINTS, "--lock", "iiwa_joint_3=0.4"]
+    assert cli.main(argv) == 2
+    assert "It is a fixed joint of" in capsys.readouterr().err

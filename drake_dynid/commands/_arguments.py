@@ -239,12 +239,34 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
         from drake_dynid.commands._options import option_message
 
         names = {"coulomb_width": "--coulomb-width"}
-        raise ValueError(option_message(str(error), names, ("RobotModel",))) from None
+        message = option_message(str(error), names, ("RobotModel",))
+        raise ValueError(message + _fixed_hint(args.urdf, message)) from None
     for note in robot.notes:
         print(f"dynid {command}: note: {note}", file=sys.stderr)
     for line in _locks_beyond_limits(robot, options.get("locked") or {}):
         print(f"dynid {command}: warning: {line}", file=sys.stderr)
     return robot
+
+
+def _fixed_hint(urdf: Any, message: str) -> str:
+    """A hint when a locked joint is fixed in the URDF (one --urdf-out wrote)."""
+    import re
+    import xml.etree.ElementTree as ElementTree
+
+    found = re.search(r"locked joint '([^']+)' is not a movable joint", message)
+    if not found:
+        return ""
+    try:
+        root = ElementTree.parse(urdf).getroot()
+    except (OSError, ElementTree.ParseError):
+        return ""
+    fixed = {j.get("name") for j in root.findall("joint") if j.get("type") == "fixed"}
+    if found.group(1) not in fixed:
+        return ""
+    return (
+        f" It is a fixed joint of {urdf} (a URDF written by --urdf-out fixes the "
+        "joints locked in the fit): leave it out of --lock."
+    )
 
 
 def _locks_beyond_limits(robot: Any, locked: Mapping[str, float]) -> list[str]:

@@ -303,7 +303,8 @@ def _write_urdf(
             "written for them are the consistent projection's, held near the URDF."
         )
         print(
-            f"dynid: warning: --urdf-out: {len(flagged)} of {len(fit.names)} base "
+            f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
+            f"--urdf-out: {len(flagged)} of {len(fit.names)} base "
             f"parameters were not identified (%σ > 30): {', '.join(flagged[:8])}"
             + (" …" if len(flagged) > 8 else "")
             + "; the file's header lists them",
