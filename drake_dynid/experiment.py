@@ -166,7 +166,10 @@ def simulate_experiment(
         simulated_drive_of,
         truth_model,
     )
-    from drake_dynid.simulation import add_tracking_controller
+    from drake_dynid.simulation import (
+        actuation_of_joint_torques,
+        add_tracking_controller,
+    )
     from drake_dynid.urdf import load_plant
 
     owner = "simulate_experiment"
@@ -280,12 +283,15 @@ def simulate_experiment(
         controller_plant,
         controller_context,
         source.get_output_port(),
-        controller.get_output_port_control(),
+        controller.get_output_port_generalized_force(),  # joint order
         drive,
         kp=settings.kp,
         kd=settings.kd,
     )
-    builder.Connect(control, plant.get_actuation_input_port())
+    builder.Connect(
+        actuation_of_joint_torques(builder, plant, control),
+        plant.get_actuation_input_port(),
+    )
     state_log = LogVectorOutput(plant.get_state_output_port(), builder, h)
     command_log = LogVectorOutput(control, builder, h)
     diagram = builder.Build()

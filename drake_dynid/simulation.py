@@ -217,8 +217,10 @@ def simulate_identification(
         kp=simulation.kp,
         kd=simulation.kd,
     )
+    torques = controller.get_output_port_generalized_force()  # joint order
     builder.Connect(
-        controller.get_output_port_control(), plant.get_actuation_input_port()
+        actuation_of_joint_torques(builder, plant, torques),
+        plant.get_actuation_input_port(),
     )
 
     # Measurement [q; τ] (τ: the command at t_k) plus seeded white noise.
@@ -226,7 +228,7 @@ def simulate_identification(
     builder.Connect(plant.get_state_output_port(), plant_state.get_input_port())
     clean = builder.AddSystem(Multiplexer([n, n]))
     builder.Connect(plant_state.get_output_port(0), clean.get_input_port(0))
-    builder.Connect(controller.get_output_port_control(), clean.get_input_port(1))
+    builder.Connect(torques, clean.get_input_port(1))
     noise_std = reference_noise_std(
         robot, trajectory, simulation.duration, simulation.snr_db, h
     )
@@ -276,6 +278,27 @@ def simulate_identification(
         simulator=simulator,
         chains=chains,
     )
+
+
+def actuation_of_joint_torques(builder: Any, plant: Any, torques: Any) -> Any:
+    """The plant's actuation u = B⁻¹ τ of joint torques τ (generalized-velocity order).
+
+    Drake's actuation input is in actuator order (``JointActuatorIndex``: the
+    URDF's transmissions first, in file order), which is the joints' order only
+    when B = ``plant.MakeActuationMatrix()`` is the identity (a review found the
+    TIAGo's columns shifted: arm_5's transmission comes first). Every joint must
+    be actuated once (B square). Returns ``torques`` itself when B = I.
+    """
+    from pydrake.systems.primitives import MatrixGain
+
+    actuation = np.asarray(plant.MakeActuationMatrix(), dtype=float)
+    if actuation.shape[0] == actuation.shape[1] and np.array_equal(
+        actuation, np.eye(actuation.shape[0])
+    ):
+        return torques
+    gain = builder.AddSystem(MatrixGain(np.linalg.inv(actuation)))
+    builder.Connect(torques, gain.get_input_port())
+    return gain.get_output_port()
 
 
 def add_tracking_controller(

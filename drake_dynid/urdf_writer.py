@@ -188,8 +188,12 @@ def _link_inertial(name: str, joint: str, theta: np.ndarray) -> Any:
 def _absolute_filenames(root: Any, source: Path, output: Path) -> None:
     if source.parent.resolve() == output.parent.resolve():
         return
+    # Only files the URDF names beside it: meshes and textures (a Gazebo
+    # <plugin filename="libx.so"> is a library on Gazebo's own search path).
     for element in root.iter():
         name = element.attrib.get("filename")
+        if element.tag not in ("mesh", "texture"):
+            continue
         if name and "://" not in name and not os.path.isabs(name):
             element.set("filename", str((source.parent / name).resolve()))
 

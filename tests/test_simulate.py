@@ -374,3 +374,31 @@ def test_the_suggested_step_divides_the_log_period():
     assert _dividing_step(1e-3, 9e-5) == 6.25e-5  # 1e-3 / 16
     step = _dividing_step(1e-3, 1e-3)
     assert step == 1e-3
+
+
+def test_actuators_out_of_joint_order_log_each_joints_torque(tmp_path):
+    """Drake's actuation input is in actuator order (the URDF's transmissions
+    first, in file order): a review found the TIAGo's torque columns shifted by
+    one joint (arm_5's transmission comes first) and clipped with the wrong
+    limits. The 2R with its transmissions swapped simulates and logs as the 2R."""
+    text = Path(model_path("planar_2r")).read_text()
+    first = text.index('  <transmission name="joint1_transmission">')
+    second = text.index('  <transmission name="joint2_transmission">')
+    end = text.index("</robot>")
+    swapped = text[:first] + text[second:end] + text[first:second] + text[end:]
+    assert swapped != text
+    urdf = tmp_path / "swapped.urdf"
+    urdf.write_text(swapped)
+    from drake_dynid.urdf import load_plant
+
+    plant = load_plant(urdf)
+    order = [plant.get_joint_actuator(i).joint().name()
+             for i in plant.GetJointActuatorIndices()]  # fmt: skip
+    assert order == ["joint2", "joint1"]
+    limits = _limits_2r(effort=[100.0, 5.0])  # joint2's limit is the tighter
+    settings = ExperimentSettings(noise_q=0.0, noise_tau=0.0)
+    want = simulate_experiment(model_path("planar_2r"), _sine(), limits, settings)
+    got = simulate_experiment(str(urdf), _sine(), limits, settings)
+    np.testing.assert_allclose(got.q, want.q, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.tau, want.tau, rtol=0, atol=1e-9)
+    assert got.saturated == want.saturated

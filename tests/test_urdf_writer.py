@@ -123,6 +123,7 @@ def test_welded_links_are_lumped_with_mass_zero(tmp_path):
     <child link="tool"/>
     <origin xyz="1 0 0" rpy="0 0 0"/>
   </joint>
+  <gazebo><plugin name="control" filename="libgazebo_ros_control.so"/></gazebo>
 </robot>"""
     source.write_text(text.replace("</robot>", tool))
     robot = RobotModel.from_urdf(source)
@@ -135,9 +136,12 @@ def test_welded_links_are_lumped_with_mass_zero(tmp_path):
     root = ElementTree.parse(out).getroot()
     tool_link = next(link for link in root.iter("link") if link.get("name") == "tool")
     assert float(tool_link.find("inertial/mass").get("value")) == 0.0
-    # A relative mesh name is made absolute (the output is in another directory).
+    # A relative mesh name is made absolute (the output is in another directory);
+    # a Gazebo plugin's library name is not a file beside the URDF (a review).
     mesh = tool_link.find("visual/geometry/mesh").get("filename")
     assert mesh == str((tmp_path / "meshes" / "tool.obj").resolve())
+    plugin = root.find("gazebo/plugin")
+    assert plugin.get("filename") == "libgazebo_ros_control.so"
     again = RobotModel.from_urdf(out)
     np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
     rng = np.random.default_rng(4)
