@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.urdf import JointEmbedding
+
 __all__ = ["SelfCollision"]
 
 #: Distances beyond this are not computed [m]; d(q) is capped at it.
@@ -44,7 +46,7 @@ class SelfCollision:
         plant: Any,
         scene_graph: Any,
         q_reference,
-        embedding: tuple[np.ndarray, np.ndarray, list] | None = None,
+        embedding: JointEmbedding | None = None,
     ):
         for name, value in (("diagram", diagram), ("scene_graph", scene_graph)):
             if not hasattr(
@@ -107,12 +109,7 @@ class SelfCollision:
 
     def _pairs(self, q: np.ndarray) -> list[Any]:
         if self._embedding is not None:  # the identified joints in the whole plant
-            base, index, mimic = self._embedding
-            full = base.copy()
-            full[index] = q
-            for at, leader, multiplier, offset in mimic:
-                full[at] = multiplier * full[leader] + offset
-            q = full
+            q = self._embedding.place(q)
         self._plant.SetPositions(self._plant_context, q)
         query = self._scene_graph.get_query_output_port().Eval(self._sg_context)
         return query.ComputeSignedDistancePairwiseClosestPoints(MAX_DISTANCE)
@@ -144,29 +141,17 @@ class SelfCollision:
         return float(best), name
 
 
-def _embedding(plant: Any, robot: Any) -> tuple[np.ndarray, np.ndarray, list]:
+def _embedding(plant: Any, robot: Any) -> JointEmbedding:
     """The identified joints' q placed in ``plant``'s position vector.
 
-    Returns (the positions with the locked joints at their values, the
-    identified joints' position indices, [(mimic index, leader index,
-    multiplier, offset)]).
+    ``urdf.joint_embedding``: the locked joints at their values, the mimic joints
+    following their leaders.
     """
-    base = np.zeros(plant.num_positions())
-    for name, value in dict(getattr(robot, "locked", {})).items():
-        base[plant.GetJointByName(name).position_start()] = value
-    index = np.array(
-        [plant.GetJointByName(n).position_start() for n in robot.joint_names],
-        dtype=int,
+    from drake_dynid.urdf import joint_embedding
+
+    return joint_embedding(
+        plant,
+        robot.joint_names,
+        dict(getattr(robot, "locked", {})),
+        dict(getattr(robot, "mimic", {})),
     )
-    mimic = [
-        (
-            plant.GetJointByName(name).position_start(),
-            plant.GetJointByName(leader).position_start(),
-            float(multiplier),
-            float(offset),
-        )
-        for name, (leader, multiplier, offset) in dict(
-            getattr(robot, "mimic", {})
-        ).items()
-    ]
-    return base, index, mimic

@@ -479,13 +479,6 @@ def _dividing_step(period: float, bound: float) -> float:
     return period / first
 
 
-def _actuated_joints(plant: Any) -> list[str]:
-    """Names of the actuated joints in generalized-velocity order."""
-    actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]
-    actuators.sort(key=lambda a: a.joint().velocity_start())
-    return [a.joint().name() for a in actuators]
-
-
 def _actuators(plant: Any) -> list[Any]:
     """The plant's joint actuators in generalized-velocity order of their joints."""
     actuators = [plant.get_joint_actuator(i) for i in plant.GetJointActuatorIndices()]

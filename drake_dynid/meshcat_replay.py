@@ -74,24 +74,6 @@ def _load(urdf: str) -> tuple[Any, Any, list[str]]:
         return builder, plant, [f"shown without its geometry ({reason})"]
 
 
-def _followers(urdf: str, plant: Any) -> list[tuple[int, int, float, float]]:
-    """(position index, leader's index, multiplier, offset) of the mimic joints."""
-    if not str(urdf).lower().endswith(".urdf"):
-        return []
-    from drake_dynid.urdf import read_urdf_mimic
-
-    return [
-        (
-            plant.GetJointByName(name).position_start(),
-            plant.GetJointByName(leader).position_start(),
-            multiplier,
-            offset,
-        )
-        for name, (leader, multiplier, offset) in read_urdf_mimic(urdf).items()
-        if plant.HasJointNamed(name) and plant.HasJointNamed(leader)
-    ]
-
-
 def replay_in_meshcat(
     urdf: str,
     t: Any,
@@ -126,6 +108,8 @@ def replay_in_meshcat(
     from pydrake.multibody.tree import BodyIndex
     from pydrake.visualization import ApplyVisualizationConfig, VisualizationConfig
 
+    from drake_dynid.urdf import joint_embedding, read_urdf_mimic
+
     owner = "replay_in_meshcat"
     t = check.array(owner, "t", t, shape=(None,))
     names = tuple(joint_names)
@@ -147,17 +131,19 @@ def replay_in_meshcat(
             "log.",
         )
     builder, plant, notes = _load(urdf)
-    positions = []
     for name in names:
         if not plant.HasJointNamed(name):
             check.fail(owner, f"joint {name!r} is not a joint of {urdf}.")
-        positions.append(plant.GetJointByName(name).position_start())
-    held = []
-    for name, value in dict(locked or {}).items():
+    locked = dict(locked or {})
+    for name in locked:
         if not plant.HasJointNamed(name):
             check.fail(owner, f"locked joint {name!r} is not a joint of {urdf}.")
-        held.append((plant.GetJointByName(name).position_start(), float(value)))
-    followers = _followers(urdf, plant)
+    mimic = read_urdf_mimic(urdf) if str(urdf).lower().endswith(".urdf") else {}
+    followed = {
+        name: relation
+        for name, relation in mimic.items()
+        if plant.HasJointNamed(name) and plant.HasJointNamed(relation[0])
+    }
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
     if not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
         notes.append("no <visual> geometry: the links are shown by their inertia")
@@ -175,18 +161,15 @@ def replay_in_meshcat(
         meshcat.SetProperty("/drake/inertia", "visible", True)
     times = t[0] + np.arange(frames) / fps
     path = np.column_stack([np.interp(times, t, q[:, j]) for j in range(len(names))])
-    full = plant.GetPositions(plant_context).copy()
-    for index, value in held:
-        full[index] = value
+    embedding = joint_embedding(
+        plant, names, locked, followed, base=plant.GetPositions(plant_context)
+    )
     meshcat.StartRecording(
         frames_per_second=fps, set_visualizations_while_recording=False
     )
     for k, time in enumerate(times):
         context.SetTime(float(time - t[0]))
-        full[positions] = path[k]
-        for at, leader, multiplier, offset in followers:
-            full[at] = multiplier * full[leader] + offset
-        plant.SetPositions(plant_context, full)
+        plant.SetPositions(plant_context, embedding.place(path[k]))
         diagram.ForcedPublish(context)
     meshcat.StopRecording()
     meshcat.PublishRecording()

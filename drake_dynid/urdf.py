@@ -33,8 +33,10 @@ from drake_dynid.core import _validate
 
 __all__ = [
     "MODELS_DIR",
+    "JointEmbedding",
     "LoadedUrdf",
     "MissingFileError",
+    "joint_embedding",
     "load_plant",
     "load_urdf",
     "model_path",
@@ -405,6 +407,63 @@ def _parse(
     if summary:
         summary = summary.replace("<literal-string>.urdf", file.name)
     return instances, summary
+
+
+@dataclass(frozen=True)
+class JointEmbedding:
+    """Some joints' positions placed in a whole plant's position vector.
+
+    Attributes:
+        base: (plant positions,) the other joints' values (locked ones at theirs).
+        index: the chosen joints' position indices.
+        mimic: (mimic index, leader index, multiplier, offset) of each mimic joint
+            placed after them: q_mimic = multiplier·q_leader + offset.
+    """
+
+    base: Any
+    index: Any
+    mimic: tuple[tuple[int, int, float, float], ...]
+
+    def place(self, q: Any) -> Any:
+        """The plant's positions with ``q`` for the chosen joints."""
+        full = self.base.copy()
+        full[self.index] = q
+        for at, leader, multiplier, offset in self.mimic:
+            full[at] = multiplier * full[leader] + offset
+        return full
+
+
+def joint_embedding(
+    plant: Any,
+    joint_names: Sequence[str],
+    locked: Mapping[str, float],
+    mimic: Mapping[str, tuple[str, float, float]],
+    base: Any = None,
+) -> JointEmbedding:
+    """:class:`JointEmbedding` of ``joint_names`` in ``plant`` (names it has).
+
+    ``locked``: ``{joint: position}`` held; ``mimic``: ``{joint: (leader,
+    multiplier, offset)}`` followed; ``base``: the other positions (default 0).
+    """
+    import numpy as np
+
+    full = np.zeros(plant.num_positions()) if base is None else np.array(base)
+    for name, value in locked.items():
+        full[plant.GetJointByName(name).position_start()] = float(value)
+    index = np.array(
+        [plant.GetJointByName(name).position_start() for name in joint_names],
+        dtype=int,
+    )
+    followers = tuple(
+        (
+            plant.GetJointByName(name).position_start(),
+            plant.GetJointByName(leader).position_start(),
+            float(multiplier),
+            float(offset),
+        )
+        for name, (leader, multiplier, offset) in mimic.items()
+    )
+    return JointEmbedding(full, index, followers)
 
 
 class MissingFileError(ValueError):
