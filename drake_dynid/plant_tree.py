@@ -28,6 +28,7 @@ __all__ = [
     "describe_plant",
     "drake_forward",
     "extract_tree",
+    "locked_pose",
     "movable_joints",
     "standard_table",
 ]
@@ -52,7 +53,7 @@ def movable_joints(plant: Any) -> list[Any]:
     )
 
 
-def _locked_pose(joint: Any, position: float) -> np.ndarray:
+def locked_pose(joint: Any, position: float) -> np.ndarray:
     """X_FM of a revolute or prismatic joint at ``position`` [rad or m], 4×4."""
     pose = np.eye(4)
     if joint.type_name() == "prismatic":
@@ -112,7 +113,7 @@ def extract_tree(
                 if joint.type_name() == "weld":
                     x_f_m = _pose_matrix(joint.X_FM())
                 else:
-                    x_f_m = _locked_pose(joint, locked.get(joint.name(), 0.0))
+                    x_f_m = locked_pose(joint, locked.get(joint.name(), 0.0))
                 x_p_c = x_p_f @ x_f_m @ np.linalg.inv(x_c_m)
                 group[child] = (link, x_link_body @ x_p_c)
             else:

@@ -488,11 +488,13 @@ def _lock_joints(
     """Replaces each joint of ``locked`` by a weld at its position (X_FM(q)).
 
     A revolute joint at θ: X_FM = R(axis, θ); a prismatic one at d: a translation
-    d·axis [m] (the pose ``plant_tree`` lumps the bodies beyond it with). Its
-    actuator (from a ``<transmission>``) goes first, as Drake requires.
+    d·axis [m] (``plant_tree.locked_pose``, the pose it lumps the bodies beyond
+    it with). Its actuator (from a ``<transmission>``) goes first, as Drake
+    requires.
     """
-    from pydrake.common.eigen_geometry import AngleAxis
     from pydrake.math import RigidTransform
+
+    from drake_dynid.plant_tree import locked_pose
 
     positions = {str(name): float(value) for name, value in locked.items()}
     for name, (leader, multiplier, offset) in mimic.items():
@@ -529,11 +531,7 @@ def _lock_joints(
             actuator = plant.get_joint_actuator(index)
             if actuator.joint().index() == joint.index():
                 plant.RemoveJointActuator(actuator)
-        if joint.type_name() == "prismatic":
-            axis = joint.translation_axis()
-            pose = RigidTransform([position * float(a) for a in axis])
-        else:
-            pose = RigidTransform(AngleAxis(position, joint.revolute_axis()), [0, 0, 0])
+        pose = RigidTransform(locked_pose(joint, position))
         parent, child = joint.frame_on_parent(), joint.frame_on_child()
         plant.RemoveJoint(joint)
         plant.WeldFrames(parent, child, pose)
