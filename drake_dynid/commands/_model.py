@@ -288,13 +288,10 @@ def _write_urdf(
     lose the fit: it is recorded as ``args.urdf_out_error`` and raised once the
     other outputs are written.
     """
+    from drake_dynid.commands._report import not_identified
     from drake_dynid.urdf_writer import write_identified_urdf
 
-    theta = np.asarray(fit.theta, dtype=float)
-    std = np.asarray(fit.std, dtype=float)
-    with np.errstate(invalid="ignore"):
-        weak = ~(std <= 0.3 * np.abs(theta))
-    flagged = [name for name, bad in zip(fit.names, weak, strict=True) if bad]
+    flagged = not_identified(fit.names, fit.theta, fit.std)
     notes = list(notes)
     if flagged:
         notes.append(

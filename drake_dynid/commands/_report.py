@@ -55,6 +55,23 @@ def _text(value: float, digits: int = 6) -> str:
     return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
 
 
+def relative_std_percent(value: float, sigma: float) -> float:
+    """100·σ/|value| [%]; inf for a zero or non-finite value or σ."""
+    value, sigma = float(value), float(sigma)
+    if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
+        return 100.0 * sigma / abs(value)
+    return math.inf
+
+
+def not_identified(names: Sequence[str], theta: Any, std: Any) -> list[str]:
+    """The names whose %σ exceeds :data:`NOT_IDENTIFIED_PERCENT` (the ``*``)."""
+    return [
+        name
+        for name, value, sigma in zip(names, theta, std, strict=True)
+        if not relative_std_percent(value, sigma) <= NOT_IDENTIFIED_PERCENT
+    ]
+
+
 def estimates_table(names: Sequence[str], theta: Any, std: Any) -> list[str]:
     """Lines of the estimates table: name, value, σ, %σ, flag (``*``: %σ > 30).
 
@@ -63,11 +80,10 @@ def estimates_table(names: Sequence[str], theta: Any, std: Any) -> list[str]:
     rows = []
     for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
         value, sigma = float(raw_value), float(raw_sigma)
-        if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
-            percent = 100.0 * sigma / abs(value)
+        percent = relative_std_percent(value, sigma)
+        if math.isfinite(percent):
             percent_text = f"{percent:.2f}"
         else:
-            percent = math.inf
             percent_text = "inf" if math.isfinite(value) else "nan"
         flag = "*" if not percent <= NOT_IDENTIFIED_PERCENT else ""
         rows.append((name, _text(value), _text(sigma, 3), percent_text, flag))
@@ -101,11 +117,7 @@ def parameters_document(
     out = []
     for name, raw_value, raw_sigma in zip(names, theta, std, strict=True):
         value, sigma = float(raw_value), float(raw_sigma)
-        percent = (
-            100.0 * sigma / abs(value)
-            if math.isfinite(value) and math.isfinite(sigma) and value != 0.0
-            else math.inf
-        )
+        percent = relative_std_percent(value, sigma)
         out.append(
             {
                 "name": name,
