@@ -41,6 +41,7 @@ __all__ = [
     "load_urdf",
     "model_path",
     "read_urdf_friction",
+    "read_urdf_joint_types",
     "read_urdf_mimic",
 ]
 
@@ -95,6 +96,20 @@ def _read_urdf(owner: str, file: Path) -> Any:
 
 
 _URDF_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+
+
+def read_urdf_joint_types(path: str | Path) -> dict[str, str]:
+    """``{joint: type}`` of the URDF's ``<joint>`` elements (not a transmission's).
+
+    Raises:
+        ValueError: the file is missing or is not XML.
+    """
+    owner = "read_urdf_joint_types"
+    root = _read_urdf(owner, _check_file(owner, path))
+    return {
+        joint.attrib.get("name", ""): joint.attrib.get("type", "")
+        for joint in root.findall("joint")
+    }
 
 
 def read_urdf_friction(path: str | Path) -> dict[str, float]:

@@ -251,17 +251,17 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
 def _fixed_hint(urdf: Any, message: str) -> str:
     """A hint when a locked joint is fixed in the URDF (one --urdf-out wrote)."""
     import re
-    import xml.etree.ElementTree as ElementTree
+
+    from drake_dynid.urdf import read_urdf_joint_types
 
     found = re.search(r"locked joint '([^']+)' is not a movable joint", message)
     if not found:
         return ""
     try:
-        root = ElementTree.parse(urdf).getroot()
-    except (OSError, ElementTree.ParseError):
+        kind = read_urdf_joint_types(urdf).get(found.group(1))
+    except (OSError, ValueError):
         return ""
-    fixed = {j.get("name") for j in root.findall("joint") if j.get("type") == "fixed"}
-    if found.group(1) not in fixed:
+    if kind != "fixed":
         return ""
     return (
         f" It is a fixed joint of {urdf} (a URDF written by --urdf-out fixes the "

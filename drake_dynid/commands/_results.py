@@ -124,14 +124,13 @@ def _mimic_joints(urdf: Any) -> set[str]:
 
 
 def _joint_names(urdf: Any) -> set[str]:
-    """The URDF's joint names (none when it cannot be read)."""
-    import xml.etree.ElementTree as ElementTree
+    """The URDF's joint names (none when it cannot be read: the load says)."""
+    from drake_dynid.urdf import read_urdf_joint_types
 
     try:
-        root = ElementTree.parse(urdf).getroot()
-    except (OSError, ElementTree.ParseError):
+        return set(read_urdf_joint_types(urdf))
+    except (OSError, ValueError):
         return set()
-    return {joint.get("name", "") for joint in root.iter("joint")}
 
 
 def results_sign(
