@@ -163,6 +163,7 @@ def simulate_experiment(
     from drake_dynid.experiment_drive import (
         add_drive_forces,
         configure_plant,
+        implicit_damping_context,
         simulated_drive_of,
         truth_model,
     )
@@ -275,7 +276,9 @@ def simulate_experiment(
         source.get_output_port(),
         kp=settings.kp,
         kd=settings.kd,
-        controller_context=controller_context,
+        controller_context=implicit_damping_context(
+            controller_plant, controller_context, h
+        ),
     )
     control = add_drive_forces(
         builder,

@@ -402,3 +402,21 @@ def test_actuators_out_of_joint_order_log_each_joints_torque(tmp_path):
     np.testing.assert_allclose(got.q, want.q, rtol=0, atol=1e-12)
     np.testing.assert_allclose(got.tau, want.tau, rtol=0, atol=1e-9)
     assert got.saturated == want.saturated
+
+
+def test_a_joint_damped_far_above_its_inertia_tracks(tmp_path):
+    """Drake damps implicitly: (M + h·D)(v_{k+1} − v_k)/h = τ − c − g − D v_k, so
+    a command M·a + D v_k gave the joint (M + h·D)⁻¹M·a (the TIAGo's wrist: a
+    251st of it, and the run stopped). The controller now commands with h·D added
+    to the reflected inertia: a joint with h·FV five times its inertia tracks as
+    an undamped one does."""
+    text = Path(model_path("planar_2r")).read_text()
+    damped = text.replace('damping="0.15"', 'damping="200"')
+    assert damped != text
+    urdf = tmp_path / "damped.urdf"
+    urdf.write_text(damped)
+    settings = ExperimentSettings(noise_q=0.0, noise_tau=0.0, friction=("viscous",))
+    limits = _limits_2r(effort=[1000.0, 1000.0])
+    want = simulate_experiment(model_path("planar_2r"), _sine(), limits, settings)
+    got = simulate_experiment(str(urdf), _sine(), limits, settings)
+    assert np.all(got.max_tracking_error <= 1.5 * want.max_tracking_error + 1e-5)
