@@ -45,7 +45,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -75,7 +75,12 @@ from drake_dynid.robot_drive import (
     resolve_drive,
 )
 from drake_dynid.robot_rows import RobotRows
-from drake_dynid.urdf import load_urdf, read_urdf_friction, read_urdf_mimic
+from drake_dynid.urdf import (
+    load_urdf,
+    read_urdf_friction,
+    read_urdf_mimic,
+    untransmitted_note,
+)
 from drake_dynid.urdf_writer import DRIVE_TOTALS
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
@@ -207,6 +212,20 @@ class RobotModel(RobotRows):
         """
         loaded = load_urdf(path, time_step, gravity=gravity)
         notes = loaded.notes
+        if drive is not None and loaded.untransmitted:
+            # The drive file's motors actuate the joints it names: the note on
+            # joints without a <transmission> names only the others.
+            notes = tuple(
+                note
+                for note in notes
+                if note
+                != untransmitted_note(
+                    loaded.untransmitted, loaded.untransmitted_limited
+                )
+            )
+            untransmitted = loaded.untransmitted
+        else:
+            untransmitted = ()
         if drive is not None and DRIVE_TOTALS in Path(path).read_text(
             encoding="utf-8", errors="replace"
         ):
@@ -233,6 +252,7 @@ class RobotModel(RobotRows):
             notes=notes,
             drive=drive,
             coulomb_width=coulomb_width,
+            untransmitted=(untransmitted, loaded.untransmitted_limited),
         )
 
     @classmethod
@@ -252,6 +272,7 @@ class RobotModel(RobotRows):
         notes: Sequence[str] = (),
         drive: Any = None,
         coulomb_width: float = 0.0,
+        untransmitted: tuple[Sequence[str], Collection[str]] = ((), ()),
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -260,6 +281,10 @@ class RobotModel(RobotRows):
         ``joints``, ``locked`` and ``mimic`` (``{joint: (leader, multiplier,
         offset)}``, see :func:`drake_dynid.urdf.read_urdf_mimic`) choose the
         identified joints as in :meth:`from_urdf`; ``coulomb_width`` as there.
+        ``untransmitted``: (joints without a ``<transmission>``, those of them with
+        an effort limit) whose note (``urdf.untransmitted_note``) the caller left to
+        this method: with a drive chain it names the joints the chain does not
+        drive.
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
@@ -303,6 +328,12 @@ class RobotModel(RobotRows):
             names, values, scales = table.names, table.values, table.scales
             motors = table.columns
             notes += tuple(chain.notes) + table.notes
+        driven = () if chain is None else tuple(chain.joint_names)
+        left = untransmitted_note(
+            [name for name in untransmitted[0] if name not in driven],
+            untransmitted[1],
+        )
+        notes = (left, *notes) if left else notes
         gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
         gravity.setflags(write=False)
         model = cls(

@@ -24,7 +24,7 @@ import os
 import re
 import xml.etree.ElementTree as ElementTree
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -308,10 +308,17 @@ class _ParserLog(logging.Filter):
 
 @dataclass(frozen=True)
 class LoadedUrdf:
-    """A loaded robot: the finalized plant and the one-line notes of the load."""
+    """A loaded robot: the finalized plant and the one-line notes of the load.
+
+    ``untransmitted``: the joints actuated without a (simple) ``<transmission>``
+    (one note says so, :func:`untransmitted_note`); ``untransmitted_limited``: those
+    of them whose URDF ``<limit>`` gives an effort.
+    """
 
     plant: Any
     notes: tuple[str, ...]
+    untransmitted: tuple[str, ...] = ()
+    untransmitted_limited: frozenset[str] = frozenset()
 
 
 def load_plant(
@@ -580,14 +587,14 @@ def _urdf_efforts(root: Any) -> dict[str, float]:
 
 def _actuate_all(
     plant: Any, mimic: dict[str, Any], efforts: dict[str, float] | None = None
-) -> str | None:
+) -> tuple[str, ...]:
     """Adds an actuator to every movable joint without one (not to mimic joints).
 
     Its effort limit is the joint's URDF ``<limit effort>`` when given (Drake
-    reads that value only through a transmission), else none.
+    reads that value only through a transmission), else none. Returns the names
+    of the joints actuated here.
     """
     efforts = efforts or {}
-
     actuated = {
         plant.get_joint_actuator(i).joint().index()
         for i in plant.GetJointActuatorIndices()
@@ -603,18 +610,27 @@ def _actuate_all(
             effort = efforts.get(joint.name(), math.inf)
             plant.AddJointActuator(f"{joint.name()}_dynid_actuator", joint, effort)
             added.append(joint.name())
+    return tuple(added)
+
+
+def untransmitted_note(added: Sequence[str], limited: Collection[str]) -> str | None:
+    """The note on joints actuated without a (simple) ``<transmission>``.
+
+    ``added``: those joints; ``limited``: the ones whose URDF ``<limit>`` gives an
+    effort (None when ``added`` is empty).
+    """
     if not added:
         return None
     shown = ", ".join(added[:8])
     if len(added) > 8:
         shown += f", … ({len(added)} in all)"
-    limited = sum(name in efforts for name in added)
+    count = sum(name in limited for name in added)
     which = (
         "effort limit from the URDF's <limit>"
-        if limited == len(added)
+        if count == len(added)
         else "no effort limit"
-        if limited == 0
-        else f"effort limit from the URDF's <limit> for {limited} of them"
+        if count == 0
+        else f"effort limit from the URDF's <limit> for {count} of them"
     )
     return (
         f"{len(added)} joint{'s' if len(added) > 1 else ''} without a (simple) "
@@ -743,7 +759,9 @@ def load_urdf(
         )
     if locked:
         _lock_joints(owner, plant, file, locked, mimic)
-    actuated = _actuate_all(plant, mimic, _urdf_efforts(root))
+    efforts = _urdf_efforts(root)
+    untransmitted = _actuate_all(plant, mimic, efforts)
+    actuated = untransmitted_note(untransmitted, efforts)
     plant.Finalize()
     inertia = None
     if root is not None:
@@ -758,4 +776,11 @@ def load_urdf(
         else None
     )
     notes = tuple(note for note in (actuated, summary, inertia, orphaned) if note)
-    return LoadedUrdf(plant=plant, notes=notes)
+    return LoadedUrdf(
+        plant=plant,
+        notes=notes,
+        untransmitted=untransmitted,
+        untransmitted_limited=frozenset(
+            name for name in untransmitted if name in efforts
+        ),
+    )

@@ -1,9 +1,12 @@
 """``dynid params``: the rank decision, --joints / --lock, notes, bad joint input."""
 
 import json
+import pathlib
 
 from drake_dynid import cli
 from drake_dynid.urdf import model_path
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 TIAGO_ARM = ",".join(["torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8))])
 
@@ -130,3 +133,23 @@ def test_a_lock_beyond_the_urdf_limits_is_said(tmp_path, capsys):
     )
     assert cli.main([*argv, "fa=0.02"]) == 0
     assert "outside" not in capsys.readouterr().err
+
+
+def test_the_untransmitted_note_names_only_joints_the_drive_file_does_not_drive(
+    capsys,
+):
+    """A review found 'treated as actuated' said of joints whose motors the drive
+    file gives (the TIAGo's differential wrist, the wrist4's four joints)."""
+    assert cli.main(["params", model_path("tiago_no_hand"), "--joints", TIAGO_ARM]) == 0
+    assert "2 joints without a (simple) <transmission>" in capsys.readouterr().err
+    argv = ["params", model_path("tiago_no_hand"), "--joints", TIAGO_ARM]
+    argv += ["--drive", str(ROOT / "models" / "tiago.toml")]
+    assert cli.main(argv) == 0
+    assert "treated as actuated" not in capsys.readouterr().err
+    wrist = ["params", str(ROOT / "tests" / "data" / "wrist4.urdf")]
+    assert cli.main(wrist) == 0
+    assert "4 joints without a (simple) <transmission>" in capsys.readouterr().err
+    assert (
+        cli.main([*wrist, "--drive", str(ROOT / "tests" / "data" / "wrist4.toml")]) == 0
+    )
+    assert "treated as actuated" not in capsys.readouterr().err
