@@ -294,8 +294,8 @@ def _unit_hint(step: float) -> str:
         return ""
     return (
         f"the time step is {step:.6g} s, long for a robot log (1e-4 to 0.1 s): if "
-        "the time column is in ms, us or ns, say so with a drive file holding "
-        '[log] time_unit = "ms" (docs/DRIVE.md).'
+        "the time column is in ms, us or ns, say so with --time-unit (or a drive "
+        "file's [log] time_unit, docs/DRIVE.md)."
     )
 
 

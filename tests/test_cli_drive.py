@@ -381,3 +381,40 @@ def test_a_drive_file_of_the_whole_robot_serves_a_subset_of_its_joints(
     typo.write_text(text.replace(old, 'joint = "arm_9_joint"', 1))
     assert cli.main([*argv[:-1], str(typo)]) == 2
     assert "unknown joint 'arm_9_joint'" in error_line(capsys)
+
+
+def test_time_unit_reads_a_plain_log_stamped_in_ms(files, tmp_path, capsys):
+    """``--time-unit`` for a log without a drive file (a review: stamps in ms were
+    only warned about, the fix being a drive file); with a drive file the two
+    must agree."""
+    plain, raw, drive = files
+    text = pathlib.Path(plain).read_text().splitlines()
+    rows = [line.split(",", 1) for line in text[1:]]
+    ms = tmp_path / "ms.csv"
+    ms.write_text(
+        "\n".join([text[0], *(f"{1e3 * float(t)!r},{rest}" for t, rest in rows)]) + "\n"
+    )
+    common = ["--urdf", URDF, "--friction", "viscous"]
+    want = _run(["offline", str(plain), *common], tmp_path, "s")
+    got = _run(["offline", str(ms), *common, "--time-unit", "ms"], tmp_path, "ms")
+    np.testing.assert_allclose(
+        [p["value"] for p in got["parameters"]],
+        [p["value"] for p in want["parameters"]],
+        rtol=1e-9,
+    )
+    assert got["settings"]["time_unit"] == "ms" and "time_unit" not in want["settings"]
+    params = ["--urdf", URDF, "--params", str(tmp_path / "ms.json")]
+    held = _run(["validate", str(plain), *params], tmp_path, "held")
+    check = _run(["validate", str(ms), *params, "--time-unit", "ms"], tmp_path, "check")
+    assert check["estimates"] == held["estimates"]
+    capsys.readouterr()
+    # Without it: the warning names the option.
+    assert cli.main(["offline", str(ms), *common, "--quiet"]) in (0, 2)
+    assert "--time-unit" in capsys.readouterr().err
+    # The drive file says ms: --time-unit ms agrees, --time-unit us contradicts.
+    argv = ["offline", *raw, "--urdf", URDF, "--drive", str(drive), "--quiet"]
+    assert cli.main([*argv, "--time-unit", "ms"]) == 0
+    capsys.readouterr()
+    assert cli.main([*argv, "--time-unit", "us"]) == 2
+    line = error_line(capsys)
+    assert "--time-unit us contradicts the drive file's [log] time_unit = 'ms'" in line

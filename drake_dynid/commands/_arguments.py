@@ -352,6 +352,20 @@ def add_fill_gaps_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_time_unit_argument(parser: argparse.ArgumentParser) -> None:
+    """``--time-unit``: the unit of the log's time column (``[log] time_unit``)."""
+    from drake_dynid.core.drive_log import TIME_UNITS
+
+    parser.add_argument(
+        "--time-unit",
+        choices=tuple(TIME_UNITS),
+        default=None,
+        help="unit of the log's time column (default s; integer stamps >= 1e17 are "
+        "read as nanoseconds since the epoch in any case); a drive file's [log] "
+        "time_unit says the same, and the two must agree",
+    )
+
+
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``dynid identify`` and ``dynid offline``."""
     add_log_argument(parser)
@@ -374,6 +388,7 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         "times; accepts non-uniform sampling; off by default: it changes the data)",
     )
     add_fill_gaps_argument(parser)
+    add_time_unit_argument(parser)
     parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
     parser.add_argument(
         "--quiet",
@@ -389,18 +404,23 @@ def read_robot_log(
     resample: bool,
     command: str,
     fill_gaps: int | None = None,
+    time_unit: str | None = None,
 ) -> Any:
     """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
-    One file and no drive chain: the plain CSV format (``drake_dynid.logs``).
-    Otherwise the files are joined on time and converted by the robot's drive
-    chain (``drake_dynid.raw_log``; an identity chain without ``--drive``).
-    ``fill_gaps``: ``--fill-gaps`` (None: the reader's default).
+    One file, no drive chain and no ``time_unit``: the plain CSV format
+    (``drake_dynid.logs``). Otherwise the files are joined on time and converted
+    by the robot's drive chain (``drake_dynid.raw_log``; an identity chain
+    without ``--drive``). ``fill_gaps``: ``--fill-gaps`` (None: the reader's
+    default); ``time_unit``: ``--time-unit`` (None: the drive file's, else s).
     """
     from drake_dynid.log_repair import FILL_GAPS
 
     gaps = FILL_GAPS if fill_gaps is None else fill_gaps
-    if robot.drive is None and len(files) == 1:
+    chain = robot.drive
+    if time_unit is not None:
+        chain = _with_time_unit(chain, robot.joint_names, time_unit)
+    if chain is None and len(files) == 1:
         from drake_dynid.logs import read_log
 
         log = read_log(files[0], robot.joint_names, resample=resample, fill_gaps=gaps)
@@ -408,12 +428,37 @@ def read_robot_log(
         from drake_dynid.core.drive import DriveChain
         from drake_dynid.raw_log import read_raw_log
 
-        chain = robot.drive
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
     print_log_warnings(log, files, command, robot)
     return log
+
+
+def _with_time_unit(chain: Any, joint_names: Sequence[str], unit: str) -> Any:
+    """``chain`` (None: the plain format's identity chain) reading time in ``unit``.
+
+    Raises:
+        ValueError: the drive file's ``[log] time_unit`` is another unit than s
+            and ``unit``.
+    """
+    import dataclasses
+
+    from drake_dynid.core.drive import DriveChain
+    from drake_dynid.core.drive_log import TIME_UNITS
+
+    if chain is None:
+        return DriveChain.from_dict(
+            {"log": {"time_unit": unit}}, joint_names, source="--time-unit"
+        )
+    given = chain.log.time_unit
+    if given not in ("s", unit):
+        raise ValueError(
+            f"--time-unit {unit} contradicts the drive file's [log] time_unit = "
+            f"{given!r}: give one of them."
+        )
+    log = dataclasses.replace(chain.log, time_unit=unit, time_scale=TIME_UNITS[unit])
+    return dataclasses.replace(chain, log=log)
 
 
 #: A joint that is not identified is said to move in the log when its recorded
@@ -750,6 +795,8 @@ def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
     }
     if robot.drive is not None:
         out["drive_chain"] = robot.drive.summary()
+    if getattr(args, "time_unit", None):
+        out["time_unit"] = args.time_unit
     return out
 
 
@@ -797,6 +844,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
             resample=args.resample,
             command=command,
             fill_gaps=getattr(args, "fill_gaps", None),
+            time_unit=getattr(args, "time_unit", None),
         )
     else:
         print_log_warnings(log, files, command, robot)
@@ -812,7 +860,7 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
 
     if len(files) != 1 or getattr(args, "parallel", "off") == "off":
         return None
-    if getattr(args, "drive", None):
+    if getattr(args, "drive", None) or getattr(args, "time_unit", None):
         return None
     path = files[0]
     try:

@@ -199,6 +199,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
             resample=args.resample,
             command="payload",
             fill_gaps=args.fill_gaps,
+            time_unit=getattr(args, "time_unit", None),
         )
         return results_sign(args, document, robot, log), log, arm, str(args.params)
     robot = robot_from_args(args, "payload")
@@ -208,6 +209,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
         resample=args.resample,
         command="payload",
         fill_gaps=args.fill_gaps,
+        time_unit=getattr(args, "time_unit", None),
     )
     return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf"
 

@@ -22,6 +22,7 @@ from drake_dynid.commands._arguments import (
     add_fill_gaps_argument,
     add_joint_arguments,
     add_log_argument,
+    add_time_unit_argument,
     dead_zone_line,
     log_files,
     read_robot_log,
@@ -131,6 +132,7 @@ def validation_split(
             resample=args.resample,
             command=getattr(args, "command", "dynid"),
             fill_gaps=getattr(args, "fill_gaps", None),
+            time_unit=getattr(args, "time_unit", None),
         )
         _check_held_out(args, held, str(other))
         return log, held, str(other)
@@ -438,6 +440,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="accept a non-uniformly sampled log (linear interpolation)",
     )
     add_fill_gaps_argument(parser)
+    add_time_unit_argument(parser)
     parser.add_argument("--json", metavar="FILE", help="write the errors as JSON")
     parser.add_argument(
         "--plot", metavar="FILE.png", help="plot measured and predicted torques"
@@ -468,6 +471,7 @@ def run(args: argparse.Namespace) -> int:
         resample=args.resample,
         command="validate",
         fill_gaps=args.fill_gaps,
+        time_unit=getattr(args, "time_unit", None),
     )
     robot = results_sign(args, document, robot, log)
     if not args.quiet:
