@@ -161,3 +161,28 @@ def test_the_readme_makes_this_log_with_the_example(log_file, tmp_path, capsys):
     made, fixture = read_log(path, names), read_log(log_file, names)
     np.testing.assert_array_equal(made.q, fixture.q)
     np.testing.assert_array_equal(made.tau, fixture.tau)
+
+
+@pytest.mark.parametrize(
+    "option, message",
+    [
+        ("--window", "--window must be > 0"),
+        ("--jacobi-window", "--jacobi-window must be > 0"),
+        ("--update-period", "--update-period must be > 0"),
+        ("--raw-window", "--raw-window must be > 0"),
+        ("--bank-time-step", "--bank-time-step must be > 0"),
+        ("--max-condition", "--max-condition must be in (1"),
+    ],
+)
+def test_a_zero_setting_is_refused_not_replaced_by_the_default(
+    option, message, tmp_path, capsys
+):
+    """`--window 0` (or any zero setting) ran with the default 0.75 s and exit 0:
+    the options were kept only when truthy, so 0 counted as not given."""
+    log = tmp_path / "log.csv"
+    names = RobotModel.from_urdf(URDF).joint_names
+    t = 1e-3 * np.arange(2000)
+    write_log(log, t, np.zeros((t.size, 7)), np.zeros((t.size, 7)), names)
+    assert cli.main(["payload", str(log), "--urdf", URDF, option, "0"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err, err

@@ -87,7 +87,12 @@ def payload_settings_of(args: argparse.Namespace) -> Any:
     from drake_dynid.core.online_checks import check_values
     from drake_dynid.core.payload_step import PAYLOAD_DEFAULTS, payload_settings
 
-    values = {k: getattr(args, k) for k in _SETTING_OPTIONS if getattr(args, k, None)}
+    # `is not None`: a 0 given is checked (and refused), not taken for unset.
+    values = {
+        k: getattr(args, k)
+        for k in _SETTING_OPTIONS
+        if getattr(args, k, None) is not None
+    }
     frequencies = _frequencies(args.frequencies)
     if not (isinstance(frequencies, str) and frequencies == "default"):
         values["frequencies"] = frequencies
