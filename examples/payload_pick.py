@@ -130,6 +130,14 @@ def main(argv=None) -> int:
         or (os.path.exists(args.log) and not os.path.isfile(args.log))
     ):
         parser.error(f"--log must name a .csv file; got {args.log!r}")
+    for name in ("pick", "duration"):
+        if not np.isfinite(getattr(args, name)):
+            parser.error(f"--{name} must be a finite time [s]")
+    if args.pick < 0.0:
+        parser.error("--pick must be >= 0 s (the log starts at t = 0)")
+    for name in ("q_noise", "tau_noise"):
+        if not (np.isfinite(getattr(args, name)) and getattr(args, name) >= 0.0):
+            parser.error(f"--{name.replace('_', '-')} must be a finite σ >= 0")
     if not args.pick < min(args.place, args.duration):
         parser.error("--pick must come before --place and --duration")
     pick, place, duration = args.pick, args.place, args.duration

@@ -42,3 +42,25 @@ def test_bench_accuracy_payload_quick_run(tmp_path, capsys, monkeypatch):
     assert default["settle_s"] <= 1.0 and default["mass_error_percent"] < 1.0
     noise_free = cases["iiwa7, exact|payload defaults, noise-free"]
     assert noise_free["mass_error_percent"] < 0.05
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--pick", "-1", "--duration", "3"], "--pick"),  # was Drake's AdvanceTo
+        (["--duration", "inf"], "--duration"),  # was a ValueError traceback
+        (["--duration", "nan"], "--duration"),
+        (["--tau-noise", "-1"], "--tau-noise"),
+        (["--q-noise", "nan"], "--q-noise"),
+    ],
+)
+def test_payload_pick_refuses_bad_times_and_noise(argv, message, tmp_path, capsys):
+    """A pick before the log's start or a non-finite time failed inside the
+    simulation (exit 1, Drake's message or a traceback): now exit 2 and a message
+    naming the option, before anything is simulated."""
+    example = load_example("payload_pick")
+    with pytest.raises(SystemExit) as raised:
+        example.main([*argv, "--out", str(tmp_path)])
+    assert raised.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err, err
