@@ -89,3 +89,42 @@ def test_a_trace_row_is_the_solve_one_update_period_before():
     _, after, theta = run(solve + h / 8)
     assert before == 0.0 and after == 1.0
     np.testing.assert_array_equal(theta, trace.theta[first])
+
+
+def test_a_noise_compensated_power_chain_run_past_the_end_of_its_log_holds():
+    """Found by a review: with ``position_noise`` (the power rows' noise-bias
+    compensation, a row provider that rejects non-finite signals) the ModelRows
+    block passed the NaN that ``log_source`` outputs past the log's end to the
+    provider, and the Simulator raised "q must be finite" instead of reporting
+    valid = 0 and holding the last estimate as the README says."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.diagrams import add_online_identifier, log_source
+    from drake_dynid.logs import RobotLog
+
+    h = 1e-3
+    robot, t, q, tau = fourier_2r(8001, h)
+    log = RobotLog(t, q, tau, robot.joint_names, h)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    settings = OnlineSettings.for_model(
+        "power", window=5.0, weighting="frequency", position_noise=1e-5
+    )
+    chain = add_online_identifier(
+        builder, robot.rows_provider(), source.get_output_port(), h, settings
+    )
+    simulator = Simulator(builder.Build())
+    identifier = chain.identifier
+    context = identifier.GetMyContextFromRoot(simulator.get_context())
+    simulator.AdvanceTo(8.0)
+    assert identifier.get_output_port_valid().Eval(context)[0] == 1.0
+    simulator.AdvanceTo(9.0)
+    last = identifier.get_output_port_theta().Eval(context).copy()
+    assert identifier.get_output_port_valid().Eval(context)[0] == 0.0
+    simulator.AdvanceTo(10.0)
+    assert identifier.get_output_port_valid().Eval(context)[0] == 0.0
+    np.testing.assert_array_equal(
+        identifier.get_output_port_theta().Eval(context), last
+    )

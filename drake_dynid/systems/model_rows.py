@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from pydrake.systems.framework import (
     BasicVector,
     Context,
@@ -50,8 +51,10 @@ class ModelRows(LeafSystem):
 
     The output is computed from the inputs (direct feedthrough, no state); it is
     evaluated only when a downstream block reads it, e.g. at the bank's
-    (decimated) update rate. Double only: a plain Python ``LeafSystem`` has no
-    AutoDiffXd or symbolic scalar conversion.
+    (decimated) update rate. A non-finite input gives NaN channels (the
+    provider is not called), which the bank stores as an invalid sample. Double
+    only: a plain Python ``LeafSystem`` has no AutoDiffXd or symbolic scalar
+    conversion.
     """
 
     def __init__(self, rows: Any, kind: str = "lagrangian"):
@@ -116,6 +119,13 @@ class ModelRows(LeafSystem):
         q = self._q.Eval(context)
         v = self._v.Eval(context)
         tau = self._tau.Eval(context)
+        if not (
+            np.isfinite(q).all() and np.isfinite(v).all() and np.isfinite(tau).all()
+        ):
+            # No sample (a log's end, a dropout): NaN channels, which the bank
+            # stores as an invalid sample; providers may reject non-finite input.
+            output.SetFromVector(np.full(self._num_channels, np.nan))
+            return
         if self._packed is not None:  # single-sample fast path (Planar2RRows)
             output.SetFromVector(self._packed(self._kind, q, v, tau))
             return

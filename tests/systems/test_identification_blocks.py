@@ -305,6 +305,30 @@ def test_model_rows_generic_provider_packs_the_rows():
     )
 
 
+def test_model_rows_outputs_nan_for_a_non_finite_sample_whatever_the_provider():
+    # A review: a provider that rejects non-finite signals (the power rows' noise
+    # compensation, OnlineSettings.row_provider with position_noise) made the
+    # block raise on a NaN sample (a log's end, a sensor dropout) where the bank
+    # stores it as invalid. The block now outputs NaN channels without calling
+    # the provider, as RawModelRows does.
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.robot import RobotModel
+    from drake_dynid.urdf import model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    settings = OnlineSettings.for_model("power", position_noise=1e-4).on_grid(1e-3)
+    rows = settings.row_provider(robot.rows_provider(), 1e-3)
+    for kind in ("power", "lagrangian"):
+        block = ModelRows(rows, kind)
+        context = block.CreateDefaultContext()
+        block.get_input_port_q().FixValue(context, [np.nan, 0.2])
+        block.get_input_port_v().FixValue(context, [1.0, 2.0])
+        block.get_input_port_tau().FixValue(context, [0.5, -0.1])
+        out = block.get_output_port_channels().Eval(context)
+        assert out.shape == (block.get_output_port_channels().size(),)
+        assert np.all(np.isnan(out)), kind
+
+
 class _WrappedBank:
     """Another 'family' for the protocol test: delegates to a FourierBank."""
 
