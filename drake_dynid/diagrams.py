@@ -130,6 +130,8 @@ def add_bank_front(
     measurement: Any,
     time_step: float,
     differentiator: Any = None,
+    *,
+    owner: str = "add_bank_front",
 ) -> tuple[Any, Any, Any, Any]:
     """Differentiator → model rows → modulating bank, wired in ``builder``.
 
@@ -138,7 +140,9 @@ def add_bank_front(
     a ``CausalJacobiDifferentiator`` of ``measurement`` = [q; τ] (or the one
     given), the ``ModelRows`` of its outputs or the ``RawModelRows`` of its ring
     (``settings.rows_from``), and a ``ModulatingIntegralBank`` of their channels.
-    ``settings`` must already be on the grid of ``time_step`` [s].
+    ``settings`` must already be on the grid of ``time_step`` [s]. A given
+    differentiator must sample every ``time_step``, take the 2n signals and have
+    ``settings.jacobi_filters(time_step)`` (else ValueError, in ``owner``'s name).
 
     Returns:
         ``(differentiator, model_rows, bank, design)``: the blocks and the bank's
@@ -159,6 +163,8 @@ def add_bank_front(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
         )
         builder.Connect(measurement, differentiator.get_input_port_u())
+    else:
+        _check_shared_differentiator(owner, differentiator, settings, time_step, n)
     if settings.rows_from == "raw":
         # The mean rows of the raw samples of each bank step, read from the ring.
         model_rows = builder.AddSystem(
@@ -210,6 +216,51 @@ def add_bank_front(
     return differentiator, model_rows, bank, design
 
 
+def _check_shared_differentiator(
+    owner: str, differentiator: Any, settings: OnlineSettings, time_step: float, n: int
+) -> None:
+    """A reused differentiator must be the one the chain would add.
+
+    Its period is the chain's ``time_step`` (the raw rows' velocity and the bank's
+    samples assume it), it differentiates the 2n signals [q; τ] and its filters
+    are ``settings.jacobi_filters(time_step)`` (the trace's delay is theirs).
+    """
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+
+    check.instance(
+        owner,
+        "differentiator",
+        differentiator,
+        CausalJacobiDifferentiator,
+        "a CausalJacobiDifferentiator (the one of an earlier chain)",
+    )
+    if not math.isclose(differentiator.time_step, time_step, rel_tol=1e-9):
+        check.fail(
+            owner,
+            f"differentiator must sample every {time_step:g} s (the measurement's "
+            f"time_step); got {differentiator.time_step:g} s.",
+        )
+    if differentiator.num_signals != 2 * n:
+        check.fail(
+            owner,
+            f"differentiator must differentiate {2 * n} signals ([q; tau]); got "
+            f"{differentiator.num_signals}.",
+        )
+    wanted = settings.jacobi_filters(time_step)
+    same = len(wanted) == len(differentiator.filters) and all(
+        a.order == b.order and np.array_equal(a.taps, b.taps)
+        for a, b in zip(wanted, differentiator.filters, strict=True)
+    )
+    if not same:
+        check.fail(
+            owner,
+            "differentiator must have the settings' Jacobi filters "
+            f"(settings.jacobi_parameters(): {settings.jacobi_parameters()}); got "
+            f"window {differentiator.filters[0].window:g} s, orders "
+            f"{tuple(f.order for f in differentiator.filters)}.",
+        )
+
+
 def add_online_identifier(
     builder: Any,
     rows: Any,
@@ -234,7 +285,8 @@ def add_online_identifier(
         time_step: sample period h of the measurement [s].
         settings: identifier settings.
         differentiator: reuse an existing differentiator (a chain returned earlier
-            with the same Jacobi settings) instead of adding a new one.
+            with the same Jacobi settings) instead of adding a new one; its
+            period, size and filters are checked (ValueError).
         log: add loggers of θ̂, σ, cond, valid, status and unidentified at the
             solve period.
 
@@ -262,7 +314,7 @@ def add_online_identifier(
     plain_rows = rows
     rows = settings.row_provider(rows, time_step)  # noise-compensated power rows
     differentiator, model_rows, bank, design = add_bank_front(
-        builder, rows, settings, measurement, time_step, differentiator
+        builder, rows, settings, measurement, time_step, differentiator, owner=owner
     )
     names = tuple(rows.names)
     covariance = settings.covariance_design(time_step, n)

@@ -70,7 +70,7 @@ def add_payload_identifier(
         time_step: sample period h of the measurement [s].
         settings: identifier settings (``core.payload_step.payload_settings``).
         differentiator: reuse an existing ``CausalJacobiDifferentiator`` with the
-            same Jacobi settings.
+            same Jacobi settings (period, size and filters checked: ValueError).
         log: add loggers of every output of the identifier at the solve period.
 
     Returns:
@@ -94,7 +94,7 @@ def add_payload_identifier(
         )
     settings = settings.on_grid(time_step)
     differentiator, model_rows, bank, design = add_bank_front(
-        builder, rows, settings, measurement, time_step, differentiator
+        builder, rows, settings, measurement, time_step, differentiator, owner=owner
     )
     m = model_rows.num_equations
     names = rows.payload_names

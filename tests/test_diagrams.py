@@ -249,6 +249,59 @@ def test_diagram_argument_checks(robot, trajectory):
         replay_log(log, object(), [OnlineSettings()])
 
 
+def test_a_shared_differentiator_must_be_the_chain_s(robot):
+    """Found by a review: ``differentiator=`` was wired unchecked. One sampling
+    every 2 ms (window 0.8 s) under a 1 ms chain with raw rows gave ZZ1R 49 %
+    off with σ 1 % ("valid"); another window gave the trace a wrong delay."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.diagrams import add_online_identifier
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+
+    h = 1e-3
+    settings = OnlineSettings.for_model("lagrangian", window=5.0, rows_from="raw")
+    jacobi = settings.jacobi_parameters()
+
+    def chain(num_signals, time_step, **overrides):
+        builder = DiagramBuilder()
+        source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+        differentiator = builder.AddSystem(
+            CausalJacobiDifferentiator(
+                num_signals, time_step, **{**jacobi, **overrides}
+            )
+        )
+        return add_online_identifier(
+            builder,
+            robot.rows_provider(),
+            source.get_output_port(),
+            h,
+            settings,
+            differentiator=differentiator,
+        )
+
+    assert chain(4, h).differentiator.time_step == h  # the chain's own: accepted
+    with pytest.raises(ValueError, match=r"differentiator must sample every 0\.001 s"):
+        chain(4, 2e-3, window=0.8)
+    with pytest.raises(ValueError, match="differentiator must differentiate 4 signals"):
+        chain(6, h)
+    with pytest.raises(
+        ValueError, match="differentiator must have the settings' Jacobi"
+    ):
+        chain(4, h, window=0.5)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+    with pytest.raises(TypeError, match="differentiator must be a"):
+        add_online_identifier(
+            builder,
+            robot.rows_provider(),
+            source.get_output_port(),
+            h,
+            settings,
+            differentiator=object(),
+        )
+
+
 def test_replay_of_a_noisy_closed_loop_log_is_exact(robot, trajectory):
     # The recorded (noisy) measurements are exactly what the in-loop blocks saw.
     settings = [SETTINGS[0]]
