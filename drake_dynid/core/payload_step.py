@@ -94,10 +94,13 @@ def payload_settings(**overrides: Any) -> OnlineSettings:
 
 
 def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSettings:
-    """``settings``, unless its weighting is one the payload solve does not have.
+    """``settings``, unless it asks for what the payload solve does not have.
 
     The covariance weighting (``core.row_covariance``) models the arm's rows; the
-    payload's rows carry the arm's known column, so it is refused.
+    payload's rows carry the arm's known column, so it is refused. So are change
+    detection (``detect_changes``: the payload chain has no change test) and
+    ``position_noise`` (the power rows' noise compensation is the arm's rows'),
+    which the payload chain and its core replay would ignore.
     """
     if settings.weighting == "covariance":
         check.fail(
@@ -105,6 +108,20 @@ def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSetti
             "settings.weighting must be 'frequency' or 'none' for the payload "
             "identifier (the covariance weighting models the arm's own rows); got "
             "'covariance'.",
+        )
+    if settings.detect_changes is not False:
+        check.fail(
+            owner,
+            "settings.detect_changes must be False for the payload identifier (it "
+            "has no change test; its short window forgets a change within T); got "
+            f"{settings.detect_changes!r}.",
+        )
+    if settings.position_noise is not None:
+        check.fail(
+            owner,
+            "settings.position_noise must be None for the payload identifier (the "
+            "noise compensation of the power rows is the arm's rows'); got "
+            f"{settings.position_noise!r}.",
         )
     return settings
 

@@ -155,3 +155,28 @@ def test_chain_checks_its_arguments(case):
             payload_rows(RobotModel.from_urdf(model_path("iiwa7"))),
             payload_settings(),
         )
+
+
+def test_settings_the_payload_solve_does_not_have_are_refused(case):
+    """Found by a review: ``detect_changes`` and ``position_noise`` (the power
+    rows' noise compensation) were accepted by ``payload_settings`` and silently
+    ignored by the payload chain and its core replay (no change tracking, no
+    compensation)."""
+    from drake_dynid.core.online import OnlineSettings
+
+    rows, log = case
+    with pytest.raises(ValueError, match=r"payload_settings: settings\.detect_changes"):
+        payload_settings(detect_changes=True)
+    with pytest.raises(ValueError, match=r"payload_settings: settings\.position_noise"):
+        payload_settings(model="power", position_noise=1e-4)
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    given = OnlineSettings(**{**payload_settings().as_dict(), "detect_changes": True})
+    with pytest.raises(
+        ValueError, match=r"add_payload_identifier: settings\.detect_changes"
+    ):
+        add_payload_identifier(builder, rows, source.get_output_port(), H, given)
+    with pytest.raises(
+        ValueError, match=r"replay_payload_core: settings\.detect_changes"
+    ):
+        replay_payload_core(log, rows, given)
