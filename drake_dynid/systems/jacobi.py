@@ -54,10 +54,12 @@ class CausalJacobiDifferentiator(LeafSystem):
     logger or a downstream block that samples them at t_k sees the state after the
     update at t_{k-1}: one extra sample of latency, as for every state-output block
     (docs/CONVENTIONS.md §2). ``valid`` is 0 until N+1 samples have been taken
-    (before that, missing samples count as zeros), then 1. ``history`` is the
-    ring itself in time order, the last N+1 samples oldest first ((N+1)·m,
-    row-major (N+1, m); zeros before the first sample): the raw rows of the
-    on-line identifier read it (``drake_dynid.core.raw_rows``).
+    (before that, missing samples count as zeros), then 1, except while a NaN or
+    infinite sample is in the ring (N+1 updates; that signal's estimates are
+    then not finite). ``history`` is the ring itself in time order, the last
+    N+1 samples oldest first ((N+1)·m, row-major (N+1, m); zeros before the
+    first sample): the raw rows of the on-line identifier read it
+    (``drake_dynid.core.raw_rows``).
 
     State (numeric discrete state, in the Context only): one group, the ring of the
     last N+1 samples with its position,

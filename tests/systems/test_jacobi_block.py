@@ -285,3 +285,27 @@ def test_history_port_is_the_ring_in_time_order():
         history = blk.get_output_port_history().Eval(context).reshape(6, 2)
         expected = np.vstack([np.zeros((6, 2)), samples[: k + 1]])[-6:]
         np.testing.assert_array_equal(history, expected)
+
+
+def test_a_non_finite_sample_makes_valid_0_while_it_is_in_the_ring():
+    # The documented behaviour (a review found the docstring said "then 1" for
+    # good): a NaN sample of one signal makes that signal's estimates NaN and
+    # ``valid`` 0 for the N+1 updates it stays in the ring, then 1 again.
+    block = CausalJacobiDifferentiator(2, H, 0.01, kappa=0, mu=0, q=1, orders=(0, 1))
+    context = block.CreateDefaultContext()
+
+    def update(u):
+        block.get_input_port_u().FixValue(context, u)
+        context.SetDiscreteState(block.EvalUniquePeriodicDiscreteUpdate(context))
+        return (
+            block.get_output_port_valid().Eval(context)[0],
+            block.get_output_port_derivative(0).Eval(context).copy(),
+        )
+
+    for _ in range(11):  # N + 1 = 11 samples
+        valid, _ = update([1.0, 2.0])
+    assert valid == 1.0
+    valid, smoothed = update([np.nan, 2.0])
+    assert valid == 0.0 and np.isnan(smoothed[0]) and np.isfinite(smoothed[1])
+    flags = [update([1.0, 2.0])[0] for _ in range(11)]
+    assert flags == [0.0] * 10 + [1.0]
