@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from typing import Any
 
 from drake_dynid.commands._arguments import (
     add_common_arguments,
@@ -136,6 +138,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"residual σ: {result.residual_std:.4g}")
         if args.split is not None:
             print(f"fitted on the first {100 * args.split:g} % of {args.log}")
+    joint_sigma = _joint_noise(result)
+    spread = _unequal_noise(robot, joint_sigma, result.model)
+    if spread:
+        print(f"dynid offline: note: {spread}", file=sys.stderr)
     extra = finish_offline(args, robot, log, held, held_description, result)
     if args.json:
         document = {
@@ -148,6 +154,12 @@ def run(args: argparse.Namespace) -> int:
             "valid": bool(result.valid),
             "reason": result.reason,
             "residual_std": json_number(result.residual_std),
+            "joint_noise_std": None
+            if joint_sigma is None
+            else {
+                name: json_number(value)
+                for name, value in zip(robot.joint_names, joint_sigma, strict=True)
+            },
             "num_rows": int(result.num_rows),
             "samples_used": int(result.num_samples_used),
             "segments": int(result.num_segments),
@@ -169,3 +181,56 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {args.json}")
     raise_urdf_error(args)
     return 0
+
+
+#: Joints' equation-error σ differing by more than this factor: IDIM-LS is told
+#: to consider --weighted.
+UNEQUAL_NOISE = 10.0
+
+
+def _joint_noise(result: Any) -> Any:
+    """Each joint's equation-error σ_j [N·m or N]; None when not computable.
+
+    Gautier's (``core.idim.joint_noise_std_of``): the OLS of that joint's
+    equations alone, the weights IDIM-WLS would use.
+    """
+    import numpy as np
+
+    from drake_dynid.core.idim import joint_noise_std_of
+
+    reduced = result.reduced
+    if reduced is None or not np.isfinite(reduced.R).all():
+        return None
+    try:
+        return joint_noise_std_of(reduced)
+    except ValueError:  # fewer samples than a joint's rank
+        return None
+
+
+def _unequal_noise(robot: Any, sigma: Any, model: str) -> str:
+    """The note for IDIM-LS when the joints' σ_j differ by > UNEQUAL_NOISE ('' if not).
+
+    IDIM-LS minimises Σ_j ‖τ_j − W_j X‖²: a joint with a thousand times less noise
+    (a wrist beside a shoulder) counts as much as the shoulder's noise allows, and
+    the pooled σ = ‖ρ‖/√(r − p) misstates both (docs/MATH.md §5). IDIM-WLS divides
+    each joint's equations by σ_j.
+    """
+    import numpy as np
+
+    if sigma is None or model != "idim-ls" or sigma.size < 2:
+        return ""
+    positive = sigma[sigma > 0.0]
+    if positive.size < 2 or positive.max() <= UNEQUAL_NOISE * positive.min():
+        return ""
+    big, small = (
+        int(np.argmax(sigma)),
+        int(np.argmin(np.where(sigma > 0, sigma, np.inf))),
+    )
+    names = robot.joint_names
+    return (
+        f"the joints' equation errors differ by {sigma[big] / sigma[small]:.3g}× "
+        f"(σ {names[big]} {sigma[big]:.3g}, {names[small]} {sigma[small]:.3g}): "
+        "IDIM-LS weighs every joint's equations alike, so the small joints' "
+        "parameters are fitted to the large joints' noise and the pooled σ misstates "
+        "them; --weighted (IDIM-WLS) divides each joint's equations by its σ"
+    )
