@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.core import _validate
+from drake_dynid.urdf_meshes import add_ancestor_packages, stl_collisions_as_obj
 
 __all__ = [
     "MODELS_DIR",
@@ -192,6 +193,7 @@ _FIXED_JOINT = re.compile(
     r"""<joint\b[^>]*\btype\s*=\s*(["'])fixed\1[^>]*>.*?</joint\s*>""", re.S
 )
 _MIMIC = re.compile(r"<mimic\b[^>]*/>|<mimic\b.*?</mimic\s*>", re.S)
+_STL = re.compile(r"""\bfilename\s*=\s*["'][^"']*\.stl["']""", re.I)
 _RELATIVE_FILE = re.compile(
     r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://|/)([^"']+)\2"""
 )
@@ -234,8 +236,9 @@ def _strip_geometry(
     geometry is kept. A ``<mimic>`` of a fixed joint is removed too.
 
     Each removed element leaves its newlines, so Drake's messages keep the file's
-    line numbers. Any other relative ``filename`` left is made absolute (relative
-    to the file's directory), since the text is parsed from a string.
+    line numbers. Any other relative ``filename`` left is made an absolute
+    ``file://`` URI (relative to the file's directory), since the text is parsed
+    from a string.
     """
 
     def blank(match: re.Match) -> str:
@@ -247,9 +250,12 @@ def _strip_geometry(
     # A fixed joint cannot follow another (Drake refuses the file: the Talos
     # grippers' fixed joints carry <mimic>); its <mimic> means nothing.
     text = _FIXED_JOINT.sub(lambda m: _MIMIC.sub(blank, m.group(0)), text)
+    # Drake takes only URIs in a string (a bare absolute path is "invalid when
+    # parsing a string"): file:// and the absolute path, not percent-encoded.
     return _RELATIVE_FILE.sub(
         lambda m: (
-            f"{m.group(1)}{m.group(2)}{(directory / m.group(3)).as_posix()}{m.group(2)}"
+            f"{m.group(1)}{m.group(2)}file://{(directory / m.group(3)).as_posix()}"
+            f"{m.group(2)}"
         ),
         text,
     )
@@ -381,13 +387,24 @@ def _parse(
             if file.suffix.lower() == ".urdf"
             else None
         )
+        if source is not None:  # package://NAME of an ancestor folder NAME
+            add_ancestor_packages(parser.package_map(), file, source)
+        stl = geometry is not False and source is not None and _STL.search(source)
         # With its geometry kept, the file is parsed as is (Drake then resolves
-        # package:// next to it) unless a fixed joint carries a <mimic>.
+        # package:// next to it) unless a fixed joint carries a <mimic> or a
+        # collision mesh is an STL (Drake hulls .obj, .vtk and .gltf only).
         if source is not None and (
-            geometry in (False, "collision") or _fixed_mimic(source) or orphans
+            geometry in (False, "collision") or _fixed_mimic(source) or orphans or stl
         ):
             keep = None if geometry is True else geometry == "collision"
             text = _strip_geometry(source, file.resolve().parent, keep_collision=keep)
+            if stl:
+                try:
+                    text = stl_collisions_as_obj(text, parser.package_map())
+                except ValueError as error:
+                    raise MissingFileError(
+                        f"{owner}: {file}: {error}", str(error).rstrip(".")
+                    ) from None
             for name in orphans:
                 text = re.sub(
                     rf"""<transmission\b[^>]*\bname\s*=\s*(["']){re.escape(name)}"""
