@@ -422,11 +422,14 @@ def _parse(
         # A file (a mesh) the URDF names: "URI 'x' resolved to 'y' which does
         # not exist" or "refers to unknown package"; a joint a <transmission>
         # names "does not exist" too (the Talos arms of example-robot-data).
-        missing = "URI " in message and (
-            "does not exist" in message or "unknown package" in message
-        )
+        missing = (
+            "URI " in message
+            and ("does not exist" in message or "unknown package" in message)
+        ) or "MakeConvexHull only applies" in message  # a .dae collision mesh
         hint = (
-            "a file it names is missing"
+            "a collision mesh must be .obj, .vtk, .gltf or .stl for Drake's hull"
+            if "MakeConvexHull only applies" in message
+            else "a file it names is missing"
             if missing
             else "every joint a <transmission> names must be a joint of the file"
             if "Transmission" in message
@@ -506,7 +509,9 @@ def joint_embedding(
 
 
 class MissingFileError(ValueError):
-    """A URDF names a file (a mesh) that cannot be found: ``detail`` says which.
+    """A URDF names a file (a mesh) that cannot be found or used: ``detail`` says which.
+
+    Used: a collision mesh in a format Drake cannot hull (.dae).
 
     ``dynid excite`` skips its self-collision check on it, with the reason; every
     other caller treats it as any URDF error.

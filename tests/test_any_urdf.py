@@ -372,7 +372,9 @@ def test_relative_and_stl_collision_meshes_load_for_the_collision_check(tmp_path
     from drake_dynid.collision import SelfCollision
 
     if kind == "obj":
-        lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in _TETRAHEDRON.reshape(-1, 3)]
+        lines = [
+            f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in _TETRAHEDRON.reshape(-1, 3)
+        ]
         lines += [f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(4)]
         data = ("\n".join(lines) + "\n").encode()
     else:
@@ -419,3 +421,18 @@ def test_a_package_named_like_an_ancestor_folder_resolves(tmp_path):
     robot = RobotModel.from_urdf(path)
     check = SelfCollision.from_urdf(path, np.zeros(2), robot)
     assert check is not None and check.num_geometries == 1
+
+
+def test_a_collision_mesh_drake_cannot_hull_skips_the_check_with_its_reason(
+    tmp_path,
+):
+    """A .dae collision mesh (the Kinova's): excite skips its self-collision check
+    with the reason (MissingFileError) instead of refusing the whole run."""
+    from drake_dynid.collision import SelfCollision
+    from drake_dynid.urdf import MissingFileError
+
+    path = _one_collision_mesh(tmp_path, "m.dae", b"<COLLADA/>")
+    robot = RobotModel.from_urdf(path)
+    with pytest.raises(MissingFileError, match=r"unsupported extension '\.dae'") as e:
+        SelfCollision.from_urdf(path, np.zeros(2), robot)
+    assert ".obj, .vtk, .gltf or .stl" in str(e.value)
