@@ -284,9 +284,9 @@ def _write_urdf(
 
     The base parameters the fit (``names``, ``theta``, ``std``) did not identify
     (%σ > 30) are named in the file's header and in a warning: their written
-    values are the projection's, held by the URDF prior. A writer error does not
-    lose the fit: it is recorded as ``args.urdf_out_error`` and raised once the
-    other outputs are written.
+    values are the projection's, which the data barely constrain. A writer error
+    does not lose the fit: it is recorded as ``args.urdf_out_error`` and raised
+    once the other outputs are written.
     """
     from drake_dynid.commands._report import not_identified
     from drake_dynid.urdf_writer import write_identified_urdf
@@ -297,7 +297,8 @@ def _write_urdf(
         notes.append(
             f"Not identified by the fit (%σ > 30), {len(flagged)} of "
             f"{len(fit.names)} base parameters: {', '.join(flagged)}; the values "
-            "written for them are the consistent projection's, held near the URDF."
+            "written for them are the consistent projection's, which the data "
+            "barely constrain: treat them as unknown."
         )
         print(
             f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
