@@ -194,8 +194,10 @@ _FIXED_JOINT = re.compile(
 )
 _MIMIC = re.compile(r"<mimic\b[^>]*/>|<mimic\b.*?</mimic\s*>", re.S)
 _STL = re.compile(r"""\bfilename\s*=\s*["'][^"']*\.stl["']""", re.I)
+# A filename that is not a URI: relative, or a bare absolute path (both made
+# file:// URIs by _strip_geometry).
 _RELATIVE_FILE = re.compile(
-    r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://|/)([^"']+)\2"""
+    r"""(\bfilename\s*=\s*)(["'])(?![a-zA-Z][\w+.-]*://)([^"']+)\2"""
 )
 
 
@@ -236,9 +238,9 @@ def _strip_geometry(
     geometry is kept. A ``<mimic>`` of a fixed joint is removed too.
 
     Each removed element leaves its newlines, so Drake's messages keep the file's
-    line numbers. Any other relative ``filename`` left is made an absolute
-    ``file://`` URI (relative to the file's directory), since the text is parsed
-    from a string.
+    line numbers. Any other ``filename`` that is not a URI is made an absolute
+    ``file://`` URI (a relative one relative to the file's directory, a bare
+    absolute path as it is), since the text is parsed from a string.
     """
 
     def blank(match: re.Match) -> str:

@@ -105,7 +105,8 @@ def _obj_of(stl: Path) -> Path:
         _FOLDER.append(folder)
     triangles = read_stl(stl)
     out = _FOLDER[0] / f"{len(_CACHE)}_{stl.stem}.obj"
-    with open(out, "w", encoding="ascii") as stream:
+    # UTF-8: the header comment names the STL's path, which may be non-ASCII.
+    with open(out, "w", encoding="utf-8") as stream:
         stream.write(f"# {stl} as OBJ (drake_dynid.urdf_meshes)\n")
         np.savetxt(stream, triangles.reshape(-1, 3), fmt="v %.9g %.9g %.9g")
         faces = np.arange(1, 3 * len(triangles) + 1).reshape(-1, 3)

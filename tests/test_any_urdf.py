@@ -436,3 +436,48 @@ def test_a_collision_mesh_drake_cannot_hull_skips_the_check_with_its_reason(
     with pytest.raises(MissingFileError, match=r"unsupported extension '\.dae'") as e:
         SelfCollision.from_urdf(path, np.zeros(2), robot)
     assert ".obj, .vtk, .gltf or .stl" in str(e.value)
+
+
+def test_an_stl_collision_mesh_under_a_non_ascii_folder_loads(tmp_path):
+    """A review: the OBJ copy of an STL was written as ASCII with the STL's path in
+    its header comment, so a robot under a folder such as 'Téléchargements'
+    failed the collision check ('ascii' codec can't encode character)."""
+    from drake_dynid.collision import SelfCollision
+
+    folder = tmp_path / "Téléchargements"
+    folder.mkdir()
+    path = _one_collision_mesh(folder, "bøx.stl", _binary_stl(_TETRAHEDRON))
+    robot = RobotModel.from_urdf(path)
+    check = SelfCollision.from_urdf(path, np.zeros(2), robot)
+    assert check is not None and check.num_geometries == 1
+
+
+@pytest.mark.parametrize("kind", ["obj", "binary.stl"])
+def test_an_absolute_collision_mesh_path_loads(tmp_path, kind):
+    """A review: Drake refuses a bare absolute path in a string; relative paths
+    became file:// URIs, absolute ones were left bare, so the self-collision check
+    of a URDF naming /abs/path/mesh.obj failed with 'invalid when parsing a
+    string' (a ValueError: dynid excite refused the run)."""
+    from drake_dynid.collision import SelfCollision
+
+    path = _one_collision_mesh(tmp_path, f"m.{kind}", _mesh_bytes(kind))
+    mesh = (tmp_path / "meshes" / f"m.{kind}").resolve().as_posix()
+    text = path.read_text().replace(f'filename="meshes/m.{kind}"', f'filename="{mesh}"')
+    assert mesh in text
+    path.write_text(text)
+    robot = RobotModel.from_urdf(path)
+    check = SelfCollision.from_urdf(path, np.zeros(2), robot)
+    assert check is not None and check.num_geometries == 1
+    # The Meshcat replay's load (every geometry kept) too.
+    plant = load_plant(path, builder=DiagramBuilder(), geometry=True)
+    assert plant.num_velocities() == 2
+
+
+def _mesh_bytes(kind):
+    if kind == "obj":
+        lines = [
+            f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in _TETRAHEDRON.reshape(-1, 3)
+        ]
+        lines += [f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(4)]
+        return ("\n".join(lines) + "\n").encode()
+    return _binary_stl(_TETRAHEDRON)
