@@ -328,7 +328,18 @@ class RobotModel(RobotRows):
             names, values, scales = table.names, table.values, table.scales
             motors = table.columns
             notes += tuple(chain.notes) + table.notes
-        driven = () if chain is None else tuple(chain.joint_names)
+        # The joints a motor of the drive file (or the URDF) drives; a joint
+        # left with its implicit direct drive is as untransmitted as without one.
+        driven = (
+            set()
+            if chain is None
+            else {
+                chain.joint_names[j]
+                for motor in chain.motors
+                if motor.source != "implicit"
+                for j in np.flatnonzero(motor.row)
+            }
+        )
         left = untransmitted_note(
             [name for name in untransmitted[0] if name not in driven],
             untransmitted[1],

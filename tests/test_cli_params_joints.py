@@ -153,3 +153,21 @@ def test_the_untransmitted_note_names_only_joints_the_drive_file_does_not_drive(
         cli.main([*wrist, "--drive", str(ROOT / "tests" / "data" / "wrist4.toml")]) == 0
     )
     assert "treated as actuated" not in capsys.readouterr().err
+
+
+def test_the_untransmitted_note_names_a_joint_the_drive_file_gives_no_motor(
+    tmp_path, capsys
+):
+    """A review: with a drive file every identified joint was taken as driven, so
+    a joint with neither a <transmission> nor a motor of the drive file (its
+    implicit direct drive) was no longer said to be treated as actuated."""
+    text = (ROOT / "tests" / "data" / "wrist4.toml").read_text()
+    text = text[: text.index("[motors.m1]")] + text[text.index("[motors.m2]") :]
+    text = text.replace("m1 = 12.0\n", "").replace('"mA"', '"N*m"')
+    drive = tmp_path / "no_m1.toml"
+    drive.write_text(text)
+    wrist = ["params", str(ROOT / "tests" / "data" / "wrist4.urdf")]
+    assert cli.main([*wrist, "--drive", str(drive)]) == 0
+    err = capsys.readouterr().err
+    assert "1 joint without a (simple) <transmission>" in err
+    assert "treated as actuated" in err and ": j1" in err
