@@ -183,7 +183,9 @@ def add_drive_forces(
     from drake_dynid.systems.drive_forces import DriveFeedforward, DriveForces
 
     n = drive.num_joints
-    feedforward = builder.AddSystem(DriveFeedforward(drive, kp=kp, kd=kd))
+    feedforward = builder.AddSystem(
+        DriveFeedforward(drive, kp=kp, kd=kd, time_step=float(plant.time_step()))
+    )
     builder.Connect(plant.get_state_output_port(), feedforward.get_input_port_state())
     builder.Connect(reference, feedforward.get_input_port_reference())
     total = builder.AddSystem(Adder(2, n))

@@ -336,3 +336,45 @@ def test_the_blocks_fast_path_is_the_core_law():
         np.testing.assert_allclose(
             _joint_friction(drive, row), drive.applied_friction(row), rtol=1e-15
         )
+
+
+def test_a_coupled_motor_damped_far_above_its_inertia_tracks(tmp_path):
+    """Drake's step damps implicitly, and DriveForces makes the plant step as one
+    with damping D + B: (M + h D + K + h B) a = u - c - (D + B) v. The controller
+    commanded (M + h D) a + D v + K a + B v_r (implicit_damping_context,
+    DriveFeedforward): h B a was missing and B (v_r - v) fed the tracking error
+    back. With m4's viscous friction 0.1 N·m·s/rad (B = 102 on K = 0.03 kg·m²,
+    h B = 3.3 K) joint j4 ran 1.5 mrad off the run with m4's nominal friction.
+    With (K + h B) a + B v in the feedforward the plant steps with a exactly,
+    whatever B: the runs agree."""
+    from drake_dynid.core.joint_limits import JointLimits
+    from drake_dynid.experiment import ExperimentSettings, simulate_experiment
+    from drake_dynid.experiment_drive import simulated_drive_of, truth_model
+    from drake_dynid.trajectory_file import SampledTrajectory
+
+    t = np.arange(0.0, 2.0 + 1e-9, 0.01)
+    w = np.pi
+    q = 0.5 * np.column_stack([np.sin(w * t)] * 3 + [-0.5 * np.sin(2 * w * t)])
+    v = 0.5 * np.column_stack([w * np.cos(w * t)] * 3 + [-w * np.cos(2 * w * t)])
+    reference = SampledTrajectory(t, q, v, np.full_like(q, np.nan), JOINTS)
+    limits = JointLimits(
+        JOINTS, lower=[-2] * 4, upper=[2] * 4, velocity=[2] * 4, effort=[1e4] * 4
+    )
+    settings = ExperimentSettings(noise_q=0.0, noise_tau=0.0, friction=("viscous",))
+    runs = []
+    for viscous in (1.5e-4, 0.1):
+        text = (DATA / "wrist4.toml").read_text()
+        old = "rotor_inertia = 3e-05\nviscous = 0.00015"
+        assert old in text
+        drive_file = tmp_path / f"wrist4_{viscous}.toml"
+        drive_file.write_text(
+            text.replace(old, f"rotor_inertia = 3e-05\nviscous = {viscous}")
+        )
+        model = truth_model(
+            str(URDF), settings.friction, drive=drive_file, joints=JOINTS
+        )
+        drive = simulated_drive_of(model, settings.coulomb_smoothing)
+        runs.append(
+            simulate_experiment(str(URDF), reference, limits, settings, drive=drive).q
+        )
+    assert np.max(np.abs(runs[1] - runs[0])) < 1e-4

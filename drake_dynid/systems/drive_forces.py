@@ -7,6 +7,7 @@ and apply them. Used by ``drake_dynid.experiment`` (``dynid simulate``).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -191,26 +192,40 @@ class DriveFeedforward(LeafSystem):
     With the reference [q_r; v_r; v̇_r] (size 3n) and the state [q; v]::
 
         feedforward = FC ⊙ s(v_r) + OFF + Σ_k R_kᵀ [Fc_k s(R_k v_r/ρ_k) + off_k]
-                      + K (v̇_r + kp (q_r - q) + kd (v_r - v)) + B v_r   [N·m or N]
+                      + (K + h B) (v̇_r + kp (q_r - q) + kd (v_r - v)) + B v
+                                                                    [N·m or N]
 
     i.e. the friction the plant gets from :class:`DriveForces` and the coupled
     motors' inertia, which Drake's ``InverseDynamicsController`` (M(q), c, D of
     its plant) does not know; with it the tracking error has the controller's
-    gains on every joint. No state; double only (a plain Python ``LeafSystem``).
+    gains on every joint. :class:`DriveForces` makes the discrete plant step
+    with the motors' damping B implicit, (M + h D + K + h B) a = u - c -
+    (D + B) v, so the command a needs (K + h B) a + B v (the controller's plant
+    gives (M + h D) a + D v: ``experiment_drive.implicit_damping_context``); with
+    B v_r instead of B v, B (v_r - v) was extra velocity feedback. No state;
+    double only (a plain Python ``LeafSystem``).
 
     Args:
         drive: the :class:`drake_dynid.core.drive_dynamics.SimulatedDrive`.
         kp: the controller's position gain [1/s²].
         kd: the controller's velocity gain [1/s].
+        time_step: the discrete plant's step h [s] (0: h B left out).
     """
 
-    def __init__(self, drive: SimulatedDrive, *, kp: float, kd: float) -> None:
+    def __init__(
+        self, drive: SimulatedDrive, *, kp: float, kd: float, time_step: float = 0.0
+    ) -> None:
         super().__init__()
         owner = "DriveFeedforward"
         self._drive = _check_drive(owner, drive)
         self._kp = _validate.positive(owner, "kp", kp, "1/s²")
         self._kd = _validate.positive(owner, "kd", kd, "1/s")
+        h = float(time_step)
+        if not (math.isfinite(h) and h >= 0.0):
+            _validate.fail(owner, f"time_step must be finite and >= 0 [s]; got {h}.")
         self._inertia = drive.coupled_inertia
+        if h > 0.0:
+            self._inertia = self._inertia + h * drive.coupled_damping
         self._viscous = drive.coupled_damping
         n = drive.num_joints
         self._state = self.DeclareVectorInputPort("state", 2 * n)
@@ -241,9 +256,10 @@ class DriveFeedforward(LeafSystem):
         x = np.asarray(self._state.Eval(context), dtype=float)
         r = np.asarray(r, dtype=float)
         q_r, v_r, a_r = r[:n], r[n : 2 * n], r[2 * n :]
-        command = a_r + self._kp * (q_r - x[:n]) + self._kd * (v_r - x[n:])
+        v = x[n:]
+        command = a_r + self._kp * (q_r - x[:n]) + self._kd * (v_r - v)
         output.SetFromVector(
-            drive.applied_friction(v_r) + self._inertia @ command + self._viscous @ v_r
+            drive.applied_friction(v_r) + self._inertia @ command + self._viscous @ v
         )
 
 
