@@ -392,9 +392,10 @@ def _parse(
         if source is not None:  # package://NAME of an ancestor folder NAME
             add_ancestor_packages(parser.package_map(), file, source)
         stl = geometry is not False and source is not None and _STL.search(source)
-        # With its geometry kept, the file is parsed as is (Drake then resolves
-        # package:// next to it) unless a fixed joint carries a <mimic> or a
-        # collision mesh is an STL (Drake hulls .obj, .vtk and .gltf only).
+        # With its geometry kept, the file is parsed as is (the same package map:
+        # Drake finds no package.xml beside it by itself) unless a fixed joint
+        # carries a <mimic> or a collision mesh is an STL (Drake hulls .obj, .vtk
+        # and .gltf only).
         if source is not None and (
             geometry in (False, "collision") or _fixed_mimic(source) or orphans or stl
         ):
