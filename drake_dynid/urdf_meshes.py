@@ -59,8 +59,9 @@ def read_stl(path: str | os.PathLike) -> np.ndarray:
     """The (T, 3, 3) triangles [file units] of a binary or ASCII STL file.
 
     Binary: an 80-byte header, a little-endian uint32 count T, then T records of
-    50 bytes (normal, three vertices as float32, a uint16). Anything else is read
-    as ASCII (``vertex x y z`` lines).
+    50 bytes (normal, three vertices as float32, a uint16), and at most a
+    partial record of padding. Anything else is read as ASCII (``vertex x y z``
+    lines).
 
     Raises:
         ValueError: no triangle, or a vertex count not a multiple of 3.
@@ -68,7 +69,13 @@ def read_stl(path: str | os.PathLike) -> np.ndarray:
     data = Path(path).read_bytes()
     if len(data) >= 84:
         count = int.from_bytes(data[80:84], "little")
-        if 84 + 50 * count == len(data) and count > 0:
+        size = 84 + 50 * count
+        # Binary: the records fill the file, or leave less than one record of
+        # trailing bytes (some exporters pad) in a file that is not ASCII STL.
+        ascii_like = b"facet" in data[:1024].lower()
+        if count > 0 and (
+            size == len(data) or (size < len(data) < size + 50 and not ascii_like)
+        ):
             record = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")])
             return np.frombuffer(data, record, count, 84)["v"].astype(float)
     numbers = re.findall(

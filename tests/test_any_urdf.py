@@ -481,3 +481,13 @@ def _mesh_bytes(kind):
         lines += [f"f {3 * k + 1} {3 * k + 2} {3 * k + 3}" for k in range(4)]
         return ("\n".join(lines) + "\n").encode()
     return _binary_stl(_TETRAHEDRON)
+
+
+def test_a_binary_stl_with_trailing_padding_is_read(tmp_path):
+    """A review: a binary STL with a few bytes after its records (some exporters
+    pad) fell to the ASCII reader and was refused."""
+    from drake_dynid.urdf_meshes import read_stl
+
+    path = tmp_path / "padded.stl"
+    path.write_bytes(_binary_stl(_TETRAHEDRON) + b"\0\0\0\0")
+    np.testing.assert_allclose(read_stl(path), _TETRAHEDRON, rtol=1e-7)

@@ -360,9 +360,9 @@ def add_time_unit_argument(parser: argparse.ArgumentParser) -> None:
         "--time-unit",
         choices=tuple(TIME_UNITS),
         default=None,
-        help="unit of the log's time column (default s; integer stamps >= 1e17 are "
-        "read as nanoseconds since the epoch in any case); a drive file's [log] "
-        "time_unit says the same, and the two must agree",
+        help="unit of the log's time column (default s, and then integer stamps "
+        ">= 1e17 are read as nanoseconds since the epoch); a drive file's [log] "
+        "time_unit says the same: one other than s must agree with this option",
     )
 
 
