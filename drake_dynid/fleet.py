@@ -19,24 +19,37 @@ the command's own ``run`` with ``--json`` set to its output and ``--quiet``, and
 returns a one-line summary (:class:`FleetItem` as a dict, so that it crosses
 process and network boundaries). A bad log (``ValueError``/``OSError``: the
 message the command would print) fails its item only; a bug is reported with its
-traceback in the item.
+traceback in the item. What the command prints on stderr (its notes and the log's
+warnings) is captured in the item's ``stderr`` lines (:func:`captured_stderr`),
+so that parallel logs' lines do not interleave and a Dask worker's reach the user.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import io
 import json
 import multiprocessing
 import os
+import sys
+import threading
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FLEET_COMMANDS", "output_paths", "run_fleet", "run_one", "task_options"]
+__all__ = [
+    "FLEET_COMMANDS",
+    "captured_stderr",
+    "output_paths",
+    "run_fleet",
+    "run_one",
+    "task_options",
+]
 
 #: The commands a fleet runs (each has ``run(args)`` and a ``--json`` output).
 FLEET_COMMANDS = ("identify", "offline")
@@ -85,6 +98,63 @@ def task_options(
     return options
 
 
+class _ThreadStderr:
+    """``sys.stderr`` whose writes go to the calling thread's capture, if any.
+
+    A Dask worker runs several tasks at once in threads of one process: each
+    thread's capture must get its own lines only, and the other threads'
+    (and the worker's own) output goes on to the stream it replaced.
+    """
+
+    def __init__(self, stream: Any) -> None:
+        self.stream = stream
+        self.local = threading.local()
+        self.users = 0  # captures under way, in any thread
+
+    def _target(self) -> Any:
+        buffer = getattr(self.local, "buffer", None)
+        return self.stream if buffer is None else buffer
+
+    def write(self, text: str) -> int:
+        return int(self._target().write(text))
+
+    def flush(self) -> None:
+        self._target().flush()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._target(), name)
+
+
+_STDERR_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def captured_stderr() -> Iterator[io.StringIO]:
+    """What this thread writes on ``sys.stderr`` meanwhile, in a ``StringIO``.
+
+    ``sys.stderr`` is restored when the last capture ends (unless something
+    else replaced it meanwhile); other threads' writes are not captured.
+    """
+    with _STDERR_LOCK:
+        current: Any = sys.stderr
+        proxy = current if isinstance(current, _ThreadStderr) else None
+        if proxy is None:
+            proxy = _ThreadStderr(current)
+            sys.stderr = proxy  # type: ignore[assignment]
+        proxy.users += 1
+    buffer = io.StringIO()
+    previous = getattr(proxy.local, "buffer", None)
+    proxy.local.buffer = buffer
+    try:
+        yield buffer
+    finally:
+        proxy.local.buffer = previous
+        with _STDERR_LOCK:
+            proxy.users -= 1
+            if proxy.users == 0 and sys.stderr is proxy:
+                sys.stderr = proxy.stream
+
+
 def run_one(
     command: str, options: dict[str, Any], log: str, json_path: str
 ) -> dict[str, Any]:
@@ -99,7 +169,8 @@ def run_one(
 
     Returns:
         ``{"log", "json", "status" ("ok", "bad input" or "internal error"),
-        "message", "seconds", "valid", "condition_number", "model"}``.
+        "message", "seconds", "valid", "condition_number", "model", "stderr"}``,
+        ``stderr`` the lines the command printed on stderr (notes, warnings).
     """
     from drake_dynid.core._threads import configure_process
 
@@ -116,18 +187,21 @@ def run_one(
     }
     args = argparse.Namespace(**options)
     args.log, args.json, args.quiet = log, json_path, True
-    try:
-        module = importlib.import_module(f"drake_dynid.commands.{command}")
-        module.run(args)
-        with open(json_path, encoding="utf-8") as stream:
-            document = json.load(stream)
-        for key in ("valid", "condition_number", "model"):
-            item[key] = document.get(key)
-    except (ValueError, OSError) as error:
-        item["status"], item["message"] = "bad input", str(error)
-    except Exception:  # a bug: keep the traceback, go on with the other logs
-        item["status"], item["message"] = "internal error", traceback.format_exc()
+    with captured_stderr() as stderr:
+        try:
+            module = importlib.import_module(f"drake_dynid.commands.{command}")
+            module.run(args)
+            with open(json_path, encoding="utf-8") as stream:
+                document = json.load(stream)
+            for key in ("valid", "condition_number", "model"):
+                item[key] = document.get(key)
+        except (ValueError, OSError) as error:
+            item["status"], item["message"] = "bad input", str(error)
+        except Exception:  # a bug: keep the traceback, go on with the other logs
+            item["status"] = "internal error"
+            item["message"] = traceback.format_exc()
     item["seconds"] = time.perf_counter() - start
+    item["stderr"] = stderr.getvalue().splitlines()
     return item
 
 

@@ -140,3 +140,68 @@ def test_out_dir_that_is_a_file_is_named(tmp_path, capsys):
     argv = ["fleet", "offline", str(log), "--urdf", "planar_2r", "--out-dir", str(log)]
     assert cli.main(argv) == 2
     assert f"--out-dir {log} is a file; give a folder" in capsys.readouterr().err
+
+
+def _log_with_warnings(source, path, row):
+    """``source`` with a NaN cell at ``row`` and the row after the next dropped:
+    two reader warnings (a filled cell, a filled gap) that name the log."""
+    lines = pathlib.Path(source).read_text().splitlines()
+    cells = lines[row].split(",")
+    cells[1] = "nan"
+    lines[row] = ",".join(cells)
+    del lines[row + 2]
+    path.write_text("\n".join(lines) + "\n")
+    return str(path)
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_each_logs_stderr_is_printed_whole_and_named(logs, tmp_path, capfd, jobs):
+    """Found by a review: with --jobs 2 the workers wrote their notes and warnings
+    on the terminal as they came, the two logs' lines interleaved (and a Dask
+    worker's stayed on its machine). Each log's lines are captured, kept in
+    summary.json and printed together, each prefixed by the log."""
+    bad = [
+        _log_with_warnings(log, tmp_path / f"w{k}.csv", 100 + 50 * k)
+        for k, log in enumerate(logs)
+    ]
+    argv = ["fleet", "offline", *bad, "--urdf", URDF, "--jobs", jobs, "--quiet"]
+    assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 0
+    err = capfd.readouterr().err.splitlines()
+    assert len(err) == 4, err
+    owners = [next(log for log in bad if line.startswith(f"{log}: ")) for line in err]
+    assert owners[0] == owners[1] and owners[2] == owners[3] != owners[0]
+    assert all("dynid offline: warning: log " in line for line in err)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for item in summary:
+        assert len(item["stderr"]) == 2
+        assert all(f"{item['log']}: {text}" in err for text in item["stderr"])
+
+
+def test_stderr_capture_is_per_thread_and_restores_stderr(capsys):
+    """A Dask worker runs tasks in threads of one process: each capture gets its
+    own thread's lines only; the others' go on to the stream it replaced."""
+    import sys
+    import threading
+
+    from drake_dynid.fleet import captured_stderr
+
+    original = sys.stderr
+    barrier = threading.Barrier(2)
+    got = {}
+
+    def task(name):
+        with captured_stderr() as buffer:
+            for k in range(3):
+                print(f"{name} {k}", file=sys.stderr)
+                barrier.wait()
+        got[name] = buffer.getvalue().splitlines()
+
+    threads = [threading.Thread(target=task, args=(n,)) for n in "ab"]
+    for thread in threads:
+        thread.start()
+    print("main", file=sys.stderr)
+    for thread in threads:
+        thread.join()
+    assert got == {n: [f"{n} 0", f"{n} 1", f"{n} 2"] for n in "ab"}
+    assert sys.stderr is original
+    assert capsys.readouterr().err == "main\n"

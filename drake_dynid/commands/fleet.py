@@ -172,8 +172,12 @@ def run(args: argparse.Namespace) -> int:
                 f"({item['seconds']:.1f} s)",
                 flush=True,
             )
+        # The log's notes and warnings, captured by its worker: together, named.
+        for line in item.get("stderr") or ():
+            print(f"{item['log']}: {line}", file=sys.stderr)
         if item["status"] == "internal error":
             print(item["message"], file=sys.stderr)
+        sys.stderr.flush()
 
     items = run_fleet(
         args.fleet_command,
