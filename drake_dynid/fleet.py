@@ -262,20 +262,51 @@ def run_fleet(
 
     if scheduler is not None:
         _run_on_dask(scheduler, tasks, done)
+    elif local == 1:
+        for index, task in enumerate(tasks):
+            done(index, run_one(*task))
     else:
-        workers = local
-        if workers == 1:
-            for index, task in enumerate(tasks):
-                done(index, run_one(*task))
-        else:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(workers, mp_context=context) as pool:
-                futures = {
-                    pool.submit(run_one, *task): i for i, task in enumerate(tasks)
-                }
-                for future in as_completed(futures):
-                    done(futures[future], future.result())
+        _run_local(tasks, local, done)
     return [item for item in results if item is not None]
+
+
+def _run_local(
+    tasks: list[tuple],
+    workers: int,
+    done: Callable[[int, dict[str, Any]], None],
+    function: Callable[..., dict[str, Any]] = run_one,
+) -> None:
+    """Runs the tasks in ``workers`` spawned processes; ``done`` as each finishes.
+
+    An interrupt (or any exception) stops the workers at once: the queued logs
+    are not run.
+    """
+    context = multiprocessing.get_context("spawn")
+    with _stopped_on_exit(ProcessPoolExecutor(workers, mp_context=context)) as pool:
+        futures = {pool.submit(function, *task): i for i, task in enumerate(tasks)}
+        for future in as_completed(futures):
+            done(futures[future], future.result())
+
+
+@contextlib.contextmanager
+def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[ProcessPoolExecutor]:
+    """``pool``, shut down at the end; its workers killed if an exception ends it.
+
+    ``with ProcessPoolExecutor()`` would wait for every queued task on Ctrl-C.
+    """
+    try:
+        yield pool
+    except BaseException:
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            with contextlib.suppress(Exception):
+                process.terminate()
+        for process in processes:
+            with contextlib.suppress(Exception):
+                process.join(5)
+        raise
+    pool.shutdown()
 
 
 def _run_on_dask(

@@ -205,3 +205,36 @@ def test_stderr_capture_is_per_thread_and_restores_stderr(capsys):
     assert got == {n: [f"{n} 0", f"{n} 1", f"{n} 2"] for n in "ab"}
     assert sys.stderr is original
     assert capsys.readouterr().err == "main\n"
+
+
+def _fake_run(command, options, log, json_path):
+    """A stand-in for run_one in the pool's workers: "slow" logs take a minute,
+    the others return at once."""
+    import time
+
+    if "slow" in log:
+        time.sleep(60)
+    return {"log": log, "json": json_path, "status": "ok", "message": ""}
+
+
+def test_an_interrupt_stops_the_workers_at_once():
+    """Found by a review: Ctrl-C (SIGINT to dynid alone, e.g. from a job
+    scheduler) left the pool running every queued log to its end before dynid
+    exited (8 logs of 4 s on 2 workers: 23.7 s)."""
+    import multiprocessing
+    import time
+
+    from drake_dynid.fleet import _run_local
+
+    tasks = [("offline", {}, log, "x.json") for log in ("a", "slow1", "slow2")]
+    tasks += [("offline", {}, f"slow{k}", "x.json") for k in range(3, 9)]
+
+    def interrupt(index, item):
+        raise KeyboardInterrupt
+
+    start = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        _run_local(tasks, 2, interrupt, function=_fake_run)
+    assert time.perf_counter() - start < 20
+    time.sleep(0.5)
+    assert multiprocessing.active_children() == []
