@@ -39,6 +39,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
@@ -278,14 +279,28 @@ def _run_local(
 ) -> None:
     """Runs the tasks in ``workers`` spawned processes; ``done`` as each finishes.
 
-    An interrupt (or any exception) stops the workers at once: the queued logs
-    are not run.
+    A worker that dies (killed when out of memory, a crash in native code)
+    breaks the pool: the tasks not done are then run again one after the other,
+    each in a process of its own, so that only the log whose process dies fails
+    (:func:`_died`). An interrupt (or any exception) stops the workers at once:
+    the queued logs are not run.
     """
     context = multiprocessing.get_context("spawn")
+    left = dict(enumerate(tasks))
     with _stopped_on_exit(ProcessPoolExecutor(workers, mp_context=context)) as pool:
-        futures = {pool.submit(function, *task): i for i, task in enumerate(tasks)}
+        futures = {pool.submit(function, *task): i for i, task in left.items()}
         for future in as_completed(futures):
+            if isinstance(future.exception(), BrokenProcessPool):
+                continue  # run again below
             done(futures[future], future.result())
+            del left[futures[future]]
+    for index, task in left.items():
+        with _stopped_on_exit(ProcessPoolExecutor(1, mp_context=context)) as pool:
+            try:
+                item = pool.submit(function, *task).result()
+            except BrokenProcessPool:
+                item = _died(*task)
+        done(index, item)
 
 
 @contextlib.contextmanager
@@ -309,10 +324,37 @@ def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[ProcessPoolExecutor]
     pool.shutdown()
 
 
+def _died(command: str, options: dict[str, Any], log: str, json_path: str) -> dict:
+    """The item of a log whose worker process died while running it."""
+    return {
+        "log": log,
+        "json": json_path,
+        "status": "internal error",
+        "message": (
+            "the process running it died (killed by the system, e.g. out of "
+            "memory, or a crash in a native library): run dynid "
+            f"{command} {log} alone to see why."
+        ),
+        "valid": None,
+        "condition_number": None,
+        "model": None,
+        "seconds": 0.0,
+        "stderr": [],
+    }
+
+
 def _run_on_dask(
-    scheduler: str, tasks: list[tuple], done: Callable[[int, dict[str, Any]], None]
+    scheduler: str,
+    tasks: list[tuple],
+    done: Callable[[int, dict[str, Any]], None],
+    function: Callable[..., dict[str, Any]] = run_one,
 ) -> None:
-    """Submits every task to the Dask scheduler and collects them as they finish."""
+    """Submits every task to the Dask scheduler and collects them as they finish.
+
+    A task that Dask gives up on (``KilledWorker``: its workers died) or whose
+    result does not come back fails its log alone (:func:`_died`'s item, the
+    error as message).
+    """
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
@@ -328,9 +370,18 @@ def _run_on_dask(
             f"fleet: cannot reach the Dask scheduler {scheduler}: {error}"
         ) from None
     try:
-        futures = [client.submit(run_one, *task, pure=False) for task in tasks]
+        futures = [client.submit(function, *task, pure=False) for task in tasks]
         index = {future.key: k for k, future in enumerate(futures)}
         for future in dask_completed(futures):
-            done(index[future.key], future.result())
+            k = index[future.key]
+            try:
+                item = future.result()
+            except Exception as error:  # lost by the cluster, not the log's doing
+                item = _died(*tasks[k])
+                item["message"] = (
+                    f"the cluster did not return its result: "
+                    f"{type(error).__name__}: {error}"
+                )
+            done(k, item)
     finally:
         client.close()

@@ -208,13 +208,34 @@ def test_stderr_capture_is_per_thread_and_restores_stderr(capsys):
 
 
 def _fake_run(command, options, log, json_path):
-    """A stand-in for run_one in the pool's workers: "slow" logs take a minute,
-    the others return at once."""
+    """A stand-in for run_one in the pool's workers: "crash" logs kill their
+    process, "slow" logs take a minute, the others return at once."""
+    import os
     import time
 
+    if "crash" in log:
+        os._exit(9)
     if "slow" in log:
         time.sleep(60)
     return {"log": log, "json": json_path, "status": "ok", "message": ""}
+
+
+def test_a_worker_that_dies_fails_its_log_alone():
+    """Found by a review: a worker killed (out of memory, a crash in native
+    code) broke the process pool: the fleet stopped with a BrokenProcessPool
+    traceback (exit 1), no summary, the other logs not done and the culprit not
+    named. The logs not done are run again, each alone: only the one whose
+    process dies fails."""
+    from drake_dynid.fleet import _run_local
+
+    logs = ["a.csv", "crash.csv", "b.csv", "c.csv", "d.csv"]
+    tasks = [("offline", {}, log, f"{log}.json") for log in logs]
+    results = {}
+    _run_local(tasks, 2, results.__setitem__, function=_fake_run)
+    assert sorted(results) == list(range(5))
+    statuses = {results[k]["log"]: results[k]["status"] for k in results}
+    assert statuses == {log: "ok" for log in logs} | {"crash.csv": "internal error"}
+    assert "process running it died" in results[1]["message"]
 
 
 def test_an_interrupt_stops_the_workers_at_once():
@@ -238,3 +259,28 @@ def test_an_interrupt_stops_the_workers_at_once():
     assert time.perf_counter() - start < 20
     time.sleep(0.5)
     assert multiprocessing.active_children() == []
+
+
+def _fails_on_bad(command, options, log, json_path):
+    if "bad" in log:
+        raise RuntimeError("the worker lost its task")
+    return {"log": log, "json": json_path, "status": "ok", "message": ""}
+
+
+def test_a_task_lost_on_the_dask_cluster_fails_its_log_alone(tmp_path):
+    """Found by a review: a task that Dask gives up on (KilledWorker after a
+    worker died, a result that cannot be unpickled) re-raised in dynid and
+    stopped the fleet with a traceback, the other logs' results lost."""
+    distributed = pytest.importorskip("distributed")
+    from drake_dynid.fleet import _run_on_dask
+
+    tasks = [("offline", {}, log, "x.json") for log in ("a", "bad", "b")]
+    results = {}
+    with distributed.LocalCluster(
+        processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        _run_on_dask(
+            cluster.scheduler_address, tasks, results.__setitem__, _fails_on_bad
+        )
+    assert [results[k]["status"] for k in range(3)] == ["ok", "internal error", "ok"]
+    assert "RuntimeError: the worker lost its task" in results[1]["message"]
