@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import csv
 import importlib
 import io
 import json
@@ -268,7 +269,50 @@ def run_fleet(
             done(index, run_one(*task))
     else:
         _run_local(tasks, local, done)
-    return [item for item in results if item is not None]
+    items = [item for item in results if item is not None]
+    _hint_split_recordings(command, items)
+    return items
+
+
+def _hint_split_recordings(command: str, items: list[dict[str, Any]]) -> None:
+    """Names, in a failed log's message, a recording split over two of the logs.
+
+    Two logs that both lack columns and share only their first (time) column
+    are most likely one recording's two files (positions and efforts apart, as
+    the TIAGo's): one ``dynid COMMAND A B`` run, not two logs of a fleet.
+    """
+    headers = [_header_cells(item["log"]) for item in items]
+    lacking = [
+        k
+        for k, item in enumerate(items)
+        if item["status"] == "bad input"
+        and "column(s)" in item["message"]
+        and len(headers[k]) > 1
+    ]
+    for k in lacking:
+        for j in lacking:
+            if j != k and set(headers[k]) & set(headers[j]) == {headers[k][0]}:
+                a, b = sorted((k, j))
+                items[k]["message"] = items[k]["message"].rstrip() + (
+                    f" A fleet's LOGs are each one recording in one file: if "
+                    f"{items[k]['log']} and {items[j]['log']} are one recording "
+                    "split over files (e.g. positions and efforts apart), they are "
+                    f"one run, dynid {command} {items[a]['log']} {items[b]['log']} "
+                    "..., not two logs of a fleet."
+                )
+                break
+
+
+def _header_cells(path: str) -> list[str]:
+    """The first non-blank row's cells of a CSV file ([] if it cannot be read)."""
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as stream:
+            for row in csv.reader(stream):
+                if any(cell.strip() for cell in row):
+                    return [cell.strip() for cell in row]
+    except (OSError, ValueError, csv.Error):
+        pass
+    return []
 
 
 def _run_local(

@@ -284,3 +284,36 @@ def test_a_task_lost_on_the_dask_cluster_fails_its_log_alone(tmp_path):
         )
     assert [results[k]["status"] for k in range(3)] == ["ok", "internal error", "ok"]
     assert "RuntimeError: the worker lost its task" in results[1]["message"]
+
+
+def test_a_recording_split_in_two_files_is_named_as_such(tmp_path, capsys):
+    """Found by a review: the TIAGo's positions and efforts (two files of one
+    recording) given to a fleet failed each with "no column(s) '- ..._effort'",
+    not saying that a fleet's LOGs are each one file and the two are one run."""
+    data = pathlib.Path(__file__).parent / "data" / "tiago"
+    position = str(data / "tiago_position_excerpt.csv")
+    effort = str(data / "tiago_effort_excerpt.csv")
+    joints = ",".join(["torso_lift_joint", *(f"arm_{k}_joint" for k in range(1, 8))])
+    argv = ["fleet", "offline", position, effort, "--urdf", "tiago_no_hand"]
+    drive = pathlib.Path(model_path("tiago_no_hand")).with_name("tiago.toml")
+    argv += ["--joints", joints, "--drive", str(drive)]
+    argv += ["--jobs", "1", "--quiet", "--out-dir", str(tmp_path / "out")]
+    assert cli.main(argv) == 2
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    for item, other in zip(summary, (effort, position), strict=True):
+        assert item["status"] == "bad input"
+        assert "no column(s)" in item["message"]
+        assert f"if {item['log']} and {other} are one recording" in item["message"]
+        assert f"dynid offline {position} {effort}" in item["message"]
+    assert "one recording split over files" in capsys.readouterr().err
+
+
+def test_a_log_of_other_joints_beside_a_good_one_gets_no_split_hint(logs, tmp_path):
+    other = tmp_path / "other.csv"
+    other.write_text("t,q_a,tau_a\n0,0,0\n")
+    argv = ["fleet", "offline", logs[0], str(other), "--urdf", URDF, "--jobs", "1"]
+    assert cli.main([*argv, "--quiet", "--out-dir", str(tmp_path / "o")]) == 2
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary[1]["status"] == "bad input"
+    assert "column(s)" in summary[1]["message"]
+    assert "one recording" not in summary[1]["message"]
