@@ -357,13 +357,11 @@ def _stopped_on_exit(pool: ProcessPoolExecutor) -> Iterator[ProcessPoolExecutor]
         yield pool
     except BaseException:
         processes = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:
             with contextlib.suppress(Exception):
                 process.terminate()
-        for process in processes:
-            with contextlib.suppress(Exception):
-                process.join(5)
+        # The pool, its workers gone, is broken: its thread ends at once.
+        pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown()
 
