@@ -281,14 +281,12 @@ def _hint_split_recordings(command: str, items: list[dict[str, Any]]) -> None:
     are most likely one recording's two files (positions and efforts apart, as
     the TIAGo's): one ``dynid COMMAND A B`` run, not two logs of a fleet.
     """
-    headers = [_header_cells(item["log"]) for item in items]
-    lacking = [
-        k
+    headers = {
+        k: _header_cells(item["log"])
         for k, item in enumerate(items)
-        if item["status"] == "bad input"
-        and "column(s)" in item["message"]
-        and len(headers[k]) > 1
-    ]
+        if item["status"] == "bad input" and "column(s)" in item["message"]
+    }
+    lacking = [k for k, header in headers.items() if len(header) > 1]
     for k in lacking:
         for j in lacking:
             if j != k and set(headers[k]) & set(headers[j]) == {headers[k][0]}:
