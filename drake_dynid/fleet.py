@@ -60,8 +60,10 @@ FLEET_COMMANDS = ("identify", "offline")
 def output_paths(logs: Sequence[str], out_dir: str | os.PathLike) -> list[str]:
     """One JSON path per log in ``out_dir``: ``<stem>.json``, ``<stem>-2.json``, ...
 
-    Every path is distinct (a log named ``log-2.csv`` beside two ``log.csv``
-    gets ``log-2-2.json``), and none is ``summary.json``, the fleet's summary.
+    Every path is distinct, also on a case-insensitive file system (a log named
+    ``log-2.csv`` beside two ``log.csv`` gets ``log-2-2.json``; ``a/Log.csv``
+    beside ``b/log.csv`` gets ``log-2.json``), and none is ``summary.json``, the
+    fleet's summary.
 
     Raises:
         ValueError: an output path is one of the logs (never overwrite an input).
@@ -72,10 +74,10 @@ def output_paths(logs: Sequence[str], out_dir: str | os.PathLike) -> list[str]:
     for log in logs:
         stem = Path(log).stem or "log"
         name, k = stem, 1
-        while name in taken:  # a later log's own name is never taken over
+        while name.casefold() in taken:  # a later log's own name is kept
             k += 1
             name = f"{stem}-{k}"
-        taken.add(name)
+        taken.add(name.casefold())
         out.append(str(folder / f"{name}.json"))
     inputs = {Path(log).resolve() for log in logs}
     for path in out:

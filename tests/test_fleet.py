@@ -130,6 +130,9 @@ def test_output_names_never_collide_nor_take_the_summary():
     paths = output_paths(["a/log.csv", "b/log.csv", "log-2.csv", "summary.csv"], "o")
     assert paths == ["o/log.json", "o/log-2.json", "o/log-2-2.json", "o/summary-2.json"]
     assert len(set(paths)) == 4
+    # One file on macOS and Windows (case-insensitive): a review.
+    paths = output_paths(["a/Log.csv", "b/log.csv", "SUMMARY.csv"], "o")
+    assert paths == ["o/Log.json", "o/log-2.json", "o/SUMMARY-2.json"]
 
 
 def test_out_dir_that_is_a_file_is_named(tmp_path, capsys):
