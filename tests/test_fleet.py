@@ -320,3 +320,29 @@ def test_a_log_of_other_joints_beside_a_good_one_gets_no_split_hint(logs, tmp_pa
     assert summary[1]["status"] == "bad input"
     assert "column(s)" in summary[1]["message"]
     assert "one recording" not in summary[1]["message"]
+
+
+def test_an_internal_error_of_a_log_exits_1(tmp_path, monkeypatch, capsys):
+    """A review: a log that hit a bug made the fleet exit 2, the code of bad
+    input; docs/CONVENTIONS.md: a bug exits 1."""
+    import drake_dynid.fleet
+    from drake_dynid import cli
+
+    def fake(command, options, logs, out_dir, **kwargs):
+        pathlib.Path(out_dir).mkdir(parents=True, exist_ok=True)
+        paths = [f"{out_dir}/a.json", f"{out_dir}/b.json"]
+        return [
+            {"log": logs[0], "json": paths[0], "status": "ok", "message": "",
+             "seconds": 0.1, "valid": True, "condition_number": 1.0},
+            {"log": logs[1], "json": paths[1], "status": "internal error",
+             "message": "Traceback: boom", "seconds": 0.1},
+        ]  # fmt: skip
+
+    monkeypatch.setattr(drake_dynid.fleet, "run_fleet", fake)
+    logs = [str(tmp_path / "a.csv"), str(tmp_path / "b.csv")]
+    for log in logs:
+        pathlib.Path(log).write_text("t,q_joint1\n0,0\n")
+    argv = ["fleet", "offline", *logs, "--urdf", "planar_2r", "--quiet"]
+    assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert "1 of 2 logs met an internal error (first: " in err

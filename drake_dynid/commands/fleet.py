@@ -148,7 +148,10 @@ def _check_out_dir(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Runs the command over the logs; prints the summary; exit 2 if a log failed."""
+    """Runs the command over the logs; prints the summary.
+
+    Exit 1 if a log met an internal error (a bug), else 2 if a log failed.
+    """
     import json
     from pathlib import Path
 
@@ -196,6 +199,15 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         print(f"wrote {summary}")
     failed = [item for item in items if item["status"] != "ok"]
+    bugs = [item for item in items if item["status"] == "internal error"]
+    if bugs:  # a bug exits 1 (docs/CONVENTIONS.md), its traceback printed above
+        print(
+            f"dynid fleet: error: {len(bugs)} of {len(items)} logs met an internal "
+            f"error (first: {bugs[0]['log']}; its traceback is above); "
+            f"{len(failed) - len(bugs)} failed on their input; see {summary}.",
+            file=sys.stderr,
+        )
+        return 1
     if failed:
         raise ValueError(
             f"{len(failed)} of {len(items)} logs failed (first: {failed[0]['log']}: "
