@@ -26,14 +26,16 @@ short window needs:
 * ``rows_from`` raw, ``jacobi_window`` 0.1 s: no filter bias on the nonlinear
   terms (noise-free, 10 of 10 parameters identified, median error 0.14 %;
   filtered rows: 8 of 10).
-* ``weighting`` frequency and ``uncertainty`` jackknife (the on-line
-  identifier's): the weighting halves the mass error against ordinary least
-  squares (0.11 % vs 0.21 %, centre of mass 1.2 mm vs 5.2 mm), and the jackknife
-  keeps err/σ p90 at 1.2-1.7 where Gautier's σ gives 2.3. It deletes one
-  modulating function at a time (:func:`payload_jackknife_groups`: 4 groups),
-  not a pair as the long-window identifier does: 2 groups make σ a
-  one-degree-of-freedom estimate (σ of the mass between 0.2 % and 5 % on three
-  noise seeds of one log).
+* ``weighting`` frequency and ``uncertainty`` sandwich, with the row noise
+  pooled across windows (``core.payload_noise``): the pool's row variances
+  and one level per equation from the window weigh the rows and give the
+  sandwich σ. A noise model of one window's 8 rows per equation fits the very
+  residuals it weighs (σ 0.3-0.8 times too small), and the jackknife that
+  covered it, one group per modulating function, has 4 groups (fewer than
+  ``core.online.MIN_JACKKNIFE_GROUPS``): it overstated the mass σ up to 40
+  times (UR5), 230 times apart between noise seeds. ``uncertainty`` jackknife
+  adds the jackknife only with at least 5 functions
+  (:func:`payload_jackknife_groups`).
 * ``update_period`` 50 ms.
 """
 
@@ -48,12 +50,19 @@ import numpy as np
 from drake_dynid.core import _validate as check
 from drake_dynid.core.identifier import (
     IdentifierState,
+    identifier_apply,
     identifier_init,
     identifier_update,
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
-from drake_dynid.core.online import OnlineSettings
+from drake_dynid.core.online import MIN_JACKKNIFE_GROUPS, OnlineSettings
 from drake_dynid.core.payload import eliminate_known
+from drake_dynid.core.payload_noise import (
+    PooledNoise,
+    pooled_noise_init,
+    pooled_solve,
+)
+from drake_dynid.core.weighted_lsq import with_jackknife
 
 __all__ = [
     "PAYLOAD_DEFAULTS",
@@ -77,7 +86,7 @@ PAYLOAD_DEFAULTS: dict[str, Any] = {
     "update_period": 0.05,
     "rows_from": "raw",
     "weighting": "frequency",
-    "uncertainty": "jackknife",
+    "uncertainty": "sandwich",
 }
 
 
@@ -129,9 +138,11 @@ def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSetti
 def payload_jackknife_groups(settings: OnlineSettings, m: int, bank: Any = None):
     """The payload solve's ``jackknife`` argument: one group per modulating function.
 
-    None unless ``settings.uncertainty`` is ``"jackknife"``; else the function of
-    every row, ``bank.row_functions(m)`` (module docstring: with few functions,
-    pairs leave too few groups).
+    None unless ``settings.uncertainty`` is ``"jackknife"`` and the bank has at
+    least ``core.online.MIN_JACKKNIFE_GROUPS`` functions (the default ℓ = 0..3
+    has 4: the jackknife's σ would be a 3-degree-of-freedom estimate, and
+    deleting ℓ = 0 deletes most of the gravity rows); else the function of every
+    row, ``bank.row_functions(m)``.
 
     Args:
         settings: the identifier's settings.
@@ -140,7 +151,10 @@ def payload_jackknife_groups(settings: OnlineSettings, m: int, bank: Any = None)
     """
     if settings.uncertainty != "jackknife":
         return None
-    return (settings.bank() if bank is None else bank).row_functions(m)
+    functions = (settings.bank() if bank is None else bank).row_functions(m)
+    if np.unique(functions).size < MIN_JACKKNIFE_GROUPS:
+        return None
+    return functions
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,10 +167,13 @@ class PayloadState:
             ``core.identifier.IdentifierState``).
         correlation: (p, p) correlation of θ̂'s errors at the last accepted solve,
             from (AᵀA)⁻¹ of the solve's columns (identity before the first).
+        pool: the rows' noise pooled across windows (``core.payload_noise``),
+            None before the first window (or with Gautier's σ).
     """
 
     estimate: IdentifierState
     correlation: np.ndarray
+    pool: PooledNoise | None = None
 
     @property
     def num_parameters(self) -> int:
@@ -208,10 +225,17 @@ def payload_update(
     """One solve of the payload identifier: the new state (the old is unchanged).
 
     ``A [θ; 1] = B`` (the bank's equations of ``PayloadRows``: p payload columns
-    and the known column last) becomes ``A[:, :p] θ = B - A[:, p]``, then
-    ``core.identifier.identifier_update`` (same arguments): accepted solves give
-    θ̂, σ and the errors' correlation (:func:`solve_correlation`); a window not
-    ready, rank deficient or ill-conditioned holds the last estimate.
+    and the known column last) becomes ``A[:, :p] θ = B - A[:, p]``. With
+    ``noise`` (the default ``uncertainty``), the solve is
+    ``core.payload_noise.pooled_solve``: the rows weighed by the noise pooled
+    across windows and one level per equation, the sandwich σ (docs/PAYLOAD.md
+    §3); the pool learns from every accepted window, and until it holds
+    ``core.payload_noise.MIN_POOLED_WINDOWS`` windows the estimate is not valid
+    (status ``WINDOW_NOT_READY``: the noise model has no data yet; θ̂ and σ
+    held). Without ``noise``: ``core.identifier.identifier_update`` (Gautier's
+    σ). Accepted solves give θ̂, σ and the errors' correlation
+    (:func:`solve_correlation`); a window not ready, rank deficient or
+    ill-conditioned holds the last estimate.
 
     Args:
         state: the current state.
@@ -219,11 +243,16 @@ def payload_update(
             (``A`` and ``B`` are not read otherwise; they may be None).
         A: (r, p + 1) the window's equations.
         B: (r,) right-hand side.
-        weighting: None, or ``(row_frequency, row_group)`` of the rows.
+        weighting: None (ordinary least squares), or ``(row_frequency,
+            row_group)`` of the rows: weighted (by the pool with ``noise``, else
+            ``core.weighted_lsq``'s frequency weights).
         max_condition: largest accepted scaled condition number.
         names: the p payload names (for the solver's messages).
-        noise: the rows' ``core.row_noise.RowNoise`` (honest σ) or None.
-        jackknife: None, or the (r,) jackknife group of every row.
+        noise: the rows' ``core.row_noise.RowNoise`` (pooled noise, sandwich σ)
+            or None (Gautier's σ).
+        jackknife: None, or the (r,) jackknife group of every row
+            (:func:`payload_jackknife_groups`): σ is then, per parameter, the
+            larger of the sandwich's and the jackknife's.
     """
     if not window_valid:
         estimate = identifier_update(state.estimate, False, None, None)
@@ -236,18 +265,46 @@ def payload_update(
             f"A must have {p + 1} columns (the payload's {p} and the known one); "
             f"got {a.shape[1] + 1}.",
         )
-    estimate = identifier_update(
-        state.estimate,
-        True,
+    if noise is None:
+        estimate = identifier_update(
+            state.estimate,
+            True,
+            a,
+            b,
+            weighting=weighting,
+            max_condition=max_condition,
+            names=names,
+            noise=None,
+            jackknife=jackknife,
+        )
+        correlation = state.correlation
+        if estimate.valid:
+            correlation = _frozen(solve_correlation(a))
+        return PayloadState(estimate, correlation, state.pool)
+    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+        estimate = identifier_update(state.estimate, False, None, None)
+        return dataclasses.replace(state, estimate=estimate)
+    pool = state.pool if state.pool is not None else pooled_noise_init(a.shape[0])
+    ready = pool.ready
+    solved = pooled_solve(
         a,
         b,
-        weighting=weighting,
+        pool,
+        noise,
+        weighted=weighting is not None,
         max_condition=max_condition,
         names=names,
-        noise=noise,
-        jackknife=jackknife,
     )
+    if not ready:
+        # The noise model has fewer than MIN_POOLED_WINDOWS windows: σ would be
+        # one window's guess; hold, not valid.
+        estimate = identifier_apply(state.estimate, False, None)
+        return PayloadState(estimate, state.correlation, solved.pool)
+    result = solved.result
+    if result.valid and jackknife is not None:
+        result = with_jackknife(result, a, b, jackknife, solved.weights)
+    estimate = identifier_apply(state.estimate, True, result)
     correlation = state.correlation
-    if estimate.valid:
-        correlation = _frozen(solve_correlation(a))
-    return PayloadState(estimate, correlation)
+    if estimate.valid and solved.correlation is not None:
+        correlation = _frozen(solved.correlation)
+    return PayloadState(estimate, correlation, solved.pool)

@@ -36,6 +36,7 @@ __all__ = [
     "solve_frequency_weighted_least_squares",
     "solve_window",
     "solve_windows",
+    "too_few_dof",
     "with_jackknife",
 ]
 
@@ -303,26 +304,37 @@ def solve_window(
     relative = noise_model_std(B - A @ result.theta, noise.frequency, noise.group)
     honest = honest_std(A, B, result.theta, weights, relative, noise, factor=reuse)
     if not honest.dof >= MIN_RESIDUAL_DOF:
-        nan = np.full(A.shape[1], np.nan)
-        nan.flags.writeable = False
-        return dataclasses.replace(
-            result,
-            theta=nan,
-            std=nan,
-            relative_std_percent=nan,
-            residual_std=np.nan,
-            valid=False,
-            reason=(
-                f"too few independent equations for an honest σ: the residual has "
-                f"{honest.dof:.3g} effective degrees of freedom (< "
-                f"{MIN_RESIDUAL_DOF:g}) for {A.shape[1]} parameters; use a longer "
-                "window or more modulating functions within the excitation band."
-            ),
-        )
+        return too_few_dof(result, honest.dof)
     result = dataclasses.replace(
         _with_std(result, honest.std), residual_std=honest.residual_std
     )
     return with_jackknife(result, A, B, jackknife, weights, factor=reuse)
+
+
+def too_few_dof(result: LeastSquaresResult, dof: float) -> LeastSquaresResult:
+    """``result`` made invalid: ``dof`` < ``core.row_noise.MIN_RESIDUAL_DOF``.
+
+    The residual's effective degrees of freedom cannot give an honest σ; the
+    reason says so and what to change.
+    """
+    from drake_dynid.core.row_noise import MIN_RESIDUAL_DOF
+
+    nan = np.full(result.theta.shape, np.nan)
+    nan.flags.writeable = False
+    return dataclasses.replace(
+        result,
+        theta=nan,
+        std=nan,
+        relative_std_percent=nan,
+        residual_std=np.nan,
+        valid=False,
+        reason=(
+            f"too few independent equations for an honest σ: the residual has "
+            f"{dof:.3g} effective degrees of freedom (< {MIN_RESIDUAL_DOF:g}) for "
+            f"{result.theta.size} parameters; use a longer window or more "
+            "modulating functions within the excitation band."
+        ),
+    )
 
 
 def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:

@@ -119,8 +119,13 @@ class SolverBlock:
         values: Sequence[np.ndarray],
         offset: float,
         solve: Any,
+        state_only: Sequence[str] = (),
     ) -> None:
-        """Ports ``A`` (r × columns), ``B``, ``window_valid``; state and outputs."""
+        """Ports ``A`` (r × columns), ``B``, ``window_valid``; state and outputs.
+
+        Every group of ``groups`` is a state output port, but those named in
+        ``state_only`` (internal state).
+        """
         system: Any = self
         self._a = system.DeclareVectorInputPort("A", self._r * columns)
         self._b = system.DeclareVectorInputPort("B", self._r)
@@ -133,6 +138,7 @@ class SolverBlock:
         self._outputs = {
             name: system.DeclareStateOutputPort(name, index)
             for name, index in self._groups.items()
+            if name not in state_only
         }
 
     @property

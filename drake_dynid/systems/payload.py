@@ -14,6 +14,7 @@ from pydrake.systems.framework import (
 )
 
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.payload_noise import PooledNoise, pooled_noise_init
 from drake_dynid.core.payload_step import PayloadState, payload_init, payload_update
 from drake_dynid.systems._solver_block import (
     ESTIMATE_GROUPS,
@@ -23,8 +24,10 @@ from drake_dynid.systems._solver_block import (
 
 __all__ = ["PayloadIdentifier"]
 
-# State groups in declaration order; each is also an output port of the same name.
-_GROUPS = (*ESTIMATE_GROUPS, "correlation")
+# State groups in declaration order; each is also an output port of the same name,
+# but the pooled row noise (core.payload_noise: P_i; N, count, refused).
+_POOL = ("noise_moments", "noise_counts")
+_GROUPS = (*ESTIMATE_GROUPS, "correlation", *_POOL)
 
 
 class PayloadIdentifier(SolverBlock, LeafSystem):
@@ -63,7 +66,9 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
 
     State: one discrete state group per output (theta, theta_std,
     condition_number, valid, unidentified, status, correlation), each exposed by
-    a state output port (no direct feedthrough). Double only: a plain Python
+    a state output port (no direct feedthrough), and the rows' noise pooled
+    across windows (``core.payload_noise.PooledNoise``: noise_moments (r),
+    noise_counts (3)), internal. Double only: a plain Python
     ``LeafSystem`` has no AutoDiffXd or symbolic scalar conversion.
     """
 
@@ -118,6 +123,7 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
             self._as_vectors(payload_init(self._p)),
             offset,
             self._Solve,
+            state_only=_POOL,
         )
 
     def get_output_port_correlation(self) -> OutputPort:
@@ -128,11 +134,22 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
         """The identifier's state in ``context`` (``core.payload_step``)."""
         p = self._p
         correlation = self._value(context, "correlation").reshape(p, p).copy()
-        return PayloadState(self._estimate(context), correlation)
+        weight, count, refused = self._value(context, "noise_counts")
+        pool = None
+        if count > 0:
+            moments = self._value(context, "noise_moments").copy()
+            moments.flags.writeable = False
+            pool = PooledNoise(moments, float(weight), int(count), int(refused))
+        return PayloadState(self._estimate(context), correlation, pool)
 
-    @staticmethod
-    def _as_vectors(state: PayloadState) -> tuple[np.ndarray, ...]:
-        return (*estimate_vectors(state.estimate), state.correlation.reshape(-1))
+    def _as_vectors(self, state: PayloadState) -> tuple[np.ndarray, ...]:
+        pool = state.pool if state.pool is not None else pooled_noise_init(self._r)
+        return (
+            *estimate_vectors(state.estimate),
+            state.correlation.reshape(-1),
+            pool.moments,
+            np.array([pool.weight, pool.count, pool.refused], dtype=float),
+        )
 
     def _Solve(self, context: Context, discrete_state: DiscreteValues) -> None:
         ready = self._window_valid.Eval(context)[0] > 0.5

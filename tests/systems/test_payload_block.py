@@ -8,6 +8,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from drake_dynid.core.identifier import Status
 from drake_dynid.core.payload import payload_parameters, payload_rows
+from drake_dynid.core.payload_noise import MIN_POOLED_WINDOWS
 from drake_dynid.core.payload_replay import replay_payload_core
 from drake_dynid.core.payload_step import payload_init, payload_settings, payload_update
 from drake_dynid.core.trajectory import random_fourier_trajectory
@@ -84,8 +85,8 @@ def test_two_simulators_on_one_chain_give_identical_logs(case):
     diagram = builder.Build()
     first, second = Simulator(diagram), Simulator(diagram)
     first.AdvanceTo(0.9)
-    second.AdvanceTo(1.6)
-    first.AdvanceTo(1.6)
+    second.AdvanceTo(1.8)  # the pooled noise is ready about 1.7 s (after the pick)
+    first.AdvanceTo(1.8)
     for sink in chain.logs.values():
         one, two = sink.FindLog(first.get_context()), sink.FindLog(second.get_context())
         np.testing.assert_array_equal(one.data(), two.data())
@@ -97,8 +98,12 @@ def test_block_state_follows_the_core_step():
     rng = np.random.default_rng(5)
     a = rng.normal(size=(30, 3))
     b = a[:, :2] @ np.array([0.5, -1.0]) + a[:, 2] + 0.01 * rng.normal(size=30)
-    block = PayloadIdentifier(2, 30, 1.0, names=("M", "MX"))
-    assert block.num_discrete_state_groups() == 7  # one per output
+    a = np.vstack([a, rng.normal(size=(2, 3))])
+    b = np.concatenate([b, a[30:, :2] @ np.array([0.5, -1.0]) + a[30:, 2]])
+    noise = row_noise_of(32)
+    block = PayloadIdentifier(2, 32, 1.0, names=("M", "MX"), row_noise=noise)
+    # One per output, and the pooled row noise (moments, counts).
+    assert block.num_discrete_state_groups() == 9
     context = block.CreateDefaultContext()
     block.get_input_port_A().FixValue(context, a.reshape(-1))
     block.get_input_port_B().FixValue(context, b)
@@ -107,13 +112,24 @@ def test_block_state_follows_the_core_step():
     assert initial.estimate.status is Status.WINDOW_NOT_READY
     np.testing.assert_array_equal(initial.estimate.theta, np.zeros(2))
     assert not block.HasAnyDirectFeedthrough()
-    context.SetDiscreteState(block.EvalUniquePeriodicDiscreteUpdate(context))
+    core = payload_init(2)
+    for _ in range(MIN_POOLED_WINDOWS + 1):
+        context.SetDiscreteState(block.EvalUniquePeriodicDiscreteUpdate(context))
+        core = payload_update(core, True, a, b, names=("M", "MX"), noise=noise)
     state = block.state(context)
-    core = payload_update(payload_init(2), True, a, b, names=("M", "MX"))
     np.testing.assert_array_equal(state.estimate.theta, core.estimate.theta)
     np.testing.assert_array_equal(state.estimate.std, core.estimate.std)
     np.testing.assert_array_equal(state.correlation, core.correlation)
+    np.testing.assert_array_equal(state.pool.moments, core.pool.moments)
+    assert state.pool.count == core.pool.count == MIN_POOLED_WINDOWS + 1
     assert state.estimate.status is Status.OK
+
+
+def row_noise_of(rows):
+    """A RowNoise of ``rows`` rows: 4 equations of the payload bank's 8 rows."""
+    from drake_dynid.core.row_noise import row_noise
+
+    return row_noise(payload_settings().on_grid(H).bank(), rows // 8)
 
 
 def test_ports_and_argument_checks():
