@@ -550,6 +550,12 @@ def main(argv=None) -> int:
         "--seeds7", type=int, default=10, help="noise seeds of the iiwa7 section"
     )
     parser.add_argument(
+        "--payload-seeds",
+        type=int,
+        default=16,
+        help="noise seeds of the payload section (16)",
+    )
+    parser.add_argument(
         "--power-seeds",
         type=int,
         default=200,
@@ -581,7 +587,9 @@ def main(argv=None) -> int:
     if args.robot in ("payload", "all"):  # issue 16 item 5
         import _accuracy_payload as _payload
 
-        payload = _payload.run(range(1 if args.quick else args.seeds7), args.quick)
+        payload = _payload.run(
+            range(1 if args.quick else args.payload_seeds), args.quick
+        )
         _payload.print_report(payload)
         report["payload"] = payload
     wall = time.perf_counter() - start
