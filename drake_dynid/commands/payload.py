@@ -156,7 +156,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument(
         "--uncertainty",
         choices=("jackknife", "sandwich", "gautier"),
-        help="standard deviations (jackknife)",
+        help="standard deviations (sandwich: the row noise pooled across windows)",
     )
     group.add_argument(
         "--rows-from", choices=("filtered", "raw"), help="model rows' signals (raw)"

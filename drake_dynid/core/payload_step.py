@@ -9,15 +9,15 @@ the status are ``core.identifier.identifier_update``'s. Both drivers call
 (``core.payload_replay``).
 
 Default settings (:data:`PAYLOAD_DEFAULTS`; docs/PAYLOAD.md §3; the numbers are
-benchmarks/_accuracy_payload.py's, iiwa7 with a 2 kg payload, 10 noise seeds): a
+benchmarks/_accuracy_payload.py's, iiwa7 with a 2 kg payload, 16 noise seeds): a
 short window, so that the estimate follows a pick within a second, and what a
 short window needs:
 
 * ``window`` 0.75 s: the mass stays within 5 % from 0.75 s after the pick
-  (T = 0.5 s: 0.55 s, with a 3 times larger error of the centre of mass;
+  (T = 0.5 s: 0.55 s, with a 4 times larger error of the centre of mass;
   T = 1 s: 0.9 s).
 * ``frequencies`` ℓ = 0..3: the motion is slow against 1/T; higher modulating
-  frequencies carry noise rather than motion (ℓ = 0..7: 1.5 times the mass error).
+  frequencies carry noise rather than motion (ℓ = 0..7: 1.8 times the mass error).
 * ``bank_time_step`` 2 ms: the known column (the whole arm's momentum and
   gravity) is about 1e3 times the payload's contribution, and a trapezoid over
   bank steps h errs by about (2πf·h)²/12 at the modulating frequency f, which the
