@@ -21,6 +21,7 @@ malformed arguments (shapes, types) raise.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -187,6 +188,14 @@ class _Factor:
     names: tuple[str, ...]
     R_inv: np.ndarray | None = None
     b_scale: float = 1.0  # B is divided by it in R_aug (no overflow)
+
+
+def _with_inverse(factor: _Factor) -> _Factor:
+    """``factor`` with R⁻¹ formed (once, shared by X̂, σ and the jackknife)."""
+    if factor.R_inv is not None:
+        return factor
+    p = factor.norms.size
+    return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))
 
 
 def _decompose(

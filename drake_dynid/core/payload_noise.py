@@ -63,7 +63,13 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
-from drake_dynid.core.lsq import LeastSquaresResult, _decompose, _estimate, _Factor
+from drake_dynid.core.lsq import (
+    LeastSquaresResult,
+    _decompose,
+    _estimate,
+    _Factor,
+    _with_inverse,
+)
 from drake_dynid.core.row_noise import (
     MIN_RESIDUAL_DOF,
     RowNoise,
@@ -182,13 +188,6 @@ def _leverage(factor: _Factor, weighted: np.ndarray) -> np.ndarray:
     """h_i, the diagonal of the hat matrix of the weighted solve (r,)."""
     q = (weighted / factor.norms) @ factor.R_inv
     return np.einsum("ij,ij->i", q, q)
-
-
-def _with_inverse(factor: _Factor) -> _Factor:
-    if factor.R_inv is not None:
-        return factor
-    p = factor.norms.size
-    return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))
 
 
 def pooled_solve(

@@ -27,7 +27,7 @@ from drake_dynid.core.lsq import (
     LeastSquaresResult,
     _decompose,
     _estimate,
-    _Factor,
+    _with_inverse,
     solve_least_squares,
 )
 
@@ -366,14 +366,6 @@ def with_jackknife(
 
     spread = jackknife_std(A, B, groups, weights=weights, factor=factor)
     return _with_std(result, np.fmax(result.std, spread))
-
-
-def _with_inverse(factor: _Factor) -> _Factor:
-    """``factor`` with R⁻¹ formed (once, shared by X̂, σ and the jackknife)."""
-    if factor.R_inv is not None:
-        return factor
-    p = factor.norms.size
-    return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))
 
 
 def _stacked_factor(
