@@ -411,6 +411,11 @@ def _run_on_dask(
         raise OSError(
             f"fleet: cannot reach the Dask scheduler {scheduler}: {error}"
         ) from None
+    except (ValueError, TypeError) as error:  # "missing port number in address"
+        raise ValueError(
+            f"fleet: --scheduler {scheduler!r} is not a Dask scheduler address "
+            f"(tcp://HOST:PORT): {error}"
+        ) from None
     try:
         futures = [client.submit(function, *task, pure=False) for task in tasks]
         index = {future.key: k for k, future in enumerate(futures)}

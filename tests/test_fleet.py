@@ -346,3 +346,18 @@ def test_an_internal_error_of_a_log_exits_1(tmp_path, monkeypatch, capsys):
     assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert "1 of 2 logs met an internal error (first: " in err
+
+
+def test_a_bad_scheduler_address_names_the_option(tmp_path, capsys):
+    """A review: --scheduler nonsense said only 'missing port number in address'."""
+    pytest.importorskip("distributed")
+    from drake_dynid import cli
+
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_joint1,q_joint2,tau_joint1,tau_joint2\n0,0,0,0,0\n")
+    argv = ["fleet", "offline", str(log), "--urdf", "planar_2r"]
+    argv += ["--out-dir", str(tmp_path / "out"), "--scheduler", "nonsense"]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--scheduler 'nonsense' is not a Dask scheduler address" in err
+    assert "Traceback" not in err
