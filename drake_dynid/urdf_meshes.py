@@ -19,11 +19,8 @@ Meshcat replay) reads them:
 
 from __future__ import annotations
 
-import atexit
 import os
 import re
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -107,6 +104,10 @@ def _obj_of(stl: Path) -> Path:
     if key in _CACHE:
         return _CACHE[key]
     if not _FOLDER:
+        import atexit  # here: not on the start-up path of the commands
+        import shutil
+        import tempfile
+
         folder = Path(tempfile.mkdtemp(prefix="drake_dynid_meshes_"))
         atexit.register(shutil.rmtree, folder, True)
         _FOLDER.append(folder)
