@@ -451,17 +451,26 @@ def stiff_coulomb(
     named = ratio > STIFF_COULOMB
     if speed is not None:
         named &= jump > 0.5 * np.asarray(speed, dtype=float)
+    prismatic = {
+        plant.get_joint(i).velocity_start()
+        for i in plant.GetJointIndices()
+        if plant.get_joint(i).num_velocities() == 1
+        and "prismatic" in plant.get_joint(i).type_name()
+    }
     out = {}
     for j in np.flatnonzero(named):
         stable = h * STIFF_COULOMB / ratio[j]
         if log_step:  # a step that divides the log's period, written exactly
             stable = _dividing_step(log_step, stable)
+        force, inertia, speed_unit = (
+            ("N", "kg", "m/s") if j in prismatic else ("N·m", "kg·m²", "rad/s")
+        )
         out[int(j)] = (
-            f"its Coulomb friction FC = {coulomb[j]:.3g} on an inertia as small as "
-            f"{1.0 / mobility[j]:.2g} is too stiff for the {h:g} s step with "
-            f"tanh(v/{width:g}) (h·FC/(ε·inertia) = {ratio[j]:.3g} > "
-            f"{STIFF_COULOMB:g}): the simulated velocity chatters at reversals, by "
-            f"up to {jump[j]:.2g} per step; "
+            f"its Coulomb friction FC = {coulomb[j]:.3g} {force} on an inertia as "
+            f"small as {1.0 / mobility[j]:.2g} {inertia} is too stiff for the "
+            f"{h:g} s step with tanh(v/{width:g}) (h·FC/(ε·inertia) = "
+            f"{ratio[j]:.3g} > {STIFF_COULOMB:g}): the simulated velocity chatters "
+            f"at reversals, by up to {jump[j]:.2g} {speed_unit} per step; "
             f"simulate with --time-step {stable:.10g} (slow) or less, or "
             "without Coulomb friction (--friction viscous)"
         )

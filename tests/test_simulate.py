@@ -420,3 +420,44 @@ def test_a_joint_damped_far_above_its_inertia_tracks(tmp_path):
     want = simulate_experiment(model_path("planar_2r"), _sine(), limits, settings)
     got = simulate_experiment(str(urdf), _sine(), limits, settings)
     assert np.all(got.max_tracking_error <= 1.5 * want.max_tracking_error + 1e-5)
+
+
+def test_the_stiff_coulomb_message_gives_its_units(tmp_path):
+    """Found by a review (xArm7's joint 7, Unitree Z1's gripper): the message read
+    "FC = 1 on an inertia as small as 0.00014 ... chatters at reversals, by up to
+    7.4 per step", without units; a prismatic joint's are N, kg and m/s."""
+    import numpy as np
+
+    from drake_dynid.experiment import stiff_coulomb
+    from drake_dynid.experiment_drive import simulated_drive_of, truth_model
+    from drake_dynid.plants import model_path
+    from drake_dynid.urdf import load_plant
+
+    def named(urdf, n):
+        drive = simulated_drive_of(truth_model(urdf, ("viscous", "coulomb")), 0.01)
+        plant = load_plant(urdf, 1e-3)
+        context = plant.CreateDefaultContext()
+        return stiff_coulomb(plant, context, drive, np.zeros((1, n)), 1e-3)
+
+    wrist = named(model_path("ur5"), 6)[5]
+    assert "FC = 0.3 N·m" in wrist and "kg·m² is too stiff" in wrist
+    assert "rad/s per step" in wrist
+    slider = tmp_path / "slider.urdf"
+    slider.write_text(
+        """<robot name="slider">
+  <link name="base"/>
+  <link name="carriage">
+    <inertial><mass value="0.01"/>
+      <inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="rail" type="prismatic">
+    <parent link="base"/><child link="carriage"/><axis xyz="1 0 0"/>
+    <limit lower="-0.5" upper="0.5" effort="10" velocity="1"/>
+    <dynamics damping="0.1" friction="0.5"/>
+  </joint>
+</robot>
+"""
+    )
+    rail = named(slider, 1)[0]
+    assert "FC = 0.5 N on an inertia as small as 0.01 kg is" in rail
+    assert "m/s per step" in rail and "rad" not in rail
