@@ -171,3 +171,34 @@ def test_the_untransmitted_note_names_a_joint_the_drive_file_gives_no_motor(
     err = capsys.readouterr().err
     assert "1 joint without a (simple) <transmission>" in err
     assert "treated as actuated" in err and ": j1" in err
+
+
+def test_a_params_file_validates_as_the_urdf_a_priori_model(tmp_path, capsys):
+    """Found by a review (the Unitree Z1's `dynid params --json` validated on a
+    log): the URDF's values were labelled "estimate: fit" (and "fit" in the
+    JSON), as if identified; --compare-urdf calls them "URDF a-priori"."""
+    import numpy as np
+
+    from drake_dynid.logs import write_log
+    from drake_dynid.plants import RobotModel, model_path
+
+    urdf = str(model_path("planar_2r"))
+    params = tmp_path / "p.json"
+    assert cli.main(["params", urdf, "--json", str(params)]) == 0
+    robot = RobotModel.from_urdf(urdf)
+    t = 0.01 * np.arange(3000)
+    q = np.column_stack([np.sin(0.5 * t), 0.8 * np.sin(0.3 * t + 1.0)])
+    v = np.column_stack([0.5 * np.cos(0.5 * t), 0.24 * np.cos(0.3 * t + 1.0)])
+    a = np.column_stack([-0.25 * np.sin(0.5 * t), -0.072 * np.sin(0.3 * t + 1.0)])
+    log = tmp_path / "log.csv"
+    write_log(
+        log, t, q, robot.idim_rows(q, v, a) @ robot.base_values, robot.joint_names
+    )
+    capsys.readouterr()
+    out = tmp_path / "v.json"
+    argv = ["validate", str(log), "--urdf", urdf, "--params", str(params)]
+    assert cli.main([*argv, "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "p.json (URDF a-priori, 8 base parameters)" in printed
+    assert "estimate: URDF a-priori" in printed and "estimate: fit" not in printed
+    assert list(json.loads(out.read_text())["estimates"]) == ["URDF a-priori"]

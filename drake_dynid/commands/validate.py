@@ -450,6 +450,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
+    from drake_dynid.commands._model import APRIORI_LABEL
     from drake_dynid.commands._report import write_json
     from drake_dynid.commands._results import results_robot, results_sign
     from drake_dynid.validation import read_estimates, read_results
@@ -462,7 +463,10 @@ def run(args: argparse.Namespace) -> int:
     document = read_results(args.params)
     robot = results_robot(args, document)
     estimates = read_estimates(document, robot, f"results file {args.params}")
-    model = str(document.get("model", "fit"))
+    # A `dynid params --json` file (or a simulated log's truth) holds the URDF's
+    # values, no "model": they are the a-priori model, not a fit.
+    default = APRIORI_LABEL if "standard_parameters" in document else "fit"
+    model = str(document.get("model", default))
     labels = {"fit": model, "physical": "physical"}
     estimates = {labels[k]: v for k, v in estimates.items()}
     log = read_robot_log(
