@@ -343,3 +343,32 @@ def test_a_design_worse_than_its_random_start_is_said(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "the design is worse conditioned than the random trajectory" in err
     assert "--iterations 10" in err
+
+
+def test_the_dense_grid_beyond_the_margins_is_said():
+    """Found by a review (the example-robot-data xArm7, default margins): the
+    effort is constrained on the optimisation grid only, and between its samples
+    joint2 reached 80.07 % of its limit and the clearance 0.00982 m (margins 20 %
+    and 0.01 m); the 4x denser check printed "80.1" and 0.00982 m silently."""
+    from types import SimpleNamespace
+
+    from drake_dynid.commands.excite import between_samples
+    from drake_dynid.core.joint_limits import Margins
+
+    names = ["joint1", "joint2", "joint3"]
+
+    def said(effort, clearance, margins=None):
+        design = SimpleNamespace(usage={"effort": effort}, clearance=clearance)
+        return between_samples(design, names, margins or Margins())
+
+    assert said([0.3, 0.80003, 0.5], 0.0101) is None  # the optimiser's tolerance
+    assert said([0.3, 0.5, 0.5], float("inf")) is None  # no collision geometry
+    note = said([0.3, 0.80069, 0.5], 0.00982)
+    assert note.startswith("note: ")
+    assert "joint2 reaches 80.07 % of its limit (--margin effort=0.2 keeps 80" in note
+    assert "clearance falls to 0.00982 m (--margin collision=0.01 m)" in note
+    assert "joint1" not in note and "the limits themselves hold" in note
+    warning = said([1.003, 0.5, 0.5], 0.001, Margins(effort=0.0))
+    assert warning.startswith("warning: ") and "joint1 reaches 100.30 %" in warning
+    assert "the limits themselves are exceeded; raise --margin" in warning
+    assert said([0.5, 0.5, 0.5], -0.001, Margins(collision=0.0)).startswith("warning")
