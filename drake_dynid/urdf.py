@@ -403,7 +403,9 @@ def _parse(
             text = _strip_geometry(source, file.resolve().parent, keep_collision=keep)
             if stl:
                 try:
-                    text = stl_collisions_as_obj(text, parser.package_map())
+                    text = stl_collisions_as_obj(
+                        text, parser.package_map(), visual=geometry is True
+                    )
                 except ValueError as error:
                     raise MissingFileError(
                         f"{owner}: {file}: {error}", str(error).rstrip(".")

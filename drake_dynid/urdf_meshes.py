@@ -30,6 +30,7 @@ __all__ = ["add_ancestor_packages", "read_stl", "stl_collisions_as_obj"]
 
 _PACKAGE = re.compile(r"package://([^/\"'\s]+)/")
 _COLLISION = re.compile(r"<collision\b(?:[^>]*/>|.*?</collision\s*>)", re.S)
+_VISUAL_OR_COLLISION = re.compile(r"<(visual|collision)\b(?:[^>]*/>|.*?</\1\s*>)", re.S)
 _MESH_FILE = re.compile(r"""(<mesh\b[^>]*?\bfilename\s*=\s*)(["'])([^"']+)\2""", re.S)
 
 
@@ -138,11 +139,13 @@ def _resolved(filename: str, package_map: Any) -> Path | None:
     return Path(filename)
 
 
-def stl_collisions_as_obj(text: str, package_map: Any) -> str:
+def stl_collisions_as_obj(text: str, package_map: Any, visual: bool = False) -> str:
     """The URDF text with each ``<collision>`` STL mesh replaced by its OBJ copy.
 
     Meshes that cannot be resolved or found are left as they are (Drake's parser
-    then names them). ``<visual>`` meshes are not touched.
+    then names them). ``<visual>`` meshes are not touched unless ``visual``:
+    Drake's Meshcat shows .obj, .gltf and .dae meshes only (an STL visual, the
+    xArm7's, is "not visualized": the replay drew an empty scene).
 
     Raises:
         ValueError: an STL collision mesh that holds no triangles (its path named).
@@ -159,4 +162,5 @@ def stl_collisions_as_obj(text: str, package_map: Any) -> str:
         uri = f"file://{obj.resolve().as_posix()}"  # Drake takes URIs in a string
         return f"{match.group(1)}{match.group(2)}{uri}{match.group(2)}"
 
-    return _COLLISION.sub(lambda m: _MESH_FILE.sub(mesh, m.group(0)), text)
+    elements = _VISUAL_OR_COLLISION if visual else _COLLISION
+    return elements.sub(lambda m: _MESH_FILE.sub(mesh, m.group(0)), text)

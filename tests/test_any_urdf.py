@@ -491,3 +491,34 @@ def test_a_binary_stl_with_trailing_padding_is_read(tmp_path):
     path = tmp_path / "padded.stl"
     path.write_bytes(_binary_stl(_TETRAHEDRON) + b"\0\0\0\0")
     np.testing.assert_allclose(read_stl(path), _TETRAHEDRON, rtol=1e-7)
+
+
+def test_an_stl_visual_mesh_is_shown_by_meshcat(tmp_path):
+    """Found by a review (the example-robot-data xArm7, STL visuals): Drake's
+    Meshcat shows .obj, .gltf and .dae meshes only, so `dynid replay` and
+    `simulate --meshcat` of the xArm7 drew an empty scene (Drake: "will not be
+    visualized"), with no note and no inertia ellipsoids. The STL visual meshes
+    are loaded through their OBJ copy, as the collision ones, with their scale."""
+    from pydrake.geometry import Role
+
+    path = _one_collision_mesh(tmp_path, "m.stl", _binary_stl(_TETRAHEDRON))
+    text = path.read_text().replace(
+        "<collision><geometry>",
+        '<visual><geometry><mesh filename="meshes/m.stl" '
+        'scale="0.001 0.001 0.001"/></geometry></visual><collision><geometry>',
+    )
+    path.write_text(text)
+    builder = DiagramBuilder()
+    plant = load_plant(path, builder=builder, geometry=True)
+    scene_graph = next(s for s in builder.GetSystems() if s.get_name() == "scene_graph")
+    inspector = scene_graph.model_inspector()
+    link1 = plant.GetBodyByName("link1")
+    for role, scale in ((Role.kIllustration, 0.001), (Role.kProximity, 1.0)):
+        (geometry,) = [
+            g
+            for g in inspector.GetGeometries(plant.GetBodyFrameIdOrThrow(link1.index()))
+            if inspector.GetProperties(g, role) is not None
+        ]
+        shape = inspector.GetShape(geometry)
+        assert shape.extension() == ".obj", role
+        assert shape.scale3()[0] == pytest.approx(scale)
