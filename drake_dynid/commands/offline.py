@@ -135,7 +135,10 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         print()
         print(f"condition number: {result.condition_number:.4g}")
-        print(f"residual σ: {result.residual_std:.4g}")
+        print(
+            f"residual σ: {result.residual_std:.4g}"
+            + (" (weighted: in units of each joint's σ_j)" if args.weighted else "")
+        )
         if args.split is not None:
             print(f"fitted on the first {100 * args.split:g} % of {args.log}")
     joint_sigma = _joint_noise(result)

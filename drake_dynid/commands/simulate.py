@@ -305,7 +305,7 @@ def run(args: argparse.Namespace) -> int:
     say(f"robot: {args.urdf}; trajectory: {args.trajectory}")
     say(
         f"simulated {log.t[-1]:g} s at {1.0 / args.time_step:g} Hz in {elapsed:.1f} s "
-        f"({log.t[-1] / elapsed:.1f}× real time); friction: "
+        f"({_speed(log.t[-1] / elapsed)}× real time); friction: "
         f"{', '.join(friction) or 'none'}"
     )
     if robot.drive is not None:
@@ -400,3 +400,11 @@ def _replay(args, log, robot, html, say) -> None:
         print("Meshcat: serving the live page; press Enter (or Ctrl-C) to exit")
         with contextlib.suppress(EOFError, KeyboardInterrupt):
             input()
+
+
+def _speed(ratio: float) -> str:
+    """A real-time ratio: one decimal, or two significant digits below 1.
+
+    A 5 µs step simulates at 0.04× real time, which one decimal printed as 0.0.
+    """
+    return f"{ratio:.1f}" if ratio >= 1.0 else f"{ratio:.2g}"
