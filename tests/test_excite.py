@@ -217,6 +217,9 @@ def test_cli_excite_writes_the_trajectory_and_report(tmp_path, capsys):
     np.testing.assert_allclose(sampled.v, v, atol=1e-12)
     document = json.loads(coefficients.read_text())
     assert document["condition_number"] < document["baseline_condition_number"]
+    # No acceleration limit: no usage (a review: it read 0.0, as if unused).
+    assert document["usage"]["acceleration"] == [None] * 6
+    assert all(0.0 < u <= 1.0 for u in document["usage"]["velocity"])
     # Periodic: the trajectory repeats after 1/f0.
     later = trajectory.evaluate(sampled.t[:50] + 4.0)[0]
     np.testing.assert_allclose(later, sampled.q[:50], atol=1e-9)

@@ -509,7 +509,8 @@ def _json_extra(args, robot, limits, margins, design, report) -> dict:
             }
             for j, name in enumerate(limits.joint_names)
         },
-        "usage": {k: v.tolist() for k, v in design.usage.items()},
+        # A joint without a limit of that kind (acceleration, usually): null.
+        "usage": {k: _usage(limits, k, v) for k, v in design.usage.items()},
         "predicted": [
             {
                 "name": name,
@@ -567,3 +568,12 @@ def _plot(path, robot, limits, design, report) -> None:
     figure.suptitle(f"exciting trajectory, cond = {design.condition_number:.3g}")
     figure.savefig(path, dpi=110)
     plt.close(figure)
+
+
+def _usage(limits: Any, kind: str, values: Any) -> list[float | None]:
+    """The usage of ``kind`` per joint, None where the joint has no such limit."""
+    bound = getattr(limits, kind, None)
+    return [
+        None if bound is not None and not math.isfinite(float(bound[j])) else float(u)
+        for j, u in enumerate(values)
+    ]
