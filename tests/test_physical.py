@@ -346,3 +346,19 @@ def test_the_box_grows_only_for_an_estimate_in_another_unit():
     theta[0] *= 1e6  # one wild parameter
     assert _unit_scale(robot, theta) == 1.0
     assert _unit_scale(robot, 1e4 * robot.base_values) == pytest.approx(1e4)
+
+
+def test_an_impossible_estimate_names_the_physical_option(capsys):
+    """A review: the 'physically impossible' line did not say what to do."""
+    from drake_dynid.commands._model import consistency
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    theta = np.array(robot.base_values, dtype=float)
+    theta[list(robot.base_names).index("FV1")] = -0.1
+    entry = consistency(robot, theta, False, "the estimate", hint=True)
+    out = capsys.readouterr().out
+    assert entry["consistent"] is False and "FV1" in entry["negative"]
+    assert "physically impossible" in out and "--physical gives the closest" in out
+    consistency(robot, theta, False, "the estimate", hint=False)
+    assert "--physical" not in capsys.readouterr().out

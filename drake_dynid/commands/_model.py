@@ -95,8 +95,13 @@ def _parameters(robot: Any, names, theta) -> list[dict[str, Any]]:
     ]
 
 
-def consistency(robot: Any, theta, quiet: bool, what: str) -> dict[str, Any]:
-    """Prints whether θ is physically consistent; returns the JSON entry."""
+def consistency(
+    robot: Any, theta, quiet: bool, what: str, hint: bool = False
+) -> dict[str, Any]:
+    """Prints whether θ is physically consistent; returns the JSON entry.
+
+    ``hint``: an impossible θ's line names ``--physical`` (not asked for).
+    """
     from drake_dynid.physical import check_physical
 
     if not np.all(np.isfinite(theta)):
@@ -111,7 +116,13 @@ def consistency(robot: Any, theta, quiet: bool, what: str) -> dict[str, Any]:
             print(f"physical check of {what}: {summary}")
         return {"consistent": None, "summary": summary}
     if not quiet:
-        print(f"physical check of {what}: {check.summary()}")
+        fix = (
+            " --physical gives the closest consistent estimate (and --urdf-out "
+            "writes it)."
+            if hint and not check.consistent
+            else ""
+        )
+        print(f"physical check of {what}: {check.summary()}{fix}")
     return {
         "consistent": bool(check.consistent),
         "negative": list(check.negative),
@@ -228,7 +239,7 @@ def finish_offline(
     if not args.quiet:
         print()
     document["physical_check"] = consistency(
-        robot, result.theta, args.quiet, "the estimate"
+        robot, result.theta, args.quiet, "the estimate", not wants_physical(args)
     )
     estimates: dict[str, np.ndarray] = {result.model: result.theta}
     if wants_physical(args):
@@ -364,7 +375,7 @@ def finish_identify(
     if not args.quiet:
         print()
     document["physical_check"] = consistency(
-        robot, theta, args.quiet, "the final estimate"
+        robot, theta, args.quiet, "the final estimate", not wants_physical(args)
     )
     estimates = dict(estimates)
     if wants_physical(args) and fit is not None and covariance is not None:
