@@ -30,8 +30,20 @@ noise is learned).
    ``κ0_j² = Σ_j ρ_i²/v_i / Σ_j (1 - h_i)``, clipped to [0.1, 100] (one number per
    equation from its 8 rows: a joint passing zero velocity in this window is
    noisier than the pool's average);
-2. θ̂ = argmin ‖W (B - A θ)‖, ``W_i = 1/√(v_i κ0_j²)`` (``weighting`` None:
-   W = 1, ordinary least squares);
+2. θ̂ = argmin ‖W (B - A θ)‖, ``W_i = √(λ_ν / (v_i κ0_j²))`` (``weighting``
+   None: W = 1, ordinary least squares), with the **dilution factor** λ_ν of
+   the rows of modulating frequency ν (:func:`dilution`)::
+
+       S_ν = Σ_{i: ν_i = ν} K_i² / Σ_{i: ν_i = ν} v_i,   λ_ν = S_ν² / (S_ν² + S₀²)
+
+   (K: the known column, the arm's own rows [unit of B]; S₀ =
+   :data:`DILUTION_SNR`). The payload's columns carry the noise of the velocity
+   estimate as the known column does (errors in variables): where the arm's
+   motion at ν is within S₀ of the rows' noise power (a slow arm's highest ν),
+   A's own noise correlates with the residual and biases θ̂ beyond its σ
+   (on the slow iiwa, the first moments' error with A's noise was twice that
+   with the same rows on noise-free A). λ leaves the frequencies that carry
+   the motion (S_ν ≫ S₀) as they were;
 3. the sandwich covariance (docs/MATH.md §4) with the pooled rows' covariance and
    a per-equation scale taken from this window's residuals, never below the
    pool's::
@@ -47,9 +59,9 @@ Before :data:`MIN_POOLED_WINDOWS` windows are pooled the estimate is not valid
 (``core.payload_step.payload_update``: the noise model has no data yet).
 
 Measured (benchmarks/_accuracy_payload.py, 16 noise seeds, all parameters):
-err/σ p90 0.7-2.5 and the seeds' σ within a factor 1.5-3.6 of each other, where
+err/σ p90 0.7-2.0 and the seeds' σ within a factor 1.2-6.8 of each other, where
 the one-window model with the 4-group jackknife gave σ/RMS error up to 42 (the
-UR5's mass) and a σ spread up to 230.
+UR5's mass) and a σ spread up to 230 (docs/PAYLOAD.md §3).
 
 Pure numpy; the state is a :class:`PooledNoise` (immutable).
 """
@@ -78,6 +90,7 @@ from drake_dynid.core.row_noise import (
 )
 
 __all__ = [
+    "DILUTION_SNR",
     "MIN_POOLED_WINDOWS",
     "POOL_CLIP",
     "POOL_GATE",
@@ -85,6 +98,7 @@ __all__ = [
     "POOL_MEMORY",
     "PooledNoise",
     "PooledSolve",
+    "dilution",
     "pooled_noise_init",
     "pooled_solve",
     "pooled_variance",
@@ -115,6 +129,14 @@ POOL_GATE = 4.0
 POOL_LOCK = 30
 
 _LEVEL_RANGE = (0.1, 100.0)
+
+#: S₀ of the dilution factor λ_ν = S_ν²/(S_ν² + S₀²) (module docstring, step 2):
+#: the power ratio of the arm's rows to their noise below which a modulating
+#: frequency is weighed down (benchmarks/_accuracy_payload.py, 16 seeds: 300
+#: takes the slow iiwa's err/σ p90 from 2.66 to 2.02 and its errors down
+#: 10-15 %, the UR5's mass p90 from 2.91 to 2.29; 1000 also weighs down the fast
+#: iiwa's ν = 4).
+DILUTION_SNR = 300.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -184,6 +206,29 @@ def pooled_variance(pool: PooledNoise, noise: RowNoise) -> np.ndarray:
     return std * std
 
 
+def dilution(known: Any, variance: Any, frequency: Any) -> np.ndarray:
+    """λ (r,), the dilution factor of every row (module docstring, step 2).
+
+    Args:
+        known: (r,) the window's known column K (the arm's rows) [unit of B].
+        variance: (r,) the rows' modelled noise variances v [unit of B²].
+        frequency: (r,) the rows' modulating frequency index ν.
+
+    Returns:
+        λ_ν = S_ν²/(S_ν² + S₀²) of each row's ν, S_ν = Σ K_i²/Σ v_i over the
+        rows of that ν (all equations), S₀ = :data:`DILUTION_SNR`.
+    """
+    known = np.asarray(known, dtype=float)
+    _, index = np.unique(np.asarray(frequency), return_inverse=True)
+    index = index.reshape(-1)
+    power = np.bincount(index, known * known)
+    noise = np.bincount(index, np.asarray(variance, dtype=float))
+    ratio = np.zeros_like(power)
+    np.divide(power, noise, out=ratio, where=noise > 0.0)
+    ratio = ratio * ratio
+    return (ratio / (ratio + DILUTION_SNR * DILUTION_SNR))[index]
+
+
 def _leverage(factor: _Factor, weighted: np.ndarray) -> np.ndarray:
     """h_i, the diagonal of the hat matrix of the weighted solve (r,)."""
     q = (weighted / factor.norms) @ factor.R_inv
@@ -199,6 +244,7 @@ def pooled_solve(
     weighted: bool = True,
     max_condition: float,
     names: Any = None,
+    known: Any = None,
 ) -> PooledSolve:
     """One window's solve with the pooled noise (module docstring, steps 1-3).
 
@@ -211,6 +257,8 @@ def pooled_solve(
         weighted: False: ordinary least squares (σ still the pooled sandwich).
         max_condition: largest accepted condition number (both solves).
         names: p parameter names (messages).
+        known: (r,) the window's known column (the arm's rows, [unit of B]) for
+            the dilution factor (:func:`dilution`), or None: λ = 1.
 
     Returns:
         :class:`PooledSolve` (an invalid result, rank deficient or
@@ -244,6 +292,8 @@ def pooled_solve(
         )
         level = np.clip(level, *_LEVEL_RANGE)
         weights = scale / np.sqrt(level[index])
+        if known is not None and pool.count > 0:
+            weights = weights * np.sqrt(dilution(known, variance, noise.frequency))
     else:
         weights = np.ones_like(B)
     # 2. The solve.

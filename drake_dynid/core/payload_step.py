@@ -294,6 +294,7 @@ def payload_update(
         weighted=weighting is not None,
         max_condition=max_condition,
         names=names,
+        known=np.asarray(A, dtype=float)[:, -1],
     )
     if not ready:
         # The noise model has fewer than MIN_POOLED_WINDOWS windows: σ would be

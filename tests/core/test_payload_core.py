@@ -200,3 +200,16 @@ def test_settings_are_the_documented_defaults_and_accept_overrides():
     assert payload_settings(window=1.0).window == 1.0
     with pytest.raises(ValueError, match="window must be > 0"):
         payload_settings(window=-1.0)
+
+
+def test_dilution_weighs_down_only_the_frequencies_near_the_noise():
+    from drake_dynid.core.payload_noise import DILUTION_SNR, dilution
+
+    frequency = np.array([1, 1, 2, 2, 3, 3])
+    variance = np.ones(6)
+    # S_ν = ΣK²/Σv: 1e6, S₀ and 1 per frequency.
+    known = np.sqrt(np.array([1e6, 1e6, DILUTION_SNR, DILUTION_SNR, 1.0, 1.0]))
+    weight = dilution(known, variance, frequency)
+    np.testing.assert_allclose(weight[:2], 1.0, atol=1e-6)
+    np.testing.assert_allclose(weight[2:4], 0.5)
+    assert (weight[4:] < 1e-4).all()
