@@ -45,17 +45,18 @@ noise is learned).
    with the same rows on noise-free A). λ leaves the frequencies that carry
    the motion (S_ν ≫ S₀) as they were;
 3. the sandwich covariance (docs/MATH.md §4) with the pooled rows' covariance,
-   a per-frequency and a per-equation scale taken from this window's
-   residuals, never below the pool's::
+   a per-frequency scale (>= t₀) and a per-equation scale (>= 1) taken from
+   this window's residuals::
 
        C_θ = (ÃᵀÃ)⁻¹ (Σ_j s_j² Ã_jᵀ Σ̃_j Ã_j) (ÃᵀÃ)⁻¹,   Ã = W A,
        Σ̃_j = W_j U_j C U_j W_j   (C: ``RowNoise.correlation``),
-       U_i = √(v_i t_ν),  t_ν = max(1, Σ_ν W_i² ρ_i² / Σ_ν W_i² v_i (1 - h_i))
+       U_i = √(v_i t_ν),  t_ν = max(t₀, Σ_ν W_i² ρ_i² / Σ_ν W_i² v_i (1 - h_i))
        s_j² = max(1, ‖W_j ρ_j‖² / (tr Σ̃_j - tr((ÃᵀÃ)⁻¹ Ã_jᵀ Σ̃_j Ã_j)))
 
    (σ [units of θ] = √diag C_θ; Σ_ν over the rows of frequency ν, all
-   equations). The weights' estimation enters through t_ν and s_j: a window
-   whose rows are noisier than the pool says inflates σ. On a slow arm the
+   equations; t₀ = :data:`FREQUENCY_SCALE_FLOOR`). The weights' estimation
+   enters through t_ν and s_j: a window whose rows are noisier than the pool
+   says inflates σ, one quieter at ν lowers it, by √t₀ at most. On a slow arm the
    noise of a frequency changes from window to window (the velocity estimate's
    noise seen through each modulating function): without t_ν the slow iiwa's
    first moments' σ was 0.63 of their RMS error, the UR5's mass σ 0.68.
@@ -96,6 +97,7 @@ from drake_dynid.core.row_noise import (
 
 __all__ = [
     "DILUTION_SNR",
+    "FREQUENCY_SCALE_FLOOR",
     "MIN_POOLED_WINDOWS",
     "POOL_CLIP",
     "POOL_GATE",
@@ -142,6 +144,12 @@ _LEVEL_RANGE = (0.1, 100.0)
 #: 10-15 %, the UR5's mass p90 from 2.91 to 2.29; 1000 also weighs down the fast
 #: iiwa's ν = 4).
 DILUTION_SNR = 300.0
+
+#: Floor of the per-frequency scale t_ν of the sandwich (module docstring, step 3):
+#: a window quieter than the pool at ν lowers σ down to √0.7 of the pool's
+#: (bench_accuracy.py --robot payload, 16 seeds: the closed loop's σ/RMS error
+#: 2.1-2.9 -> 1.8-2.4; 0.5: 1.5-2.1 but the UR5's mass σ 0.65 of its error).
+FREQUENCY_SCALE_FLOOR = 0.7
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,14 +334,15 @@ def pooled_solve(
     As = (Aw / norms) @ R_inv  # Q: the bread is then the identity
     ws = weights * np.sqrt(variance)
     # Per modulating frequency (all equations), this window's residual over the
-    # pool's expectation, never below 1 (module docstring, step 3).
+    # pool's expectation, never below FREQUENCY_SCALE_FLOOR (module docstring,
+    # step 3); the per-equation scale below stays >= 1 against it.
     _, at = np.unique(np.asarray(noise.frequency), return_inverse=True)
     at = at.reshape(-1)
     observed_nu = np.bincount(at, (weights * residual) ** 2)
     expected_nu = np.bincount(at, ws * ws * np.maximum(1.0 - leverage, 0.05))
     excess = np.ones_like(observed_nu)
     np.divide(observed_nu, expected_nu, out=excess, where=expected_nu > 0.0)
-    ws = ws * np.sqrt(np.maximum(1.0, excess))[at]
+    ws = ws * np.sqrt(np.maximum(FREQUENCY_SCALE_FLOOR, excess))[at]
     F = noise.factor  # (R1, k), F Fᵀ = C
     p = A.shape[1]
     meat = np.zeros((p, p))
