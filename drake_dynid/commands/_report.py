@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.lsq import NOT_IDENTIFIED_PERCENT, relative_std_percent
+
 __all__ = [
     "NOT_IDENTIFIED_PERCENT",
     "PLOT_BUCKETS",
@@ -35,8 +37,6 @@ __all__ = [
     "write_trace_outputs",
 ]
 
-#: A parameter whose relative standard deviation exceeds this is "not identified".
-NOT_IDENTIFIED_PERCENT = 30.0
 
 _CSV_BLOCK = 4096  # rows of the traces read at a time by write_estimates_csv
 
@@ -53,14 +53,6 @@ def json_number(value: Any) -> float | None:
 
 def _text(value: float, digits: int = 6) -> str:
     return f"{value:.{digits}g}" if math.isfinite(value) else str(value)
-
-
-def relative_std_percent(value: float, sigma: float) -> float:
-    """100·σ/|value| [%]; inf for a zero or non-finite value or σ."""
-    value, sigma = float(value), float(sigma)
-    if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
-        return 100.0 * sigma / abs(value)
-    return math.inf
 
 
 def not_identified(names: Sequence[str], theta: Any, std: Any) -> list[str]:

@@ -22,6 +22,7 @@ malformed arguments (shapes, types) raise.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -32,7 +33,9 @@ from drake_dynid.core import _validate as v
 
 __all__ = [
     "DEFAULT_MAX_CONDITION",
+    "NOT_IDENTIFIED_PERCENT",
     "LeastSquaresResult",
+    "relative_std_percent",
     "solve_least_squares",
     "solve_weighted_least_squares",
 ]
@@ -42,6 +45,19 @@ __all__ = [
 #: the off-line IDIM). Well-excited robot regressors are typically below 1e2-1e3;
 #: a window above 1e4 is reported as not identifiable rather than solved.
 DEFAULT_MAX_CONDITION = 1e4
+
+#: A parameter whose σ exceeds this percentage of its magnitude is not identified
+#: (the ``*`` of every table, ``identified`` false in every JSON).
+NOT_IDENTIFIED_PERCENT = 30.0
+
+
+def relative_std_percent(value: float, sigma: float) -> float:
+    """%σ = 100·σ/|value| [%]; inf for a zero or non-finite value or σ."""
+    value, sigma = float(value), float(sigma)
+    if math.isfinite(value) and math.isfinite(sigma) and value != 0.0:
+        return 100.0 * sigma / abs(value)
+    return math.inf
+
 
 _WEAK_SHARE = 0.05  # a parameter is "involved" if ≥ 5 % of a weak direction's energy
 
@@ -83,7 +99,9 @@ class LeastSquaresResult:
     unidentified: tuple[str, ...]
     unidentified_indices: tuple[int, ...]
 
-    def poorly_identified(self, threshold_percent: float = 30.0) -> tuple[str, ...]:
+    def poorly_identified(
+        self, threshold_percent: float = NOT_IDENTIFIED_PERCENT
+    ) -> tuple[str, ...]:
         """Names whose relative standard deviation exceeds ``threshold_percent``."""
         if not self.valid:
             return self.names

@@ -25,12 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core.lsq import NOT_IDENTIFIED_PERCENT, relative_std_percent
 from drake_dynid.core.payload import PAYLOAD_NAMES
 
 __all__ = ["NOT_IDENTIFIED_PERCENT", "estimate_entry", "payload_summary"]
-
-#: A quantity whose σ exceeds this percentage of its magnitude is not identified.
-NOT_IDENTIFIED_PERCENT = 30.0
 
 
 def estimate_entry(value: float, sigma: float) -> dict[str, Any]:
@@ -40,8 +38,7 @@ def estimate_entry(value: float, sigma: float) -> dict[str, Any]:
     %σ <= :data:`NOT_IDENTIFIED_PERCENT`.
     """
     value, sigma = float(value), float(sigma)
-    finite = math.isfinite(value) and math.isfinite(sigma)
-    percent = 100.0 * sigma / abs(value) if finite and value != 0.0 else math.inf
+    percent = relative_std_percent(value, sigma)
     return {
         "value": value,
         "std": sigma,
