@@ -211,21 +211,11 @@ class RobotModel(RobotRows):
                 not match the URDF (the message names the field).
         """
         loaded = load_urdf(path, time_step, gravity=gravity)
-        notes = loaded.notes
-        if drive is not None and loaded.untransmitted:
-            # The drive file's motors actuate the joints it names: the note on
-            # joints without a <transmission> names only the others.
-            notes = tuple(
-                note
-                for note in notes
-                if note
-                != untransmitted_note(
-                    loaded.untransmitted, loaded.untransmitted_limited
-                )
-            )
-            untransmitted = loaded.untransmitted
-        else:
-            untransmitted = ()
+        # The note on joints without a <transmission> is from_plant's: it names
+        # only the joints the drive chain (once resolved) does not drive.
+        untransmitted = (loaded.untransmitted, loaded.untransmitted_limited)
+        own = untransmitted_note(*untransmitted)
+        notes = tuple(note for note in loaded.notes if note != own)
         if drive is not None and DRIVE_TOTALS in Path(path).read_text(
             encoding="utf-8", errors="replace"
         ):
@@ -252,7 +242,7 @@ class RobotModel(RobotRows):
             notes=notes,
             drive=drive,
             coulomb_width=coulomb_width,
-            untransmitted=(untransmitted, loaded.untransmitted_limited),
+            untransmitted=untransmitted,
         )
 
     @classmethod
@@ -344,7 +334,9 @@ class RobotModel(RobotRows):
             [name for name in untransmitted[0] if name not in driven],
             untransmitted[1],
         )
-        notes = (left, *notes) if left else notes
+        if left:
+            _LOGGER.info("RobotModel: %s.", left)
+            notes = (left, *notes)
         gravity = np.array(plant.gravity_field().gravity_vector(), dtype=float)
         gravity.setflags(write=False)
         model = cls(
