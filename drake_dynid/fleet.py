@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import csv
 import importlib
 import io
 import json
@@ -304,15 +303,14 @@ def _hint_split_recordings(command: str, items: list[dict[str, Any]]) -> None:
 
 
 def _header_cells(path: str) -> list[str]:
-    """The first non-blank row's cells of a CSV file ([] if it cannot be read)."""
+    """The header cells of a CSV log (``log_table.read_header``; [] if unreadable)."""
+    from drake_dynid.log_table import read_header
+
     try:
-        with open(path, newline="", encoding="utf-8-sig") as stream:
-            for row in csv.reader(stream):
-                if any(cell.strip() for cell in row):
-                    return [cell.strip() for cell in row]
-    except (OSError, ValueError, csv.Error):
-        pass
-    return []
+        with open(path, "rb") as stream:
+            return read_header(path, stream)
+    except (OSError, ValueError):
+        return []
 
 
 def _run_local(
