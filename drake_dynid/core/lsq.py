@@ -216,6 +216,16 @@ def _with_inverse(factor: _Factor) -> _Factor:
     return dataclasses.replace(factor, R_inv=np.linalg.inv(factor.R_aug[:p, :p]))
 
 
+def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:
+    """``result`` with the standard deviations ``std`` (and their relative %)."""
+    magnitude = np.abs(result.theta)
+    relative = np.full(std.shape, np.inf)
+    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
+    for array in (std, relative):
+        array.flags.writeable = False
+    return dataclasses.replace(result, std=std, relative_std_percent=relative)
+
+
 def _decompose(
     A: Any,
     B: Any,

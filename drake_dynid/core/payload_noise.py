@@ -87,6 +87,7 @@ from drake_dynid.core.lsq import (
     _estimate,
     _Factor,
     _with_inverse,
+    _with_std,
 )
 from drake_dynid.core.row_noise import (
     MIN_RESIDUAL_DOF,
@@ -360,12 +361,7 @@ def pooled_solve(
     std = diagonal / norms
     safe = np.where(diagonal > 0.0, diagonal, 1.0)
     correlation = covariance / safe[:, None] / safe[None, :]
-    magnitude = np.abs(result.theta)
-    relative = np.full(p, np.inf)
-    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
-    for array in (std, relative):
-        array.flags.writeable = False
-    result = dataclasses.replace(result, std=std, relative_std_percent=relative)
+    result = _with_std(result, std)
     correlation.flags.writeable = False
     return PooledSolve(
         result, weights, correlation, _pooled(pool, residual, leverage, variance)

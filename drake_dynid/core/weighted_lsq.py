@@ -28,6 +28,7 @@ from drake_dynid.core.lsq import (
     _decompose,
     _estimate,
     _with_inverse,
+    _with_std,
     solve_least_squares,
 )
 
@@ -335,16 +336,6 @@ def too_few_dof(result: LeastSquaresResult, dof: float) -> LeastSquaresResult:
             "modulating functions within the excitation band."
         ),
     )
-
-
-def _with_std(result: LeastSquaresResult, std: np.ndarray) -> LeastSquaresResult:
-    """``result`` with the standard deviations ``std`` (and their relative %)."""
-    magnitude = np.abs(result.theta)
-    relative = np.full(std.shape, np.inf)
-    np.divide(100.0 * std, magnitude, out=relative, where=magnitude > 0)
-    for array in (std, relative):
-        array.flags.writeable = False
-    return dataclasses.replace(result, std=std, relative_std_percent=relative)
 
 
 def with_jackknife(
