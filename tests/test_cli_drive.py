@@ -418,3 +418,18 @@ def test_time_unit_reads_a_plain_log_stamped_in_ms(files, tmp_path, capsys):
     assert cli.main([*argv, "--time-unit", "us"]) == 2
     line = error_line(capsys)
     assert "--time-unit us contradicts the drive file's [log] time_unit = 'ms'" in line
+
+
+def test_time_unit_against_a_drive_file_that_says_seconds():
+    """A drive file that writes ``time_unit = "s"`` is told from one that says
+    nothing (a review: ``--time-unit ms`` overrode the explicit s silently)."""
+    from drake_dynid.commands._arguments import _with_time_unit
+    from drake_dynid.core.drive import DriveChain
+
+    names = ["j1", "j2"]
+    said = DriveChain.from_dict({"log": {"time_unit": "s"}}, names, source="d.toml")
+    silent = DriveChain.from_dict({"log": {"time": "t"}}, names, source="d.toml")
+    with pytest.raises(ValueError, match=r"--time-unit ms contradicts .* = 's'"):
+        _with_time_unit(said, names, "ms")
+    assert _with_time_unit(said, names, "s").log.time_scale == 1.0
+    assert _with_time_unit(silent, names, "ms").log.time_scale == 1e-3

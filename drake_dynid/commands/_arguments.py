@@ -362,7 +362,7 @@ def add_time_unit_argument(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="unit of the log's time column (default s, and then integer stamps "
         ">= 1e17 are read as nanoseconds since the epoch); a drive file's [log] "
-        "time_unit says the same: one other than s must agree with this option",
+        "time_unit, when it says one, must agree with this option",
     )
 
 
@@ -439,8 +439,7 @@ def _with_time_unit(chain: Any, joint_names: Sequence[str], unit: str) -> Any:
     """``chain`` (None: the plain format's identity chain) reading time in ``unit``.
 
     Raises:
-        ValueError: the drive file's ``[log] time_unit`` is another unit than s
-            and ``unit``.
+        ValueError: the drive file says ``[log] time_unit`` and it is not ``unit``.
     """
     import dataclasses
 
@@ -452,7 +451,7 @@ def _with_time_unit(chain: Any, joint_names: Sequence[str], unit: str) -> Any:
             {"log": {"time_unit": unit}}, joint_names, source="--time-unit"
         )
     given = chain.log.time_unit
-    if given not in ("s", unit):
+    if chain.log.time_unit_given and given != unit:
         raise ValueError(
             f"--time-unit {unit} contradicts the drive file's [log] time_unit = "
             f"{given!r}: give one of them."

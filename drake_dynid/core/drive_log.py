@@ -138,6 +138,8 @@ class LogFormat:
         joint_position_template: ``log.position`` when it is a joint-side
             template with ``{joint}`` (the column of any joint, identified or
             not: the check that a locked joint does not move reads it), else None.
+        time_unit_given: the table says ``time_unit`` (False: the default s), so
+            that ``--time-unit`` can tell an explicit s from the default.
     """
 
     time: str
@@ -157,6 +159,7 @@ class LogFormat:
     torque_unit: str
     current_scale: float | None
     joint_position_template: str | None = None
+    time_unit_given: bool = False
 
 
 def _choice(owner: str, field: str, value: Any, choices: Sequence[str]) -> str:
@@ -351,4 +354,5 @@ def parse_log(
             and "{joint}" in spec["position"]
             else None
         ),
+        time_unit_given="time_unit" in table,
     )
