@@ -46,6 +46,7 @@ import numpy as np
 
 from drake_dynid.core._threads import release_heap
 from drake_dynid.core.blocks import blocks, segment
+from drake_dynid.core.drive_log import TIME_UNITS
 from drake_dynid.log_repair import (
     FILL_GAPS,
     JITTER_TOLERANCE,
@@ -275,6 +276,7 @@ def read_log(
     min_duration: float | None = None,
     torques: bool = True,
     parse_beside: Any = None,
+    time_unit: str = "s",
 ) -> RobotLog:
     """Reads and checks a robot log; see the module docstring for what is repaired.
 
@@ -295,11 +297,19 @@ def read_log(
             show a motion: ``dynid replay`` of a log of positions).
         parse_beside: ``log_table.read_table``'s ``beside`` (half the file parsed
             in another process; the same log).
+        time_unit: the unit of the ``t`` column, ``s``, ``ms``, ``us`` or ``ns``
+            (``core.drive_log.TIME_UNITS``); t is scaled to seconds before the
+            grid is fitted. Default s (integers >= 1e17 then read as epoch ns).
 
     Returns:
         The uniformly sampled log, with the warnings of what was repaired.
     """
     names = _joint_names("read_log", joint_names)
+    if time_unit not in TIME_UNITS:
+        raise ValueError(
+            f"read_log: time_unit must be one of {', '.join(TIME_UNITS)}; got "
+            f"{time_unit!r}."
+        )
     options = Options.checked(
         "read_log", jitter_tolerance, resample, fill_gaps, min_duration
     )
@@ -319,13 +329,16 @@ def read_log(
             table = read_table(path, stream, positions, (n,), beside=parse_beside)
             (q,) = table.parts
             tau = np.zeros(q.shape)
+    t, exact = table.t, table.exact
+    if time_unit != "s":
+        t, exact = np.asarray(t, dtype=float) * TIME_UNITS[time_unit], None
     extra = unused_columns(table.header, wanted)
     notes = [f"ignored extra column(s) {', '.join(extra)}."] if extra else []
     repaired = repair(
         f"log {path}",
         "row",
-        table.t,
-        table.exact,
+        t,
+        exact,
         q,
         tau,
         table.rows,

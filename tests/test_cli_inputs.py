@@ -135,3 +135,31 @@ def test_replay_shows_a_log_of_positions_only(tmp_path, capsys):
     assert "log (positions)" in captured.out
     assert "never change" not in captured.err  # its torques are filled in
     assert (tmp_path / "q.html").stat().st_size > 0
+
+
+def test_replay_reads_a_log_stamped_in_ms_with_time_unit(tmp_path, capsys):
+    """``dynid replay --time-unit`` (a review: the identification commands had it,
+    replay showed an ms log 1000 times too slow, with the long-step warning)."""
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    robot, t, q, tau = fourier_2r(2001)
+    write_log(tmp_path / "ms.csv", 1e3 * t, q, tau, robot.joint_names)
+    lines = (tmp_path / "ms.csv").read_text().splitlines()
+    (tmp_path / "q.csv").write_text(
+        "\n".join(",".join(line.split(",")[:3]) for line in lines) + "\n"
+    )
+    span = f"over {t[-1] - t[0]:g} s"
+    for name in ("ms.csv", "q.csv"):
+        argv = ["replay", model_path("planar_2r"), str(tmp_path / name)]
+        html = ["--html", str(tmp_path / f"{name}.html"), "--fps", "4"]
+        assert cli.main([*argv, *html, "--time-unit", "ms"]) == 0
+        captured = capsys.readouterr()
+        assert span in captured.out, captured.out
+        assert "--time-unit" not in captured.err
+    trajectory = tmp_path / "t.csv"
+    trajectory.write_text("t,q_joint1,q_joint2,v_joint1,v_joint2\n0,0,0,0,0\n")
+    argv = ["replay", model_path("planar_2r"), str(trajectory), "--time-unit", "ms"]
+    assert cli.main(argv) == 2
+    assert "is a trajectory file, whose times are seconds" in error_line(capsys)

@@ -13,6 +13,7 @@ from drake_dynid.commands._arguments import (
     URDF_HELP,
     add_joint_arguments,
     add_log_argument,
+    add_time_unit_argument,
     log_files,
     read_robot_log,
     robot_from_args,
@@ -45,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="drive file (docs/DRIVE.md) of a raw log: its columns and units",
     )
     add_joint_arguments(parser)
+    add_time_unit_argument(parser)
     parser.add_argument(
         "--fps",
         type=float,
@@ -94,15 +96,21 @@ def _positions_only(path: str, robot: Any) -> bool:
     )
 
 
-def _read_positions(path: str, robot: Any) -> Any:
+def _read_positions(path: str, robot: Any, time_unit: str | None) -> Any:
     """A log's t and q, with the reader's time grid and repairs (zero torques).
 
     Its torques are not needed to show the motion; resampled when not uniform:
-    an animation only needs poses on the grid.
+    an animation only needs poses on the grid. ``time_unit``: ``--time-unit``.
     """
     from drake_dynid.logs import read_log
 
-    log = read_log(path, robot.joint_names, resample=True, torques=False)
+    log = read_log(
+        path,
+        robot.joint_names,
+        resample=True,
+        torques=False,
+        time_unit=time_unit or "s",
+    )
     for warning in log.warnings:  # not the constant-column check: τ is filled in
         print(f"dynid replay: warning: log {path}: {warning}", file=sys.stderr)
     return log
@@ -148,13 +156,24 @@ def run(args: argparse.Namespace) -> int:
         and not args.drive
         and _is_trajectory(files[0], robot.joint_names)
     ):
+        if args.time_unit not in (None, "s"):
+            raise ValueError(
+                f"--time-unit {args.time_unit}: {files[0]} is a trajectory file, "
+                "whose times are seconds; the option is for logs."
+            )
         motion = read_trajectory(files[0], robot.joint_names)
         kind = "trajectory"
     elif len(files) == 1 and not args.drive and _positions_only(files[0], robot):
-        motion = _read_positions(files[0], robot)
+        motion = _read_positions(files[0], robot, args.time_unit)
         kind = "log (positions)"
     else:
-        motion = read_robot_log(files, robot, resample=False, command="replay")
+        motion = read_robot_log(
+            files,
+            robot,
+            resample=False,
+            command="replay",
+            time_unit=args.time_unit,
+        )
         kind = "log"
     q = _held_over_bad_samples(np.asarray(motion.q, dtype=float))
     try:
