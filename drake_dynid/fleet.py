@@ -43,6 +43,8 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
+from drake_dynid.core._threads import available_cpus, configure_process
+
 __all__ = [
     "FLEET_COMMANDS",
     "captured_stderr",
@@ -175,8 +177,6 @@ def run_one(
         "message", "seconds", "valid", "condition_number", "model", "stderr"}``,
         ``stderr`` the lines the command printed on stderr (notes, warnings).
     """
-    from drake_dynid.core._threads import configure_process
-
     configure_process()  # a Dask worker may not have been started by dynid
     start = time.perf_counter()
     item: dict[str, Any] = {
@@ -225,8 +225,9 @@ def run_fleet(
         options: the command's options as a dict (see :func:`run_one`).
         logs: the log files (one recording each).
         out_dir: folder of the JSON outputs (created if needed).
-        jobs: local worker processes (default: the CPU count, at most the number
-            of logs); 1 runs in this process. Ignored with ``scheduler``.
+        jobs: local worker processes (default: the CPUs this process may run on,
+            ``core._threads.available_cpus``, at most the number of logs); 1 runs
+            in this process. Ignored with ``scheduler``.
         scheduler: address of a Dask ``distributed`` scheduler; None: local.
         progress: called with (item, done, total) as each log finishes.
 
@@ -249,7 +250,7 @@ def run_fleet(
         raise ValueError(f"fleet: jobs must be >= 1; got {jobs}.")
     paths = output_paths(logs, out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    local = min(jobs or os.cpu_count() or 1, len(logs))
+    local = min(jobs or available_cpus(), len(logs))
     options = task_options(
         command, options, parallel=scheduler is not None or local > 1
     )

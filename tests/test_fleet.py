@@ -7,6 +7,7 @@ its inverse-dynamics rows with the URDF's base values plus 1 % noise
 """
 
 import json
+import os
 import pathlib
 
 import numpy as np
@@ -361,3 +362,20 @@ def test_a_bad_scheduler_address_names_the_option(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--scheduler 'nonsense' is not a Dask scheduler address" in err
     assert "Traceback" not in err
+
+
+def test_default_jobs_are_the_cpus_this_process_may_use(logs, tmp_path, monkeypatch):
+    """A review: ``--jobs`` defaulted to ``os.cpu_count()``, the machine's CPUs,
+    where a container or ``taskset`` allows fewer; one allowed CPU runs the
+    logs in this process, without a pool."""
+    from drake_dynid import fleet
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 64)
+    monkeypatch.setattr(fleet, "available_cpus", lambda: 1)
+
+    def no_pool(*args, **kwargs):
+        raise AssertionError("a process pool for one allowed CPU")
+
+    monkeypatch.setattr(fleet, "_run_local", no_pool)
+    argv = ["fleet", "offline", *logs, "--urdf", URDF, "--quiet"]
+    assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 0

@@ -44,20 +44,14 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import Any, Generic, TypeVar
 
+from drake_dynid.core._threads import available_cpus
+
 __all__ = ["PATIENCE", "Background", "available_cpus", "can_fork", "native_threads"]
 
 T = TypeVar("T")
 
 #: The least time [s] :meth:`Background.result` waits for a silent child.
 PATIENCE = 10.0
-
-
-def available_cpus() -> int:
-    """CPUs this process may run on (its affinity mask where known)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        return os.cpu_count() or 1
 
 
 def native_threads() -> int | None:

@@ -13,7 +13,7 @@ DESCRIPTION = (
     "a parameter study, a series of recordings), each log one recording, with the "
     "same options, and writes one JSON per log in --out-dir (<log name>.json, as the "
     "command's --json) plus summary.json, and prints a summary table. By default the "
-    "logs run in parallel local processes (--jobs, default the CPU count); with "
+    "logs run in parallel local processes (--jobs, default the CPUs it may use); with "
     "--scheduler ADDRESS they run on that Dask distributed cluster (pip install "
     "'drake-dynid[fleet]'). The command's options follow the logs, as for the "
     "command itself. Exit code 2 when a log fails (the others are still done)."
@@ -70,8 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             "--jobs",
             type=int,
             metavar="N",
-            help="local worker processes (default: the CPU count); 1 runs the logs "
-            "one after the other in this process",
+            help="local worker processes (default: the CPUs this process may run "
+            "on); 1 runs the logs one after the other in this process",
         )
         fleet.add_argument(
             "--scheduler",

@@ -50,6 +50,7 @@ from typing import Any
 
 __all__ = [
     "ENVIRONMENT",
+    "available_cpus",
     "configure_process",
     "loaded_pools",
     "pin_environment",
@@ -91,6 +92,19 @@ _FAMILIES = {
 }
 _VARIABLE = {family: variable for variable, family in ENVIRONMENT.items()}
 _VARIABLE["blis"] = "BLIS_NUM_THREADS"
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (its affinity mask where known).
+
+    ``os.cpu_count()`` counts the machine's; a container or ``taskset`` may
+    allow fewer (the default of the fleet's local workers and of the forked
+    helpers of ``dynid identify``).
+    """
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def requested_threads(environ: MutableMapping[str, str] | None = None) -> int | None:
