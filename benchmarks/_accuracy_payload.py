@@ -15,6 +15,9 @@ library's regressor.
   dynamics tracking that ignores the payload, Coulomb tanh(v/0.01), the arm's
   model with the same law) and the payload is added in the plant's Context at the
   pick (``simulate_identification`` events, as examples/payload_pick.py).
+* **README example**: the same closed loop with examples/payload_pick.py's
+  defaults: the pick at 4 s, σ_τ = 0.05 N·m on every joint (its
+  ``--tau-noise``), estimated 1.5 s after the pick (the end of its log).
 * **2R, exact**: the paper's arm (horizontal plane: only ZZ, MX, MY and M of the
   payload act), |q̇| <= 3 rad/s (5 harmonics of 0.2 Hz), 0.5 kg at
   (0.05, 0.02, 0) m on link 2.
@@ -61,6 +64,8 @@ PICK = 3.0
 DURATION = 5.0
 IIWA_PAYLOAD = (2.0, [0.01, -0.02, 0.1], np.diag([0.01, 0.012, 0.008]))
 PLANAR_PAYLOAD = (0.5, [0.05, 0.02, 0.0], np.diag([0.001, 0.001, 0.002]))
+#: examples/payload_pick.py's default --tau-noise [N·m] (the README's example).
+README_TAU_NOISE = 0.05
 
 METHODS = {
     "payload defaults": {},
@@ -107,16 +112,22 @@ def _torques_with(robot, q, v, vdot, body, theta):
 
 
 class Case:
-    """One scenario: the robot, the payload's rows and truth, the noise-free log."""
+    """One scenario: the robot, the payload's rows and truth, the noise-free log.
 
-    def __init__(self, label, robot, truth, q, tau):
+    ``pick``: the pick time [s]; ``tau_noise``: σ of the torque noise [N·m] on
+    every joint (None: 1 % of each joint's torque std before the pick).
+    """
+
+    def __init__(self, label, robot, truth, q, tau, pick=PICK, tau_noise=None):
         self.label = label
         self.robot = robot
         self.rows = payload_rows(robot)
         self.truth = truth  # the payload's 10 standard parameters
         self.expected = self.rows.base.matrix @ truth
         self.q, self.tau = q, tau
-        self.tau_std = tau[: round(PICK / H)].std(axis=0)
+        self.pick = pick
+        before = tau[: round(pick / H)]
+        self.tau_noise = 0.01 * before.std(axis=0) if tau_noise is None else tau_noise
 
     def log(self, seed: int | None) -> RobotLog:
         t = H * np.arange(len(self.q))
@@ -124,7 +135,7 @@ class Case:
         if seed is not None:
             noise = np.random.default_rng(1000 + seed).standard_normal((2, *q.shape))
             q = q + 1e-4 * noise[0]
-            tau = tau + 0.01 * self.tau_std * noise[1]
+            tau = tau + self.tau_noise * noise[1]
         return RobotLog(t, q, tau, self.robot.joint_names, H)
 
 
@@ -150,16 +161,29 @@ def exact_case(label, urdf, truth_args, body, harmonics_hz, max_velocity):
     return Case(label, robot, truth, q, tau)
 
 
-def closed_loop_case():
+def _example():
+    """examples/payload_pick.py as a module (its payload event and constants)."""
     import importlib.util
     import pathlib
-
-    from drake_dynid.simulation import SimulationSettings, simulate_identification
 
     path = pathlib.Path(__file__).parents[1] / "examples" / "payload_pick.py"
     spec = importlib.util.spec_from_file_location("payload_pick", path)
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
+    return example
+
+
+def closed_loop_case(
+    label="iiwa7, closed loop", pick=PICK, duration=DURATION, tau_noise=None
+):
+    """The closed loop (module docstring).
+
+    Also the README example, with its pick, end and absolute torque noise
+    (``readme_example_case``).
+    """
+    from drake_dynid.simulation import SimulationSettings, simulate_identification
+
+    example = _example()
     robot = RobotModel.from_urdf(model_path("iiwa7"), coulomb_width=0.01)
     truth = payload_parameters(*IIWA_PAYLOAD)
     trajectory = random_fourier_trajectory(
@@ -172,11 +196,24 @@ def closed_loop_case():
     result = simulate_identification(
         robot,
         trajectory,
-        SimulationSettings(duration=DURATION, snr_db=None, coulomb_smoothing=0.01),
+        SimulationSettings(duration=duration, snr_db=None, coulomb_smoothing=0.01),
         [],
-        events=[(PICK, example.payload_event("iiwa_link_7", truth))],
+        events=[(pick, example.payload_event("iiwa_link_7", truth))],
     )
-    return Case("iiwa7, closed loop", robot, truth, result.q_true, result.tau_true)
+    return Case(label, robot, truth, result.q_true, result.tau_true, pick, tau_noise)
+
+
+def readme_example_case():
+    """examples/payload_pick.py's defaults (the README's example).
+
+    The closed loop with the pick at 4 s, σ_τ = 0.05 N·m on every joint (its
+    ``--tau-noise``), estimated 1.5 s after the pick (the log ends there; the
+    example's place at 7 s is not simulated).
+    """
+    pick = 4.0
+    return closed_loop_case(
+        "README example, 1.5 s after the pick", pick, pick + 1.5, README_TAU_NOISE
+    )
 
 
 UR5_URDF = "robots/ur_description/urdf/ur5_robot.urdf"
@@ -237,13 +274,13 @@ def evaluate(case: Case, settings, seeds) -> dict:
         trace = replay_payload_core(case.log(seed), case.rows, settings)
         mass = trace.theta[:, m_index]
         outside = np.flatnonzero(
-            (trace.t >= PICK) & (np.abs(mass / case.truth[9] - 1) > 0.05)
+            (trace.t >= case.pick) & (np.abs(mass / case.truth[9] - 1) > 0.05)
         )
         if outside.size and outside[-1] + 1 >= len(trace.t):
             settle.append(np.inf)
         else:
             settle.append(
-                float(trace.t[outside[-1] + 1] - PICK) if outside.size else 0.0
+                float(trace.t[outside[-1] + 1] - case.pick) if outside.size else 0.0
             )
         theta, std = trace.theta[-1], trace.std[-1]
         final_theta.append(theta)
@@ -322,6 +359,7 @@ def run(seeds, quick: bool = False) -> dict:
                 "iiwa7, exact, slow", "iiwa7", IIWA_PAYLOAD, "iiwa_link_7", 0.1, 0.3
             ),
             closed_loop_case(),
+            readme_example_case(),
             exact_case("2R, exact", "planar_2r", PLANAR_PAYLOAD, "link2", 0.2, 3.0),
         ]
         ur5 = ur5_case()
@@ -353,7 +391,8 @@ def run(seeds, quick: bool = False) -> dict:
 
 def print_report(report: dict) -> None:
     print(
-        f"\n## Payload identification (pick at {PICK:g} s, estimate at {DURATION:g} s; "
+        f"\n## Payload identification (pick at {PICK:g} s, estimate at {DURATION:g} s "
+        "unless the scenario says otherwise; "
         f"medians over seeds {report['seeds']}; noise σ_q = 1e-4 rad, 1 % of τ std)\n"
     )
     print(
