@@ -255,6 +255,50 @@ def test_for_log_checks_against_the_log_with_the_names_given():
     assert grid == dataclasses.replace(OnlineSettings().on_grid(1e-3), min_functions=8)
 
 
+@pytest.mark.parametrize(
+    ("rate", "kwargs"),
+    [
+        (1000.0, {}),
+        (1000.0, {"rows_from": "raw", "update_period": 0.25}),
+        (125.0, {}),
+    ],
+)
+def test_the_shortest_accepted_log_records_a_valid_estimate(rate, kwargs):
+    # A log that ends before the first full window's estimate is recorded (at the
+    # solve after the one that sees it full) is refused with its length. It used
+    # to pass (longer than window + jacobi window) and then fail on "no window
+    # gave a valid estimate ... not all excited" (a review, 20.45 s with T = 20 s).
+    from drake_dynid.core.replay import replay_log_core
+    from drake_dynid.logs import RobotLog
+
+    robot = RobotModel.from_urdf(URDF)
+    h = 1.0 / rate
+    settings = OnlineSettings(window=4.0, jacobi_window=0.2, bandwidth=1.0, **kwargs)
+    trajectory = random_fourier_trajectory(
+        2,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.25,
+        max_velocity=2.0,
+        rng=np.random.default_rng(4),
+    )
+
+    def replay(count):
+        t = h * np.arange(count)
+        q, v, vdot = trajectory.evaluate(t)
+        tau = robot.idim_rows(q, v, vdot) @ robot.base_values
+        tau += np.random.default_rng(1).normal(0.0, 0.05, tau.shape)
+        log = RobotLog(t, q, tau, robot.joint_names, h)
+        (trace,) = replay_log_core(log, robot, [settings.for_log(h, log.duration)])
+        return trace
+
+    trace = replay(round(6.0 / h))
+    first = round(trace.t[np.flatnonzero(trace.valid)[0]] / h)  # recorded there
+    with pytest.raises(ValueError, match=r"must leave a solve of a full window"):
+        settings.for_log(h, (first - 2) * h)  # `first - 1` samples: no record
+    trace = replay(first)
+    assert trace.valid[-1] == 1.0 and not trace.valid[:-1].any()
+
+
 @pytest.fixture(scope="module")
 def trajectory_file(tmp_path_factory):
     # A 1 s rest trajectory of the 2R arm at 100 Hz (t, q_*, v_*, a_* columns).

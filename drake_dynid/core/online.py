@@ -408,11 +408,13 @@ class OnlineSettings:
 
         :meth:`on_grid` plus the checks of ``core.online_checks.check_log``, all
         before anything is allocated: the log is longer than window +
-        jacobi_window, every modulating frequency is below the bank's Nyquist
-        frequency and inside the differentiator's pass band, the differentiator
-        and (with the robot's n and p) the window's samples stay within their
-        ceilings, and the ℓ set gives enough independent equations for an honest
-        σ. ``owner`` and ``names`` (field -> name shown) set the messages' words
+        jacobi_window and lasts until the first full window's estimate is
+        recorded (``core.online_checks.first_estimate``), every modulating
+        frequency is below the bank's Nyquist frequency and inside the
+        differentiator's pass band, the differentiator and (with the robot's n
+        and p) the window's samples stay within their ceilings, and the ℓ set
+        gives enough independent equations for an honest σ. ``owner`` and
+        ``names`` (field -> name shown) set the messages' words
         (the ``dynid identify`` command shows its option names).
 
         Args:

@@ -12,7 +12,8 @@ Two stages, both before anything is allocated (docs/CONVENTIONS.md §5):
   exceed σ), ``jacobi_window`` < ``window``.
 * :func:`check_log` (``OnlineSettings.for_log``): the settings put on the log's
   grid (``OnlineSettings.on_grid``) and checked against it: the log is longer than
-  ``window`` + ``jacobi_window``; the differentiator has at most
+  ``window`` + ``jacobi_window`` and lasts until the first full window's estimate
+  is recorded (:func:`first_estimate`); the differentiator has at most
   :data:`MAX_JACOBI_TAPS` taps; every modulating frequency (|ℓ| + k)/T is below
   the bank's Nyquist frequency 1/(2·bank_time_step) and inside the
   differentiator's pass band (its low-pass gain >= 1/√2 there: above it the
@@ -52,6 +53,7 @@ __all__ = [
     "WEIGHTING_NAMES",
     "check_log",
     "check_values",
+    "first_estimate",
     "on_grid",
     "pass_band",
 ]
@@ -412,6 +414,26 @@ def on_grid(
         raise ValueError(f"{prefix}{_renamed(str(error), say)}") from None
 
 
+def first_estimate(settings: Any, time_step: float) -> tuple[float, float]:
+    """``(solve, recorded)`` [s]: the first solve of a full window and its record.
+
+    ``settings`` on the grid of h = ``time_step`` (docs/CONVENTIONS.md §2, the
+    replay's order in ``core.replay``): the differentiator's outputs are valid from
+    sample Tj/h (its Tj/h + 1 taps filled); the bank pushes the samples j = 0, D,
+    2D, ... (D = bank_time_step/h) and its window is full with T/(D·h) + 1 valid
+    ones; the solve at sample u (u = 0, U, 2U, ..., U = update_period/h) sees the
+    pushes j <= u, and the trace records its estimate at the next solve time
+    u + U. A log of N samples records the solves at u + U <= N.
+    """
+    h = float(time_step)
+    d = settings.decimation(h)
+    u = settings.solve_decimation(h)
+    first = -(-round(settings.jacobi_window / h) // d) * d  # first valid push
+    full = first + round(settings.window / (d * h)) * d  # its window full
+    solve = -(-full // u) * u
+    return solve * h, (solve + u) * h
+
+
 def _highest_frequency(settings: Any) -> float:
     """(max|ℓ| + k)/T [Hz], the highest frequency of the modulating functions."""
     ell = settings.ell()
@@ -476,12 +498,18 @@ def check_log(
             f"first estimate: record a longer log or shorten {say('window')}.",
         )
     period = grid.resolved("update_period")
-    if math.isfinite(duration) and not math.floor(duration / period) * period > needed:
+    solve, recorded = first_estimate(grid, h)
+    if math.isfinite(duration) and round(duration / h) < round(recorded / h) - 1:
         _fail(
             prefix,
-            f"{say('update_period')} must leave a solve between the first full "
-            f"window ({needed:g} s) and the end of the log ({duration:g} s); got "
-            f"{period:g} s.",
+            f"{say('window')}, {say('jacobi_window')} and {say('update_period')} "
+            f"must leave a solve of a full window whose estimate is recorded before "
+            f"the end of the log ({duration:g} s): the first window is full for the "
+            f"solve at {solve:g} s, recorded at {recorded:g} s (a solve's estimate "
+            f"is recorded at the next solve time, a log of at least "
+            f"{recorded - h:g} s); got {say('window')} {grid.window:g} s, "
+            f"{say('update_period')} {period:g} s: record a longer log or shorten "
+            f"{say('window')}.",
         )
     top = _highest_frequency(grid)
     bank_step = grid.resolved("bank_time_step")
