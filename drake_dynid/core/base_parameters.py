@@ -37,7 +37,14 @@ columns come from small tilts written in a description: the SO-100 has independe
 ones at 3e-6); independent columns have |R_kk| ≥ 0.09, dependent ones
 |R_kk| ≤ 2e-11, except a tiny dependent column (the Kinova's M2, ρ = 2e-7) whose unit
 form amplifies round-off to |R_kk| = 1e-9: its distance relative to the largest
-column, ρ·|R_kk| = 2e-16, is why both tests are applied. Each tolerance sits at
+column, ρ·|R_kk| = 2e-16, is why both tests are applied. The same tiny column
+regrouped by least squares picks up round-off coefficients on unrelated independent
+columns (the Kinova's FV1 = FV1 + 3e-16 M2, named FV1R): a coefficient β_ik whose
+contribution |β_ik|·|W_I,i| is at most ``ROUND_OFF_CONTRIBUTION`` (5e-13) of the
+largest column is zero. Over six seeds of the rows such round-off contributions
+reach 6.5e-14 (Kinova), and the smallest genuine ones are 4.7e-12 (the SO-101's
+MX1R = MX1 + 3.7e-6 (MZ2 + MZ3 + MZ4), a product of two small tilts), the
+xArm7's 9e-10, the others' 2e-7 or more. Each tolerance sits at
 least a decade (mostly four or more) from both sides. They are fixed rather than
 moved per robot: a tolerance placed in "the largest gap" of a spectrum always finds
 a gap, even in a full-rank set. The decision is checked instead by a second rank
@@ -69,6 +76,9 @@ _OWNER = "base_parameters"
 COLUMN_TOLERANCE = 1e-10
 #: Default rank tolerance on |R_kk| of the column-normalised QR.
 RANK_TOLERANCE = 1e-8
+#: A regrouping coefficient whose contribution |β_ik|·|W_I,i| is at most this
+#: fraction of the largest column is round-off, set to zero (module docstring).
+ROUND_OFF_CONTRIBUTION = 5e-13
 #: A rank decision is "clear" when σ_p / σ_p+1 exceeds this ...
 CLEAR_GAP = 1e4
 #: ... and every column's decision statistic is this far from its threshold.
@@ -316,8 +326,9 @@ def base_parameters(
     ``column_tolerance``. The other non-zero columns are regrouped by least squares,
     W_D = W_I β, and each base parameter is θ_I,i + Σ_k β_ik θ_D,k. Coefficients are
     rounded to ``decimals`` significant digits, and those below 10^-decimals
-    (relative to the column scales) are set to zero, so exact structural
-    coefficients come out exact (``1.0``).
+    (relative to the column scales) or whose contribution |β_ik|·|W_I,i| is at
+    most ``ROUND_OFF_CONTRIBUTION`` of the largest column (round-off) are set to
+    zero, so exact structural coefficients come out exact (``1.0``).
 
     Args:
         rows: ``(r, p_std)`` noise-free regressor rows (IDIM or power rows) at
@@ -379,7 +390,15 @@ def base_parameters(
             w[:, regrouped] / scale[regrouped],
             rcond=None,
         )[0]
-        beta_unit = np.where(np.abs(beta_unit) < 10.0**-decimals, 0.0, beta_unit)
+        # Round-off: below 10^-decimals of the unit column, or a contribution
+        # |β_ik|·|W_I,i| of at most ROUND_OFF_CONTRIBUTION of the largest column.
+        contribution = np.abs(beta_unit) * relative[regrouped][None, :]
+        beta_unit = np.where(
+            (np.abs(beta_unit) < 10.0**-decimals)
+            | (contribution <= ROUND_OFF_CONTRIBUTION),
+            0.0,
+            beta_unit,
+        )
         beta = beta_unit * scale[regrouped][None, :] / scale[independent][:, None]
         beta = np.vectorize(lambda b: _snap(b, decimals), otypes=[float])(beta)
 

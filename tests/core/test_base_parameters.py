@@ -205,6 +205,20 @@ def test_small_genuine_columns_are_kept():
     assert base.names == ("AR",) and dict(base.definitions[0]) == {"A": 1.0, "B": 1.0}
 
 
+def test_a_tiny_dependent_column_leaves_no_round_off_coefficients():
+    # D = 2e-7 A (the Kinova's M2: a tiny column regrouped with ZZ1) plus round-off
+    # of the largest column: its least squares on the unit columns gave B and F
+    # coefficients of 1e-15 (the Kinova's FV1R = FV1 + 3e-16 M2, a review).
+    for seed in (16, 17):
+        rng = np.random.default_rng(seed)
+        a, b, f, e = rng.normal(size=(4, 60))
+        rows = np.stack([10.0 * a, 3.0 * b, 0.3 * f, 2e-6 * a + 1e-14 * e], 1)
+        base = base_parameters(rows, ("A", "B", "F", "D"))
+        assert base.names == ("AR", "B", "F")
+        assert dict(base.definitions[0]) == {"A": 1.0, "D": pytest.approx(2e-7)}
+        assert [dict(d) for d in base.definitions[1:]] == [{"B": 1.0}, {"F": 1.0}]
+
+
 def test_rank_matches_an_independent_svd_with_a_gap():
     rows = _rows_with_round_off(seed=14)
     s = np.linalg.svd(rows, compute_uv=False)
