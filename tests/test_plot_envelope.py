@@ -203,3 +203,26 @@ def test_bucket_times_read_a_stored_time_a_block_at_a_time():
     )
     sliced = _NoWholeLoad(t, BLOCK_ROWS)  # slices of a block at most, no arrays
     np.testing.assert_array_equal(bucket_times(sliced, edges), expected)
+
+
+@pytest.mark.parametrize("count", [5, 6, 7])
+def test_the_last_panel_of_each_column_shows_its_time_axis(
+    tmp_path, monkeypatch, count
+):
+    # With an odd number of parameters the right column ends a row above the
+    # bottom: its last panel had the "t [s]" label but no tick labels (sharex
+    # hides them above the last row; a review, 15 parameters).
+    pytest.importorskip("matplotlib")
+    plt = _report.matplotlib_pyplot()
+    saved = []
+    monkeypatch.setattr(plt.Figure, "savefig", lambda self, *a, **k: saved.append(self))
+    t, theta, std = _trace(50, count)
+    names = [f"p{i}" for i in range(count)]
+    write_plot(str(tmp_path / "p.png"), t, theta, std, np.ones(50), names, "x")
+    (figure,) = saved
+    shown = [axis for axis in figure.axes if axis.get_visible()]
+    labelled = [axis for axis in shown if axis.get_xlabel()]
+    assert len(labelled) == 2
+    for axis in labelled:
+        ticks = axis.xaxis.get_major_ticks()
+        assert ticks and all(tick.label1.get_visible() for tick in ticks)

@@ -328,6 +328,7 @@ def write_plot(path: str, t: Any, theta: Any, std: Any, valid, names, title) -> 
         axis.set_visible(False)
     for axis in axes[max(0, p - columns) : p]:
         axis.set_xlabel("t [s]")
+        axis.tick_params(labelbottom=True)  # sharex hid them above the last row
     figure.suptitle(f"{title} (grey: invalid window, estimate held; band: ±σ)")
     figure.tight_layout()
     figure.savefig(path, dpi=100)

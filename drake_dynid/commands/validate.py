@@ -349,6 +349,7 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
         axis.set_visible(False)
     for axis in axes[max(0, n - columns) : n]:
         axis.set_xlabel("t [s]")
+        axis.tick_params(labelbottom=True)  # sharex hid them above the last row
     figure.suptitle(f"{title}; thin lines: residuals (right axis)")
     figure.tight_layout()
     figure.savefig(path, dpi=100)
