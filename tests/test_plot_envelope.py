@@ -226,3 +226,28 @@ def test_the_last_panel_of_each_column_shows_its_time_axis(
     for axis in labelled:
         ticks = axis.xaxis.get_major_ticks()
         assert ticks and all(tick.label1.get_visible() for tick in ticks)
+
+
+@pytest.mark.parametrize("count", [2, 15, 48])
+def test_the_title_stays_above_the_panels(tmp_path, monkeypatch, count):
+    # At its default height (98 % of the figure) the title of a 48-parameter plot
+    # (a 6-joint arm: 24 rows, 44 in tall) fell onto the first row (a review).
+    pytest.importorskip("matplotlib")
+    plt = _report.matplotlib_pyplot()
+    saved = []
+    original = plt.Figure.savefig
+
+    def savefig(self, *args, **kwargs):
+        result = original(self, *args, **kwargs)
+        renderer = self.canvas.get_renderer()  # the figure as drawn to the file
+        title = self._suptitle
+        panels = [a.get_tightbbox(renderer) for a in self.axes if a.get_visible()]
+        saved.append((title.get_text(), title.get_window_extent(renderer), panels))
+        return result
+
+    monkeypatch.setattr(plt.Figure, "savefig", savefig)
+    t, theta, std = _trace(50, count)
+    names = [f"p{i}" for i in range(count)]
+    write_plot(str(tmp_path / "p.png"), t, theta, std, np.ones(50), names, "x")
+    ((text, title, panels),) = saved
+    assert text and title.y0 >= max(panel.y1 for panel in panels)

@@ -329,8 +329,15 @@ def write_plot(path: str, t: Any, theta: Any, std: Any, valid, names, title) -> 
     for axis in axes[max(0, p - columns) : p]:
         axis.set_xlabel("t [s]")
         axis.tick_params(labelbottom=True)  # sharex hid them above the last row
-    figure.suptitle(f"{title} (grey: invalid window, estimate held; band: ±σ)")
-    figure.tight_layout()
+    # The title 0.1 in below the top, the panels below it: at its default
+    # y = 0.98 the title of a tall figure (many panels) fell onto the first row.
+    height = figure.get_figheight()
+    figure.suptitle(
+        f"{title} (grey: invalid window, estimate held; band: ±σ)",
+        y=1.0 - 0.1 / height,
+        va="top",
+    )
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
     figure.savefig(path, dpi=100)
     plt.close(figure)
 

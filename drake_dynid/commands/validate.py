@@ -350,8 +350,13 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
     for axis in axes[max(0, n - columns) : n]:
         axis.set_xlabel("t [s]")
         axis.tick_params(labelbottom=True)  # sharex hid them above the last row
-    figure.suptitle(f"{title}; thin lines: residuals (right axis)")
-    figure.tight_layout()
+    # The title 0.1 in below the top, the panels below it: at its default
+    # y = 0.98 the title of a tall figure (many panels) fell onto the first row.
+    height = figure.get_figheight()
+    figure.suptitle(
+        f"{title}; thin lines: residuals (right axis)", y=1.0 - 0.1 / height, va="top"
+    )
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
     figure.savefig(path, dpi=100)
     plt.close(figure)
 
