@@ -26,8 +26,9 @@ child link of identified joint j, then of each moving mimic joint: ``robot.links
   ``OFFj`` has no URDF field and is listed in ``UrdfExport.skipped``;
 * with rotor inertia, ``<drake:rotor_inertia value="IAj/g²">`` in the joint's
   ``<transmission><actuator>`` (Drake's tag; g = the actuator's
-  ``drake:gear_ratio``, written as 1 when absent), so that Drake's reflected
-  inertia is IAj. A joint without a ``<transmission>`` gets a
+  ``drake:gear_ratio``; when absent, written as the actuator's
+  ``<mechanicalReduction>``, the ratio drake_dynid's drive chain reads, else 1),
+  so that Drake's reflected inertia is IAj. A joint without a ``<transmission>`` gets a
   ``SimpleTransmission`` with one actuator. A joint of a transmission with
   several joints (a differential wrist: Drake reads no such transmission) has no
   field for its IAj: listed in ``skipped``, as the coupled motors' ``IAmk``,
@@ -241,8 +242,18 @@ def _set_rotor_inertia(root: Any, joint: str, value: float) -> bool:
     actuator = actuators[0]
     ratio_element = actuator.find(f"{drake}gear_ratio")
     if ratio_element is None:
+        # The ratio drake_dynid's drive chain reads (drive_urdf: the actuator's,
+        # else the transmission's <mechanicalReduction>, else 1): a gear ratio of 1
+        # would win over it and change R for a file loaded with a drive file.
+        reduction = actuator.findtext("mechanicalReduction")
+        if reduction is None:
+            reduction = transmission.findtext("mechanicalReduction")
+        try:
+            ratio = float((reduction or "1").strip())
+        except ValueError:
+            ratio = 1.0
         ratio_element = ElementTree.SubElement(actuator, f"{drake}gear_ratio")
-        ratio_element.set("value", "1")
+        ratio_element.set("value", _number(ratio if ratio else 1.0))
     ratio = float(ratio_element.attrib.get("value", "1"))
     rotor = actuator.find(f"{drake}rotor_inertia")
     if rotor is None:

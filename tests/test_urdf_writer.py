@@ -329,3 +329,35 @@ def test_a_friction_held_at_zero_is_written_as_zero(tmp_path):
     }
     assert joints["joint1"].find("dynamics").get("friction") == "0.0"
     assert joints["joint2"].find("dynamics").get("damping") == "0.3"
+
+
+def test_rotor_inertia_keeps_the_transmission_ratio_of_mechanical_reduction(tmp_path):
+    # A URDF whose actuators give their ratio as <mechanicalReduction> only (no
+    # drake:gear_ratio): drake_dynid's drive chain reads R from it. The writer
+    # used to add drake:gear_ratio = 1, which then won over the reduction: the
+    # written file, loaded with the same drive file, had R = 1 instead of 50, and
+    # a motor-side log validated against it was off by 1886 % (a review).
+    source = tmp_path / "geared.urdf"
+    text = Path(model_path("planar_2r")).read_text()
+    text = text.replace(
+        "<mechanicalReduction>1</mechanicalReduction>",
+        "<mechanicalReduction>50</mechanicalReduction>",
+    )
+    source.write_text(text)
+    drive = tmp_path / "empty.toml"
+    drive.write_text("")
+    robot = RobotModel.from_urdf(source, rotor_inertia=True, drive=str(drive))
+    values = _consistent_values(robot, np.random.default_rng(9))
+    out = tmp_path / "geared_identified.urdf"
+    write_identified_urdf(robot, values, out)
+    again = RobotModel.from_urdf(out, rotor_inertia=True, drive=str(drive))
+    np.testing.assert_array_equal(again.drive.coupling, robot.drive.coupling)
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+    # Drake (which ignores <mechanicalReduction>) reflects the same IAj.
+    rng = np.random.default_rng(10)
+    q = rng.uniform(-np.pi, np.pi, (4, 2))
+    v, vdot = rng.normal(size=(2, 4, 2))
+    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
