@@ -219,3 +219,34 @@ def test_a_meshcat_page_that_is_not_html_is_refused(files, capsys):
     argv = ["replay", files["urdf"], files["log"], "--html", "page.txt"]
     assert cli.main(argv) == 2
     assert "--html page.txt: a page file ends in .html" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        (["offline", "{log}", "--urdf", "{urdf}", "--urdf-out", ""], "--urdf-out"),
+        (["offline", "{log}", "--urdf", "{urdf}", "--json", ""], "--json"),
+        (["params", "{urdf}", "--json", ""], "--json"),
+        (
+            [
+                "validate",
+                "{held}",
+                "--urdf",
+                "{urdf}",
+                "--params",
+                "{params}",
+                "--plot",
+                "",
+            ],
+            "--plot",
+        ),
+    ],
+)
+def test_an_empty_output_path_is_refused(files, capsys, command, option):
+    # A review: --urdf-out "" (an unset shell variable) ran the fit, wrote no
+    # identified URDF, skipped --physical and exited 0.
+    argv = [part.format(**files) for part in command]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"{option}: the path is empty" in err, err

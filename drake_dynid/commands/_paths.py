@@ -105,7 +105,8 @@ def check_outputs(
 ) -> None:
     """Raises ValueError if an output would overwrite an input or another output.
 
-    Also if the output's folder is missing or cannot be written.
+    Also if the output's folder is missing or cannot be written, or its path is
+    empty (an output asked for must be written).
 
     Args:
         outputs: option name (e.g. ``"--out"``) -> path (None: not written).
@@ -119,6 +120,10 @@ def check_outputs(
         ]
     else:
         named = [("an input", path) for path in _paths(inputs)]
+    for option, path in outputs.items():
+        if path is not None and os.fspath(path) == "":
+            # --urdf-out "" (an unset shell variable) would silently write nothing.
+            raise ValueError(f"{option}: the path is empty; give a file path.")
     given = [(name, os.fspath(path)) for name, path in outputs.items() if path]
     for option, path in given:
         for description, source in named:
