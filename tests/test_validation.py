@@ -521,3 +521,38 @@ def test_a_held_out_part_too_short_is_refused_before_the_fit(logs, tmp_path, cap
     err = capsys.readouterr().err
     assert "is long enough" in err or "at least 16 are needed" in err, err
     assert "use a smaller --split" in err and not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "expected"),
+    [
+        ("friction", ["viscous", "bogus"], "settings.friction"),
+        ("locked", {"joint2": "abc"}, "settings.locked"),
+        (
+            "coulomb_dead_zone",
+            {"joint1": "x", "joint2": 0.01},
+            "settings.coulomb_dead_zone",
+        ),
+    ],
+)
+def test_a_bad_setting_of_the_results_file_is_named(
+    logs, tmp_path, capsys, key, value, expected
+):
+    # A review: a hand-edited results file with a bad friction kind was reported
+    # as "its joints and locks do not apply to the URDF ... Give --joints/--lock",
+    # and a locked position "abc" as "could not convert string to float: 'abc'".
+    fit_path, held_path = logs["fit"][0], logs["held"][0]
+    result = tmp_path / "r.json"
+    argv = ["offline", fit_path, "--urdf", URDF, "--json", str(result), "--quiet"]
+    assert cli.main(argv) == 0
+    document = json.loads(result.read_text())
+    document["settings"][key] = value
+    if key == "locked":
+        document["settings"]["joints"] = ["joint1"]
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(document))
+    argv = ["validate", held_path, "--urdf", URDF, "--params", str(edited)]
+    assert cli.main(argv) == 2
+    line = _error(capsys)
+    assert f"results file {edited}: {expected}" in line, line
+    assert "Give --joints/--lock" not in line, line

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.commands._arguments import parse_dead_zone, parse_friction
+from drake_dynid.core.friction import FRICTION_KINDS
 
 
 def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence[str]:
@@ -21,8 +22,25 @@ def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence
         return parse_friction(args.friction)
     settings = document.get("settings")
     if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
-        return tuple(str(kind) for kind in settings["friction"])
+        kinds = tuple(str(kind) for kind in settings["friction"])
+        unknown = [kind for kind in kinds if kind not in FRICTION_KINDS]
+        if unknown:
+            raise ValueError(
+                f"results file {args.params}: settings.friction must name kinds among "
+                f"{', '.join(FRICTION_KINDS)}; got {', '.join(unknown)}. Give "
+                "--friction."
+            )
+        return kinds
     return ("viscous", "coulomb")
+
+
+def _setting_number(args: argparse.Namespace, field: str, value: Any) -> float:
+    """A number of the results file's settings, or an error naming its field."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(
+            f"results file {args.params}: {field} must be a number; got {value!r}."
+        )
+    return float(value)
 
 
 def _from_results(document: Mapping[str, Any], key: str) -> Any:
@@ -83,7 +101,9 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         # leaders too, which cannot be locked on their own: they follow.
         followers = _mimic_joints(args.urdf)
         options["locked"] = {
-            str(k): float(v) for k, v in locked.items() if str(k) not in followers
+            str(k): _setting_number(args, f"settings.locked.{k}", v)
+            for k, v in locked.items()
+            if str(k) not in followers
         }
     if not args.rotor_inertia:
         options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
@@ -153,5 +173,12 @@ def results_sign(
             f"for {', '.join(missing)}; give --dead-zone."
         )
     return robot.with_sign(
-        DeadZoneSign(tuple(float(widths[name]) for name in robot.joint_names))
+        DeadZoneSign(
+            tuple(
+                _setting_number(
+                    args, f"settings.coulomb_dead_zone.{name}", widths[name]
+                )
+                for name in robot.joint_names
+            )
+        )
     )
