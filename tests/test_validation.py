@@ -556,3 +556,36 @@ def test_a_bad_setting_of_the_results_file_is_named(
     line = _error(capsys)
     assert f"results file {edited}: {expected}" in line, line
     assert "Give --joints/--lock" not in line, line
+
+
+def test_a_results_file_validates_on_the_urdf_it_wrote(tmp_path, capsys):
+    # A review: the URDF written by --urdf-out fixes the joints the fit locked;
+    # validating the fit's results file on it failed (exit 2: "locked joint
+    # 'joint2' is not a movable joint ... leave it out of --lock. Give
+    # --joints/--lock") although the user gave no --lock: the file's lock of a
+    # joint the URDF fixes is already in the URDF.
+    from drake_dynid.urdf_writer import write_identified_urdf
+
+    robot = RobotModel.from_urdf(URDF, joints=("joint1",), locked={"joint2": 0.3})
+    written = tmp_path / "identified.urdf"
+    write_identified_urdf(robot, robot.standard_values, written)
+    params = tmp_path / "p.json"
+    argv = ["params", URDF, "--joints", "joint1", "--lock", "joint2=0.3"]
+    assert cli.main([*argv, "--json", str(params)]) == 0
+    trajectory = random_fourier_trajectory(
+        1,
+        harmonics=3,
+        base_frequency=2 * np.pi * 0.5,
+        max_velocity=3.0,
+        rng=np.random.default_rng(6),
+    )
+    t = H * np.arange(4001)
+    q, v, a = trajectory.evaluate(t)
+    log = tmp_path / "log.csv"
+    write_log(log, t, q, robot.idim_rows(q, v, a) @ robot.base_values, ("joint1",))
+    capsys.readouterr()
+    out = tmp_path / "v.json"
+    argv = ["validate", str(log), "--urdf", str(written), "--params", str(params)]
+    assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0, _error(capsys)
+    (joint,) = json.loads(out.read_text())["estimates"]["URDF a-priori"]["joints"]
+    assert joint["relative_rms_percent"] < 0.1

@@ -3,7 +3,9 @@
 A results file (``dynid offline/identify --json``, or ``dynid params --json`` for the
 URDF's a-priori model) records the friction kinds, identified joints, locks, rotor
 inertia, drive file and Coulomb dead-zone widths in ``settings``; ``dynid validate``
-rebuilds the same model from them, command-line options winning.
+rebuilds the same model from them, command-line options winning (a lock of a joint
+the URDF fixes, as the URDF ``--urdf-out`` wrote does, is left out: it is there
+already).
 """
 
 from __future__ import annotations
@@ -98,12 +100,16 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         options["joints"] = [str(name) for name in joints]
     if args.lock is None and isinstance(locked, dict):
         # settings.locked lists every joint held still, the mimic joints of locked
-        # leaders too, which cannot be locked on their own: they follow.
+        # leaders too, which cannot be locked on their own: they follow. A joint
+        # the URDF fixes is locked already (--urdf-out writes the fit's locked
+        # joints as fixed joints at their positions): validating the fit on the
+        # URDF it wrote needs no --lock.
         followers = _mimic_joints(args.urdf)
+        fixed = _fixed_joints(args.urdf)
         options["locked"] = {
             str(k): _setting_number(args, f"settings.locked.{k}", v)
             for k, v in locked.items()
-            if str(k) not in followers
+            if str(k) not in followers | fixed
         }
     if not args.rotor_inertia:
         options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
@@ -141,6 +147,17 @@ def _mimic_joints(urdf: Any) -> set[str]:
         return set(read_urdf_mimic(urdf))
     except (OSError, ValueError):
         return set()
+
+
+def _fixed_joints(urdf: Any) -> set[str]:
+    """The URDF's fixed joints (none when it cannot be read: the load says)."""
+    from drake_dynid.urdf import read_urdf_joint_types
+
+    try:
+        types = read_urdf_joint_types(urdf)
+    except (OSError, ValueError):
+        return set()
+    return {name for name, kind in types.items() if kind == "fixed"}
 
 
 def _joint_names(urdf: Any) -> set[str]:
