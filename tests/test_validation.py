@@ -589,3 +589,18 @@ def test_a_results_file_validates_on_the_urdf_it_wrote(tmp_path, capsys):
     assert cli.main([*argv, "--json", str(out), "--quiet"]) == 0, _error(capsys)
     (joint,) = json.loads(out.read_text())["estimates"]["URDF a-priori"]["joints"]
     assert joint["relative_rms_percent"] < 0.1
+
+
+def test_a_bad_lock_option_is_not_blamed_on_the_results_file(logs, tmp_path, capsys):
+    # A review: validate --lock joint9=0 (a typo on the command line) said "results
+    # file r.json: its joints and locks (settings.joints, settings.locked) do not
+    # apply to the URDF ... Give --joints/--lock".
+    fit_path, held_path = logs["fit"][0], logs["held"][0]
+    result = tmp_path / "r.json"
+    argv = ["offline", fit_path, "--urdf", URDF, "--json", str(result), "--quiet"]
+    assert cli.main(argv) == 0
+    argv = ["validate", held_path, "--urdf", URDF, "--params", str(result)]
+    assert cli.main([*argv, "--lock", "joint9=0"]) == 2
+    line = _error(capsys)
+    assert "locked joint 'joint9' is not a movable joint" in line, line
+    assert "settings.locked" not in line, line

@@ -125,18 +125,22 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     except ValueError as error:
         if "joints" not in options and "locked" not in options:
             raise
-        named = [*options.get("joints", ()), *options.get("locked", {})]
-        if named and not set(named) - _joint_names(args.urdf):
-            raise ValueError(
-                f"results file {args.params}: its joints and locks (settings.joints, "
-                f"settings.locked) do not apply to {args.urdf}: {error} Give "
-                "--joints/--lock."
-            ) from None
-    # The file's joints are not this URDF's (another robot): load the default
-    # joints; the parameter check then names the mismatch.
+        failure = str(error)
+    named = [*options.get("joints", ()), *options.get("locked", {})]
+    # Without the file's joints and locks: the command line's own errors (a
+    # --lock typo) are raised as they are, not blamed on the results file.
     options.pop("joints", None)
     options.pop("locked", None)
-    return robot_from_args(args, "validate", **options)
+    robot = robot_from_args(args, "validate", **options)
+    if named and not set(named) - _joint_names(args.urdf):
+        raise ValueError(
+            f"results file {args.params}: its joints and locks (settings.joints, "
+            f"settings.locked) do not apply to {args.urdf}: {failure} Give "
+            "--joints/--lock."
+        )
+    # The file's joints are not this URDF's (another robot): the default joints;
+    # the parameter check then names the mismatch.
+    return robot
 
 
 def _mimic_joints(urdf: Any) -> set[str]:
