@@ -7,6 +7,7 @@ drake_dynid's regressor.
 
 import csv
 import json
+import os
 import re
 
 import numpy as np
@@ -604,3 +605,22 @@ def test_a_bad_lock_option_is_not_blamed_on_the_results_file(logs, tmp_path, cap
     line = _error(capsys)
     assert "locked joint 'joint9' is not a movable joint" in line, line
     assert "settings.locked" not in line, line
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_urdf_that_cannot_be_written_keeps_the_other_outputs(logs, tmp_path, capsys):
+    # A review: --urdf-out on a full disk (/dev/full) raised the OSError past the
+    # writer's guard: the JSON was never written and the message ("[Errno 28] No
+    # space left on device") did not name --urdf-out. The README: "If the file
+    # cannot be written, the other outputs still are, then the command exits 2
+    # naming why."
+    fit_path = logs["fit"][0]
+    result = tmp_path / "r.json"
+    argv = ["offline", fit_path, "--urdf", URDF, "--quiet", "--json", str(result)]
+    assert cli.main([*argv, "--urdf-out", "/dev/full"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    line = err.strip().splitlines()[-1]  # after the warning on unidentified ones
+    assert "--urdf-out /dev/full was not written (the other outputs were)" in line
+    document = json.loads(result.read_text())
+    assert "urdf_error" in document["physical"]

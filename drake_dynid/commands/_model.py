@@ -324,7 +324,7 @@ def _write_urdf(
         export = write_identified_urdf(
             robot, physical.standard_values, args.urdf_out, notes=notes
         )
-    except ValueError as error:
+    except (ValueError, OSError) as error:  # OSError: a full disk, a lost folder
         args.urdf_out_error = str(error)
         entry["urdf_error"] = str(error)
         return
