@@ -24,6 +24,9 @@ child link of identified joint j, then of each moving mimic joint: ``robot.links
 * an identified joint's ``<dynamics damping="FVj" friction="FCj">``; a friction
   kind that was not identified is written as 0 (the identified model has none);
   ``OFFj`` has no URDF field and is listed in ``UrdfExport.skipped``;
+* without rotor inertia (the model has no IAj), the input's
+  ``drake:rotor_inertia`` of the joint is written as 0 (Drake would add it to
+  an identified model that has none);
 * with rotor inertia, ``<drake:rotor_inertia value="IAj/g²">`` in the joint's
   ``<transmission><actuator>`` (Drake's tag; g = the actuator's
   ``drake:gear_ratio``; when absent, written as the actuator's
@@ -262,6 +265,29 @@ def _set_rotor_inertia(root: Any, joint: str, value: float) -> bool:
     return True
 
 
+def _zero_rotor_inertia(root: Any, joint: str) -> bool:
+    """Sets the joint's ``drake:rotor_inertia`` to 0; True if one was not 0.
+
+    A model without rotor inertia (no ``rotor_inertia``): Drake would add the
+    input's N²·Ia to the identified model, which has none (the data's rotor
+    inertia is in the link parameters it regroups with). Only the one-joint
+    transmissions Drake reads.
+    """
+    changed = False
+    for transmission in root.findall("transmission"):
+        joints = {j.attrib.get("name") for j in transmission.iter("joint")}
+        if joints != {joint}:
+            continue
+        for rotor in transmission.iter(f"{{{DRAKE_NAMESPACE}}}rotor_inertia"):
+            try:
+                value = float(rotor.attrib.get("value", "0"))
+            except ValueError:
+                value = 1.0  # not a number: replaced all the same
+            changed = changed or value != 0.0
+            rotor.set("value", "0")
+    return changed
+
+
 def _numbers(text: str | None, default: tuple[float, ...]) -> np.ndarray:
     if text is None or not text.split():
         return np.array(default, dtype=float)
@@ -479,6 +505,8 @@ def write_identified_urdf(
             root, joint_name, values[f"IA{j}"]
         ):
             skipped.append(f"IA{j}")
+        if not robot.rotor_inertia and _zero_rotor_inertia(root, joint_name):
+            zeroed.append(f"rotor inertia of {joint_name}")
     for joint_name, position in locked.items():
         if joint_name in joints_by_name:
             _lock_joint(root, joints_by_name[joint_name], position)

@@ -361,3 +361,36 @@ def test_rotor_inertia_keeps_the_transmission_ratio_of_mechanical_reduction(tmp_
     np.testing.assert_allclose(
         _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
     )
+
+
+def test_rotor_inertia_not_identified_is_written_as_zero(tmp_path):
+    # A URDF with drake:rotor_inertia identified without --rotor-inertia: the
+    # identified model has no IAj (the data's rotor inertia went into ZZ1R, ...),
+    # but the writer kept the input's rotor inertia, so Drake's inverse dynamics of
+    # the written file were W·θ + IA_URDF·v̇, not W·θ (a review: 0.4 N·m on the
+    # iiwa7 with 0.2 kg·m² per joint). Written as 0, as a friction kind not
+    # identified.
+    source = tmp_path / "rotors.urdf"
+    text = Path(model_path("planar_2r")).read_text()
+    text = text.replace(
+        '<robot name="', '<robot xmlns:drake="http://drake.mit.edu" name="'
+    )
+    text = text.replace(
+        "<mechanicalReduction>1</mechanicalReduction>",
+        "<mechanicalReduction>1</mechanicalReduction>"
+        '<drake:rotor_inertia value="0.05"/>',
+    )
+    source.write_text(text)
+    robot = RobotModel.from_urdf(source)
+    assert not robot.rotor_inertia
+    values = _consistent_values(robot, np.random.default_rng(11))
+    out = tmp_path / "rotors_identified.urdf"
+    write_identified_urdf(robot, values, out)
+    rng = np.random.default_rng(12)
+    q = rng.uniform(-np.pi, np.pi, (4, 2))
+    v, vdot = rng.normal(size=(2, 4, 2))
+    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
+    assert "Not identified, written as 0: rotor inertia of joint1" in out.read_text()
