@@ -89,6 +89,28 @@ _KINEMATICS = ("numpy", "drake")
 _LOGGER = logging.getLogger("drake_dynid")
 
 
+def _rotor_note(plant: Any, joints: Sequence[str]) -> str:
+    """A note naming the identified joints whose actuator has a rotor inertia.
+
+    Drake's plant of the URDF reflects N²·Ia on them (``drake:rotor_inertia``,
+    ``drake:gear_ratio``); a model without ``IAj`` columns leaves it out of its
+    a-priori values and of the identification ("" when there is none).
+    """
+    reflected = []
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
+        name = actuator.joint().name()
+        value = actuator.default_rotor_inertia() * actuator.default_gear_ratio() ** 2
+        if name in joints and value > 0.0:
+            reflected.append(f"{name} ({value:.3g} kg·m²)")
+    if not reflected:
+        return ""
+    return (
+        f"the URDF's rotor inertia of {', '.join(reflected)} is not modelled "
+        "without rotor inertia columns (--rotor-inertia)"
+    )
+
+
 @dataclass(frozen=True, eq=False)
 class RobotModel(RobotRows):
     """Immutable description of a fixed-base robot for identification.
@@ -330,6 +352,10 @@ class RobotModel(RobotRows):
                 for j in np.flatnonzero(motor.row)
             }
         )
+        if chain is None and not rotor_inertia:  # a drive chain notes its own
+            unmodelled = _rotor_note(plant, jmap.names)
+            if unmodelled:
+                notes += (unmodelled,)
         left = untransmitted_note(
             [name for name in untransmitted[0] if name not in driven],
             untransmitted[1],

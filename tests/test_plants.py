@@ -592,3 +592,31 @@ def test_discrete_plant_state_port_timing_seen_by_an_update(sampled):
     expected = logged[4] if not sampled else logged[5]
     np.testing.assert_array_equal(seen, expected)
     assert not np.array_equal(logged[4], logged[5])
+
+
+def test_a_urdf_rotor_inertia_left_out_is_noted(tmp_path):
+    # A review: a URDF whose actuators carry drake:rotor_inertia, loaded without
+    # rotor_inertia, gave an a-priori model (dynid params, validate, --compare-urdf)
+    # without the N²·Ia that Drake's plant of the same file has, silently; with a
+    # drive file the same omission was already a note.
+    source = tmp_path / "rotors.urdf"
+    text = Path(model_path("planar_2r")).read_text()
+    text = text.replace(
+        "<robot name=", '<robot xmlns:drake="http://drake.mit.edu" name='
+    )
+    text = text.replace(
+        '<actuator name="joint2_motor"><mechanicalReduction>1</mechanicalReduction>',
+        '<actuator name="joint2_motor"><mechanicalReduction>1</mechanicalReduction>'
+        '<drake:gear_ratio value="10"/><drake:rotor_inertia value="0.0005"/>',
+    )
+    source.write_text(text)
+    notes = RobotModel.from_urdf(source).notes
+    assert any(
+        "rotor inertia of joint2 (0.05 kg·m²) is not modelled" in note for note in notes
+    ), notes
+    assert not any(
+        "rotor inertia" in note
+        for note in RobotModel.from_urdf(source, rotor_inertia=True).notes
+    )
+    plain = RobotModel.from_urdf(model_path("planar_2r")).notes
+    assert not any("rotor inertia" in note for note in plain), plain
