@@ -624,3 +624,12 @@ def test_a_urdf_that_cannot_be_written_keeps_the_other_outputs(logs, tmp_path, c
     assert "--urdf-out /dev/full was not written (the other outputs were)" in line
     document = json.loads(result.read_text())
     assert "urdf_error" in document["physical"]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_json_that_cannot_be_written_is_named(logs, tmp_path, capsys):
+    # A review: --json on a full disk said only "[Errno 28] No space left on
+    # device", not which of the outputs failed.
+    argv = ["offline", logs["fit"][0], "--urdf", URDF, "--quiet", "--json"]
+    assert cli.main([*argv, "/dev/full"]) == 2
+    assert "No space left on device: '/dev/full'" in _error(capsys)

@@ -140,8 +140,16 @@ def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
 
 
 def write_json(path: str, document: Mapping[str, Any]) -> None:
-    """Writes ``document`` as indented JSON (no NaN: invalid JSON)."""
-    Path(path).write_text(json.dumps(document, indent=2, allow_nan=False) + "\n")
+    """Writes ``document`` as indented JSON (no NaN: invalid JSON).
+
+    Raises:
+        OSError: naming ``path`` (a full disk's error names no file).
+    """
+    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    try:
+        Path(path).write_text(text)
+    except OSError as error:
+        raise OSError(error.errno, error.strerror, str(path)) from None
 
 
 def matplotlib_pyplot() -> Any:
