@@ -379,3 +379,13 @@ def test_default_jobs_are_the_cpus_this_process_may_use(logs, tmp_path, monkeypa
     monkeypatch.setattr(fleet, "_run_local", no_pool)
     argv = ["fleet", "offline", *logs, "--urdf", URDF, "--quiet"]
     assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 0
+
+
+def test_an_empty_per_log_output_is_refused_before_any_log(logs, tmp_path, capsys):
+    # A review: --urdf-out "" passed the fleet's check (an empty string is false)
+    # and every log then failed on its own; it is refused as any --urdf-out.
+    out_dir = tmp_path / "out"
+    argv = ["fleet", "offline", logs[0], "--urdf", URDF, "--out-dir", str(out_dir)]
+    assert cli.main([*argv, "--jobs", "1", "--urdf-out", ""]) == 2
+    assert "--urdf-out would write one file for every log" in capsys.readouterr().err
+    assert not out_dir.exists()

@@ -159,7 +159,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.fleet_command is None:
         raise ValueError("choose the command: dynid fleet identify|offline LOGS ...")
-    given = [opt for opt, name in _PER_LOG_OUTPUTS if getattr(args, name, None)]
+    given = [
+        opt for opt, name in _PER_LOG_OUTPUTS if getattr(args, name, None) is not None
+    ]
     if given:
         raise ValueError(
             f"{', '.join(given)} would write one file for every log; a fleet writes "
