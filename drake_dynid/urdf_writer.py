@@ -29,9 +29,10 @@ child link of identified joint j, then of each moving mimic joint: ``robot.links
   an identified model that has none);
 * with rotor inertia, ``<drake:rotor_inertia value="IAj/g²">`` in the joint's
   ``<transmission><actuator>`` (Drake's tag; g = the actuator's
-  ``drake:gear_ratio``; when absent, written as the actuator's
-  ``<mechanicalReduction>``, the ratio drake_dynid's drive chain reads, else 1),
-  so that Drake's reflected inertia is IAj. A joint without a ``<transmission>`` gets a
+  ``drake:gear_ratio``, written as the drive chain's ratio of the joint's motor
+  with a drive file; when absent, as the actuator's ``<mechanicalReduction>``,
+  the ratio drake_dynid's drive chain reads, else 1), so that Drake's reflected
+  inertia is IAj. A joint without a ``<transmission>`` gets a
   ``SimpleTransmission`` with one actuator. A joint of a transmission with
   several joints (a differential wrist: Drake reads no such transmission) has no
   field for its IAj: listed in ``skipped``, as the coupled motors' ``IAmk``,
@@ -209,12 +210,17 @@ def _dynamics(joint: Any) -> Any:
     return dynamics
 
 
-def _set_rotor_inertia(root: Any, joint: str, value: float) -> bool:
+def _set_rotor_inertia(
+    root: Any, joint: str, value: float, ratio: float | None = None
+) -> bool:
     """Writes IAj in the joint's transmission; False where there is no field.
 
     A transmission of several joints (a differential) has none. A joint without
     a transmission gets a ``SimpleTransmission`` (Drake reads its actuator's
     ``drake:rotor_inertia``; drake_dynid actuates such a joint anyway).
+    ``ratio``: the drive chain's gear ratio of the joint's motor, written as
+    ``drake:gear_ratio`` (the drive file's ratio overrides the URDF's when the
+    file is loaded with it again: both then reflect IAj).
     """
     drake = f"{{{DRAKE_NAMESPACE}}}"
     found = [
@@ -244,7 +250,11 @@ def _set_rotor_inertia(root: Any, joint: str, value: float) -> bool:
         ]
     actuator = actuators[0]
     ratio_element = actuator.find(f"{drake}gear_ratio")
-    if ratio_element is None:
+    if ratio is not None:
+        if ratio_element is None:
+            ratio_element = ElementTree.SubElement(actuator, f"{drake}gear_ratio")
+        ratio_element.set("value", _number(ratio))
+    elif ratio_element is None:
         # The ratio drake_dynid's drive chain reads (drive_urdf: the actuator's,
         # else the transmission's <mechanicalReduction>, else 1): a gear ratio of 1
         # would win over it and change R for a file loaded with a drive file.
@@ -470,6 +480,13 @@ def write_identified_urdf(
     skipped: list[str] = []
     zeroed: list[str] = []
     folded: list[str] = []  # a moving mimic joint's, in its leader's FVj, FCj
+    # The drive chain's ratio of each joint's simple motor (its IAj = N²·Ia).
+    drive = getattr(robot, "drive", None)
+    ratios = {
+        int(motor.joints[0]): float(motor.row[motor.joints[0]])
+        for motor in (drive.motors if drive is not None else ())
+        if not motor.coupled
+    }
     friction_scale = max(
         [1.0, *(abs(v) for name, v in values.items() if name[:2] in ("FV", "FC"))]
     )
@@ -502,7 +519,7 @@ def write_identified_urdf(
         if f"OFF{j}" in values:
             skipped.append(f"OFF{j}")
         if f"IA{j}" in values and not _set_rotor_inertia(
-            root, joint_name, values[f"IA{j}"]
+            root, joint_name, values[f"IA{j}"], ratios.get(k)
         ):
             skipped.append(f"IA{j}")
         if not robot.rotor_inertia and _zero_rotor_inertia(root, joint_name):

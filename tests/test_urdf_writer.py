@@ -394,3 +394,26 @@ def test_rotor_inertia_not_identified_is_written_as_zero(tmp_path):
         _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
     )
     assert "Not identified, written as 0: rotor inertia of joint1" in out.read_text()
+
+
+def test_rotor_inertia_is_written_with_the_drive_files_gear_ratio(tmp_path):
+    # A drive file that overrides a URDF actuator's ratio (tiago.toml: 100 for a
+    # <mechanicalReduction>1): the writer used the URDF's 1, so the written file
+    # loaded again with the same drive file had an a-priori IAj of 50² times the
+    # identified one (a review). The drive's ratio serves Drake and the drive.
+    drive = tmp_path / "geared.toml"
+    drive.write_text("[motors.joint2_motor]\ngear_ratio = 50\n")
+    source = model_path("planar_2r")
+    robot = RobotModel.from_urdf(source, rotor_inertia=True, drive=str(drive))
+    values = _consistent_values(robot, np.random.default_rng(13))
+    out = tmp_path / "geared_identified.urdf"
+    write_identified_urdf(robot, values, out)
+    again = RobotModel.from_urdf(out, rotor_inertia=True, drive=str(drive))
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
+    rng = np.random.default_rng(14)
+    q = rng.uniform(-np.pi, np.pi, (4, 2))
+    v, vdot = rng.normal(size=(2, 4, 2))
+    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
