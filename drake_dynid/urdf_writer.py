@@ -385,7 +385,9 @@ def _header(
         + ("; drake:rotor_inertia" if robot.rotor_inertia else "")
         + ".",
         f"Coulomb friction of the fit: FCj * {_law(robot)}; Drake ignores the "
-        "friction attribute.",
+        "friction attribute."
+        if "coulomb" in tuple(getattr(robot, "friction", ("coulomb",)))
+        else "No Coulomb friction in the fit.",
     ]
     if locked:
         lines.append(

@@ -269,6 +269,9 @@ def test_unidentified_friction_is_zero_and_rotor_inertia_finds_a_place(tmp_path)
     again = RobotModel.from_urdf(out, friction=("viscous",), rotor_inertia=True)
     np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
     assert "Not identified, written as 0: friction of" in out.read_text()
+    # No Coulomb column: the header names no Coulomb law of the fit (a review: it
+    # said "FCj * sign(v)").
+    assert "Coulomb friction of the fit" not in out.read_text()
 
 
 def test_a_differential_transmission_has_no_rotor_inertia_field(tmp_path):
