@@ -51,3 +51,43 @@ def test_unequal_joint_noise_is_named_with_the_weighted_fix(logs, capsys, tmp_pa
         document["joint_noise_std"]["joint1"] / document["joint_noise_std"]["joint2"]
     )
     assert 0.5 < ratio < 2.0
+
+
+def test_joints_with_few_residual_degrees_of_freedom_are_not_compared():
+    """A review: equal noise on every joint of 20 s iiwa7 logs (61 decimated rows
+    per joint) gave σ_j 12.6× apart: the shoulder's own fit (rank 40-44) absorbs
+    part of its noise. Such joints (K - rank_j < rank_j) are left out."""
+    from types import SimpleNamespace
+
+    from drake_dynid.commands.offline import _unequal_noise
+
+    robot = SimpleNamespace(joint_names=("a", "b", "c"))
+    sigma, rank = np.array([1.0, 0.05, 2.0]), np.array([9, 44, 12])
+
+    def result(rows):
+        reduced = SimpleNamespace(num_samples=rows)
+        return SimpleNamespace(model="idim-ls", reduced=reduced)
+
+    assert _unequal_noise(robot, sigma, rank, result(61)) == ""
+    note = _unequal_noise(robot, sigma, rank, result(88))
+    assert "differ by 40×" in note and "(σ c 2, b 0.05)" in note
+    assert _unequal_noise(robot, np.array([1.0, 0.5, 2.0]), rank, result(88)) == ""
+
+
+def test_joint_noise_fits_gives_each_joints_rank():
+    from drake_dynid.core.idim import joint_noise_fits, joint_noise_std, reduce_rows
+
+    rng = np.random.default_rng(0)
+    W = rng.normal(size=(50, 2, 4))
+    W[:, 1, :2] = 0.0  # joint 2 sees two parameters
+    tau = rng.normal(size=(50, 2))
+    sigma, rank = joint_noise_fits(reduce_rows(W, tau))
+    assert rank.tolist() == [4, 2]
+    np.testing.assert_allclose(sigma, joint_noise_std(W, tau), rtol=1e-12)
+    for j in range(2):
+        columns = W[:, j, rank[j] - 4 :] if j else W[:, j]
+        fit = np.linalg.lstsq(columns, tau[:, j], rcond=None)[0]
+        residual = columns @ fit - tau[:, j]
+        assert sigma[j] == pytest.approx(
+            np.linalg.norm(residual) / np.sqrt(50 - rank[j])
+        )
