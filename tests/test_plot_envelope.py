@@ -251,3 +251,31 @@ def test_the_title_stays_above_the_panels(tmp_path, monkeypatch, count):
     write_plot(str(tmp_path / "p.png"), t, theta, std, np.ones(50), names, "x")
     ((text, title, panels),) = saved
     assert text and title.y0 >= max(panel.y1 for panel in panels)
+
+
+def test_the_torque_plot_gives_a_prismatic_joint_its_force_unit(tmp_path, monkeypatch):
+    """A prismatic joint's effort is a force: its panel reads [N], not [N·m]."""
+    from types import SimpleNamespace
+
+    import matplotlib.pyplot as plt
+
+    from drake_dynid.commands import validate
+
+    figures = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    count = 50
+    t = 0.01 * np.arange(count)
+    values = np.column_stack([np.sin(t), np.cos(t)])
+    result = SimpleNamespace(
+        joint_names=("torso_lift_joint", "arm_1_joint"),
+        t=t,
+        segment=np.zeros(count),
+        measured=values,
+        predicted=values,
+        num_samples_used=count,
+        relative_rms_percent=np.zeros(2),
+    )
+    path = str(tmp_path / "torques.png")
+    validate.write_torque_plot(path, {"fit": result}, "x", (True, False))
+    labels = [axis.get_ylabel() for axis in figures[0].axes if axis.get_ylabel()]
+    assert labels == ["torso_lift_joint\n[N]", "arm_1_joint\n[N·m]"]

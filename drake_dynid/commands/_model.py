@@ -276,7 +276,10 @@ def finish_offline(
             decimation_cutoff_hz=args.decimation_cutoff,
         )
         write_torque_plot(
-            args.plot, validations, f"dynid offline: fitted torques ({args.log})"
+            args.plot,
+            validations,
+            f"dynid offline: fitted torques ({args.log})",
+            getattr(robot, "prismatic", ()),
         )
         if not args.quiet:
             print(f"wrote {args.plot}")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -309,11 +309,18 @@ def _torque_series(validations: Mapping[str, Any]) -> tuple[np.ndarray, list[Any
     ]
 
 
-def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> None:
+def write_torque_plot(
+    path: str,
+    validations: Mapping[str, Any],
+    title: str,
+    prismatic: Sequence[bool] = (),
+) -> None:
     """One panel per joint: measured (low-passed) torque and each prediction.
 
     The thin lines on the right axis are the residuals (measured - predicted).
-    A long validation is drawn as its envelope (``_torque_series``).
+    A long validation is drawn as its envelope (``_torque_series``). The effort
+    axis is in N·m, or in N for a joint flagged in ``prismatic`` (the robot's
+    ``RobotModel.prismatic``, one flag per joint; empty: all revolute).
     """
     from drake_dynid.commands._report import matplotlib_pyplot
 
@@ -342,7 +349,8 @@ def write_torque_plot(path: str, validations: Mapping[str, Any], title: str) -> 
             )
             residuals.plot(t, series[2 + 2 * k][:, j], color=f"C{k}", lw=0.5, alpha=0.5)
         residuals.tick_params(labelsize=7, colors="0.4")
-        axis.set_ylabel(f"{name}\n[N·m]")
+        unit = "N" if j < len(prismatic) and prismatic[j] else "N·m"
+        axis.set_ylabel(f"{name}\n[{unit}]")
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=7, loc="upper right")
     for axis in axes[n:]:
@@ -395,7 +403,9 @@ def report_validation(
         for line in validation_lines(validations, description):
             print(line)
     if plot_title is not None and args.plot:
-        write_torque_plot(args.plot, validations, plot_title)
+        write_torque_plot(
+            args.plot, validations, plot_title, getattr(robot, "prismatic", ())
+        )
         if not args.quiet:
             print(f"wrote {args.plot}")
     return validation_document(validations, description, log)
