@@ -243,9 +243,9 @@ class RobotModel(RobotRows):
         ):
             notes += (
                 f"{Path(path).name} was written by dynid --urdf-out with a drive "
-                "file: its joint damping, friction and rotor inertia already include "
-                "the motors' reflected values, and the drive file's are added again "
-                "in the a-priori values (dynid params, --compare-urdf); the "
+                "file: its joint damping and friction already include the motors' "
+                "reflected values, and the drive file's motor friction is added "
+                "again in the a-priori values (dynid params, --compare-urdf); the "
                 "identification itself is not affected",
             )
         for note in notes:

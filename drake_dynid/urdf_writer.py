@@ -402,11 +402,12 @@ def _header(
     if drive is not None:
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            "friction "
-            f"and rotor inertia {DRIVE_TOTALS}; loaded with the same drive file, its "
-            "motor friction and "
-            "inertia would be counted twice in the a-priori values (dynid params, "
-            "compare-urdf)."
+            f"friction and rotor inertia {DRIVE_TOTALS}; loaded with the same drive "
+            "file, its motor friction would be counted twice in the a-priori values "
+            "(dynid params, compare-urdf). The rotor inertia is written for the "
+            "drive's gear ratio N (drake:gear_ratio N, drake:rotor_inertia IAj/N²): "
+            "Drake and the same drive file reflect it to IAj (a rotor_inertia the "
+            "drive file gives replaces it)."
         )
     return lines
 

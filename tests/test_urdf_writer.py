@@ -420,3 +420,30 @@ def test_rotor_inertia_is_written_with_the_drive_files_gear_ratio(tmp_path):
     np.testing.assert_allclose(
         _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
     )
+
+
+def test_the_same_drive_file_reads_the_written_rotor_inertia_back(tmp_path):
+    # The TIAGo with its drive file (gear ratios 100 and 336 on motors named after
+    # the URDF actuators, no rotor inertia of their own): the drive's ratio N
+    # reflects the URDF actuator's drake:rotor_inertia, so the file holds
+    # Ia = IAj/N² with drake:gear_ratio N. It held IAj with ratio 1, which the
+    # same drive file read back as N² IAj (1e4 and 1.1e5 times the fit).
+    joints = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
+    drive = Path(model_path("tiago_no_hand")).parent / "tiago.toml"
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"), joints=joints, drive=drive, rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(9))
+    out = tmp_path / "t.urdf"
+    export = write_identified_urdf(robot, values, out)
+    assert export.skipped == ("IA7", "IA8")  # the URDF's differential wrist
+    inertias = [f"IA{j}" for j in range(1, 7)]
+    for kwargs in ({"drive": drive}, {}):  # with the drive file, and Drake's own
+        again = RobotModel.from_urdf(out, joints=joints, rotor_inertia=True, **kwargs)
+        read = dict(zip(again.standard_names, again.standard_values, strict=True))
+        expected = dict(zip(robot.standard_names, values, strict=True))
+        np.testing.assert_allclose(
+            [read[name] for name in inertias],
+            [expected[name] for name in inertias],
+            rtol=1e-9,
+        )
