@@ -81,7 +81,7 @@ from drake_dynid.urdf import (
     read_urdf_mimic,
     untransmitted_note,
 )
-from drake_dynid.urdf_writer import DRIVE_TOTALS
+from drake_dynid.urdf_writer import DRIVE_TOTALS, motor_friction
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
@@ -238,19 +238,9 @@ class RobotModel(RobotRows):
         untransmitted = (loaded.untransmitted, loaded.untransmitted_limited)
         own = untransmitted_note(*untransmitted)
         notes = tuple(note for note in loaded.notes if note != own)
-        if drive is not None and DRIVE_TOTALS in Path(path).read_text(
-            encoding="utf-8", errors="replace"
-        ):
-            notes += (
-                f"{Path(path).name} was written by dynid --urdf-out with a drive "
-                "file: its joint damping and friction already include the motors' "
-                "reflected values, and the drive file's motor friction is added "
-                "again in the a-priori values (dynid params, --compare-urdf); the "
-                "identification itself is not affected",
-            )
         for note in notes:
             _LOGGER.info("RobotModel: %s.", note)
-        return cls.from_plant(
+        model = cls.from_plant(
             loaded.plant,
             friction=friction,
             rotor_inertia=rotor_inertia,
@@ -266,6 +256,21 @@ class RobotModel(RobotRows):
             coulomb_width=coulomb_width,
             untransmitted=untransmitted,
         )
+        if (
+            model.drive is not None
+            and motor_friction(model.drive)
+            and DRIVE_TOTALS in Path(path).read_text(encoding="utf-8", errors="replace")
+        ):
+            note = (
+                f"{Path(path).name} was written by dynid --urdf-out with a drive "
+                "file: its joint damping and friction already include the motors' "
+                "reflected values, and the drive file's motor friction is added "
+                "again in the a-priori values (dynid params, --compare-urdf); the "
+                "identification itself is not affected"
+            )
+            _LOGGER.info("RobotModel: %s.", note)
+            object.__setattr__(model, "notes", (*model.notes, note))
+        return model
 
     @classmethod
     def from_plant(

@@ -203,6 +203,17 @@ def _absolute_filenames(root: Any, source: Path, output: Path) -> None:
             element.set("filename", str((source.parent / name).resolve()))
 
 
+def motor_friction(drive: Any) -> bool:
+    """Whether a drive chain adds motor friction to the joints' a-priori values.
+
+    ``DriveChain.reflected_friction`` (its simple motors' ``viscous``,
+    ``coulomb``, ``offset``) not all 0: loaded with such a drive file, a file
+    written with it counts that friction twice (the URDF's joint friction is
+    already the total).
+    """
+    return any(np.any(values != 0.0) for values in drive.reflected_friction().values())
+
+
 def _dynamics(joint: Any) -> Any:
     dynamics = joint.find("dynamics")
     if dynamics is None:
@@ -400,14 +411,18 @@ def _header(
     if skipped:
         lines.append(f"Identified, no URDF field (not written): {', '.join(skipped)}.")
     if drive is not None:
+        twice = (
+            "; loaded with the same drive file, its motor friction would be counted "
+            "twice in the a-priori values (dynid params, compare-urdf)."
+            if motor_friction(drive)
+            else "."
+        )
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            f"friction and rotor inertia {DRIVE_TOTALS}; loaded with the same drive "
-            "file, its motor friction would be counted twice in the a-priori values "
-            "(dynid params, compare-urdf). The rotor inertia is written for the "
-            "drive's gear ratio N (drake:gear_ratio N, drake:rotor_inertia IAj/N²): "
-            "Drake and the same drive file reflect it to IAj (a rotor_inertia the "
-            "drive file gives replaces it)."
+            f"friction and rotor inertia {DRIVE_TOTALS}{twice} The rotor inertia is "
+            "written for the drive's gear ratio N (drake:gear_ratio N, "
+            "drake:rotor_inertia IAj/N²): Drake and the same drive file reflect it "
+            "to IAj (a rotor_inertia the drive file gives replaces it)."
         )
     return lines
 

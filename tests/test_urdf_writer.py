@@ -447,3 +447,23 @@ def test_the_same_drive_file_reads_the_written_rotor_inertia_back(tmp_path):
             [expected[name] for name in inertias],
             rtol=1e-9,
         )
+
+
+def test_counted_twice_is_said_only_of_a_drive_file_with_motor_friction(tmp_path):
+    # The TIAGo's drive file gives no motor friction: nothing is counted twice
+    # when the written file is loaded with it again, and nothing says so. The
+    # wrist4 drive file gives its motors' viscous and Coulomb friction: said.
+    joints = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
+    cases = [
+        (model_path("tiago_no_hand"), joints, "tiago.toml", False),
+        ("tests/data/wrist4.urdf", None, "wrist4.toml", True),
+    ]
+    for urdf, names, drive_name, twice in cases:
+        drive = Path(urdf).parent / drive_name
+        robot = RobotModel.from_urdf(urdf, joints=names, drive=drive)
+        values = _consistent_values(robot, np.random.default_rng(10))
+        out = tmp_path / f"{drive_name}.urdf"
+        write_identified_urdf(robot, values, out)
+        assert ("counted twice" in out.read_text()) is twice
+        again = RobotModel.from_urdf(out, joints=names, drive=drive)
+        assert any("added again" in note for note in again.notes) is twice
