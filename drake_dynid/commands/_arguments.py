@@ -683,17 +683,72 @@ def constant_channels(log: Any) -> str | None:
     )
 
 
+#: A position beyond a joint's URDF limits by more than this fraction of its range
+#: is named by :func:`outside_limits`.
+LIMIT_MARGIN = 0.1
+
+
+def outside_limits(log: Any, robot: Any) -> str | None:
+    """A warning naming the joints whose logged positions leave their URDF limits.
+
+    A joint is named when its finite positions go beyond ``[lower, upper]`` by
+    more than ``LIMIT_MARGIN`` × (upper - lower) (joints without finite limits
+    are not checked): positions in another unit than the one read (degrees read
+    as radians, millimetres as metres: a drive file's ``angle_unit``,
+    ``length_unit``) or a wrong zero offset, which nothing else notices (the
+    model's gravity and inertia torques are then evaluated at positions the
+    robot was never in). A stored log is read a block at a time.
+    """
+    import numpy as np
+
+    from drake_dynid.core.blocks import blocks
+
+    plant = getattr(robot, "plant", None)
+    if plant is None:
+        return None
+    low = np.full(len(log.joint_names), np.inf)
+    high = np.full(len(log.joint_names), -np.inf)
+    for _, block in blocks(log.q):
+        finite = np.isfinite(block)
+        low = np.minimum(low, np.min(block, axis=0, where=finite, initial=np.inf))
+        high = np.maximum(high, np.max(block, axis=0, where=finite, initial=-np.inf))
+    found = []
+    for j, name in enumerate(log.joint_names):
+        joint = plant.GetJointByName(name)
+        lower = float(joint.position_lower_limits()[0])
+        upper = float(joint.position_upper_limits()[0])
+        if not (np.isfinite(lower) and np.isfinite(upper) and upper > lower):
+            continue
+        margin = LIMIT_MARGIN * (upper - lower)
+        if low[j] < lower - margin or high[j] > upper + margin:
+            unit = "m" if joint.type_name() == "prismatic" else "rad"
+            found.append(
+                f"{name} from {low[j]:.4g} to {high[j]:.4g} {unit} (limits "
+                f"{lower:.4g} .. {upper:.4g})"
+            )
+    if not found:
+        return None
+    return (
+        f"position(s) beyond the URDF's joint limits: {'; '.join(found)}. "
+        "Positions in another unit (degrees read as radians, millimetres as "
+        "metres: a drive file's angle_unit, length_unit) or a wrong zero offset "
+        "(position_offset)? The model is evaluated at the positions as read."
+    )
+
+
 def print_log_warnings(
     log: Any, files: Sequence[str], command: str, robot: Any = None
 ) -> None:
     """Each of the reader's warnings as one line on stderr, naming the log.
 
-    Also :func:`constant_channels`'s, and with ``robot`` :func:`locked_motion`'s.
+    Also :func:`constant_channels`'s, and with ``robot`` :func:`locked_motion`'s
+    and :func:`outside_limits`'s.
     """
     label = " + ".join(files)
     extra = [constant_channels(log)]
     if robot is not None:
         extra.append(locked_motion(files, robot))
+        extra.append(outside_limits(log, robot))
     for warning in (*log.warnings, *(w for w in extra if w)):
         print(f"dynid {command}: warning: log {label}: {warning}", file=sys.stderr)
 
