@@ -633,3 +633,17 @@ def test_a_json_that_cannot_be_written_is_named(logs, tmp_path, capsys):
     argv = ["offline", logs["fit"][0], "--urdf", URDF, "--quiet", "--json"]
     assert cli.main([*argv, "/dev/full"]) == 2
     assert "No space left on device: '/dev/full'" in _error(capsys)
+
+
+def test_no_smaller_split_is_suggested_when_the_whole_log_is_too_short(
+    logs, tmp_path, capsys
+):
+    """Found by a review: a TIAGo log read in the wrong time unit (h = 10 µs) was
+    told 'use a smaller --split', which no split satisfies: the whole log is
+    shorter than the cutoff's start-up. Here a log stamped in seconds read in ms
+    (4001 samples at 1 µs: the automatic cutoff of at most 40 Hz drops more)."""
+    argv = ["offline", logs["fit"][0], "--urdf", URDF, "--split", "0.5"]
+    assert cli.main([*argv, "--time-unit", "ms"]) == 2
+    err = capsys.readouterr().err
+    assert "use a smaller --split" not in err, err
+    assert "the whole log is too short for it too" in err, err

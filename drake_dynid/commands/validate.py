@@ -84,16 +84,28 @@ def add_validation_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _check_held_out(args: argparse.Namespace, held: Any, description: str) -> None:
-    """The held-out log is long enough to validate on, checked before the fit."""
+def _check_held_out(
+    args: argparse.Namespace, held: Any, description: str, whole: Any = None
+) -> None:
+    """The held-out log is long enough to validate on, checked before the fit.
+
+    With ``--split`` (``whole``: the log it splits) a smaller fraction is
+    suggested only when the whole log is long enough itself (else no split is).
+    """
     from drake_dynid.validation import check_validation_length
 
+    cutoff = getattr(args, "cutoff", None)
     try:
-        check_validation_length(held, getattr(args, "cutoff", None))
+        check_validation_length(held, cutoff)
     except ValueError as error:
         text = str(error)
-        if getattr(args, "split", None):
-            text = f"{text.rstrip('.')}; use a smaller --split."
+        if whole is not None:
+            try:
+                check_validation_length(whole, cutoff)
+            except ValueError:
+                text = f"{text.rstrip('.')}; the whole log is too short for it too."
+            else:
+                text = f"{text.rstrip('.')}; use a smaller --split."
         raise ValueError(f"validation on {description}: {text}") from None
 
 
@@ -123,7 +135,7 @@ def validation_split(
 
         first, rest = split_log(log, split)
         description = f"{args.log} after the first {100 * split:g} %"
-        _check_held_out(args, rest, description)
+        _check_held_out(args, rest, description, log)
         return first, rest, description
     if other:
         held = read_robot_log(
