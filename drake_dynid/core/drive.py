@@ -209,7 +209,13 @@ class DriveChain:
                 "joints": {names[j]: float(motor.row[j]) for j in motor.joints},
                 "source": motor.source,
             }
-            for key in ("torque_constant", "rotor_inertia", "viscous", "coulomb"):
+            for key in (
+                "torque_constant",
+                "rotor_inertia",
+                "viscous",
+                "coulomb",
+                "offset",
+            ):
                 value = getattr(motor, key)
                 if value is not None:
                     entry[key] = value

@@ -513,3 +513,14 @@ def test_a_motor_of_a_prismatic_joint_says_whether_it_is_linear():
     # nothing said.
     np.testing.assert_allclose(encoder({"gear_ratio": 1.0}), 1000.0 * slide[:, 0])
     assert chain({"gear_ratio": screw}, with_log=False).motors[0].linear is None
+
+
+def test_the_summary_records_every_motor_value_the_file_gives():
+    """settings.drive_chain of a results file: a motor's offset was left out."""
+    motor = {"joint": "j1", "torque_constant": 0.1, "rotor_inertia": 1e-3}
+    motor |= {"viscous": 0.01, "coulomb": 0.2, "offset": 0.05}
+    chain = DriveChain.from_dict({"motors": {"m1": motor}}, ("j1",))
+    entry = chain.summary()["motors"][0]
+    assert {key: entry[key] for key in motor if key != "joint"} == {
+        key: value for key, value in motor.items() if key != "joint"
+    }
