@@ -417,12 +417,17 @@ def _header(
             if motor_friction(drive)
             else "."
         )
+        inertia = (
+            " The rotor inertia is written for the drive's gear ratio N "
+            "(drake:gear_ratio N, drake:rotor_inertia IAj/N²): Drake and the same "
+            "drive file reflect it to IAj (a rotor_inertia the drive file gives "
+            "replaces it)."
+            if robot.rotor_inertia
+            else ""
+        )
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            f"friction and rotor inertia {DRIVE_TOTALS}{twice} The rotor inertia is "
-            "written for the drive's gear ratio N (drake:gear_ratio N, "
-            "drake:rotor_inertia IAj/N²): Drake and the same drive file reflect it "
-            "to IAj (a rotor_inertia the drive file gives replaces it)."
+            f"friction and rotor inertia {DRIVE_TOTALS}{twice}{inertia}"
         )
     return lines
 

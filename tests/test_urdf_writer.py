@@ -437,6 +437,7 @@ def test_the_same_drive_file_reads_the_written_rotor_inertia_back(tmp_path):
     out = tmp_path / "t.urdf"
     export = write_identified_urdf(robot, values, out)
     assert export.skipped == ("IA7", "IA8")  # the URDF's differential wrist
+    assert "drake:gear_ratio N, drake:rotor_inertia IAj/N²" in out.read_text()
     inertias = [f"IA{j}" for j in range(1, 7)]
     for kwargs in ({"drive": drive}, {}):  # with the drive file, and Drake's own
         again = RobotModel.from_urdf(out, joints=joints, rotor_inertia=True, **kwargs)
@@ -465,5 +466,7 @@ def test_counted_twice_is_said_only_of_a_drive_file_with_motor_friction(tmp_path
         out = tmp_path / f"{drive_name}.urdf"
         write_identified_urdf(robot, values, out)
         assert ("counted twice" in out.read_text()) is twice
+        # Without rotor inertia columns none is written, and none is described.
+        assert "drake:gear_ratio N" not in out.read_text()
         again = RobotModel.from_urdf(out, joints=names, drive=drive)
         assert any("added again" in note for note in again.notes) is twice
