@@ -347,6 +347,7 @@ class RobotModel(RobotRows):
             notes += tuple(chain.notes) + table.notes
         # The joints a motor of the drive file (or the URDF) drives; a joint
         # left with its implicit direct drive is as untransmitted as without one.
+        # A locked joint is welded: whether it is actuated does not matter.
         driven = (
             set()
             if chain is None
@@ -362,7 +363,11 @@ class RobotModel(RobotRows):
             if unmodelled:
                 notes += (unmodelled,)
         left = untransmitted_note(
-            [name for name in untransmitted[0] if name not in driven],
+            [
+                name
+                for name in untransmitted[0]
+                if name not in driven and name in jmap.names
+            ],
             untransmitted[1],
         )
         if left:

@@ -202,3 +202,15 @@ def test_a_params_file_validates_as_the_urdf_a_priori_model(tmp_path, capsys):
     assert "p.json (URDF a-priori, 8 base parameters)" in printed
     assert "estimate: URDF a-priori" in printed and "estimate: fit" not in printed
     assert list(json.loads(out.read_text())["estimates"]) == ["URDF a-priori"]
+
+
+def test_the_untransmitted_note_names_only_identified_joints(capsys):
+    """A review: identifying arm_1..arm_4 of the TIAGo, the note said the locked
+    (welded) arm_6_joint, arm_7_joint were 'treated as actuated'."""
+    joints = ",".join(f"arm_{k}_joint" for k in range(1, 5))
+    argv = ["params", model_path("tiago_no_hand"), "--joints", joints]
+    assert cli.main(argv) == 0
+    assert "treated as actuated" not in capsys.readouterr().err
+    argv = ["params", model_path("tiago_no_hand"), "--joints", "arm_6_joint"]
+    assert cli.main(argv) == 0
+    assert "1 joint without a (simple) <transmission>" in capsys.readouterr().err
