@@ -12,7 +12,12 @@ currents. :func:`read_raw_log` reads such a log:
    are the time base; each other file's columns are interpolated linearly onto
    the first file's stamps inside the common time span (rows of the first file
    outside it are dropped), with a warning naming the file; a file whose stamps
-   equal the first file's is taken as is;
+   equal the first file's is taken as is. A first-file stamp inside a gap of
+   another file (two of its stamps more than ``GAP_STEPS`` of its median steps
+   apart: missing samples) gets no value there (NaN), so that the repair of
+   step 4 treats it as the missing sample it is (runs up to ``fill_gaps``
+   interpolated and flagged, longer ones bad samples) instead of a straight
+   line drawn across the gap;
 3. ``DriveChain.convert``: units, motor side, currents, offsets, time origin;
 4. the uniform-grid checks and repairs of ``drake_dynid.logs`` (jitter, dropped
    samples, ``resample``: ``drake_dynid.log_repair.repair``).
@@ -54,6 +59,36 @@ __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
 _BOM = "\ufeff"
 _LISTED = 6  # extra column names listed in the warning
+#: Two stamps of a joined (not first) file more than this many of its median
+#: steps apart are a gap of that file: the first file's stamps between them get
+#: no value (a missing sample; ±20 % jitter keeps a step below 1.4).
+GAP_STEPS = 1.5
+
+
+def _median_step(stamps: np.ndarray) -> float:
+    """The median step of a file's stamps (0 with fewer than 2)."""
+    return float(np.median(np.diff(stamps))) if stamps.size > 1 else 0.0
+
+
+def _in_gaps(target: np.ndarray, stamps: np.ndarray, step: float) -> np.ndarray:
+    """(len(target),) True where a target stamp lies inside a gap of ``stamps``.
+
+    A gap: two consecutive stamps more than ``GAP_STEPS`` × ``step`` apart; a
+    target equal to one of them is not inside it. ``stamps`` cover ``target``.
+    """
+    if stamps.size < 2 or step <= 0.0:
+        return np.zeros(target.shape, dtype=bool)
+    right = np.clip(np.searchsorted(stamps, target, side="right"), 1, stamps.size - 1)
+    before, after = stamps[right - 1], stamps[right]
+    return (after - before > GAP_STEPS * step) & (before != target) & (after != target)
+
+
+def _gap_warning(path: str, count: int) -> str:
+    return (
+        f"file {path}: {count} time stamp(s) of the first file fall in gaps of its "
+        f"stamps (more than {GAP_STEPS:g} of its steps apart): no value there, "
+        "missing samples for the repair (not a line across the gap)."
+    )
 
 
 @dataclass(frozen=True)
@@ -235,18 +270,22 @@ def read_raw_table(
     for path, other in stamps.items():
         names = [n for n in wanted if n != time and owner[n] == path]
         same = other.shape == t.shape and np.array_equal(other, t)
+        gaps = _in_gaps(t[keep], other, _median_step(other))
         for name in names:
             values = data[name]
             if path == base or same:
                 out[name] = values[keep]
             else:
                 out[name] = np.interp(t[keep], other, values)
+                out[name][gaps] = np.nan
         if path != base and not same and names:
             warnings.append(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
                 f"{t[keep][0]:.9g} .. {t[keep][-1]:.9g} ('{time}')."
             )
+            if gaps.any():
+                warnings.append(_gap_warning(path, int(gaps.sum())))
     dropped = int(t.size - keep.sum())
     if dropped:
         warnings.append(
@@ -401,6 +440,8 @@ def _read_streamed(
     n = len(chain.joint_names)
     sinks = RowSink(1), RowSink(n), RowSink(n)
     first = float(t[low])
+    steps = {path: _median_step(other) for path, (_, other, _, _) in tables.items()}
+    gapped = dict.fromkeys(tables, 0)
     for start in range(low, high, _blocks.BLOCK_ROWS):
         stop = min(high, start + _blocks.BLOCK_ROWS)
         here = t[start:stop]
@@ -417,6 +458,9 @@ def _read_streamed(
                 block = np.column_stack(
                     [np.interp(here, other[a:b], column) for column in part.T]
                 )
+                gaps = _in_gaps(here, other[a:b], steps[path])
+                block[gaps] = np.nan
+                gapped[path] += int(gaps.sum())
             columns.update(zip(names, block.T, strict=True))
         converted = chain.convert(columns, first_stamp=first)
         for sink, values_ in zip(sinks, converted, strict=True):
@@ -428,6 +472,7 @@ def _read_streamed(
         rows = np.asarray(rows[low:high])
     del tables
     q_t, q, tau = (sink.finish(vector=k == 0) for k, sink in enumerate(sinks))
+    warnings += [_gap_warning(path, count) for path, count in gapped.items() if count]
     label = " + ".join(files)
     options = Options.checked(
         f"log {label}", jitter_tolerance, resample, fill_gaps, None

@@ -342,3 +342,50 @@ def test_trailing_commas_are_read_and_a_longer_row_is_named(
         ValueError, match=r"l\.csv: row 32 has 6 cells; the header has 5"
     ):
         read_raw_log(tmp_path / "l.csv", chain)
+
+
+def test_a_gap_of_a_joined_file_is_missing_samples_not_a_line(
+    tmp_path, chain, monkeypatch
+):
+    """Found by a review: 2 s of the TIAGo's effort file missing (rows cut) were
+    bridged by the join's linear interpolation, 200 made-up torques without a
+    word, where the same gap in one file is 200 bad samples. The efforts (3 ms
+    after the positions) miss 2 samples (filled and flagged, as in one file) and
+    20 (bad samples); the streamed join equals the whole-column one."""
+    from drake_dynid.core import blocks
+
+    t = 0.01 * np.arange(300)
+    q, _ = _signals(t)
+    shifted = t + 0.003
+    current = np.column_stack([0.3 + shifted, -0.2 * shifted])
+    kept = np.ones(t.size, dtype=bool)
+    kept[[50, 51]] = False
+    kept[150:170] = False
+    positions = _write(
+        tmp_path / "pos.csv",
+        ["stamp", "- a_position", "- b_position"],
+        [(1000 * s, *np.rad2deg(x)) for s, x in zip(t, q, strict=True)],
+    )
+    efforts = _write(
+        tmp_path / "eff.csv",
+        ["stamp", "- a_effort", "- b_effort"],
+        [(1000 * s, *c) for s, c in zip(shifted[kept], current[kept], strict=True)],
+    )
+    files = [positions, efforts]
+    table = read_raw_table(files, chain.required_columns(), "stamp")
+    gaps = np.flatnonzero(np.isnan(table.columns["- a_effort"]))
+    # Row k of the table is position k + 1 (position 0 is before the efforts):
+    # positions 50..52 and 150..170 lie between effort stamps 20 ms and 210 ms
+    # apart.
+    np.testing.assert_array_equal(gaps, [49, 50, 51, *range(149, 170)])
+    text = " ".join(table.warnings)
+    assert "24 time stamp(s) of the first file fall in gaps" in text
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 64)  # gaps across block borders
+    log = read_raw_log(files, chain)
+    tau = np.asarray(log.tau)
+    assert np.flatnonzero(np.isnan(tau[:, 0])).tolist() == list(range(149, 170))
+    assert np.flatnonzero(log.filled).tolist() == [49, 50, 51]
+    line = np.column_stack([0.3 + t[50:53], -0.2 * t[50:53]]) * [10 * 0.5, -20 * 0.1]
+    np.testing.assert_allclose(tau[49:52], line, atol=1e-9)  # linear: exact
+    assert np.isfinite(np.asarray(log.q)).all()
+    assert any("24 time stamp(s) of the first file" in w for w in log.warnings)
