@@ -435,3 +435,40 @@ def test_time_unit_against_a_drive_file_that_says_seconds():
         _with_time_unit(said, names, "ms")
     assert _with_time_unit(said, names, "s").log.time_scale == 1.0
     assert _with_time_unit(silent, names, "ms").log.time_scale == 1e-3
+
+
+def test_validate_says_when_the_drive_file_differs_from_the_fit(
+    files, tmp_path, capsys
+):
+    """Found by a review: validating the TIAGo's fit with a drive file whose arm
+    gear ratios read 50 for 100 gave 111 % error for 14.5 %, without a word that
+    the log was converted otherwise than for the fit (settings.drive_chain)."""
+    _, raw, drive = files
+    common = ["--urdf", URDF, "--rotor-inertia"]
+    fit = tmp_path / "fit.json"
+    assert (
+        cli.main(
+            [
+                "offline",
+                *raw,
+                *common,
+                "--drive",
+                str(drive),
+                "--json",
+                str(fit),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    capsys.readouterr()
+    argv = ["validate", *raw, "--urdf", URDF, "--params", str(fit), "--quiet"]
+    assert cli.main(argv) == 0
+    assert "differ" not in capsys.readouterr().err  # the fit's own drive file
+    edited = tmp_path / "edited.toml"
+    edited.write_text(drive.read_text().replace("gear_ratio = 60", "gear_ratio = 30"))
+    assert cli.main([*argv, "--drive", str(edited)]) == 0
+    err = capsys.readouterr().err
+    assert "motors differ from those the parameters were fitted with" in err, err
+    assert "m2 {j2 = 30} k_t 0.1 (fitted: {j2 = 60} k_t 0.1)" in err
+    assert "m1 " not in err  # the motors that agree are not listed

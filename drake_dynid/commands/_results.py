@@ -143,6 +143,46 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     return robot
 
 
+def drive_mismatch(document: Mapping[str, Any], robot: Any) -> str | None:
+    """A note when the drive chain differs from the one the results were fitted with.
+
+    Compares each motor's row (gear ratios, coupling) and torque constant with
+    the results file's ``drive_chain`` (``settings.drive_chain``): another drive
+    file given with ``--drive``, or the recorded one edited since, converts the
+    log otherwise than the fit's did (a gear ratio of 50 for 100 halves that
+    joint's torques), which the errors alone do not tell apart from a bad model.
+    None when they agree or the results file records no chain.
+    """
+    recorded = _from_results(document, "drive_chain")
+    chain = getattr(robot, "drive", None)
+    if not isinstance(recorded, dict) or chain is None:
+        return None
+
+    def described(motor: Mapping[str, Any]) -> str:
+        joints = ", ".join(f"{j} = {r:g}" for j, r in motor.get("joints", {}).items())
+        constant = motor.get("torque_constant")
+        return f"{{{joints}}}" + ("" if constant is None else f" k_t {constant:g}")
+
+    fitted = {
+        str(m.get("name")): described(m)
+        for m in recorded.get("motors", ())
+        if isinstance(m, dict)
+    }
+    now = {str(m["name"]): described(m) for m in chain.summary()["motors"]}
+    changed = [
+        f"{name} {now.get(name, 'none')} (fitted: {fitted.get(name, 'none')})"
+        for name in dict.fromkeys([*fitted, *now])
+        if fitted.get(name) != now.get(name)
+    ]
+    if not changed:
+        return None
+    return (
+        f"the {chain.source}'s motors differ from those the parameters were "
+        f"fitted with (settings.drive_chain): {'; '.join(changed)}. The log is "
+        "converted with the drive file given, the parameters are the fit's"
+    )
+
+
 def _mimic_joints(urdf: Any) -> set[str]:
     """The URDF's ``<mimic>`` joints (none when it cannot be read: the load says)."""
     from drake_dynid.urdf import read_urdf_mimic

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -480,7 +481,11 @@ def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._model import APRIORI_LABEL
     from drake_dynid.commands._report import write_json
-    from drake_dynid.commands._results import results_robot, results_sign
+    from drake_dynid.commands._results import (
+        drive_mismatch,
+        results_robot,
+        results_sign,
+    )
     from drake_dynid.validation import read_estimates, read_results
 
     check_output_paths(args)
@@ -490,6 +495,9 @@ def run(args: argparse.Namespace) -> int:
         matplotlib_pyplot()
     document = read_results(args.params)
     robot = results_robot(args, document)
+    mismatch = drive_mismatch(document, robot)
+    if mismatch:
+        print(f"dynid validate: note: {mismatch}.", file=sys.stderr)
     estimates = read_estimates(document, robot, f"results file {args.params}")
     # A `dynid params --json` file (or a simulated log's truth) holds the URDF's
     # values, no "model": they are the a-priori model, not a fit.
