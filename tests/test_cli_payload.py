@@ -3,6 +3,7 @@
 import csv
 import json
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -186,3 +187,23 @@ def test_a_zero_setting_is_refused_not_replaced_by_the_default(
     assert cli.main(["payload", str(log), "--urdf", URDF, option, "0"]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err, err
+
+
+def test_a_100_hz_log_gets_the_default_periods_on_its_grid(log_file, tmp_path, capsys):
+    """Found by a review: on the TIAGo's 100 Hz recording the command stopped
+    with '--bank-time-step must be a multiple of the signal period; got 0.002
+    with h 0.01 (leave it unset ...)', the option left unset: the default 2 ms
+    is now the nearest multiple of the log's step, as on_grid does."""
+    lines = Path(log_file).read_text().splitlines()
+    slow = tmp_path / "pick_100hz.csv"
+    slow.write_text("\n".join([lines[0], *lines[1::10]]) + "\n")  # every 10 ms
+    out = tmp_path / "slow.json"
+    argv = ["payload", str(slow), "--urdf", URDF, *COMMON, "--quiet"]
+    assert cli.main([*argv, "--json", str(out)]) == 0, capsys.readouterr().err
+    settings = json.loads(out.read_text())["settings"]
+    assert settings["bank_time_step"] == pytest.approx(0.01)
+    assert settings["update_period"] == pytest.approx(0.05)
+    # Given off the grid, it is still refused, naming the option.
+    assert cli.main([*argv, "--bank-time-step", "0.002"]) == 2
+    assert "--bank-time-step must be a multiple" in capsys.readouterr().err
+

@@ -81,8 +81,14 @@ def _triple_or_six(text: str | None) -> tuple[list[float], list[float]] | None:
     return values[:3], (values[3:] or [0.0, 0.0, 0.0])
 
 
-def payload_settings_of(args: argparse.Namespace) -> Any:
-    """The payload identifier's ``OnlineSettings`` of the options (checked)."""
+def payload_settings_of(
+    args: argparse.Namespace, time_step: float | None = None
+) -> Any:
+    """The payload identifier's ``OnlineSettings`` of the options (checked).
+
+    ``time_step``: the log's h, which puts the default bank step and solve
+    period on its grid (``core.payload_step.payload_settings``).
+    """
     from drake_dynid.commands.identify import OPTION_NAMES, _frequencies
     from drake_dynid.core.online_checks import check_values
     from drake_dynid.core.payload_step import PAYLOAD_DEFAULTS, payload_settings
@@ -98,7 +104,7 @@ def payload_settings_of(args: argparse.Namespace) -> Any:
         values["frequencies"] = frequencies
     merged = {**PAYLOAD_DEFAULTS, **values}
     check_values(merged, owner=None, names=OPTION_NAMES)
-    return payload_settings(**values)
+    return payload_settings(time_step, **values)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -141,11 +147,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--bank-time-step",
         type=float,
         metavar="S",
-        help="bank sample period [s], a multiple of the log's (default 0.002: the "
-        "arm's known part must be integrated finely)",
+        help="bank sample period [s], a multiple of the log's (default: the "
+        "multiple closest to 0.002, at least one step: the arm's known part must be "
+        "integrated finely)",
     )
     group.add_argument(
-        "--update-period", type=float, metavar="S", help="solve period [s] (0.05)"
+        "--update-period",
+        type=float,
+        metavar="S",
+        help="solve period [s] (the multiple of the log's step closest to 0.05)",
     )
     group.add_argument(
         "--max-condition", type=float, metavar="C", help="largest condition number"
@@ -252,6 +262,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         matplotlib_pyplot()
     robot, log, arm, source = _robot(args)
+    settings = payload_settings_of(args, log.time_step)
     xyz, rpy = offset if offset is not None else (None, None)
     try:
         rows = payload_model(robot, args.frame, xyz=xyz, rpy=rpy, arm=arm)

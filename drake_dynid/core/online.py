@@ -76,6 +76,7 @@ __all__ = [
     "OnlineSettings",
     "OnlineTrace",
     "nearest_multiple",
+    "nearest_on_grid",
 ]
 
 #: Offsets of the bank's and the solver's periodic events, in signal periods h:
@@ -171,8 +172,8 @@ def _is_multiple(value: float, step: float) -> bool:
     return count >= 1 and abs(ratio - count) <= _GRID_RTOL * max(1.0, abs(ratio))
 
 
-def _on_grid(value: float, step: float) -> float:
-    """``value`` if it is a multiple of ``step``, else the nearest multiple."""
+def nearest_on_grid(value: float, step: float) -> float:
+    """``value`` if it is a multiple of ``step``, else the nearest multiple (>= 1)."""
     return value if _is_multiple(value, step) else nearest_multiple(value, step) * step
 
 
@@ -337,7 +338,7 @@ class OnlineSettings:
                 rows) raw_window + bank_time_step > jacobi_window + h.
         """
         h = check.positive(_OWNER, "time_step", time_step, "s")
-        jacobi_window = _on_grid(self.jacobi_window, h)
+        jacobi_window = nearest_on_grid(self.jacobi_window, h)
         limit = jacobi_window / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
         if limit < h * (1.0 - _GRID_RTOL):
             check.fail(
@@ -362,7 +363,7 @@ class OnlineSettings:
                 if self.weighting == "covariance"
                 else NOMINAL_UPDATE_PERIOD
             )
-            update_period = _on_grid(nominal_period, h)
+            update_period = nearest_on_grid(nominal_period, h)
         else:
             update_period = self._given_multiple("update_period", h)
         ring = round(jacobi_window / h) + 1  # samples the raw rows may read
@@ -387,7 +388,7 @@ class OnlineSettings:
                 )
         return dataclasses.replace(
             self,
-            window=_on_grid(self.window, bank_time_step),
+            window=nearest_on_grid(self.window, bank_time_step),
             jacobi_window=jacobi_window,
             bank_time_step=bank_time_step,
             update_period=update_period,

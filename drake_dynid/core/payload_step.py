@@ -55,7 +55,11 @@ from drake_dynid.core.identifier import (
     identifier_update,
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
-from drake_dynid.core.online import MIN_JACKKNIFE_GROUPS, OnlineSettings
+from drake_dynid.core.online import (
+    MIN_JACKKNIFE_GROUPS,
+    OnlineSettings,
+    nearest_on_grid,
+)
 from drake_dynid.core.payload import eliminate_known
 from drake_dynid.core.payload_noise import (
     PooledNoise,
@@ -90,13 +94,29 @@ PAYLOAD_DEFAULTS: dict[str, Any] = {
 }
 
 
-def payload_settings(**overrides: Any) -> OnlineSettings:
+def payload_settings(
+    time_step: float | None = None, **overrides: Any
+) -> OnlineSettings:
     """``OnlineSettings`` of the payload identifier: :data:`PAYLOAD_DEFAULTS`.
 
     Any ``OnlineSettings`` field can be overridden (``window=1.0``, ...); the
     values are checked as by ``OnlineSettings`` and :func:`check_payload_weighting`.
+
+    Args:
+        time_step: the log's sample period h [s], or None. Given, the defaults of
+            ``bank_time_step`` (2 ms) and ``update_period`` (50 ms) that are not
+            overridden become the multiples of h closest to them (at least h;
+            ``core.online.nearest_on_grid``), as ``OnlineSettings.on_grid`` does
+            for unset periods: a 100 Hz log gets a 10 ms bank step (2 ms is no
+            multiple of it, and ``on_grid`` refuses a given period off the grid).
+        **overrides: ``OnlineSettings`` fields.
     """
     values = {**PAYLOAD_DEFAULTS, **overrides}
+    if time_step is not None:
+        h = check.positive("payload_settings", "time_step", time_step, "s")
+        for key in ("bank_time_step", "update_period"):
+            if key not in overrides:
+                values[key] = nearest_on_grid(PAYLOAD_DEFAULTS[key], h)
     if isinstance(values.get("frequencies"), tuple):
         values["frequencies"] = list(values["frequencies"])
     return check_payload_weighting("payload_settings", OnlineSettings(**values))
