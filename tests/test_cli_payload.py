@@ -207,3 +207,24 @@ def test_a_100_hz_log_gets_the_default_periods_on_its_grid(log_file, tmp_path, c
     assert cli.main([*argv, "--bank-time-step", "0.002"]) == 2
     assert "--bank-time-step must be a multiple" in capsys.readouterr().err
 
+
+def test_the_params_file_gives_the_friction_columns_and_dead_zone(
+    log_file, tmp_path, capsys
+):
+    """Found by a review: --params of a fit with --friction viscous,coulomb,offset
+    was refused ("holds 64 base parameters but ... (friction viscous,coulomb)"),
+    and the fit's dead-zone widths were replaced by ones measured on the payload's
+    log: payload's --friction and --dead-zone defaults hid the results file's."""
+    arm = tmp_path / "arm.json"
+    argv = ["params", URDF, "--friction", "viscous,coulomb,offset"]
+    assert cli.main([*argv, "--json", str(arm)]) == 0
+    document = json.loads(arm.read_text())
+    joints = document["joints"]
+    document["settings"]["coulomb_dead_zone"] = dict.fromkeys(joints, 0.025)
+    arm.write_text(json.dumps(document))
+    capsys.readouterr()
+    base = ["payload", log_file, "--urdf", URDF, "--params", str(arm)]
+    assert cli.main(base) == 0, capsys.readouterr().err
+    printed = capsys.readouterr().out
+    assert "(64 base parameters, known)" in printed
+    assert "iiwa_joint_1 0.025 rad/s" in printed

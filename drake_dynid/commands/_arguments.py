@@ -51,8 +51,12 @@ def add_drive_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_dead_zone_argument(parser: argparse.ArgumentParser, default: Any) -> None:
+def add_dead_zone_argument(
+    parser: argparse.ArgumentParser, default: Any, default_help: str = ""
+) -> None:
     """Adds ``--dead-zone`` (the Coulomb columns at standstill)."""
+    if not default_help and default == "auto":
+        default_help = " (default: auto)"
     parser.add_argument(
         "--dead-zone",
         default=default,
@@ -60,8 +64,7 @@ def add_dead_zone_argument(parser: argparse.ArgumentParser, default: Any) -> Non
         help="Coulomb columns at standstill: s(v) = 0 for |v| <= w, else sign(v). "
         "auto: w_j = 3 x the velocity noise measured on the log, per joint "
         "(docs/MATH.md section 2); none: the exact sign(v) (the paper's model); W: "
-        "one width for every joint [rad/s or m/s]"
-        + (" (default: auto)" if default == "auto" else ""),
+        "one width for every joint [rad/s or m/s]" + default_help,
     )
 
 
@@ -88,14 +91,22 @@ def parse_dead_zone(text: str | None) -> Any:
     return width
 
 
-def add_friction_argument(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--friction`` (the friction columns) and ``--coulomb-width`` (its law)."""
+def add_friction_argument(
+    parser: argparse.ArgumentParser, from_results: bool = False
+) -> None:
+    """Adds ``--friction`` (the friction columns) and ``--coulomb-width`` (its law).
+
+    ``from_results``: the default is None, the columns of a ``--params`` results
+    file (``dynid payload``), else viscous,coulomb.
+    """
     parser.add_argument(
         "--friction",
-        default="viscous,coulomb",
+        default=None if from_results else "viscous,coulomb",
         help=(
             "comma-separated friction columns per joint among viscous, coulomb, "
-            "offset, or 'none' (default: viscous,coulomb)"
+            "offset, or 'none' (default: "
+            + ("those of --params, else " if from_results else "")
+            + "viscous,coulomb)"
         ),
     )
     parser.add_argument(
@@ -366,8 +377,15 @@ def add_time_unit_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_common_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments shared by ``dynid identify`` and ``dynid offline``."""
+def add_common_arguments(
+    parser: argparse.ArgumentParser, from_results: bool = False
+) -> None:
+    """Arguments shared by ``dynid identify``, ``offline`` and ``payload``.
+
+    ``from_results`` (``dynid payload``): ``--friction`` and ``--dead-zone``
+    default to None, the ``--params`` results file's columns and widths
+    (``_results.results_robot``, ``results_sign``), else viscous,coulomb and auto.
+    """
     add_log_argument(parser)
     parser.add_argument(
         "--urdf",
@@ -376,10 +394,15 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         type=urdf_argument,
         help=URDF_HELP,
     )
-    add_friction_argument(parser)
+    add_friction_argument(parser, from_results)
     add_joint_arguments(parser)
     add_drive_arguments(parser)
-    add_dead_zone_argument(parser, "auto")
+    if from_results:
+        add_dead_zone_argument(
+            parser, None, " (default: the --params file's widths, else auto)"
+        )
+    else:
+        add_dead_zone_argument(parser, "auto")
     parser.add_argument(
         "--resample",
         action="store_true",

@@ -109,7 +109,7 @@ def payload_settings_of(
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid payload`` arguments."""
-    add_common_arguments(parser)
+    add_common_arguments(parser, from_results=True)
     where = parser.add_argument_group("the payload and the arm")
     where.add_argument(
         "--frame",
@@ -217,6 +217,8 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
             time_unit=getattr(args, "time_unit", None),
         )
         return results_sign(args, document, robot, log), log, arm, str(args.params)
+    if args.dead_zone is None:  # no --params: measured on the log
+        args.dead_zone = "auto"
     robot = robot_from_args(args, "payload")
     log = read_robot_log(
         log_files(args),
