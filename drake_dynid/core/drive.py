@@ -138,12 +138,32 @@ class DriveChain:
             missing = [mo.name for mo in self.motors if mo.torque_constant is None]
             if missing:
                 implicit = [mo.name for mo in self.motors if mo.source == "implicit"]
+                urdf = [mo.name for mo in self.motors if mo.source == "URDF"]
                 hint = (
                     f" ({', '.join(implicit)}: implicit direct drive(s) of joints "
                     "without a motor; add a [motors.NAME] table)"
                     if implicit
                     else ""
                 )
+                if urdf:
+                    joints = sorted(
+                        {
+                            self.joint_names[j]
+                            for mo in self.motors
+                            if mo.name in urdf
+                            for j in np.flatnonzero(mo.row)
+                        }
+                    )
+                    which = (
+                        "these are"
+                        if len(urdf) == len(missing)
+                        else f"{', '.join(urdf)}:"
+                    )
+                    hint += (
+                        f" ({which} the URDF's transmissions, which the drive file "
+                        "does not describe: give them a torque_constant, or "
+                        f"identify without {', '.join(joints)} (dynid --joints))"
+                    )
                 raise ValueError(
                     f"{owner}: log.torque_unit = {log.torque_unit!r} (motor "
                     "currents) needs torque_constant [N·m/A] for every motor; "

@@ -268,6 +268,23 @@ def test_drive_file_overrides_urdf_motors():
     assert plain.motor_names == ("u1", "u2", "wrist")
 
 
+def test_currents_without_a_urdf_motors_constant_name_its_joints():
+    """A review: the TIAGo's drive file identifies the arm; run without --joints,
+    the URDF's wheel and head transmissions had no torque constant and the error
+    did not say that leaving their joints out was the other fix."""
+    data = {
+        "log": {"torque_unit": "A", "torque_side": "motor", "torque": "i_{motor}"},
+        "motors": {"u1": {"torque_constant": 0.1}},
+    }
+    message = (
+        r"missing for u2, wrist \(these are the URDF's transmissions, which the "
+        r"drive file does not describe: give them a torque_constant, or identify "
+        r"without j2, j3 \(dynid --joints\)\)"
+    )
+    with pytest.raises(ValueError, match=message):
+        DriveChain.from_dict(data, ("j1", "j2", "j3"), urdf=URDF_MOTORS)
+
+
 @pytest.mark.parametrize(
     ("data", "message"),
     [
