@@ -230,6 +230,13 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
     if grid is not None:
         kept, step = grid.kept, grid.fitted_step
         reason = "jittered time stamps"
+    if not step >= FAST_STEP:
+        raise ValueError(
+            f"{owner}: the time step is {step:.6g} s, too short for a robot log (1e-4 "
+            f"to 0.1 s; at least {FAST_STEP:g} s): t must be in seconds, or in the "
+            "unit that --time-unit (or a drive file's [log] time_unit, docs/DRIVE.md) "
+            "gives; check that unit."
+        )
     if kept.sum() < kept.size:
         out = np.flatnonzero(~kept)
         times = ", ".join(f"{shown[i]:.16g}" for i in out[:3])
@@ -286,6 +293,10 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
 #: A fitted step at or above this [s] is said to be suspect: robot logs are sampled
 #: at 10 Hz to 10 kHz; stamps in ms, µs or ns read as seconds give 1 s and more.
 SLOW_STEP = 0.5
+#: A fitted step below this [s] is an error: no robot logger samples at 100 kHz, and
+#: 1/h (the cutoff choice's sampling frequency) overflows for subnormal steps;
+#: stamps in seconds read with --time-unit ms give 1e-6 s at 1 kHz.
+FAST_STEP = 1e-5
 
 
 def _unit_hint(step: float) -> str:

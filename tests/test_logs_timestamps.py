@@ -316,3 +316,16 @@ def test_stamps_in_another_unit_are_said_with_the_fix(tmp_path, scale, unit):
         JOINTS,
     )
     assert read_log(tmp_path / "s.csv", JOINTS).warnings == ()  # 10 Hz: no note
+
+
+@pytest.mark.parametrize("step", [5e-324, 1e-300, 1e-12, 1e-6])
+def test_a_step_too_short_for_a_robot_log_is_refused_naming_the_unit(tmp_path, step):
+    """Found by a review: subnormal steps (1/h = inf) were an OverflowError in the
+    cutoff choice (exit 1), and --time-unit ms on a log in seconds (h = 1e-6 s)
+    asked for a longer log or a higher cutoff instead of naming the unit."""
+    k = np.arange(100)
+    slot_log(tmp_path / "f.csv", step * k, h=step)
+    with pytest.raises(ValueError, match=r"time step is .* s, too short.*time_unit"):
+        read_log(tmp_path / "f.csv", JOINTS)
+    with pytest.raises(ValueError, match="too short for a robot log"):
+        RobotLog.from_arrays(step * k, np.zeros((100, 2)), np.zeros((100, 2)), JOINTS)
