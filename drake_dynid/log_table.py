@@ -106,6 +106,16 @@ class Table:
     notes: list[str]
 
 
+#: (leading bytes, what the file is, the fix) of compressed files given as a log.
+_COMPRESSED = (
+    (b"\x1f\x8b", "gzip-compressed", "decompress (gunzip)"),
+    (b"BZh", "bzip2-compressed", "decompress (bunzip2)"),
+    (b"\xfd7zXZ\x00", "xz-compressed", "decompress (unxz)"),
+    (b"\x28\xb5\x2f\xfd", "zstd-compressed", "decompress (unzstd)"),
+    (b"PK\x03\x04", "a zip archive (or a spreadsheet)", "extract (or export as CSV)"),
+)
+
+
 def decode(path: str, raw: bytes, offset: int = 0, lines: int = 0) -> str:
     """UTF-8 text of a block of the file (a byte-order mark is dropped), or an error.
 
@@ -120,6 +130,14 @@ def decode(path: str, raw: bytes, offset: int = 0, lines: int = 0) -> str:
             f"log {path}: the file is UTF-16 or UTF-32 text (byte-order mark "
             f"{raw[:2].hex(' ')}); expected UTF-8: save the log as UTF-8 CSV."
         )
+    if offset == 0:
+        for magic, kind, fix in _COMPRESSED:
+            if raw.startswith(magic):
+                raise ValueError(
+                    f"log {path}: the file is {kind} (it starts with bytes "
+                    f"{magic.hex(' ')}), not CSV text: {fix} it first and give the "
+                    "CSV file."
+                )
     skip = 3 if offset == 0 and raw.startswith(b"\xef\xbb\xbf") else 0
     nul = raw.find(b"\x00")
     try:

@@ -1,5 +1,7 @@
 """The log reader's text layer and repairs: format, encoding, cells, API."""
 
+import gzip
+
 import numpy as np
 import pytest
 
@@ -97,6 +99,12 @@ def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
             r"not UTF-8 text: byte 102 \(line 5, column 19\) is 0xb0; expected UTF-8",
         ),
         ((HEADER + rows(3)).encode("utf-16"), "UTF-16 or UTF-32.*expected UTF-8"),
+        # Found by a review: a gzip log was said to be Latin-1 (iconv -f latin1).
+        (
+            gzip.compress((HEADER + rows(3)).encode()),
+            r"gzip-compressed \(it starts with bytes 1f 8b\), not CSV text: "
+            r"decompress \(gunzip\)",
+        ),
         (
             (HEADER + rows(3)).encode() + b"\x00\x00",
             r"not a text file: byte 84 \(line 5\) is NUL",
