@@ -53,11 +53,10 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
-from drake_dynid.log_table import parse_cell, unused_columns
+from drake_dynid.log_table import parse_cell, read_header, unused_columns
 
 __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
-_BOM = "\ufeff"
 _LISTED = 6  # extra column names listed in the warning
 #: Two stamps of a joined (not first) file more than this many of its median
 #: steps apart are a gap of that file: the first file's stamps between them get
@@ -112,19 +111,12 @@ def _header(path: str) -> list[str]:
         raise FileNotFoundError(f"log {path}: no such file.")
     if os.path.isdir(path):
         raise IsADirectoryError(f"log {path}: is a directory, expected a CSV file.")
-    with open(path, newline="", encoding="utf-8") as stream:
-        for row in csv.reader(stream):
-            if any(cell.strip() for cell in row):
-                header = [cell.strip() for cell in row]
-                if header and header[0].startswith(_BOM):
-                    header[0] = header[0][len(_BOM) :].strip()
-                duplicated = sorted({h for h in header if header.count(h) > 1})
-                if duplicated:
-                    raise ValueError(
-                        f"log {path}: duplicated column(s) {', '.join(duplicated)}."
-                    )
-                return header
-    raise ValueError(f"log {path}: the file is empty; expected a header row.")
+    with open(path, "rb") as stream:  # the readers' header: encoding, BOM, blanks
+        header = read_header(path, stream)
+    duplicated = sorted({h for h in header if header.count(h) > 1})
+    if duplicated:
+        raise ValueError(f"log {path}: duplicated column(s) {', '.join(duplicated)}.")
+    return header
 
 
 def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:

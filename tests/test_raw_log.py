@@ -1,5 +1,7 @@
 """drake_dynid.raw_log: several raw CSV files joined on time, read through a drive."""
 
+import gzip
+
 import numpy as np
 import pytest
 
@@ -106,6 +108,10 @@ def test_other_stamps_are_interpolated_over_the_common_span(tmp_path, chain):
         ("apart", "the files have no common time span"),
         ("empty", "the file is empty"),
         ("same", "a file is given twice"),
+        # Found by a review: "'utf-8' codec can't decode byte 0x8b in position 1"
+        # naming no file (a header read with open(encoding="utf-8")).
+        ("gzip", r"log .*e\.csv: the file is gzip-compressed"),
+        ("latin1", r"log .*e\.csv: not UTF-8 text: byte 10 \(line 1, column 11\)"),
     ],
 )
 def test_bad_raw_logs_name_the_file_and_the_column(tmp_path, chain, case, message):
@@ -138,6 +144,12 @@ def test_bad_raw_logs_name_the_file_and_the_column(tmp_path, chain, case, messag
         empty = tmp_path / "e.csv"
         empty.write_text("\n")
         files.append(empty)
+    elif case == "gzip":
+        (tmp_path / "e.csv").write_bytes(gzip.compress(b"stamp,- a_effort\n0,1\n"))
+        files.append(tmp_path / "e.csv")
+    elif case == "latin1":
+        (tmp_path / "e.csv").write_bytes("stamp,- a_°,- b_effort\n".encode("latin-1"))
+        files.append(tmp_path / "e.csv")
     else:
         files.append(positions)
     with pytest.raises(ValueError, match=message):
