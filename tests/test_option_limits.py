@@ -177,6 +177,23 @@ def test_huge_log_values_are_refused_with_their_units(tmp_path, capsys):
     for command in ("identify", "offline"):
         line = _refused([command, str(path), "--urdf", URDF], capsys)
         assert "|tau| must be <= 1e+100 [N·m or N]" in line and "units" in line
+    # Found by a review: validate printed inf and nan errors and exited 0, and a
+    # drive file's position offset of 1e300 reached the dead zone first (an error
+    # about DeadZoneSign's width).
+    params = tmp_path / "p.json"
+    assert cli.main(["params", URDF, "--json", str(params)]) == 0
+    argv = ["validate", str(path), "--urdf", URDF, "--params", str(params)]
+    line = _refused(argv, capsys)
+    assert f"log {path}: |tau| must be <= 1e+100" in line
+    drive = tmp_path / "d.toml"
+    drive.write_text(
+        "[log.position_offset]\njoint1 = 1e300\n[motors.a]\n"
+        'joints = { joint1 = 1, joint2 = 1 }\n[motors.b]\njoint = "joint2"\n'
+    )
+    argv = ["offline", str(tmp_path / "a.csv"), "--urdf", URDF, "--drive", str(drive)]
+    assert cli.main(argv) == 2
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "|q| must be <= 1e+100 [rad or m]" in line
 
 
 def test_online_settings_refuse_huge_values_at_once():

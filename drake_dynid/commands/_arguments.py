@@ -454,8 +454,24 @@ def read_robot_log(
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
+    check_log_magnitudes(log, files)
     print_log_warnings(log, files, command, robot)
     return log
+
+
+def check_log_magnitudes(log: Any, files: Sequence[str]) -> None:
+    """|q|, |τ| <= 1e100 (``core._validate.log_magnitudes``), in the log's name.
+
+    Checked when the log is read, before anything is measured on it (the dead
+    zone, the cutoff, a validation's torques): beyond, squares overflow.
+    """
+    from drake_dynid.core._validate import log_magnitudes
+
+    try:
+        log_magnitudes("log", log.q, log.tau)
+    except ValueError as error:
+        message = str(error).split(": ", 1)[1]
+        raise ValueError(f"log {' + '.join(files)}: {message}") from None
 
 
 def _with_time_unit(chain: Any, joint_names: Sequence[str], unit: str) -> Any:
@@ -924,6 +940,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
             time_unit=getattr(args, "time_unit", None),
         )
     else:
+        check_log_magnitudes(log, files)
         print_log_warnings(log, files, command, robot)
     return apply_dead_zone(args, robot, log), log
 
