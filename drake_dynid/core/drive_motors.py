@@ -188,7 +188,13 @@ class _Builder:
             self.fail("coupling.matrix must be finite.")
         out = {}
         for k, motor in enumerate(motors):
-            row = {j: float(r) for j, r in zip(joints, matrix[k], strict=True) if r}
+            # Each entry as a gear ratio: a number (numpy reads "40" and true as
+            # numbers), 0 or within RATIO_RANGE.
+            row = {
+                j: self.ratio(f"coupling.matrix[{k}][{i}] ({motor!r}, {j!r})", r)
+                for i, (j, r) in enumerate(zip(joints, table["matrix"][k], strict=True))
+                if isinstance(r, (str, bool)) or r
+            }
             if not row:
                 self.fail(f"coupling.matrix row {k} (motor {motor!r}) is all zeros.")
             out[motor] = row

@@ -364,6 +364,12 @@ def test_currents_without_a_urdf_motors_constant_name_its_joints():
             },
             "got joint and coupling",
         ),
+        # Found by a review: the matrix was not checked as gear ratios are (1e-200
+        # gave "rank 1 ... Coupled rows: none; joints without a motor ...: none").
+        (
+            {"coupling": {"motors": ["a"], "joints": ["j1"], "matrix": [[1e-200]]}},
+            r"coupling.matrix\[0\]\[0\] \('a', 'j1'\) must be within ±1e-09",
+        ),
     ],
 )
 def test_bad_drive_files_name_the_field(data, message):
@@ -372,6 +378,13 @@ def test_bad_drive_files_name_the_field(data, message):
 
 
 def test_bad_types_and_joint_lists():
+    # Found by a review: numpy read "40" and true in the coupling matrix as numbers.
+    for value, kind in (("40", "str"), (True, "bool")):
+        data = {"coupling": {"motors": ["a"], "joints": ["a"], "matrix": [[value]]}}
+        with pytest.raises(
+            TypeError, match=rf"coupling.matrix\[0\]\[0\] .*got .* of type {kind}"
+        ):
+            DriveChain.from_dict(data, ["a"])
     with pytest.raises(TypeError, match=r"motors\.m\.gear_ratio must be a real number"):
         DriveChain.from_dict({"motors": {"m": {"joint": "a", "gear_ratio": "2"}}}, "a")
     with pytest.raises(TypeError, match="linear must be true or false"):
