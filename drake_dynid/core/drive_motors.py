@@ -103,6 +103,12 @@ def _row_text(row: Mapping[str, float]) -> str:
 RATIO_RANGE = (1e-9, 1e9)
 
 
+#: Magnitudes accepted for a torque constant [N·m/A, or N/A]: real motors lie within
+#: 1e-3 … 1e3; 1e-320 made every simulated current inf (i = τ_m / k_t), written
+#: to the log with exit code 0.
+TORQUE_CONSTANT_RANGE = (1e-9, 1e9)
+
+
 class _Builder:
     """Validates the drive dict and resolves the motors (see DriveChain.from_dict)."""
 
@@ -208,6 +214,12 @@ class _Builder:
             value = real(self.owner, f"{field}.{key}", table[key], unit)
             if constraint == "nonzero" and value == 0.0:
                 self.fail(f"{field}.{key} must be non-zero [{unit}]; got 0.")
+            low, high = TORQUE_CONSTANT_RANGE
+            if key == "torque_constant" and not low <= abs(value) <= high:
+                self.fail(
+                    f"{field}.{key} must be within ±{low:g} … ±{high:g} [{unit}, or "
+                    f"N/A for a linear motor]; got {value:g}."
+                )
             if constraint == "nonnegative" and value < 0.0:
                 self.fail(f"{field}.{key} must be >= 0 [{unit}]; got {value}.")
             out[key] = value

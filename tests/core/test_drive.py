@@ -302,6 +302,15 @@ def test_currents_without_a_urdf_motors_constant_name_its_joints():
             "give its joints one way only; got joint and joints",
         ),
         ({"motors": {"m": {"joint": "j1", "torque_constant": 0}}}, "torque_constant"),
+        # Found by a review: 1e-320 gave a simulated log of inf currents (exit 0).
+        (
+            {"motors": {"m": {"joint": "j1", "torque_constant": 1e-320}}},
+            r"motors.m.torque_constant must be within ±1e-09 … ±1e\+09 \[N\*m/A",
+        ),
+        (
+            {"motors": {"m": {"joint": "j1", "torque_constant": -1e300}}},
+            "got -1e.300",
+        ),
         ({"motors": {"m": {"joint": "j1", "rotor_inertia": -1}}}, "must be >= 0"),
         ({"motors": {"m": {"joint": "j1", "coulomb": -0.1}}}, "coulomb must be >= 0"),
         ({"motors": {"j2": {"joint": "j1"}}}, "also name an implicit direct drive"),
