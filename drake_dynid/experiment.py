@@ -477,12 +477,20 @@ def stiff_coulomb(
     return out
 
 
+#: Most steps per log period searched by ``_dividing_step`` (its loop is O(k)).
+_DIVIDED = 1e6
+
+
 def _dividing_step(period: float, bound: float) -> float:
     """The largest step <= ``bound`` that divides ``period`` and reads in 3 digits.
 
     ``simulate`` wants --rate to divide 1/--time-step: the suggestion must be
-    typed back exactly (1e-3/200 = 5e-6, not 1e-3/180 = 5.56e-6).
+    typed back exactly (1e-3/200 = 5e-6, not 1e-3/180 = 5.56e-6). A bound of
+    less than a millionth of the period (a Coulomb friction of 1e300 N·m) is
+    returned as it is: no search.
     """
+    if not bound * _DIVIDED >= period:  # an absurd friction (FC = 1e300): as is
+        return bound
     first = max(1, math.ceil(period / bound - 1e-9))
     for k in range(first, 4 * first + 1):
         step = period / k

@@ -374,6 +374,21 @@ def test_the_suggested_step_divides_the_log_period():
     assert _dividing_step(1e-3, 9e-5) == 6.25e-5  # 1e-3 / 16
     step = _dividing_step(1e-3, 1e-3)
     assert step == 1e-3
+    # Found by a review: a drive file's coulomb = 1e300 hung simulate here (a loop
+    # over about 1e300 divisors); the alarm turns a hang into a failure.
+    import signal
+
+    def hung(*_):
+        raise TimeoutError("_dividing_step did not return")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        assert _dividing_step(1e-3, 1e-3 / 1.234e15) == 1e-3 / 1.234e15
+        assert _dividing_step(1e-3, 0.0) == 0.0
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 def test_actuators_out_of_joint_order_log_each_joints_torque(tmp_path):
