@@ -361,6 +361,36 @@ def load_plant(
     return loaded.plant
 
 
+def _check_limit(owner: str, file: Path, joint: Any) -> None:
+    """A ``<limit>`` Drake asserts on (a crash, exit 1): lower > upper, velocity < 0.
+
+    Values that are not numbers are left to Drake's parser, which names them.
+    """
+    limit = joint.find("limit")
+    if limit is None or joint.attrib.get("type") not in ("revolute", "prismatic"):
+        return
+
+    def value(key: str, default: float) -> float:
+        try:
+            return float(limit.attrib.get(key, default))
+        except ValueError:
+            return default
+
+    where = f"{owner}: joint {joint.attrib.get('name')!r} of {file}: <limit>"
+    lower, upper = value("lower", -math.inf), value("upper", math.inf)
+    if lower > upper:
+        raise ValueError(
+            f"{where} lower = {lower:g} > upper = {upper:g}; fix the URDF (lower <= "
+            "upper)."
+        )
+    velocity = value("velocity", 0.0)
+    if velocity < 0.0:
+        raise ValueError(
+            f"{where} velocity = {velocity:g} must be >= 0 [rad/s or m/s]; fix the "
+            "URDF."
+        )
+
+
 def _parse(
     owner: str,
     plant: Any,
@@ -421,7 +451,9 @@ def _parse(
             instances = parser.AddModelsFromString(text, "urdf")
         else:
             instances = parser.AddModels(str(file))
-    except RuntimeError as error:
+    except (RuntimeError, ValueError) as error:
+        if str(error).startswith(f"{owner}: "):
+            raise  # ours (the text's encoding, an STL mesh), not Drake's
         message = str(error).strip().splitlines()[0] if str(error).strip() else ""
         message = message.replace("<literal-string>.urdf", file.name)
         # A file (a mesh) the URDF names: "URI 'x' resolved to 'y' which does
@@ -737,6 +769,7 @@ def load_urdf(
                     f"{kind!r}; only revolute, continuous, prismatic and fixed joints "
                     "are supported (no floating, planar or ball joints)."
                 )
+            _check_limit(owner, file, joint)
         mimic = read_urdf_mimic(file)
     if builder is None:
         plant = MultibodyPlant(time_step)

@@ -102,12 +102,41 @@ FLOATING_URDF = """<?xml version="1.0"?>
 """
 
 
+REVOLUTE_URDF = """
+<robot name="revolute">
+  <link name="a"/>
+  <link name="b"><inertial><mass value="1"/>
+    <inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j" type="revolute"><parent link="a"/><child link="b"/>
+    <origin xyz="{xyz}"/><axis xyz="0 0 1"/>{limit}</joint>
+</robot>
+"""
+
+
 @pytest.mark.parametrize(
     ("text", "match"),
     [
         (BALL_URDF, "type 'ball'"),
         (FLOATING_URDF, "type 'floating'"),
         ("<robot name='x'><link name='a'>", "could not parse|not well-formed"),
+        # Found by a review: Drake's assertions (exit 1) and a ValueError of its
+        # parser naming no file.
+        (
+            REVOLUTE_URDF.format(
+                xyz="0 0 0", limit='<limit lower="1" upper="-1" velocity="1"/>'
+            ),
+            r"joint 'j' of .*robot.urdf: <limit> lower = 1 > upper = -1",
+        ),
+        (
+            REVOLUTE_URDF.format(
+                xyz="0 0 0", limit='<limit lower="-1" upper="1" velocity="-2"/>'
+            ),
+            r"joint 'j' of .*robot.urdf: <limit> velocity = -2 must be >= 0",
+        ),
+        (
+            REVOLUTE_URDF.format(xyz="nan 0 0", limit=""),
+            r"could not parse .*robot.urdf: Expected 3 values for attribute xyz",
+        ),
     ],
 )
 @pytest.mark.parametrize("command", ["params", "identify", "offline"])
