@@ -120,7 +120,8 @@ def read_urdf_friction(path: str | Path) -> dict[str, float]:
     read here. Joints without it are absent from the result.
 
     Raises:
-        ValueError: the file is missing, is not XML, or has a non-numeric value.
+        ValueError: the file is missing, is not XML, or has a non-numeric,
+            negative or infinite value.
     """
     file = _check_file("read_urdf_friction", path)
     root = _read_urdf("read_urdf_friction", file)
@@ -131,12 +132,19 @@ def read_urdf_friction(path: str | Path) -> dict[str, float]:
             continue
         text = dynamics.attrib["friction"]
         try:
-            out[joint.attrib.get("name", "")] = float(text)
+            value = float(text)
         except ValueError:
             raise ValueError(
                 f"read_urdf_friction: joint {joint.attrib.get('name')!r} in {file} "
                 f"has a non-numeric friction {text!r}."
             ) from None
+        if not 0.0 <= value < math.inf:  # Drake refuses a negative damping alike
+            raise ValueError(
+                f"read_urdf_friction: joint {joint.attrib.get('name')!r} in {file} "
+                f'has <dynamics friction="{text}">; the Coulomb friction must be '
+                "a finite number >= 0 [N·m or N]: fix the URDF."
+            )
+        out[joint.attrib.get("name", "")] = value
     return out
 
 

@@ -153,6 +153,36 @@ def test_model_path_and_loader():
     assert read_urdf_friction(path) == {"joint1": 0.4, "joint2": 0.25}
 
 
+@pytest.mark.parametrize("command", ["params", "simulate"])
+def test_a_negative_urdf_friction_is_named(tmp_path, capsys, command):
+    """Found by a review: params showed FC2 = -0.25 as the a-priori value, and
+    simulate failed with "SimulatedDrive: viscous and coulomb must be >= 0"."""
+    from drake_dynid import cli
+
+    urdf = tmp_path / "r.urdf"
+    text = Path(model_path("planar_2r")).read_text()
+    urdf.write_text(text.replace('friction="0.25"', 'friction="-0.25"'))
+    t = np.linspace(0.0, 2.0, 201)
+    rows = [f"{x},{np.sin(x)},0,{np.cos(x)},0" for x in t]
+    header = "t,q_joint1,q_joint2,v_joint1,v_joint2"
+    (tmp_path / "trajectory.csv").write_text("\n".join([header, *rows]) + "\n")
+    argv = {
+        "params": ["params", str(urdf)],
+        "simulate": [
+            "simulate",
+            str(urdf),
+            "--trajectory",
+            str(tmp_path / "trajectory.csv"),
+            "--out",
+            str(tmp_path / "log.csv"),
+        ],
+    }[command]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"joint 'joint2' in {urdf} has <dynamics friction=\"-0.25\">" in err
+    assert "must be a finite number >= 0 [N·m or N]: fix the URDF" in err
+
+
 def test_loader_with_builder_and_gravity():
     from pydrake.systems.framework import DiagramBuilder
 
