@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import real
 from drake_dynid.core.trajectory import FourierTrajectory
 
 __all__ = [
@@ -34,6 +35,11 @@ __all__ = [
     "write_coefficients",
     "write_trajectory",
 ]
+
+
+#: Longest ``duration`` of a coefficient JSON [s]: sampled at 100 Hz, the 1e7 samples
+#: ``dynid excite`` writes at most (-1 was an IndexError, 1e12 s a 728 TiB array).
+MAX_DURATION = 1e5
 
 
 @dataclass(frozen=True, eq=False)
@@ -190,13 +196,23 @@ def read_coefficients(
     file = Path(path)
     try:
         document = json.loads(file.read_text())
+        owner = "read_coefficients"
+        frequency = real(
+            owner, "base_frequency_hz", document["base_frequency_hz"], "Hz"
+        )
+        duration = real(owner, "duration", document["duration"], "s")
+        if not 0.0 < duration <= MAX_DURATION:
+            raise ValueError(
+                f"{owner}: duration must be in (0, {MAX_DURATION:g}] [s] (at most "
+                f"{MAX_DURATION * 100:g} samples at 100 Hz); got {duration:g}"
+            )
         trajectory = FourierTrajectory(
             np.asarray(document["q0"], dtype=float),
             np.asarray(document["a"], dtype=float),
             np.asarray(document["b"], dtype=float),
-            2.0 * math.pi * float(document["base_frequency_hz"]),
+            2.0 * math.pi * frequency,
         )
-        return trajectory, tuple(document["joints"]), float(document["duration"])
+        return trajectory, tuple(document["joints"]), duration
     except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as error:
         raise ValueError(
             f"trajectory coefficients {file}: unreadable ({error}); expected the "

@@ -375,3 +375,34 @@ def test_the_dense_grid_beyond_the_margins_is_said():
     assert warning.startswith("warning: ") and "joint1 reaches 100.30 %" in warning
     assert "the limits themselves are exceeded; raise --margin" in warning
     assert said([0.5, 0.5, 0.5], -0.001, Margins(collision=0.0)).startswith("warning")
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("duration", -1.0, r"duration must be in \(0, 100000\] \[s\].*got -1"),
+        ("duration", 1e12, r"duration must be in \(0, 100000\] \[s\].*got 1e\+12"),
+        ("duration", "8", r"duration must be a real number \[s\]; got '8'"),
+        ("base_frequency_hz", "0.5", r"base_frequency_hz must be a real number"),
+        ("base_frequency_hz", True, r"base_frequency_hz must be a real number"),
+    ],
+)
+def test_a_coefficient_file_with_a_bad_duration_or_frequency_is_named(
+    tmp_path, key, value, message
+):
+    """Found by a review: simulate --trajectory with a JSON duration of -1 was an
+    IndexError, 1e12 a MemoryError (exit 1); "0.5" and true were read as numbers."""
+    from drake_dynid.core.trajectory import FourierTrajectory
+    from drake_dynid.trajectory_file import write_coefficients
+
+    path = tmp_path / "t.json"
+    series = FourierTrajectory(np.zeros(1), np.ones((1, 2)), np.ones((1, 2)), np.pi)
+    write_coefficients(path, series, ["j"], 4.0)
+    assert read_trajectory(path, ["j"]).t[-1] == 4.0
+    document = json.loads(path.read_text())
+    document[key] = value
+    path.write_text(json.dumps(document))
+    with pytest.raises(
+        ValueError, match=f"trajectory coefficients .*t.json: .*{message}"
+    ):
+        read_trajectory(path, ["j"])
