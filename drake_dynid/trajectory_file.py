@@ -21,11 +21,11 @@ import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
-from drake_dynid.core._validate import real
+from drake_dynid.core._validate import real, utf8_text
 from drake_dynid.core.trajectory import FourierTrajectory
 
 __all__ = [
@@ -115,8 +115,9 @@ def read_trajectory(
                 f"robot's {', '.join(joint_names)}."
             )
         return SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)
-    with open(file) as stream:
-        header = [cell.strip() for cell in stream.readline().strip().split(",")]
+    # UTF-8 with a byte-order mark accepted (as logs); other encodings named.
+    lines = utf8_text(file.read_bytes(), f"trajectory {file}").splitlines()
+    header = [cell.strip() for cell in lines[0].split(",")] if lines else []
     wanted = ["t", *(f"{k}_{j}" for k in ("q", "v") for j in joint_names)]
     missing = [name for name in wanted if name not in header]
     if missing:
@@ -128,9 +129,9 @@ def read_trajectory(
     try:
         with warnings.catch_warnings():  # "input contained no data": said below
             warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(file, delimiter=",", skiprows=1, ndmin=2, dtype=float)
-    except ValueError as error:
-        raise ValueError(f"trajectory {file}: not a numeric CSV: {error}.") from None
+            data = np.loadtxt(lines[1:], delimiter=",", ndmin=2, dtype=float)
+    except ValueError:
+        _name_the_bad_cell(file, header, lines)
     if data.shape[0] < 2 or data.shape[1] != len(header):
         raise ValueError(
             f"trajectory {file}: needs at least 2 rows of {len(header)} numbers; "
@@ -157,6 +158,28 @@ def read_trajectory(
             f"trajectory {file}: time is not strictly increasing at row {row}."
         )
     return SampledTrajectory(t, q, v, columns("a"), tuple(joint_names))
+
+
+def _name_the_bad_cell(file: Path, header: list[str], lines: list[str]) -> NoReturn:
+    """Raises naming the first row (a line of the file) numpy could not read."""
+    for number, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        cells = line.split(",")
+        if len(cells) != len(header):
+            raise ValueError(
+                f"trajectory {file}: row {number} has {len(cells)} cells; the header "
+                f"has {len(header)}."
+            )
+        for name, cell in zip(header, cells, strict=True):
+            try:
+                float(cell)
+            except ValueError:
+                raise ValueError(
+                    f"trajectory {file}: row {number}, column {name!r}: "
+                    f"{cell.strip()!r} is not a number."
+                ) from None
+    raise ValueError(f"trajectory {file}: not a numeric CSV.")
 
 
 def write_coefficients(

@@ -163,3 +163,30 @@ def test_replay_reads_a_log_stamped_in_ms_with_time_unit(tmp_path, capsys):
     argv = ["replay", model_path("planar_2r"), str(trajectory), "--time-unit", "ms"]
     assert cli.main(argv) == 2
     assert "is a trajectory file, whose times are seconds" in error_line(capsys)
+
+
+def test_a_trajectory_file_is_read_as_logs_are(tmp_path):
+    """Found by a review: a byte-order mark hid the t column ("missing column(s)
+    t"), a Latin-1 byte was "'utf-8' codec can't decode byte 0xb0" naming no
+    file, and an empty cell was numpy's "at row 50, column 2.." (0-based) for
+    the file's line 52."""
+    import pytest
+
+    from drake_dynid.trajectory_file import read_trajectory
+
+    header = "t,q_a,v_a\n"
+    rows = [f"{0.01 * k},{0.1 * k},0.1\n" for k in range(60)]
+    path = tmp_path / "t.csv"
+    path.write_bytes(("\ufeff" + header + "".join(rows)).encode())
+    assert read_trajectory(path, ["a"]).t.size == 60
+    path.write_bytes(header.replace("t,", "t,°,").encode("latin-1"))
+    with pytest.raises(
+        ValueError, match=r"trajectory .*t.csv: not UTF-8 text \(byte 2"
+    ):
+        read_trajectory(path, ["a"])
+    rows[50] = "0.5,,0.1\n"
+    path.write_text(header + "".join(rows))
+    with pytest.raises(
+        ValueError, match=r"t.csv: row 52, column 'q_a': '' is not a number"
+    ):
+        read_trajectory(path, ["a"])
