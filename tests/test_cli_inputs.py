@@ -5,6 +5,7 @@ that is a folder or not UTF-8 text, a URDF whose visual mesh is missing."""
 import json
 from pathlib import Path
 
+import pytest
 from _cli import error_line
 
 from drake_dynid import cli
@@ -190,3 +191,54 @@ def test_a_trajectory_file_is_read_as_logs_are(tmp_path):
         ValueError, match=r"t.csv: row 52, column 'q_a': '' is not a number"
     ):
         read_trajectory(path, ["a"])
+
+
+@pytest.mark.parametrize(
+    ("setting", "value", "message"),
+    [
+        (
+            "friction",
+            ["bogus"],
+            r"settings.friction must list names among viscous, coulomb, offset; "
+            r"got \['bogus'\]",
+        ),
+        ("locked", {"joint2": "x"}, r"settings.locked.joint2 must be a number"),
+        (
+            "coulomb_dead_zone",
+            {"joint1": None, "joint2": 0.1},
+            r"settings.coulomb_dead_zone.joint1 must be a number >= 0 \[rad/s or "
+            r"m/s\]; got None",
+        ),
+        (
+            "coulomb_dead_zone",
+            {"joint1": -1.0, "joint2": 0.1},
+            r"settings.coulomb_dead_zone.joint1 must be a number >= 0",
+        ),
+    ],
+)
+def test_a_results_files_bad_settings_are_named(
+    tmp_path, capsys, setting, value, message
+):
+    """Found by a review: a bad settings.friction was blamed on settings.joints
+    and settings.locked; a lock of "x" was "could not convert string to float"
+    naming no file; a dead-zone width of null was a TypeError (exit 1), -1 an
+    error about DeadZoneSign."""
+    import re
+
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    robot, t, q, tau = fourier_2r(2001)
+    log = tmp_path / "log.csv"
+    write_log(log, t, q, tau, robot.joint_names)
+    params = tmp_path / "p.json"
+    assert cli.main(["params", model_path("planar_2r"), "--json", str(params)]) == 0
+    document = json.loads(params.read_text())
+    document["settings"][setting] = value
+    params.write_text(json.dumps(document))
+    argv = ["validate", str(log), "--urdf", model_path("planar_2r")]
+    assert cli.main([*argv, "--params", str(params)]) == 2
+    line = error_line(capsys)
+    assert line.startswith(f"dynid validate: error: results file {params}: "), line
+    assert re.search(message, line), line

@@ -24,23 +24,27 @@ def _friction(args: argparse.Namespace, document: Mapping[str, Any]) -> Sequence
         return parse_friction(args.friction)
     settings = document.get("settings")
     if isinstance(settings, dict) and isinstance(settings.get("friction"), list):
-        kinds = tuple(str(kind) for kind in settings["friction"])
-        unknown = [kind for kind in kinds if kind not in FRICTION_KINDS]
-        if unknown:
+        kinds = settings["friction"]
+        if not all(kind in FRICTION_KINDS for kind in kinds):
             raise ValueError(
-                f"results file {args.params}: settings.friction must name kinds among "
-                f"{', '.join(FRICTION_KINDS)}; got {', '.join(unknown)}. Give "
-                "--friction."
+                f"results file {args.params}: settings.friction must list names "
+                f"among {', '.join(FRICTION_KINDS)}; got {kinds!r}: give --friction."
             )
-        return kinds
+        return tuple(kinds)
     return ("viscous", "coulomb")
 
 
-def _setting_number(args: argparse.Namespace, field: str, value: Any) -> float:
-    """A number of the results file's settings, or an error naming its field."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+def _number(
+    args: argparse.Namespace, field: str, value: Any, unit: str, signed: bool
+) -> float:
+    """A finite number of the results file's ``settings`` (>= 0 unless ``signed``)."""
+    import math
+
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not math.isfinite(value) or (not signed and value < 0):
         raise ValueError(
-            f"results file {args.params}: {field} must be a number; got {value!r}."
+            f"results file {args.params}: settings.{field} must be a number"
+            f"{'' if signed else ' >= 0'} [{unit}]; got {value!r}."
         )
     return float(value)
 
@@ -107,7 +111,7 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         followers = _mimic_joints(args.urdf)
         fixed = _fixed_joints(args.urdf)
         options["locked"] = {
-            str(k): _setting_number(args, f"settings.locked.{k}", v)
+            str(k): _number(args, f"locked.{k}", v, "rad or m", signed=True)
             for k, v in locked.items()
             if str(k) not in followers | fixed
         }
@@ -233,12 +237,11 @@ def results_sign(
             f"results file {args.params}: settings.coulomb_dead_zone has no width "
             f"for {', '.join(missing)}; give --dead-zone."
         )
+    field = "coulomb_dead_zone"
     return robot.with_sign(
         DeadZoneSign(
             tuple(
-                _setting_number(
-                    args, f"settings.coulomb_dead_zone.{name}", widths[name]
-                )
+                _number(args, f"{field}.{name}", widths[name], "rad/s or m/s", False)
                 for name in robot.joint_names
             )
         )
