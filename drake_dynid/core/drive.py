@@ -126,8 +126,8 @@ class DriveChain:
             )
         check_table(source, "the drive file", data, _TOP_KEYS)
         prismatic = tuple(name in set(prismatic_joints) for name in names)
-        motors, notes = resolve_motors(source, data, names, prismatic, urdf)
-        log = parse_log(source, data.get("log", {}), names, prismatic, motors)
+        motors, notes, outside = resolve_motors(source, data, names, prismatic, urdf)
+        log = parse_log(source, data.get("log", {}), names, prismatic, motors, outside)
         chain = cls(names, prismatic, motors, log, source, notes)
         chain._check_log()
         return chain

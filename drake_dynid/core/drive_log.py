@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import string
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
@@ -179,10 +179,12 @@ def _entities(side: str, joint_names, motors) -> list[tuple[str, str | None]]:
     ]
 
 
-def _columns(owner: str, field: str, spec: Any, side: str, entities) -> tuple[str, ...]:
+def _columns(
+    owner: str, field: str, spec: Any, side: str, entities, outside=frozenset()
+) -> tuple[str, ...]:
     names = [name for name, _ in entities]
     if isinstance(spec, Mapping):
-        unknown = [str(key) for key in spec if key not in names]
+        unknown = [str(key) for key in spec if key not in names and key not in outside]
         missing = [name for name in names if name not in spec]
         if unknown or missing:
             raise ValueError(
@@ -224,7 +226,7 @@ def _columns(owner: str, field: str, spec: Any, side: str, entities) -> tuple[st
     return tuple(out)
 
 
-def _offsets(owner, table, side, entities, scales_unit) -> np.ndarray:
+def _offsets(owner, table, side, entities, scales_unit, outside) -> np.ndarray:
     names = [name for name, _ in entities]
     out = np.zeros(len(names))
     if table is None:
@@ -235,6 +237,8 @@ def _offsets(owner, table, side, entities, scales_unit) -> np.ndarray:
             f"got {table!r}."
         )
     for key, value in table.items():
+        if key in outside and key not in names:
+            continue  # a skipped motor's, a joint's outside --joints
         if key not in names:
             raise ValueError(
                 f"{owner}: log.position_offset.{key}: unknown {side} (position_side "
@@ -251,6 +255,7 @@ def parse_log(
     joint_names: tuple[str, ...],
     prismatic: tuple[bool, ...],
     motors: tuple[Any, ...],
+    outside: Collection[str] = frozenset(),
 ) -> LogFormat:
     """Validates the ``[log]`` table and resolves the column names and scales.
 
@@ -262,6 +267,10 @@ def parse_log(
         prismatic: (n,) prismatic flags of the joints.
         motors: the resolved motors (``Motor``: ``name``, ``coupled``, ``joints``,
             ``linear``).
+        outside: names of skipped motors and of URDF joints outside
+            ``joint_names``: ``position_offset`` and column-table entries of
+            theirs are ignored (a drive file of the whole robot serves any
+            ``--joints``).
 
     Returns:
         The resolved ``LogFormat``.
@@ -313,13 +322,23 @@ def parse_log(
     )
     unit_of = [length if x else angle for x in linear]
     offset = _offsets(
-        owner, spec.get("position_offset"), position_side, position_entities, unit_of
+        owner,
+        spec.get("position_offset"),
+        position_side,
+        position_entities,
+        unit_of,
+        outside,
     )
     positions = _columns(
-        owner, "log.position", spec["position"], position_side, position_entities
+        owner,
+        "log.position",
+        spec["position"],
+        position_side,
+        position_entities,
+        outside,
     )
     torques = _columns(
-        owner, "log.torque", spec["torque"], torque_side, torque_entities
+        owner, "log.torque", spec["torque"], torque_side, torque_entities, outside
     )
     every = [time, *positions, *torques]
     duplicated = sorted({name for name in every if every.count(name) > 1})

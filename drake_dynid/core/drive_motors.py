@@ -119,6 +119,7 @@ class _Builder:
         self.notes: list[str] = []
         self.locked: set[str] = set()
         self.urdf_joints: set[str] = set()  # every joint of the URDF, when known
+        self.skipped: list[str] = []  # motors of joints outside --joints only
 
     def fail(self, message: str) -> NoReturn:
         raise ValueError(f"{self.owner}: {message}")
@@ -330,6 +331,7 @@ class _Builder:
                     f"{field} drives {', '.join(outside)}, not identified (--joints): "
                     "skipped."
                 )
+                self.skipped.append(str(name))
                 continue
             if "gear_ratio" in table and "joint" not in table:
                 base = urdf_motors.get(name, {}).get("row", {})
@@ -431,7 +433,7 @@ def resolve_motors(
     joint_names: tuple[str, ...],
     prismatic: tuple[bool, ...],
     urdf: Mapping[str, Any] | None = None,
-) -> tuple[tuple[Motor, ...], tuple[str, ...]]:
+) -> tuple[tuple[Motor, ...], tuple[str, ...], frozenset[str]]:
     """Validates ``[motors]``/``[coupling]`` (and the URDF motors) and resolves them.
 
     Args:
@@ -448,10 +450,12 @@ def resolve_motors(
             is skipped (a note).
 
     Returns:
-        ``(motors, notes)``: the m motors, sorted by their sorted joint indices
-        (lexicographically; ties: URDF, then ``[motors]`` tables in file order,
-        then ``[coupling].motors``), R of rank n; and one sentence per URDF motor
-        whose row the drive file replaced.
+        ``(motors, notes, outside)``: the m motors, sorted by their sorted joint
+        indices (lexicographically; ties: URDF, then ``[motors]`` tables in file
+        order, then ``[coupling].motors``), R of rank n; one sentence per URDF
+        motor whose row the drive file replaced; the names of the skipped motors
+        and of the URDF joints outside ``joint_names`` (the ``[log]`` table's
+        offsets and column tables may name them: ignored, as they are).
     """
     builder = _Builder(owner, joint_names)
     motors = []
@@ -484,4 +488,5 @@ def resolve_motors(
             )
         )
     _check_rank(builder, np.array([motor.row for motor in motors]), motors)
-    return tuple(motors), tuple(builder.notes)
+    outside = {*builder.skipped, *(builder.urdf_joints - set(joint_names))}
+    return tuple(motors), tuple(builder.notes), frozenset(outside)

@@ -563,3 +563,36 @@ def test_the_summary_records_every_motor_value_the_file_gives():
     assert {key: entry[key] for key in motor if key != "joint"} == {
         key: value for key, value in motor.items() if key != "joint"
     }
+
+
+def test_offsets_and_tables_of_joints_outside_joints_are_skipped_with_them():
+    """Found by a review: tests/data/wrist4.toml with --joints j1,j2 was refused
+    ("log.position_offset.m3: unknown motor"), although its motors m3 and m4,
+    which drive j3 and j4 only, are skipped: a drive file of the whole robot
+    serves any --joints. Joint-side offsets and column tables alike."""
+    urdf = {"motors": {}, "joints": ["j1", "j2", "j3"]}
+    motor_side = {
+        "log": {
+            "position_side": "motor",
+            "position_offset": {"m1": 1.0, "m3": 2.0},
+            "position": {"m1": "p1", "m2": "p2", "m3": "p3"},
+        },
+        "motors": {
+            "m1": {"joint": "j1"},
+            "m2": {"joint": "j2"},
+            "m3": {"joint": "j3"},
+        },
+    }
+    chain = DriveChain.from_dict(motor_side, ("j1", "j2"), urdf=urdf)
+    assert chain.motor_names == ("m1", "m2")
+    np.testing.assert_array_equal(chain.log.position_offset, [1.0, 0.0])
+    assert chain.log.position_columns == ("p1", "p2")
+    joint_side = {"log": {"position_offset": {"j1": 1.0, "j3": 2.0}}}
+    chain = DriveChain.from_dict(joint_side, ("j1", "j2"), urdf=urdf)
+    np.testing.assert_array_equal(chain.log.position_offset, [1.0, 0.0])
+    with pytest.raises(ValueError, match=r"position_offset.j9: unknown joint"):
+        DriveChain.from_dict(
+            {"log": {"position_offset": {"j9": 1.0}}}, ("j1", "j2"), urdf=urdf
+        )
+    with pytest.raises(ValueError, match=r"position_offset.j3: unknown joint"):
+        DriveChain.from_dict(joint_side, ("j1", "j2"))  # no URDF: j3 unknown
