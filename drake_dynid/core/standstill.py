@@ -244,4 +244,8 @@ def combined_widths(widths: Any, rows: Any) -> np.ndarray:
     if np.any(scale == 0.0):
         check.fail("combined_widths", "rows must not be all zeros.")
     unit = rows / scale[:, None]
-    return np.sqrt((unit**2) @ (widths**2))
+    top = float(np.max(np.abs(widths), initial=0.0))
+    if top == 0.0:
+        return np.zeros(rows.shape[0])
+    # Scaled by the largest width: no overflow of w² (--dead-zone 1e300).
+    return top * np.sqrt((unit**2) @ ((widths / top) ** 2))

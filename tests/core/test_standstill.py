@@ -112,3 +112,9 @@ def test_combined_widths_of_coupled_motors():
     assert combined_widths([0.1, 0.2], np.zeros((0, 2))).shape == (0,)
     with pytest.raises(ValueError, match="rows must not be all zeros"):
         combined_widths([0.1, 0.2], np.zeros((1, 2)))
+    # Found by a review: --dead-zone 1e300 with a coupled motor squared to inf,
+    # then 0·inf = NaN, an error about DeadZoneSign's width.
+    np.testing.assert_allclose(
+        combined_widths([1e300, 1e300], rows), [1e300, 2**0.5 * 1e300], rtol=1e-12
+    )
+    assert combined_widths([0.0, 0.0], rows).tolist() == [0.0, 0.0]
