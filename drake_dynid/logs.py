@@ -59,6 +59,19 @@ from drake_dynid.log_table import read_header, read_table, unused_columns
 
 __all__ = ["RobotLog", "header_joints", "read_log", "write_log"]
 
+_LISTED = 6  # extra column names listed in the warning
+
+
+def _extra_note(extra: list[str]) -> str:
+    """The warning naming the extra columns (the first few of many, and a count)."""
+    if len(extra) <= _LISTED:
+        return f"ignored extra column(s) {', '.join(extra)}."
+    return (
+        f"ignored {len(extra)} extra column(s): {', '.join(extra[:_LISTED])} and "
+        f"{len(extra) - _LISTED} more."
+    )
+
+
 T = TypeVar("T")
 
 
@@ -333,7 +346,7 @@ def read_log(
     if time_unit != "s":
         t, exact = np.asarray(t, dtype=float) * TIME_UNITS[time_unit], None
     extra = unused_columns(table.header, wanted)
-    notes = [f"ignored extra column(s) {', '.join(extra)}."] if extra else []
+    notes = [_extra_note(extra)] if extra else []
     repaired = repair(
         f"log {path}",
         "row",

@@ -190,6 +190,19 @@ def test_a_trailing_comma_in_the_header_and_the_rows_is_read_silently(tmp_path):
     np.testing.assert_array_equal(log.q[:, 0], np.arange(10))
 
 
+def test_many_extra_columns_are_counted_not_all_listed(tmp_path):
+    """Found by a review: 20 000 extra columns (a logger's every topic) gave a
+    warning line of 149 kB."""
+    extra = [f"x{i}" for i in range(2000)]
+    header = HEADER.rstrip("\n") + "," + ",".join(extra) + "\n"
+    body = "".join(
+        f"{0.001 * k},1,2,3,4," + ",".join(["0"] * 2000) + "\n" for k in range(3)
+    )
+    log = read_log(write_text(tmp_path / "x.csv", header + body), JOINTS)
+    (note,) = log.warnings
+    assert note == "ignored 2000 extra column(s): x0, x1, x2, x3, x4, x5 and 1994 more."
+
+
 def test_blank_lines_keep_the_row_numbers_of_the_file(tmp_path):
     path = write_text(
         tmp_path / "blank.csv", "\n" + HEADER + "0,1,2,3,4\n\n0.001,x,2,3,4\n"
