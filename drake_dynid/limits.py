@@ -59,6 +59,23 @@ def urdf_limits(robot: Any) -> JointLimits:
     )
 
 
+def _no_duplicate(file: Path) -> Any:
+    """A ``json`` object hook refusing a key given twice (JSON keeps the last)."""
+
+    def pairs(items: list[tuple[str, Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in items:
+            if key in out:
+                raise ValueError(
+                    f"limits file {file}: {key!r} is given twice in one object; give "
+                    "each joint (and each of its limits) once."
+                )
+            out[key] = value
+        return out
+
+    return pairs
+
+
 def read_limits_file(path: str | Path) -> dict[str, dict[str, float]]:
     """Reads a limits file (JSON, or TOML by extension) into ``{joint: {key: value}}``.
 
@@ -86,7 +103,7 @@ def read_limits_file(path: str | Path) -> dict[str, dict[str, float]]:
             ) from None
     else:
         try:
-            document = json.loads(text)
+            document = json.loads(text, object_pairs_hook=_no_duplicate(file))
         except json.JSONDecodeError as error:
             raise ValueError(
                 f"limits file {file} is not valid JSON: {error} (TOML files need the "

@@ -191,6 +191,13 @@ def test_limits_file_overrides_and_bad_files(tmp_path):
     bad.write_text("{not json")
     with pytest.raises(ValueError, match="not valid JSON"):
         read_limits_file(bad)
+    # Found by a review: a joint (or a limit) given twice: the last one silently won.
+    bad.write_text('{"elbow_joint": {"velocity": 1}, "elbow_joint": {"effort": 5}}')
+    with pytest.raises(ValueError, match=r"bad.json: 'elbow_joint' is given twice"):
+        read_limits_file(bad)
+    bad.write_text('{"elbow_joint": {"velocity": 1, "velocity": 2}}')
+    with pytest.raises(ValueError, match=r"bad.json: 'velocity' is given twice"):
+        read_limits_file(bad)
     with pytest.raises(ValueError, match="velocity limit of joint a must be > 0"):
         JointLimits(("a",), [-1.0], [1.0], [0.0], [1.0])
 
