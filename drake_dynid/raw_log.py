@@ -199,9 +199,22 @@ def _owners(
     missing = [name for name in wanted if name not in owner]
     if missing:
         found = "; ".join(f"{p}: {', '.join(headers[p])}" for p in files)
+        # A header of one cell holding ; tab or |: another separator (the plain
+        # reader's hint, log_table._format_hint).
+        other = [
+            p
+            for p in files
+            if len(headers[p]) == 1 and any(sep in headers[p][0] for sep in ";\t|")
+        ]
+        hint = (
+            f"; the header of {', '.join(other)} looks separated by another "
+            "character than a comma: the log must be comma-separated (CSV)"
+            if other
+            else ""
+        )
         raise ValueError(
             f"log {', '.join(files)}: no column(s) {', '.join(map(repr, missing))} "
-            f"(found: {found})."
+            f"(found: {found}){hint}."
         )
     return owner
 

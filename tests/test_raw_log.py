@@ -112,6 +112,9 @@ def test_other_stamps_are_interpolated_over_the_common_span(tmp_path, chain):
         # naming no file (a header read with open(encoding="utf-8")).
         ("gzip", r"log .*e\.csv: the file is gzip-compressed"),
         ("latin1", r"log .*e\.csv: not UTF-8 text: byte 10 \(line 1, column 11\)"),
+        # Found by a review: a tab-separated file was only "no column(s) ..." with a
+        # drive file (the plain reader names the separator).
+        ("tabs", r"the header of .*e\.csv looks separated by another character"),
     ],
 )
 def test_bad_raw_logs_name_the_file_and_the_column(tmp_path, chain, case, message):
@@ -146,6 +149,9 @@ def test_bad_raw_logs_name_the_file_and_the_column(tmp_path, chain, case, messag
         files.append(empty)
     elif case == "gzip":
         (tmp_path / "e.csv").write_bytes(gzip.compress(b"stamp,- a_effort\n0,1\n"))
+        files.append(tmp_path / "e.csv")
+    elif case == "tabs":
+        (tmp_path / "e.csv").write_text("\t".join(header) + "\n0\t1\t2\n")
         files.append(tmp_path / "e.csv")
     elif case == "latin1":
         (tmp_path / "e.csv").write_bytes("stamp,- a_°,- b_effort\n".encode("latin-1"))
