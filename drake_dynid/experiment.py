@@ -226,6 +226,11 @@ def simulate_experiment(
             if plant.get_joint(i).num_velocities() == 1
             and plant.get_joint(i).name() not in simulated
         )
+        from drake_dynid.urdf import read_urdf_mimic
+
+        # A mimic joint with a <transmission> is actuated (Drake gives it an
+        # actuator) but follows its leader in the model: say so, as for a passive one.
+        mimic = sorted(set(simulated) & set(read_urdf_mimic(urdf)))
         check.fail(
             owner,
             f"the simulated joints must be the reference's {n} joints "
@@ -236,6 +241,13 @@ def simulate_experiment(
                 "the simulator does not couple to its leader: lock the leader, "
                 "or simulate without it)"
                 if passive
+                else ""
+            )
+            + (
+                f"; {', '.join(mimic)}: a <mimic> joint with a <transmission>, which "
+                "the simulator does not couple to its leader: lock the leader "
+                "(--lock), or remove the <mimic> from the URDF"
+                if mimic
                 else ""
             )
             + ".",

@@ -476,3 +476,28 @@ def test_the_stiff_coulomb_message_gives_its_units(tmp_path):
     rail = named(slider, 1)[0]
     assert "FC = 0.5 N on an inertia as small as 0.01 kg is" in rail
     assert "m/s per step" in rail and "rad" not in rail
+
+
+def test_an_actuated_mimic_joint_is_named(tmp_path, capsys):
+    """Found by a review: a <mimic> joint with a <transmission> gave "the plant's
+    actuated joints are joint1, joint2" without a word about the mimic."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from drake_dynid import cli
+    from drake_dynid.plants import model_path
+
+    text = Path(model_path("planar_2r")).read_text()
+    end = '<dynamics damping="0.15" friction="0.25"/>\n  </joint>'
+    assert end in text
+    mimic = '<dynamics damping="0.15" friction="0.25"/>\n    <mimic joint="joint1"/>'
+    urdf = tmp_path / "mimic.urdf"
+    urdf.write_text(text.replace(end, mimic + "\n  </joint>"))
+    t = np.linspace(0.0, 2.0, 201)
+    rows = "".join(f"{x},{0.1 * np.sin(x)},{0.1 * np.cos(x)}\n" for x in t)
+    (tmp_path / "t.csv").write_text("t,q_joint1,v_joint1\n" + rows)
+    argv = ["simulate", str(urdf), "--trajectory", str(tmp_path / "t.csv")]
+    assert cli.main([*argv, "--out", str(tmp_path / "log.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "joint2: a <mimic> joint with a <transmission>, which the simulator" in err
