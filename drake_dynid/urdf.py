@@ -476,8 +476,13 @@ def _parse(
             if "MakeConvexHull only applies" in message
             else "a file it names is missing"
             if missing
+            else "a joint's <limit effort> must be >= 0"
+            if "negative effort limit" in message
             else "every joint a <transmission> names must be a joint of the file"
             if "Transmission" in message
+            else "each link's <inertial>: a mass and an inertia of a real body, at "
+            "coordinates of a robot's size"
+            if "IsPhysicallyValid" in message
             else "valid XML, every joint's parent and child links defined"
         )
         text = (

@@ -137,6 +137,20 @@ REVOLUTE_URDF = """
             REVOLUTE_URDF.format(xyz="nan 0 0", limit=""),
             r"could not parse .*robot.urdf: Expected 3 values for attribute xyz",
         ),
+        # The hint for a transmission's joint with a negative effort limit was
+        # "every joint a <transmission> names must be a joint of the file".
+        (
+            REVOLUTE_URDF.format(
+                xyz="0 0 0", limit='<limit lower="-1" upper="1" effort="-5"/>'
+            ).replace(
+                "</robot>",
+                "<transmission name='t'><type>transmission_interface/"
+                "SimpleTransmission</type><joint name='j'><hardwareInterface>"
+                "EffortJointInterface</hardwareInterface></joint><actuator name='m'>"
+                "</actuator></transmission></robot>",
+            ),
+            r"negative effort limit. Fix the URDF \(a joint's <limit effort> must",
+        ),
     ],
 )
 @pytest.mark.parametrize("command", ["params", "identify", "offline"])
