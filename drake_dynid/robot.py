@@ -432,6 +432,13 @@ class RobotModel(RobotRows):
         v = rng.normal(size=(num_samples, n))
         vdot = rng.normal(size=(num_samples, n))
         rows = self._idim_standard(q, v, vdot).reshape(-1, p_std)
+        if not np.all(np.isfinite(rows)):  # products of lengths, masses overflow
+            raise ValueError(
+                f"RobotModel: the regressor of {self.path or 'the plant'} overflows "
+                "at ordinary joint states (|q| <= pi, unit speeds): a joint "
+                "<origin>, <axis> or link <inertial> value too large for float64 "
+                "(above about 1e100); fix the URDF."
+            )
         if scales is None:
             return base_parameters(rows, self.standard_names)
         base = base_parameters(rows / scales, self.standard_names)

@@ -137,6 +137,11 @@ REVOLUTE_URDF = """
             REVOLUTE_URDF.format(xyz="nan 0 0", limit=""),
             r"could not parse .*robot.urdf: Expected 3 values for attribute xyz",
         ),
+        # Found by a review: "base_parameters: rows must be finite; got 96 NaN".
+        (
+            REVOLUTE_URDF.format(xyz="1e200 0 0", limit=""),
+            r"regressor of .*robot.urdf overflows .*<origin>.*fix the URDF",
+        ),
         # The hint for a transmission's joint with a negative effort limit was
         # "every joint a <transmission> names must be a joint of the file".
         (
