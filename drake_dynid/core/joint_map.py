@@ -29,6 +29,10 @@ import numpy as np
 
 __all__ = ["JointMap", "joint_map"]
 
+#: Largest |locked position| [rad or m]: a prismatic joint locked at 1e300 m lumps
+#: its links with m·d² = inf (NaN parameters, a simulation that never ends).
+MAX_LOCKED = 1e4
+
 
 @dataclass(frozen=True, eq=False)
 class JointMap:
@@ -170,6 +174,12 @@ def joint_map(
                 owner,
                 f"locked position of {name!r} must be a finite number [rad or m]; "
                 f"got {value!r}.",
+            )
+        if abs(position) > MAX_LOCKED:
+            _fail(
+                owner,
+                f"locked position of {name!r} must be within ±{MAX_LOCKED:g} [rad or "
+                f"m]; got {position:g}.",
             )
         locked_in[name] = position
     if joints is None:

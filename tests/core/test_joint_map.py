@@ -72,6 +72,9 @@ def test_mimic_chain_composes_multipliers_and_offsets():
         ({"joints": []}, "at least one of"),
         ({"locked": {"head": float("nan")}}, "locked position of 'head' must be"),
         ({"locked": {"head": "up"}}, "locked position of 'head' must be"),
+        # Found by a review: a prismatic joint locked at 1e300 m gave NaN a-priori
+        # values (exit 0) and a simulate that did not end.
+        ({"locked": {"head": 1e300}}, r"'head' must be within ±10000 \[rad or m\]"),
         (
             {"locked": dict.fromkeys(("j1", "j2", "finger_a", "head", "wheel"), 0)},
             "no joint left to identify",
