@@ -242,3 +242,20 @@ def test_a_results_files_bad_settings_are_named(
     line = error_line(capsys)
     assert line.startswith(f"dynid validate: error: results file {params}: "), line
     assert re.search(message, line), line
+
+
+def test_the_fitted_log_is_no_validation_log(tmp_path, capsys, monkeypatch):
+    """Found by a review: offline --validate with the fitted log itself printed its
+    in-sample residual as a validation."""
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    monkeypatch.chdir(tmp_path)
+    robot, t, q, tau = fourier_2r(2001)
+    write_log(tmp_path / "log.csv", t, q, tau, robot.joint_names)
+    argv = ["offline", "log.csv", "--urdf", model_path("planar_2r")]
+    assert cli.main([*argv, "--validate", "./log.csv"]) == 2
+    line = error_line(capsys)
+    assert "--validate ./log.csv is the fitted log (log.csv)" in line
+    assert "--split" in line

@@ -139,6 +139,16 @@ def validation_split(
         _check_held_out(args, rest, description, log)
         return first, rest, description
     if other:
+        from drake_dynid.commands._paths import _same
+
+        for fitted in log_files(args):
+            for given in log_files(args, "validate"):
+                if _same(fitted, given):
+                    raise ValueError(
+                        f"--validate {given} is the fitted log ({fitted}): a "
+                        "validation needs another recording (or --split F, the "
+                        "end of this one held out)."
+                    )
         held = read_robot_log(
             log_files(args, "validate"),
             robot,
