@@ -144,6 +144,10 @@ def test_out_dir_that_is_a_file_is_named(tmp_path, capsys):
     argv = ["fleet", "offline", str(log), "--urdf", "planar_2r", "--out-dir", str(log)]
     assert cli.main(argv) == 2
     assert f"--out-dir {log} is a file; give a folder" in capsys.readouterr().err
+    # Found by a review: "fleet: jobs must be >= 1", not the option's name.
+    argv = ["fleet", "offline", str(log), "--urdf", "planar_2r", "--jobs", "0"]
+    assert cli.main([*argv, "--out-dir", str(tmp_path / "out")]) == 2
+    assert "dynid fleet: error: --jobs must be >= 1; got 0." in capsys.readouterr().err
 
 
 def _log_with_warnings(source, path, row):

@@ -167,6 +167,8 @@ def run(args: argparse.Namespace) -> int:
             f"{', '.join(given)} would write one file for every log; a fleet writes "
             "each log's results in --out-dir (its JSON)."
         )
+    if args.jobs is not None and args.jobs < 1:  # in its option's name
+        raise ValueError(f"--jobs must be >= 1; got {args.jobs}.")
     _check_out_dir(args)
     quiet = bool(args.quiet)
 
