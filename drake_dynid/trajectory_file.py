@@ -114,7 +114,8 @@ def read_trajectory(
                 f"trajectory {file}: its joints {', '.join(names)} are not the "
                 f"robot's {', '.join(joint_names)}."
             )
-        return SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)
+        sampled = SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)
+        return _within_bounds(file, sampled)
     # UTF-8 with a byte-order mark accepted (as logs); other encodings named.
     lines = utf8_text(file.read_bytes(), f"trajectory {file}").splitlines()
     header = [cell.strip() for cell in lines[0].split(",")] if lines else []
@@ -157,7 +158,32 @@ def read_trajectory(
         raise ValueError(
             f"trajectory {file}: time is not strictly increasing at row {row}."
         )
-    return SampledTrajectory(t, q, v, columns("a"), tuple(joint_names))
+    return _within_bounds(
+        file, SampledTrajectory(t, q, v, columns("a"), tuple(joint_names))
+    )
+
+
+def _within_bounds(file: Path, trajectory: SampledTrajectory) -> SampledTrajectory:
+    """``trajectory`` when its finite |q|, |v|, |a| are <= 1e100, else a ValueError.
+
+    A coefficient file's base_frequency_hz of 1e-300 made q = 7e298 rad (its
+    amplitudes a/(l·2π·f0)): simulate wrote that log with exit code 0.
+    """
+    from drake_dynid.core._validate import MAX_LOG_MAGNITUDE
+
+    for name, values in (("q", trajectory.q), ("v", trajectory.v), ("a", trajectory.a)):
+        finite = np.abs(values[np.isfinite(values)])
+        if finite.size and float(finite.max()) > MAX_LOG_MAGNITUDE:
+            raise ValueError(
+                f"trajectory {file}: |{name}| reaches {float(finite.max()):.3g}, above "
+                f"{MAX_LOG_MAGNITUDE:g} [SI units]: check its "
+                + (
+                    "coefficients (base_frequency_hz, a, b)."
+                    if file.suffix.lower() == ".json"
+                    else "units."
+                )
+            )
+    return trajectory
 
 
 def _name_the_bad_cell(file: Path, header: list[str], lines: list[str]) -> NoReturn:
