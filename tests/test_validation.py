@@ -640,10 +640,14 @@ def test_no_smaller_split_is_suggested_when_the_whole_log_is_too_short(
 ):
     """Found by a review: a TIAGo log read in the wrong time unit (h = 10 µs) was
     told 'use a smaller --split', which no split satisfies: the whole log is
-    shorter than the cutoff's start-up. Here a log stamped in seconds read in ms
-    (4001 samples at 1 µs: the automatic cutoff of at most 40 Hz drops more)."""
-    argv = ["offline", logs["fit"][0], "--urdf", URDF, "--split", "0.5"]
-    assert cli.main([*argv, "--time-unit", "ms"]) == 2
+    shorter than the cutoff's start-up. Here the log's stamps divided by 50
+    (4001 samples at 20 µs: the automatic cutoff of at most 40 Hz drops 2501 at
+    each end; a step under 10 µs is refused before, naming --time-unit)."""
+    _, log = logs["fit"]
+    fast = tmp_path / "fast.csv"
+    write_log(fast, log.t / 50.0, log.q, log.tau, log.joint_names)
+    argv = ["offline", str(fast), "--urdf", URDF, "--split", "0.5"]
+    assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert "use a smaller --split" not in err, err
     assert "the whole log is too short for it too" in err, err
