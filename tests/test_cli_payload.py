@@ -228,3 +228,25 @@ def test_the_params_file_gives_the_friction_columns_and_dead_zone(
     printed = capsys.readouterr().out
     assert "(64 base parameters, known)" in printed
     assert "iiwa_joint_1 0.025 rad/s" in printed
+
+
+def _still_log(path, rate, seconds=3.0):
+    """A log of the iiwa at ``rate`` [Hz] (the checks below stop before a fit)."""
+    t = np.arange(0.0, seconds, 1.0 / rate)
+    q = 0.3 * np.sin(np.outer(t, np.arange(1, 8)))
+    names = [f"iiwa_joint_{i}" for i in range(1, 8)]
+    write_log(path, t, q, np.ones_like(q), names)
+    return str(path)
+
+
+def test_a_log_too_slow_for_the_jacobi_window_names_the_option(tmp_path, capsys):
+    """Found by a review: at 50 Hz the default bank step moved to 20 ms, above
+    the Jacobi window's tenth, and the command stopped on 'OnlineSettings:
+    bank_time_step must be <= jacobi_window/10 ... got 0.02', a field and a value
+    the user never gave; the log's step is what is too coarse for --jacobi-window
+    (as dynid identify says)."""
+    log = _still_log(tmp_path / "slow.csv", 50.0)
+    assert cli.main(["payload", log, "--urdf", URDF, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--jacobi-window must be >= 10 signal periods" in err, err
+    assert "OnlineSettings" not in err and "bank_time_step" not in err, err

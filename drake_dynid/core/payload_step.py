@@ -42,6 +42,7 @@ short window needs:
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -56,6 +57,7 @@ from drake_dynid.core.identifier import (
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 from drake_dynid.core.online import (
+    MIN_BANK_SAMPLES_PER_JACOBI_WINDOW,
     MIN_JACKKNIFE_GROUPS,
     OnlineSettings,
     nearest_on_grid,
@@ -109,17 +111,37 @@ def payload_settings(
             ``core.online.nearest_on_grid``), as ``OnlineSettings.on_grid`` does
             for unset periods: a 100 Hz log gets a 10 ms bank step (2 ms is no
             multiple of it, and ``on_grid`` refuses a given period off the grid).
+            A bank step above jacobi_window/10 stays 2 ms: h itself is too coarse
+            for the Jacobi window, which ``on_grid`` then says.
         **overrides: ``OnlineSettings`` fields.
     """
     values = {**PAYLOAD_DEFAULTS, **overrides}
     if time_step is not None:
         h = check.positive("payload_settings", "time_step", time_step, "s")
         for key in ("bank_time_step", "update_period"):
-            if key not in overrides:
-                values[key] = nearest_on_grid(PAYLOAD_DEFAULTS[key], h)
+            snapped = nearest_on_grid(PAYLOAD_DEFAULTS[key], h)
+            if key not in overrides and not (
+                key == "bank_time_step" and _above_bank_limit(snapped, values, h)
+            ):
+                values[key] = snapped
     if isinstance(values.get("frequencies"), tuple):
         values["frequencies"] = list(values["frequencies"])
     return check_payload_weighting("payload_settings", OnlineSettings(**values))
+
+
+def _above_bank_limit(bank_time_step: float, values: dict[str, Any], h: float) -> bool:
+    """Whether a bank step exceeds jacobi_window/10 (the window put on h's grid).
+
+    False when ``values``' jacobi_window is no positive number (``OnlineSettings``
+    names it).
+    """
+    window = values.get("jacobi_window")
+    if isinstance(window, bool) or not isinstance(window, int | float):
+        return False
+    if not (math.isfinite(window) and window > 0.0):
+        return False
+    limit = nearest_on_grid(float(window), h) / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
+    return bank_time_step > limit * (1.0 + 1e-9)
 
 
 def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSettings:
