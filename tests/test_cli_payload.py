@@ -250,3 +250,28 @@ def test_a_log_too_slow_for_the_jacobi_window_names_the_option(tmp_path, capsys)
     err = capsys.readouterr().err
     assert "--jacobi-window must be >= 10 signal periods" in err, err
     assert "OnlineSettings" not in err and "bank_time_step" not in err, err
+
+
+def test_a_params_file_without_a_coulomb_law_gets_the_auto_dead_zone(
+    log_file, tmp_path
+):
+    """Found by a review: --params of a `dynid params --json` file (the URDF's
+    a-priori values: no dead zone recorded) gave the exact sign(v), where the
+    help says '(default: the --params file's widths, else auto)' and the command
+    measured the widths on the log before --params files gave theirs."""
+    import argparse
+
+    from drake_dynid.commands import payload
+    from drake_dynid.core.friction import DeadZoneSign
+
+    arm = tmp_path / "apriori.json"
+    assert cli.main(["params", URDF, "--json", str(arm)]) == 0
+    parser = argparse.ArgumentParser()
+    payload.add_arguments(parser)
+    plain, with_params = (
+        payload._robot(parser.parse_args([log_file, "--urdf", URDF, *extra]))[0]
+        for extra in ([], ["--params", str(arm)])
+    )
+    assert isinstance(plain.sign, DeadZoneSign)
+    assert isinstance(with_params.sign, DeadZoneSign)
+    np.testing.assert_allclose(with_params.sign.width, plain.sign.width)

@@ -206,6 +206,14 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
         from drake_dynid.commands._results import results_robot, results_sign
 
         document = read_results(args.params)
+        settings = document.get("settings")
+        if args.dead_zone is None and not (
+            isinstance(settings, dict)
+            and ("dead_zone" in settings or "coulomb_dead_zone" in settings)
+        ):
+            # A file that records no Coulomb law (dynid params --json, the URDF's
+            # a-priori values): the widths are measured on the log, as without it.
+            args.dead_zone = "auto"
         robot = results_robot(args, document)
         arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
         log = read_robot_log(
