@@ -42,13 +42,13 @@ Everything else (comments, geometry, limits) is copied; relative mesh file names
 are made absolute when the output goes to another directory; values below 1e-12
 of the link's largest (solver round-off) are written as 0. A comment at the top
 says what was written, what was not, the fit's Coulomb law and, with a drive
-file, that the joint friction and rotor inertia are the joint-side totals (its
-motors' reflected values included). Drake ignores the ``friction`` attribute
-(drake_dynid reads it, ``read_urdf_friction``); Drake's ``CalcInverseDynamics``
-of the written file plus Coulomb friction FCj·s(vj), s the fit's law (sign(v),
-the dead zone or tanh(v/ε): ``robot.sign``), reproduces the identified model's
-W·θ (tests/test_urdf_writer.py: the 2R, the iiwa7, locked, welded and mimic
-joints).
+file, that the joint friction (and the rotor inertia, with rotor inertia) are
+the joint-side totals (its motors' reflected values included). Drake ignores the
+``friction`` attribute (drake_dynid reads it, ``read_urdf_friction``); Drake's
+``CalcInverseDynamics`` of the written file plus Coulomb friction FCj·s(vj), s
+the fit's law (sign(v), the dead zone or tanh(v/ε): ``robot.sign``), reproduces
+the identified model's W·θ (tests/test_urdf_writer.py: the 2R, the iiwa7,
+locked, welded and mimic joints).
 """
 
 from __future__ import annotations
@@ -425,9 +425,11 @@ def _header(
             if robot.rotor_inertia
             else ""
         )
+        # Without rotor inertia columns none is written (0): only the friction.
+        totals = "friction and rotor inertia" if robot.rotor_inertia else "friction"
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            f"friction and rotor inertia {DRIVE_TOTALS}{twice}{inertia}"
+            f"{totals} {DRIVE_TOTALS}{twice}{inertia}"
         )
     return lines
 

@@ -470,3 +470,26 @@ def test_counted_twice_is_said_only_of_a_drive_file_with_motor_friction(tmp_path
         assert "drake:gear_ratio N" not in out.read_text()
         again = RobotModel.from_urdf(out, joints=names, drive=drive)
         assert any("added again" in note for note in again.notes) is twice
+
+
+def test_the_drive_header_names_rotor_inertia_only_when_written(tmp_path):
+    # Without rotor inertia columns the written file's rotor inertia is 0 (not
+    # identified), so it is no joint-side total of anything: the header said
+    # "the joint damping, friction and rotor inertia are joint-side totals" for
+    # every fit with a drive file (a review).
+    for rotor_inertia in (False, True):
+        robot = RobotModel.from_urdf(
+            "tests/data/wrist4.urdf",
+            drive="tests/data/wrist4.toml",
+            rotor_inertia=rotor_inertia,
+        )
+        values = _consistent_values(robot, np.random.default_rng(15))
+        out = tmp_path / f"w{rotor_inertia}.urdf"
+        write_identified_urdf(robot, values, out)
+        text = out.read_text()
+        assert ("friction and rotor inertia are joint-side" in text) is rotor_inertia
+        assert "joint-side totals" in text
+        again = RobotModel.from_urdf(
+            out, drive="tests/data/wrist4.toml", rotor_inertia=rotor_inertia
+        )
+        assert any("added again" in note for note in again.notes)
