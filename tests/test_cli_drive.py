@@ -472,3 +472,27 @@ def test_validate_says_when_the_drive_file_differs_from_the_fit(
     assert "motors differ from those the parameters were fitted with" in err, err
     assert "m2 {j2 = 30} k_t 0.1 (fitted: {j2 = 60} k_t 0.1)" in err
     assert "m1 " not in err  # the motors that agree are not listed
+
+
+def test_a_malformed_recorded_drive_chain_is_a_difference_not_a_crash():
+    """Found by a review: a hand-edited results file whose settings.drive_chain
+    gives a motor's joints as a list or a ratio as text stopped dynid validate
+    with a traceback ('list' object has no attribute 'items') or "Unknown format
+    code 'g' for object of type 'str'"; the note on the drive chain says they
+    differ instead."""
+    from drake_dynid.commands._results import drive_mismatch
+
+    robot = RobotModel.from_urdf(URDF, drive=str(DATA / "wrist4.toml"))
+    summary = robot.drive.summary()
+    assert drive_mismatch({"settings": {"drive_chain": summary}}, robot) is None
+    for bad in ({"joints": ["j1"]}, {"joints": {"j1": "60"}}, {"joints": None}):
+        motors = [{**summary["motors"][0], **bad}, *summary["motors"][1:]]
+        document = {"settings": {"drive_chain": {**summary, "motors": motors}}}
+        note = drive_mismatch(document, robot)
+        assert note is not None and "m1 {j1 = 60} k_t 0.12 (fitted: " in note, note
+        assert "m2 " not in note
+    motors = [{**summary["motors"][0], "torque_constant": "x"}]
+    document = {"settings": {"drive_chain": {"motors": motors}}}
+    assert "(fitted: {j1 = 60} k_t 'x')" in drive_mismatch(document, robot)
+    document = {"settings": {"drive_chain": {"motors": 5}}}
+    assert "m1 {j1 = 60} k_t 0.12 (fitted: none)" in drive_mismatch(document, robot)

@@ -162,14 +162,26 @@ def drive_mismatch(document: Mapping[str, Any], robot: Any) -> str | None:
     if not isinstance(recorded, dict) or chain is None:
         return None
 
-    def described(motor: Mapping[str, Any]) -> str:
-        joints = ", ".join(f"{j} = {r:g}" for j, r in motor.get("joints", {}).items())
-        constant = motor.get("torque_constant")
-        return f"{{{joints}}}" + ("" if constant is None else f" k_t {constant:g}")
+    def number(value: Any) -> str:  # a hand-edited file may hold anything
+        plain = isinstance(value, int | float) and not isinstance(value, bool)
+        return f"{value:g}" if plain else repr(value)
 
+    def described(motor: Mapping[str, Any]) -> str:
+        row = motor.get("joints")
+        joints = (
+            ", ".join(f"{j} = {number(r)}" for j, r in row.items())
+            if isinstance(row, dict)
+            else repr(row)
+        )
+        constant = motor.get("torque_constant")
+        return f"{{{joints}}}" + (
+            "" if constant is None else f" k_t {number(constant)}"
+        )
+
+    motors = recorded.get("motors")
     fitted = {
         str(m.get("name")): described(m)
-        for m in recorded.get("motors", ())
+        for m in (motors if isinstance(motors, list) else ())
         if isinstance(m, dict)
     }
     now = {str(m["name"]): described(m) for m in chain.summary()["motors"]}
