@@ -26,7 +26,8 @@ child link of identified joint j, then of each moving mimic joint: ``robot.links
   ``OFFj`` has no URDF field and is listed in ``UrdfExport.skipped``;
 * without rotor inertia (the model has no IAj), the input's
   ``drake:rotor_inertia`` of the joint is written as 0 (Drake would add it to
-  an identified model that has none);
+  an identified model that has none), as a moving mimic joint's always is (no
+  model has a column for it);
 * with rotor inertia, ``<drake:rotor_inertia value="IAj/g²">`` in the joint's
   ``<transmission><actuator>`` (Drake's tag; g = the actuator's
   ``drake:gear_ratio``, written as the drive chain's ratio of the joint's motor
@@ -540,6 +541,9 @@ def write_identified_urdf(
                 if dynamics is not None and attribute in dynamics.attrib:
                     dynamics.set(attribute, "0")
         if k >= n:
+            # A moving mimic joint has no rotor inertia column in any model.
+            if _zero_rotor_inertia(root, joint_name):
+                zeroed.append(f"rotor inertia of {joint_name}")
             continue
         if f"OFF{j}" in values:
             skipped.append(f"OFF{j}")

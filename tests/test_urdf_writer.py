@@ -493,3 +493,47 @@ def test_the_drive_header_names_rotor_inertia_only_when_written(tmp_path):
             out, drive="tests/data/wrist4.toml", rotor_inertia=rotor_inertia
         )
         assert any("added again" in note for note in again.notes)
+
+
+def test_a_moving_mimic_joints_rotor_inertia_is_written_as_zero(tmp_path):
+    # The gripper's mimic finger fb with a drake:rotor_inertia of its own: no
+    # model has a column for it (a mimic link has inertial columns only), but the
+    # writer zeroed the rotor inertia of the identified joints only, so Drake's
+    # inverse dynamics of the written file were W·θ plus 1.5²·0.05·v̇_fa on fa
+    # (a review: 0.2 N off).
+    from tests.test_any_urdf import gripper_urdf
+
+    source = Path(gripper_urdf(tmp_path / "g.urdf"))
+    text = source.read_text().replace(
+        "<robot ", '<robot xmlns:drake="http://drake.mit.edu" ', 1
+    )
+    source.write_text(
+        text.replace(
+            "</robot>",
+            '<transmission name="fb_t"><type>transmission_interface/'
+            'SimpleTransmission</type><joint name="fb"><hardwareInterface>'
+            "EffortJointInterface</hardwareInterface></joint><actuator "
+            'name="fb_motor"><drake:gear_ratio value="1"/><drake:rotor_inertia '
+            'value="0.05"/></actuator></transmission></robot>',
+        )
+    )
+    for rotor_inertia in (False, True):
+        robot = RobotModel.from_urdf(source, rotor_inertia=rotor_inertia)
+        rng = np.random.default_rng(16)
+        values = _consistent_values(robot, rng)
+        out = tmp_path / f"g_{rotor_inertia}.urdf"
+        write_identified_urdf(robot, values, out)
+        assert "written as 0: rotor inertia of fb" in out.read_text()
+        q = rng.uniform(-1.0, 1.0, (5, 3))
+        q[:, 2] = rng.uniform(0.0, 0.02, 5)
+        v, vdot = rng.normal(size=(2, 5, 3))
+
+        def full(x, offset):
+            return np.column_stack([x, 1.5 * x[:, 2] + offset])
+
+        tau = _drake_full_torques(out, full(q, 0.01), full(v, 0.0), full(vdot, 0.0))
+        tau = tau[:, :3] + np.outer(tau[:, 3], [0.0, 0.0, 1.5])
+        coulomb = read_urdf_friction(out)
+        tau += np.array([coulomb.get(n, 0.0) for n in robot.joint_names]) * np.sign(v)
+        expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
+        np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
