@@ -102,7 +102,8 @@ def _rotor_note(plant: Any, joints: Sequence[str]) -> str:
         name = actuator.joint().name()
         value = actuator.default_rotor_inertia() * actuator.default_gear_ratio() ** 2
         if name in joints and value > 0.0:
-            reflected.append(f"{name} ({value:.3g} kg·m²)")
+            unit = "kg" if actuator.joint().type_name() == "prismatic" else "kg·m²"
+            reflected.append(f"{name} ({value:.3g} {unit})")
     if not reflected:
         return ""
     return (

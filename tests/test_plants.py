@@ -650,3 +650,26 @@ def test_a_urdf_rotor_inertia_left_out_is_noted(tmp_path):
     )
     plain = RobotModel.from_urdf(model_path("planar_2r")).notes
     assert not any("rotor inertia" in note for note in plain), plain
+
+
+def test_a_prismatic_joints_rotor_inertia_is_noted_in_kg(tmp_path):
+    # The note of 7784b13 gave every joint's reflected rotor inertia in kg·m²; a
+    # prismatic joint's N²·Ia is a mass [kg] (a review).
+    from tests.test_any_urdf import gripper_urdf
+
+    source = Path(gripper_urdf(tmp_path / "g.urdf"))
+    text = source.read_text().replace(
+        "<robot ", '<robot xmlns:drake="http://drake.mit.edu" ', 1
+    )
+    source.write_text(
+        text.replace(
+            "</robot>",
+            '<transmission name="fa_t"><type>transmission_interface/'
+            'SimpleTransmission</type><joint name="fa"><hardwareInterface>'
+            "EffortJointInterface</hardwareInterface></joint><actuator "
+            'name="fa_motor"><drake:gear_ratio value="100"/><drake:rotor_inertia '
+            'value="2e-5"/></actuator></transmission></robot>',
+        )
+    )
+    notes = RobotModel.from_urdf(source).notes
+    assert any("rotor inertia of fa (0.2 kg) is not" in note for note in notes), notes
