@@ -332,22 +332,34 @@ def write_plot(path: str, t: Any, theta: Any, std: Any, valid, names, title) -> 
             axis.axvspan(start, stop, color="0.85", lw=0.0, zorder=0)
         axis.set_ylabel(name)
         axis.grid(True, alpha=0.3)
-    for axis in axes[p:]:
-        axis.set_visible(False)
-    for axis in axes[max(0, p - columns) : p]:
-        axis.set_xlabel("t [s]")
-        axis.tick_params(labelbottom=True)  # sharex hid them above the last row
-    # The title 0.1 in below the top, the panels below it: at its default
-    # y = 0.98 the title of a tall figure (many panels) fell onto the first row.
-    height = figure.get_figheight()
-    figure.suptitle(
+    finish_panels(
+        figure,
+        axes,
+        p,
+        columns,
         f"{title} (grey: invalid window, estimate held; band: ±σ)",
-        y=1.0 - 0.1 / height,
-        va="top",
     )
-    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
     figure.savefig(path, dpi=100)
     plt.close(figure)
+
+
+def finish_panels(figure: Any, axes: Any, count: int, columns: int, title: str) -> None:
+    """Time axes and title of a grid of ``count`` panels in ``columns`` columns.
+
+    The unused panels are hidden; the last panel of each column gets "t [s]"
+    and its tick labels (sharex hides them above the last row, and with an odd
+    count the right column ends a row higher); the title sits 0.1 in below the
+    top and the panels below it (at its default y = 0.98 the title of a tall
+    figure fell onto the first row).
+    """
+    for axis in axes[count:]:
+        axis.set_visible(False)
+    for axis in axes[max(0, count - columns) : count]:
+        axis.set_xlabel("t [s]")
+        axis.tick_params(labelbottom=True)
+    height = figure.get_figheight()
+    figure.suptitle(title, y=1.0 - 0.1 / height, va="top")
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
 
 
 def write_trace_outputs(

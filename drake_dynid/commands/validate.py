@@ -345,7 +345,7 @@ def write_torque_plot(
     axis is in N·m, or in N for a joint flagged in ``prismatic`` (the robot's
     ``RobotModel.prismatic``, one flag per joint; empty: all revolute).
     """
-    from drake_dynid.commands._report import matplotlib_pyplot
+    from drake_dynid.commands._report import finish_panels, matplotlib_pyplot
 
     plt = matplotlib_pyplot()
     first = next(iter(validations.values()))
@@ -376,18 +376,9 @@ def write_torque_plot(
         axis.set_ylabel(f"{name}\n[{unit}]")
         axis.grid(True, alpha=0.3)
         axis.legend(fontsize=7, loc="upper right")
-    for axis in axes[n:]:
-        axis.set_visible(False)
-    for axis in axes[max(0, n - columns) : n]:
-        axis.set_xlabel("t [s]")
-        axis.tick_params(labelbottom=True)  # sharex hid them above the last row
-    # The title 0.1 in below the top, the panels below it: at its default
-    # y = 0.98 the title of a tall figure (many panels) fell onto the first row.
-    height = figure.get_figheight()
-    figure.suptitle(
-        f"{title}; thin lines: residuals (right axis)", y=1.0 - 0.1 / height, va="top"
+    finish_panels(
+        figure, axes, n, columns, f"{title}; thin lines: residuals (right axis)"
     )
-    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
     figure.savefig(path, dpi=100)
     plt.close(figure)
 
