@@ -52,6 +52,7 @@ import numpy as np
 
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
+from drake_dynid.files import same_file
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
 from drake_dynid.log_table import parse_cell, read_header, unused_columns
 
@@ -340,11 +341,7 @@ def _check_distinct(files: Sequence[str]) -> None:
     """ValueError when one file is given twice (by any spelling or link)."""
     for i, first in enumerate(files):
         for second in files[i + 1 :]:
-            try:
-                same = os.path.samefile(first, second)
-            except OSError:
-                same = os.path.abspath(first) == os.path.abspath(second)
-            if same:
+            if same_file(first, second):
                 raise ValueError(
                     f"log: a file is given twice: {first} and {second} are the same "
                     "file; give each file of the log once."

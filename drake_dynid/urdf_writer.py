@@ -65,6 +65,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.files import write_text_whole
 
 __all__ = ["UrdfExport", "write_identified_urdf"]
 
@@ -583,12 +584,12 @@ def write_identified_urdf(
     prolog = _PROLOG.match(source.read_text(encoding="utf-8"))
     comments = prolog.group(1).strip() if prolog else ""
     body = ElementTree.tostring(root, encoding="unicode")
-    output.write_text(
+    write_text_whole(  # a full disk leaves no truncated URDF
+        output,
         '<?xml version="1.0" encoding="utf-8"?>\n'
         + (comments + "\n" if comments else "")
         + body
         + "\n",
-        encoding="utf-8",
     )
     return UrdfExport(
         str(output), tuple(written), tuple(lumped), tuple(skipped), tuple(locked)

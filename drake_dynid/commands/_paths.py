@@ -18,6 +18,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from drake_dynid.files import same_file
+
 __all__ = ["INPUTS", "OUTPUTS", "check_output_paths", "check_outputs"]
 
 #: Attribute of the parsed arguments -> how a message names that input. A value
@@ -50,16 +52,6 @@ FIGURE_SUFFIXES = frozenset(
     {".png", ".pdf", ".svg", ".svgz", ".eps", ".ps", ".jpg", ".jpeg", ".tif"}
     | {".tiff", ".webp", ".pgf", ".raw", ".rgba", ".gif", ".avif"}
 )
-
-
-def _same(a: str | os.PathLike, b: str | os.PathLike) -> bool:
-    first, second = Path(a), Path(b)
-    try:
-        if first.exists() and second.exists():
-            return os.path.samefile(first, second)
-    except OSError:
-        pass
-    return first.resolve() == second.resolve()
 
 
 def _paths(value: Any) -> list[str]:
@@ -127,7 +119,7 @@ def check_outputs(
     given = [(name, os.fspath(path)) for name, path in outputs.items() if path]
     for option, path in given:
         for description, source in named:
-            if _same(path, source):
+            if same_file(path, source):
                 raise ValueError(
                     f"{option} {path} is an input of this command ({description} "
                     f"{source}): an output never overwrites an input; choose another "
@@ -149,7 +141,7 @@ def check_outputs(
             )
     for i, (option, path) in enumerate(given):
         for other, other_path in given[i + 1 :]:
-            if _same(path, other_path):
+            if same_file(path, other_path):
                 raise ValueError(
                     f"{option} and {other} are the same file {path}; give each "
                     "output its own file."

@@ -13,7 +13,6 @@ import csv
 import json
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -142,14 +141,14 @@ def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
 def write_json(path: str, document: Mapping[str, Any]) -> None:
     """Writes ``document`` as indented JSON (no NaN: invalid JSON).
 
+    Written whole or not at all (``files.write_text_whole``).
+
     Raises:
         OSError: naming ``path`` (a full disk's error names no file).
     """
-    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
-    try:
-        Path(path).write_text(text)
-    except OSError as error:
-        raise OSError(error.errno, error.strerror, str(path)) from None
+    from drake_dynid.files import write_text_whole
+
+    write_text_whole(path, json.dumps(document, indent=2, allow_nan=False) + "\n")
 
 
 def matplotlib_pyplot() -> Any:

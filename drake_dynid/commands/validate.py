@@ -139,11 +139,11 @@ def validation_split(
         _check_held_out(args, rest, description, log)
         return first, rest, description
     if other:
-        from drake_dynid.commands._paths import _same
+        from drake_dynid.files import same_file
 
         for fitted in log_files(args):
             for given in log_files(args, "validate"):
-                if _same(fitted, given):
+                if same_file(fitted, given):
                     raise ValueError(
                         f"--validate {given} is the fitted log ({fitted}): a "
                         "validation needs another recording (or --split F, the "

@@ -1,0 +1,84 @@
+"""File helpers of the outputs and inputs: one file by any name, whole writes.
+
+* :func:`same_file`: two paths name one file (hard and symbolic links and
+  spellings included), the test behind "an output never overwrites an input"
+  (``commands._paths``) and "a log file given twice" (``raw_log``).
+* :func:`write_text_whole`: a text file written whole or not at all (a full disk
+  leaves the previous file, or none, never a truncated one).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+__all__ = ["same_file", "write_text_whole"]
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True when ``a`` and ``b`` name one file.
+
+    ``os.path.samefile`` where both exist (hard links, symbolic links, ``./x``
+    and ``x``); else their resolved absolute paths.
+    """
+    first, second = Path(a), Path(b)
+    try:
+        if first.exists() and second.exists():
+            return os.path.samefile(first, second)
+    except OSError:
+        pass
+    return first.resolve() == second.resolve()
+
+
+def write_text_whole(path: str | os.PathLike, text: str) -> None:
+    """Writes ``text`` (UTF-8) to ``path`` whole or not at all.
+
+    A regular file (or a new one) is written to a temporary file beside it,
+    which then replaces it (``os.replace``, atomic on one file system); a
+    symbolic link is followed (its target is replaced, the link kept). The
+    file keeps its permissions (a new one gets the umask's). Anything else
+    (``/dev/null``, a named pipe), or a file in a folder where no other file
+    can be made, is written in place.
+
+    Raises:
+        OSError: naming ``path`` (a full disk's error names no file); the
+            temporary file is removed and ``path`` is unchanged.
+    """
+    target = Path(os.path.realpath(path))
+    try:
+        mode = target.stat().st_mode
+    except FileNotFoundError:
+        mode = None
+    try:
+        if mode is not None and not stat.S_ISREG(mode):
+            target.write_text(text, encoding="utf-8")
+            return
+        try:
+            descriptor, temporary = tempfile.mkstemp(
+                dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"
+            )
+        except PermissionError:
+            if mode is None:
+                raise
+            # A file one may write in a folder one may not: written in place.
+            target.write_text(text, encoding="utf-8")
+            return
+        try:
+            with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
+                stream.write(text)
+            if mode is None:
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(temporary, 0o666 & ~umask)
+            else:
+                os.chmod(temporary, stat.S_IMODE(mode))
+            os.replace(temporary, target)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(temporary)
+            raise
+    except OSError as error:
+        raise OSError(error.errno, error.strerror, str(path)) from None

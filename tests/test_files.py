@@ -1,0 +1,60 @@
+"""drake_dynid.files: outputs written whole, one file by any name."""
+
+import errno
+import os
+import stat
+
+import pytest
+
+from drake_dynid import files
+from drake_dynid.files import same_file, write_text_whole
+
+
+def test_a_failed_write_leaves_the_previous_file_and_no_temporary(
+    tmp_path, monkeypatch
+):
+    """A review: a full disk left a truncated --urdf-out file while the message
+    said it was not written."""
+    path = tmp_path / "out.urdf"
+    path.write_text("previous")
+    os.chmod(path, 0o640)
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(files.os, "replace", full)
+    with pytest.raises(OSError, match=r"No space left on device: '.*out.urdf'"):
+        write_text_whole(path, "new text")
+    assert path.read_text() == "previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.urdf"]
+    monkeypatch.undo()
+    write_text_whole(path, "new text")
+    assert path.read_text() == "new text"
+    assert stat.S_IMODE(path.stat().st_mode) == 0o640  # its permissions kept
+
+
+def test_a_link_is_followed_and_a_device_written_in_place(tmp_path):
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    write_text_whole(link, "new")
+    assert link.is_symlink() and target.read_text() == "new"
+    write_text_whole(os.devnull, "nothing")  # not replaced by a regular file
+    assert stat.S_ISCHR(os.stat(os.devnull).st_mode)
+    fresh = tmp_path / "fresh.json"
+    write_text_whole(fresh, "x")
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o666 & ~umask
+
+
+def test_same_file_by_any_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a.csv").write_text("x")
+    os.link(tmp_path / "a.csv", tmp_path / "hard.csv")
+    (tmp_path / "soft.csv").symlink_to(tmp_path / "a.csv")
+    for other in ("./a.csv", "hard.csv", "soft.csv", str(tmp_path / "a.csv")):
+        assert same_file("a.csv", other)
+    assert same_file("missing.csv", "./missing.csv")
+    assert not same_file("a.csv", "missing.csv")
