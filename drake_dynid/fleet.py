@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.core._threads import available_cpus, configure_process
+from drake_dynid.files import same_file
 
 __all__ = [
     "FLEET_COMMANDS",
@@ -235,8 +236,9 @@ def run_fleet(
         The items of :func:`run_one`, in the order of ``logs``.
 
     Raises:
-        ValueError: an unknown command, no log, ``jobs`` < 1, an output that is an
-            input, or Dask not installed when ``scheduler`` is given.
+        ValueError: an unknown command, no log, ``jobs`` < 1, a log given twice
+            (by any name: ``files.same_file``), an output that is an input, or
+            Dask not installed when ``scheduler`` is given.
     """
     if command not in FLEET_COMMANDS:
         raise ValueError(
@@ -248,6 +250,13 @@ def run_fleet(
         raise ValueError("fleet: no log given.")
     if jobs is not None and jobs < 1:
         raise ValueError(f"fleet: jobs must be >= 1; got {jobs}.")
+    for i, first in enumerate(logs):
+        for second in logs[i + 1 :]:
+            if same_file(first, second):
+                raise ValueError(
+                    f"fleet: a log is given twice: {first} and {second} are the "
+                    "same file (it would be identified twice, as two logs)."
+                )
     paths = output_paths(logs, out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     local = min(jobs or available_cpus(), len(logs))

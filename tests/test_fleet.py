@@ -393,3 +393,16 @@ def test_an_empty_per_log_output_is_refused_before_any_log(logs, tmp_path, capsy
     assert cli.main([*argv, "--jobs", "1", "--urdf-out", ""]) == 2
     assert "--urdf-out would write one file for every log" in capsys.readouterr().err
     assert not out_dir.exists()
+
+
+def test_a_log_given_twice_is_refused(logs, tmp_path, capsys, monkeypatch):
+    """A review: ``fleet offline log.csv ./log.csv`` identified it twice
+    (log.json, log-2.json), where ``dynid offline`` refuses a file given twice."""
+    monkeypatch.chdir(pathlib.Path(logs[0]).parent)
+    name = pathlib.Path(logs[0]).name
+    out_dir = tmp_path / "out"
+    argv = ["fleet", "offline", name, f"./{name}", "--urdf", URDF]
+    assert cli.main([*argv, "--out-dir", str(out_dir), "--jobs", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"a log is given twice: {name} and ./{name} are the same file" in err
+    assert not out_dir.exists()
