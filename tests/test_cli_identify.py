@@ -263,6 +263,10 @@ def test_identify_bad_options_exit_2(log_file, capsys):
     assert "window must be > 0" in _error(capsys)
     assert cli.main([*base, *FAST[2:], "--window", "2", "--frequencies", "a,b"]) == 2
     assert "--frequencies must be" in _error(capsys)
+    # An empty item is refused, not dropped (a review: "1,,2" ran with ℓ = 1, 2).
+    assert cli.main([*base, *FAST[2:], "--window", "2", "--frequencies", "1,,2"]) == 2
+    assert "--frequencies must be" in (message := _error(capsys))
+    assert "(an empty item)" in message
     for bad in (["--model", "energy"], ["--window", "long"]):
         with pytest.raises(SystemExit) as exit_info:
             cli.main([*base, *bad])

@@ -133,8 +133,11 @@ def _frequencies(text: str | None) -> Any:
             )
         count = math.floor((stop - start) / step + 1e-9) + 1
         return np.round(start + step * np.arange(count), 9).tolist()
+    items = [x.strip() for x in text.split(",")]
+    if not all(items):  # "1,,2" or "1,": an item left out, not silently dropped
+        raise ValueError(f"{syntax[:-1]} (an empty item).")
     try:
-        values = [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in items]
     except ValueError:
         raise ValueError(syntax) from None
     if not values or any(not math.isfinite(x) or x < 0.0 for x in values):
