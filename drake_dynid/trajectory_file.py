@@ -261,7 +261,22 @@ def read_coefficients(
             np.asarray(document["b"], dtype=float),
             2.0 * math.pi * frequency,
         )
-        return trajectory, tuple(document["joints"]), duration
+        joints = document["joints"]
+        if not (
+            isinstance(joints, list)
+            and joints
+            and all(isinstance(name, str) and name for name in joints)
+        ):
+            raise ValueError(
+                f"{owner}: joints must be a list of joint names; got {joints!r}"
+            )
+        harmonics = document.get("harmonics", trajectory.harmonics)
+        if harmonics != trajectory.harmonics or isinstance(harmonics, bool):
+            raise ValueError(
+                f"{owner}: harmonics ({harmonics!r}) must be the columns of a and b "
+                f"({trajectory.harmonics})"
+            )
+        return trajectory, tuple(joints), duration
     except (OSError, json.JSONDecodeError, KeyError, TypeError, ValueError) as error:
         raise ValueError(
             f"trajectory coefficients {file}: unreadable ({error}); expected the "

@@ -394,6 +394,9 @@ def test_the_dense_grid_beyond_the_margins_is_said():
         ("base_frequency_hz", True, r"base_frequency_hz must be a real number"),
         # Found by a review: q = 7e298 rad, simulated and written with exit 0.
         ("base_frequency_hz", 1e-300, r"\|q\| reaches .*e\+\d+, above 1e\+100"),
+        # A review: "j" was read as its characters; harmonics was not checked.
+        ("joints", "j", r"joints must be a list of joint names; got 'j'"),
+        ("harmonics", 5, r"harmonics \(5\) must be the columns of a and b \(2\)"),
     ],
 )
 def test_a_coefficient_file_with_a_bad_duration_or_frequency_is_named(
