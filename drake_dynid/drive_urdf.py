@@ -28,9 +28,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
 import xml.etree.ElementTree as ElementTree
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NoReturn
 
@@ -238,7 +240,7 @@ def read_urdf_drive(path: str | os.PathLike) -> UrdfDrive:
     if not os.path.isfile(path):
         raise FileNotFoundError(f"read_urdf_drive: URDF file not found: {path}.")
     try:
-        root = ElementTree.parse(path).getroot()
+        root = parse_urdf_xml(path)
     except ElementTree.ParseError as error:
         raise ValueError(
             f"read_urdf_drive: {path} is not well-formed XML: {error}."
@@ -296,3 +298,40 @@ def load_drive(
             drive_path, joint_names, prismatic_joints=prismatic, urdf=urdf.as_dict()
         )
     return dataclasses.replace(chain, notes=(*urdf.warnings, *chain.notes))
+
+
+#: Drake's XML namespace of its URDF extensions (``drake:rotor_inertia``, ...).
+DRAKE_NAMESPACE = "http://drake.mit.edu"
+
+
+def parse_urdf_xml(
+    path: str | os.PathLike, *, comments: bool = False
+) -> ElementTree.Element:
+    """The URDF's root XML element; ``drake:`` tags are read without their declaration.
+
+    Drake's parser reads ``<drake:rotor_inertia>`` (and its other extensions)
+    whether or not the file declares ``xmlns:drake``; ElementTree refuses an
+    undeclared prefix ("unbound prefix"). Such a file is read with
+    ``xmlns:drake="http://drake.mit.edu"`` added to its ``<robot>`` tag (a
+    review found these URDFs refused). Any other file is parsed as it is.
+    ``comments``: keep the comments in the tree.
+
+    Raises:
+        OSError: the file cannot be read. ElementTree.ParseError: not XML.
+    """
+
+    def parse(data: bytes) -> ElementTree.Element:
+        builder = ElementTree.TreeBuilder(insert_comments=comments)
+        return ElementTree.fromstring(
+            data, parser=ElementTree.XMLParser(target=builder)
+        )
+
+    data = Path(path).read_bytes()
+    try:
+        return parse(data)
+    except ElementTree.ParseError as error:
+        undeclared = b"drake:" in data and b"xmlns:drake" not in data
+        if "unbound prefix" not in str(error) or not undeclared:
+            raise
+    namespace = b'<robot xmlns:drake="' + DRAKE_NAMESPACE.encode() + b'"'
+    return parse(re.sub(rb"<robot\b", namespace, data, count=1))

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.core import _validate
+from drake_dynid.drive_urdf import parse_urdf_xml
 from drake_dynid.urdf_meshes import add_ancestor_packages, stl_collisions_as_obj
 
 __all__ = [
@@ -91,7 +92,7 @@ def _check_file(owner: str, path: Any) -> Path:
 
 def _read_urdf(owner: str, file: Path) -> Any:
     try:
-        return ElementTree.parse(file).getroot()
+        return parse_urdf_xml(file)
     except ElementTree.ParseError as error:
         raise ValueError(f"{owner}: {file} is not well-formed XML: {error}.") from None
 

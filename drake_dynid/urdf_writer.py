@@ -65,11 +65,11 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate as check
+from drake_dynid.drive_urdf import DRAKE_NAMESPACE, parse_urdf_xml
 from drake_dynid.files import write_text_whole
 
 __all__ = ["UrdfExport", "write_identified_urdf"]
 
-DRAKE_NAMESPACE = "http://drake.mit.edu"
 #: Written in the header comment of a file identified with a drive file (the
 #: joint friction and rotor inertia are joint-side totals); ``RobotModel``
 #: notes it when such a file is loaded with a drive file again.
@@ -490,12 +490,11 @@ def write_identified_urdf(
                 f"energy); got {value:.6g}.",
             )
     ElementTree.register_namespace("drake", DRAKE_NAMESPACE)
-    parser = ElementTree.XMLParser(target=ElementTree.TreeBuilder(insert_comments=True))
     try:
-        tree = ElementTree.parse(source, parser=parser)
+        root = parse_urdf_xml(source, comments=True)
     except ElementTree.ParseError as error:
         check.fail(_OWNER, f"{source} is not well-formed XML: {error}.")
-    root = tree.getroot()
+    tree = ElementTree.ElementTree(root)
     links_by_name = {link.attrib.get("name"): link for link in root.findall("link")}
     joints_by_name = {j.attrib.get("name"): j for j in root.findall("joint")}
     moving = tuple(getattr(robot, "links", ()) or robot.joint_names)

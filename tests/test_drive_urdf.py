@@ -300,3 +300,32 @@ def test_file_errors(tmp_path):
     path = _urdf(tmp_path, _simple("j1", "m1"))
     with pytest.raises(ValueError, match=r"load_drive: joint\(s\) j7 are not joints"):
         load_drive(path, ("j1", "j7"))
+
+
+def test_drake_tags_without_their_namespace_declaration_are_read(tmp_path):
+    """A review: a URDF using drake:rotor_inertia without declaring xmlns:drake
+    (Drake's parser reads it) was refused by ElementTree ('unbound prefix')."""
+    from pathlib import Path
+
+    from drake_dynid.plants import RobotModel, model_path
+
+    text = Path(model_path("planar_2r")).read_text()
+    assert "xmlns:drake" not in text
+    text = text.replace(
+        "<mechanicalReduction>1</mechanicalReduction>",
+        "<mechanicalReduction>1</mechanicalReduction>"
+        '<drake:rotor_inertia value="0.05"/>',
+    )
+    urdf = tmp_path / "undeclared.urdf"
+    urdf.write_text(text)
+    robot = RobotModel.from_urdf(urdf, rotor_inertia=True)
+    values = dict(zip(robot.standard_names, robot.standard_values, strict=True))
+    assert values["IA1"] == pytest.approx(0.05) and values["IA2"] == pytest.approx(0.05)
+    # And --urdf-out writes it with the declaration, read back the same.
+    from drake_dynid.urdf_writer import write_identified_urdf
+
+    out = tmp_path / "written.urdf"
+    write_identified_urdf(robot, robot.standard_values, out)
+    assert 'xmlns:drake="http://drake.mit.edu"' in out.read_text()
+    again = RobotModel.from_urdf(out, rotor_inertia=True)
+    assert again.standard_values == pytest.approx(robot.standard_values)
