@@ -106,6 +106,8 @@ IDENTIFY_CASES = [
     (["--max-condition", "1e300"], "--max-condition", "(1, 1e+08]"),
     (["--friction", ",,"], "--friction", "empty name"),
     (["--friction", "viscous,"], "--friction", "empty name"),
+    # A review: "" (an unset shell variable) meant the default viscous,coulomb.
+    (["--friction", ""], "--friction", "got an empty text"),
 ]
 
 

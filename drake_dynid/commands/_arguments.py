@@ -125,11 +125,17 @@ def parse_friction(text: str) -> tuple[str, ...]:
     """``"viscous,coulomb"`` -> ``("viscous", "coulomb")``; ``"none"`` -> ``()``.
 
     Raises:
-        ValueError: an empty item (``",,"``, ``"viscous,"``): a typo must not
-            silently mean fewer friction columns.
+        ValueError: an empty text or item (``""``, ``",,"``, ``"viscous,"``): a
+            typo or an unset shell variable must not silently mean fewer (or the
+            default) friction columns; no friction is ``none``.
     """
-    if text.strip().lower() in ("", "none"):
+    if text.strip().lower() == "none":
         return ()
+    if not text.strip():
+        raise ValueError(
+            "--friction must be comma-separated names among viscous, coulomb, "
+            "offset, or 'none'; got an empty text (no friction: --friction none)."
+        )
     items = tuple(item.strip() for item in text.split(","))
     if not all(items):
         raise ValueError(
@@ -233,7 +239,9 @@ def robot_from_args(args: argparse.Namespace, command: str, **kwargs: Any) -> An
 
     options: dict[str, Any] = {
         "friction": parse_friction(
-            getattr(args, "friction", None) or "viscous,coulomb"
+            "viscous,coulomb"
+            if getattr(args, "friction", None) is None
+            else args.friction
         ),
         "joints": parse_joints(getattr(args, "joints", None)),
         "locked": parse_locked(getattr(args, "lock", None)),
