@@ -420,10 +420,11 @@ def _header(
             else "."
         )
         inertia = (
-            " The rotor inertia is written for the drive's gear ratio N "
-            "(drake:gear_ratio N, drake:rotor_inertia IAj/N²): Drake and the same "
-            "drive file reflect it to IAj (a rotor_inertia the drive file gives "
-            "replaces it)."
+            " The rotor inertia of a joint with a motor of its own is written for "
+            "that motor's gear ratio N (drake:gear_ratio N, drake:rotor_inertia "
+            "IAj/N²): Drake and the same drive file reflect it to IAj (a "
+            "rotor_inertia the drive file gives replaces it); a joint driven only "
+            "by coupled motors keeps its actuator's ratio."
             if robot.rotor_inertia
             else ""
         )
