@@ -214,6 +214,9 @@ def test_a_trajectory_file_is_read_as_logs_are(tmp_path):
             {"joint1": -1.0, "joint2": 0.1},
             r"settings.coulomb_dead_zone.joint1 must be a number >= 0",
         ),
+        # A review: a NaN or negative width was ignored (the exact sign used).
+        ("coulomb_width", -0.01, r"settings.coulomb_width must be a number >= 0"),
+        ("coulomb_width", "0.01", r"settings.coulomb_width must be a number >= 0"),
     ],
 )
 def test_a_results_files_bad_settings_are_named(

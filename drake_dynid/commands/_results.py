@@ -118,9 +118,11 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     if not args.rotor_inertia:
         options["rotor_inertia"] = bool(_from_results(document, "rotor_inertia"))
     width = _from_results(document, "coulomb_width")
-    if not getattr(args, "coulomb_width", 0.0) and isinstance(width, (int, float)):
+    if not getattr(args, "coulomb_width", 0.0) and width is not None:
+        # 0: sign(v); a NaN, negative or text width is named, not ignored.
+        width = _number(args, "coulomb_width", width, "rad/s or m/s", signed=False)
         if width > 0:
-            options["coulomb_width"] = float(width)
+            options["coulomb_width"] = width
     drive = _from_results(document, "drive")
     if not args.drive and isinstance(drive, str) and drive:
         options["drive"] = results_drive(args, drive)
