@@ -1,8 +1,9 @@
 """File helpers of the outputs and inputs: one file by any name, whole writes.
 
-* :func:`same_file`: two paths name one file (hard and symbolic links and
-  spellings included), the test behind "an output never overwrites an input"
-  (``commands._paths``) and "a log file given twice" (``raw_log``).
+* :func:`same_file`, :func:`repeated_file`: two paths name one file (hard and
+  symbolic links and spellings included), the test behind "an output never
+  overwrites an input" (``commands._paths``) and "a file given twice"
+  (``raw_log``, ``fleet``).
 * :func:`write_text_whole`: a text file written whole or not at all (a full disk
   leaves the previous file, or none, never a truncated one).
 """
@@ -13,9 +14,10 @@ import contextlib
 import os
 import stat
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["same_file", "write_text_whole"]
+__all__ = ["repeated_file", "same_file", "write_text_whole"]
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
@@ -31,6 +33,18 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     except OSError:
         pass
     return first.resolve() == second.resolve()
+
+
+def repeated_file(
+    paths: Sequence[str | os.PathLike],
+) -> tuple[str, str] | None:
+    """The first two of ``paths`` that name one file (:func:`same_file`), or None."""
+    names = [os.fspath(path) for path in paths]
+    for i, first in enumerate(names):
+        for second in names[i + 1 :]:
+            if same_file(first, second):
+                return first, second
+    return None
 
 
 def write_text_whole(path: str | os.PathLike, text: str) -> None:

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.core._threads import available_cpus, configure_process
-from drake_dynid.files import same_file
+from drake_dynid.files import repeated_file
 
 __all__ = [
     "FLEET_COMMANDS",
@@ -250,13 +250,12 @@ def run_fleet(
         raise ValueError("fleet: no log given.")
     if jobs is not None and jobs < 1:
         raise ValueError(f"fleet: jobs must be >= 1; got {jobs}.")
-    for i, first in enumerate(logs):
-        for second in logs[i + 1 :]:
-            if same_file(first, second):
-                raise ValueError(
-                    f"fleet: a log is given twice: {first} and {second} are the "
-                    "same file (it would be identified twice, as two logs)."
-                )
+    repeated = repeated_file(logs)
+    if repeated:
+        raise ValueError(
+            f"fleet: a log is given twice: {repeated[0]} and {repeated[1]} are the "
+            "same file (it would be identified twice, as two logs)."
+        )
     paths = output_paths(logs, out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     local = min(jobs or available_cpus(), len(logs))

@@ -52,7 +52,7 @@ import numpy as np
 
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
-from drake_dynid.files import same_file
+from drake_dynid.files import repeated_file
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
 from drake_dynid.log_table import parse_cell, read_header, unused_columns
 
@@ -339,13 +339,12 @@ def read_raw_log(
 
 def _check_distinct(files: Sequence[str]) -> None:
     """ValueError when one file is given twice (by any spelling or link)."""
-    for i, first in enumerate(files):
-        for second in files[i + 1 :]:
-            if same_file(first, second):
-                raise ValueError(
-                    f"log: a file is given twice: {first} and {second} are the same "
-                    "file; give each file of the log once."
-                )
+    repeated = repeated_file(files)
+    if repeated:
+        raise ValueError(
+            f"log: a file is given twice: {repeated[0]} and {repeated[1]} are the "
+            "same file; give each file of the log once."
+        )
 
 
 def _extra_note(extra: Sequence[str]) -> list[str]:

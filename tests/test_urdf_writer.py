@@ -181,6 +181,26 @@ def _drake_full_torques(path, q_full, v_full, a_full):
     return _inverse_dynamics(load_plant(path), q_full, v_full, a_full)
 
 
+def _check_gripper_in_drake(out, robot, values, rng):
+    """Drake's inverse dynamics of the written gripper (its mimic finger fb
+    follows fa with ratio 1.5, offset 0.01) plus the file's FC·sign(v) equal
+    the identified model's W·θ; returns the file's Coulomb frictions."""
+    q = rng.uniform(-1.0, 1.0, (5, 3))
+    q[:, 2] = rng.uniform(0.0, 0.02, 5)
+    v, vdot = rng.normal(size=(2, 5, 3))
+
+    def full(x, offset):
+        return np.column_stack([x, 1.5 * x[:, 2] + offset])
+
+    tau = _drake_full_torques(out, full(q, 0.01), full(v, 0.0), full(vdot, 0.0))
+    tau = tau[:, :3] + np.outer(tau[:, 3], [0.0, 0.0, 1.5])
+    coulomb = read_urdf_friction(out)
+    tau += np.array([coulomb.get(n, 0.0) for n in robot.joint_names]) * np.sign(v)
+    expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
+    np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
+    return coulomb
+
+
 def test_locked_joints_are_written_fixed_with_their_links_lumped(tmp_path):
     # iiwa7 identified on joints 1, 2, 4, the others locked: the bodies beyond a
     # locked joint are lumped into the identified link at the locked pose. The
@@ -229,19 +249,7 @@ def test_a_moving_mimic_link_is_written(tmp_path):
     out = tmp_path / "gripper_identified.urdf"
     export = write_identified_urdf(robot, values, out)
     assert export.links == ("l1", "l2", "fa", "fb")
-    q = rng.uniform(-1.0, 1.0, (5, 3))
-    q[:, 2] = rng.uniform(0.0, 0.02, 5)
-    v, vdot = rng.normal(size=(2, 5, 3))
-
-    def full(x, offset):
-        return np.column_stack([x, 1.5 * x[:, 2] + offset])
-
-    tau = _drake_full_torques(out, full(q, 0.01), full(v, 0.0), full(vdot, 0.0))
-    tau = tau[:, :3] + np.outer(tau[:, 3], [0.0, 0.0, 1.5])
-    coulomb = read_urdf_friction(out)
-    tau += np.array([coulomb.get(n, 0.0) for n in robot.joint_names]) * np.sign(v)
-    expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
-    np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
+    coulomb = _check_gripper_in_drake(out, robot, values, rng)
     assert coulomb.get("fb", 0.0) == 0.0
     # fb's friction is in fa's FV3, FC3 (the model folds it): said so, not "not
     # identified" (a review: restoring them would count them twice).
@@ -524,16 +532,4 @@ def test_a_moving_mimic_joints_rotor_inertia_is_written_as_zero(tmp_path):
         out = tmp_path / f"g_{rotor_inertia}.urdf"
         write_identified_urdf(robot, values, out)
         assert "written as 0: rotor inertia of fb" in out.read_text()
-        q = rng.uniform(-1.0, 1.0, (5, 3))
-        q[:, 2] = rng.uniform(0.0, 0.02, 5)
-        v, vdot = rng.normal(size=(2, 5, 3))
-
-        def full(x, offset):
-            return np.column_stack([x, 1.5 * x[:, 2] + offset])
-
-        tau = _drake_full_torques(out, full(q, 0.01), full(v, 0.0), full(vdot, 0.0))
-        tau = tau[:, :3] + np.outer(tau[:, 3], [0.0, 0.0, 1.5])
-        coulomb = read_urdf_friction(out)
-        tau += np.array([coulomb.get(n, 0.0) for n in robot.joint_names]) * np.sign(v)
-        expected = robot.idim_rows(q, v, vdot, columns="standard") @ values
-        np.testing.assert_allclose(tau, expected, rtol=1e-9, atol=1e-9)
+        _check_gripper_in_drake(out, robot, values, rng)
