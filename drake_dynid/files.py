@@ -11,9 +11,10 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import secrets
 import stat
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -71,9 +72,7 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
             target.write_text(text, encoding="utf-8")
             return
         try:
-            descriptor, temporary = tempfile.mkstemp(
-                dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"
-            )
+            descriptor, temporary = _temporary_beside(target)
         except PermissionError:
             if mode is None:
                 raise
@@ -83,11 +82,7 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
         try:
             with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
                 stream.write(text)
-            if mode is None:
-                umask = os.umask(0)
-                os.umask(umask)
-                os.chmod(temporary, 0o666 & ~umask)
-            else:
+            if mode is not None:
                 os.chmod(temporary, stat.S_IMODE(mode))
             os.replace(temporary, target)
         except BaseException:
@@ -96,3 +91,21 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
             raise
     except OSError as error:
         raise OSError(error.errno, error.strerror, str(path)) from None
+
+
+def _temporary_beside(target: Path) -> tuple[int, str]:
+    """A new file ``.NAME.XXXXXXXX.tmp`` beside ``target``: (descriptor, path).
+
+    Created with mode 0o666, which the kernel reduces by the process's umask,
+    as any new output (``tempfile.mkstemp`` makes 0o600 files, and reading the
+    umask means setting it, which races with other threads: a Dask worker's).
+    """
+    for _ in range(100):
+        name = f".{target.name}.{secrets.token_hex(4)}.tmp"
+        path = str(target.parent / name)
+        try:
+            flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+            return os.open(path, flags, 0o666), path
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no free temporary name", str(target))
