@@ -329,3 +329,16 @@ def test_a_step_too_short_for_a_robot_log_is_refused_naming_the_unit(tmp_path, s
         read_log(tmp_path / "f.csv", JOINTS)
     with pytest.raises(ValueError, match="too short for a robot log"):
         RobotLog.from_arrays(step * k, np.zeros((100, 2)), np.zeros((100, 2)), JOINTS)
+
+
+def test_the_json_log_entry_keeps_the_original_time(tmp_path):
+    """A review: results times (last_valid_time, changes) are on the re-based
+    grid and the JSON did not say where it started for an epoch-stamped log."""
+    from argparse import Namespace
+
+    from drake_dynid.commands._report import log_document
+
+    slot_log(tmp_path / "e.csv", 1.7e9 + 1e-3 * np.arange(2001))
+    log = read_log(tmp_path / "e.csv", JOINTS)
+    entry = log_document(Namespace(log=str(tmp_path / "e.csv")), log)
+    assert entry["time_offset"] == 1.7e9 and entry["duration"] == 2.0

@@ -123,7 +123,12 @@ def parameters_document(
 
 
 def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
-    """The ``log`` entry of the JSON format."""
+    """The ``log`` entry of the JSON format.
+
+    ``time_offset``: the original time of the log's sample 0 [s] (epoch seconds
+    of a ROS log): the results' times (``last_valid_time``, ``changes``) are on
+    the re-based grid t_k = k·h, the log's own time is t + time_offset.
+    """
     return {
         "path": (
             str(args.log)
@@ -134,6 +139,7 @@ def log_document(args: argparse.Namespace, log: Any) -> dict[str, Any]:
         "bad_samples": int(np.count_nonzero(log.bad_samples)),
         "time_step": float(log.time_step),
         "duration": float(log.duration),
+        "time_offset": float(getattr(log, "time_offset", 0.0)),
         "warnings": list(log.warnings),
     }
 
