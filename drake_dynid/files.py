@@ -62,14 +62,16 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
         OSError: naming ``path`` (a full disk's error names no file); the
             temporary file is removed and ``path`` is unchanged.
     """
-    target = Path(os.path.realpath(path))
     try:
-        mode = target.stat().st_mode
+        # The path's own stat (links followed): ``/dev/stdout`` of a pipe
+        # resolves to '/proc/<pid>/fd/pipe:[...]', no file, but is a pipe.
+        mode = os.stat(path).st_mode
     except FileNotFoundError:
         mode = None
+    target = Path(os.path.realpath(path))
     try:
         if mode is not None and not stat.S_ISREG(mode):
-            target.write_text(text, encoding="utf-8")
+            Path(path).write_text(text, encoding="utf-8")
             return
         try:
             descriptor, temporary = _temporary_beside(target)

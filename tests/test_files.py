@@ -58,3 +58,20 @@ def test_same_file_by_any_name(tmp_path, monkeypatch):
         assert same_file("a.csv", other)
     assert same_file("missing.csv", "./missing.csv")
     assert not same_file("a.csv", "missing.csv")
+
+
+def test_a_pipe_named_by_a_link_is_written_in_place():
+    """--json /dev/stdout piped to another program: the link resolves to
+    '/proc/<pid>/fd/pipe:[...]', no file; the pipe itself is written."""
+    reader, writer = os.pipe()
+    try:
+        write_text_whole(f"/proc/self/fd/{writer}", "through the pipe\n")
+        os.close(writer)
+        writer = -1
+        with os.fdopen(reader, encoding="utf-8") as stream:
+            reader = -1
+            assert stream.read() == "through the pipe\n"
+    finally:
+        for descriptor in (reader, writer):
+            if descriptor >= 0:
+                os.close(descriptor)
