@@ -63,18 +63,18 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
             temporary file is removed and ``path`` is unchanged.
     """
     try:
-        # The path's own stat (links followed): ``/dev/stdout`` of a pipe
-        # resolves to '/proc/<pid>/fd/pipe:[...]', no file, but is a pipe.
-        mode = os.stat(path).st_mode
-    except FileNotFoundError:
-        mode = None
-    target = Path(os.path.realpath(path))
-    try:
+        try:
+            # The path's own stat (links followed): ``/dev/stdout`` of a pipe
+            # resolves to '/proc/<pid>/fd/pipe:[...]', no file, but is a pipe.
+            mode: int | None = os.stat(path).st_mode
+        except FileNotFoundError:
+            mode = None
+        target = Path(os.path.realpath(path))
         if mode is not None and not stat.S_ISREG(mode):
             Path(path).write_text(text, encoding="utf-8")
             return
         try:
-            descriptor, temporary = _temporary_beside(target)
+            descriptor, temporary = _open_temporary(target, new=mode is None)
         except PermissionError:
             if mode is None:
                 raise
@@ -95,19 +95,21 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
         raise OSError(error.errno, error.strerror, str(path)) from None
 
 
-def _temporary_beside(target: Path) -> tuple[int, str]:
-    """A new file ``.NAME.XXXXXXXX.tmp`` beside ``target``: (descriptor, path).
+def _open_temporary(target: Path, *, new: bool) -> tuple[int, str]:
+    """A new file beside ``target``, open for writing: (descriptor, path).
 
-    Created with mode 0o666, which the kernel reduces by the process's umask,
-    as any new output (``tempfile.mkstemp`` makes 0o600 files, and reading the
-    umask means setting it, which races with other threads: a Dask worker's).
+    Created with mode 0o666 for a new output, so that the umask applies as to
+    any new file (reading the umask sets it: two threads writing at once, a
+    Dask worker's tasks, could leave the process's umask at 0), 0o600 for an
+    existing one (its own mode is set before the replace). Its name keeps at
+    most 40 characters of ``target``'s, so that a name near the file system's
+    limit (255 bytes) still has a temporary file.
     """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
     for _ in range(100):
-        name = f".{target.name}.{secrets.token_hex(4)}.tmp"
-        path = str(target.parent / name)
+        temporary = target.parent / f".{target.name[:40]}.{secrets.token_hex(4)}.tmp"
         try:
-            flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
-            return os.open(path, flags, 0o666), path
+            return os.open(temporary, flags, 0o666 if new else 0o600), str(temporary)
         except FileExistsError:
             continue
-    raise FileExistsError(errno.EEXIST, "no free temporary name", str(target))
+    raise FileExistsError(errno.EEXIST, "no free temporary file name", str(target))

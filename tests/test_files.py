@@ -75,3 +75,21 @@ def test_a_pipe_named_by_a_link_is_written_in_place():
         for descriptor in (reader, writer):
             if descriptor >= 0:
                 os.close(descriptor)
+
+
+def test_the_umask_is_never_set_and_a_long_name_is_written(tmp_path, monkeypatch):
+    """Reading the umask sets it: a Dask worker's threads writing JSONs at once
+    could leave it at 0. A 250-character name had a temporary file name over
+    the file system's 255 bytes ('File name too long')."""
+
+    def no_umask(mask):
+        raise AssertionError("os.umask called")
+
+    umask = os.umask(0)
+    os.umask(umask)
+    monkeypatch.setattr(files.os, "umask", no_umask)
+    fresh = tmp_path / ("a" * 245 + ".json")
+    write_text_whole(fresh, "x")
+    assert fresh.read_text() == "x"
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o666 & ~umask
+    assert sorted(p.name for p in tmp_path.iterdir()) == [fresh.name]
