@@ -59,3 +59,24 @@ def test_bad_input_exits_2_without_traceback(tmp_path, capsys):
         str(tmp_path / "no/dir/x.json"),
     ]
     assert cli.main(argv) == 2
+
+
+def test_json_written_whole(tmp_path, monkeypatch, capsys):
+    """dynid params --json goes through files.write_text_whole as every --json:
+    a failed write leaves the previous file, exit 2 naming it."""
+    import errno
+
+    from drake_dynid import files
+
+    out_file = tmp_path / "params.json"
+    out_file.write_text("previous")
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(files.os, "replace", full)
+    code = cli.main(["params", model_path("planar_2r"), "--json", str(out_file)])
+    assert code == 2
+    assert "params.json" in capsys.readouterr().err
+    assert out_file.read_text() == "previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["params.json"]

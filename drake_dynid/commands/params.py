@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
-from pathlib import Path
 from typing import Any
 
 from drake_dynid.commands._arguments import (
@@ -17,6 +15,7 @@ from drake_dynid.commands._arguments import (
     robot_from_args,
     urdf_argument,
 )
+from drake_dynid.commands._report import write_json
 
 HELP = "standard and base parameters of a URDF robot"
 DESCRIPTION = (
@@ -204,6 +203,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
     if args.json:
         document = params_document(model, args.urdf, args.drive)
-        Path(args.json).write_text(json.dumps(document, indent=2) + "\n")
+        write_json(args.json, document)  # whole or not at all
         print(f"\nwrote {args.json}")
     return 0
