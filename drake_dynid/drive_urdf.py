@@ -333,5 +333,9 @@ def parse_urdf_xml(
         undeclared = b"drake:" in data and b"xmlns:drake" not in data
         if "unbound prefix" not in str(error) or not undeclared:
             raise
-    namespace = b'<robot xmlns:drake="' + DRAKE_NAMESPACE.encode() + b'"'
-    return parse(re.sub(rb"<robot\b", namespace, data, count=1))
+    namespace = b' xmlns:drake="' + DRAKE_NAMESPACE.encode() + b'"'
+    # The <robot> tag, not a '<robot' in a comment before it.
+    for match in re.finditer(rb"<!--.*?-->|<robot\b", data, re.DOTALL):
+        if match.group() == b"<robot":
+            return parse(data[: match.end()] + namespace + data[match.end() :])
+    return parse(data)  # no <robot> tag: ElementTree's error

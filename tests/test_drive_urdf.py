@@ -329,3 +329,18 @@ def test_drake_tags_without_their_namespace_declaration_are_read(tmp_path):
     assert 'xmlns:drake="http://drake.mit.edu"' in out.read_text()
     again = RobotModel.from_urdf(out, rotor_inertia=True)
     assert again.standard_values == pytest.approx(robot.standard_values)
+
+
+def test_undeclared_drake_tags_with_a_comment_naming_robot_first(tmp_path):
+    """The declaration goes into the <robot> tag, not into a '<robot' of a
+    comment before it (the file was refused: 'unbound prefix')."""
+    from drake_dynid.drive_urdf import DRAKE_NAMESPACE, parse_urdf_xml
+
+    urdf = tmp_path / "commented.urdf"
+    urdf.write_text(
+        '<?xml version="1.0"?>\n<!-- written from <robot name="x"> by hand -->\n'
+        '<robot name="r">\n<link name="a"><drake:x value="1"/></link></robot>\n'
+    )
+    root = parse_urdf_xml(urdf)
+    assert root.tag == "robot" and root.attrib == {"name": "r"}
+    assert root.find(f"link/{{{DRAKE_NAMESPACE}}}x") is not None
