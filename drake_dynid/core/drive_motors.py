@@ -178,7 +178,8 @@ class _Builder:
             if len(set(names)) != len(names):
                 self.fail(f"{field} has duplicated names: {names!r}.")
         for k, name in enumerate(joints):
-            self.joint(f"coupling.joints[{k}]", name)
+            if name not in self.urdf_joints:  # a URDF joint outside --joints: by row
+                self.joint(f"coupling.joints[{k}]", name)
         try:
             matrix = np.array(table["matrix"], dtype=float)
         except (TypeError, ValueError):
@@ -204,6 +205,16 @@ class _Builder:
             }
             if not row:
                 self.fail(f"coupling.matrix row {k} (motor {motor!r}) is all zeros.")
+            outside = [j for j in row if j not in self.index]
+            if len(outside) == len(row):  # as a [motors] table's (not_identified)
+                self.notes.append(
+                    f"coupling.motors[{k}] ({motor!r}) drives {', '.join(outside)}, "
+                    "not identified (--joints): skipped."
+                )
+                self.skipped.append(str(motor))
+                continue
+            for j in outside:  # a row mixing identified and other joints
+                self.joint(f"coupling.matrix[{k}] ({motor!r}, {j!r})", j)
             out[motor] = row
         return out
 
@@ -320,11 +331,13 @@ class _Builder:
             field = f"motors.{name}"
             check_table(self.owner, field, table, _MOTOR_KEYS)
             ways = [k for k in ("joint", "joints") if k in table]
-            ways += ["coupling"] if name in coupled else []
+            ways += ["coupling"] if name in coupled or name in self.skipped else []
             if len(ways) > 1:
                 self.fail(
                     f"{field}: give its joints one way only; got {' and '.join(ways)}."
                 )
+            if name in self.skipped:  # a skipped [coupling] motor's properties
+                continue
             outside = self.not_identified(table, urdf)
             if outside is not None:
                 self.notes.append(

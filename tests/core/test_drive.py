@@ -596,3 +596,31 @@ def test_offsets_and_tables_of_joints_outside_joints_are_skipped_with_them():
         )
     with pytest.raises(ValueError, match=r"position_offset.j3: unknown joint"):
         DriveChain.from_dict(joint_side, ("j1", "j2"))  # no URDF: j3 unknown
+
+
+def test_coupling_rows_of_joints_outside_joints_are_skipped_with_them():
+    """A review: the [coupling] form of a whole-robot drive file was refused with
+    --joints j1,j2 ("coupling.joints[0]: joint 'j3' is not identified but this
+    motor also drives identified joints"), where the same motors as [motors]
+    tables are skipped. A row mixing identified and other joints is refused."""
+    urdf = {"motors": {}, "joints": ["j1", "j2", "j3", "j4"]}
+    data = {
+        "log": {
+            "position": "p_{motor}",
+            "position_side": "motor",
+            "position_offset": {"m3": 5.0, "m4": 2.0},
+        },
+        "coupling": {
+            "motors": ["m3", "m4"],
+            "joints": ["j3", "j4"],
+            "matrix": [[40, 0], [32, 32]],
+        },
+        "motors": {"m1": {"joint": "j1"}, "m4": {"torque_constant": 0.06}},
+    }
+    chain = DriveChain.from_dict(data, ("j1", "j2"), urdf=urdf)
+    assert chain.motor_names == ("m1", "j2")
+    assert any("'m4'" in note and "skipped" in note for note in chain.notes)
+    with pytest.raises(ValueError, match=r"coupling.matrix\[1\] \('m4', 'j4'\)"):
+        DriveChain.from_dict(data, ("j1", "j2", "j3"), urdf=urdf)
+    chain = DriveChain.from_dict(data, ("j1", "j2", "j3", "j4"), urdf=urdf)
+    assert chain.motor_names == ("m1", "j2", "m3", "m4")
