@@ -17,6 +17,7 @@ import secrets
 import stat
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 __all__ = ["repeated_file", "same_file", "write_text_whole"]
 
@@ -39,12 +40,23 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
 def repeated_file(
     paths: Sequence[str | os.PathLike],
 ) -> tuple[str, str] | None:
-    """The first two of ``paths`` that name one file (:func:`same_file`), or None."""
-    names = [os.fspath(path) for path in paths]
-    for i, first in enumerate(names):
-        for second in names[i + 1 :]:
-            if same_file(first, second):
-                return first, second
+    """The first two of ``paths`` that name one file (:func:`same_file`), or None.
+
+    One key per path (its device and inode where it exists, else its resolved
+    absolute path), so a fleet of thousands of logs costs one ``stat`` each, not
+    one :func:`same_file` per pair.
+    """
+    seen: dict[tuple[Any, ...], str] = {}
+    for path in paths:
+        name = os.fspath(path)
+        try:
+            found = os.stat(name)
+            key: tuple[Any, ...] = ("file", found.st_dev, found.st_ino)
+        except OSError:
+            key = ("path", Path(name).resolve())
+        if key in seen:
+            return seen[key], name
+        seen[key] = name
     return None
 
 

@@ -93,3 +93,33 @@ def test_the_umask_is_never_set_and_a_long_name_is_written(tmp_path, monkeypatch
     assert fresh.read_text() == "x"
     assert stat.S_IMODE(fresh.stat().st_mode) == 0o666 & ~umask
     assert sorted(p.name for p in tmp_path.iterdir()) == [fresh.name]
+
+
+def test_repeated_file_is_one_stat_a_path(tmp_path, monkeypatch):
+    """dynid fleet of thousands of logs: one same_file per pair was n²/2 pairs
+    of stats before any log ran. The same answers as same_file."""
+    from drake_dynid.files import repeated_file
+
+    monkeypatch.chdir(tmp_path)
+    names = [f"log{i}.csv" for i in range(60)]
+    for name in names:
+        (tmp_path / name).write_text("x")
+    (tmp_path / "soft.csv").symlink_to(tmp_path / "log7.csv")
+    calls = []
+    real_stat = os.stat
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return real_stat(*args, **kwargs)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(files.os, "stat", counted)
+        assert repeated_file(names) is None
+    assert len(calls) <= 3 * len(names)
+    assert repeated_file([*names, "soft.csv"]) == ("log7.csv", "soft.csv")
+    assert repeated_file(["./log3.csv", "log1.csv", "log3.csv"]) == (
+        "./log3.csv",
+        "log3.csv",
+    )
+    assert repeated_file(["new.csv", "./new.csv"]) == ("new.csv", "./new.csv")
+    assert repeated_file(["new.csv", "other.csv"]) is None
