@@ -67,8 +67,9 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
     which then replaces it (``os.replace``, atomic on one file system); a
     symbolic link is followed (its target is replaced, the link kept). The
     file keeps its permissions (a new one gets the umask's). Anything else
-    (``/dev/null``, a named pipe), or a file in a folder where no other file
-    can be made, is written in place.
+    (``/dev/null``, a named pipe), a file in a folder where no other file can
+    be made, or a file that cannot be replaced (a bind mount of one file:
+    ``EBUSY``), is written in place.
 
     Raises:
         OSError: naming ``path`` (a full disk's error names no file); the
@@ -98,11 +99,21 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
                 stream.write(text)
             if mode is not None:
                 os.chmod(temporary, stat.S_IMODE(mode))
-            os.replace(temporary, target)
+            try:
+                os.replace(temporary, target)
+                return
+            except OSError as error:
+                if error.errno != errno.EBUSY or mode is None:
+                    raise
         except BaseException:
             with contextlib.suppress(OSError):
                 os.unlink(temporary)
             raise
+        # A file mounted on its own (a container's bind mount of one file) cannot
+        # be replaced (EBUSY): written in place, as a plain write did.
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        target.write_text(text, encoding="utf-8")
     except OSError as error:
         raise OSError(error.errno, error.strerror, str(path)) from None
 

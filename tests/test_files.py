@@ -123,3 +123,18 @@ def test_repeated_file_is_one_stat_a_path(tmp_path, monkeypatch):
     )
     assert repeated_file(["new.csv", "./new.csv"]) == ("new.csv", "./new.csv")
     assert repeated_file(["new.csv", "other.csv"]) is None
+
+
+def test_a_file_mounted_on_its_own_is_written_in_place(tmp_path, monkeypatch):
+    """A container's bind mount of one output file cannot be replaced: rename
+    fails with EBUSY, where a plain write (before 0ad4977) worked."""
+    path = tmp_path / "out.json"
+    path.write_text("previous")
+
+    def busy(*args, **kwargs):
+        raise OSError(errno.EBUSY, "Device or resource busy")
+
+    monkeypatch.setattr(files.os, "replace", busy)
+    write_text_whole(path, "new text")
+    assert path.read_text() == "new text"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]
