@@ -26,7 +26,7 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
     """True when ``a`` and ``b`` name one file.
 
     ``os.path.samefile`` where both exist (hard links, symbolic links, ``./x``
-    and ``x``); else their resolved absolute paths.
+    and ``x``); else their resolved absolute paths (``os.path.realpath``).
     """
     first, second = Path(a), Path(b)
     try:
@@ -34,7 +34,8 @@ def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
             return os.path.samefile(first, second)
     except OSError:
         pass
-    return first.resolve() == second.resolve()
+    # realpath, not Path.resolve: a symbolic link loop is a path, not a RuntimeError.
+    return os.path.realpath(first) == os.path.realpath(second)
 
 
 def repeated_file(
@@ -53,7 +54,7 @@ def repeated_file(
             found = os.stat(name)
             key: tuple[Any, ...] = ("file", found.st_dev, found.st_ino)
         except OSError:
-            key = ("path", Path(name).resolve())
+            key = ("path", os.path.realpath(name))
         if key in seen:
             return seen[key], name
         seen[key] = name

@@ -138,3 +138,21 @@ def test_a_file_mounted_on_its_own_is_written_in_place(tmp_path, monkeypatch):
     write_text_whole(path, "new text")
     assert path.read_text() == "new text"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.json"]
+
+
+def test_a_symbolic_link_loop_is_an_os_error(tmp_path, monkeypatch):
+    """An output (or input) path that is a link to itself: Path.resolve raised
+    RuntimeError ('Symlink loop'), exit 1 with a traceback."""
+    from drake_dynid.files import repeated_file
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "loop.json").symlink_to(tmp_path / "loop.json")
+    (tmp_path / "a.csv").write_text("x")
+    assert not same_file("loop.json", "a.csv")
+    assert same_file("loop.json", "./loop.json")
+    assert repeated_file(["loop.json", "a.csv", "./loop.json"]) == (
+        "loop.json",
+        "./loop.json",
+    )
+    with pytest.raises(OSError, match=r"loop\.json"):
+        write_text_whole("loop.json", "x")
