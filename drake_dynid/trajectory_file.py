@@ -27,6 +27,7 @@ import numpy as np
 
 from drake_dynid.core._validate import real, utf8_text
 from drake_dynid.core.trajectory import FourierTrajectory
+from drake_dynid.files import write_text_whole
 
 __all__ = [
     "SampledTrajectory",
@@ -235,7 +236,7 @@ def write_coefficients(
         ),
         **(extra or {}),
     }
-    Path(path).write_text(json.dumps(document, indent=2) + "\n")
+    write_text_whole(path, json.dumps(document, indent=2) + "\n")
 
 
 def read_coefficients(

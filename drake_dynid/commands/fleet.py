@@ -195,8 +195,10 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         progress=progress,
     )
+    from drake_dynid.files import write_text_whole
+
     summary = Path(args.out_dir) / "summary.json"
-    summary.write_text(json.dumps(items, indent=2) + "\n", encoding="utf-8")
+    write_text_whole(summary, json.dumps(items, indent=2) + "\n")
     if not quiet:
         print()
         for line in summary_table(items):
