@@ -67,7 +67,7 @@ _FEASIBLE = 1e-6  # tolerance on the normalised constraints
 #: 2·n·H variables), grid samples per period, and the experiment's length [s].
 MAX_HARMONICS = 50
 MAX_SAMPLES_PER_PERIOD = 1 << 16
-MAX_DURATION = 1e6
+MAX_DURATION = 1e5  # as trajectory_file.MAX_DURATION: its JSON is read back
 _DENSE = 4  # verification grid: this many times the optimisation grid
 
 
