@@ -110,22 +110,24 @@ class ExperimentSettings:
         if self.duration is not None:
             check.positive(owner, "duration", self.duration, "s")
         h = check.positive(owner, "time_step", self.time_step, "s")
-        ratio = 1.0 / (self.rate * h)
-        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
-            check.fail(
-                owner,
-                f"rate must divide 1/time_step = {1.0 / h:g} Hz [Hz] (the log is "
-                f"decimated from the simulation); got {self.rate:g}.",
-            )
         check.integer(owner, "min_samples", self.min_samples, minimum=MIN_LOG_SAMPLES)
         check.positive(owner, "kp", self.kp, "1/s²")
         check.positive(owner, "kd", self.kd, "1/s")
+        # The step's own bound before its relation to the rate: '--time-step 0.02'
+        # with the default rate names the step, not a rate the user did not give.
         if h * self.kd > 1.0:
             check.fail(
                 owner,
                 f"time_step must be <= 1/kd = {1.0 / self.kd:g} s [s] (the tracking "
                 f"controller's velocity gain kd = {self.kd:g}/s needs time_step·kd "
                 f"<= 1 to stay stable); got {h:g}.",
+            )
+        ratio = 1.0 / (self.rate * h)
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9 * ratio:
+            check.fail(
+                owner,
+                f"rate must divide 1/time_step = {1.0 / h:g} Hz [Hz] (the log is "
+                f"decimated from the simulation); got {self.rate:g}.",
             )
         check.positive(owner, "coulomb_smoothing", self.coulomb_smoothing, "rad/s")
         check.positive(owner, "max_tracking_error", self.max_tracking_error, "rad")

@@ -214,6 +214,9 @@ def test_cli_bad_input_exits_2(experiment, tmp_path, capsys):
         (["--noise-q", "10"], "--noise-q must be below the motion"),
         (["--noise-q", "-1"], "--noise-q must be >= 0"),
         (["--time-step", "0.5", "--rate", "2"], "--time-step must be <= 1/kd = 0.01 s"),
+        # With the default --rate, the step's own bound is what is named, not the
+        # rate that does not divide 1/--time-step (README "Bad options").
+        (["--time-step", "0.02"], "--time-step must be <= 1/kd = 0.01 s"),
         (["--max-tracking-error", "0"], "--max-tracking-error must be > 0"),
         (["--meshcat-wait"], "--meshcat-wait needs --meshcat"),
         (["--drive", "no_such.toml"], "no_such.toml: no such file"),
