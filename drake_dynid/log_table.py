@@ -246,6 +246,21 @@ def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     )
 
 
+#: Column names a reader's warning lists before it counts the rest.
+LISTED_COLUMNS = 6
+
+
+def listed_columns(names: Sequence[str]) -> str:
+    """``"a, b, c"``; of more than ``LISTED_COLUMNS``, the first ones ``"and N more"``.
+
+    The list of the readers' extra-columns warnings (20 000 extra columns made
+    a 149 kB line).
+    """
+    listed = ", ".join(names[:LISTED_COLUMNS])
+    left = len(names) - LISTED_COLUMNS
+    return f"{listed} and {left} more" if left > 0 else listed
+
+
 def unused_columns(header: Sequence[str], used: Any) -> list[str]:
     """The named columns of ``header`` not in ``used``, for the reader's warning.
 

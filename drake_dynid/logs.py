@@ -55,21 +55,22 @@ from drake_dynid.log_repair import (
     Repaired,
     repair,
 )
-from drake_dynid.log_table import read_header, read_table, unused_columns
+from drake_dynid.log_table import (
+    LISTED_COLUMNS,
+    listed_columns,
+    read_header,
+    read_table,
+    unused_columns,
+)
 
 __all__ = ["RobotLog", "header_joints", "read_log", "write_log"]
-
-_LISTED = 6  # extra column names listed in the warning
 
 
 def _extra_note(extra: list[str]) -> str:
     """The warning naming the extra columns (the first few of many, and a count)."""
-    if len(extra) <= _LISTED:
-        return f"ignored extra column(s) {', '.join(extra)}."
-    return (
-        f"ignored {len(extra)} extra column(s): {', '.join(extra[:_LISTED])} and "
-        f"{len(extra) - _LISTED} more."
-    )
+    if len(extra) <= LISTED_COLUMNS:
+        return f"ignored extra column(s) {listed_columns(extra)}."
+    return f"ignored {len(extra)} extra column(s): {listed_columns(extra)}."
 
 
 T = TypeVar("T")

@@ -54,11 +54,15 @@ from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.files import repeated_file
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
-from drake_dynid.log_table import parse_cell, read_header, unused_columns
+from drake_dynid.log_table import (
+    listed_columns,
+    parse_cell,
+    read_header,
+    unused_columns,
+)
 
 __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
-_LISTED = 6  # extra column names listed in the warning
 #: Two stamps of a joined (not first) file more than this many of its median
 #: steps apart are a gap of that file: the first file's stamps between them get
 #: no value (a missing sample; ±20 % jitter keeps a step below 1.4).
@@ -351,10 +355,8 @@ def _extra_note(extra: Sequence[str]) -> list[str]:
     """The warning that counts the columns the drive chain does not use."""
     if not extra:
         return []
-    listed = ", ".join(extra[:_LISTED])
-    left = len(extra) - _LISTED
-    more = f" and {left} more" if left > 0 else ""
-    return [f"{len(extra)} column(s) not used by the drive chain: {listed}{more}."]
+    listed = listed_columns(extra)
+    return [f"{len(extra)} column(s) not used by the drive chain: {listed}."]
 
 
 def _read_streamed(
