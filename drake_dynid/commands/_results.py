@@ -109,7 +109,8 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         # joints as fixed joints at their positions): validating the fit on the
         # URDF it wrote needs no --lock.
         followers = _mimic_joints(args.urdf)
-        fixed = _fixed_joints(args.urdf)
+        types = _joint_types(args.urdf)
+        fixed = {name for name, kind in types.items() if kind == "fixed"}
         options["locked"] = {
             str(k): _number(args, f"locked.{k}", v, "rad or m", signed=True)
             for k, v in locked.items()
@@ -138,7 +139,7 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     options.pop("joints", None)
     options.pop("locked", None)
     robot = robot_from_args(args, "validate", **options)
-    if named and not set(named) - _joint_names(args.urdf):
+    if named and not set(named) - set(_joint_types(args.urdf)):
         raise ValueError(
             f"results file {args.params}: its joints and locks (settings.joints, "
             f"settings.locked) do not apply to {args.urdf}: {failure} Give "
@@ -211,25 +212,14 @@ def _mimic_joints(urdf: Any) -> set[str]:
         return set()
 
 
-def _fixed_joints(urdf: Any) -> set[str]:
-    """The URDF's fixed joints (none when it cannot be read: the load says)."""
+def _joint_types(urdf: Any) -> dict[str, str]:
+    """The URDF's ``{joint: type}`` (none when it cannot be read: the load says)."""
     from drake_dynid.urdf import read_urdf_joint_types
 
     try:
-        types = read_urdf_joint_types(urdf)
+        return read_urdf_joint_types(urdf)
     except (OSError, ValueError):
-        return set()
-    return {name for name, kind in types.items() if kind == "fixed"}
-
-
-def _joint_names(urdf: Any) -> set[str]:
-    """The URDF's joint names (none when it cannot be read: the load says)."""
-    from drake_dynid.urdf import read_urdf_joint_types
-
-    try:
-        return set(read_urdf_joint_types(urdf))
-    except (OSError, ValueError):
-        return set()
+        return {}
 
 
 def results_sign(
