@@ -40,7 +40,9 @@ from drake_dynid.core.drive import DriveChain, read_drive
 
 __all__ = ["UrdfDrive", "load_drive", "read_urdf_drive"]
 
-_DRAKE = "{http://drake.mit.edu}"
+#: Drake's XML namespace of its URDF extensions (``drake:rotor_inertia``, ...).
+DRAKE_NAMESPACE = "http://drake.mit.edu"
+_DRAKE = f"{{{DRAKE_NAMESPACE}}}"
 _KINDS = (
     "SimpleTransmission",
     "DifferentialTransmission",
@@ -298,10 +300,6 @@ def load_drive(
             drive_path, joint_names, prismatic_joints=prismatic, urdf=urdf.as_dict()
         )
     return dataclasses.replace(chain, notes=(*urdf.warnings, *chain.notes))
-
-
-#: Drake's XML namespace of its URDF extensions (``drake:rotor_inertia``, ...).
-DRAKE_NAMESPACE = "http://drake.mit.edu"
 
 
 def parse_urdf_xml(
