@@ -268,7 +268,7 @@ def run(args: argparse.Namespace) -> int:
     if args.every is not None and not (math.isfinite(args.every) and args.every > 0):
         raise ValueError(f"--every must be > 0 [s]; got {args.every:g}.")
     offset = _triple_or_six(args.offset)
-    settings = payload_settings_of(args)
+    payload_settings_of(args)  # every value checked before the log is read
     if args.plot:
         matplotlib_pyplot()
     robot, log, arm, source = _robot(args)
