@@ -23,19 +23,12 @@ __all__ = ["repeated_file", "same_file", "write_text_whole"]
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
-    """True when ``a`` and ``b`` name one file.
+    """True when ``a`` and ``b`` name one file (:func:`repeated_file`'s rule).
 
-    ``os.path.samefile`` where both exist (hard links, symbolic links, ``./x``
-    and ``x``); else their resolved absolute paths (``os.path.realpath``).
+    The same device and inode where both exist (hard links, symbolic links,
+    ``./x`` and ``x``); else the same resolved absolute path.
     """
-    first, second = Path(a), Path(b)
-    try:
-        if first.exists() and second.exists():
-            return os.path.samefile(first, second)
-    except OSError:
-        pass
-    # realpath, not Path.resolve: a symbolic link loop is a path, not a RuntimeError.
-    return os.path.realpath(first) == os.path.realpath(second)
+    return repeated_file([a, b]) is not None
 
 
 def repeated_file(
@@ -53,7 +46,7 @@ def repeated_file(
         try:
             found = os.stat(name)
             key: tuple[Any, ...] = ("file", found.st_dev, found.st_ino)
-        except OSError:
+        except OSError:  # realpath, not Path.resolve: a link loop is a path
             key = ("path", os.path.realpath(name))
         if key in seen:
             return seen[key], name
