@@ -181,6 +181,17 @@ def _drake_full_torques(path, q_full, v_full, a_full):
     return _inverse_dynamics(load_plant(path), q_full, v_full, a_full)
 
 
+def _check_2r_in_drake(out, robot, values, rng):
+    """Drake's inverse dynamics of the written 2R file plus its FC·sign(v)
+    (``_drake_torques``) equal the model's W·θ at four random states."""
+    q = rng.uniform(-np.pi, np.pi, (4, 2))
+    v, vdot = rng.normal(size=(2, 4, 2))
+    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
+    np.testing.assert_allclose(
+        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
+    )
+
+
 def _check_gripper_in_drake(out, robot, values, rng):
     """Drake's inverse dynamics of the written gripper (its mimic finger fb
     follows fa with ratio 1.5, offset 0.01) plus the file's FC·sign(v) equal
@@ -365,13 +376,7 @@ def test_rotor_inertia_keeps_the_transmission_ratio_of_mechanical_reduction(tmp_
     np.testing.assert_array_equal(again.drive.coupling, robot.drive.coupling)
     np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
     # Drake (which ignores <mechanicalReduction>) reflects the same IAj.
-    rng = np.random.default_rng(10)
-    q = rng.uniform(-np.pi, np.pi, (4, 2))
-    v, vdot = rng.normal(size=(2, 4, 2))
-    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
-    np.testing.assert_allclose(
-        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
-    )
+    _check_2r_in_drake(out, robot, values, np.random.default_rng(10))
 
 
 def test_rotor_inertia_not_identified_is_written_as_zero(tmp_path):
@@ -397,13 +402,7 @@ def test_rotor_inertia_not_identified_is_written_as_zero(tmp_path):
     values = _consistent_values(robot, np.random.default_rng(11))
     out = tmp_path / "rotors_identified.urdf"
     write_identified_urdf(robot, values, out)
-    rng = np.random.default_rng(12)
-    q = rng.uniform(-np.pi, np.pi, (4, 2))
-    v, vdot = rng.normal(size=(2, 4, 2))
-    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
-    np.testing.assert_allclose(
-        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
-    )
+    _check_2r_in_drake(out, robot, values, np.random.default_rng(12))
     assert "Not identified, written as 0: rotor inertia of joint1" in out.read_text()
 
 
@@ -421,13 +420,7 @@ def test_rotor_inertia_is_written_with_the_drive_files_gear_ratio(tmp_path):
     write_identified_urdf(robot, values, out)
     again = RobotModel.from_urdf(out, rotor_inertia=True, drive=str(drive))
     np.testing.assert_allclose(again.standard_values, values, rtol=1e-9, atol=1e-12)
-    rng = np.random.default_rng(14)
-    q = rng.uniform(-np.pi, np.pi, (4, 2))
-    v, vdot = rng.normal(size=(2, 4, 2))
-    expected = robot.idim_rows(q, v, vdot) @ robot.base.values(values)
-    np.testing.assert_allclose(
-        _drake_torques(out, robot, q, v, vdot), expected, rtol=1e-9, atol=1e-9
-    )
+    _check_2r_in_drake(out, robot, values, np.random.default_rng(14))
 
 
 def test_the_same_drive_file_reads_the_written_rotor_inertia_back(tmp_path):
