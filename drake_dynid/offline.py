@@ -425,10 +425,12 @@ def standstill_widths(
 ) -> np.ndarray | None:
     """Coulomb dead-zone half-widths per joint measured on a log [rad/s or m/s].
 
-    ``w_j = 3 σ_v,j`` with σ_v,j the velocity noise of the off-line equations
-    (``drake_dynid.core.standstill``, docs/MATH.md §2): the MAD of the part of
-    the velocity that the parallel decimation's low-pass removes. The cutoffs
-    default to the automatic rules (``drake_dynid.core.idim_auto``) on the
+    ``w_j = 3 max(σ_r,j, G σ_q,j)`` (``drake_dynid.core.standstill``, docs/MATH.md
+    §2): σ_r,j the MAD of the part of the off-line velocity above twice the
+    parallel decimation's band, σ_q,j the white position noise (the floor of the
+    spectrum above f_s/4, ``core.excitation.motion_and_noise``, on the longest
+    run of good samples) and G its gain through the off-line velocity. The
+    cutoffs default to the automatic rules (``drake_dynid.core.idim_auto``) on the
     longest finite segment.
 
     Args:
@@ -438,12 +440,17 @@ def standstill_widths(
 
     Returns:
         (n,) widths, in the log's joint order; None when no finite segment is
-        long enough to measure the noise (2·trim + 32 samples).
+        long enough to measure the noise (2·trim + 32 samples, and 64).
 
     Raises:
         ValueError: a cutoff that is not in (0, Nyquist).
     """
-    from drake_dynid.core.standstill import MIN_RUN, dead_zone_widths
+    from drake_dynid.core.excitation import MIN_SPECTRUM_SAMPLES, motion_and_noise
+    from drake_dynid.core.standstill import (
+        MIN_RUN,
+        NOISE_BAND_FACTOR,
+        dead_zone_widths,
+    )
 
     owner = "standstill_widths"
     h = log.time_step
@@ -466,7 +473,7 @@ def standstill_widths(
             owner, "decimation_cutoff_hz", decimation_cutoff_hz, h
         )
     segments = [segment(log.q, a, b) for a, b in good]
-    if not segments or max(len(s) for s in segments) < 16:
+    if not segments or max(len(s) for s in segments) < MIN_SPECTRUM_SAMPLES:
         return None
     longest = max(segments, key=len)
     fc = log.on_longest_run(auto_cutoff) if cutoff_hz is None else cutoff_hz
@@ -474,8 +481,13 @@ def standstill_widths(
         return None
     if decimation_cutoff_hz is None:
         decimation_cutoff_hz = log_decimation_cutoff(log, fc)
+    band = min(fc, NOISE_BAND_FACTOR * decimation_cutoff_hz)
     widths = dead_zone_widths(
-        segments, h, cutoff_hz=fc, band_cutoff_hz=min(decimation_cutoff_hz, fc)
+        segments,
+        h,
+        cutoff_hz=fc,
+        band_cutoff_hz=band,
+        position_noise=log.on_longest_run(motion_and_noise)[1],
     )
     release_heap()  # the residuals: not under the next phase's peak
     return widths

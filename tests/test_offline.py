@@ -248,3 +248,28 @@ def test_auto_decimation_and_its_cutoff(clean_log):
     assert auto_decimation_cutoff(clean_log.q, H, 0.3) == 0.3
     # No motion: the band cannot be measured; f_d falls back to f_c.
     assert auto_decimation_cutoff(np.zeros((1000, 2)), H, 5.0) == 5.0
+
+
+def test_the_measured_dead_zone_leaves_a_noise_free_log_exact():
+    """Found by a review: the dead-zone width measured the velocity above the
+    decimation's band f_d, where the order-8 edge passed the motion itself: a
+    noise-free log got ~1e-3 rad/s of "noise" and a dead zone that biased every
+    estimate. Measured above 2 f_d (and by the white floor) it is ~1e-8 rad/s,
+    and the estimate equals the exact sign's (Drake's inverse dynamics, the
+    URDF's Coulomb friction).
+    """
+    from _drake_dynamics import exact_paper_2r
+
+    from drake_dynid.core.friction import DeadZoneSign
+    from drake_dynid.offline import standstill_widths
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    t, q, tau = exact_paper_2r(robot)
+    log = RobotLog(t, q, tau, robot.joint_names, H)
+    widths = standstill_widths(log)
+    assert np.all(widths < 1e-6), widths
+    exact = identify_offline(log, robot)
+    zoned = identify_offline(log, robot.with_sign(DeadZoneSign(tuple(widths))))
+    truth = robot.base_values
+    assert np.max(np.abs(exact.theta - truth) / np.abs(truth)) < 1e-3
+    np.testing.assert_allclose(zoned.theta, exact.theta, rtol=1e-9)

@@ -41,6 +41,7 @@ from drake_dynid.core import _validate as v
 from drake_dynid.core.fourier_bank import band_frequencies
 
 __all__ = [
+    "MIN_SPECTRUM_SAMPLES",
     "SPECTRUM_PIECE",
     "detrend_linear",
     "estimate_bandwidth",
@@ -54,6 +55,9 @@ __all__ = [
 ]
 
 _OWNER = "estimate_bandwidth"
+
+#: Shortest record whose spectrum the measures here take.
+MIN_SPECTRUM_SAMPLES = 64
 
 SPECTRUM_PIECE = 1 << 18
 """Longest record (samples) whose statistics are one periodogram: longer records are
@@ -101,10 +105,11 @@ def _periodogram(q: Any, time_step: float) -> tuple[np.ndarray, np.ndarray, Any]
     x = v.array(_OWNER, "q", q)
     if x.ndim == 1:
         x = x[:, None]
-    if x.ndim != 2 or x.shape[0] < 64 or x.shape[1] < 1:
+    if x.ndim != 2 or x.shape[0] < MIN_SPECTRUM_SAMPLES or x.shape[1] < 1:
         v.fail(
             _OWNER,
-            "q must have shape (N,) or (N, n) with N >= 64 samples; "
+            f"q must have shape (N,) or (N, n) with N >= {MIN_SPECTRUM_SAMPLES} "
+            "samples; "
             f"got {np.shape(q)}.",
         )
     f, s = periodogram(x, 1.0 / h)

@@ -9,14 +9,30 @@ Coulomb column is s(v) = 0 for |v| <= w_j, sign(v) outside
 the log::
 
     v_j        velocity of the off-line equations (zero-phase Butterworth of q_j at
-               the position cutoff f_c, central differences; core.idim)
-    r_j        v_j minus its zero-phase low-pass at f_d (the parallel decimation's
-               filter, order 8, f_d = min(f_c, 1.5 B), B the velocity bandwidth):
-               what the dynamics band does not explain, i.e. the velocity noise
-               (odd padding of four f_d periods, two periods dropped at each end)
-    σ_v,j      1.4826 · median|r_j - median r_j|   (MAD: robust to the motion's
+               the position cutoff f_c, order N = 4, central differences; core.idim)
+    r_j        v_j minus its zero-phase low-pass (order 8) at f_n = min(f_c, 2 f_d),
+               twice the parallel decimation's band f_d (min(f_c, 1.5 B), B the
+               velocity bandwidth): what the dynamics band and its edge do not
+               explain (odd padding of four f_n periods, two periods dropped at
+               each end)
+    σ_r,j      1.4826 · median|r_j - median r_j|   (MAD: robust to the motion's
                own outliers; = the std for Gaussian noise)       [rad/s or m/s]
+    σ_q,j      white position noise: the flat floor of q_j's periodogram above
+               f_s/4 (``core.excitation.position_noise_std``)          [rad or m]
+    G          noise gain of v_j for white position noise [1/s]:
+               G² = (1/π) ∫_0^π |H(e^{iω})|⁴ sin²(ω)/h² dω,
+               |H(e^{iω})|² = 1 / (1 + (tan(ω/2) / tan(π f_c h))^(2N))
+    σ_v,j      max(σ_r,j, G σ_q,j)
     w_j        3 σ_v,j
+
+Each measure is a lower bound of the velocity noise: σ_r sees only the part above
+f_n (but whatever its spectrum: the TIAGo recording's, 4-5 times what its white
+floor predicts on arm_1..arm_4), G σ_q the whole band of white noise only. The corner
+sits at twice the fit's band because the order-8 low-pass's edge lets the motion
+through: at f_d itself a noise-free log (a simulation) measured 1e-3 rad/s of
+"noise" out of its own motion, a dead zone that biased the off-line estimates by
+0.1 % (median) and flagged parameters 30 % off as identified; at 2 f_d, 1e-8 rad/s
+(``tests/core/test_standstill.py``).
 
 For Gaussian noise a joint at rest then has s = 0 on 99.7 % of its samples. Both
 engines (on-line replay and blocks, off-line IDIM) use the same widths, computed
@@ -24,14 +40,15 @@ once on the log. A coupled motor k (Coulomb sign of u_k/ρ_k = Σ_j (R_kj/ρ_k) 
 ``core.drive_columns``) gets the width of that combination for independent joint
 noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½ (:func:`combined_widths`).
 
-Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 1.3-3.7e-3
-rad/s on the arm (0.9e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
+Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 0.7-2.7e-3
+rad/s on the arm (0.5e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
 at rest the velocity is almost 0 most of the time, with encoder-dither spikes up to
 7.5e-3 rad/s. Pure numpy/scipy.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -47,13 +64,24 @@ from drake_dynid.core.idim import (
 __all__ = [
     "DEAD_ZONE_FACTOR",
     "MIN_RUN",
+    "NOISE_BAND_FACTOR",
+    "POSITION_FILTER_ORDER",
     "combined_widths",
     "dead_zone_widths",
     "velocity_noise",
+    "velocity_noise_gain",
 ]
 
 #: The dead-zone half-width in multiples of the measured velocity noise σ_v.
 DEAD_ZONE_FACTOR = 3.0
+#: The noise band's corner f_n in multiples of the decimation's band f_d.
+NOISE_BAND_FACTOR = 2.0
+#: Butterworth order of the off-line position filter (``core.idim``'s default).
+POSITION_FILTER_ORDER = 4
+#: The gain's integral stops where tan(ω/2)/tan(ω_c/2) reaches this: |H|⁴ is below
+#: 1e-17 of its pass band beyond (order 4), nothing the sum can see.
+_GAIN_STOP = 12.0
+_GAIN_POINTS = 8193
 #: Residuals held at once by :func:`velocity_noise` (32 MB): the joints whose
 #: residuals fit are filtered together.
 GROUP_ENTRIES = 1 << 22
@@ -79,8 +107,9 @@ def velocity_noise(
             filter's edge trims are skipped.
         time_step: sample period h [s].
         cutoff_hz: position cutoff f_c [Hz] (``drake_dynid.offline.auto_cutoff``).
-        band_cutoff_hz: the low-pass f_d [Hz] that keeps the dynamics band
-            (``drake_dynid.offline.auto_decimation_cutoff``); at most f_c.
+        band_cutoff_hz: the corner f_n [Hz] of the low-pass that keeps the
+            motion (``drake_dynid.offline.standstill_widths``: twice the
+            decimation's band); at most f_c.
 
     Returns:
         (n,) σ_v; 0 for a joint whose residual is exactly zero.
@@ -161,12 +190,12 @@ class _Filters:
         self.low = butter_lowpass(DECIMATION_FILTER_ORDER, band, fs)
         self.low_padding = default_padding(time_step, band)
         self.low_margin = max(settle_samples(self.low, _SETTLE), self.low_padding + 2)
-        self.edge = default_trim(time_step, band) - 1  # two periods of f_d
+        self.edge = default_trim(time_step, band) - 1  # two periods of f_n
 
     def kept(self, count: int) -> tuple[int, int]:
         """Velocity samples [a, b) kept of ``count``.
 
-        Two f_d periods are dropped at each end when MIN_RUN are left (the
+        Two f_n periods are dropped at each end when MIN_RUN are left (the
         low-pass's edge transient on the motion is not noise).
         """
         if count - 2 * self.edge >= MIN_RUN:
@@ -211,22 +240,75 @@ class _Filters:
             yield (v - low)[r0 - u0 : r1 - u0]
 
 
+def velocity_noise_gain(
+    time_step: float, cutoff_hz: float, order: int = POSITION_FILTER_ORDER
+) -> float:
+    """Noise gain G of the off-line velocity estimator [1/s] (module docstring).
+
+    White position noise of std σ_q leaves the zero-phase Butterworth of ``order``
+    at ``cutoff_hz`` followed by central differences (q_f[k+1] - q_f[k-1])/(2h)
+    with std G·σ_q. The bilinear Butterworth's magnitude is exact in closed form;
+    the integral is Simpson's rule on 8192 intervals up to where |H|⁴ has vanished.
+
+    Args:
+        time_step: sample period h [s].
+        cutoff_hz: f_c in (0, 1/(2h)) [Hz].
+        order: the filter's order N >= 1 (zero phase: |H|² applied twice).
+    """
+    owner = "velocity_noise_gain"
+    h = check.positive(owner, "time_step", time_step, "s")
+    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
+    order = check.integer(owner, "order", order, minimum=1)
+    if not cutoff_hz < 0.5 / h:
+        check.fail(
+            owner,
+            f"cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; "
+            f"got {cutoff_hz:g}.",
+        )
+    corner = math.tan(math.pi * cutoff_hz * h)
+    top = 2.0 * math.atan(_GAIN_STOP * corner)
+    w = np.linspace(0.0, top, _GAIN_POINTS)
+    f = (np.sin(w) / (1.0 + (np.tan(0.5 * w) / corner) ** (2 * order))) ** 2
+    # Simpson's rule (an even number of intervals).
+    integral = (top / (3.0 * (_GAIN_POINTS - 1))) * (
+        f[0] + f[-1] + 4.0 * f[1:-1:2].sum() + 2.0 * f[2:-1:2].sum()
+    )
+    return math.sqrt(integral / math.pi) / h
+
+
 def dead_zone_widths(
     segments: Any,
     time_step: float,
     *,
     cutoff_hz: float,
     band_cutoff_hz: float,
+    position_noise: Any = None,
     factor: float = DEAD_ZONE_FACTOR,
 ) -> np.ndarray:
-    """Dead-zone half-widths w_j = factor·σ_v,j [rad/s or m/s], (n,).
+    """Dead-zone half-widths w_j = factor·max(σ_r,j, G·σ_q,j) [rad/s or m/s], (n,).
 
-    See :func:`velocity_noise` for the arguments; ``factor`` > 0 (default 3).
+    σ_r from :func:`velocity_noise`, G from :func:`velocity_noise_gain`.
+
+    Args:
+        segments: the position runs of :func:`velocity_noise` [rad or m].
+        time_step: sample period h [s].
+        cutoff_hz: the position cutoff f_c [Hz].
+        band_cutoff_hz: the noise band's corner f_n [Hz] (at most f_c).
+        position_noise: (n,) white position noise σ_q,j >= 0 [rad or m]
+            (``core.excitation.position_noise_std``); None: σ_r alone.
+        factor: > 0 (default 3).
     """
-    factor = check.positive("dead_zone_widths", "factor", factor, "")
-    return factor * velocity_noise(
+    owner = "dead_zone_widths"
+    factor = check.positive(owner, "factor", factor, "")
+    sigma = velocity_noise(
         segments, time_step, cutoff_hz=cutoff_hz, band_cutoff_hz=band_cutoff_hz
     )
+    if position_noise is not None:
+        white = check.array(owner, "position_noise", position_noise, shape=sigma.shape)
+        if np.any(white < 0.0):
+            check.fail(owner, "position_noise must be >= 0.")
+        sigma = np.fmax(sigma, velocity_noise_gain(time_step, cutoff_hz) * white)
+    return factor * sigma
 
 
 def combined_widths(widths: Any, rows: Any) -> np.ndarray:

@@ -11,6 +11,7 @@ from drake_dynid.core.standstill import (
     combined_widths,
     dead_zone_widths,
     velocity_noise,
+    velocity_noise_gain,
 )
 
 H = 0.01  # 100 Hz
@@ -101,6 +102,113 @@ def test_joints_filtered_together_or_apart_give_the_same_noise(monkeypatch):
         monkeypatch.setattr(standstill, "GROUP_ENTRIES", entries)
         apart = velocity_noise(runs, H, cutoff_hz=FC, band_cutoff_hz=FD)
         np.testing.assert_allclose(apart, together, rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("h", "fc"), [(1e-3, 20.0), (1e-3, 0.5), (0.01, 5.0), (0.01, 40.0), (1e-3, 450.0)]
+)
+def test_velocity_noise_gain_is_the_filter_chains_noise_gain(h, fc):
+    # Independent: scipy's Butterworth response, integrated on a fine grid
+    # (zero phase: |H|² twice; central difference: |sin ωh|/h).
+    f = np.linspace(0.0, 0.5 / h, 400001)
+    sos = signal.butter(4, fc, fs=1 / h, output="sos")
+    _, response = signal.sosfreqz(sos, worN=f, fs=1 / h)
+    density = np.abs(response) ** 4 * (np.sin(2 * np.pi * f * h) / h) ** 2
+    expected = math.sqrt(2 * h * np.trapezoid(density, f))
+    assert velocity_noise_gain(h, fc) == pytest.approx(expected, rel=1e-6)
+
+
+def test_velocity_noise_gain_matches_filtered_white_noise():
+    h, fc = 1e-3, 20.0
+    x = np.random.default_rng(0).standard_normal(400000)
+    y = signal.sosfiltfilt(signal.butter(4, fc, fs=1 / h, output="sos"), x)
+    v = (y[2:] - y[:-2]) / (2 * h)
+    assert v[2000:-2000].std() == pytest.approx(velocity_noise_gain(h, fc), rel=0.01)
+    for bad, match in (
+        ((0.0, 5.0), "time_step must be > 0"),
+        ((0.01, 50.0), "cutoff_hz must be < the Nyquist frequency 50"),
+        ((0.01, -1.0), "cutoff_hz must be > 0"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            velocity_noise_gain(*bad)
+
+
+BAND = {"cutoff_hz": FC, "band_cutoff_hz": FD}
+
+
+def test_dead_zone_widths_take_the_larger_of_the_two_noise_measures():
+    rng = np.random.default_rng(4)
+    q = 1e-4 * rng.normal(size=(20000, 2))
+    residual = velocity_noise([q], H, cutoff_hz=FC, band_cutoff_hz=FD)
+    white = velocity_noise_gain(H, FC) * np.array([1e-4, 1e-2])
+    assert white[0] > residual[0] and white[1] > residual[1]  # f_n < f_c sees part
+    widths = dead_zone_widths(
+        [q], H, cutoff_hz=FC, band_cutoff_hz=FD, position_noise=[0.0, 1e-2]
+    )
+    np.testing.assert_allclose(widths, 3 * np.array([residual[0], white[1]]))
+    with pytest.raises(ValueError, match="position_noise must be >= 0"):
+        dead_zone_widths([q], H, **BAND, position_noise=[-1, 0])
+    with pytest.raises(ValueError, match="position_noise must have shape"):
+        dead_zone_widths([q], H, **BAND, position_noise=[0])
+
+
+def _log(q, h=1e-3):
+    from drake_dynid.logs import RobotLog
+
+    t = h * np.arange(q.shape[0])
+    names = [f"j{k}" for k in range(q.shape[1])]
+    return RobotLog(t, q, np.zeros_like(q), names, h)
+
+
+def test_standstill_widths_of_a_noisy_log_are_three_velocity_noise_stds():
+    from drake_dynid.offline import auto_cutoff, standstill_widths
+
+    rng = np.random.default_rng(0)
+    t = 1e-3 * np.arange(40000)
+    motion = 0.5 * np.sin(2 * np.pi * 0.2 * t) + 0.2 * np.cos(2 * np.pi * 1.3 * t)
+    sigma = np.array([1e-5, 1e-4, 1e-3])
+    q = motion[:, None] + sigma * rng.normal(size=(t.size, 3))
+    log = _log(q)
+    fc = auto_cutoff(q, 1e-3)
+    widths = standstill_widths(log)
+    np.testing.assert_allclose(
+        widths, 3 * sigma * velocity_noise_gain(1e-3, fc), rtol=0.05
+    )
+    # --cutoff: the gain of that cutoff.
+    np.testing.assert_allclose(
+        standstill_widths(log, cutoff_hz=10.0),
+        3 * sigma * velocity_noise_gain(1e-3, 10.0),
+        rtol=0.05,
+    )
+    # An encoder glitch (ten samples 50σ off) moves the measure by a few %.
+    spiky = q.copy()
+    spiky[3000:3010] += 50 * sigma
+    np.testing.assert_allclose(standstill_widths(_log(spiky)), widths, rtol=0.05)
+
+
+def test_standstill_widths_of_a_noise_free_log_are_nothing():
+    """Found by a review: the old measure (the velocity above the dynamics band)
+    let the motion itself through and gave ~1e-3 rad/s on a noise-free UR5 log,
+    a dead zone that biased every off-line estimate."""
+    from drake_dynid.offline import standstill_widths
+
+    t = 1e-3 * np.arange(30000)
+    w = 2 * np.pi * 0.1
+    q = np.stack(
+        [sum(np.sin(k * w * t + k) / k for k in range(1, 6)), np.cos(3 * w * t)], axis=1
+    )
+    widths = standstill_widths(_log(q))
+    assert np.all(widths < 1e-7), widths
+
+
+def test_standstill_widths_of_a_short_log_are_none():
+    from drake_dynid.offline import standstill_widths
+
+    q = 1e-3 * np.random.default_rng(3).normal(size=(63, 2))
+    assert standstill_widths(_log(q)) is None
+    q[10] = np.nan  # the longest good run counts
+    longer = np.vstack([q, q])
+    assert standstill_widths(_log(longer)) is None
 
 
 def test_combined_widths_of_coupled_motors():
