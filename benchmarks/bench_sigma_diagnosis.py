@@ -19,6 +19,10 @@ seed)``), settings (library defaults, rows chosen on each log) and final window:
 * a second instrument: the same window with half the Jacobi window (a second
   differentiator, rows and bank: twice the identifier's cost), σ' = √(σ² + Δ²/2)
   with Δ the difference of the two estimates.
+
+``--dead-zone auto`` identifies each seed's log with ``dynid identify``'s default
+Coulomb law: sign(v) with the dead zone measured on that log
+(``drake_dynid.offline.standstill_widths``, docs/MATH.md §2).
 """
 
 from __future__ import annotations
@@ -35,8 +39,11 @@ from _independent import window_solves
 from _scenarios import robots, scenarios
 
 from drake_dynid.core.excitation import estimate_bandwidth
+from drake_dynid.core.friction import DeadZoneSign
 from drake_dynid.core.replay import filtered_signals, window_equations
 from drake_dynid.core.weighted_lsq import frequency_noise_weights
+from drake_dynid.logs import RobotLog
+from drake_dynid.offline import standstill_widths
 from drake_dynid.urdf import model_path
 
 NEAR_ZERO = 0.1  # [rad/s] the counterfactual's band around v = 0
@@ -90,6 +97,13 @@ def main(argv: list[str] | None = None) -> int:
         help="identify with the Coulomb law tanh(v/EPS) (the simulated plant's "
         "is tanh(v/0.01)); default 0: sign(v), as the accuracy benchmark",
     )
+    parser.add_argument(
+        "--dead-zone",
+        choices=("none", "auto"),
+        default="none",
+        help="auto: each seed's Coulomb dead zone measured on its log, as dynid "
+        "identify's default; default none: the exact sign (the accuracy benchmark)",
+    )
     args = parser.parse_args(argv)
     seeds = range(4 if args.quick else args.seeds)
     with tempfile.TemporaryDirectory() as tmp:
@@ -114,8 +128,15 @@ def main(argv: list[str] | None = None) -> int:
     runs: dict[str, list] = {k: [] for k in ("default", "sandwich", "jackknife")}
     runs.update({"theta": [], "noise": [], "exact_sign": [], "second": []})
     chosen = set()
+    widths = []
+    exact_rows = rows
     for seed in seeds:
         q, tau = ba.noisy(log.q_true, log.tau_true, log.noise_std, seed)
+        if args.dead_zone == "auto":
+            seed_log = RobotLog(log.t, q, tau, identified.joint_names, ba.H)
+            widths.append(standstill_widths(seed_log))
+            zone = DeadZoneSign(tuple(float(w) for w in widths[-1]))
+            rows = identified.with_sign(zone).rows_provider()
         s = dataclasses.replace(base, rows_from=ba.auto_rows(base, q))
         chosen.add(s.rows_from)
         theta, std, sandwich, jack, a, b, s = _estimates(rows, s, q, tau, end)
@@ -138,8 +159,13 @@ def main(argv: list[str] | None = None) -> int:
             half = dataclasses.replace(s, jacobi_window=0.5 * s.jacobi_window)
             runs["second"].append(_estimates(rows, half, q, tau, end)[0])
 
+    rows = exact_rows
     theta = np.array(runs["theta"])
     report: dict = {
+        "dead_zone": args.dead_zone,
+        "median_dead_zone_widths": (
+            np.median(widths, axis=0).tolist() if widths else None
+        ),
         "scenario": args.scenario,
         "seeds": len(seeds),
         "rows": sorted(chosen),
@@ -171,7 +197,14 @@ def main(argv: list[str] | None = None) -> int:
     names = report["names"]
     print(
         f"## σ diagnosis: {args.scenario}, {len(seeds)} seeds, rows "
-        f"{'/'.join(report['rows'])}, final {ba.T:g} s window\n"
+        f"{'/'.join(report['rows'])}, final {ba.T:g} s window, Coulomb "
+        + (
+            "sign(v) with the dead zone measured on each log (median widths "
+            + ", ".join(f"{w:.2g}" for w in report["median_dead_zone_widths"])
+            + " rad/s)\n"
+            if widths
+            else "sign(v)\n"
+        )
     )
     print("| per parameter | " + " | ".join(names) + " | all |")
     print("|---" * (len(names) + 2) + "|")

@@ -563,3 +563,21 @@ def test_the_readme_json_example_has_the_keys_identify_writes(log_file, tmp_path
     top = set(document) | set(document["settings"])
     assert top <= shown, sorted(top - shown)
     assert shown <= written, sorted(shown - written)
+
+
+def test_the_position_noise_spectrum_is_measured_once_per_log(log_file, monkeypatch):
+    """The dead zone's white floor and the rows' choice measure the same
+    periodogram of the same run: ``RobotLog.on_longest_run`` computes it once."""
+    import drake_dynid.core.excitation as excitation
+
+    calls = []
+    measure = excitation.motion_and_noise
+
+    def counted(q, time_step, **kwargs):
+        calls.append(np.shape(q))
+        return measure(q, time_step, **kwargs)
+
+    monkeypatch.setattr(excitation, "motion_and_noise", counted)
+    argv = ["identify", log_file, "--urdf", URDF, *FAST, "--quiet", "--bootstrap", "0"]
+    assert cli.main([*argv, "--parallel", "off"]) == 0
+    assert len(calls) == 1, calls

@@ -542,6 +542,7 @@ def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
     position noise gives their velocity estimate a noise (relative to the RMS
     velocity) below the filtered rows' expected bias, else the filtered rows.
     """
+    from drake_dynid.core.excitation import motion_and_noise
     from drake_dynid.core.raw_rows import rows_from_noise
 
     q = _longest_run(log, 64, "the position noise", "--rows-from filtered or raw")
@@ -551,6 +552,8 @@ def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
         raw_window=settings.resolved("raw_window"),
         jacobi_window=settings.jacobi_window,
         bandwidth=settings.bandwidth,
+        # The same run as on_longest_run's: the dead zone's measure, reused.
+        measures=log.on_longest_run(motion_and_noise),
     )
 
 

@@ -441,6 +441,7 @@ def rows_from_noise(
     raw_window: float,
     jacobi_window: float,
     bandwidth: float,
+    measures: tuple[Any, Any] | None = None,
 ) -> tuple[str, float, float]:
     """``(rows_from, ratio, threshold)``: the rows a log's position noise calls for.
 
@@ -459,6 +460,8 @@ def rows_from_noise(
             multiple of h, at least 2h).
         jacobi_window: the matched filter's window Tj [s].
         bandwidth: the excitation band B [Hz].
+        measures: ``motion_and_noise(q, time_step)`` when already measured (a
+            log measures it once: ``RobotLog.on_longest_run``); None: measured here.
     """
     from drake_dynid.core.excitation import motion_and_noise
 
@@ -466,7 +469,8 @@ def rows_from_noise(
     threshold = raw_noise_threshold(bandwidth, jacobi_window)
     window = 2 * h * max(1, round(raw_window / (2 * h)))
     gain = raw_rows_design(window, h, 1).velocity.noise_gain
-    rms, noise = motion_and_noise(q, h)  # by pieces on long logs: bounded memory
+    # By pieces on long logs: bounded memory.
+    rms, noise = motion_and_noise(q, h) if measures is None else measures
     moving = rms > 0.0
     if not moving.any():
         return "filtered", math.inf, threshold
