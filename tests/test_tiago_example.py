@@ -97,7 +97,7 @@ def tiago():
 def test_the_dead_zone_width_follows_the_velocity_noise(tiago):
     _, _, log, widths = tiago
     # 3 x the measured noise: millimetres or milliradians per second, far below
-    # the moving speeds (order 0.1 rad/s). Measured: 1.6 mm/s, 2.1-9.4 mrad/s;
+    # the moving speeds (order 0.1 rad/s). Measured: 1.6 mm/s, 2.1-8.2 mrad/s;
     # the torso and arm_1..arm_4 from the velocity above the band (arm_1..arm_4:
     # 3-7 times what their white floor predicts), the wrist from the white floor.
     assert 1e-3 < widths[0] < 1e-2  # torso [m/s]

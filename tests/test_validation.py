@@ -651,3 +651,29 @@ def test_no_smaller_split_is_suggested_when_the_whole_log_is_too_short(
     err = capsys.readouterr().err
     assert "use a smaller --split" not in err, err
     assert "the whole log is too short for it too" in err, err
+
+
+def test_the_dead_zone_is_measured_on_the_fitted_part_of_a_split(tmp_path, capsys):
+    """Found by a review: the Coulomb dead zone was measured on the whole log
+    before ``--split``, so the held-out part shaped the model it then judged."""
+    from drake_dynid.offline import standstill_widths
+    from drake_dynid.validation import split_log
+
+    log = _pinocchio_log(4, 6.0, noise=0.1)
+    q = np.array(log.q)
+    q[3700:] += 0.01 * np.random.default_rng(9).normal(size=q[3700:].shape)
+    log = RobotLog(log.t, q, log.tau, log.joint_names, H)
+    path = tmp_path / "log.csv"
+    write_log(path, log.t, log.q, log.tau, log.joint_names)
+    fitted = split_log(log, 0.6)[0]
+    expected = standstill_widths(fitted)
+    assert np.all(standstill_widths(log) > 2 * expected)  # the noisy end counts
+    for command in ("offline", "identify"):
+        out = tmp_path / f"{command}.json"
+        argv = [command, str(path), "--urdf", URDF, "--split", "0.6"]
+        argv += ["--json", str(out), "--quiet"]
+        if command == "identify":
+            argv += ["--window", "2", "--jacobi-window", "0.2", "--bootstrap", "0"]
+        assert cli.main(argv) == 0, capsys.readouterr().err
+        widths = json.loads(out.read_text())["settings"]["coulomb_dead_zone"]
+        np.testing.assert_allclose(list(widths.values()), expected, rtol=1e-6)

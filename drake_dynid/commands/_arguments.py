@@ -915,8 +915,10 @@ back it cannot be) is read here too (:func:`_log_prefetch`).
 def load_robot_and_log(args: argparse.Namespace, command: str):
     """Loads the URDF model (with its drive chain) and the log.
 
-    Prints the reader's warnings on stderr and applies ``--dead-zone`` (measured
-    on the whole log, before any ``--split``).
+    Prints the reader's warnings on stderr. The model keeps the exact Coulomb
+    sign: the caller applies ``--dead-zone`` (:func:`apply_dead_zone`) on the
+    part of the log it fits, after any ``--split``, so that the held-out part
+    tells nothing to the model.
 
     With ``args.parallel`` present and not ``"off"`` (``dynid identify``), a
     one-file log (a regular file of at most :data:`PREFETCH_BYTES`) is read in a
@@ -950,7 +952,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
     else:
         check_log_magnitudes(log, files)
         print_log_warnings(log, files, command, robot)
-    return apply_dead_zone(args, robot, log), log
+    return robot, log
 
 
 def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:

@@ -12,6 +12,7 @@ import numpy as np
 
 from drake_dynid.commands._arguments import (
     add_common_arguments,
+    apply_dead_zone,
     dead_zone_line,
     load_robot_and_log,
     model_settings,
@@ -827,6 +828,7 @@ def run(args: argparse.Namespace) -> int:
     robot, log = load_robot_and_log(args, "identify")
     total_samples = log.num_samples
     log, held, held_description = validation_split(args, log, robot)
+    robot = apply_dead_zone(args, robot, log)  # measured on the fitted part only
     check_log_values(args, log, settings)
     band_measured = args.bandwidth is None and (
         args.frequencies is None or args.frequencies.strip() == "auto"

@@ -8,6 +8,7 @@ from typing import Any
 
 from drake_dynid.commands._arguments import (
     add_common_arguments,
+    apply_dead_zone,
     dead_zone_line,
     load_robot_and_log,
     model_settings,
@@ -93,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     robot, log = load_robot_and_log(args, "offline")
     total_samples = log.num_samples
     log, held, held_description = validation_split(args, log, robot)
+    robot = apply_dead_zone(args, robot, log)  # measured on the fitted part only
     try:
         result = identify_offline(
             log,
