@@ -41,7 +41,11 @@ import dataclasses
 import numpy as np
 from _independent import drake_torques, exact_log, honesty, window_solves, with_noise
 
-from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
+from drake_dynid.core.excitation import (
+    estimate_bandwidth,
+    position_noise_std,
+    torque_noise_std,
+)
 from drake_dynid.core.lsq import solve_least_squares
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
@@ -148,7 +152,7 @@ class Arm7:
             rows_from="filtered",
             weighting="covariance",
             position_noise=tuple(position_noise_std(log.q, H).tolist()),
-            torque_noise=tuple(position_noise_std(log.tau, H).tolist()),
+            torque_noise=tuple(torque_noise_std(log.tau, H).tolist()),
         ).for_robot(H, 7, len(self.truth))
         end = log.num_samples - 1
         a, b = window_equations(model, settings, log.q, log.tau, end, H)

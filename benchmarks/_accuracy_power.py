@@ -32,7 +32,11 @@ import dataclasses
 
 import numpy as np
 
-from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
+from drake_dynid.core.excitation import (
+    estimate_bandwidth,
+    position_noise_std,
+    torque_noise_std,
+)
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.replay import (
     filtered_signals,
@@ -119,7 +123,7 @@ def run(robot, clean_q, clean_tau, noise_std, seeds) -> dict:
     for seed in seeds:
         q, tau = _noisy(clean_q, clean_tau, noise_std, seed)
         measured_q = tuple(position_noise_std(q, H).tolist())
-        measured_tau = tuple(position_noise_std(tau, H).tolist())
+        measured_tau = tuple(torque_noise_std(tau, H).tolist())
         for key, settings in (
             ("plain", base),
             ("compensated", dataclasses.replace(base, position_noise=measured_q)),

@@ -76,7 +76,11 @@ from _scenarios import _rf, robots, scenarios
 
 from drake_dynid import paper
 from drake_dynid.core.ell_rule import POWER_BAND_FACTOR
-from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
+from drake_dynid.core.excitation import (
+    estimate_bandwidth,
+    position_noise_std,
+    torque_noise_std,
+)
 from drake_dynid.core.online import OnlineSettings
 from drake_dynid.core.raw_rows import rows_from_noise
 from drake_dynid.core.replay import (
@@ -167,13 +171,18 @@ def bootstrap(rows, s: OnlineSettings, q, tau, end: int) -> np.ndarray:
     """
     from drake_dynid.core.bootstrap import bootstrap_std
 
-    noise = (position_noise_std(q, H), position_noise_std(tau, H))
+    noise = (position_noise_std(q, H), torque_noise_std(tau, H))
     return bootstrap_std(rows, s, q, tau, end, H, noise).std
 
 
 def measured_noise(q) -> tuple[float, ...]:
-    """σ_q (or σ_τ) per joint measured on the log, as ``dynid identify``."""
+    """σ_q per joint measured on the log, as ``dynid identify``."""
     return tuple(position_noise_std(q, H).tolist())
+
+
+def measured_torque_noise(tau) -> tuple[float, ...]:
+    """σ_τ per joint measured on the log, as ``dynid identify``."""
+    return tuple(torque_noise_std(tau, H).tolist())
 
 
 def as_run(name: str, s: OnlineSettings, q, tau) -> OnlineSettings:
@@ -190,7 +199,7 @@ def as_run(name: str, s: OnlineSettings, q, tau) -> OnlineSettings:
             weighting="covariance",
             rows_from="filtered",
             position_noise=measured_noise(q),
-            torque_noise=measured_noise(tau),
+            torque_noise=measured_torque_noise(tau),
         )
     if name.endswith("(auto)") or "dynid identify" in name:
         s = dataclasses.replace(s, rows_from=auto_rows(s, q))
@@ -325,8 +334,8 @@ def method_table(bandwidth_note=True):
         "on-line Lagrangian, covariance weighting": lambda b: settings_for(
             LAGRANGIAN, T, b
         ),
-        "on-line power (dynid identify: covariance weighting)": lambda b: (
-            settings_for(POWER, T, b)
+        "on-line power (dynid identify: covariance weighting)": lambda b: settings_for(
+            POWER, T, b
         ),
         "on-line power, frequency weighting (dynid identify before)": lambda b: (
             settings_for(POWER, T, b)

@@ -37,14 +37,18 @@ from _scenarios import robots, scenarios
 
 from drake_dynid.core._threads import configure_process
 from drake_dynid.core.bootstrap import bootstrap_std
-from drake_dynid.core.excitation import estimate_bandwidth, position_noise_std
+from drake_dynid.core.excitation import (
+    estimate_bandwidth,
+    position_noise_std,
+    torque_noise_std,
+)
 
 H = 1e-3
 
 
 def compare(rows, settings, q, tau, replicates: int) -> dict:
     """σ_B both ways on the window ending at the last sample, and their times."""
-    noise = (position_noise_std(q, H), position_noise_std(tau, H))
+    noise = (position_noise_std(q, H), torque_noise_std(tau, H))
     args = (rows, settings, q, tau, len(q) - 1, H, noise)
     start = time.perf_counter()
     exact = bootstrap_std(*args, replicates=replicates, linearized=False)

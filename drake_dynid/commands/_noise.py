@@ -4,9 +4,11 @@ The power model's rows are quadratic in the estimated velocity; white position
 noise of std σ_q biases them by a known amount (``drake_dynid.core.noise_bias``,
 docs/MATH.md §3). The covariance weighting (``core.row_covariance``) computes the
 rows' covariance from σ_q and the torque noise σ_τ. ``auto`` (the default)
-measures them per joint on the log (``core.excitation.position_noise_std``: the
-white floor of the spectrum above f_s/4) when they are used, ``none`` leaves
-them out, numbers give them.
+measures them per joint on the log when they are used (σ_q: the white floor of the
+position spectrum above f_s/4, ``core.excitation.position_noise_std``; σ_τ: the
+MAD of the torque above f_s/4, ``core.excitation.torque_noise_std``, which a
+Coulomb reversal's step does not inflate), ``none`` leaves them out, numbers give
+them.
 """
 
 from __future__ import annotations
@@ -55,11 +57,14 @@ def position_noise_option(text: str | None) -> Any:
 def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
     """σ per joint of the log's positions or torques, for ``auto``.
 
-    ``core.excitation.position_noise_std`` (the white floor of the spectrum above
-    f_s/4) on the longest run of finite samples [rad or m; N·m or N].
+    On the longest run of finite samples [rad or m; N·m or N]: positions,
+    ``core.excitation.motion_and_noise`` (the white floor of the spectrum above
+    f_s/4; measured once per log, ``RobotLog.on_longest_run``: the dead zone reads
+    it too); torques, ``core.excitation.torque_noise_std`` (the MAD of the part
+    above f_s/4: Coulomb steps do not inflate it).
     """
     from drake_dynid.core.blocks import segment
-    from drake_dynid.core.excitation import position_noise_std
+    from drake_dynid.core.excitation import motion_and_noise, torque_noise_std
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     if stop - start < 64:
@@ -67,9 +72,10 @@ def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
             f"cannot measure the {signal} noise: no run of 64 finite samples in the "
             f"log; give --{signal}-noise none or S."
         )
-    values = log.q if signal == "position" else log.tau
+    if signal == "position":
+        return np.asarray(log.on_longest_run(motion_and_noise)[1])
     # A lazy view of a stored (long) log: measured a piece at a time.
-    return position_noise_std(segment(values, start, stop), log.time_step)
+    return torque_noise_std(segment(log.tau, start, stop), log.time_step)
 
 
 def add_noise_arguments(group: Any) -> None:
@@ -88,8 +94,8 @@ def add_noise_arguments(group: Any) -> None:
         "--torque-noise",
         metavar="auto|none|S[,S...]",
         help="std of the white torque noise [N·m or N], one or one per joint, for "
-        "--weighting covariance; 'auto' (default): measured on the log (the floor "
-        "of the torque spectrum above fs/4)",
+        "--weighting covariance and the bootstrap; 'auto' (default): measured on "
+        "the log (the median deviation of the torque above fs/4)",
     )
 
 
@@ -103,9 +109,13 @@ def noise_lines(settings: Any, position_measured: bool, torque_measured: bool) -
         value = getattr(settings, field)
         if value is None:
             continue
+        measure = (
+            "the floor of the position spectrum"
+            if signal == "position"
+            else "the torque above fs/4"
+        )
         where = (
-            f" (measured on the log: the floor of the {signal} spectrum; "
-            f"--{signal}-noise to override)"
+            f" (measured on the log: {measure}; --{signal}-noise to override)"
             if measured
             else f" (--{signal}-noise)"
         )

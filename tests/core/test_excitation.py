@@ -98,3 +98,36 @@ def test_validation_errors():
         frequencies_for(20.0, 0.0)
     with pytest.raises(ValueError, match="min_count must be >= 1"):
         frequencies_for(20.0, 0.5, min_count=0)
+
+
+def test_torque_noise_is_not_inflated_by_coulomb_steps():
+    """Found by a review: the periodogram's floor above f_s/4 counts a Coulomb
+    reversal's step (its power spreads over the whole spectrum) as noise; the
+    median deviation of the half band does not (Drake's inverse dynamics of the
+    paper's 2R with the URDF's sign(v) friction, 0.01 N·m of white noise)."""
+    from _drake_dynamics import exact_paper_2r
+
+    from drake_dynid.core.excitation import (
+        half_band_share,
+        position_noise_std,
+        torque_noise_std,
+    )
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    _, _, tau = exact_paper_2r(robot)
+    sigma = np.array([0.01, 0.003])
+    noisy = tau + sigma * np.random.default_rng(0).standard_normal(tau.shape)
+    np.testing.assert_allclose(torque_noise_std(noisy, 1e-3), sigma, rtol=0.05)
+    assert np.all(position_noise_std(noisy, 1e-3) > 1.3 * sigma)  # the floor's excess
+    # White noise alone, and c against scipy's filter.
+    from scipy import signal
+
+    x = np.random.default_rng(1).standard_normal((50000, 2)) * [1.0, 1e-3]
+    np.testing.assert_allclose(torque_noise_std(x, 0.01), [1.0, 1e-3], rtol=0.02)
+    sos = signal.butter(8, 25.0, fs=100.0, output="sos")
+    w, response = signal.sosfreqz(sos, worN=1 << 16)
+    c = np.trapezoid((1 - np.abs(response) ** 2) ** 2, w) / np.pi
+    assert half_band_share() == pytest.approx(c, rel=1e-4)
+    with pytest.raises(ValueError, match="N >= 64"):
+        torque_noise_std(x[:63], 0.01)
