@@ -99,21 +99,28 @@ def periodogram(x: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
     return np.fft.rfftfreq(count, 1.0 / fs), density
 
 
-def _periodogram(q: Any, time_step: float) -> tuple[np.ndarray, np.ndarray, Any]:
-    """``(f, S, x)``: the Hann periodogram of the detrended channels, (F, n)."""
-    h = v.positive(_OWNER, "time_step", time_step, "s")
+def _record(
+    owner: str, name: str, values: Any, time_step: float
+) -> tuple[float, np.ndarray]:
+    """``(h, x)``: a checked sample period and (N, n) record, N >= 64."""
+    h = v.positive(owner, "time_step", time_step, "s")
     if not 1e-9 <= h <= 1e5:  # (2πf)² of the spectrum stays finite
-        v.fail(_OWNER, f"time_step must be in [1e-09, 1e+05] [s]; got {h:g}.")
-    x = v.array(_OWNER, "q", q)
+        v.fail(owner, f"time_step must be in [1e-09, 1e+05] [s]; got {h:g}.")
+    x = v.array(owner, name, values)
     if x.ndim == 1:
         x = x[:, None]
     if x.ndim != 2 or x.shape[0] < MIN_SPECTRUM_SAMPLES or x.shape[1] < 1:
         v.fail(
-            _OWNER,
-            f"q must have shape (N,) or (N, n) with N >= {MIN_SPECTRUM_SAMPLES} "
-            "samples; "
-            f"got {np.shape(q)}.",
+            owner,
+            f"{name} must have shape (N,) or (N, n) with N >= "
+            f"{MIN_SPECTRUM_SAMPLES} samples; got {np.shape(values)}.",
         )
+    return h, x
+
+
+def _periodogram(q: Any, time_step: float) -> tuple[np.ndarray, np.ndarray, Any]:
+    """``(f, S, x)``: the Hann periodogram of the detrended channels, (F, n)."""
+    h, x = _record(_OWNER, "q", q, time_step)
     f, s = periodogram(x, 1.0 / h)
     return f, s, x
 
@@ -210,16 +217,7 @@ def torque_noise_std(tau: Any, time_step: float) -> np.ndarray:
             for j in range(shape[1]):
                 squares[j] += torque_noise_std(piece[:, j], time_step)[0] ** 2
         return np.sqrt(squares / count)
-    h = v.positive(owner, "time_step", time_step, "s")
-    x = v.array(owner, "tau", tau)
-    if x.ndim == 1:
-        x = x[:, None]
-    if x.ndim != 2 or x.shape[0] < MIN_SPECTRUM_SAMPLES or x.shape[1] < 1:
-        v.fail(
-            owner,
-            f"tau must have shape (N,) or (N, n) with N >= {MIN_SPECTRUM_SAMPLES} "
-            f"samples; got {np.shape(tau)}.",
-        )
+    h, x = _record(owner, "tau", tau, time_step)
     sos = butter_lowpass(HALF_BAND_ORDER, 0.25 / h, 1.0 / h)
     pad = min(x.shape[0] - 1, 3 * (2 * sos.shape[0] + 1))
     r = x - zero_phase_span(sos, x, pad_left=pad, pad_right=pad, padtype="odd")
