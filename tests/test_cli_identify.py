@@ -581,3 +581,19 @@ def test_the_position_noise_spectrum_is_measured_once_per_log(log_file, monkeypa
     argv = ["identify", log_file, "--urdf", URDF, *FAST, "--quiet", "--bootstrap", "0"]
     assert cli.main([*argv, "--parallel", "off"]) == 0
     assert len(calls) == 1, calls
+
+
+def test_a_dead_zone_wider_than_every_speed_is_named(log_file, capsys):
+    """Found by a review: --dead-zone 1e300 zeroes every Coulomb column, and the
+    error named unexcited FCj without the option that did it."""
+    for command in ("offline", "identify"):
+        argv = [command, log_file, "--urdf", URDF, "--dead-zone", "1e300"]
+        if command == "identify":
+            argv += FAST
+        assert cli.main(argv) == 2
+        err = capsys.readouterr().err
+        assert "The Coulomb dead zone is wider than every speed of joint1" in err, err
+        assert "give a smaller --dead-zone, or none." in err
+    # A dead zone that leaves the columns alone is not blamed.
+    argv = ["offline", log_file, "--urdf", URDF, "--dead-zone", "0.01"]
+    assert cli.main([*argv, "--friction", "viscous,coulomb", "--quiet"]) == 0

@@ -852,6 +852,48 @@ def dead_zone_widths(robot: Any) -> dict[str, float] | None:
     return dict(zip(robot.joint_names, map(float, widths), strict=True))
 
 
+def _top_speed(q: Any, h: float) -> Any:
+    """(n,) largest |q[k+1] - q[k-1]|/(2h) of a run (inf when shorter than 3)."""
+    import numpy as np
+
+    q = np.asarray(q, dtype=float)
+    if q.shape[0] < 3:
+        return np.full(q.shape[1], np.inf)
+    return np.max(np.abs(q[2:] - q[:-2]), axis=0) / (2.0 * h)
+
+
+def dead_zone_cover(robot: Any, log: Any) -> str:
+    """A sentence for a failed fit whose dead zone covers a joint's every velocity.
+
+    Empty unless the robot has a dead zone (and no drive chain, whose Coulomb
+    columns are the motors') and a joint's largest central-difference speed on
+    the longest good run, |q[k+1] - q[k-1]|/(2h), is within its width: that
+    joint's Coulomb column is then all zero (``--dead-zone 1e300`` made the fit
+    name an unexcited FCj, not the option).
+    """
+    widths = dead_zone_widths(robot)
+    if widths is None or getattr(robot, "drive", None) is not None:
+        return ""
+
+    try:
+        speeds = log.on_longest_run(_top_speed)
+    except ValueError:
+        return ""
+    covered = [
+        f"{name} (width {w:.3g}; largest raw |q[k+1] - q[k-1]|/2h {speed:.3g})"
+        for (name, w), speed in zip(widths.items(), speeds, strict=True)
+        if speed <= w
+    ]
+    if not covered:
+        return ""
+    return (
+        " The Coulomb dead zone is wider than every speed of "
+        + ", ".join(covered)
+        + ": their Coulomb columns are all zero; give a smaller --dead-zone, "
+        "or none."
+    )
+
+
 def dead_zone_line(robot: Any, args: Any = None) -> str | None:
     """One printed line with the dead-zone widths (None with the exact sign).
 

@@ -13,6 +13,7 @@ import numpy as np
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    dead_zone_cover,
     dead_zone_line,
     load_robot_and_log,
     model_settings,
@@ -909,7 +910,7 @@ def run(args: argparse.Namespace) -> int:
             "longer than the window with a more exciting trajectory (every joint "
             "moving, velocity reversals), a longer --window, a wider --bandwidth or "
             "--frequencies set, fewer friction columns (--friction), or a larger "
-            "--max-condition."
+            "--max-condition." + dead_zone_cover(robot, log)
         )
     t = log.t[0] + np.asarray(trace.t)
     changes = [

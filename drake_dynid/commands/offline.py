@@ -9,6 +9,7 @@ from typing import Any
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    dead_zone_cover,
     dead_zone_line,
     load_robot_and_log,
     model_settings,
@@ -114,6 +115,7 @@ def run(args: argparse.Namespace) -> int:
             f"{result.reason.rstrip('.')}. Use a log "
             "with more excitation (every joint moving, velocity reversals), fewer "
             "friction columns (--friction), or another --cutoff."
+            + dead_zone_cover(robot, log)
         )
     if not args.quiet:
         print(log_line(args, log, total_samples))
