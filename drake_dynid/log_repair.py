@@ -159,7 +159,9 @@ def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
     return s, base * 1e-9, [note]
 
 
-def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
+def repair(
+    owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None, joined=None
+):
     """Time stamps → uniform grid → filled or bad samples.
 
     Args:
@@ -174,6 +176,11 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
         options: the checked options.
         notes: warnings of the earlier layers.
         bad: (N,) bool, True where a q or tau cell is not finite (None: computed).
+        joined: ``(filled, kept_bad)``, (N,) bool each, or None: samples of a
+            multi-file log inside a gap of a joined file (``drake_dynid.raw_log``),
+            decided in that file's own samples: of up to ``fill_gaps`` of them
+            (values interpolated by the join: counted as filled), or longer (NaN:
+            kept bad, however short their run in these samples).
 
     Returns:
         The :class:`Repaired` log; its q and tau are stored arrays when larger
@@ -184,6 +191,9 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
     t, base, note = _seconds(owner, t, exact)
     warnings += note
     bad = _bad(q, tau) if bad is None else bad
+    if joined is None:
+        joined = np.zeros(len(bad), bool), np.zeros(len(bad), bool)
+    soft, hard = (np.asarray(mask, dtype=bool) for mask in joined)
     index = None  # working sample -> row of q and tau (None: the same row)
     bad_t = np.concatenate(
         [start + np.flatnonzero(~np.isfinite(block)) for start, block in blocks(t)]
@@ -202,6 +212,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
         keep = np.isfinite(t)
         index = np.flatnonzero(keep)
         t, shown, labels, bad = t[keep], shown[keep], labels[keep], bad[keep]
+        soft, hard = soft[keep], hard[keep]
     if t.size < 2:
         raise ValueError(f"{owner}: needs at least 2 samples; got {t.size}.")
     i = _repeated(t)
@@ -249,6 +260,7 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
         index = rows if index is None else index[rows]
         t, shown = np.asarray(t)[kept], np.asarray(shown)[kept]
         labels, bad = labels[kept], bad[kept]
+        soft, hard = soft[kept], hard[kept]
     jitter = 0.0 if grid is None else grid.jitter
     if options.resample and (grid is None or jitter > REPORTED_JITTER):
         log = _resampled(
@@ -262,11 +274,20 @@ def repair(owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None):
             options,
             warnings,
             reason,
+            (soft, hard),
         )
     else:
         assert grid is not None
         log = _snapped(
-            owner, noun, grid, (q, tau, index, bad), labels, shown, options, warnings
+            owner,
+            noun,
+            grid,
+            (q, tau, index, bad),
+            labels,
+            shown,
+            options,
+            warnings,
+            (soft, hard),
         )
     samples = log.t.size
     duration = (samples - 1) * log.time_step
@@ -369,8 +390,10 @@ def _bad(q, tau) -> np.ndarray:
     return out
 
 
-def _placed(grid, samples, options):
+def _placed(grid, samples, options, kept_bad):
     """q, τ on the grid with the short runs filled, a chunk of slots at a time.
+
+    ``kept_bad``: (num_slots,) bool, slots never filled (nor a run holding one).
 
     Slot chunks of :data:`_PLACE_SLOTS` with ``fill_gaps + 2`` slots of margin on
     each side: a run of at most ``fill_gaps`` missing slots and the four nodes
@@ -397,7 +420,9 @@ def _placed(grid, samples, options):
         for values, sink, cubic in zip((q, tau), sinks, (True, False), strict=True):
             block = np.full((hi - lo, n), np.nan)
             block[slots[j0:j1] - lo] = _rows_of(values, index, j0, j1)
-            block, mask = fill_short_runs(block, options.fill_gaps, cubic=cubic)
+            block, mask = fill_short_runs(
+                block, options.fill_gaps, cubic=cubic, keep=kept_bad[lo:hi]
+            )
             sink.append(block[core])
             masks.append(mask[core])
             bad_after[k0:k1] |= ~np.all(np.isfinite(block[slots[k0:k1] - lo]), axis=1)
@@ -405,11 +430,12 @@ def _placed(grid, samples, options):
     return sinks[0].finish(), sinks[1].finish(), filled, bad_after
 
 
-def _snapped(owner, noun, grid, samples, labels, shown, options, warnings):
+def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joined):
     """Samples placed on their grid slots; dropped samples and bad cells filled.
 
     ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
-    the row of each kept sample (None: the same), and its bad-cell flags.
+    the row of each kept sample (None: the same), and its bad-cell flags;
+    ``joined`` = (filled, kept_bad) of each kept sample (``repair``).
     """
     total, slots = grid.num_slots, grid.slots
     h = grid.step
@@ -421,11 +447,22 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings):
             f"squares (tolerance {100 * options.jitter_tolerance:g} %)."
         )
     q, tau, index, bad_before = samples
+    soft, hard = joined
     if index is None and total == slots.size and not bad_before.any():
         filled = np.zeros(total, bool)  # every slot read, every cell finite
+        filled[slots[soft]] = True
+        _check_filled(owner, int(filled.sum()), total, "gaps of joined files")
     else:
-        q, tau, filled, bad_after = _placed(grid, samples, options)
-        _check_filled(owner, int(filled.sum()), total, "dropped samples and bad cells")
+        kept_bad = np.zeros(total, bool)
+        kept_bad[slots[hard]] = True
+        q, tau, filled, bad_after = _placed(grid, samples, options, kept_bad)
+        filled[slots[soft]] = True
+        _check_filled(
+            owner,
+            int(filled.sum()),
+            total,
+            "dropped samples, bad cells and gaps of joined files",
+        )
         if bad_before.any():
             warnings.append(
                 _bad_cells_note(noun, labels, bad_before, bad_after, options.fill_gaps)
@@ -451,18 +488,24 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings):
     return Repaired(t, q, tau, h, (), grid.origin, filled)
 
 
-def _resampled(owner, noun, s, samples, labels, step, grid, options, warnings, reason):
+def _resampled(
+    owner, noun, s, samples, labels, step, grid, options, warnings, reason, joined
+):
     """Linear interpolation from the stamps onto the fitted uniform grid.
 
     ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
     the row of each working sample (None: the same) and its bad-cell flags; ``s``
-    the working samples' stamps. The grid is filled :data:`_PLACE_SLOTS` samples
+    the working samples' stamps; ``joined`` = (filled, kept_bad) of each working
+    sample (``repair``): a grid sample next to a filled one is bridged, none is
+    interpolated across a kept-bad one. The grid is filled :data:`_PLACE_SLOTS` samples
     at a time from the working samples around them, ``fill_gaps + 2`` of margin
     on each side: a neighbour further away has more than ``fill_gaps`` bad
     samples before it, so the grid sample is bad either way, and every chunk is
     what the whole grid would be. A stored log stays stored (bounded memory).
     """
     q, tau, index, bad_before = samples
+    soft, hard = joined
+    hard_count = np.cumsum(hard)  # kept-bad working samples up to each one
     zero = float(s[0])
     s = s - zero  # precision with epoch stamps
     if grid is not None:
@@ -506,8 +549,11 @@ def _resampled(owner, noun, s, samples, labels, step, grid, options, warnings, r
             inside = (times >= xs[0]) & (times <= xs[-1])
             ok = inside & (skipped <= options.fill_gaps)
             ok &= gap <= longest * (1 + 1e-9)
+            before, after = a + finite[left], a + finite[right]
+            ok &= hard_count[after] == hard_count[before]
             out[ok, j] = np.interp(times[ok], xs, values[finite, j])
-            bridged[c0:c1] |= ok & ((skipped > 0) | (gap > 1.5 * h))
+            near_filled = soft[before] | soft[after]
+            bridged[c0:c1] |= ok & ((skipped > 0) | (gap > 1.5 * h) | near_filled)
         sinks[0].append(out[:, :n])
         sinks[1].append(out[:, n:])
         bad_after += int(_bad(out[:, :n], out[:, n:]).sum())

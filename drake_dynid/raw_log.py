@@ -12,12 +12,14 @@ currents. :func:`read_raw_log` reads such a log:
    are the time base; each other file's columns are interpolated linearly onto
    the first file's stamps inside the common time span (rows of the first file
    outside it are dropped), with a warning naming the file; a file whose stamps
-   equal the first file's is taken as is. A first-file stamp inside a gap of
-   another file (two of its stamps more than ``GAP_STEPS`` of its median steps
-   apart: missing samples) gets no value there (NaN), so that the repair of
-   step 4 treats it as the missing sample it is (runs up to ``fill_gaps``
-   interpolated and flagged, longer ones bad samples) instead of a straight
-   line drawn across the gap;
+   equal the first file's is taken as is. A gap of another file (two of its
+   stamps more than ``GAP_STEPS`` of its steps apart, not made up by the stamps
+   around them: samples of that file missing, :func:`_missing`) is counted in
+   that file's own samples, as ``fill_gaps`` counts a gap of one file: the
+   first-file stamps inside a gap of up to ``fill_gaps`` of its samples keep
+   the join's linear interpolation and are flagged filled; inside a longer
+   one they get no value (NaN) and stay bad samples, however few of them the
+   first file has there (never a straight line drawn across the gap);
 3. ``DriveChain.convert``: units, motor side, currents, offsets, time origin;
 4. the uniform-grid checks and repairs of ``drake_dynid.logs`` (jitter, dropped
    samples, ``resample``: ``drake_dynid.log_repair.repair``).
@@ -53,7 +55,7 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.files import repeated_file
-from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE
+from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options
 from drake_dynid.log_table import (
     listed_columns,
     parse_cell,
@@ -63,36 +65,111 @@ from drake_dynid.log_table import (
 
 __all__ = ["RawTable", "read_raw_log", "read_raw_table", "write_raw_log"]
 
-#: Two stamps of a joined (not first) file more than this many of its median
-#: steps apart are a gap of that file: the first file's stamps between them get
-#: no value (a missing sample; ±20 % jitter keeps a step below 1.4).
+#: Two stamps of a joined (not first) file more than this many of its steps
+#: apart may be a gap of that file (±20 % jitter keeps a step below 1.4).
 GAP_STEPS = 1.5
+#: The step of a joined file: the median of its mean steps over this many
+#: intervals (bursty stamps, a late one and then an early one, average out).
+STEP_SPAN = 8
+#: A long interval of a joined file misses only the samples that the stamps up to
+#: this many intervals before and after it do not make up (bursty stamps).
+BURST_SPAN = 4
 
 
-def _median_step(stamps: np.ndarray) -> float:
-    """The median step of a file's stamps (0 with fewer than 2)."""
-    return float(np.median(np.diff(stamps))) if stamps.size > 1 else 0.0
+def _file_step(stamps: np.ndarray) -> float:
+    """A joined file's step: the median of its mean steps over STEP_SPAN intervals.
 
-
-def _in_gaps(target: np.ndarray, stamps: np.ndarray, step: float) -> np.ndarray:
-    """(len(target),) True where a target stamp lies inside a gap of ``stamps``.
-
-    A gap: two consecutive stamps more than ``GAP_STEPS`` × ``step`` apart; a
-    target equal to one of them is not inside it. ``stamps`` cover ``target``.
+    0 with fewer than 2 stamps.
     """
+    span = min(STEP_SPAN, stamps.size - 1)
+    if span < 1:
+        return 0.0
+    return float(np.median((stamps[span:] - stamps[:-span]) / span))
+
+
+def _missing(stamps: np.ndarray) -> np.ndarray:
+    """(len(stamps) - 1,) int: the samples of a file missing in each interval.
+
+    An interval i longer than ``GAP_STEPS`` steps h (:func:`_file_step`) misses
+    m = min(round((t_(i+1) - t_i) / h) - 1, median over j <= i < i + 1 <= l of
+    round((t_l - t_j) / h) - (l - j)) samples (at least 0), the stamps j, l up
+    to ``BURST_SPAN`` intervals around it: a dropped sample stays missing over
+    most spans holding it, while a late stamp followed (or preceded) by an early
+    one, bursty but complete stamps, is made up by most spans over both (the
+    first term: another gap nearby is not counted twice). Stamps off by half a
+    step or more are ambiguous: a sample dropped beside them may be missed.
+    """
+    missing = np.zeros(max(stamps.size - 1, 0), np.int64)
+    step = _file_step(stamps)
     if stamps.size < 2 or step <= 0.0:
-        return np.zeros(target.shape, dtype=bool)
+        return missing
+    last = stamps.size - 1
+    long = np.flatnonzero(np.diff(stamps) > GAP_STEPS * step)
+    counts = []
+    for before in range(BURST_SPAN + 1):
+        j = np.maximum(long - before, 0)
+        for after in range(BURST_SPAN + 1):
+            k = np.minimum(long + 1 + after, last)
+            span = np.rint((stamps[k] - stamps[j]) / step).astype(np.int64)
+            counts.append(span - (k - j))
+    if long.size:
+        alone = np.rint((stamps[long + 1] - stamps[long]) / step).astype(np.int64) - 1
+        around = np.floor(np.median(np.array(counts), axis=0)).astype(np.int64)
+        missing[long] = np.maximum(np.minimum(alone, around), 0)
+    return missing
+
+
+def _gap_marks(
+    target: np.ndarray, stamps: np.ndarray, missing: np.ndarray, fill_gaps: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(filled, bad, interval)`` of target stamps against a joined file's gaps.
+
+    ``filled``/``bad``: (len(target),) True where a target stamp lies strictly
+    inside an interval of ``stamps`` missing 1 .. ``fill_gaps`` samples, or more
+    (``missing``: :func:`_missing`); ``interval``: the interval of each target.
+    ``stamps`` cover ``target``.
+    """
+    if stamps.size < 2:
+        none = np.zeros(target.shape, dtype=bool)
+        return none, none, np.zeros(target.shape, np.int64)
     right = np.clip(np.searchsorted(stamps, target, side="right"), 1, stamps.size - 1)
     before, after = stamps[right - 1], stamps[right]
-    return (after - before > GAP_STEPS * step) & (before != target) & (after != target)
+    count = missing[right - 1]
+    inside = (count > 0) & (before != target) & (after != target)
+    return inside & (count <= fill_gaps), inside & (count > fill_gaps), right - 1
 
 
-def _gap_warning(path: str, count: int) -> str:
-    return (
-        f"file {path}: {count} time stamp(s) of the first file fall in gaps of its "
-        f"stamps (more than {GAP_STEPS:g} of its steps apart): no value there, "
-        "missing samples for the repair (not a line across the gap)."
-    )
+@dataclass
+class _Gaps:
+    """What the join met in one joined file's gaps (for its warning)."""
+
+    filled: int = 0
+    bad: int = 0
+    intervals: set[int] | None = None
+
+    def add(self, filled: np.ndarray, bad: np.ndarray, interval: np.ndarray) -> None:
+        self.filled += int(filled.sum())
+        self.bad += int(bad.sum())
+        if self.intervals is None:
+            self.intervals = set()
+        self.intervals.update(interval[filled | bad].tolist())
+
+    def warning(self, path: str, stamps: np.ndarray, missing: np.ndarray, fill_gaps):
+        """The sentence naming the gaps, or None without any."""
+        if not self.intervals:
+            return None
+        where = sorted(self.intervals)
+        longest = max(where, key=lambda i: missing[i])
+        return (
+            f"file {path}: {len(where)} gap(s) of its time stamps ("
+            f"{int(missing[where].sum())} of its samples missing; the longest: "
+            f"{int(missing[longest])} between {stamps[longest]:.9g} and "
+            f"{stamps[longest + 1]:.9g}), counted in its own samples: "
+            f"{self.filled} time stamp(s) of the first file in gaps of up to "
+            f"{fill_gaps} samples (--fill-gaps) interpolated linearly (filled), "
+            f"{self.bad} in longer gaps without a value (bad samples, not a line "
+            "across the gap)."
+        )
 
 
 @dataclass(frozen=True)
@@ -104,11 +181,16 @@ class RawTable:
             (common-span) time stamps.
         warnings: what was joined, interpolated or not read, one sentence each.
         extra: names of the columns present in the files and not requested.
+        gap_filled: (N,) bool, the rows inside a gap of a joined file of up to
+            ``fill_gaps`` of its samples (interpolated: filled), or None.
+        gap_bad: (N,) bool, the rows inside a longer gap (NaN: bad), or None.
     """
 
     columns: dict[str, np.ndarray]
     warnings: tuple[str, ...] = ()
     extra: tuple[str, ...] = ()
+    gap_filled: np.ndarray | None = None
+    gap_bad: np.ndarray | None = None
 
 
 def _header(path: str) -> list[str]:
@@ -228,6 +310,7 @@ def read_raw_table(
     paths: str | os.PathLike | Sequence[str | os.PathLike],
     columns: Sequence[str],
     time: str,
+    fill_gaps: int = FILL_GAPS,
 ) -> RawTable:
     """Reads the named columns of one or several CSV files, joined on ``time``.
 
@@ -235,6 +318,8 @@ def read_raw_table(
         paths: one file or several (module docstring, step 2).
         columns: the columns to read (``time`` among them or not).
         time: the name of the time column (raw units, the same in every file).
+        fill_gaps: the longest gap of a joined file, in its own samples, whose
+            first-file stamps keep the join's interpolation (module docstring).
 
     Returns:
         The :class:`RawTable`.
@@ -249,6 +334,9 @@ def read_raw_table(
     files = [os.fspath(p) for p in paths]
     if not files:
         raise ValueError("log: no file given.")
+    Options.checked(
+        f"log {' + '.join(files)}", JITTER_TOLERANCE, False, fill_gaps, None
+    )
     wanted = [name for name in dict.fromkeys([time, *columns])]
     headers, owner = _checked_headers(files, wanted, time)
     warnings: list[str] = []
@@ -277,25 +365,33 @@ def read_raw_table(
             f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
     out = {time: t[keep]}
+    gap_filled = np.zeros(int(keep.sum()), bool)
+    gap_bad = np.zeros(int(keep.sum()), bool)
     for path, other in stamps.items():
         names = [n for n in wanted if n != time and owner[n] == path]
         same = other.shape == t.shape and np.array_equal(other, t)
-        gaps = _in_gaps(t[keep], other, _median_step(other))
+        missing = _missing(other)
+        filled, bad, interval = _gap_marks(t[keep], other, missing, fill_gaps)
         for name in names:
             values = data[name]
             if path == base or same:
                 out[name] = values[keep]
             else:
                 out[name] = np.interp(t[keep], other, values)
-                out[name][gaps] = np.nan
+                out[name][bad] = np.nan
         if path != base and not same and names:
             warnings.append(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
                 f"{t[keep][0]:.9g} .. {t[keep][-1]:.9g} ('{time}')."
             )
-            if gaps.any():
-                warnings.append(_gap_warning(path, int(gaps.sum())))
+            gaps = _Gaps()
+            gaps.add(filled, bad, interval)
+            gap_filled |= filled
+            gap_bad |= bad
+            note = gaps.warning(path, other, missing, fill_gaps)
+            if note:
+                warnings.append(note)
     dropped = int(t.size - keep.sum())
     if dropped:
         warnings.append(
@@ -307,7 +403,7 @@ def read_raw_table(
             name for path in files for name in unused_columns(headers[path], owner)
         )
     )
-    return RawTable(out, tuple(warnings), extra)
+    return RawTable(out, tuple(warnings), extra, gap_filled, gap_bad)
 
 
 def read_raw_log(
@@ -387,13 +483,17 @@ def _read_streamed(
     trailing commas (empty extra cells) are read.
     """
     from drake_dynid.core._threads import release_heap
-    from drake_dynid.log_repair import Options, repair
+    from drake_dynid.log_repair import repair
     from drake_dynid.log_store import RowSink
     from drake_dynid.log_table import LineNumbers
     from drake_dynid.logs import RobotLog
 
     log = chain.log
     time = log.time
+    label = " + ".join(files)
+    options = Options.checked(
+        f"log {label}", jitter_tolerance, resample, fill_gaps, None
+    )
     wanted = list(dict.fromkeys([time, *chain.required_columns()]))
     headers, owner = _checked_headers(files, wanted, time)
     warnings: list[str] = []
@@ -443,8 +543,14 @@ def _read_streamed(
     n = len(chain.joint_names)
     sinks = RowSink(1), RowSink(n), RowSink(n)
     first = float(t[low])
-    steps = {path: _median_step(other) for path, (_, other, _, _) in tables.items()}
-    gapped = dict.fromkeys(tables, 0)
+    missing = {
+        path: _missing(other)
+        for path, (_, other, _, _) in tables.items()
+        if not same[path]
+    }
+    gaps = {path: _Gaps() for path in missing}
+    gap_filled = np.zeros(high - low, bool)
+    gap_bad = np.zeros(high - low, bool)
     for start in range(low, high, _blocks.BLOCK_ROWS):
         stop = min(high, start + _blocks.BLOCK_ROWS)
         here = t[start:stop]
@@ -461,9 +567,13 @@ def _read_streamed(
                 block = np.column_stack(
                     [np.interp(here, other[a:b], column) for column in part.T]
                 )
-                gaps = _in_gaps(here, other[a:b], steps[path])
-                block[gaps] = np.nan
-                gapped[path] += int(gaps.sum())
+                filled, bad, interval = _gap_marks(
+                    here, other, missing[path], fill_gaps
+                )
+                block[bad] = np.nan
+                gaps[path].add(filled, bad, interval)
+                gap_filled[start - low : stop - low] |= filled
+                gap_bad[start - low : stop - low] |= bad
             columns.update(zip(names, block.T, strict=True))
         converted = chain.convert(columns, first_stamp=first)
         for sink, values_ in zip(sinks, converted, strict=True):
@@ -473,15 +583,25 @@ def _read_streamed(
         rows = LineNumbers(rows.first + low, high - low)
     else:
         rows = np.asarray(rows[low:high])
+    for path, found in gaps.items():
+        note = found.warning(path, tables[path][1], missing[path], fill_gaps)
+        if note:
+            warnings.append(note)
     del tables
     q_t, q, tau = (sink.finish(vector=k == 0) for k, sink in enumerate(sinks))
-    warnings += [_gap_warning(path, count) for path, count in gapped.items() if count]
-    label = " + ".join(files)
-    options = Options.checked(
-        f"log {label}", jitter_tolerance, resample, fill_gaps, None
-    )
     notes = warnings + _extra_note(extra) + notes
-    repaired = repair(f"log {label}", "row", q_t, None, q, tau, rows, options, notes)
+    repaired = repair(
+        f"log {label}",
+        "row",
+        q_t,
+        None,
+        q,
+        tau,
+        rows,
+        options,
+        notes,
+        joined=(gap_filled, gap_bad),
+    )
     release_heap()  # the reader's temporaries: not under the next phase's peak
     return RobotLog._named(repaired, tuple(chain.joint_names))
 

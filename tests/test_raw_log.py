@@ -393,11 +393,15 @@ def test_a_gap_of_a_joined_file_is_missing_samples_not_a_line(
     table = read_raw_table(files, chain.required_columns(), "stamp")
     gaps = np.flatnonzero(np.isnan(table.columns["- a_effort"]))
     # Row k of the table is position k + 1 (position 0 is before the efforts):
-    # positions 50..52 and 150..170 lie between effort stamps 20 ms and 210 ms
-    # apart.
-    np.testing.assert_array_equal(gaps, [49, 50, 51, *range(149, 170)])
+    # positions 50..52 lie in the 2-sample gap (filled), 150..170 between effort
+    # stamps 210 ms apart (20 samples: no value).
+    np.testing.assert_array_equal(gaps, list(range(149, 170)))
+    np.testing.assert_array_equal(np.flatnonzero(table.gap_filled), [49, 50, 51])
+    np.testing.assert_array_equal(np.flatnonzero(table.gap_bad), range(149, 170))
     text = " ".join(table.warnings)
-    assert "24 time stamp(s) of the first file fall in gaps" in text
+    assert "2 gap(s) of its time stamps (22 of its samples missing" in text
+    assert "3 time stamp(s) of the first file in gaps of up to 5" in text
+    assert "21 in longer gaps without a value" in text
     monkeypatch.setattr(blocks, "BLOCK_ROWS", 64)  # gaps across block borders
     log = read_raw_log(files, chain)
     tau = np.asarray(log.tau)
@@ -406,4 +410,95 @@ def test_a_gap_of_a_joined_file_is_missing_samples_not_a_line(
     line = np.column_stack([0.3 + t[50:53], -0.2 * t[50:53]]) * [10 * 0.5, -20 * 0.1]
     np.testing.assert_allclose(tau[49:52], line, atol=1e-9)  # linear: exact
     assert np.isfinite(np.asarray(log.q)).all()
-    assert any("24 time stamp(s) of the first file" in w for w in log.warnings)
+    assert any("3 time stamp(s) of the first file" in w for w in log.warnings)
+
+
+def _rate_files(folder, t_positions, t_efforts):
+    """A plain log split in two: positions and efforts on their own stamps [s]."""
+    positions = _write(
+        folder / "pos.csv",
+        ["t", "q_a", "q_b"],
+        [(f"{s:.17g}", f"{np.sin(s):.17g}", f"{np.cos(s):.17g}") for s in t_positions],
+    )
+    efforts = _write(
+        folder / "eff.csv",
+        ["t", "tau_a", "tau_b"],
+        [(f"{s:.17g}", f"{2 * s:.17g}", f"{-s:.17g}") for s in t_efforts],
+    )
+    return [positions, efforts]
+
+
+@pytest.fixture
+def plain_chain():
+    drive = {"log": {"time": "t", "position": "q_{joint}", "torque": "tau_{joint}"}}
+    return DriveChain.from_dict(drive, JOINTS, source="drive file plain.toml")
+
+
+def test_a_gap_of_a_joined_file_is_counted_in_its_own_samples(
+    tmp_path, plain_chain, monkeypatch
+):
+    """Found by a review: one dropped 100 Hz effort joined onto 1 kHz positions
+    left 20 bad samples that --fill-gaps 5 never filled (the gap was counted in
+    the positions' samples). A gap is counted in the samples of the file that
+    misses them: one effort is filled (its 20 position stamps flagged), six are
+    bad samples, and so is a 30-sample gap of 1 kHz efforts under 100 Hz
+    positions although only 4 position stamps fall in it."""
+    from drake_dynid.core import blocks
+
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 300)  # gaps across block borders
+    t = 0.001 * np.arange(3000)
+    efforts = 0.01 * np.arange(300) + 0.0003
+    kept = np.ones(efforts.size, bool)
+    kept[100] = False  # 1 missing: 0.9903 .. 1.0103
+    kept[200:206] = False  # 6 missing: 1.9903 .. 2.0603
+    files = _rate_files(tmp_path, t, efforts[kept])
+    log = read_raw_log(files, plain_chain, fill_gaps=5)
+    tau = np.asarray(log.tau)
+    t0 = 0.001  # the first position stamp inside the efforts' span
+    filled = np.flatnonzero(log.filled)
+    np.testing.assert_allclose(log.t[filled] + t0, 0.001 * np.arange(991, 1011))
+    np.testing.assert_allclose(tau[filled, 0], 2 * (log.t[filled] + t0), atol=1e-12)
+    bad = np.flatnonzero(np.isnan(tau[:, 0]))
+    np.testing.assert_allclose(log.t[bad] + t0, 0.001 * np.arange(1991, 2061))
+    text = " ".join(log.warnings)
+    assert "2 gap(s) of its time stamps (7 of its samples missing" in text
+    assert "20 time stamp(s) of the first file in gaps of up to 5" in text
+    # --fill-gaps 0: no gap filled, every stamp in one is a bad sample.
+    none = read_raw_log(files, plain_chain, fill_gaps=0)
+    assert not none.filled.any() and none.bad_samples.sum() == 20 + 70
+    # The first file slower: 30 efforts missing, 4 position stamps in the gap.
+    fast = 0.001 * np.arange(3000) + 0.0003
+    kept = np.ones(fast.size, bool)
+    kept[1000:1030] = False
+    files = _rate_files(tmp_path, 0.01 * np.arange(300), fast[kept])
+    log = read_raw_log(files, plain_chain, fill_gaps=5)
+    assert not log.filled.any()
+    np.testing.assert_allclose(log.t[log.bad_samples] + 0.01, [1.0, 1.01, 1.02, 1.03])
+    for resample in (False, True):  # --resample keeps them bad as well
+        jittered = 0.01 * np.arange(300)
+        jittered[1::2] += 0.0015 if resample else 0.0
+        files = _rate_files(tmp_path, jittered, fast[kept])
+        log = read_raw_log(files, plain_chain, fill_gaps=5, resample=resample)
+        assert log.bad_samples.sum() == 4 and not log.filled.any(), log.warnings
+
+
+def test_bursty_stamps_of_a_joined_file_are_not_gaps(tmp_path, plain_chain):
+    """Complete but bursty efforts (every 4th message 7.5 ms late, then the next
+    2.5 ms after it; or in pairs 1 ms apart) are no gap: before, 850 of 1990
+    position stamps were bad samples. A dropped message among them still is."""
+    t = 0.001 * np.arange(2000)
+    regular = 0.01 * np.arange(200) + 0.0003
+    late = regular + np.where(np.arange(200) % 4 == 1, 0.0075, 0.0)
+    pairs = regular + np.where(np.arange(200) % 2 == 0, 0.009, 0.0)
+    for efforts in (late, pairs):
+        log = read_raw_log(_rate_files(tmp_path, t, efforts), plain_chain)
+        assert not log.filled.any() and not log.bad_samples.any()
+        assert not any("gap" in w for w in log.warnings), log.warnings
+    kept = np.ones(200, bool)
+    kept[104] = False  # 1 missing: 1.0303 .. 1.0578 (late)
+    log = read_raw_log(_rate_files(tmp_path, t, late[kept]), plain_chain)
+    # Found, filled and said; beside stamps 75 % of a step late, the interval
+    # before the late one may be counted too (ambiguous: 2 gaps of 1 sample).
+    assert not log.bad_samples.any()
+    assert 20 <= log.filled.sum() <= 45, log.warnings
+    assert any("of its samples missing" in w for w in log.warnings)

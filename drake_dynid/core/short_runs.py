@@ -13,14 +13,19 @@ __all__ = ["fill_short_runs"]
 
 
 def fill_short_runs(
-    x: np.ndarray, max_run: int, cubic: bool = False
+    x: np.ndarray,
+    max_run: int,
+    cubic: bool = False,
+    keep: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Interpolates the interior runs of at most ``max_run`` non-finite samples.
 
     Each column of ``x`` (N, n) on a uniform grid is treated alone. A run of missing
     samples with finite neighbours a (before) and b (after) is filled linearly, or
     with the cubic through a - 1, a, b, b + 1 when ``cubic`` and those are finite.
-    Runs at either end, and longer runs, stay non-finite.
+    Runs at either end, longer runs, and runs holding a sample that ``keep`` (N,)
+    marks (a longer gap of a joined file, ``drake_dynid.raw_log``) stay
+    non-finite.
 
     Returns:
         The filled copy of ``x`` and the (N, n) bool mask of the filled entries.
@@ -31,6 +36,7 @@ def fill_short_runs(
         return x, filled
     n = x.shape[0]
     idx = np.arange(n)
+    kept = None if keep is None else np.cumsum(np.asarray(keep, dtype=bool))
     for j in range(x.shape[1]):
         col = x[:, j]
         finite = np.isfinite(col)
@@ -42,6 +48,9 @@ def fill_short_runs(
         a, b = left[p], right[p]
         use = (a >= 0) & (b < n) & (b - a - 1 <= max_run)
         p, a, b = p[use], a[use], b[use]
+        if kept is not None:  # no kept sample in a + 1 .. b - 1
+            free = kept[b - 1] == kept[a]
+            p, a, b = p[free], a[free], b[free]
         if p.size == 0:
             continue
         w = (p - a) / (b - a)
