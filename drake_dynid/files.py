@@ -5,7 +5,9 @@
   overwrites an input" (``commands._paths``) and "a file given twice"
   (``raw_log``, ``fleet``).
 * :func:`write_text_whole`: a text file written whole or not at all (a full disk
-  leaves the previous file, or none, never a truncated one).
+  leaves the previous file, or none, never a truncated one); :func:`write_whole`
+  the same for a file written piece by piece (the CSV outputs: logs, estimates,
+  trajectories), so that a long one is never held in memory as one string.
 """
 
 from __future__ import annotations
@@ -15,11 +17,11 @@ import errno
 import os
 import secrets
 import stat
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
-__all__ = ["repeated_file", "same_file", "write_text_whole"]
+__all__ = ["repeated_file", "same_file", "write_text_whole", "write_whole"]
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
@@ -55,10 +57,21 @@ def repeated_file(
 
 
 def write_text_whole(path: str | os.PathLike, text: str) -> None:
-    """Writes ``text`` (UTF-8) to ``path`` whole or not at all.
+    """Writes ``text`` (UTF-8) to ``path`` whole or not at all (:func:`write_whole`)."""
+    write_whole(path, lambda stream: stream.write(text), newline=None)
 
-    A regular file (or a new one) is written to a temporary file beside it,
-    which then replaces it (``os.replace``, atomic on one file system); a
+
+def write_whole(
+    path: str | os.PathLike,
+    write: Callable[[TextIO], object],
+    *,
+    newline: str | None = "",
+) -> None:
+    """Writes a text file (UTF-8) whole or not at all: ``write(stream)`` fills it.
+
+    ``newline``: as ``open``'s (``""``: the lines as ``write`` ends them). A
+    regular file (or a new one) is written to a temporary file beside it, which
+    then replaces it (``os.replace``, atomic on one file system); a
     symbolic link is followed (its target is replaced, the link kept). The
     file keeps its permissions (a new one gets the umask's). Anything else
     (``/dev/null``, a named pipe), a file in a folder where no other file can
@@ -67,8 +80,14 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
 
     Raises:
         OSError: naming ``path`` (a full disk's error names no file); the
-            temporary file is removed and ``path`` is unchanged.
+            temporary file is removed and ``path`` is unchanged. Any error of
+            ``write`` likewise leaves ``path`` unchanged and is raised as it is.
     """
+
+    def in_place(name: str | os.PathLike) -> None:
+        with open(name, "w", encoding="utf-8", newline=newline) as stream:
+            write(stream)
+
     try:
         try:
             # The path's own stat (links followed): ``/dev/stdout`` of a pipe
@@ -78,7 +97,7 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
             mode = None
         target = Path(os.path.realpath(path))
         if mode is not None and not stat.S_ISREG(mode):
-            Path(path).write_text(text, encoding="utf-8")
+            in_place(path)
             return
         try:
             descriptor, temporary = _open_temporary(target, new=mode is None)
@@ -86,11 +105,13 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
             if mode is None:
                 raise
             # A file one may write in a folder one may not: written in place.
-            target.write_text(text, encoding="utf-8")
+            in_place(target)
             return
         try:
-            with os.fdopen(descriptor, "w", encoding="utf-8") as stream:
-                stream.write(text)
+            with os.fdopen(
+                descriptor, "w", encoding="utf-8", newline=newline
+            ) as stream:
+                write(stream)
             if mode is not None:
                 os.chmod(temporary, stat.S_IMODE(mode))
             try:
@@ -107,7 +128,7 @@ def write_text_whole(path: str | os.PathLike, text: str) -> None:
         # be replaced (EBUSY): written in place, as a plain write did.
         with contextlib.suppress(OSError):
             os.unlink(temporary)
-        target.write_text(text, encoding="utf-8")
+        in_place(target)
     except OSError as error:
         raise OSError(error.errno, error.strerror, str(path)) from None
 

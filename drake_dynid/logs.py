@@ -47,6 +47,7 @@ import numpy as np
 from drake_dynid.core._threads import release_heap
 from drake_dynid.core.blocks import blocks, segment
 from drake_dynid.core.drive_log import TIME_UNITS
+from drake_dynid.files import write_whole
 from drake_dynid.log_repair import (
     FILL_GAPS,
     JITTER_TOLERANCE,
@@ -275,9 +276,12 @@ def write_log(
         )
     header = ["t", *(f"q_{j}" for j in names), *(f"tau_{j}" for j in names)]
     data = np.column_stack([t, q, tau])
-    with open(path, "w", newline="", encoding="utf-8") as stream:
+
+    def write(stream):
         csv.writer(stream, lineterminator="\n").writerow(header)
         np.savetxt(stream, data, delimiter=",", fmt="%.17g")
+
+    write_whole(path, write)  # a full disk leaves no truncated log
 
 
 def read_log(

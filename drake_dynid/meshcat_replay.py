@@ -176,6 +176,7 @@ def replay_in_meshcat(
     written = None
     if html is not None:
         written = os.fspath(html)
-        with open(written, "w", encoding="utf-8") as stream:
-            stream.write(meshcat.StaticHtml())
+        from drake_dynid.files import write_text_whole
+
+        write_text_whole(written, meshcat.StaticHtml())  # no truncated page
     return Replay(meshcat.web_url(), written, frames, tuple(notes), meshcat)

@@ -54,7 +54,7 @@ import numpy as np
 
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
-from drake_dynid.files import repeated_file
+from drake_dynid.files import repeated_file, write_whole
 from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options
 from drake_dynid.log_table import (
     listed_columns,
@@ -685,6 +685,9 @@ def write_raw_log(
     columns = chain.to_columns(t, q, tau)
     names = chain.required_columns()
     data = np.column_stack([columns[name] for name in names])
-    with open(path, "w", newline="", encoding="utf-8") as stream:
+
+    def write(stream):
         csv.writer(stream, lineterminator="\n").writerow(names)
         np.savetxt(stream, data, delimiter=",", fmt="%.17g")
+
+    write_whole(path, write)  # a full disk leaves no truncated log

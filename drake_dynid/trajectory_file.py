@@ -27,7 +27,7 @@ import numpy as np
 
 from drake_dynid.core._validate import real, utf8_text
 from drake_dynid.core.trajectory import FourierTrajectory
-from drake_dynid.files import write_text_whole
+from drake_dynid.files import write_text_whole, write_whole
 
 __all__ = [
     "SampledTrajectory",
@@ -91,9 +91,12 @@ def write_trajectory(path: str | os.PathLike, trajectory: SampledTrajectory) -> 
     names = trajectory.joint_names
     header = ["t"] + [f"{kind}_{j}" for kind in ("q", "v", "a") for j in names]
     data = np.column_stack([trajectory.t, trajectory.q, trajectory.v, trajectory.a])
-    with open(path, "w", newline="") as stream:
+
+    def write(stream):
         stream.write(",".join(header) + "\n")
         np.savetxt(stream, data, delimiter=",", fmt="%.17g")
+
+    write_whole(path, write)  # a full disk leaves no truncated file
 
 
 def read_trajectory(

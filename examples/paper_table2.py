@@ -33,6 +33,7 @@ from drake_dynid.diagrams import (
     SimulationSettings,
     simulate_identification,
 )
+from drake_dynid.files import write_text_whole, write_whole
 from drake_dynid.logs import RobotLog
 from drake_dynid.offline import identify_offline
 from drake_dynid.paper import (
@@ -170,13 +171,15 @@ def main(argv=None) -> int:
             f"mean |error| {label}: inertial {np.mean(np.abs(errors[:4])):.2f} %, "
             f"friction {np.mean(np.abs(errors[4:])):.2f} %"
         )
-    with open(os.path.join(args.out, "table2.md"), "w") as stream:
-        stream.write(table + "\n")
-    with open(os.path.join(args.out, "table2.csv"), "w", newline="") as stream:
+    write_text_whole(os.path.join(args.out, "table2.md"), table + "\n")
+
+    def write_csv(stream):
         writer = csv.writer(stream)
         writer.writerow(["column", *BASE_NAMES])
         for label, values in columns:
             writer.writerow([label, *(f"{v:.6g}" for v in values)])
+
+    write_whole(os.path.join(args.out, "table2.csv"), write_csv)
     _plot(result, robot, os.path.join(args.out, "table2_estimates.png"))
     print(f"wrote {args.out}/table2.md, table2.csv, table2_estimates.png")
     return 0

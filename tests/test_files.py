@@ -156,3 +156,82 @@ def test_a_symbolic_link_loop_is_an_os_error(tmp_path, monkeypatch):
     )
     with pytest.raises(OSError, match=r"loop\.json"):
         write_text_whole("loop.json", "x")
+
+
+def _csv_writers():
+    """Every CSV writer of the package, each writing one small file."""
+    import numpy as np
+
+    from drake_dynid.commands._report import write_estimates_csv
+    from drake_dynid.core.drive import DriveChain
+    from drake_dynid.logs import write_log
+    from drake_dynid.raw_log import write_raw_log
+    from drake_dynid.trajectory_file import SampledTrajectory, write_trajectory
+
+    t = 0.01 * np.arange(5)
+    x = np.column_stack([t, 2 * t])
+    drive = {"log": {"time": "t", "position": "q_{joint}", "torque": "tau_{joint}"}}
+    chain = DriveChain.from_dict(drive, ("a", "b"), source="test")
+    path = SampledTrajectory(t, x, x, x, ("a", "b"))
+    return {
+        "write_log": lambda p: write_log(p, t, x, x, ("a", "b")),
+        "write_raw_log": lambda p: write_raw_log(p, chain, t, x, x),
+        "write_trajectory": lambda p: write_trajectory(p, path),
+        "write_estimates_csv": lambda p: write_estimates_csv(
+            p, t, np.ones(5), x, ["A", "B"], x
+        ),
+    }
+
+
+@pytest.mark.parametrize("name", sorted(_csv_writers()))
+def test_a_csv_output_is_written_whole(tmp_path, monkeypatch, name):
+    """A review: the JSON and URDF outputs were written whole, the CSV outputs
+    (logs of dynid simulate, --out estimates, trajectories) in place, so a
+    failure mid-write left a truncated file. A write that fails before the end
+    (a full disk) or at the replace leaves the previous file and no temporary."""
+    import numpy as np
+
+    write = _csv_writers()[name]
+    path = tmp_path / "out.csv"
+    path.write_text("previous")
+    calls = []
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(files.os, "replace", full)
+    with pytest.raises(OSError, match="No space left on device"):
+        write(path)
+    assert path.read_text() == "previous"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    monkeypatch.undo()
+    write(path)
+    whole = path.read_text()
+    assert whole.count("\n") == 6 and whole != "previous"
+    # Cut short: the stream fails after its first line (savetxt, csv rows).
+    real = np.savetxt
+
+    def cut(stream, *args, **kwargs):
+        calls.append(1)
+        stream.write("0.0,")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    import csv
+
+    class Cut:
+        def __init__(self, stream, *args, **kwargs):
+            self.stream, self.rows = stream, 0
+
+        def writerow(self, row):
+            self.rows += 1
+            if self.rows > 2:
+                cut(self.stream)
+            self.stream.write(",".join(map(str, row)) + "\n")
+
+    monkeypatch.setattr(np, "savetxt", cut)
+    monkeypatch.setattr(csv, "writer", Cut)
+    with pytest.raises(OSError, match="No space left on device"):
+        write(path)
+    assert calls and path.read_text() == whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
+    monkeypatch.setattr(np, "savetxt", real)

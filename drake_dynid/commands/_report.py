@@ -409,7 +409,9 @@ def write_estimates_csv(
     is_valid = np.asarray(valid, dtype=float) > 0.5
     first = int(np.argmax(is_valid)) if is_valid.any() else len(is_valid)
     columns = len(names) * (1 if std is None else 2)
-    with open(path, "w", newline="") as stream:
+    from drake_dynid.files import write_whole
+
+    def write(stream):
         writer = csv.writer(stream)
         stds = [] if std is None else [f"std_{name}" for name in names]
         writer.writerow(["t", "valid", *names, *stds])
@@ -432,3 +434,5 @@ def write_estimates_csv(
                         *([""] * (columns - len(values))),
                     ]
                 )
+
+    write_whole(path, write)  # a full disk leaves no truncated file
