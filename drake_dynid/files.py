@@ -21,7 +21,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ["repeated_file", "same_file", "write_text_whole", "write_whole"]
+__all__ = [
+    "file_key",
+    "repeated_file",
+    "same_file",
+    "write_text_whole",
+    "write_whole",
+]
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
@@ -45,15 +51,25 @@ def repeated_file(
     seen: dict[tuple[Any, ...], str] = {}
     for path in paths:
         name = os.fspath(path)
-        try:
-            found = os.stat(name)
-            key: tuple[Any, ...] = ("file", found.st_dev, found.st_ino)
-        except OSError:  # realpath, not Path.resolve: a link loop is a path
-            key = ("path", os.path.realpath(name))
+        key = file_key(name)
         if key in seen:
             return seen[key], name
         seen[key] = name
     return None
+
+
+def file_key(path: str | os.PathLike) -> tuple[Any, ...]:
+    """The key of :func:`same_file`: two paths name one file iff their keys are equal.
+
+    Its device and inode where it exists, else its resolved absolute path (one
+    ``stat``): a dictionary of keys finds the same file among many in linear time.
+    """
+    name = os.fspath(path)
+    try:
+        found = os.stat(name)
+        return ("file", found.st_dev, found.st_ino)
+    except OSError:  # realpath, not Path.resolve: a link loop is a path
+        return ("path", os.path.realpath(name))
 
 
 def write_text_whole(path: str | os.PathLike, text: str) -> None:

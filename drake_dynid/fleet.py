@@ -177,6 +177,8 @@ def run_one(
         ``{"log", "json", "status" ("ok", "bad input" or "internal error"),
         "message", "seconds", "valid", "condition_number", "model", "stderr"}``,
         ``stderr`` the lines the command printed on stderr (notes, warnings).
+        :func:`run_fleet` sets a failed log's ``json`` to None unless the run
+        wrote it, and names an earlier run's file there in ``stale_json``.
     """
     configure_process()  # a Dask worker may not have been started by dynid
     start = time.perf_counter()
@@ -258,6 +260,7 @@ def run_fleet(
         )
     paths = output_paths(logs, out_dir)
     Path(out_dir).mkdir(parents=True, exist_ok=True)
+    before = {path: _signature(path) for path in paths}  # an earlier run's JSON
     local = min(jobs or available_cpus(), len(logs))
     options = task_options(
         command, options, parallel=scheduler is not None or local > 1
@@ -281,7 +284,37 @@ def run_fleet(
         _run_local(tasks, local, done)
     items = [item for item in results if item is not None]
     _hint_split_recordings(command, items)
+    for item in items:
+        _name_stale_json(item, before)
     return items
+
+
+def _signature(path: str) -> tuple[int, int, int] | None:
+    """(inode, size, modification time [ns]) of a file, None if there is none."""
+    try:
+        found = os.stat(path)
+    except OSError:
+        return None
+    return found.st_ino, found.st_size, found.st_mtime_ns
+
+
+def _name_stale_json(
+    item: dict[str, Any], before: dict[str, tuple[int, int, int] | None]
+) -> None:
+    """A failed log's ``json`` is None unless this run wrote it.
+
+    The file at its path, left by an earlier run and not replaced by this one,
+    is named in ``stale_json`` (kept: nothing is lost, but never presented as
+    this run's result beside a summary that says the log failed).
+    """
+    if item["status"] == "ok":
+        return
+    path = item["json"]
+    now = _signature(path)
+    if now is None or now == before.get(path):
+        item["json"] = None
+    if now is not None and now == before.get(path):
+        item["stale_json"] = path
 
 
 def _hint_split_recordings(command: str, items: list[dict[str, Any]]) -> None:

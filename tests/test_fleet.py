@@ -406,3 +406,62 @@ def test_a_log_given_twice_is_refused(logs, tmp_path, capsys, monkeypatch):
     err = capsys.readouterr().err
     assert f"a log is given twice: {name} and ./{name} are the same file" in err
     assert not out_dir.exists()
+
+
+def test_a_failed_rerun_does_not_present_an_earlier_runs_json(logs, tmp_path, capsys):
+    """Found by a review: a log that failed on a rerun kept the previous run's
+    JSON beside the new summary, which pointed at it as the log's result. The
+    file is kept (nothing is lost) but the summary says it is an earlier run's:
+    ``json`` is null, ``stale_json`` names it; a log that fails without such a
+    file has ``json`` null too."""
+    log = tmp_path / "robot.csv"
+    log.write_text(pathlib.Path(logs[0]).read_text())
+    out_dir = tmp_path / "out"
+    options = ["--urdf", URDF, "--jobs", "1", "--out-dir", str(out_dir)]
+    assert cli.main(["fleet", "offline", str(log), *options, "--quiet"]) == 0
+    earlier = (out_dir / "robot.json").read_text()
+    log.write_text("t,q_joint1\n0,0\n")  # the rerun fails on this log
+    capsys.readouterr()
+    logs_now = [str(log), str(tmp_path / "missing.csv")]
+    assert cli.main(["fleet", "offline", *logs_now, *options]) == 2
+    captured = capsys.readouterr()
+    assert (out_dir / "robot.json").read_text() == earlier  # kept
+    summary = json.loads((out_dir / "summary.json").read_text())
+    assert [item["status"] for item in summary] == ["bad input", "bad input"]
+    assert summary[0]["json"] is None
+    assert summary[0]["stale_json"] == str(out_dir / "robot.json")
+    assert summary[1]["json"] is None and "stale_json" not in summary[1]
+    assert "robot.json is from an earlier run, not this one's result" in captured.out
+    assert "the JSON of 1 failed log(s)" in captured.err
+    assert "is from an earlier run" in captured.err
+
+
+def test_output_checks_are_linear_in_the_number_of_logs(tmp_path, monkeypatch):
+    """A review: check_outputs compared every output with every input and every
+    other output (same_file per pair: n² stat calls for a fleet of n logs). One
+    key a path now; the same answers."""
+    from drake_dynid import files
+    from drake_dynid.commands._paths import check_outputs
+
+    n = 300
+    inputs = {"a log": [str(tmp_path / f"log{k}.csv") for k in range(n)]}
+    for path in inputs["a log"]:
+        pathlib.Path(path).write_text("t\n")
+    outputs = {f"json {k}": str(tmp_path / f"out{k}.json") for k in range(n)}
+    calls = []
+    real = files.os.stat
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(files.os, "stat", counted)
+    check_outputs(outputs, inputs)
+    assert len(calls) <= 10 * n  # a few a path (its folder...), 180000 before
+    monkeypatch.undo()
+    clash = {**outputs, "json last": inputs["a log"][7]}
+    with pytest.raises(ValueError, match=r"json last .*log7.csv is an input"):
+        check_outputs(clash, inputs)
+    twice = {**outputs, "--plot": outputs["json 5"]}
+    with pytest.raises(ValueError, match="json 5 and --plot are the same file"):
+        check_outputs(twice, inputs)

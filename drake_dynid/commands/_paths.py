@@ -18,7 +18,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from drake_dynid.files import same_file
+from drake_dynid.files import file_key
 
 __all__ = ["INPUTS", "OUTPUTS", "check_output_paths", "check_outputs"]
 
@@ -117,14 +117,28 @@ def check_outputs(
             # --urdf-out "" (an unset shell variable) would silently write nothing.
             raise ValueError(f"{option}: the path is empty; give a file path.")
     given = [(name, os.fspath(path)) for name, path in outputs.items() if path]
+    # One key a path (files.file_key), so that a fleet of n logs checks its n
+    # outputs against its n inputs in linear time, not n² same_file calls.
+    sources: dict[tuple[Any, ...], tuple[str, str]] = {}
+    for description, source in named:
+        sources.setdefault(file_key(source), (description, source))
+    seen: dict[tuple[Any, ...], tuple[str, str]] = {}
     for option, path in given:
-        for description, source in named:
-            if same_file(path, source):
-                raise ValueError(
-                    f"{option} {path} is an input of this command ({description} "
-                    f"{source}): an output never overwrites an input; choose another "
-                    "file."
-                )
+        key = file_key(path)
+        if key in sources:
+            description, source = sources[key]
+            raise ValueError(
+                f"{option} {path} is an input of this command ({description} "
+                f"{source}): an output never overwrites an input; choose another "
+                "file."
+            )
+        if key in seen:
+            first, first_path = seen[key]
+            raise ValueError(
+                f"{first} and {option} are the same file {first_path}; give each "
+                "output its own file."
+            )
+        seen[key] = (option, path)
         if Path(path).is_dir():
             raise ValueError(f"{option} {path} is a directory; give a file path.")
         _check_parent(option, path)
@@ -139,13 +153,6 @@ def check_outputs(
                 f"{', '.join(sorted(FIGURE_SUFFIXES))} (matplotlib's formats); got "
                 f"{Path(path).suffix or 'no extension'}."
             )
-    for i, (option, path) in enumerate(given):
-        for other, other_path in given[i + 1 :]:
-            if same_file(path, other_path):
-                raise ValueError(
-                    f"{option} and {other} are the same file {path}; give each "
-                    "output its own file."
-                )
 
 
 def check_output_paths(

@@ -112,6 +112,10 @@ def summary_table(items: list[dict[str, Any]]) -> list[str]:
         valid = "" if item.get("valid") is None else str(bool(item["valid"])).lower()
         result = item["json"] if item["status"] == "ok" else item["message"]
         result = result.strip().splitlines()[-1] if result.strip() else ""
+        if item.get("stale_json"):
+            result += (
+                f" ({item['stale_json']} is from an earlier run, not this one's result)"
+            )
         lines.append(
             f"| {item['log']} | {item['status']} | {valid} | {cond} | "
             f"{item['seconds']:.2f} | {result} |"
@@ -205,6 +209,14 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         print(f"wrote {summary}")
     failed = [item for item in items if item["status"] != "ok"]
+    stale = [item["stale_json"] for item in failed if item.get("stale_json")]
+    if stale:
+        print(
+            f"dynid fleet: note: the JSON of {len(stale)} failed log(s) in "
+            f"{args.out_dir} is from an earlier run, not this run's result (first: "
+            f"{stale[0]}; summary.json: stale_json).",
+            file=sys.stderr,
+        )
     bugs = [item for item in items if item["status"] == "internal error"]
     if bugs:  # a bug exits 1 (docs/CONVENTIONS.md), its traceback printed above
         print(
