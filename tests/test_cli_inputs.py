@@ -138,6 +138,39 @@ def test_replay_shows_a_log_of_positions_only(tmp_path, capsys):
     assert (tmp_path / "q.html").stat().st_size > 0
 
 
+def test_replay_with_a_drive_file_or_several_files_needs_no_effort(tmp_path, capsys):
+    """Found by a review: dynid replay --drive (and a plain log split over two
+    files) refused a log without its effort columns, which replay never shows;
+    the positions are read (no torque warning), and a log with its efforts is
+    read as before."""
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    robot, t, q, tau = fourier_2r(2001)
+    write_log(tmp_path / "full.csv", t, q, tau, robot.joint_names)
+    lines = (tmp_path / "full.csv").read_text().splitlines()
+    (tmp_path / "q.csv").write_text(
+        "\n".join(",".join(line.split(",")[:3]) for line in lines) + "\n"
+    )
+    (tmp_path / "tau1.csv").write_text(  # one effort column of two
+        "\n".join(",".join(line.split(",")[::3]) for line in lines) + "\n"
+    )
+    drive = tmp_path / "drive.toml"
+    drive.write_text('[log]\ntime = "t"\nposition = "q_{joint}"\n')
+    urdf = model_path("planar_2r")
+    for logs in (["q.csv", "--drive", str(drive)], ["q.csv", "tau1.csv"]):
+        files = [str(tmp_path / x) if x.endswith(".csv") else x for x in logs]
+        html = ["--html", str(tmp_path / "r.html"), "--fps", "4"]
+        assert cli.main(["replay", urdf, *files, *html]) == 0
+        captured = capsys.readouterr()
+        assert "2001 samples over 2 s" in captured.out, captured.err
+        assert "never change" not in captured.err  # no torque was read
+    argv = ["replay", urdf, str(tmp_path / "full.csv"), "--drive", str(drive)]
+    assert cli.main([*argv, "--html", str(tmp_path / "f.html"), "--fps", "4"]) == 0
+    assert "not used" not in capsys.readouterr().err
+
+
 def test_replay_reads_a_log_stamped_in_ms_with_time_unit(tmp_path, capsys):
     """``dynid replay --time-unit`` (a review: the identification commands had it,
     replay showed an ms log 1000 times too slow, with the long-step warning)."""

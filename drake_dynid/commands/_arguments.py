@@ -436,6 +436,7 @@ def read_robot_log(
     command: str,
     fill_gaps: int | None = None,
     time_unit: str | None = None,
+    torques_optional: bool = False,
 ) -> Any:
     """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
@@ -444,6 +445,8 @@ def read_robot_log(
     by the robot's drive chain (``drake_dynid.raw_log``; an identity chain
     without ``--drive``). ``fill_gaps``: ``--fill-gaps`` (None: the reader's
     default); ``time_unit``: ``--time-unit`` (None: the drive file's, else s).
+    ``torques_optional``: files without every torque column are read for their
+    positions (τ = 0, not checked; ``dynid replay``).
     """
     from drake_dynid.log_repair import FILL_GAPS
 
@@ -451,20 +454,52 @@ def read_robot_log(
     chain = robot.drive
     if time_unit is not None:
         chain = _with_time_unit(chain, robot.joint_names, time_unit)
+    torques = not torques_optional or _has_torque_columns(files, chain, robot)
     if chain is None and len(files) == 1:
         from drake_dynid.logs import read_log
 
-        log = read_log(files[0], robot.joint_names, resample=resample, fill_gaps=gaps)
+        log = read_log(
+            files[0],
+            robot.joint_names,
+            resample=resample,
+            fill_gaps=gaps,
+            torques=torques,
+        )
     else:
         from drake_dynid.core.drive import DriveChain
         from drake_dynid.raw_log import read_raw_log
 
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
+        if not torques:
+            chain = chain.positions_only()
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
     check_log_magnitudes(log, files)
-    print_log_warnings(log, files, command, robot)
+    print_log_warnings(log, files, command, robot, torques=torques)
     return log
+
+
+def _has_torque_columns(files: Sequence[str], chain: Any, robot: Any) -> bool:
+    """Every torque column of ``chain`` (None: ``tau_<joint>``) is in a file's header.
+
+    A header that cannot be read counts as having them: the reader names the
+    problem.
+    """
+    from drake_dynid.log_table import read_header
+
+    names = (
+        [f"tau_{name}" for name in robot.joint_names]
+        if chain is None
+        else list(chain.log.torque_columns)
+    )
+    found: set[str] = set()
+    for path in files:
+        try:
+            with open(path, "rb") as stream:
+                found.update(read_header(path, stream))
+        except (OSError, ValueError):
+            return True
+    return all(name in found for name in names)
 
 
 def check_log_magnitudes(log: Any, files: Sequence[str]) -> None:
@@ -699,19 +734,21 @@ def _constant_columns(values: Any) -> list[tuple[int, float]]:
     return [(j, float(low[k])) for k, j in enumerate(columns) if low[k] == high[k]]
 
 
-def constant_channels(log: Any) -> str | None:
+def constant_channels(log: Any, *, torques: bool = True) -> str | None:
     """A warning naming the q and τ columns that never change (None if none).
 
     A joint whose position never changes does not move (a frozen encoder, or a
     joint to ``--lock``): its parameters cannot be identified. A torque that never
     changes (all zeros: not recorded) makes every estimate fit that constant.
-    Finite samples only.
+    Finite samples only; q only without ``torques`` (a log read for its motion).
     """
     names = log.joint_names
+    channels = (("q", log.q), ("tau", log.tau)) if torques else (("q", log.q),)
     found = {
         label: [f"{label}_{names[j]} = {value:g}" for j, value in _constant_columns(x)]
-        for label, x in (("q", log.q), ("tau", log.tau))
+        for label, x in channels
     }
+    found.setdefault("tau", [])
     reasons = []
     if found["q"]:
         reasons.append(
@@ -784,15 +821,21 @@ def outside_limits(log: Any, robot: Any) -> str | None:
 
 
 def print_log_warnings(
-    log: Any, files: Sequence[str], command: str, robot: Any = None
+    log: Any,
+    files: Sequence[str],
+    command: str,
+    robot: Any = None,
+    *,
+    torques: bool = True,
 ) -> None:
     """Each of the reader's warnings as one line on stderr, naming the log.
 
-    Also :func:`constant_channels`'s, and with ``robot`` :func:`locked_motion`'s
-    and :func:`outside_limits`'s.
+    Also :func:`constant_channels`'s (of q only without ``torques``: τ = 0 was
+    not read), and with ``robot`` :func:`locked_motion`'s and
+    :func:`outside_limits`'s.
     """
     label = " + ".join(files)
-    extra = [constant_channels(log)]
+    extra = [constant_channels(log, torques=torques)]
     if robot is not None:
         extra.append(locked_motion(files, robot))
         extra.append(outside_limits(log, robot))

@@ -173,6 +173,7 @@ def run(args: argparse.Namespace) -> int:
             resample=False,
             command="replay",
             time_unit=args.time_unit,
+            torques_optional=True,  # only the positions are shown
         )
         kind = "log"
     q = _held_over_bad_samples(np.asarray(motion.q, dtype=float))

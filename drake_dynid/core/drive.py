@@ -26,6 +26,7 @@ columns to joint space; the motor regressor columns are in
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
@@ -290,6 +291,15 @@ class DriveChain:
         return out
 
     # ------------------------------------------------------------ conversion
+    def positions_only(self) -> DriveChain:
+        """This chain without its torque columns: :meth:`convert` gives τ = 0.
+
+        For what needs the motion only (``dynid replay``): a log without effort
+        columns is read, and its torques are not made up (zeros, never used).
+        """
+        log = dataclasses.replace(self.log, torque_names=(), torque_columns=())
+        return dataclasses.replace(self, log=log)
+
     def required_columns(self) -> tuple[str, ...]:
         """The log columns :meth:`convert` needs: time, positions, torques."""
         log = self.log
@@ -347,6 +357,8 @@ class DriveChain:
         position = (raw_q - log.position_offset) * log.position_scale
         if log.position_side == "motor":
             position = np.linalg.solve(self.coupling, position.T).T
+        if not log.torque_columns:  # positions_only
+            return JointSignals(t, position, np.zeros(position.shape))
         raw_tau = np.column_stack([data[c] for c in log.torque_columns])
         if log.torque_side == "joint":
             tau = raw_tau
