@@ -252,6 +252,27 @@ def test_a_log_too_slow_for_the_jacobi_window_names_the_option(tmp_path, capsys)
     assert "OnlineSettings" not in err and "bank_time_step" not in err, err
 
 
+def test_a_short_jacobi_window_names_the_option_given(tmp_path, capsys):
+    """Found by a review: --jacobi-window 0.01 alone was refused as
+    '--bank-time-step must be <= --jacobi-window/10 ... got 0.002', an option the
+    user never gave. Now it names the option given (and the bank step's default);
+    with both given, or the bank step alone, the conflict is said both ways."""
+    log = _still_log(tmp_path / "log.csv", 1000.0)
+    argv = ["payload", log, "--urdf", URDF, "--quiet"]
+    assert cli.main([*argv, "--jacobi-window", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert "error: --jacobi-window must be >= 10 x --bank-time-step" in err, err
+    assert "got --jacobi-window 0.01 with --bank-time-step's default 0.002" in err
+    assert "lengthen --jacobi-window to at least 0.02 s" in err
+    both = ["--jacobi-window", "0.01", "--bank-time-step", "0.002"]
+    for options in (both, ["--bank-time-step", "0.05"]):
+        assert cli.main([*argv, *options]) == 2
+        err = capsys.readouterr().err
+        assert "error: --bank-time-step must be <= --jacobi-window/10" in err, err
+        assert "lengthen --jacobi-window to at least" in err
+        assert "or shorten --bank-time-step to at most" in err
+
+
 def test_a_params_file_without_a_coulomb_law_gets_the_auto_dead_zone(
     log_file, tmp_path
 ):

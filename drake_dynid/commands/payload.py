@@ -103,7 +103,23 @@ def payload_settings_of(
     if not (isinstance(frequencies, str) and frequencies == "default"):
         values["frequencies"] = frequencies
     merged = {**PAYLOAD_DEFAULTS, **values}
-    check_values(merged, owner=None, names=OPTION_NAMES)
+    try:
+        check_values(merged, owner=None, names=OPTION_NAMES)
+    except ValueError as error:
+        if "bank_time_step" in values or not str(error).startswith(
+            "--bank-time-step must be <="
+        ):
+            raise
+        # --jacobi-window given, the bank step its default: say so in its words.
+        step = PAYLOAD_DEFAULTS["bank_time_step"]
+        raise ValueError(
+            f"--jacobi-window must be >= 10 x --bank-time-step [s] (the bank "
+            "samples the differentiator's low-passed output; a coarser step "
+            f"aliases it); got --jacobi-window {merged['jacobi_window']:g} with "
+            f"--bank-time-step's default {step:g}: lengthen --jacobi-window to at "
+            f"least {10 * step:g} s or give --bank-time-step at most "
+            f"{merged['jacobi_window'] / 10:g} s."
+        ) from None
     return payload_settings(time_step, **values)
 
 

@@ -276,12 +276,14 @@ def check_values(
     _detect_changes(prefix, say("detect_changes"), get("detect_changes", False))
     step = get("bank_time_step")
     if step is not None and step > jacobi_window / 10:
-        _fail(
+        bank, jacobi = say("bank_time_step"), say("jacobi_window")
+        _fail(  # the conflict both ways: either value may be the one given
             prefix,
-            f"{say('bank_time_step')} must be <= {say('jacobi_window')}/10 [s] (the "
-            "bank samples the differentiator's low-passed output; a coarser step "
-            f"aliases it); got {step:g} with {say('jacobi_window')} "
-            f"{jacobi_window:g}.",
+            f"{bank} must be <= {jacobi}/10 [s] (the bank samples the "
+            "differentiator's low-passed output; a coarser step aliases it); got "
+            f"{bank} {step:g} with {jacobi} {jacobi_window:g}: lengthen {jacobi} "
+            f"to at least {10 * step:g} s or shorten {bank} to at most "
+            f"{jacobi_window / 10:g} s.",
         )
     if not jacobi_window < window:
         _fail(
