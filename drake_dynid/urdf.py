@@ -107,11 +107,34 @@ def read_urdf_joint_types(path: str | Path) -> dict[str, str]:
         ValueError: the file is missing or is not XML.
     """
     owner = "read_urdf_joint_types"
-    root = _read_urdf(owner, _check_file(owner, path))
+    return _joint_types(_read_urdf(owner, _check_file(owner, path)))
+
+
+def _joint_types(root: Any) -> dict[str, str]:
     return {
         joint.attrib.get("name", ""): joint.attrib.get("type", "")
         for joint in root.findall("joint")
     }
+
+
+def read_urdf_joints(
+    path: str | Path,
+) -> tuple[dict[str, str], dict[str, tuple[str, float, float]] | None]:
+    """:func:`read_urdf_joint_types` and :func:`read_urdf_mimic` of one parse.
+
+    The mimic table is None when a ``<mimic>`` is malformed (the types are read).
+
+    Raises:
+        ValueError: the file is missing or is not XML.
+    """
+    owner = "read_urdf_joints"
+    file = _check_file(owner, path)
+    root = _read_urdf(owner, file)
+    try:
+        mimic: dict[str, tuple[str, float, float]] | None = _mimic(owner, file, root)
+    except ValueError:
+        mimic = None
+    return _joint_types(root), mimic
 
 
 def read_urdf_friction(path: str | Path) -> dict[str, float]:
@@ -161,7 +184,11 @@ def read_urdf_mimic(path: str | Path) -> dict[str, tuple[str, float, float]]:
     """
     owner = "read_urdf_mimic"
     file = _check_file(owner, path)
-    root = _read_urdf(owner, file)
+    return _mimic(owner, file, _read_urdf(owner, file))
+
+
+def _mimic(owner: str, file: Path, root: Any) -> dict[str, tuple[str, float, float]]:
+    """:func:`read_urdf_mimic` of a parsed URDF."""
     out: dict[str, tuple[str, float, float]] = {}
     for joint in root.iter("joint"):
         mimic = joint.find("mimic")

@@ -677,3 +677,46 @@ def test_the_dead_zone_is_measured_on_the_fitted_part_of_a_split(tmp_path, capsy
         assert cli.main(argv) == 0, capsys.readouterr().err
         widths = json.loads(out.read_text())["settings"]["coulomb_dead_zone"]
         np.testing.assert_allclose(list(widths.values()), expected, rtol=1e-6)
+
+
+def test_a_results_files_joints_and_locks_read_the_urdf_once(monkeypatch):
+    """A review: results_robot parsed the URDF three times (its mimic joints, its
+    joint types, and the types again when the file's joints and locks did not
+    apply); one parse gives both, whatever the path taken."""
+    import argparse
+
+    from drake_dynid import urdf
+    from drake_dynid.commands import _arguments, _results
+
+    parses = []
+    real = urdf.parse_urdf_xml
+
+    def counted(file):
+        parses.append(file)
+        return real(file)
+
+    def robot_from_args(args, command, **options):
+        if "locked" in options:  # the file's joints and locks do not apply
+            raise ValueError("joint 'nope' is not a joint of the URDF.")
+        return "robot"
+
+    monkeypatch.setattr(urdf, "parse_urdf_xml", counted)
+    monkeypatch.setattr(_arguments, "robot_from_args", robot_from_args)
+    args = argparse.Namespace(
+        urdf=model_path("planar_2r"),
+        params="results.json",
+        joints=None,
+        lock=None,
+        friction=None,
+        rotor_inertia=False,
+        coulomb_width=0.0,
+        drive=None,
+    )
+    document = {"settings": {"joints": ["joint1"], "locked": {"nope": 0.5}}}
+    assert _results.results_robot(args, document) == "robot"
+    assert len(parses) == 1
+    parses.clear()
+    document = {"settings": {"joints": ["joint1"], "locked": {"joint2": 0.5}}}
+    with pytest.raises(ValueError, match="do not apply to"):
+        _results.results_robot(args, document)
+    assert len(parses) == 1

@@ -97,6 +97,13 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     """
     from drake_dynid.commands._arguments import robot_from_args
 
+    parsed: list[tuple[dict[str, str], set[str]]] = []
+
+    def urdf_joints() -> tuple[dict[str, str], set[str]]:
+        if not parsed:  # the URDF read once, when needed
+            parsed.append(_urdf_joints(args.urdf))
+        return parsed[0]
+
     joints = _from_results(document, "joints")
     locked = _from_results(document, "locked")
     options: dict[str, Any] = {"friction": _friction(args, document)}
@@ -108,8 +115,7 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         # the URDF fixes is locked already (--urdf-out writes the fit's locked
         # joints as fixed joints at their positions): validating the fit on the
         # URDF it wrote needs no --lock.
-        followers = _mimic_joints(args.urdf)
-        types = _joint_types(args.urdf)
+        types, followers = urdf_joints()
         fixed = {name for name, kind in types.items() if kind == "fixed"}
         options["locked"] = {
             str(k): _number(args, f"locked.{k}", v, "rad or m", signed=True)
@@ -139,7 +145,7 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     options.pop("joints", None)
     options.pop("locked", None)
     robot = robot_from_args(args, "validate", **options)
-    if named and not set(named) - set(_joint_types(args.urdf)):
+    if named and not set(named) - set(urdf_joints()[0]):
         raise ValueError(
             f"results file {args.params}: its joints and locks (settings.joints, "
             f"settings.locked) do not apply to {args.urdf}: {failure} Give "
@@ -202,24 +208,19 @@ def drive_mismatch(document: Mapping[str, Any], robot: Any) -> str | None:
     )
 
 
-def _mimic_joints(urdf: Any) -> set[str]:
-    """The URDF's ``<mimic>`` joints (none when it cannot be read: the load says)."""
-    from drake_dynid.urdf import read_urdf_mimic
+def _urdf_joints(urdf: Any) -> tuple[dict[str, str], set[str]]:
+    """The URDF's ``{joint: type}`` and its ``<mimic>`` joints, of one parse.
+
+    None of either when it cannot be read, no mimic joint when a ``<mimic>`` is
+    malformed: the model's load says why.
+    """
+    from drake_dynid.urdf import read_urdf_joints
 
     try:
-        return set(read_urdf_mimic(urdf))
+        types, mimic = read_urdf_joints(urdf)
     except (OSError, ValueError):
-        return set()
-
-
-def _joint_types(urdf: Any) -> dict[str, str]:
-    """The URDF's ``{joint: type}`` (none when it cannot be read: the load says)."""
-    from drake_dynid.urdf import read_urdf_joint_types
-
-    try:
-        return read_urdf_joint_types(urdf)
-    except (OSError, ValueError):
-        return {}
+        return {}, set()
+    return types, set(mimic or ())
 
 
 def results_sign(
