@@ -225,6 +225,13 @@ def repair(
     def where(i: int) -> str:
         return f"{noun} {labels[i]} (t = {shown[i]:.16g})"
 
+    i = _swapped(t)
+    if i:  # not one corrupted stamp (an outlier, dropped below): unsorted rows
+        raise ValueError(
+            f"{owner}: time stamps are not increasing at {where(i)} after "
+            f"{where(i - 1)}: the two are in the wrong order; sort the log by time."
+        )
+
     grid: TimeGrid | None = None
     try:
         grid = fit_time_grid(
@@ -340,6 +347,32 @@ def _repeated(t) -> int:
         if same.size:  # steps[k] ends at sample start + k (+ 1 in the first block)
             return start + int(same[0]) + (1 if previous is None else 0)
         previous = block[-1]
+    return 0
+
+
+def _swapped(t) -> int:
+    """The first i where samples i - 1 and i are swapped (0: none), by blocks.
+
+    Swapped: t[i] < t[i - 1], and the other way round they are in order among
+    their neighbours (t[i - 2] < t[i], t[i - 1] < t[i + 1] where these exist):
+    unsorted rows, which the drive reader refuses as well (``raw_log``), not one
+    corrupted stamp (``t = 1e6`` or ``-5`` amid good ones: an outlier). Only the
+    steps going back (few) are looked at closely.
+    """
+    n = len(t)
+    for start in range(0, n, BLOCK_ROWS):
+        lo, hi = max(0, start - 2), min(n, start + BLOCK_ROWS + 1)
+        part = np.asarray(t[lo:hi], dtype=float)
+        back = np.flatnonzero(part[1:] < part[:-1]) + 1 + lo  # t[i] < t[i - 1]
+        back = back[(back >= max(start, 1)) & (back < start + BLOCK_ROWS)]
+        if back.size == 0:
+            continue
+        here, before = part[back - lo], part[back - 1 - lo]
+        earlier = np.where(back >= 2, part[np.maximum(back - 2, lo) - lo], -np.inf)
+        later = np.where(back + 1 < n, part[np.minimum(back + 1, hi - 1) - lo], np.inf)
+        found = np.flatnonzero((earlier < here) & (before < later))
+        if found.size:
+            return int(back[found[0]])
     return 0
 
 

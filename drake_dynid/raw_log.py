@@ -649,12 +649,16 @@ def _check_block_stamps(
             f"log {path}: time stamp ('{time}') of row {rows[start + bad[0]]} is "
             "empty or not finite."
         )
-    steps = np.diff(t if previous is None else np.concatenate(([previous], t)))
+    joined = t if previous is None else np.concatenate(([previous], t))
+    steps = np.diff(joined)
     if np.any(steps <= 0.0):
-        i = int(np.flatnonzero(steps <= 0.0)[0]) + (1 if previous is None else 0)
+        k = int(np.flatnonzero(steps <= 0.0)[0])  # joined[k] then joined[k + 1]
+        i = k + (1 if previous is None else 0)
         raise ValueError(
             f"log {path}: time stamps ('{time}') are not increasing at row "
-            f"{rows[start + i]}; sort the file by time and remove duplicated rows."
+            f"{rows[start + i]} (t = {joined[k + 1]:.16g}) after row "
+            f"{rows[start + i - 1]} (t = {joined[k]:.16g}); sort the file by time "
+            "and remove duplicated rows."
         )
 
 

@@ -342,3 +342,37 @@ def test_the_json_log_entry_keeps_the_original_time(tmp_path):
     log = read_log(tmp_path / "e.csv", JOINTS)
     entry = log_document(Namespace(log=str(tmp_path / "e.csv")), log)
     assert entry["time_offset"] == 1.7e9 and entry["duration"] == 2.0
+
+
+@pytest.mark.parametrize("where", [1, 101, 998])
+def test_two_swapped_rows_are_refused_naming_both_as_the_drive_reader_does(
+    tmp_path, monkeypatch, where
+):
+    """A review: a plain log with two rows swapped (time going back) had one of
+    them dropped as an outlier (a real sample thrown away and interpolated),
+    while the drive reader refused the same file. Both refuse it now, naming the
+    two rows (data rows ``where``, ``where + 1`` are file rows + 1); one corrupted
+    stamp amid good ones is still an outlier of the plain reader."""
+    from drake_dynid import log_repair
+    from drake_dynid.core import blocks
+    from drake_dynid.core.drive import DriveChain
+    from drake_dynid.raw_log import read_raw_log
+
+    monkeypatch.setattr(blocks, "BLOCK_ROWS", 100)  # a swap across blocks
+    monkeypatch.setattr(log_repair, "BLOCK_ROWS", 100)
+    t = 1e-3 * np.arange(1000)
+    t[[where, where + 1]] = t[[where + 1, where]]
+    slot_log(tmp_path / "s.csv", t)
+    row = rf"row {where + 3} \(t = {t[where + 1]:g}\) after row {where + 2}"
+    with pytest.raises(ValueError, match=rf"not increasing at {row}.*wrong order"):
+        read_log(tmp_path / "s.csv", JOINTS)
+    chain = DriveChain.from_dict({}, JOINTS, source="identity")
+    with pytest.raises(ValueError, match=rf"not increasing at {row}"):
+        read_raw_log(tmp_path / "s.csv", chain)
+    with pytest.raises(ValueError, match=rf"sample {where + 1} .* after sample"):
+        RobotLog.from_arrays(t, np.zeros((1000, 2)), np.zeros((1000, 2)), JOINTS)
+    t = 1e-3 * np.arange(1000)
+    t[where] = -5.0 if where > 1 else 0.5  # one stamp going back (or far ahead)
+    slot_log(tmp_path / "o.csv", t)
+    log = read_log(tmp_path / "o.csv", JOINTS)
+    assert any("outliers" in w for w in log.warnings), log.warnings
