@@ -191,9 +191,9 @@ def repair(
     t, base, note = _seconds(owner, t, exact)
     warnings += note
     bad = _bad(q, tau) if bad is None else bad
-    if joined is None:
-        joined = np.zeros(len(bad), bool), np.zeros(len(bad), bool)
-    soft, hard = (np.asarray(mask, dtype=bool) for mask in joined)
+    soft = hard = None  # no joined file: no masks (a plain log's memory)
+    if joined is not None:
+        soft, hard = (np.asarray(mask, dtype=bool) for mask in joined)
     index = None  # working sample -> row of q and tau (None: the same row)
     bad_t = np.concatenate(
         [start + np.flatnonzero(~np.isfinite(block)) for start, block in blocks(t)]
@@ -212,7 +212,8 @@ def repair(
         keep = np.isfinite(t)
         index = np.flatnonzero(keep)
         t, shown, labels, bad = t[keep], shown[keep], labels[keep], bad[keep]
-        soft, hard = soft[keep], hard[keep]
+        if soft is not None and hard is not None:
+            soft, hard = soft[keep], hard[keep]
     if t.size < 2:
         raise ValueError(f"{owner}: needs at least 2 samples; got {t.size}.")
     i = _repeated(t)
@@ -267,7 +268,8 @@ def repair(
         index = rows if index is None else index[rows]
         t, shown = np.asarray(t)[kept], np.asarray(shown)[kept]
         labels, bad = labels[kept], bad[kept]
-        soft, hard = soft[kept], hard[kept]
+        if soft is not None and hard is not None:
+            soft, hard = soft[kept], hard[kept]
     jitter = 0.0 if grid is None else grid.jitter
     if options.resample and (grid is None or jitter > REPORTED_JITTER):
         log = _resampled(
@@ -426,7 +428,8 @@ def _bad(q, tau) -> np.ndarray:
 def _placed(grid, samples, options, kept_bad):
     """q, τ on the grid with the short runs filled, a chunk of slots at a time.
 
-    ``kept_bad``: (num_slots,) bool, slots never filled (nor a run holding one).
+    ``kept_bad``: (num_slots,) bool, slots never filled (nor a run holding one),
+    or None.
 
     Slot chunks of :data:`_PLACE_SLOTS` with ``fill_gaps + 2`` slots of margin on
     each side: a run of at most ``fill_gaps`` missing slots and the four nodes
@@ -454,7 +457,10 @@ def _placed(grid, samples, options, kept_bad):
             block = np.full((hi - lo, n), np.nan)
             block[slots[j0:j1] - lo] = _rows_of(values, index, j0, j1)
             block, mask = fill_short_runs(
-                block, options.fill_gaps, cubic=cubic, keep=kept_bad[lo:hi]
+                block,
+                options.fill_gaps,
+                cubic=cubic,
+                keep=None if kept_bad is None else kept_bad[lo:hi],
             )
             sink.append(block[core])
             masks.append(mask[core])
@@ -468,7 +474,8 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joine
 
     ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
     the row of each kept sample (None: the same), and its bad-cell flags;
-    ``joined`` = (filled, kept_bad) of each kept sample (``repair``).
+    ``joined`` = (filled, kept_bad) of each kept sample (``repair``; None each
+    without a joined file).
     """
     total, slots = grid.num_slots, grid.slots
     h = grid.step
@@ -483,13 +490,17 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joine
     soft, hard = joined
     if index is None and total == slots.size and not bad_before.any():
         filled = np.zeros(total, bool)  # every slot read, every cell finite
-        filled[slots[soft]] = True
-        _check_filled(owner, int(filled.sum()), total, "gaps of joined files")
+        if soft is not None:
+            filled[slots[soft]] = True
+            _check_filled(owner, int(filled.sum()), total, "gaps of joined files")
     else:
-        kept_bad = np.zeros(total, bool)
-        kept_bad[slots[hard]] = True
+        kept_bad = None
+        if hard is not None and hard.any():
+            kept_bad = np.zeros(total, bool)
+            kept_bad[slots[hard]] = True
         q, tau, filled, bad_after = _placed(grid, samples, options, kept_bad)
-        filled[slots[soft]] = True
+        if soft is not None:
+            filled[slots[soft]] = True
         _check_filled(
             owner,
             int(filled.sum()),
@@ -538,7 +549,8 @@ def _resampled(
     """
     q, tau, index, bad_before = samples
     soft, hard = joined
-    hard_count = np.cumsum(hard)  # kept-bad working samples up to each one
+    # Kept-bad working samples up to each one (None: no joined file).
+    hard_count = None if hard is None else np.cumsum(hard)
     zero = float(s[0])
     s = s - zero  # precision with epoch stamps
     if grid is not None:
@@ -583,10 +595,13 @@ def _resampled(
             ok = inside & (skipped <= options.fill_gaps)
             ok &= gap <= longest * (1 + 1e-9)
             before, after = a + finite[left], a + finite[right]
-            ok &= hard_count[after] == hard_count[before]
+            if hard_count is not None:
+                ok &= hard_count[after] == hard_count[before]
             out[ok, j] = np.interp(times[ok], xs, values[finite, j])
-            near_filled = soft[before] | soft[after]
-            bridged[c0:c1] |= ok & ((skipped > 0) | (gap > 1.5 * h) | near_filled)
+            bridge = (skipped > 0) | (gap > 1.5 * h)
+            if soft is not None:
+                bridge |= soft[before] | soft[after]
+            bridged[c0:c1] |= ok & bridge
         sinks[0].append(out[:, :n])
         sinks[1].append(out[:, n:])
         bad_after += int(_bad(out[:, :n], out[:, n:]).sum())
