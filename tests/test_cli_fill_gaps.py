@@ -51,3 +51,13 @@ def test_bad_fill_gaps_values_exit_2(holed, capsys, value):
         cli.main(["offline", holed, "--urdf", URDF, "--fill-gaps", value])
     assert stop.value.code == 2
     assert "--fill-gaps" in capsys.readouterr().err
+
+
+def test_the_help_states_how_a_joined_files_gap_is_counted(capsys):
+    """--fill-gaps counts a gap of a joined file in that file's own samples
+    (drake_dynid.raw_log; one dropped 100 Hz effort under 1 kHz positions is one
+    sample, not 20): the option's help says so."""
+    with pytest.raises(SystemExit):
+        cli.main(["offline", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a gap of a file joined onto the first one counts in that file's own" in text

@@ -365,7 +365,8 @@ def add_fill_gaps_argument(parser: argparse.ArgumentParser) -> None:
         default=FILL_GAPS,
         metavar="N",
         help="longest run of missing samples or bad cells interpolated "
-        f"(default {FILL_GAPS}); longer runs are kept as bad samples, which the "
+        f"(default {FILL_GAPS}; a gap of a file joined onto the first one counts "
+        "in that file's own samples); longer runs are kept as bad samples, which the "
         "windows holding them skip. 0: never interpolate (a log with more than 5 "
         "%% of its samples to fill is refused unless this is lowered)",
     )
