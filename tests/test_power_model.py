@@ -47,11 +47,33 @@ def test_too_few_rows_are_refused_before_any_solve(arm2, exact_2r):
     settings = OnlineSettings(model="power", window=20.0, frequencies=[0.0, 1.0])
     with pytest.raises(
         ValueError,
-        match=r"gives 4 independent rows \(2 modulating functions x 1 equation of "
-        r"the power model\) for 8 parameters: no window can identify them; use at "
-        r"least 4 integer ℓ \(frequencies 0:1:3, up to 0.2 Hz .*lagrangian model",
+        match=r"gives 4 independent rows \(2 modulating functions x 2 rows x 1 "
+        r"equation of the power model\) for 8 parameters: no window can identify "
+        r"them; use at least 4 integer ℓ \(frequencies 0:1:3, up to 0.2 Hz .*"
+        r"lagrangian model",
     ):
         replay_log_core(exact_2r, arm2.rows_provider(), [settings])
+
+
+def test_row_count_messages_multiply_out():
+    # The parenthesis's factors multiply to the count it explains, for integer ℓ
+    # and for the paper's grid, whose 201 functions give 23 independent rows (the
+    # message said "201 modulating functions x 1 equation" for 23 rows).
+    paper = OnlineSettings(model="power", window=20.0, frequencies="paper")
+    with pytest.raises(
+        ValueError,
+        match=r"gives 23 independent rows \(201 modulating functions whose "
+        r"neighbouring ℓ repeat each other: 23 independent rows x 1 equation of the "
+        r"power model\) for 57 parameters: no window",
+    ):
+        paper.for_robot(H, 7, 57)
+    with pytest.raises(
+        ValueError,
+        match=r"gives 23 independent rows \(201 modulating functions whose "
+        r"neighbouring ℓ repeat each other: 23 independent rows x 1 equation of the "
+        r"power model\) for 20 parameters; an honest σ needs at least 24",
+    ):
+        paper.for_log(H, 60.0, num_joints=2, num_parameters=20)
 
 
 def test_cli_row_count_message_names_the_options(arm2, exact_2r, tmp_path, capsys):

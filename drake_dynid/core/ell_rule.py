@@ -61,6 +61,7 @@ __all__ = [
     "independent_rows",
     "model_band",
     "resolve_functions",
+    "rows_count",
     "rows_remedy",
     "usable_frequency",
 ]
@@ -120,6 +121,30 @@ def independent_rows(settings: Any) -> int:
     correlation = settings.bank().row_correlation()
     eigenvalues = np.linalg.eigvalsh(correlation)
     return int(np.count_nonzero(eigenvalues > 1e-3 * eigenvalues.max()))
+
+
+def rows_count(settings: Any, independent: int, m: int) -> str:
+    """How ``m·independent`` rows come about, for the row-count messages.
+
+    ``"4 modulating functions x 2 rows x 1 equation of the power model"`` for
+    integer ℓ (two real rows per function and equation); for a set whose
+    neighbours repeat each other (the paper's ℓ = 0:0.05:10) ``"201 modulating
+    functions whose neighbouring ℓ repeat each other: 23 independent rows x 1
+    equation of the power model"``. Each factor multiplies to the count.
+
+    Args:
+        settings: the settings (its ℓ set and model).
+        independent: :func:`independent_rows` of ``settings``.
+        m: equations per sample.
+    """
+    functions = len(settings.ell())
+    parts = (
+        f"{functions} modulating functions x 2 rows"
+        if independent == 2 * functions
+        else f"{functions} modulating functions whose neighbouring ℓ repeat each "
+        f"other: {independent} independent rows"
+    )
+    return f"{parts} x {m} equation{'s' if m > 1 else ''} of the {settings.model} model"
 
 
 def usable_frequency(settings: Any, time_step: float) -> float:
@@ -200,14 +225,14 @@ def for_robot(settings: Any, time_step: float, n: int, p: int) -> Any:
             )
     grid = resolve_functions(grid, time_step, n, p)
     m = grid.num_equations(n)
-    rows = m * independent_rows(grid)
+    independent = independent_rows(grid)
+    rows = m * independent
     if rows < p:
-        functions = len(grid.ell())
         _validate.fail(
             owner,
-            f"the ℓ set gives {rows} independent rows ({functions} modulating "
-            f"functions x {m} equation{'s' if m > 1 else ''} of the {grid.model} "
-            f"model) for {p} parameters: no window can identify them; "
+            f"the ℓ set gives {rows} independent rows "
+            f"({rows_count(grid, independent, m)}) for {p} parameters: no window "
+            "can identify them; "
             + rows_remedy(grid, time_step, float(p), m)
             + (", or use the lagrangian model." if grid.model == "power" else "."),
         )

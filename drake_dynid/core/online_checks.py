@@ -548,7 +548,7 @@ def check_log(
 
 
 def _check_robot(prefix: str, say: Say, grid: Any, h: float, n: int, p: int) -> None:
-    from drake_dynid.core.ell_rule import independent_rows, rows_remedy
+    from drake_dynid.core.ell_rule import independent_rows, rows_count, rows_remedy
     from drake_dynid.core.row_noise import MIN_RESIDUAL_DOF
 
     m = grid.num_equations(n)
@@ -566,18 +566,11 @@ def _check_robot(prefix: str, say: Say, grid: Any, h: float, n: int, p: int) -> 
     needed = p + MIN_RESIDUAL_DOF
     if m * independent < needed:
         which = say("frequencies") if grid.frequencies is not None else say("window")
-        functions = len(grid.ell())
-        parts = (
-            f"{functions} modulating functions x 2 rows"
-            if independent == 2 * functions
-            else f"{functions} modulating functions, {independent} independent "
-            "rows: neighbouring ℓ repeat each other"
-        )
         _fail(
             prefix,
-            f"{which} gives {m * independent} independent rows ({parts} x {m} "
-            f"equation{'s' if m > 1 else ''} of the {grid.model} model) for {p} "
-            f"parameters; an honest σ needs at least {needed:g}: "
+            f"{which} gives {m * independent} independent rows "
+            f"({rows_count(grid, independent, m)}) for {p} parameters; an honest "
+            f"σ needs at least {needed:g}: "
             + rows_remedy(grid, h, needed, m, say)
             + (", or use the lagrangian model." if grid.model == "power" else "."),
         )
