@@ -41,10 +41,12 @@ integral of a reversal at acceleration a, ∫ g b(v(t)) dt ≈ g(t_c)∫b dv/|a|
 removed to first order.
 
 What it does and does not do (benchmarks/bench_accuracy.py, the paper's 2R at SNR
-30 dB): it removes the noise's *mean* effect on the power equations (the mean
-friction error over 200 seeds moves by 1-3 points), but the median error of one
-run is dominated by the noise's *spread* (std over seeds 13-70 % per friction
-parameter), which no bias correction reduces.
+30 dB, 200 seeds; README Accuracy, docs/MATH.md §3): it removes most of the noise's
+*mean* effect on the power equations (the mean squared bias of the columns, in units
+of their Monte-Carlo error, falls from 24-166 to 0.6-2.8), but the median error of
+one run is dominated by the noise's *spread* (frequency weighting: std over seeds
+11.5-56 % per friction parameter against a mean friction error of 5.2 %), which no
+bias correction reduces.
 
 Only the power model's rows are compensated; the Lagrangian rows pass unchanged.
 """
