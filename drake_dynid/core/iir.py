@@ -1,4 +1,4 @@
-"""Butterworth low-pass sections and their filtering in numpy (docs/MATH.md §2).
+"""Butterworth low-pass sections and their filtering in numpy (docs/MATH.md §2, §5).
 
 The standstill dead zone (``core.standstill``) measures the velocity noise of the
 off-line equations with two zero-phase Butterworth low-passes and the automatic

@@ -61,8 +61,10 @@ class FourierTrajectory:
 
     Attributes:
         q0: (n,) position offsets [rad or m].
-        a: (n, H) sine coefficients of the velocity [rad/s].
-        b: (n, H) cosine coefficients of the velocity [rad/s].
+        a: (n, H) coefficients of cos(lω_f t) in the velocity (of sin in the
+            position, divided by lω_f) [rad/s].
+        b: (n, H) coefficients of sin(lω_f t) in the velocity (of -cos in the
+            position, divided by lω_f) [rad/s].
         base_frequency: ω_f [rad/s] (period 2π/ω_f).
     """
 
