@@ -163,6 +163,30 @@ def test_coulomb_power_mean_matches_monte_carlo(law):
     assert np.abs(got - v * law(v)).max() > 0.02  # a bias that matters
 
 
+@pytest.mark.parametrize("rows_from", ["filtered", "raw"])
+def test_velocity_and_position_noise_of_the_rows_are_uncorrelated(rows_from):
+    # docs/MATH.md §3: the compensation adds the biases of v̂ and q̂ separately,
+    # which needs Σ c₀c₁ = 0; it holds for asymmetric taps too (ξ != ½, κ != μ):
+    # the matched c₁ is the derivative of c₀'s kernel, which vanishes at both ends.
+    for settings in (
+        OnlineSettings.for_model("power", rows_from=rows_from),
+        OnlineSettings(
+            model="power", kappa=0.5, mu=2.0, jacobi_q=2, rows_from=rows_from
+        ),
+    ):
+        grid = settings.on_grid(H)
+        if rows_from == "raw":
+            design = grid.raw_design(H)
+            velocity = design.velocity.taps
+            smooth = np.zeros_like(velocity)
+            smooth[(len(velocity) - 1) // 2] = 1.0
+        else:
+            smooth, velocity = (f.taps for f in grid.jacobi_filters(H))
+            assert np.abs(smooth - smooth[::-1]).max() > 0.5 * np.abs(smooth).max()
+        correlation = smooth @ velocity / np.linalg.norm(smooth)
+        assert abs(correlation) < 1e-6 * np.linalg.norm(velocity)
+
+
 def test_energy_bias_is_drakes_mass_matrix_trace():
     # E[h(q, v + e)] - h(q, v) = ½ Σ σ_a² M_aa(q) (kinetic energy quadratic in v)
     # and ½ Σ σ_q,a² ∂²H/∂q_a² for position noise: Drake's mass matrix and energies.

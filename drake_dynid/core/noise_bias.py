@@ -5,8 +5,10 @@ estimated signals: the velocity v̂_j = v_j + e_j with Var e_j = σ_v,j² =
 σ_q,j²·‖c₁‖₂² (c₁ the velocity taps: the matched Jacobi filter's, or the raw rows'
 central estimator's, ``JacobiFilter.noise_gain`` [1/s]) and the position
 q̂_j = q_j + d_j with Var d_j = σ_q̂,j² = σ_q,j²·‖c₀‖₂² (the smoothing taps; raw
-rows: c₀ = 1). Both filters are symmetric about their delay, so e_j and d_j are
-uncorrelated (Σ c₀c₁ ≈ 0), and different joints' noises are independent.
+rows: c₀ = 1). e_j and d_j are uncorrelated, Σ c₀c₁ ≈ 0: the matched bank's c₁ is
+the derivative of c₀'s kernel (c₁∗x = c₀∗ẋ), so Σ c₀c₁ ≈ ½∫ d(c₀²) = 0 (c₀ vanishes
+at both ends; the taps are not symmetric, ξ ≠ ½), and the raw rows' c₁ is
+antisymmetric about c₀'s one sample. Different joints' noises are independent.
 
 The power model's rows are not linear in these signals, so their expectation is
 biased. With the energy h(q, v) = h_U(q) + ½ vᵀM(q)v (in regressor form, per
