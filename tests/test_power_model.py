@@ -17,7 +17,7 @@ import pytest
 from _drake_dynamics import exact_paper_2r
 
 from drake_dynid import cli
-from drake_dynid.core.ell_rule import functions_for_rows
+from drake_dynid.core.ell_rule import functions_for_rows, independent_rows
 from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign, TanhSign
 from drake_dynid.core.noise_bias import coulomb_power_mean, noise_compensated_rows
 from drake_dynid.core.online import OnlineSettings
@@ -74,6 +74,41 @@ def test_row_count_messages_multiply_out():
         r"power model\) for 20 parameters; an honest σ needs at least 24",
     ):
         paper.for_log(H, 60.0, num_joints=2, num_parameters=20)
+
+
+def test_integer_sets_count_every_row_and_accept_the_set_they_are_told_to_use():
+    # 64 parameters (iiwa7 with offsets) need 68 rows: the message asks for 34
+    # integer ℓ, and 34 integer ℓ give 68 exactly independent rows (integer lines
+    # are orthogonal over the window). The numerical rank of their correlation
+    # (smallest eigenvalue ~ L^-2: shared lines) counted 67 and refused the set
+    # with the same advice again.
+    told = OnlineSettings(model="power", window=20.0, frequencies=list(range(20)))
+    with pytest.raises(ValueError, match=r"use at least 34 integer ℓ"):
+        told.for_log(H, 60.0, num_joints=7, num_parameters=64)
+    used = dataclasses.replace(told, frequencies=list(range(34)))
+    assert len(used.for_log(H, 60.0, num_joints=7, num_parameters=64).ell()) == 34
+    for frequencies, order, rows in (
+        (range(116), 1, 232),  # the covariance weighting's set (was 228)
+        (range(100), 2, 200),
+        ([-1, 0, 1], 1, 4),  # g_-1 = -conj(g_0): the same two rows
+        (list(range(-3, 4)), 3, 10),  # ℓ and -ℓ - 3 pair up: 5 distinct
+    ):
+        settings = OnlineSettings(
+            model="power",
+            window=20.0,
+            frequencies=list(frequencies),
+            order=order,
+            jacobi_window=0.05,
+        )
+        assert independent_rows(settings) == rows
+    paper = OnlineSettings(model="power", window=20.0, frequencies="paper")
+    assert independent_rows(paper) == 23  # a fine grid: the numerical rank
+    with pytest.raises(
+        ValueError,
+        match=r"\(3 modulating functions whose ℓ and -ℓ - k give the same rows: 4 "
+        r"independent rows x 1 equation",
+    ):
+        dataclasses.replace(told, frequencies=[-1, 0, 1]).for_robot(H, 2, 8)
 
 
 def test_cli_row_count_message_names_the_options(arm2, exact_2r, tmp_path, capsys):
