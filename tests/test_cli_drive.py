@@ -228,6 +228,27 @@ def test_bad_options_exit_2(files, tmp_path, capsys):
     assert "none.toml: no such file" in error_line(capsys)
 
 
+def test_power_model_noise_options_with_a_drive_name_the_options(files, capsys):
+    # The power rows' noise compensation does not cover the motor columns: a
+    # given --position-noise, or --weighting covariance (which needs it), is
+    # refused with the options to change (it was core.noise_bias's own message,
+    # "NoiseCompensatedRows: rows must be a provider ...").
+    _, raw, drive = files
+    base = ["identify", *raw, "--urdf", URDF, "--drive", str(drive)]
+    base += ["--model", "power"]
+    assert cli.main([*base, "--position-noise", "0.001"]) == 2
+    error = error_line(capsys)
+    assert "--position-noise compensates the noise bias of the power rows' joint" in (
+        error
+    )
+    assert "use --position-noise none" in error
+    assert cli.main([*base, "--weighting", "covariance"]) == 2
+    error = error_line(capsys)
+    assert "--weighting covariance needs --position-noise" in error
+    assert "use --weighting frequency" in error
+    assert "NoiseCompensatedRows" not in error
+
+
 def test_excite_designs_for_the_motor_columns(files, tmp_path, capsys):
     _, _, drive = files
     limits = tmp_path / "limits.json"

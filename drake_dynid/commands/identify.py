@@ -260,7 +260,36 @@ def online_settings(
             owner=None,
             names=OPTION_NAMES,
         )
+    _check_drive_noise(settings, robot)
     return settings
+
+
+def _check_drive_noise(settings: Any, robot: Any) -> None:
+    """Refuses a position noise for the power rows of a robot with a drive.
+
+    The noise-bias compensation (``core.noise_bias``) covers the joint friction
+    columns, not a drive's motor columns; the library's own message names its
+    classes, this one the options.
+    """
+    if (
+        getattr(robot, "drive", None) is None
+        or settings.model != "power"
+        or settings.position_noise is None
+    ):
+        return
+    if settings.weighting == "covariance":
+        raise ValueError(
+            "--weighting covariance needs --position-noise, whose noise-bias "
+            "compensation of the power rows covers the joints' friction columns, "
+            "not the motor columns of --drive: use --weighting frequency (the power "
+            "model's default with --drive)."
+        )
+    raise ValueError(
+        "--position-noise compensates the noise bias of the power rows' joint "
+        "friction columns, not the motor columns of --drive; got "
+        f"{settings.position_noise!r}: use --position-noise none (the default "
+        "'auto' skips it with --drive)."
+    )
 
 
 def _longest_run(log: Any, minimum: int, what: str, override: str) -> Any:
