@@ -17,7 +17,11 @@ import pytest
 from _drake_dynamics import exact_paper_2r
 
 from drake_dynid import cli
-from drake_dynid.core.ell_rule import functions_for_rows, independent_rows
+from drake_dynid.core.ell_rule import (
+    functions_for_rows,
+    independent_rows,
+    usable_frequency,
+)
 from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign, TanhSign
 from drake_dynid.core.noise_bias import coulomb_power_mean, noise_compensated_rows
 from drake_dynid.core.online import OnlineSettings
@@ -164,7 +168,8 @@ def test_default_set_scales_with_the_parameters_within_the_pass_band():
     power = OnlineSettings.for_model("power", window=20.0, bandwidth=0.52)
     grid = power.for_robot(H, 7, 57)
     assert grid.min_functions == 61 and len(grid.ell()) == 61
-    assert (len(grid.ell()) - 1 + grid.order) / grid.window <= 3.9  # pass band
+    top = (len(grid.ell()) - 1 + grid.order) / grid.window
+    assert top == pytest.approx(3.05) and top <= usable_frequency(grid, H)  # 5.8 Hz
     lagrangian = OnlineSettings.for_model("lagrangian", window=20.0, bandwidth=0.52)
     assert len(lagrangian.for_robot(H, 7, 57).ell()) == 10
     # The power set covers twice the band (its rows are products of velocities).
