@@ -173,6 +173,7 @@ def add_bank_front(
                 settings.model,
                 settings.raw_design(time_step),
                 differentiator.history_length,
+                time_step=differentiator.time_step,
             )
         )
         builder.Connect(

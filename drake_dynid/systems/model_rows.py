@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -153,6 +154,13 @@ class RawModelRows(LeafSystem):
 
     Direct feedthrough from ``history``, no state; evaluated when the bank reads
     it (once per bank step: one batch of D rows). Double only.
+
+    The ``history`` port carries no time: its samples must be ``design.time_step``
+    apart, so the block is told the period of the differentiator that feeds it
+    (``time_step``) and refuses another one (the velocity taps are in 1/s: a
+    differentiator sampling every 0.5 ms read with a 1 ms design halved v'). The
+    bank reading ``channels`` must update every ``design.block`` samples (its
+    ``time_step`` is D·h), as ``diagrams.add_bank_front`` wires it.
     """
 
     def __init__(
@@ -161,6 +169,8 @@ class RawModelRows(LeafSystem):
         kind: str,
         design: RawRowsDesign,
         history_length: int,
+        *,
+        time_step: float,
     ):
         """Builds the block.
 
@@ -169,7 +179,9 @@ class RawModelRows(LeafSystem):
             kind: ``"power"`` or ``"lagrangian"``.
             design: the raw-rows design (``OnlineSettings.raw_design``).
             history_length: H, samples of the ``history`` input (the
-                differentiator's ring length), >= ``design.history``.
+                differentiator's ``history_length``), >= ``design.history``.
+            time_step: h, the period of the ``history``'s samples [s] (the
+                differentiator's ``time_step``); must be ``design.time_step``.
         """
         super().__init__()
         owner = "RawModelRows"
@@ -179,6 +191,15 @@ class RawModelRows(LeafSystem):
             raise TypeError(
                 f"{owner}: design must be a core.raw_rows.RawRowsDesign; got "
                 f"{type(design).__name__}."
+            )
+        h = _validate.positive(owner, "time_step", time_step, "s")
+        if not math.isclose(h, design.time_step, rel_tol=1e-9):
+            _validate.fail(
+                owner,
+                f"time_step must be the design's signal period {design.time_step:g} "
+                f"s (the history's samples are the differentiator's); got {h:g} s: "
+                "build the design on the differentiator's grid "
+                "(settings.raw_design(differentiator.time_step)).",
             )
         length = _validate.integer(owner, "history_length", history_length, 1)
         if length < design.history:
@@ -211,6 +232,11 @@ class RawModelRows(LeafSystem):
     def num_parameters(self) -> int:
         """p, base parameters."""
         return self._p
+
+    @property
+    def time_step(self) -> float:
+        """h, the period of the ``history``'s samples [s] (the design's)."""
+        return self._design.time_step
 
     @property
     def design(self) -> RawRowsDesign:

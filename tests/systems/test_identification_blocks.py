@@ -394,3 +394,38 @@ def test_a_window_that_can_never_be_solved_is_refused(rows):
     for block in (SlidingQRIdentifier, PayloadIdentifier):
         with pytest.raises(ValueError, match="num_rows must exceed num_parameters"):
             block(3, rows, 0.1)
+
+
+def test_raw_model_rows_is_told_its_differentiator_s_period():
+    """Found by a review: RawModelRows was not told the period of the ring it
+    reads, so a 2 kHz differentiator's history read with a 1 ms design built
+    and gave v' = 0.47 for q̇ = 0.94 (the taps are in 1/s). Its ``time_step``
+    (the differentiator's) must now be the design's."""
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.core.raw_rows import raw_channels
+    from drake_dynid.systems.identification import RawModelRows
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+
+    rows = Planar2RRows(L1=1.0)
+    settings = OnlineSettings.for_model("lagrangian", rows_from="raw")
+    design = settings.on_grid(1e-3).raw_design(1e-3)
+    fast = CausalJacobiDifferentiator(
+        4, 5e-4, **settings.on_grid(5e-4).jacobi_parameters()
+    )
+    assert fast.history_length >= design.history  # long enough: it used to build
+    with pytest.raises(ValueError, match="time_step must be the design's signal"):
+        RawModelRows(
+            rows, "lagrangian", design, fast.history_length, time_step=fast.time_step
+        )
+    with pytest.raises(ValueError, match="time_step must be finite"):
+        RawModelRows(rows, "lagrangian", design, 401, time_step=float("nan"))
+    # On the design's grid: the core's raw channels of the ring it reads.
+    block = RawModelRows(rows, "lagrangian", design, 401, time_step=1e-3)
+    assert block.time_step == 1e-3
+    history = np.random.default_rng(3).normal(size=(401, 4))
+    context = block.CreateDefaultContext()
+    block.get_input_port_history().FixValue(context, history.ravel())
+    np.testing.assert_array_equal(
+        block.get_output_port_channels().Eval(context),
+        raw_channels(design, rows, "lagrangian", history),
+    )
