@@ -398,9 +398,22 @@ def add_online_identifiers(
 
     Entries with the same Jacobi settings share one differentiator.
     """
+    if isinstance(settings, OnlineSettings):
+        raise TypeError(
+            "add_online_identifiers: settings must be a sequence of OnlineSettings "
+            "(one per identifier); got one OnlineSettings: pass [settings] (or "
+            "call add_online_identifier)."
+        )
     chains: list[IdentifierChain] = []
     shared: dict[tuple, Any] = {}
-    for entry in settings:
+    for index, entry in enumerate(settings):
+        check.instance(
+            "add_online_identifiers",
+            f"settings[{index}]",
+            entry,
+            OnlineSettings,
+            "an OnlineSettings",
+        )
         key = tuple(entry.on_grid(time_step).jacobi_parameters().values())
         chain = add_online_identifier(
             builder, rows, measurement, time_step, entry, differentiator=shared.get(key)
@@ -411,8 +424,12 @@ def add_online_identifiers(
 
 
 def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> OnlineTrace:
-    """The estimates a chain's loggers recorded, as an :class:`OnlineTrace`."""
-    logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
+    """The estimates a chain's loggers recorded, as an :class:`OnlineTrace`.
+
+    Raises:
+        ValueError: the chain has no loggers (built with ``log=False``).
+    """
+    logs = chain_logs("chain_trace", chain, context, _LOGGED)
     # Latency: a solve at u·U·h + 3h/4 uses the samples up to u·U·h, whose estimates
     # refer to u·U·h - (differentiator delay, or the raw rows' delay).
     delay = chain.settings.delay(time_step) + SOLVE_OFFSET * time_step
@@ -429,6 +446,26 @@ def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> Onlin
         unidentified=logs["unidentified"].data().T.copy(),
         **_change_fields(logs),
     )
+
+
+def chain_logs(
+    owner: str, chain: IdentifierChain, context: Any, ports: Sequence[str]
+) -> dict[str, Any]:
+    """The ``VectorLog`` of every logger of ``chain`` in ``context``.
+
+    Raises:
+        ValueError: a port of ``ports`` has no logger (the chain was built with
+            ``log=False``: read its identifier's output ports instead).
+    """
+    missing = [port for port in ports if port not in chain.logs]
+    if missing:
+        check.fail(
+            owner,
+            f"the chain has no logger of {', '.join(missing)} (built with "
+            "log=False?); read chain.identifier's output ports instead, or build "
+            "it with log=True.",
+        )
+    return {name: sink.FindLog(context) for name, sink in chain.logs.items()}
 
 
 def _change_fields(logs: dict[str, Any]) -> dict[str, np.ndarray]:

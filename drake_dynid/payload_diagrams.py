@@ -30,7 +30,13 @@ from drake_dynid.core.payload_step import (
     check_payload_weighting,
     payload_jackknife_groups,
 )
-from drake_dynid.diagrams import IdentifierChain, add_bank_front, advance, log_source
+from drake_dynid.diagrams import (
+    IdentifierChain,
+    add_bank_front,
+    advance,
+    chain_logs,
+    log_source,
+)
 
 __all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
 
@@ -132,8 +138,12 @@ def add_payload_identifier(
 def payload_chain_trace(
     chain: IdentifierChain, context: Any, time_step: float
 ) -> PayloadTrace:
-    """The estimates a payload chain's loggers recorded, as a ``PayloadTrace``."""
-    logs = {name: sink.FindLog(context) for name, sink in chain.logs.items()}
+    """The estimates a payload chain's loggers recorded, as a ``PayloadTrace``.
+
+    Raises:
+        ValueError: the chain has no loggers (built with ``log=False``).
+    """
+    logs = chain_logs("payload_chain_trace", chain, context, _LOGGED)
     p = len(chain.names)
     correlation = logs["correlation"].data().T.reshape(-1, p, p).copy()
     return PayloadTrace(

@@ -332,3 +332,45 @@ def test_bank_step_must_follow_the_differentiator_low_pass():
         OnlineSettings(jacobi_window=0.05, bank_time_step=0.02)
     default = OnlineSettings().on_grid(1e-3)
     assert default.bank_time_step <= default.jacobi_window / 10
+
+
+def test_chain_builders_name_what_is_wrong(robot):
+    """Found by a review: ``chain_trace`` of a chain built with ``log=False`` was a
+    bare KeyError 'theta'; ``add_online_identifiers`` given one OnlineSettings
+    (not a list) or a list holding something else raised a TypeError or an
+    AttributeError about iteration and ``on_grid``."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.core.payload import payload_rows
+    from drake_dynid.core.payload_step import payload_settings
+    from drake_dynid.diagrams import (
+        add_online_identifier,
+        add_online_identifiers,
+        chain_trace,
+    )
+    from drake_dynid.payload_diagrams import (
+        add_payload_identifier,
+        payload_chain_trace,
+    )
+
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+    rows = robot.rows_provider()
+    port = source.get_output_port()
+    chain = add_online_identifier(builder, rows, port, 1e-3, SETTINGS[0], log=False)
+    payload = add_payload_identifier(
+        builder, payload_rows(robot), port, 1e-3, payload_settings(), log=False
+    )
+    with pytest.raises(TypeError, match=r"settings must be a sequence of Online"):
+        add_online_identifiers(builder, rows, port, 1e-3, SETTINGS[0])
+    with pytest.raises(TypeError, match=r"settings\[1\] must be an OnlineSettings"):
+        add_online_identifiers(builder, rows, port, 1e-3, [SETTINGS[0], {}])
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.01)
+    context = simulator.get_context()
+    with pytest.raises(ValueError, match="chain_trace: the chain has no logger of"):
+        chain_trace(chain, context, 1e-3)
+    with pytest.raises(ValueError, match="payload_chain_trace: the chain has no"):
+        payload_chain_trace(payload, context, 1e-3)
