@@ -46,6 +46,16 @@ def estimate_vectors(state: IdentifierState) -> tuple[np.ndarray, ...]:
     )
 
 
+def _indices(owner: str, name: str, value: Any, r: int) -> np.ndarray:
+    """(r,) whole numbers (group indices) as ints; 0.7 truncated to 0 before."""
+    array = check.array(owner, name, value, (r,))
+    if not np.array_equal(array, np.round(array)):
+        check.fail(
+            owner, f"{name} must hold whole numbers (group indices); got {array}."
+        )
+    return array.astype(int)
+
+
 class SolverBlock:
     """Mixin of a ``LeafSystem`` that solves the bank's window (module docstring)."""
 
@@ -89,6 +99,11 @@ class SolverBlock:
         self._max_condition = check.greater_than(
             owner, "max_condition", max_condition, 1.0
         )
+        if isinstance(names, str):  # len("abc") == 3 took each letter as a name
+            raise TypeError(
+                f"{owner}: names must be a sequence of {p} parameter names; got the "
+                f"string {names!r}."
+            )
         if names is not None and len(names) != p:
             check.fail(owner, f"names must have {p} entries; got {len(names)}.")
         self._names = tuple(names) if names is not None else None
@@ -98,7 +113,12 @@ class SolverBlock:
             frequency, group = row_weighting
             self._weighting = (
                 check.array(owner, "row_frequency", frequency, (r,)),
-                check.array(owner, "row_group", group, (r,)).astype(int),
+                _indices(owner, "row_group", group, r),
+            )
+        if row_noise is not None and not hasattr(row_noise, "num_rows"):
+            raise TypeError(
+                f"{owner}: row_noise must be a core.row_noise.RowNoise "
+                f"(OnlineSettings.row_noise) or None; got {type(row_noise).__name__}."
             )
         if row_noise is not None and row_noise.num_rows != r:
             check.fail(
@@ -107,9 +127,7 @@ class SolverBlock:
         self._noise = row_noise
         self._jackknife = None
         if jackknife_groups is not None:
-            self._jackknife = check.array(
-                owner, "jackknife_groups", jackknife_groups, (r,)
-            ).astype(int)
+            self._jackknife = _indices(owner, "jackknife_groups", jackknife_groups, r)
         return offset
 
     def _declare(

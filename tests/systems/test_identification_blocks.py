@@ -429,3 +429,21 @@ def test_raw_model_rows_is_told_its_differentiator_s_period():
         block.get_output_port_channels().Eval(context),
         raw_channels(design, rows, "lagrangian", history),
     )
+
+
+def test_solver_blocks_refuse_names_as_a_string_and_fractional_groups():
+    """Found by a review: names="abc" built (one letter per parameter) and
+    jackknife or row groups of 0.7 were truncated to group 0; a row_noise
+    without num_rows was an AttributeError."""
+    from drake_dynid.systems.payload import PayloadIdentifier
+
+    for block in (SlidingQRIdentifier, PayloadIdentifier):
+        with pytest.raises(TypeError, match="names must be a sequence of 3"):
+            block(3, 10, 0.1, names="abc")
+        with pytest.raises(ValueError, match="jackknife_groups must hold whole"):
+            block(3, 10, 0.1, jackknife_groups=np.full(10, 0.7))
+        with pytest.raises(ValueError, match="row_group must hold whole"):
+            block(3, 10, 0.1, row_weighting=(np.zeros(10), np.full(10, 1.5)))
+        with pytest.raises(TypeError, match=r"row_noise must be a core\.row_noise"):
+            block(3, 10, 0.1, row_noise=object())
+        block(3, 10, 0.1, names=("a", "b", "c"), jackknife_groups=np.arange(10.0))
