@@ -104,7 +104,13 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
             max_condition: largest accepted condition number of the column-scaled A.
             names: parameter names (for messages), length p.
             initial_theta: estimate held before the first valid solve (default 0).
-            offset: time of the first update [s].
+            offset: time of the first update [s]. Behind a bank fed every h,
+                give ``core.online.SOLVE_OFFSET``·h (3h/4), as
+                ``diagrams.add_online_identifier`` does: at offset 0, solves
+                every 0.1 s behind a bank updating every 20 ms (offset 0) read
+                its post-update window on 17 % of the solves (round-off of the
+                event times; the others the pre-update one, 20 ms older), so
+                the estimates do not follow docs/CONVENTIONS.md §2.
             row_weighting: ``(row_frequency, row_group)``, each (r,): the frequency
                 index ν and noise group (model equation j) of each row
                 (``bank.row_frequencies``). Given, every solve is the two-step

@@ -78,7 +78,12 @@ class ModulatingIntegralBank(LeafSystem):
                 ℓ set), e.g. from ``drake_dynid.core.modulating.fourier_bank``.
             num_equations: m, equations per sample (1 power, n Lagrangian).
             num_parameters: p, columns of A.
-            offset: time of the first update [s].
+            offset: time of the first update [s]. Behind a block updating every
+                h (the differentiator), give ``core.online.BANK_OFFSET``·h (h/2),
+                as ``diagrams.add_bank_front`` does: at offset 0 the float event
+                times of the two periods tie only up to an ulp, so a read at
+                k·h sees that block's pre- or post-update state depending on
+                the round-off (docs/CONVENTIONS.md §2).
         """
         super().__init__()
         owner = "ModulatingIntegralBank"

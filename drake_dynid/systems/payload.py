@@ -95,7 +95,9 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
             max_condition: largest accepted condition number of the column-scaled
                 A[:, :p].
             names: the p payload names (for messages).
-            offset: time of the first update [s] (>= 0).
+            offset: time of the first update [s] (>= 0); behind a bank fed
+                every h, ``core.online.SOLVE_OFFSET``·h, as for the
+                ``SlidingQRIdentifier``.
             row_weighting: ``(row_frequency, row_group)`` of the rows
                 (``OnlineSettings.row_weighting``), or None: ordinary least
                 squares.
