@@ -447,3 +447,39 @@ def test_solver_blocks_refuse_names_as_a_string_and_fractional_groups():
         with pytest.raises(TypeError, match=r"row_noise must be a core\.row_noise"):
             block(3, 10, 0.1, row_noise=object())
         block(3, 10, 0.1, names=("a", "b", "c"), jackknife_groups=np.arange(10.0))
+
+
+def test_a_cloned_bank_context_fed_other_samples_does_not_touch_the_original():
+    """The bank's window is a persistent ring whose chunks are shared between
+    states (cheap copies): a Context cloned mid-run and fed other samples must
+    give the outputs of a fresh run on those samples, and the original those of
+    its own samples."""
+    rng = np.random.default_rng(8)
+    m, p = 1, 2
+    bank = modulating.fourier_bank(0.2, H, order=1, ell=[0.0, 1.0, 2.0])
+    block = ModulatingIntegralBank(bank, m, p, offset=H / 2)
+    first, other = rng.normal(size=(2, 90, modulating.num_channels(m, p)))
+
+    def run(context, samples, start, stop):
+        simulator = Simulator(block, context)
+        for k in range(start, stop):
+            block.get_input_port_channels().FixValue(context, samples[k])
+            block.get_input_port_sample_valid().FixValue(context, [1.0])
+            simulator.AdvanceTo(k * H + 0.6 * H)
+
+    def outputs(context):
+        return [block.GetOutputPort(name).Eval(context).copy() for name in "AB"]
+
+    original = block.CreateDefaultContext()
+    run(original, first, 0, 37)
+    clone = original.Clone()
+    run(original, first, 37, 90)
+    run(clone, other, 37, 90)
+    for context, samples in (
+        (original, first),
+        (clone, np.vstack([first[:37], other[37:]])),
+    ):
+        fresh = block.CreateDefaultContext()
+        run(fresh, samples, 0, 90)
+        for got, want in zip(outputs(context), outputs(fresh), strict=True):
+            np.testing.assert_array_equal(got, want)
