@@ -143,7 +143,9 @@ def simulate_identification(
         settings: one entry per on-line identifier.
         rows: row provider for identification (default ``robot.rows_provider()``).
         events: (time, callback(plant, plant_context)) pairs applied when the
-            simulation reaches that time, e.g. a change of an inertial parameter.
+            simulation reaches that time [s] (finite, >= 0; one at or after
+            ``simulation.duration`` is never reached), e.g. a change of an
+            inertial parameter.
         progress: print the progress on stderr.
 
     Returns:
@@ -178,6 +180,7 @@ def simulate_identification(
             "joint of its URDF, so load the RobotModel without joints=/locked= (or "
             "simulate with dynid simulate, which takes the full URDF).",
         )
+    events = _checked_events(events)  # before anything is built
     rows = robot.rows_provider() if rows is None else rows
     builder = DiagramBuilder()
     plant = builder.AddSystem(load_plant(robot.path, h, gravity=robot.gravity))
@@ -257,7 +260,7 @@ def simulate_identification(
     plant.SetVelocities(plant_context, v_ref[0])
     simulator.Initialize()
     t_end = float(simulation.duration)
-    for when, callback in sorted(events, key=lambda e: e[0]):
+    for when, callback in events:
         if when < t_end:
             advance(simulator, when, progress, "simulating")
             callback(plant, plant.GetMyMutableContextFromRoot(context))
@@ -278,6 +281,35 @@ def simulate_identification(
         simulator=simulator,
         chains=chains,
     )
+
+
+def _checked_events(
+    events: Sequence[tuple[float, Callable[[Any, Any], None]]],
+) -> list[tuple[float, Callable[[Any, Any], None]]]:
+    """The events sorted by time, each checked: a finite time >= 0 [s], a callable.
+
+    An event at t < 0 asked Drake's Simulator to go back in time, which aborted
+    the Python process (a C++ assertion in ``AdvanceTo``); one at NaN was
+    silently skipped; a callback that cannot be called failed only when reached.
+    """
+    owner = "simulate_identification"
+    checked = []
+    for index, event in enumerate(events):
+        if not isinstance(event, (tuple, list)) or len(event) != 2:
+            raise TypeError(
+                f"{owner}: events[{index}] must be a (time, callback) pair; got "
+                f"{event!r:.60}."
+            )
+        when = check.real(owner, f"events[{index}] time", event[0], "s")
+        if when < 0.0:
+            check.fail(owner, f"events[{index}] time must be >= 0 [s]; got {when}.")
+        if not callable(event[1]):
+            raise TypeError(
+                f"{owner}: events[{index}] callback must be callable as "
+                f"callback(plant, plant_context); got {type(event[1]).__name__}."
+            )
+        checked.append((when, event[1]))
+    return sorted(checked, key=lambda event: event[0])
 
 
 def actuation_of_joint_torques(builder: Any, plant: Any, torques: Any) -> Any:

@@ -454,3 +454,43 @@ def test_contexts_clone_and_reset_as_the_readme_says(robot, trajectory):
             ]
             np.testing.assert_array_equal(values[0], values[1])
             np.testing.assert_array_equal(values[0], values[2])
+
+
+def test_simulation_events_are_checked_before_the_run(robot, trajectory):
+    """Found by a review: an event at t < 0 made Drake's Simulator go back in
+    time, a C++ assertion that aborted the Python process; one at NaN was
+    silently skipped; a callback that is not callable failed when reached."""
+    import subprocess
+    import sys
+
+    short = SimulationSettings(duration=0.05, snr_db=None)
+
+    def simulate(events):
+        return simulate_identification(robot, trajectory, short, [], events=events)
+
+    with pytest.raises(ValueError, match=r"events\[0\] time must be finite \[s\]"):
+        simulate([(float("nan"), lambda plant, context: None)])
+    with pytest.raises(TypeError, match=r"events\[1\] callback must be callable"):
+        simulate([(0.01, lambda plant, context: None), (0.02, "ZZ1 + 1")])
+    with pytest.raises(TypeError, match=r"events\[0\] must be a \(time, callback\)"):
+        simulate([0.01])
+    seen = []
+    simulate([(0.03, lambda p, c: seen.append(3)), (0.01, lambda p, c: seen.append(1))])
+    assert seen == [1, 3]  # in time order
+    # In a child process: without the check the abort would end this test run.
+    code = (
+        "from drake_dynid.diagrams import SimulationSettings, simulate_identification\n"
+        "from drake_dynid.paper import paper_trajectory\n"
+        "from drake_dynid.plants import RobotModel, model_path\n"
+        "robot = RobotModel.from_urdf(model_path('planar_2r'))\n"
+        "try:\n"
+        "    simulate_identification(robot, paper_trajectory(),\n"
+        "        SimulationSettings(duration=0.05), [], events=[(-1.0, print)])\n"
+        "except ValueError as error:\n"
+        "    print(error)\n"
+    )
+    child = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
+    )
+    assert child.returncode == 0, child.stderr[-500:]
+    assert "events[0] time must be >= 0 [s]; got -1.0." in child.stdout
