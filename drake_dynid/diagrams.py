@@ -140,9 +140,12 @@ def add_bank_front(
     a ``CausalJacobiDifferentiator`` of ``measurement`` = [q; τ] (or the one
     given), the ``ModelRows`` of its outputs or the ``RawModelRows`` of its ring
     (``settings.rows_from``), and a ``ModulatingIntegralBank`` of their channels.
-    ``settings`` must already be on the grid of ``time_step`` [s]. A given
-    differentiator must sample every ``time_step``, take the 2n signals and have
-    ``settings.jacobi_filters(time_step)`` (else ValueError, in ``owner``'s name).
+    ``settings`` must already be on the grid of ``time_step`` [s]
+    (``settings.on_grid(time_step)``, or ``for_robot``; else ValueError: a bank
+    step of 6.67 samples read a 3 ms differentiator at lags varying by up to
+    3 ms). A given differentiator must sample every ``time_step``, take the 2n
+    signals and have ``settings.jacobi_filters(time_step)`` (else ValueError, in
+    ``owner``'s name).
 
     Returns:
         ``(differentiator, model_rows, bank, design)``: the blocks and the bank's
@@ -158,6 +161,7 @@ def add_bank_front(
     from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
 
     n = int(rows.num_joints)
+    _check_on_grid(owner, settings, time_step)
     if differentiator is None:
         differentiator = builder.AddSystem(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
@@ -215,6 +219,27 @@ def add_bank_front(
         differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
     )
     return differentiator, model_rows, bank, design
+
+
+def _check_on_grid(owner: str, settings: OnlineSettings, time_step: float) -> None:
+    """ValueError unless ``settings.on_grid(time_step)`` would keep ``settings``.
+
+    The bank's step must be a whole number of signal samples (the raw rows
+    average that many, the core replay decimates by it); a given period off the
+    grid raises in ``on_grid`` itself.
+    """
+    gridded = settings.on_grid(time_step)
+    moved = [
+        f"{name} {getattr(settings, name)} -> {getattr(gridded, name):g}"
+        for name in ("jacobi_window", "bank_time_step", "window", "raw_window")
+        if getattr(gridded, name) != getattr(settings, name)
+    ]
+    if moved:
+        check.fail(
+            owner,
+            f"settings must be on the grid of time_step {time_step:g} s; call "
+            f"settings.on_grid(time_step) first ({'; '.join(moved)}).",
+        )
 
 
 def _check_shared_differentiator(

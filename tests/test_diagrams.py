@@ -494,3 +494,27 @@ def test_simulation_events_are_checked_before_the_run(robot, trajectory):
     )
     assert child.returncode == 0, child.stderr[-500:]
     assert "events[0] time must be >= 0 [s]; got -1.0." in child.stdout
+
+
+def test_the_bank_front_wants_settings_on_the_signal_grid(robot):
+    """Found by a review: add_bank_front said its settings must be on the grid
+    of time_step but built with any: at 3 ms the nominal 20 ms bank step (6.67
+    samples) read the differentiator at lags varying by up to 3 ms."""
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.diagrams import add_bank_front
+
+    def front(settings, time_step):
+        builder = DiagramBuilder()
+        source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+        port = source.get_output_port()
+        return add_bank_front(builder, robot.rows_provider(), settings, port, time_step)
+
+    settings = OnlineSettings(jacobi_window=0.3)
+    with pytest.raises(ValueError, match="settings must be on the grid of time_step"):
+        front(settings, 3e-3)
+    with pytest.raises(ValueError, match="bank_time_step must be a multiple"):
+        front(settings.on_grid(1e-3), 3e-3)
+    _, _, bank, design = front(settings.on_grid(3e-3), 3e-3)
+    assert design.time_step == pytest.approx(0.021) and bank.bank is design
