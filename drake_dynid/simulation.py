@@ -5,7 +5,8 @@ generalized force (``JointFriction``; viscous friction through the URDF damping,
 implicit in the plant), a finite-Fourier-series reference tracked by Drake's
 ``InverseDynamicsController`` (which does not compensate Coulomb friction), seeded
 white measurement noise on q and τ at a given SNR (docs/MATH.md §6), and loggers.
-The torque fed to identification is the controller's command at t_k (never
+The torque fed to identification is the controller's command at t_k, clipped
+to the actuators' effort limits as the plant applies it (never
 ``net_actuation``, which lags one sample; docs/CONVENTIONS.md §2). The on-line
 identifiers are the chains of :func:`drake_dynid.diagrams.add_online_identifier`.
 """
@@ -82,9 +83,10 @@ class SimulationResult:
     Attributes:
         t: (N,) sample times [s].
         q: (N, n) measured (noisy) joint positions, the log the identifiers saw.
-        tau: (N, n) measured (noisy) joint torques (commands at t_k plus noise).
+        tau: (N, n) measured (noisy) joint torques (commands at t_k clipped to
+            the actuators' effort limits, as the plant applies them, plus noise).
         q_true: (N, n) noise-free joint positions.
-        tau_true: (N, n) noise-free torque commands.
+        tau_true: (N, n) noise-free applied torques (the clipped commands).
         noise_std: (2n,) standard deviations of the noise on [q; τ].
         traces: one :class:`OnlineTrace` per identifier.
         joint_names: the joints.
@@ -220,13 +222,18 @@ def simulate_identification(
         kp=simulation.kp,
         kd=simulation.kd,
     )
-    torques = controller.get_output_port_generalized_force()  # joint order
+    # Joint order; clipped to the actuators' effort limits as the plant applies
+    # them, so the measured τ is the applied one (a review: a joint limited to
+    # 8 N·m logged commands up to 14 000 N·m and gave ZZ1R = 2145 for 3.9, "valid").
+    torques = applied_torques(
+        builder, plant, controller.get_output_port_generalized_force()
+    )
     builder.Connect(
         actuation_of_joint_torques(builder, plant, torques),
         plant.get_actuation_input_port(),
     )
 
-    # Measurement [q; τ] (τ: the command at t_k) plus seeded white noise.
+    # Measurement [q; τ] (τ: the applied command at t_k) plus seeded white noise.
     plant_state = builder.AddSystem(Demultiplexer([n, n]))  # [q; v] -> q, v
     builder.Connect(plant.get_state_output_port(), plant_state.get_input_port())
     clean = builder.AddSystem(Multiplexer([n, n]))
@@ -310,6 +317,26 @@ def _checked_events(
             )
         checked.append((when, event[1]))
     return sorted(checked, key=lambda event: event[0])
+
+
+def applied_torques(builder: Any, plant: Any, torques: Any) -> Any:
+    """Joint torques clipped to the plant's actuator effort limits [N·m or N].
+
+    A ``MultibodyPlant`` clamps its actuation to each actuator's effort limit
+    (the URDF's ``<limit effort>``); the clipped command is what it applies. A
+    ``Saturation`` block when some limit is finite, else ``torques`` itself.
+    """
+    from pydrake.systems.primitives import Saturation
+
+    effort = np.full(plant.num_velocities(), np.inf)
+    for index in plant.GetJointActuatorIndices():
+        actuator = plant.get_joint_actuator(index)
+        effort[actuator.joint().velocity_start()] = actuator.effort_limit()
+    if not np.isfinite(effort).any():
+        return torques
+    saturation = builder.AddSystem(Saturation(-effort, effort))
+    builder.Connect(torques, saturation.get_input_port())
+    return saturation.get_output_port()
 
 
 def actuation_of_joint_torques(builder: Any, plant: Any, torques: Any) -> Any:

@@ -1,6 +1,7 @@
 """Closed-loop simulation and log replay through the on-line identification blocks."""
 
 import dataclasses
+import pathlib
 
 import numpy as np
 import pytest
@@ -518,3 +519,23 @@ def test_the_bank_front_wants_settings_on_the_signal_grid(robot):
         front(settings.on_grid(1e-3), 3e-3)
     _, _, bank, design = front(settings.on_grid(3e-3), 3e-3)
     assert design.time_step == pytest.approx(0.021) and bank.bank is design
+
+
+def test_the_simulated_torque_is_the_one_the_plant_applies(trajectory, tmp_path):
+    """Found by a review: simulate_identification logged the controller's
+    command while the plant clamps it to the URDF's effort limit: with joint1
+    limited to 8 N·m (paper trajectory, 21 s) the log held commands up to
+    14 000 N·m and the identifier gave ZZ1R = 2145 for 3.9, "valid". The
+    measured τ is now the command clipped as the plant applies it."""
+    text = pathlib.Path(model_path("planar_2r")).read_text()
+    urdf = tmp_path / "planar_2r_8Nm.urdf"
+    urdf.write_text(text.replace('effort="10000"', 'effort="8"', 1))
+    limited = RobotModel.from_urdf(urdf)
+    result = simulate_identification(
+        limited, trajectory, SimulationSettings(duration=2.6, snr_db=None), SETTINGS[:1]
+    )
+    assert np.abs(result.tau_true[:, 0]).max() == 8.0  # it saturates, as applied
+    assert np.abs(result.tau_true[:, 1]).max() > 8.0  # joint2: 10 000 N·m
+    np.testing.assert_array_equal(result.tau, result.tau_true)  # noise-free
+    theta = result.traces[0].final()["theta"]
+    np.testing.assert_allclose(theta[:4], limited.base_values[:4], rtol=0.02)
