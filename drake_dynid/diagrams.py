@@ -162,6 +162,7 @@ def add_bank_front(
 
     n = int(rows.num_joints)
     _check_on_grid(owner, settings, time_step)
+    _warn_sampled_plant(owner, builder, measurement)
     if differentiator is None:
         differentiator = builder.AddSystem(
             CausalJacobiDifferentiator(2 * n, time_step, **settings.jacobi_parameters())
@@ -240,6 +241,55 @@ def _check_on_grid(owner: str, settings: OnlineSettings, time_step: float) -> No
             f"settings must be on the grid of time_step {time_step:g} s; call "
             f"settings.on_grid(time_step) first ({'; '.join(moved)}).",
         )
+
+
+def _warn_sampled_plant(owner: str, builder: Any, measurement: Any) -> None:
+    """A warning when a discrete plant with sampled output ports feeds the chain.
+
+    Drake's discrete ``MultibodyPlant`` samples its output ports by default; the
+    q it reports is then one step off the τ commanded at t_k
+    (docs/CONVENTIONS.md §2). A review built the paper's 2R closed loop around
+    such a plant: FV1 = -1.41 for 0.3, FC1 -98 %, ZZ1R -4.2 %, all "valid"
+    (live ports: within 0.6 %). Looks upstream of ``measurement`` through the
+    builder's connections (and inside sub-diagrams) for such a plant.
+    """
+    import warnings
+
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.systems.framework import Diagram
+
+    upstream: dict[Any, list[Any]] = {}
+    for (system, _), (source, _) in builder.connection_map().items():
+        upstream.setdefault(system, []).append(source)
+    seen: set[int] = set()
+    todo = [measurement.get_system()]
+    while todo:
+        system = todo.pop()
+        if id(system) in seen:
+            continue
+        seen.add(id(system))
+        if isinstance(system, Diagram):
+            todo.extend(system.GetSystems())
+        sampled = (
+            isinstance(system, MultibodyPlant)
+            and system.is_finalized()
+            and system.time_step() > 0.0
+            and system.has_sampled_output_ports()
+        )
+        if sampled:
+            warnings.warn(
+                f"{owner}: the measurement comes from a discrete MultibodyPlant "
+                f"({system.get_name() or 'unnamed'}) with sampled output ports, "
+                "Drake's default: its q is one step off the τ commanded at t_k, "
+                "which biases the estimates (the paper's 2R: FV1 -1.41 for 0.3). "
+                "Call plant.SetUseSampledOutputPorts(False) before Finalize() "
+                "(drake_dynid.load_plant does), unless the measurement already "
+                "aligns q and τ.",
+                UserWarning,
+                stacklevel=4,  # the caller of add_online_identifier
+            )
+            return
+        todo.extend(upstream.get(system, ()))
 
 
 def _check_shared_differentiator(
