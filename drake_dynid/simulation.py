@@ -6,8 +6,9 @@ implicit in the plant), a finite-Fourier-series reference tracked by Drake's
 ``InverseDynamicsController`` (which does not compensate Coulomb friction), seeded
 white measurement noise on q and τ at a given SNR (docs/MATH.md §6), and loggers.
 The torque fed to identification is the controller's command at t_k, clipped
-to the actuators' effort limits as the plant applies it (never
-``net_actuation``, which lags one sample; docs/CONVENTIONS.md §2). The on-line
+to the actuators' effort limits as the plant applies it (the plant's
+``net_actuation`` with its live output ports; with Drake's default sampled ports
+that port lags one sample; docs/CONVENTIONS.md §2). The on-line
 identifiers are the chains of :func:`drake_dynid.diagrams.add_online_identifier`.
 """
 

@@ -128,3 +128,45 @@ def test_a_noise_compensated_power_chain_run_past_the_end_of_its_log_holds():
     np.testing.assert_array_equal(
         identifier.get_output_port_theta().Eval(context), last
     )
+
+
+def test_net_actuation_lags_only_with_sampled_output_ports():
+    """README Timing (a review found it said net_actuation always reports
+    τ_{k-1}): with ``load_plant``'s live output ports a logger and a discrete
+    update at t_k both read the command τ_k from it, clipped as applied; with
+    Drake's default sampled ports the logger reads τ_{k-1}."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import (
+        LogVectorOutput,
+        TrajectorySource,
+        ZeroOrderHold,
+    )
+    from pydrake.trajectories import PiecewisePolynomial
+
+    from drake_dynid.urdf import load_plant, model_path
+
+    h = 1e-3
+    ramp = PiecewisePolynomial.FirstOrderHold([0.0, 1.0], [[0.0, 1e3], [0.0, 0.0]])
+    for sampled, lag in ((False, 0), (True, 1)):
+        builder = DiagramBuilder()
+        plant = builder.AddSystem(
+            load_plant(model_path("planar_2r"), h, sampled_output_ports=sampled)
+        )
+        command = builder.AddSystem(TrajectorySource(ramp))
+        builder.Connect(command.get_output_port(), plant.get_actuation_input_port())
+        net = plant.get_net_actuation_output_port()
+        held = builder.AddSystem(ZeroOrderHold(h, 2))  # a discrete update at t_k
+        builder.Connect(net, held.get_input_port())
+        logs = [
+            LogVectorOutput(port, builder, h)
+            for port in (command.get_output_port(), net, held.get_output_port())
+        ]
+        simulator = Simulator(builder.Build())
+        simulator.AdvanceTo(0.01)
+        tau, logged, read = (
+            sink.FindLog(simulator.get_context()).data()[0] for sink in logs
+        )
+        k = np.arange(3, 9)
+        np.testing.assert_allclose(logged[k], tau[k - lag], atol=1e-9)
+        np.testing.assert_allclose(read[k + 1], tau[k], atol=1e-9)  # held at t_k
