@@ -32,6 +32,7 @@ class ChangeTrackingIdentifier(SlidingQRIdentifier):
         - A
         - B
         - window_valid
+        - window_signals (with covariance)
         - window_state
         output_ports:
         - theta
