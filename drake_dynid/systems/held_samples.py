@@ -20,6 +20,9 @@ BLOCK_ROWS = 4096
 # boundary does not depend on the last bit of an event time computed as a sum.
 _EDGE = 1e-9
 
+#: The dtypes a table may hold (read as floats).
+_REAL_KINDS = (np.floating, np.integer, np.bool_)
+
 
 def held_index(t: float, start: float, time_step: float, count: int) -> int:
     """k(t) = clip(⌊(t - t_0)/h + 1/2⌋, 0, N - 1): the sample held at time t.
@@ -98,6 +101,18 @@ class HeldSamples(LeafSystem):
         self._tables = list(tables)
         if not self._tables:
             check.fail(owner, "tables must hold at least one (N, m) table.")
+        for index, table in enumerate(self._tables):
+            # Read at run time a block at a time: a table of strings failed at the
+            # first Eval, inside a Simulator; complex values lost their imaginary
+            # part silently.
+            dtype = getattr(table, "dtype", None)
+            if dtype is None:
+                dtype = np.asarray(table).dtype
+            if not any(np.issubdtype(dtype, kind) for kind in _REAL_KINDS):
+                raise TypeError(
+                    f"{owner}: tables[{index}] must hold real numbers; got dtype "
+                    f"{dtype}."
+                )
         shapes = [tuple(getattr(c, "shape", np.shape(c))) for c in self._tables]
         if any(len(s) != 2 for s in shapes) or len({s[0] for s in shapes}) != 1:
             check.fail(owner, f"tables must be (N, m_i) with the same N; got {shapes}.")

@@ -98,3 +98,15 @@ def test_after_end_nan_says_the_recording_has_ended():
     np.testing.assert_array_equal(held.get_output_port_y().Eval(hold_context), rows[3])
     with pytest.raises(ValueError, match="after_end must be 'hold' or 'nan'"):
         HeldSamples([rows], h, after_end="zero")
+
+
+@pytest.mark.parametrize(
+    "table", [np.array([["a", "b"]] * 3), np.ones((3, 2)) * (1 + 2j)]
+)
+def test_tables_that_are_not_real_numbers_are_refused_when_built(table):
+    """Found by a review: a table of strings built and failed at the first
+    Eval, inside a Simulator; complex values played their real part silently."""
+    with pytest.raises(TypeError, match=r"tables\[1\] must hold real numbers"):
+        HeldSamples([np.zeros((3, 1)), table], H)
+    held = HeldSamples([np.zeros((3, 1), dtype=int), np.ones((3, 1), dtype=bool)], H)
+    np.testing.assert_array_equal(_output(held, 0.0), [0.0, 1.0])
