@@ -557,14 +557,33 @@ def _change_fields(logs: dict[str, Any]) -> dict[str, np.ndarray]:
 
 
 def advance(simulator: Any, t_end: float, progress: bool, label: str) -> None:
-    """``simulator.AdvanceTo(t_end)`` in chunks; progress on stderr when asked."""
+    """``simulator.AdvanceTo(t_end)`` in chunks; progress on stderr when asked.
+
+    The chunks start at the simulator's time (a review: with ``progress`` the
+    first chunk of a second call, e.g. after an event of
+    ``simulate_identification``, went back to t_end/chunks, and Drake's
+    Simulator aborted the Python process on the C++ assertion
+    ``boundary_time >= context_->get_time()``).
+
+    Raises:
+        ValueError: ``t_end`` is not finite or before the simulator's time.
+    """
+    now = simulator.get_context().get_time()
+    t_end = check.real("advance", "t_end", t_end, "s")
+    if t_end < now:
+        check.fail(
+            "advance",
+            f"t_end must be >= the simulator's time {now:g} [s] (a Simulator "
+            f"cannot go back); got {t_end:g}.",
+        )
     if not progress:
         simulator.AdvanceTo(t_end)
         return
-    chunks = max(1, math.ceil(t_end))
+    chunks = max(1, math.ceil(t_end - now))
     for i in range(1, chunks + 1):
-        simulator.AdvanceTo(min(t_end, t_end * i / chunks))
-        print(f"\r{label}: {100.0 * i / chunks:5.1f} %", end="", file=sys.stderr)
+        simulator.AdvanceTo(min(t_end, now + (t_end - now) * i / chunks))
+        done = 100.0 * simulator.get_context().get_time() / t_end if t_end else 100.0
+        print(f"\r{label}: {done:5.1f} %", end="", file=sys.stderr)
     print(file=sys.stderr)
 
 

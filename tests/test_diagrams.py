@@ -585,3 +585,39 @@ def test_a_plant_with_sampled_output_ports_feeding_the_chain_is_flagged(robot, s
         assert "SetUseSampledOutputPorts(False)" in messages[0]
     else:
         assert messages == []
+
+
+def test_advance_goes_forward_from_the_simulator_s_time():
+    """Found by a review: ``simulate_identification(..., events=[(1.5, f)],
+    progress=True)`` of 2 s aborted the Python process: ``advance``'s first
+    chunk after the event went back to 1 s, a C++ assertion in Drake's
+    Simulator. Run in a child process, which the abort would end."""
+    import subprocess
+    import sys
+
+    code = (
+        "from drake_dynid.diagrams import SimulationSettings, advance, "
+        "simulate_identification\n"
+        "from drake_dynid.paper import paper_trajectory\n"
+        "from drake_dynid.plants import RobotModel, model_path\n"
+        "robot = RobotModel.from_urdf(model_path('planar_2r'))\n"
+        "seen = []\n"
+        "result = simulate_identification(robot, paper_trajectory(),\n"
+        "    SimulationSettings(duration=2.0), [], progress=True,\n"
+        "    events=[(1.5, lambda plant, context: seen.append(1.5))])\n"
+        "print('ran', seen, result.t[-1])\n"
+        "try:\n"
+        "    advance(result.simulator, 1.0, True, 'back')\n"
+        "except ValueError as error:\n"
+        "    print(error)\n"
+    )
+    child = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300
+    )
+    assert child.returncode == 0, child.stderr[-500:]
+    lines = child.stdout.splitlines()
+    assert lines[0] == "ran [1.5] 2.0"
+    assert lines[1] == (
+        "advance: t_end must be >= the simulator's time 2 [s] (a Simulator cannot "
+        "go back); got 1."
+    )
