@@ -502,9 +502,10 @@ def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> Onlin
     """The estimates a chain's loggers recorded, as an :class:`OnlineTrace`.
 
     Raises:
-        ValueError: the chain has no loggers (built with ``log=False``).
+        ValueError: the chain has no loggers (built with ``log=False``), or
+            ``time_step`` is not its signal period.
     """
-    logs = chain_logs("chain_trace", chain, context, _LOGGED)
+    logs = chain_logs("chain_trace", chain, context, time_step, _LOGGED)
     # Latency: a solve at u·U·h + 3h/4 uses the samples up to u·U·h, whose estimates
     # refer to u·U·h - (differentiator delay, or the raw rows' delay).
     delay = chain.settings.delay(time_step) + SOLVE_OFFSET * time_step
@@ -524,14 +525,30 @@ def chain_trace(chain: IdentifierChain, context: Any, time_step: float) -> Onlin
 
 
 def chain_logs(
-    owner: str, chain: IdentifierChain, context: Any, ports: Sequence[str]
+    owner: str,
+    chain: IdentifierChain,
+    context: Any,
+    time_step: float,
+    ports: Sequence[str],
 ) -> dict[str, Any]:
     """The ``VectorLog`` of every logger of ``chain`` in ``context``.
 
+    ``time_step`` is the caller's signal period [s], checked against the
+    chain's (a trace's delay computed at another period was silently off:
+    0.1259 s for 0.1252 s at 2 ms instead of 1 ms).
+
     Raises:
         ValueError: a port of ``ports`` has no logger (the chain was built with
-            ``log=False``: read its identifier's output ports instead).
+            ``log=False``: read its identifier's output ports instead), or
+            ``time_step`` is not the chain's signal period.
     """
+    period = chain.differentiator.time_step
+    if not math.isclose(time_step, period, rel_tol=1e-9):
+        check.fail(
+            owner,
+            f"time_step must be the chain's signal period {period:g} [s] (its "
+            f"differentiator's; the trace's delay depends on it); got {time_step:g}.",
+        )
     missing = [port for port in ports if port not in chain.logs]
     if missing:
         check.fail(

@@ -141,9 +141,10 @@ def payload_chain_trace(
     """The estimates a payload chain's loggers recorded, as a ``PayloadTrace``.
 
     Raises:
-        ValueError: the chain has no loggers (built with ``log=False``).
+        ValueError: the chain has no loggers (built with ``log=False``), or
+            ``time_step`` is not its signal period.
     """
-    logs = chain_logs("payload_chain_trace", chain, context, _LOGGED)
+    logs = chain_logs("payload_chain_trace", chain, context, time_step, _LOGGED)
     p = len(chain.names)
     correlation = logs["correlation"].data().T.reshape(-1, p, p).copy()
     return PayloadTrace(

@@ -379,6 +379,42 @@ def test_chain_builders_name_what_is_wrong(robot):
         payload_chain_trace(payload, context, 1e-3)
 
 
+def test_a_chain_trace_wants_the_chain_s_signal_period(robot):
+    """Found by a review: chain_trace(chain, context, 2e-3) of a 1 ms chain
+    gave the trace a delay of 0.1259 s for 0.1252 s, silently."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.core.payload import payload_rows
+    from drake_dynid.core.payload_step import payload_settings
+    from drake_dynid.diagrams import add_online_identifier, chain_trace
+    from drake_dynid.payload_diagrams import (
+        add_payload_identifier,
+        payload_chain_trace,
+    )
+
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+    port = source.get_output_port()
+    chain = add_online_identifier(
+        builder, robot.rows_provider(), port, 1e-3, SETTINGS[0]
+    )
+    payload = add_payload_identifier(
+        builder, payload_rows(robot), port, 1e-3, payload_settings()
+    )
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(0.1)
+    context = simulator.get_context()
+    assert chain_trace(chain, context, 1e-3).t.size == 3
+    assert payload_chain_trace(payload, context, 1e-3).t.size == 3
+    message = r"time_step must be the chain's signal period 0\.001 \[s\]"
+    with pytest.raises(ValueError, match="chain_trace: " + message):
+        chain_trace(chain, context, 2e-3)
+    with pytest.raises(ValueError, match="payload_chain_trace: " + message):
+        payload_chain_trace(payload, context, 2e-3)
+
+
 def test_contexts_clone_and_reset_as_the_readme_says(robot, trajectory):
     """README (Compose): ``context.Clone()``, two Simulators of one diagram and
     ``SetDefaultContext`` all work. Every block kind of the chain is in the
