@@ -266,6 +266,7 @@ def simulate_experiment(
             h,
             np.max(np.abs(v_ref[t_ref <= duration + 1e-9]), axis=0),
             log_step=settings.decimation * h,
+            duration=duration,
         ).items()
     }
 
@@ -436,6 +437,7 @@ def stiff_coulomb(
     h: float,
     speed: np.ndarray | None = None,
     log_step: float | None = None,
+    duration: float | None = None,
 ) -> dict[int, str]:
     """``{joint index: why}`` for the joints whose Coulomb friction is too stiff.
 
@@ -447,7 +449,11 @@ def stiff_coulomb(
     above half the joint's largest reference speed ``speed`` (n,) when given
     (the iiwa7's joint 7, 0.2-0.36 rad/s against 1.5 rad/s, is not named). The
     step suggested divides ``log_step`` (the log's period: ``simulate`` needs
-    it). The drive's coupled motors' Coulomb friction is not checked.
+    it), and is not suggested when it would take more than :data:`MAX_STEPS`
+    steps for a run of ``duration`` [s], which ``simulate`` refuses (the Unitree
+    Z1's gripper: 5e-06 s, 1.2e7 steps for a 60 s trajectory); holding the joint
+    still (``--lock``, a gripper) is always offered. The drive's coupled motors'
+    Coulomb friction is not checked.
     """
     coulomb = np.asarray(getattr(drive, "coulomb", ()), dtype=float)
     width = getattr(getattr(drive, "sign", None), "width", None)
@@ -477,14 +483,30 @@ def stiff_coulomb(
         force, inertia, speed_unit = (
             ("N", "kg", "m/s") if j in prismatic else ("N·m", "kg·m²", "rad/s")
         )
+        still = (
+            f"with the joint held still (--lock {drive.joint_names[j]}=POSITION, "
+            "in dynid excite too)"
+        )
+        steps = duration / stable if duration else 0.0
+        if steps > MAX_STEPS:  # the step that would do cannot be simulated
+            advice = (
+                f"the step that keeps it stable, {stable:.10g} s, would take "
+                f"{steps:.3g} steps for this {duration:g} s run, more than the "
+                f"{MAX_STEPS:g} simulate allows (duration "
+                f"{MAX_STEPS * stable:.3g} at most with it); simulate without "
+                f"Coulomb friction (--friction viscous), or {still}"
+            )
+        else:
+            advice = (
+                f"simulate with --time-step {stable:.10g} (slow) or less, or "
+                f"without Coulomb friction (--friction viscous), or {still}"
+            )
         out[int(j)] = (
             f"its Coulomb friction FC = {coulomb[j]:.3g} {force} on an inertia as "
             f"small as {1.0 / mobility[j]:.2g} {inertia} is too stiff for the "
             f"{h:g} s step with tanh(v/{width:g}) (h·FC/(ε·inertia) = "
             f"{ratio[j]:.3g} > {STIFF_COULOMB:g}): the simulated velocity chatters "
-            f"at reversals, by up to {jump[j]:.2g} {speed_unit} per step; "
-            f"simulate with --time-step {stable:.10g} (slow) or less, or "
-            "without Coulomb friction (--friction viscous)"
+            f"at reversals, by up to {jump[j]:.2g} {speed_unit} per step; {advice}"
         )
     return out
 

@@ -344,6 +344,38 @@ def test_a_coulomb_friction_too_stiff_for_the_step_is_named():
     assert stiff_coulomb(plant, context, drive, np.zeros((1, 6)), 1e-6) == {}
 
 
+def test_a_step_simulate_would_refuse_is_not_suggested():
+    """Found by a review: the Unitree Z1's gripper (FC 1 N·m on 2.9e-4 kg·m²) on a
+    60 s trajectory was told "simulate with --time-step 5e-06 (slow)", which
+    simulate then refused (1.2e7 steps, more than its 1e7); the TIAGo's wrist was
+    told 6.4e-08 s. Holding the joint still (a gripper) was not offered."""
+    import numpy as np
+
+    from drake_dynid.experiment import MAX_STEPS, stiff_coulomb
+    from drake_dynid.experiment_drive import simulated_drive_of, truth_model
+    from drake_dynid.plants import model_path
+    from drake_dynid.urdf import load_plant
+
+    urdf = model_path("ur5")
+    drive = simulated_drive_of(truth_model(urdf, ("viscous", "coulomb")), 0.01)
+    plant = load_plant(urdf, 1e-3)
+    context = plant.CreateDefaultContext()
+    q, speed = np.zeros((1, 6)), np.full(6, 2.0)
+
+    def advice(duration):
+        return stiff_coulomb(
+            plant, context, drive, q, 1e-3, speed, log_step=1e-3, duration=duration
+        )[5]
+
+    short = advice(10.0)  # wrist_3_joint: 5e-06 s, 2e6 steps
+    assert "--time-step 5e-06 (slow)" in short
+    assert "--lock wrist_3_joint=POSITION" in short
+    long = advice(60.0)  # 1.2e7 steps
+    assert "--time-step 5e-06" not in long and "1.2e+07 steps" in long
+    assert f"more than the {MAX_STEPS:g}" in long and "duration 50 at most" in long
+    assert "--friction viscous" in long and "--lock wrist_3_joint=POSITION" in long
+
+
 def test_speeds_and_torques_beyond_the_limits_are_said():
     """Found by a review: a trajectory designed on the URDF's inflated limits ran
     an iiwa at 4.4x its datasheet speed under --limits without a word."""
