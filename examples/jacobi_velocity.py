@@ -206,7 +206,10 @@ def main(argv=None) -> int:
     import matplotlib.pyplot as plt
 
     out = pathlib.Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
     duration = 3.0 if args.quick else 20.0
     variance = signal_variance()
     sigma = float(np.sqrt(variance / 10 ** (SNR_DB / 10)))

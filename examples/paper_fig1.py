@@ -106,11 +106,16 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
     args = parser.parse_args(argv)
+    if not np.isfinite(args.snr):
+        parser.error(f"--snr must be a finite SNR [dB]; got {args.snr}")
     if not args.duration > 0:
         parser.error("--duration must be > 0")
     duration = 6.0 if args.quick else args.duration
     window = 4.0
-    os.makedirs(args.out, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
     robot = RobotModel.from_urdf(model_path("one_joint"))
     settings = OnlineSettings.for_model(
         "lagrangian", window=window, bandwidth=1.5, update_period=0.1

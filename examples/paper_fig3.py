@@ -73,7 +73,10 @@ def main(argv=None) -> int:
     if not (0 < args.window < args.duration):
         parser.error("--window must be > 0 and shorter than --duration")
     window, duration = (3.0, 4.0) if args.quick else (args.window, args.duration)
-    os.makedirs(args.out, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
     robot = RobotModel.from_urdf(model_path("planar_2r"))
     settings = [
         OnlineSettings.for_model("power", window=window, frequencies="paper"),

@@ -58,7 +58,10 @@ def main(argv=None) -> int:
         window, jump, duration = 3.0, 4.0, 8.0
     else:
         window, jump, duration = args.window, args.jump_time, args.duration
-    os.makedirs(args.out, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
     robot = RobotModel.from_urdf(model_path("planar_2r"))
     lagrangian = OnlineSettings.for_model(
         "lagrangian", window=window, update_period=0.05

@@ -108,11 +108,16 @@ def main(argv=None) -> int:
         "--quick", action="store_true", help="tiny run for tests (T = 6 s)"
     )
     args = parser.parse_args(argv)
+    if not np.isfinite(args.snr):
+        parser.error(f"--snr must be a finite SNR [dB]; got {args.snr}")
     window = 6.0 if args.quick else args.window
     duration = args.duration or window + 2.0
     if not (window > 0 and duration > window + 1.0):
         parser.error("--window must be > 0 and --duration at least --window + 1 s")
-    os.makedirs(args.out, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
 
     robot = RobotModel.from_urdf(model_path("planar_2r"))
     assert robot.names == BASE_NAMES

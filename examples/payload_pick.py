@@ -143,7 +143,10 @@ def main(argv=None) -> int:
     pick, place, duration = args.pick, args.place, args.duration
     if args.quick:
         pick, place, duration = 1.5, np.inf, 3.2
-    os.makedirs(args.out, exist_ok=True)
+    try:  # a file of that name (or under one) was a FileExistsError traceback
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as error:
+        parser.error(f"--out {args.out}: not a folder ({error.strerror})")
 
     robot = RobotModel.from_urdf(model_path("iiwa7"), coulomb_width=SMOOTHING)
     rows = payload_model(robot)  # the last link, iiwa_link_7 (the flange)

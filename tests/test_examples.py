@@ -114,3 +114,38 @@ def test_examples_refuse_bad_options_before_any_work(name, argv, tmp_path):
     with pytest.raises(SystemExit) as stop:
         load_example(name).main([*argv, "--out", str(tmp_path)])
     assert stop.value.code == 2
+
+
+EXAMPLES = (
+    "jacobi_velocity",
+    "paper_fig1",
+    "paper_fig3",
+    "paper_fig4",
+    "paper_table2",
+    "payload_pick",
+)
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
+def test_an_out_that_is_a_file_exits_2_naming_it(name, tmp_path, capsys):
+    """Found by a review: ``--out`` naming a file (or a path under one) was a
+    FileExistsError (NotADirectoryError) traceback, exit 1."""
+    taken = tmp_path / "table.csv"
+    taken.write_text("kept\n")
+    for out in (taken, taken / "figures"):
+        with pytest.raises(SystemExit) as stop:
+            load_example(name).main(["--quick", "--out", str(out)])
+        assert stop.value.code == 2
+        assert f"--out {out}: not a folder" in capsys.readouterr().err
+    assert taken.read_text() == "kept\n"
+
+
+@pytest.mark.parametrize("name", ["paper_fig1", "paper_table2"])
+@pytest.mark.parametrize("snr", ["nan", "inf", "-inf"])
+def test_a_non_finite_snr_exits_2_naming_it(name, snr, tmp_path, capsys):
+    """Found by a review: ``--snr nan`` was SimulationSettings' ValueError
+    traceback, exit 1."""
+    with pytest.raises(SystemExit) as stop:
+        load_example(name).main(["--quick", f"--snr={snr}", "--out", str(tmp_path)])
+    assert stop.value.code == 2
+    assert "--snr must be a finite SNR [dB]" in capsys.readouterr().err
