@@ -32,12 +32,18 @@ __all__ = [
 ]
 
 
+#: Most plant steps of one simulated run (duration / time_step), as ``dynid
+#: simulate``'s ``experiment_settings.MAX_STEPS``.
+MAX_STEPS = 1e7
+
+
 @dataclass(frozen=True)
 class SimulationSettings:
     """Settings of the simulated set-up (paper §V).
 
     Attributes:
-        duration: simulated time [s].
+        duration: simulated time [s]; duration / time_step at most
+            :data:`MAX_STEPS`.
         time_step: plant and sampling period h [s].
         snr_db: SNR of the white Gaussian noise added to every q and τ channel,
             SNR = 10 log10(var(x)/σ²) with var(x) of the noise-free reference signal
@@ -61,8 +67,14 @@ class SimulationSettings:
 
     def __post_init__(self):
         owner = "SimulationSettings"
-        check.positive(owner, "duration", self.duration, "s")
-        check.positive(owner, "time_step", self.time_step, "s")
+        duration = check.positive(owner, "duration", self.duration, "s")
+        h = check.positive(owner, "time_step", self.time_step, "s")
+        if duration / h > MAX_STEPS:  # its per-step arrays: 745 GiB for 1e9 s
+            check.fail(
+                owner,
+                f"duration / time_step must be at most {MAX_STEPS:g} simulation "
+                f"steps; got {duration:g} s / {h:g} s = {duration / h:.3g}.",
+            )
         if self.snr_db is not None:
             check.real(owner, "snr_db", self.snr_db, "dB")
         check.integer(owner, "seed", self.seed, 0)

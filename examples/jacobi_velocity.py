@@ -197,8 +197,18 @@ def main(argv=None) -> int:
     parser.add_argument("--mu", type=float, default=0.0, help="μ (0)")
     parser.add_argument("--q", type=int, default=1, help="q (1)")
     args = parser.parse_args(argv)
+    try:
+        return _run(args, parser)
+    except ValueError as error:  # a library check: its message names the value
+        parser.error(str(error))
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The example with parsed arguments; returns 0 (``parser.error`` exits 2)."""
     if not (args.window > 0 and args.kappa > -1 and args.mu > -1 and args.q >= 0):
         parser.error("--window must be > 0, --kappa and --mu > -1, --q >= 0")
+    if not 0 <= args.seed < 2**32:  # Drake's RandomGenerator: a TypeError
+        parser.error(f"--seed must be in [0, 2^32); got {args.seed}")
 
     import matplotlib
 

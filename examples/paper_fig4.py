@@ -52,6 +52,14 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="out", help="output folder (out/)")
     parser.add_argument("--quick", action="store_true", help="tiny run for tests")
     args = parser.parse_args(argv)
+    try:
+        return _run(args, parser)
+    except ValueError as error:  # a library check: its message names the value
+        parser.error(str(error))
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The example with parsed arguments; returns 0 (``parser.error`` exits 2)."""
     if not (0 < args.window and 0 < args.jump_time < args.duration):
         parser.error("--window must be > 0 and --jump-time within (0, --duration)")
     if args.quick:

@@ -125,6 +125,14 @@ def main(argv=None) -> int:
         help="also write the noisy log (for dynid payload, README)",
     )
     args = parser.parse_args(argv)
+    try:
+        return _run(args, parser)
+    except ValueError as error:  # a library check: its message names the value
+        parser.error(str(error))
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """The example with parsed arguments; returns 0 (``parser.error`` exits 2)."""
     if args.log and (
         not args.log.lower().endswith(".csv")
         or (os.path.exists(args.log) and not os.path.isfile(args.log))
@@ -133,6 +141,8 @@ def main(argv=None) -> int:
     for name in ("pick", "duration"):
         if not np.isfinite(getattr(args, name)):
             parser.error(f"--{name} must be a finite time [s]")
+    if args.seed < 0:  # numpy's "expected non-negative integer" named no option
+        parser.error(f"--seed must be >= 0; got {args.seed}")
     if args.pick < 0.0:
         parser.error("--pick must be >= 0 s (the log starts at t = 0)")
     for name in ("q_noise", "tau_noise"):

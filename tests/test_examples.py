@@ -149,3 +149,35 @@ def test_a_non_finite_snr_exits_2_naming_it(name, snr, tmp_path, capsys):
         load_example(name).main(["--quick", f"--snr={snr}", "--out", str(tmp_path)])
     assert stop.value.code == 2
     assert "--snr must be a finite SNR [dB]" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("name", "argv", "message"),
+    [
+        ("paper_table2", ["--seed", "-1", "--quick"], "seed must be >= 0; got -1"),
+        ("paper_table2", ["--duration", "1e9"], "at most 1e+07 simulation steps"),
+        ("payload_pick", ["--duration", "1e9"], "at most 1e+07 simulation steps"),
+        ("payload_pick", ["--seed", "-1", "--quick"], "--seed must be >= 0; got -1"),
+        ("jacobi_velocity", ["--seed", "-1", "--quick"], "--seed must be in [0, 2^32)"),
+        (
+            "jacobi_velocity",
+            ["--q", "99", "--quick"],
+            "q must be an integer in [0, 10]",
+        ),
+        (
+            "paper_fig4",
+            ["--window", "1e-3", "--jump-time", "1", "--duration", "2"],
+            "jacobi_window must be < window",
+        ),
+    ],
+)
+def test_a_value_the_library_refuses_exits_2_naming_it(
+    name, argv, message, tmp_path, capsys
+):
+    """Found by a review: values the library's checks refuse (a negative seed, a
+    window shorter than the differentiator's) were ValueError or TypeError
+    tracebacks, exit 1, and --duration 1e9 a 745 GiB MemoryError."""
+    with pytest.raises(SystemExit) as stop:
+        load_example(name).main([*argv, "--out", str(tmp_path)])
+    assert stop.value.code == 2
+    assert message in capsys.readouterr().err
