@@ -6,10 +6,10 @@ The arm of a URDF in Drake, tracking a reference trajectory (``dynid simulate``)
         ──► InverseDynamicsController (kp, kd; its plant has the damping and the
             reflected inertia below)
               + DriveFeedforward: FC·tanh(v_ref/ε) + OFF (+ coupled motors)
-        ──► discrete MultibodyPlant (1 kHz; joint damping FV, implicit; actuator
-            rotor inertia IA)
+        ──► discrete MultibodyPlant (1 kHz; joint damping FV; actuator rotor
+            inertia IA)
               ◄── DriveForces (Coulomb -FC·tanh(v/ε) - OFF, applied force; the
-                  coupled motors of a drive file)
+                  coupled motors of a drive file; the midpoint step below)
 
 with the friction and motor values of the true model
 (``drake_dynid.experiment_drive``: the URDF's ``<dynamics>``, and with a drive
@@ -17,7 +17,13 @@ file the motors' reflected inertia and friction, docs/DRIVE.md §6c),
 logged at every step as (q_k, τ_k), τ_k the command at t_k (docs/CONVENTIONS.md
 §2) clipped to the URDF's effort limits as the plant applies it, decimated to the
 log rate, with seeded white noise added afterwards (the controller sees the true
-state, as a robot with fine encoders).
+state, as a robot with fine encoders). ``DriveForces`` makes every step the
+midpoint step: the velocity terms (Coriolis, damping, Coulomb friction) at
+v̄_k = (q_{k+1} - q_{k-1})/2h, so that a noise-free log is the model's inverse
+dynamics at the central differences of its positions to round-off, as every
+identification path evaluates it (Drake's own step is O(h) off:
+``core.drive_dynamics.midpoint_step_force``), and a light joint's Coulomb
+friction, implicit, no longer chatters.
 
 The run is watched at every step and stops with a ``ValueError`` naming the
 joint, the time and the limit when the motion leaves the position limits, the
@@ -36,7 +42,6 @@ depends only on its two knots, so the chunks give the same log bit for bit
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -256,20 +261,6 @@ def simulate_experiment(
     configure_plant(controller_plant, controller_context, drive)
     t_ref = np.asarray(reference.t - reference.t[0], dtype=float)
     q_ref, v_ref = np.asarray(reference.q), np.asarray(reference.v)
-    stiff = {
-        names[j]: why
-        for j, why in stiff_coulomb(
-            controller_plant,
-            controller_context,
-            drive,
-            q_ref[t_ref <= duration + 1e-9],
-            h,
-            np.max(np.abs(v_ref[t_ref <= duration + 1e-9]), axis=0),
-            log_step=settings.decimation * h,
-            duration=duration,
-        ).items()
-    }
-
     def piece(start: float, stop: float) -> Any:
         """The reference's cubic Hermite over [start, stop] (and a knot more)."""
         a = max(0, int(np.searchsorted(t_ref, start, "right")) - 2)
@@ -350,14 +341,8 @@ def simulate_experiment(
                 failure.append(
                     f"the tracking error of joint {names[j]} reached {error[j]:.4g} "
                     f"{limits.units(j)[0]} at t = {t:.3f} s (threshold "
-                    f"{settings.max_tracking_error:g}; "
-                    + (
-                        f"{stiff[names[j]]}"
-                        if names[j] in stiff
-                        else "the controller cannot follow the trajectory: lower "
-                        "its speed"
-                    )
-                    + ")"
+                    f"{settings.max_tracking_error:g}; the controller cannot follow "
+                    "the trajectory: lower its speed)"
                 )
         if failure:
             return EventStatus.ReachedTermination(diagram, failure[0])
@@ -419,118 +404,7 @@ def simulate_experiment(
         joint_names=names,
         max_tracking_error=worst,
         saturated=saturated,
-        notes=tuple(f"joint {name}: {why}" for name, why in stiff.items()),
     )
-
-
-#: The explicit Coulomb force -FC·tanh(v/ε) of a joint is stable at step h while
-#: h·FC·(M⁻¹)_jj/ε < 2 (the slope of the law, 1/ε, times the joint's mobility):
-#: beyond, the velocity flips sign at every step near a reversal.
-STIFF_COULOMB = 2.0
-
-
-def stiff_coulomb(
-    plant: Any,
-    context: Any,
-    drive: Any,
-    q: np.ndarray,
-    h: float,
-    speed: np.ndarray | None = None,
-    log_step: float | None = None,
-    duration: float | None = None,
-) -> dict[int, str]:
-    """``{joint index: why}`` for the joints whose Coulomb friction is too stiff.
-
-    Too stiff for the step ``h`` (:data:`STIFF_COULOMB`), over 50 configurations
-    of the reference ``q`` (the mobility (M⁻¹)_jj of the plant with its drive's
-    reflected inertia). A light joint with real friction (the UR5's wrist 3: FC
-    0.3 N·m on 1.3e-4 kg·m²) chatters at every reversal of the tanh(v/0.01) law.
-    Named when the chatter matters: the velocity jump of one step, h·FC·(M⁻¹)_jj,
-    above half the joint's largest reference speed ``speed`` (n,) when given
-    (the iiwa7's joint 7, 0.2-0.36 rad/s against 1.5 rad/s, is not named). The
-    step suggested divides ``log_step`` (the log's period: ``simulate`` needs
-    it), and is not suggested when it would take more than :data:`MAX_STEPS`
-    steps for a run of ``duration`` [s], which ``simulate`` refuses (the Unitree
-    Z1's gripper: 5e-06 s, 1.2e7 steps for a 60 s trajectory); holding the joint
-    still (``--lock``, a gripper) is always offered. The drive's coupled motors'
-    Coulomb friction is not checked.
-    """
-    coulomb = np.asarray(getattr(drive, "coulomb", ()), dtype=float)
-    width = getattr(getattr(drive, "sign", None), "width", None)
-    if coulomb.size == 0 or not width or not np.any(coulomb > 0.0):
-        return {}
-    mobility = np.zeros(coulomb.size)
-    for k in np.unique(np.linspace(0, len(q) - 1, 50).astype(int)):
-        plant.SetPositions(context, q[k])
-        inverse = np.linalg.inv(plant.CalcMassMatrix(context))
-        mobility = np.maximum(mobility, np.diag(inverse))
-    ratio = h * coulomb * mobility / width
-    jump = h * coulomb * mobility  # [rad/s or m/s] per step
-    named = ratio > STIFF_COULOMB
-    if speed is not None:
-        named &= jump > 0.5 * np.asarray(speed, dtype=float)
-    prismatic = {
-        plant.get_joint(i).velocity_start()
-        for i in plant.GetJointIndices()
-        if plant.get_joint(i).num_velocities() == 1
-        and "prismatic" in plant.get_joint(i).type_name()
-    }
-    out = {}
-    for j in np.flatnonzero(named):
-        stable = h * STIFF_COULOMB / ratio[j]
-        if log_step:  # a step that divides the log's period, written exactly
-            stable = _dividing_step(log_step, stable)
-        force, inertia, speed_unit = (
-            ("N", "kg", "m/s") if j in prismatic else ("N·m", "kg·m²", "rad/s")
-        )
-        still = (
-            f"with the joint held still (--lock {drive.joint_names[j]}=POSITION, "
-            "in dynid excite too)"
-        )
-        steps = duration / stable if duration else 0.0
-        if steps > MAX_STEPS:  # the step that would do cannot be simulated
-            advice = (
-                f"the step that keeps it stable, {stable:.10g} s, would take "
-                f"{steps:.3g} steps for this {duration:g} s run, more than the "
-                f"{MAX_STEPS:g} simulate allows (duration "
-                f"{MAX_STEPS * stable:.3g} at most with it); simulate without "
-                f"Coulomb friction (--friction viscous), or {still}"
-            )
-        else:
-            advice = (
-                f"simulate with --time-step {stable:.10g} (slow) or less, or "
-                f"without Coulomb friction (--friction viscous), or {still}"
-            )
-        out[int(j)] = (
-            f"its Coulomb friction FC = {coulomb[j]:.3g} {force} on an inertia as "
-            f"small as {1.0 / mobility[j]:.2g} {inertia} is too stiff for the "
-            f"{h:g} s step with tanh(v/{width:g}) (h·FC/(ε·inertia) = "
-            f"{ratio[j]:.3g} > {STIFF_COULOMB:g}): the simulated velocity chatters "
-            f"at reversals, by up to {jump[j]:.2g} {speed_unit} per step; {advice}"
-        )
-    return out
-
-
-#: Most steps per log period searched by ``_dividing_step`` (its loop is O(k)).
-_DIVIDED = 1e6
-
-
-def _dividing_step(period: float, bound: float) -> float:
-    """The largest step <= ``bound`` that divides ``period`` and reads in 3 digits.
-
-    ``simulate`` wants --rate to divide 1/--time-step: the suggestion must be
-    typed back exactly (1e-3/200 = 5e-6, not 1e-3/180 = 5.56e-6). A bound of
-    less than a millionth of the period (a Coulomb friction of 1e300 N·m) is
-    returned as it is: no search.
-    """
-    if not bound * _DIVIDED >= period:  # an absurd friction (FC = 1e300): as is
-        return bound
-    first = max(1, math.ceil(period / bound - 1e-9))
-    for k in range(first, 4 * first + 1):
-        step = period / k
-        if abs(float(f"{step:.3g}") - step) <= 1e-12 * step:
-            return float(f"{step:.3g}")
-    return period / first
 
 
 def _actuators(plant: Any) -> list[Any]:

@@ -123,23 +123,24 @@ def configure_plant(plant: Any, context: Any, drive: SimulatedDrive) -> None:
 
 
 def implicit_damping_context(plant: Any, context: Any, h: float) -> Any:
-    """A clone of ``context`` whose joints carry h·FVj more reflected inertia.
+    """A clone of ``context`` whose joints carry (h/2)·FVj more reflected inertia.
 
-    Drake's discrete step damps implicitly: with joint damping D = diag(FVj),
-    (M + h·D)(v_{k+1} − v_k)/h = τ − c − g − D v_k. A controller commanding
-    τ = M a + c − g + D v_k (the feedforward of FVj) gives the plant the
-    acceleration (M + h·D)⁻¹ M a: on the TIAGo's wrist (FV 1 N·m·s/rad on
-    4e-6 kg·m², h = 1 ms) a 251st of it, and the joint does not track. The
+    The simulated step damps at the midpoint velocity v + (h/2) a
+    (``systems.drive_forces.DriveForces``): with joint damping D = diag(FVj),
+    (M + (h/2) D) a = τ − c − g − D v − F. A controller commanding
+    τ = M a + c − g + D v (the feedforward of FVj) gives the plant the
+    acceleration (M + (h/2) D)⁻¹ M a: on the TIAGo's wrist (FV 1 N·m·s/rad on
+    4e-6 kg·m², h = 1 ms) a 126th of it, and the joint does not track. The
     inverse-dynamics controller evaluated on this context commands
-    (M + h·D) a instead, which the step turns back into a. Each actuated joint's
-    rotor inertia becomes ρ² I_r + h·FVj with gear ratio 1 (ρ, I_r the
-    context's); the plant, the truth and the drive forces keep ``context``.
+    (M + (h/2) D) a instead, which the step turns back into a. Each actuated
+    joint's rotor inertia becomes ρ² I_r + (h/2)·FVj with gear ratio 1 (ρ, I_r
+    the context's); the plant, the truth and the drive forces keep ``context``.
     """
     clone = context.Clone()
     for i in plant.GetJointActuatorIndices():
         actuator = plant.get_joint_actuator(i)
         joint = actuator.joint()
-        extra = h * float(joint.GetDamping(context))
+        extra = 0.5 * h * float(joint.GetDamping(context))
         if extra > 0.0:
             reflected = actuator.calc_reflected_inertia(context)
             actuator.SetRotorInertia(clone, float(reflected) + extra)

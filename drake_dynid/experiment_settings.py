@@ -151,7 +151,7 @@ class ExperimentLog:
         joint_names: the n joints.
         max_tracking_error: (n,) largest |q - q_ref| per joint [rad or m].
         saturated: samples whose command exceeded the URDF effort limit (clipped).
-        notes: warnings on the run (a Coulomb friction too stiff for the step).
+        notes: warnings on the run (none at present).
     """
 
     t: np.ndarray

@@ -10,15 +10,14 @@ motors, ρ_k = max_j |R_kj|). A simulation splits it between Drake's plant and a
 applied generalized force:
 
 * the plant models τ_rigid, the diagonal reflected inertia IA (actuator rotor
-  inertia) and the joint damping FV (implicit in a discrete step);
-* :meth:`SimulatedDrive.applied_friction`, applied as -f: the Coulomb and offset
-  terms of the joints and of the coupled motors (explicit, s = tanh(·/ε));
+  inertia) and the joint damping FV;
+* :meth:`SimulatedDrive.applied_friction` F: the Coulomb and offset terms of the
+  joints and of the coupled motors (s = tanh(·/ε));
 * the coupled motors' inertia and viscous friction, the constant matrices::
 
       K = Σ_k Ia_k R_kᵀ R_k  [kg·m²],      B = Σ_k Fv_k R_kᵀ R_k  [N·m·s/rad],
 
-  which no joint or actuator of Drake's plant can carry (off-diagonal), are
-  applied exactly by :func:`coupled_motor_force`.
+  which no joint or actuator of Drake's plant can carry (off-diagonal).
 
 A discrete ``MultibodyPlant`` without contact steps as (measured, Drake 1.51, SAP;
 docs/CONVENTIONS.md §7)::
@@ -26,24 +25,34 @@ docs/CONVENTIONS.md §7)::
     (M + h D) a = u + f - c(q, v) - D v,      v⁺ = v + h a,      q⁺ = q + h v⁺
 
 (M with the reflected inertia, D the joint damping, u the clipped actuation, f the
-applied force, c = C(q, v) v - g(q)). The plant moves as if its mass matrix were
-M + K and its damping D + B (B implicit, as D) when f = f₀ - K a - B (v + h a) with
-``(M + h D + K + h B) a = u + f₀ - c - (D + B) v``: substituting gives (M + h D) a
-on both sides, so the step is exact, not lagged. Pure numpy.
+applied force, c = C(q, v) v - g(q)): its velocity terms sit half a step either
+side of the central difference (q⁺ - q⁻)/2h = v + (h/2) a. The applied force of
+:func:`midpoint_step_force` makes it the step of the plant with mass matrix
+M + K, damping D + B and friction F, every velocity term at that midpoint::
+
+    (M + K) a + c(q, v̄) + (D + B) v̄ + F(v̄) = u,      v̄ = v + (h/2) a
+
+so a log of the plant obeys the model at the central differences of its
+positions, as every identification path evaluates it. Pure numpy.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from drake_dynid.core import _validate
 from drake_dynid.core.drive_columns import MotorColumns
-from drake_dynid.core.friction import SignLaw, friction_force
+from drake_dynid.core.friction import SignLaw, TanhSign, friction_force
 
-__all__ = ["SimulatedDrive", "coupled_motor_force", "simulated_drive"]
+__all__ = [
+    "SimulatedDrive",
+    "midpoint_step_force",
+    "simulated_drive",
+]
 
 _OWNER = "SimulatedDrive"
 
@@ -211,42 +220,138 @@ def simulated_drive(
     )
 
 
-def coupled_motor_force(
+#: Newton iterations of :func:`midpoint_step_force` before it gives up.
+MIDPOINT_ITERATIONS = 50
+
+
+def _friction_law(
+    drive: SimulatedDrive,
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The friction law v -> (F(v), ∂F/∂v (n, n)) of ``drive.applied_friction``.
+
+    Analytic for the joints' tanh law without coupled motors (the common case,
+    evaluated several times per plant step); else central differences (the
+    joints' law is elementwise; every column with coupled motors).
+    """
+    n = drive.num_joints
+    width = getattr(drive.sign, "width", None)
+    coulomb, offset = np.asarray(drive.coulomb), np.asarray(drive.offset)
+    if drive.motors is None and isinstance(drive.sign, TanhSign):
+        scale = coulomb / width
+
+        def tanh_law(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            s = np.tanh(v / width)
+            return coulomb * s + offset, np.diag(scale * (1.0 - s * s))
+
+        return tanh_law
+    step = 1e-4 * float(width or 1e-2)
+
+    def differenced(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if drive.motors is None:
+            zero = np.zeros(n)
+            forward = friction_force(v + step, zero, coulomb, offset, drive.sign)
+            backward = friction_force(v - step, zero, coulomb, offset, drive.sign)
+            jacobian = np.diag((forward - backward) / (2.0 * step))
+        else:
+            jacobian = np.empty((n, n))
+            for j in range(n):
+                delta = np.zeros(n)
+                delta[j] = step
+                jacobian[:, j] = (
+                    drive.applied_friction(v + delta)
+                    - drive.applied_friction(v - delta)
+                ) / (2.0 * step)
+        return drive.applied_friction(v), jacobian
+
+    return differenced
+
+
+def midpoint_step_force(
     drive: SimulatedDrive,
     mass: np.ndarray,
     damping: np.ndarray,
     time_step: float,
-    bias: np.ndarray,
+    bias: Callable[[np.ndarray], np.ndarray],
     v: np.ndarray,
     actuation: np.ndarray,
-    applied: np.ndarray,
 ) -> np.ndarray:
-    """The applied force that gives a discrete plant the coupled motors' K and B.
+    """The applied force that makes a discrete plant's step the midpoint step.
 
-    (Module docstring.) With c the plant's bias, u the actuation it applies and
-    f₀ the other applied forces::
+    Drake's step (module docstring) evaluates the bias c and any applied friction
+    at v_k, half a step before the central difference of the positions, and the
+    damping at v_{k+1}, half a step after: a log of it obeys the model at the
+    central differences only to O(h) (docs/CONVENTIONS.md §2). With v̄ the
+    midpoint velocity and a the step's acceleration::
 
-        (M + h D + K + h B) a = u + f₀ - c - (D + B) v
-        f = f₀ - K a - B (v + h a)                                  [N·m or N]
+        v̄ = v + (h/2) a = (q_{k+1} - q_{k-1}) / 2h
+        a = (q_{k+1} - 2 q_k + q_{k-1}) / h²
+
+    this solves, by Newton's method on a (Jacobian M + K + (h/2)(D + B + ∂F/∂v);
+    c's velocity Jacobian, of relative size h|v|, is left out and the iteration
+    converges linearly at that rate; steps halved until |r| decreases)::
+
+        r(a) = (M + K) a + c(q, v̄) + (D + B) v̄ + F(v̄) - u = 0
+
+    (F = ``drive.applied_friction``: Coulomb and offsets of the joints and of the
+    coupled motors; K, B the coupled motors' inertia and damping), and returns::
+
+        f = (M + h D) a - u + c(q, v) + D v                        [N·m or N]
+
+    so that the plant's step (M + h D) a = u + f - c(q, v) - D v takes that a:
+    every velocity term of the logged τ_k = u_k is then at the central
+    difference, as every identification path evaluates it. Implicit in F, the
+    step is stable for any Coulomb stiffness h·FC/(ε·inertia) (the explicit
+    law chattered beyond 2); within |v̄| < ε a very stiff joint's velocity rings
+    about v̄ = 0 by at most about ε.
 
     Args:
-        drive: the drive (K = ``coupled_inertia``, B = ``coupled_damping``).
+        drive: the drive (F, K = ``coupled_inertia``, B = ``coupled_damping``).
         mass: (n, n) the plant's mass matrix M(q) (with its reflected inertia).
         damping: (n,) the plant's joint damping D.
         time_step: the plant's step h [s].
-        bias: (n,) c = C(q, v) v - g(q) (Drake's bias term minus its gravity
-            generalized forces).
-        v: (n,) the velocities.
+        bias: velocity (n,) -> c(q, velocity) = C(q, velocity) velocity - g(q),
+            at the step's q.
+        v: (n,) the velocities v_k.
         actuation: (n,) the actuation u the plant applies (after its effort
             limits).
-        applied: (n,) f₀.
 
     Returns:
         (n,) the applied generalized force f to give the plant.
+
+    Raises:
+        ValueError: Newton's method did not converge (a non-finite state).
     """
-    inertia, viscous = drive.coupled_inertia, drive.coupled_damping
-    h = time_step
-    system = mass + h * np.diag(damping) + inertia + h * viscous
-    rhs = actuation + applied - bias - damping * v - viscous @ v
-    a = np.linalg.solve(system, rhs)
-    return applied - inertia @ a - viscous @ (v + h * a)
+    h = float(time_step)
+    inertia = mass + drive.coupled_inertia
+    viscous = np.diag(damping) + drive.coupled_damping
+    law = _friction_law(drive)
+    at_v = bias(v)
+    friction, slope = law(v)
+    a = np.linalg.solve(
+        inertia + 0.5 * h * (viscous + slope),
+        actuation - at_v - viscous @ v - friction,
+    )
+    tolerance = 1e-10 * (np.max(np.abs(actuation)) + np.max(np.abs(at_v)) + 1e-300)
+    size, last = math.inf, None
+    for _ in range(MIDPOINT_ITERATIONS):
+        middle = v + 0.5 * h * a
+        friction, slope = law(middle)
+        r = inertia @ a + bias(middle) + viscous @ middle + friction - actuation
+        new_size = float(np.max(np.abs(r)))
+        if not new_size < size:  # no decrease: halve the last step, or stop
+            if not np.all(np.isfinite(a)) or last is None or new_size <= tolerance:
+                break
+            last = 0.5 * last
+            a = a + last  # back towards the previous iterate
+            continue
+        size = new_size
+        if size <= tolerance:
+            break
+        last = np.linalg.solve(inertia + 0.5 * h * (viscous + slope), r)
+        a = a - last
+    if not np.all(np.isfinite(a)):
+        _validate.fail(
+            "midpoint_step_force",
+            "the midpoint step did not converge (a non-finite acceleration).",
+        )
+    return (mass + h * np.diag(damping)) @ a - actuation + at_v + damping * v

@@ -21,7 +21,7 @@ from pydrake.systems.framework import (
 )
 
 from drake_dynid.core import _validate
-from drake_dynid.core.drive_dynamics import SimulatedDrive, coupled_motor_force
+from drake_dynid.core.drive_dynamics import SimulatedDrive, midpoint_step_force
 from drake_dynid.core.friction import friction_force_scalar
 
 __all__ = ["DriveFeedforward", "DriveForces"]
@@ -46,7 +46,7 @@ def _joint_friction(drive: SimulatedDrive, v: Any) -> np.ndarray:
 
 
 class DriveForces(LeafSystem):
-    """The drive's forces a ``MultibodyPlant`` does not model itself.
+    """The drive's forces, and the midpoint step, of a discrete ``MultibodyPlant``.
 
     .. pydrake_system::
 
@@ -57,18 +57,22 @@ class DriveForces(LeafSystem):
         output_ports:
         - generalized_force
 
-    For the plant's applied generalized force input (docs/DRIVE.md §6c)::
+    For the plant's applied generalized force input (docs/DRIVE.md §6c),
+    ``core.drive_dynamics.midpoint_step_force``: with M, c = C v - g and D of
+    ``plant`` at the current state, u the ``actuation`` clipped to the actuators'
+    effort limits (as the plant applies it), F the drive's Coulomb friction and
+    offsets (joints and coupled motors, ``SimulatedDrive.applied_friction``) and
+    K, B the coupled motors' inertia and damping, the force f for which the
+    plant's step (M + h D) a = u + f - c(q, v) - D v takes the a of::
 
-        f₀ = -(FC ⊙ s(v) + OFF + Σ_k R_kᵀ [Fc_k s(R_k v/ρ_k) + off_k])   [N·m or N]
+        (M + K) a + c(q, v̄) + (D + B) v̄ + F(v̄) = u,    v̄ = v + (h/2) a   [N·m or N]
 
-    and, when the coupled motors have rotor inertia or viscous friction (K, B ≠ 0),
-    ``core.drive_dynamics.coupled_motor_force``: f = f₀ - K a - B (v + h a) with
-    ``(M + h D + K + h B) a = u + f₀ - c - (D + B) v``, M, c, D of ``plant`` at the
-    current state, u the ``actuation`` clipped to the actuators' effort limits (as
-    the plant applies it). The discrete plant then steps exactly as a plant with
-    mass matrix M + K and damping D + B. The plant's joint damping (FV) and
-    reflected inertia (IA) must be set by the caller (``rotor_inertia``,
-    ``viscous`` of the drive).
+    v̄ = (q_{k+1} - q_{k-1})/2h the central difference of the positions, at which
+    every identification path evaluates the model: a noise-free log of the plant
+    obeys it to round-off (docs/CONVENTIONS.md §2), where Drake's own step has
+    the bias and the friction at v_k and the damping at v_{k+1}, O(h) off. The
+    plant's joint damping (FV) and reflected inertia (IA) must be set by the
+    caller (``rotor_inertia``, ``viscous`` of the drive).
 
     Connect the plant's state output to ``state`` (size 2n), the command given to
     its actuation input to ``actuation`` (size n) and ``generalized_force`` to its
@@ -79,48 +83,46 @@ class DriveForces(LeafSystem):
     Args:
         drive: the :class:`drake_dynid.core.drive_dynamics.SimulatedDrive`.
         plant: the discrete ``MultibodyPlant`` simulated (a copy with the same
-            parameters; needed when K or B is non-zero).
+            parameters).
         plant_context: its context holding those parameters (rotor inertia,
             damping); default the plant's default context.
     """
 
-    def __init__(
-        self, drive: SimulatedDrive, plant: Any = None, plant_context: Any = None
-    ) -> None:
+    def __init__(self, drive: SimulatedDrive, plant: Any, plant_context: Any = None):
         super().__init__()
         owner = "DriveForces"
         self._drive = _check_drive(owner, drive)
         n = drive.num_joints
         self._state = self.DeclareVectorInputPort("state", 2 * n)
         self._actuation = self.DeclareVectorInputPort("actuation", n)
-        self._plant: Any = None
-        if drive.needs_plant_step:
-            if plant is None:
-                _validate.fail(
-                    owner,
-                    "plant must be given when the coupled motors have rotor inertia "
-                    "or viscous friction (K or B non-zero).",
-                )
-            if plant.num_velocities() != n or plant.time_step() <= 0.0:
-                _validate.fail(
-                    owner,
-                    f"plant must be a discrete plant with {n} velocities; got "
-                    f"{plant.num_velocities()} and time_step {plant.time_step()}.",
-                )
-            context = (
-                plant.CreateDefaultContext() if plant_context is None else plant_context
-            )
-            self._plant = plant
-            self._time_step = float(plant.time_step())
-            self._damping, self._effort = _damping_and_effort(plant, context)
-            template = AbstractValue.Make(context.Clone())
-            self._plant_state = self.DeclareCacheEntry(
-                description="the plant model at the current state",
-                value_producer=ValueProducer(
-                    allocate=template.Clone, calc=self._CalcPlantState
+        if not (
+            hasattr(plant, "num_velocities")
+            and plant.num_velocities() == n
+            and plant.time_step() > 0.0
+        ):
+            _validate.fail(
+                owner,
+                f"plant must be a discrete MultibodyPlant with {n} velocities; got "
+                + (
+                    f"{plant.num_velocities()} and time_step {plant.time_step()}."
+                    if hasattr(plant, "num_velocities")
+                    else f"{type(plant).__name__}."
                 ),
-                prerequisites_of_calc={self.input_port_ticket(self._state.get_index())},
             )
+        context = (
+            plant.CreateDefaultContext() if plant_context is None else plant_context
+        )
+        self._plant = plant
+        self._time_step = float(plant.time_step())
+        self._damping, self._effort = _damping_and_effort(plant, context)
+        template = AbstractValue.Make(context.Clone())
+        self._plant_state = self.DeclareCacheEntry(
+            description="the plant model at the current state",
+            value_producer=ValueProducer(
+                allocate=template.Clone, calc=self._CalcPlantState
+            ),
+            prerequisites_of_calc={self.input_port_ticket(self._state.get_index())},
+        )
         self._force = self.DeclareVectorOutputPort(
             "generalized_force", n, self._CalcForce
         )
@@ -147,33 +149,29 @@ class DriveForces(LeafSystem):
         self._plant.SetPositionsAndVelocities(plant_context, self._state.Eval(context))
 
     def _CalcForce(self, context: Any, output: BasicVector) -> None:
-        drive = self._drive
-        n = drive.num_joints
-        x = self._state.Eval(context)
-        v = x[n:]
-        if drive.motors is None:
-            force = -_joint_friction(drive, v)
-        else:
-            force = -drive.applied_friction(np.asarray(v, dtype=float))
-        if self._plant is not None:
-            plant = self._plant
-            plant_context = self._plant_state.Eval(context)
-            bias = plant.CalcBiasTerm(plant_context) - (
-                plant.CalcGravityGeneralizedForces(plant_context)
-            )
-            actuation = np.clip(
-                self._actuation.Eval(context), -self._effort, self._effort
-            )
-            force = coupled_motor_force(
-                drive,
-                plant.CalcMassMatrix(plant_context),
-                self._damping,
-                self._time_step,
-                bias,
-                v,
-                actuation,
-                force,
-            )
+        n = self._drive.num_joints
+        x = np.asarray(self._state.Eval(context), dtype=float)
+        plant = self._plant
+        # The cached context at the current q; the bias is evaluated on it at
+        # other velocities (every reader sets them first).
+        plant_context = self._plant_state.Eval(context)
+        gravity = plant.CalcGravityGeneralizedForces(plant_context)
+
+        def bias(velocity: np.ndarray) -> np.ndarray:
+            plant.SetVelocities(plant_context, velocity)
+            return plant.CalcBiasTerm(plant_context) - gravity
+
+        actuation = np.clip(self._actuation.Eval(context), -self._effort, self._effort)
+        force = midpoint_step_force(
+            self._drive,
+            plant.CalcMassMatrix(plant_context),
+            self._damping,
+            self._time_step,
+            bias,
+            x[n:],
+            actuation,
+        )
+        plant.SetVelocities(plant_context, x[n:])
         output.SetFromVector(force)
 
 
@@ -192,24 +190,25 @@ class DriveFeedforward(LeafSystem):
     With the reference [q_r; v_r; v̇_r] (size 3n) and the state [q; v]::
 
         feedforward = FC ⊙ s(v_r) + OFF + Σ_k R_kᵀ [Fc_k s(R_k v_r/ρ_k) + off_k]
-                      + (K + h B) (v̇_r + kp (q_r - q) + kd (v_r - v)) + B v
+                      + (K + (h/2) B) (v̇_r + kp (q_r - q) + kd (v_r - v)) + B v
                                                                     [N·m or N]
 
     i.e. the friction the plant gets from :class:`DriveForces` and the coupled
     motors' inertia, which Drake's ``InverseDynamicsController`` (M(q), c, D of
     its plant) does not know; with it the tracking error has the controller's
     gains on every joint. :class:`DriveForces` makes the discrete plant step
-    with the motors' damping B implicit, (M + h D + K + h B) a = u - c -
-    (D + B) v, so the command a needs (K + h B) a + B v (the controller's plant
-    gives (M + h D) a + D v: ``experiment_drive.implicit_damping_context``); with
-    B v_r instead of B v, B (v_r - v) was extra velocity feedback. No state;
-    double only (a plain Python ``LeafSystem``).
+    with the damping at the midpoint velocity v + (h/2) a, (M + K + (h/2)(D +
+    B)) a = u - c - (D + B) v - F, so the command a needs (K + (h/2) B) a + B v
+    (the controller's plant gives (M + (h/2) D) a + D v:
+    ``experiment_drive.implicit_damping_context``); with B v_r instead of B v,
+    B (v_r - v) was extra velocity feedback. No state; double only (a plain
+    Python ``LeafSystem``).
 
     Args:
         drive: the :class:`drake_dynid.core.drive_dynamics.SimulatedDrive`.
         kp: the controller's position gain [1/s²].
         kd: the controller's velocity gain [1/s].
-        time_step: the discrete plant's step h [s] (0: h B left out).
+        time_step: the discrete plant's step h [s] (0: (h/2) B left out).
     """
 
     def __init__(
@@ -225,7 +224,7 @@ class DriveFeedforward(LeafSystem):
             _validate.fail(owner, f"time_step must be finite and >= 0 [s]; got {h}.")
         self._inertia = drive.coupled_inertia
         if h > 0.0:
-            self._inertia = self._inertia + h * drive.coupled_damping
+            self._inertia = self._inertia + 0.5 * h * drive.coupled_damping
         self._viscous = drive.coupled_damping
         n = drive.num_joints
         self._state = self.DeclareVectorInputPort("state", 2 * n)

@@ -1,6 +1,6 @@
 """core.drive_dynamics: the drive's share of a simulated plant (no pydrake).
 
-The exactness of the coupled-motor force in a Drake plant is tested in
+The midpoint step in a Drake plant is tested in tests/test_simulate.py and
 tests/test_simulate_drive.py; here the algebra and the checks.
 """
 
@@ -10,7 +10,7 @@ import pytest
 from drake_dynid.core.drive_columns import MotorColumns
 from drake_dynid.core.drive_dynamics import (
     SimulatedDrive,
-    coupled_motor_force,
+    midpoint_step_force,
     simulated_drive,
 )
 from drake_dynid.core.friction import TanhSign
@@ -58,23 +58,42 @@ def test_coupled_matrices_and_friction():
     np.testing.assert_allclose(drive.applied_friction(v), expected, rtol=1e-14)
 
 
-def test_coupled_force_makes_the_step_of_the_augmented_plant():
+@pytest.mark.parametrize("coupled", [True, False])
+@pytest.mark.parametrize("coulomb", [1.0, 1e4])  # 1e4: h·FC/(ε·inertia) ~ 1e3
+def test_the_force_makes_the_plants_step_the_midpoint_step(coupled, coulomb):
+    """The plant's step (M + h D) a = u + f - c(v) - D v with f takes the a of
+    (M + K) a + c(v̄) + (D + B) v̄ + F(v̄) = u, v̄ = v + (h/2) a, c quadratic in
+    the velocity (a Coriolis term) plus gravity; a stiff Coulomb law included."""
     rng = np.random.default_rng(0)
-    drive = _drive()
+    drive = _drive(
+        motors=_motors() if coupled else None,
+        coulomb=coulomb * np.array([2.1, 2.2, 0.9, 0.4]),
+    )
     a = rng.normal(size=(4, 4))
     mass = a @ a.T + 4 * np.eye(4)
     damping, h = np.array([1.5, 1.5, 0.6, 0.2]), 1e-3
-    bias, v = rng.normal(size=4), rng.normal(size=4)
-    u, f0 = rng.normal(size=4), rng.normal(size=4)
-    f = coupled_motor_force(drive, mass, damping, h, bias, v, u, f0)
-    # The plant's step with f ...
-    accel = np.linalg.solve(mass + h * np.diag(damping), u + f - bias - damping * v)
-    # ... is the step of the plant with M + K and damping D + B (implicit).
-    k, b = drive.coupled_inertia, drive.coupled_damping
-    augmented = np.linalg.solve(
-        mass + k + h * (np.diag(damping) + b), u + f0 - bias - (damping * v + b @ v)
-    )
-    np.testing.assert_allclose(accel, augmented, rtol=1e-12)
+    tensor, gravity = rng.normal(size=(4, 4, 4)), rng.normal(size=4)
+
+    def bias(velocity):
+        return np.einsum("ijk,j,k->i", tensor, velocity, velocity) - gravity
+
+    for v in (rng.normal(size=4), 1e-3 * rng.normal(size=4)):  # 1e-3: reversals
+        u = 10.0 * rng.normal(size=4)
+        f = midpoint_step_force(drive, mass, damping, h, bias, v, u)
+        # The plant's step with f ...
+        accel = np.linalg.solve(
+            mass + h * np.diag(damping), u + f - bias(v) - damping * v
+        )
+        # ... solves the midpoint equation.
+        middle = v + 0.5 * h * accel
+        residual = (
+            (mass + drive.coupled_inertia) @ accel
+            + bias(middle)
+            + (np.diag(damping) + drive.coupled_damping) @ middle
+            + drive.applied_friction(middle)
+            - u
+        )
+        assert np.max(np.abs(residual)) < 1e-9 * np.max(np.abs(u)), residual
 
 
 def test_from_a_standard_table():
