@@ -229,19 +229,38 @@ def _friction_law(
 ) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
     """The friction law v -> (F(v), ∂F/∂v (n, n)) of ``drive.applied_friction``.
 
-    Analytic for the joints' tanh law without coupled motors (the common case,
-    evaluated several times per plant step); else central differences (the
-    joints' law is elementwise; every column with coupled motors).
+    Analytic for the tanh laws of a simulation (evaluated several times per plant
+    step); else central differences (the joints' law is elementwise; every
+    column with coupled motors).
     """
     n = drive.num_joints
     width = getattr(drive.sign, "width", None)
     coulomb, offset = np.asarray(drive.coulomb), np.asarray(drive.offset)
-    if drive.motors is None and isinstance(drive.sign, TanhSign):
+    motors = drive.motors
+    motor_sign = None if motors is None else motors.sign
+    if isinstance(drive.sign, TanhSign) and (
+        motors is None or isinstance(motor_sign, TanhSign)
+    ):
+        # F = FC ⊙ tanh(v/ε) + OFF + Σ_k R_kᵀ [Fc_k tanh(R_k v/(ρ_k ε_m)) + off_k]
         scale = coulomb / width
+        rows = np.zeros((0, n)) if motors is None else np.asarray(motors.rows)
+        rho = np.max(np.abs(rows), axis=1) if rows.size else np.zeros(0)
+        motor_width = rho * (
+            motor_sign.width if isinstance(motor_sign, TanhSign) else 1.0
+        )
+        motor_coulomb = drive._motor_values("FCm")
+        motor_offset = drive._motor_values("OFFm")
 
         def tanh_law(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             s = np.tanh(v / width)
-            return coulomb * s + offset, np.diag(scale * (1.0 - s * s))
+            force = coulomb * s + offset
+            jacobian = np.diag(scale * (1.0 - s * s))
+            if rows.size:
+                s_m = np.tanh((rows @ v) / motor_width)
+                force = force + rows.T @ (motor_coulomb * s_m + motor_offset)
+                slope = motor_coulomb * (1.0 - s_m * s_m) / motor_width
+                jacobian = jacobian + rows.T @ (slope[:, None] * rows)
+            return force, jacobian
 
         return tanh_law
     step = 1e-4 * float(width or 1e-2)

@@ -59,6 +59,32 @@ def test_coupled_matrices_and_friction():
 
 
 @pytest.mark.parametrize("coupled", [True, False])
+def test_the_friction_law_of_the_step_is_the_drives(coupled):
+    """The midpoint step's analytic tanh law and Jacobian = ``applied_friction``
+    and its central differences."""
+    from drake_dynid.core.drive_dynamics import _friction_law
+
+    drive = _drive(motors=_motors() if coupled else None)
+    law = _friction_law(drive)
+    rng = np.random.default_rng(1)
+    for v in (rng.normal(size=4), 0.01 * rng.normal(size=4)):
+        force, jacobian = law(v)
+        np.testing.assert_allclose(force, drive.applied_friction(v), rtol=1e-13)
+        step = 1e-7
+        numeric = np.column_stack(
+            [
+                (
+                    drive.applied_friction(v + step * e)
+                    - drive.applied_friction(v - step * e)
+                )
+                / (2 * step)
+                for e in np.eye(4)
+            ]
+        )
+        np.testing.assert_allclose(jacobian, numeric, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("coupled", [True, False])
 @pytest.mark.parametrize("coulomb", [1.0, 1e4])  # 1e4: h·FC/(ε·inertia) ~ 1e3
 def test_the_force_makes_the_plants_step_the_midpoint_step(coupled, coulomb):
     """The plant's step (M + h D) a = u + f - c(v) - D v with f takes the a of
