@@ -16,7 +16,8 @@ with the URDFs' own (inflated) limits:
    ``identify_offline`` on the log: for the parameters that ``dynid excite``
    predicts well excited (%σ <= 0.1 with torque noise alone), how many and the
    largest |relative error| against the URDF values; also with a 0.5 ms plant
-   (the simulated Coulomb friction, tanh(v/0.01), chatters less).
+   (the same log rate; the plant's midpoint step, docs/DRIVE.md §6c, makes the
+   1 ms log already obey the model at its central differences).
 
 BLAS is pinned to one thread. ``--quick``: iiwa7 only, 10 s, 20 iterations, no
 0.5 ms run.

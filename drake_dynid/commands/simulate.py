@@ -32,7 +32,9 @@ DESCRIPTION = (
     "friction from the URDF damping, Coulomb friction from the URDF <dynamics "
     "friction> as an applied force) tracking a trajectory file (CSV: t, q_<joint>, "
     "v_<joint>, e.g. from dynid excite; cubic Hermite interpolation) with Drake's "
-    "InverseDynamicsController plus a Coulomb feedforward, adds seeded white noise, "
+    "InverseDynamicsController plus a Coulomb feedforward (each plant step the "
+    "midpoint step: the velocity terms at the central difference of the positions, "
+    "as the identification evaluates them), adds seeded white noise, "
     "and writes the log (t, q_<joint>, tau_<joint>) at the given rate and the true "
     "base parameters next to it (LOG.truth.json, the dynid params --json format). "
     "Stops with exit code 2, naming the joint, the time and the limit, if the "
@@ -202,10 +204,9 @@ def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
     """The dynid offline command line that scores the log against its truth.
 
     With ``--coulomb-width`` of the simulated Coulomb law tanh(v/ε) (``smoothing``
-    ε [rad/s]): the identified model then has the simulator's friction law (with
-    sign(v) the friction parameters of slow joints come out 1.6-2.5 % off on the
-    iiwa7 and UR5 README runs; with the matching law every well-excited parameter
-    is within 0.6 %).
+    ε [rad/s]): the identified model then has the simulator's friction law (the
+    README's iiwa7 run: the well-excited parameters within 1.02 % off-line, 1.54 %
+    with sign(v) and the dead zone; on-line within 1.05 % and 0.69 %).
     """
     parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
     if args.joints:
