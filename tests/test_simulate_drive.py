@@ -7,11 +7,12 @@ motor currents in mA, time stamps in ns). Checks, each against something the
 simulation does not compute itself:
 
 * ``DriveForces`` (the coupled motors' inertia and viscous friction through the
-  plant's step) reproduces Drake's own reflected inertia and implicit damping when
+  plant's midpoint step) reproduces Drake's own reflected inertia and damping when
   the rows are diagonal;
 * the noise-free log, read back through the drive file, obeys the motor model
   written out here (Drake's ``CalcInverseDynamics`` of the bare URDF, the joint
-  friction and the motors through R, in the discrete step's form) to round-off;
+  friction and the motors through R, at the central differences of the positions)
+  to round-off;
 * ``dynid offline --drive`` on the noisy log of an excite trajectory recovers the
   well-excited parameters, the coupled motor's IAm4, FVm4, FCm4 among them,
   within 1 % of the truth file.
@@ -221,7 +222,7 @@ def test_offline_drive_recovers_the_parameters(files, tmp_path):
     errors = {
         name: 100 * abs(estimates[name] - true[name]) / abs(true[name]) for name in well
     }
-    # Measured: worst 0.50 % (FCm4), IAm4 0.39 %, FVm4 0.07 %.
+    # Measured: worst 0.56 % (FCm4), IAm4 0.05 %, FVm4 0.50 % (the README's run).
     assert max(errors.values()) < 1.0, errors
 
 
