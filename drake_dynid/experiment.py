@@ -261,6 +261,7 @@ def simulate_experiment(
     configure_plant(controller_plant, controller_context, drive)
     t_ref = np.asarray(reference.t - reference.t[0], dtype=float)
     q_ref, v_ref = np.asarray(reference.q), np.asarray(reference.v)
+
     def piece(start: float, stop: float) -> Any:
         """The reference's cubic Hermite over [start, stop] (and a knot more)."""
         a = max(0, int(np.searchsorted(t_ref, start, "right")) - 2)
