@@ -416,3 +416,17 @@ def test_a_coefficient_file_with_a_bad_duration_or_frequency_is_named(
     path.write_text(json.dumps(document))
     with pytest.raises(ValueError, match=f"trajectory .*t.json: .*{message}"):
         read_trajectory(path, ["j"])
+
+
+def test_the_position_margin_says_its_unit_on_a_prismatic_joint(tmp_path, capsys):
+    """Found by a review: the TIAGo's torso (a 0.35 m stroke) keeps the position
+    margin 0.1 as 0.1 m at each end, and excite printed "position 0.1 rad"."""
+    joints = "torso_lift_joint,arm_1_joint,arm_2_joint"
+    argv = ["excite", "tiago_no_hand", "--joints", joints, "--duration", "5"]
+    argv += ["--iterations", "3", "--out", str(tmp_path / "t.csv")]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    assert "margins: position 0.1 rad (m on the prismatic torso_lift_joint)," in out
+    argv = ["excite", "iiwa7", "--duration", "5", "--iterations", "3"]
+    assert cli.main([*argv, "--out", str(tmp_path / "i.csv")]) == 0
+    assert "margins: position 0.1 rad, velocity" in capsys.readouterr().out

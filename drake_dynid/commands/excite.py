@@ -79,7 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--margin",
         default="",
         metavar="KIND=V[,...]",
-        help="margins kept from the limits: position=RAD (default 0.1), "
+        help="margins kept from the limits: position=RAD (m on a prismatic joint; "
+        "default 0.1), "
         "velocity=FRAC (0.2), acceleration=FRAC (0.2), effort=FRAC (0.2), "
         "collision=M (0.01)",
     )
@@ -196,6 +197,25 @@ def _limits(robot: Any, args: argparse.Namespace) -> Any:
     return limits
 
 
+def _position_unit(robot: Any) -> str:
+    """The position margin's unit: rad, and m on the prismatic joints (named).
+
+    The margin is one number for every joint: on the TIAGo's torso (a 0.35 m
+    stroke) 0.1 is 0.1 m kept at each end, which "0.1 rad" did not say.
+    """
+    prismatic = [
+        name
+        for name, slider in zip(robot.joint_names, robot.prismatic, strict=True)
+        if slider
+    ]
+    if not prismatic:
+        return "rad"
+    if len(prismatic) == robot.num_joints:
+        return "m"
+    joints = ", ".join(prismatic)
+    return f"rad (m on the prismatic {joints})"
+
+
 def _percent(value: float) -> str:
     return f"{value:.2g}" if math.isfinite(value) else "inf"
 
@@ -272,7 +292,8 @@ def run(args: argparse.Namespace) -> int:
     )
     say(
         f"limits: {'URDF + ' + args.limits if args.limits else 'URDF'}; margins: "
-        f"position {margins.position:g} rad, velocity {margins.velocity:.0%}, "
+        f"position {margins.position:g} {_position_unit(robot)}, velocity "
+        f"{margins.velocity:.0%}, "
         f"effort {margins.effort:.0%}, collision {margins.collision:g} m"
     )
     if collision is None:
