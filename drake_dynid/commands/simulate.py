@@ -205,8 +205,8 @@ def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
 
     With ``--coulomb-width`` of the simulated Coulomb law tanh(v/ε) (``smoothing``
     ε [rad/s]): the identified model then has the simulator's friction law (the
-    README's iiwa7 run: the well-excited parameters within 1.02 % off-line, 1.54 %
-    with sign(v) and the dead zone; on-line within 1.05 % and 0.69 %).
+    README's iiwa7 run: the well-excited parameters within 1.02 % off-line, 1.39 %
+    with sign(v) and the dead zone; on-line within 1.05 % and 0.90 %).
     """
     parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
     if args.joints:
