@@ -440,7 +440,9 @@ def standstill_widths(
 
     Returns:
         (n,) widths, in the log's joint order; None when no finite segment is
-        long enough to measure the noise (2·trim + 32 samples, and 64).
+        long enough to measure the noise (2·trim + 32 samples, and 64); 3 G σ_q
+        alone when none holds an interior clear of the filters' edge transients
+        (``core.standstill.shortest_run``).
 
     Raises:
         ValueError: a cutoff that is not in (0, Nyquist).

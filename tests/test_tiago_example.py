@@ -97,9 +97,9 @@ def tiago():
 def test_the_dead_zone_width_follows_the_velocity_noise(tiago):
     _, _, log, widths = tiago
     # 3 x the measured noise: millimetres or milliradians per second, far below
-    # the moving speeds (order 0.1 rad/s). Measured: 1.6 mm/s, 2.1-8.2 mrad/s;
-    # the torso and arm_1..arm_4 from the velocity above the band (arm_1..arm_4:
-    # 3-7 times what their white floor predicts), the wrist from the white floor.
+    # the moving speeds (order 0.1 rad/s). Measured: 1.6 mm/s, 2.3-9.6 mrad/s,
+    # from the velocity above the band (arm_1..arm_4: 4-10 times what their white
+    # floor predicts; the wrist 1.07-1.10 times).
     assert 1e-3 < widths[0] < 1e-2  # torso [m/s]
     assert np.all((widths[1:] > 1.5e-3) & (widths[1:] < 2e-2))
     # The white floor's part alone, G·σ_q: under the widths of arm_1..arm_4.
@@ -110,7 +110,7 @@ def test_the_dead_zone_width_follows_the_velocity_noise(tiago):
     gain = velocity_noise_gain(log.time_step, log.on_longest_run(auto_cutoff))
     white = 3 * gain * log.on_longest_run(motion_and_noise)[1]
     assert np.all(white[1:5] < 0.5 * widths[1:5])
-    np.testing.assert_allclose(white[5:], widths[5:], rtol=1e-12)
+    assert np.all((white[5:] <= widths[5:]) & (widths[5:] < 1.2 * white[5:]))
 
 
 def test_core_replay_equals_the_blocks_on_the_real_log(tiago):
@@ -154,7 +154,7 @@ def _coulomb_gap(robot, log):
 
 def test_online_and_offline_coulomb_agree_with_the_dead_zone(tiago):
     robot, zoned, log, _ = tiago
-    # Measured: 1.13 σ with the exact sign, 0.41 σ with the dead zone.
+    # Measured: 1.13 σ with the exact sign, 0.44 σ with the dead zone.
     assert _coulomb_gap(robot, log) > 0.8
     assert _coulomb_gap(zoned, log) < 0.5
 

@@ -13,8 +13,11 @@ the log::
     r_j        v_j minus its zero-phase low-pass (order 8) at f_n = min(f_c, 2 f_d),
                twice the parallel decimation's band f_d (min(f_c, 1.5 B), B the
                velocity bandwidth): what the dynamics band and its edge do not
-               explain (odd padding of four f_n periods, two periods dropped at
-               each end)
+               explain (odd padding of four f_n periods; at each end of a run the
+               samples where both filters' slowest modes have not decayed to
+               EDGE_DECAY = 1e-4 are dropped, at least two f_n periods: a joint
+               still moving there leaves the padding's transient; a run without
+               such an interior is left out, and with none σ_v = G σ_q)
     σ_r,j      1.4826 · median|r_j - median r_j|   (MAD: robust to the motion's
                own outliers; = the std for Gaussian noise)       [rad/s or m/s]
     σ_q,j      white position noise: the flat floor of q_j's periodogram above
@@ -26,7 +29,7 @@ the log::
     w_j        3 σ_v,j
 
 Each measure is a lower bound of the velocity noise: σ_r sees only the part above
-f_n (but whatever its spectrum: the TIAGo recording's, 4-5 times what its white
+f_n (but whatever its spectrum: the TIAGo recording's, 4-10 times what its white
 floor predicts on arm_1..arm_4), G σ_q the whole band of white noise only. The corner
 sits at twice the fit's band because the order-8 low-pass's edge lets the motion
 through: at f_d itself a noise-free log (a simulation) measured 1e-3 rad/s of
@@ -40,7 +43,7 @@ once on the log. A coupled motor k (Coulomb sign of u_k/ρ_k = Σ_j (R_kj/ρ_k) 
 ``core.drive_columns``) gets the width of that combination for independent joint
 noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½ (:func:`combined_widths`).
 
-Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 0.7-2.7e-3
+Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 0.8-3.2e-3
 rad/s on the arm (0.5e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
 at rest the velocity is almost 0 most of the time, with encoder-dither spikes up to
 7.5e-3 rad/s. Pure numpy/scipy.
@@ -68,6 +71,7 @@ __all__ = [
     "POSITION_FILTER_ORDER",
     "combined_widths",
     "dead_zone_widths",
+    "shortest_run",
     "velocity_noise",
     "velocity_noise_gain",
 ]
@@ -90,6 +94,12 @@ _OWNER = "velocity_noise"
 #: Velocity samples a run needs beyond the edge trims (the order-8 zero-phase
 #: low-pass pads 27 samples).
 MIN_RUN = 32
+#: The edge transients of a run (the odd padding's extrapolation of a joint still
+#: moving there, through both low-passes) must decay to this fraction of the motion
+#: before a velocity sample is kept: a joint moving at 1 rad/s at a run's end left
+#: 2e-3 rad/s of "noise" two f_n periods in (the order-8 low-pass's slowest mode
+#: decays e^{-2π sin(π/16)} = 0.29 a period), ~1e-4 at this decay.
+EDGE_DECAY = 1e-4
 #: Block margins: the filters' start-up transients decay below this fraction (the
 #: residual is ~1e-4 of the motion, and v̇ amplifies q's errors by 1/h: at 1e-16
 #: the blocks agree with the whole-run filters to round-off, ~1e-9 of σ_v).
@@ -103,8 +113,9 @@ def velocity_noise(
 
     Args:
         segments: a list of (N_i, n) finite position runs [rad or m] (the finite
-            segments of a log), or one (N, n) array. Runs shorter than the
-            filter's edge trims are skipped.
+            segments of a log), or one (N, n) array. Runs shorter than
+            :func:`shortest_run` (the filters' edges and MIN_RUN samples) are
+            skipped.
         time_step: sample period h [s].
         cutoff_hz: position cutoff f_c [Hz] (``drake_dynid.offline.auto_cutoff``).
         band_cutoff_hz: the corner f_n [Hz] of the low-pass that keeps the
@@ -132,18 +143,19 @@ def velocity_noise(
     trim = default_trim(time_step, cutoff_hz)
     band = min(band_cutoff_hz, cutoff_hz)
     filters = _Filters(time_step, cutoff_hz, band)
+    shortest = 2 * (trim + filters.edge) + MIN_RUN
     checked = []
     for run in runs:
         q = checked_rows(_OWNER, "segments", run)
         if q.ndim == 1:
             q = q[:, None]
-        if q.shape[0] >= 2 * trim + MIN_RUN:
+        if q.shape[0] >= shortest:
             checked.append(q)
     if not checked:
         check.fail(
             _OWNER,
-            f"needs a finite run of at least {2 * trim + MIN_RUN} samples to "
-            "measure the velocity noise; got none.",
+            f"needs a finite run of at least {shortest} samples to measure the "
+            "velocity noise; got none.",
         )
     spans = [filters.kept(q.shape[0] - 2 * trim) for q in checked]
     total = sum(b - a for a, b in spans)
@@ -190,17 +202,25 @@ class _Filters:
         self.low = butter_lowpass(DECIMATION_FILTER_ORDER, band, fs)
         self.low_padding = default_padding(time_step, band)
         self.low_margin = max(settle_samples(self.low, _SETTLE), self.low_padding + 2)
-        self.edge = default_trim(time_step, band) - 1  # two periods of f_n
+        # The edge transients on the motion are not noise: velocity samples are
+        # kept where both filters' slowest modes have decayed to EDGE_DECAY (the
+        # position filter's counted from the run's end, trim samples out).
+        trim = default_trim(time_step, cutoff_hz)
+        self.edge = max(
+            default_trim(time_step, band) - 1,  # two periods of f_n at least
+            settle_samples(self.low, EDGE_DECAY),
+            settle_samples(self.position, EDGE_DECAY) - trim,
+        )
 
     def kept(self, count: int) -> tuple[int, int]:
-        """Velocity samples [a, b) kept of ``count``.
+        """Velocity samples [a, b) kept of ``count`` (empty: a run too short).
 
-        Two f_n periods are dropped at each end when MIN_RUN are left (the
-        low-pass's edge transient on the motion is not noise).
+        ``edge`` samples are dropped at each end (the filters' edge transients on
+        the motion); a run that keeps fewer than MIN_RUN keeps none.
         """
         if count - 2 * self.edge >= MIN_RUN:
             return self.edge, count - self.edge
-        return 0, count
+        return 0, 0
 
     def residual(self, q: Any, joints: slice, trim: int, span: tuple[int, int]):
         """The residuals v - low-pass(v) of ``joints`` at velocity samples [a, b).
@@ -238,6 +258,21 @@ class _Filters:
                 padtype="odd",
             )
             yield (v - low)[r0 - u0 : r1 - u0]
+
+
+def shortest_run(time_step: float, cutoff_hz: float, band_cutoff_hz: float) -> int:
+    """Samples a finite run needs for :func:`velocity_noise` to measure it.
+
+    The position filter's trims (``core.idim.default_trim``), the edges where the
+    filters' transients on the motion have not decayed to :data:`EDGE_DECAY`, at
+    each end, and :data:`MIN_RUN` between.
+    """
+    owner = "shortest_run"
+    time_step = check.positive(owner, "time_step", time_step, "s")
+    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
+    band_cutoff_hz = check.positive(owner, "band_cutoff_hz", band_cutoff_hz, "Hz")
+    filters = _Filters(time_step, cutoff_hz, min(band_cutoff_hz, cutoff_hz))
+    return 2 * (default_trim(time_step, cutoff_hz) + filters.edge) + MIN_RUN
 
 
 def velocity_noise_gain(
@@ -287,7 +322,9 @@ def dead_zone_widths(
 ) -> np.ndarray:
     """Dead-zone half-widths w_j = factor·max(σ_r,j, G·σ_q,j) [rad/s or m/s], (n,).
 
-    σ_r from :func:`velocity_noise`, G from :func:`velocity_noise_gain`.
+    σ_r from :func:`velocity_noise`, G from :func:`velocity_noise_gain`. With
+    ``position_noise`` and no run of :func:`shortest_run` samples (σ_r cannot be
+    measured clear of the edges' transients), G·σ_q alone.
 
     Args:
         segments: the position runs of :func:`velocity_noise` [rad or m].
@@ -300,9 +337,24 @@ def dead_zone_widths(
     """
     owner = "dead_zone_widths"
     factor = check.positive(owner, "factor", factor, "")
-    sigma = velocity_noise(
-        segments, time_step, cutoff_hz=cutoff_hz, band_cutoff_hz=band_cutoff_hz
-    )
+    single = is_stored(segments) or isinstance(segments, np.ndarray)
+    runs = [segments] if single else list(segments)
+    shapes: list[tuple[int, ...]] = [tuple(np.shape(run)) for run in runs]
+    if (
+        position_noise is not None
+        and shapes
+        and all(len(shape) in (1, 2) for shape in shapes)
+        and all(
+            shape[0] < shortest_run(time_step, cutoff_hz, band_cutoff_hz)
+            for shape in shapes
+        )
+    ):
+        first = shapes[0]
+        sigma = np.zeros(first[1] if len(first) == 2 else 1)
+    else:
+        sigma = velocity_noise(
+            runs, time_step, cutoff_hz=cutoff_hz, band_cutoff_hz=band_cutoff_hz
+        )
     if position_noise is not None:
         white = check.array(owner, "position_noise", position_noise, shape=sigma.shape)
         if np.any(white < 0.0):
