@@ -191,6 +191,17 @@ def test_covariance_settings_are_checked():
         OnlineSettings(
             weighting="covariance", position_noise=0.0, torque_noise=(0.0, 0.0)
         )
+    # Found by a review: position noise 0 and a joint's torque noise 0 left that
+    # joint's rows without noise, a singular covariance the whitened solve trusted
+    # without limit (FC1 1.31 ± 2.8e4 for 1.50 on a 4R log, 'valid').
+    with pytest.raises(ValueError, match=r"the rows of joint\(s\) 2, 3 \(torque_noise"):
+        OnlineSettings(
+            weighting="covariance", position_noise=0.0, torque_noise=(0.1, 0.0, 0.0)
+        )
+    for position, torque in ((0.0, 0.1), ((0.0, 1e-4), (0.1, 0.0))):
+        OnlineSettings(  # a noise in every joint's rows
+            weighting="covariance", position_noise=position, torque_noise=torque
+        )
     with pytest.raises(ValueError, match=r"models the noise of the filtered rows"):
         OnlineSettings(
             weighting="covariance",

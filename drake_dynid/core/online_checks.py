@@ -342,6 +342,20 @@ def _noise_use(
                 f"{say('weighting')} 'covariance' needs a noise: "
                 f"{say('position_noise')} and {say('torque_noise')} are all 0.",
             )
+        silent = np.flatnonzero(np.atleast_1d(np.asarray(torque, dtype=float)) == 0)
+        if not np.any(np.asarray(position) > 0) and silent.size:
+            # Joint j's rows then carry no noise at all: their covariance is
+            # singular, and the whitened solve trusts them without limit (the
+            # 4R wrist with σ_τ on joint 1 only: FC1 1.31 ± 2.8e4 for 1.50).
+            joints = ", ".join(str(j + 1) for j in silent)
+            _fail(
+                prefix,
+                f"{say('weighting')} 'covariance' needs a noise in every joint's "
+                f"rows: with {say('position_noise')} 0, the rows of joint(s) "
+                f"{joints} ({say('torque_noise')} 0) have none and their covariance "
+                f"is singular; give them a {say('torque_noise')} > 0, a "
+                f"{say('position_noise')} > 0, or {say('weighting')} 'frequency'.",
+            )
         rows_from = values.get("rows_from", "filtered")
         if rows_from != "filtered":
             _fail(
