@@ -218,6 +218,9 @@ def torque_noise_std(tau: Any, time_step: float) -> np.ndarray:
                 squares[j] += torque_noise_std(piece[:, j], time_step)[0] ** 2
         return np.sqrt(squares / count)
     h, x = _record(owner, "tau", tau, time_step)
+    # Centred first: the filter's round-off on a constant channel (~1e-16 of its
+    # level) is not noise; an exactly constant torque measures exactly 0.
+    x = x - np.median(x, axis=0)
     sos = butter_lowpass(HALF_BAND_ORDER, 0.25 / h, 1.0 / h)
     pad = min(x.shape[0] - 1, 3 * (2 * sos.shape[0] + 1))
     r = x - zero_phase_span(sos, x, pad_left=pad, pad_right=pad, padtype="odd")

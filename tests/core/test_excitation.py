@@ -131,3 +131,15 @@ def test_torque_noise_is_not_inflated_by_coulomb_steps():
     assert half_band_share() == pytest.approx(c, rel=1e-4)
     with pytest.raises(ValueError, match="N >= 64"):
         torque_noise_std(x[:63], 0.01)
+
+
+def test_an_exactly_constant_torque_has_no_noise():
+    """Found by a review: a constant channel measured the filter's round-off
+    (4.75e-16 N·m for 1.25 N·m), which passed for a noise where zero is checked
+    (the covariance weighting refuses a joint whose rows have none)."""
+    from drake_dynid.core.excitation import torque_noise_std
+
+    tau = np.tile([1.25, -7.0, 0.0], (500, 1))
+    np.testing.assert_array_equal(torque_noise_std(tau, 1e-3), [0.0, 0.0, 0.0])
+    noisy = tau + 0.01 * np.random.default_rng(3).standard_normal(tau.shape)
+    np.testing.assert_allclose(torque_noise_std(noisy, 1e-3), 0.01, rtol=0.15)
