@@ -517,3 +517,18 @@ def test_a_malformed_recorded_drive_chain_is_a_difference_not_a_crash():
     assert "(fitted: {j1 = 60} k_t 'x')" in drive_mismatch(document, robot)
     document = {"settings": {"drive_chain": {"motors": 5}}}
     assert "m1 {j1 = 60} k_t 0.12 (fitted: none)" in drive_mismatch(document, robot)
+
+
+def test_a_dead_zone_wider_than_every_speed_is_named_with_a_drive(files, capsys):
+    """Found by a review: the hint naming a dead zone wider than every speed was
+    left out with a drive chain, whose FCj and FCmk columns it zeroes just as
+    well (wrist4 with --dead-zone 1e300: 'FC1 ... FCm4 not excited' alone)."""
+    _, raw, drive = files
+    argv = ["offline", *raw, "--urdf", URDF, "--drive", str(drive)]
+    assert cli.main([*argv, "--dead-zone", "1e300"]) == 2
+    error = error_line(capsys)
+    assert "FCm4" in error
+    assert "The Coulomb dead zone is wider than every speed of j1 (width 1e+300" in (
+        error
+    )
+    assert "motor m4 (width 1.41e+300" in error

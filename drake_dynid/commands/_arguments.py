@@ -906,19 +906,41 @@ def _top_speed(q: Any, h: float) -> Any:
     return np.max(np.abs(q[2:] - q[:-2]), axis=0) / (2.0 * h)
 
 
+def _motor_top_speed(rows: Any) -> Any:
+    """(q, h) -> (c,) largest |R_k (q[k+1] - q[k-1])|/(2h ρ_k) of a run.
+
+    ρ_k = max_j |R_kj|: the coupled motors' Coulomb sign reads u_k/ρ_k in joint
+    units (``core.drive_columns``); inf when the run is shorter than 3.
+    """
+    import numpy as np
+
+    rows = np.asarray(rows, dtype=float)
+    scale = np.max(np.abs(rows), axis=1)
+
+    def speeds(q: Any, h: float) -> Any:
+        q = np.asarray(q, dtype=float)
+        if q.shape[0] < 3:
+            return np.full(rows.shape[0], np.inf)
+        return np.max(np.abs((q[2:] - q[:-2]) @ rows.T), axis=0) / (2.0 * h * scale)
+
+    return speeds
+
+
 def dead_zone_cover(robot: Any, log: Any) -> str:
     """A sentence for a failed fit whose dead zone covers a joint's every velocity.
 
-    Empty unless the robot has a dead zone (and no drive chain, whose Coulomb
-    columns are the motors') and a joint's largest central-difference speed on
-    the longest good run, |q[k+1] - q[k-1]|/(2h), is within its width: that
-    joint's Coulomb column is then all zero (``--dead-zone 1e300`` made the fit
-    name an unexcited FCj, not the option).
+    Empty unless the robot has a dead zone and a joint's largest central-difference
+    speed on the longest good run, |q[k+1] - q[k-1]|/(2h), is within its width:
+    that joint's Coulomb column is then all zero (``--dead-zone 1e300`` made the
+    fit name an unexcited FCj, not the option). With a drive chain, a coupled
+    motor k's too (its sign reads u_k/ρ_k = R_k v/ρ_k, within the combined width:
+    its FCmk column is all zero).
     """
-    widths = dead_zone_widths(robot)
-    if widths is None or getattr(robot, "drive", None) is not None:
-        return ""
+    from drake_dynid.core.friction import DeadZoneSign
 
+    widths = dead_zone_widths(robot)
+    if widths is None:
+        return ""
     try:
         speeds = log.on_longest_run(_top_speed)
     except ValueError:
@@ -928,6 +950,23 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         for (name, w), speed in zip(widths.items(), speeds, strict=True)
         if speed <= w
     ]
+    motors = getattr(robot, "_motors", None)
+    sign = getattr(motors, "sign", None)
+    if motors is not None and isinstance(sign, DeadZoneSign):
+        width = sign.width
+        count = motors.rows.shape[0]
+        motor_widths = (width,) * count if isinstance(width, float) else width
+        motor_speeds = _motor_top_speed(motors.rows)(
+            _longest_positions(log), log.time_step
+        )
+        covered += [
+            f"motor m{number} (width {w:.3g}; largest raw |R (q[k+1] - q[k-1])|/2hρ "
+            f"{speed:.3g})"
+            for number, w, speed in zip(
+                motors.numbers, motor_widths, motor_speeds, strict=True
+            )
+            if speed <= w
+        ]
     if not covered:
         return ""
     return (
@@ -936,6 +975,14 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         + ": their Coulomb columns are all zero; give a smaller --dead-zone, "
         "or none."
     )
+
+
+def _longest_positions(log: Any) -> Any:
+    """The positions of the log's longest good run (a stored segment on a long log)."""
+    from drake_dynid.core.blocks import segment
+
+    start, stop = max(log.good_segments(), key=lambda run: run[1] - run[0])
+    return segment(log.q, start, stop)
 
 
 def dead_zone_line(robot: Any, args: Any = None) -> str | None:
