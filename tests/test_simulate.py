@@ -249,6 +249,33 @@ def test_the_shortest_log_is_accepted_and_identifiable_in_principle(
     assert read_log(out, ("joint1", "joint2")).num_samples == 16
 
 
+def test_coulomb_width_sets_the_simulated_law(experiment, tmp_path, capsys):
+    """Found by a review: dynid simulate listed --coulomb-width ('0 (default):
+    sign(v)') but never read it: --coulomb-width 0.05 wrote the log of
+    tanh(v/0.01) bit for bit, its truth file said 0.01, and 0 was accepted."""
+    argv = [
+        "simulate", experiment["urdf"], "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--duration", "2",
+    ]  # fmt: skip
+    logs = {}
+    for width in ("0.01", "0.05"):
+        out = tmp_path / f"log_{width}.csv"
+        assert cli.main([*argv, "--coulomb-width", width, "--out", str(out)]) == 0
+        printed = capsys.readouterr().out
+        assert f"--coulomb-width {float(width):g}" in printed  # the scoring hint
+        truth = json.loads(out.with_suffix(".truth.json").read_text())
+        assert truth["settings"]["coulomb_width"] == float(width)
+        logs[width] = read_log(out, ("joint1", "joint2"))
+    default = tmp_path / "default.csv"
+    assert cli.main([*argv, "--out", str(default), "--quiet"]) == 0
+    np.testing.assert_array_equal(
+        read_log(default, ("joint1", "joint2")).tau, logs["0.01"].tau
+    )
+    assert not np.array_equal(logs["0.05"].tau, logs["0.01"].tau)
+    assert cli.main([*argv, "--coulomb-width", "0", "--out", str(default)]) == 2
+    assert "--coulomb-width must be > 0" in capsys.readouterr().err
+
+
 def test_meshcat_replay_runs_headless_and_exits(experiment, tmp_path, capsys):
     out = tmp_path / "log.csv"
     argv = [

@@ -92,12 +92,16 @@ def parse_dead_zone(text: str | None) -> Any:
 
 
 def add_friction_argument(
-    parser: argparse.ArgumentParser, from_results: bool = False
+    parser: argparse.ArgumentParser,
+    from_results: bool = False,
+    simulated: float | None = None,
 ) -> None:
     """Adds ``--friction`` (the friction columns) and ``--coulomb-width`` (its law).
 
     ``from_results``: the default is None, the columns of a ``--params`` results
-    file (``dynid payload``), else viscous,coulomb.
+    file (``dynid payload``), else viscous,coulomb. ``simulated``: the default
+    width of a simulation's Coulomb law tanh(v/W), which must be > 0 (``dynid
+    simulate``); None: a model's law, 0 (sign(v)) by default.
     """
     parser.add_argument(
         "--friction",
@@ -109,6 +113,19 @@ def add_friction_argument(
             + "viscous,coulomb)"
         ),
     )
+    if simulated is not None:
+        parser.add_argument(
+            "--coulomb-width",
+            type=float,
+            default=simulated,
+            metavar="W",
+            help=(
+                "the simulated Coulomb friction FC tanh(v/W), W > 0 in rad/s (or "
+                f"m/s) (default {simulated:g}); dynid offline/identify "
+                "--coulomb-width W model the same law"
+            ),
+        )
+        return
     parser.add_argument(
         "--coulomb-width",
         type=float,

@@ -62,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="TRAJ.csv",
         help="the reference (CSV of dynid excite, or its --json coefficients)",
     )
-    add_friction_argument(parser)
+    add_friction_argument(parser, simulated=1e-2)  # ExperimentSettings default
     add_joint_arguments(parser, "simulate", "simulated")
     parser.add_argument(
         "--drive",
@@ -153,6 +153,7 @@ OPTION_NAMES = {
     "duration": "--duration",
     "time_step": "--time-step",
     "max_tracking_error": "--max-tracking-error",
+    "coulomb_smoothing": "--coulomb-width",
 }
 
 
@@ -262,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
             duration=args.duration,
             time_step=args.time_step,
             max_tracking_error=args.max_tracking_error,
+            coulomb_smoothing=args.coulomb_width,
         )
     robot = truth_model(
         args.urdf,
