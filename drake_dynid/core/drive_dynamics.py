@@ -222,6 +222,9 @@ def simulated_drive(
 
 #: Newton iterations of :func:`midpoint_step_force` before it gives up.
 MIDPOINT_ITERATIONS = 50
+#: A step that stops without reaching the tolerance (1e-10 of the torques) is
+#: accepted up to this many times it (1e-6 of the torques), else refused.
+MIDPOINT_ACCEPT = 1e4
 
 
 def _friction_law(
@@ -338,7 +341,8 @@ def midpoint_step_force(
         (n,) the applied generalized force f to give the plant.
 
     Raises:
-        ValueError: Newton's method did not converge (a non-finite state).
+        ValueError: Newton's method did not converge (a non-finite state, or a
+            residual above 1e-6 of the torques after its iterations).
     """
     h = float(time_step)
     inertia = mass + drive.coupled_inertia
@@ -373,4 +377,16 @@ def midpoint_step_force(
             "midpoint_step_force",
             "the midpoint step did not converge (a non-finite acceleration).",
         )
+    if not size <= tolerance:  # stopped without converging: check where it ends
+        middle = v + 0.5 * h * a
+        r = inertia @ a + bias(middle) + viscous @ middle + law(middle)[0] - actuation
+        residual = float(np.max(np.abs(r)))
+        if not residual <= MIDPOINT_ACCEPT * tolerance:
+            _validate.fail(
+                "midpoint_step_force",
+                f"the midpoint step did not converge: the equation's residual is "
+                f"{residual:.3g} [N·m or N] after {MIDPOINT_ITERATIONS} Newton "
+                "iterations (the velocity terms are too stiff for the step: a "
+                "smaller time step).",
+            )
     return (mass + h * np.diag(damping)) @ a - actuation + at_v + damping * v

@@ -149,3 +149,17 @@ def test_from_a_standard_table():
 def test_bad_drives_are_refused(changes, message):
     with pytest.raises(ValueError, match=message):
         _drive(**changes)
+
+
+def test_a_step_that_does_not_converge_is_refused_not_logged():
+    """Found by a review: after its iterations the midpoint step returned its last
+    iterate unchecked. A velocity term far too stiff for the step (c = k·v̄ with
+    (h/2)·k/M = 50, whose Jacobian the iteration leaves out) now raises."""
+    drive = _drive(motors=None, coulomb=np.zeros(4))
+    mass, damping, h = np.eye(4), np.zeros(4), 1e-3
+    u = np.array([1.0, -2.0, 0.5, 3.0])
+    with pytest.raises(ValueError, match="the midpoint step did not converge"):
+        midpoint_step_force(drive, mass, damping, h, lambda w: 1e5 * w, np.ones(4), u)
+    # A mild one converges as before.
+    f = midpoint_step_force(drive, mass, damping, h, lambda w: 10.0 * w, np.ones(4), u)
+    assert np.all(np.isfinite(f))
