@@ -31,6 +31,7 @@ dominate the f²-weighted velocity spectrum (about 10 % of the velocity power up
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterator
 from typing import Any
@@ -160,27 +161,21 @@ HALF_BAND_ORDER = 8
 _HALF_BAND_EDGE = 60
 
 
+@functools.lru_cache(maxsize=8)
 def half_band_share(order: int = HALF_BAND_ORDER) -> float:
     """White noise's variance share c left by the half-band low-pass's complement.
 
     c = (1/π) ∫_0^π (1 - |L(e^{iω})|²)² dω, L the zero-phase Butterworth low-pass
     of ``order`` at f_s/4. The bilinear Butterworth at f_s/4 has
-    |L|² = 1/(1 + tan(ω/2)^(2N)) exactly, so 1 - |L|² = 1/(1 + cot(ω/2)^(2N));
-    Simpson's rule on 8192 intervals (c = 0.4802 for N = 8, just under the ideal
-    1/2).
+    |L|² = 1/(1 + tan(ω/2)^(2N)) exactly (``core.iir.butter_power``, corner
+    tan(π/4) = 1); Simpson's rule on 8192 intervals (c = 0.4802 for N = 8, just
+    under the ideal 1/2). Computed once per order.
     """
+    from drake_dynid.core.iir import butter_power, half_circle_mean
+
     order = v.integer("half_band_share", "order", order, minimum=1)
-    w = np.linspace(0.0, math.pi, 8193)[1:]
-    f = np.concatenate(
-        ([0.0], (1.0 / (1.0 + (1.0 / np.tan(0.5 * w)) ** (2 * order))) ** 2)
-    )
-    step = math.pi / 8192
-    return float(
-        step
-        / 3.0
-        * (f[0] + f[-1] + 4.0 * f[1:-1:2].sum() + 2.0 * f[2:-1:2].sum())
-        / math.pi
-    )
+    w = np.linspace(0.0, math.pi, 8193)
+    return half_circle_mean((1.0 - butter_power(w, 1.0, order)) ** 2, math.pi)
 
 
 def torque_noise_std(tau: Any, time_step: float) -> np.ndarray:

@@ -21,6 +21,11 @@ this module gives the same three tools in numpy.
   ``(I - A)⁻¹ B`` for a unit step.
 * :func:`welch` equals ``scipy.signal.welch`` with a periodic Blackman-Harris
   window, half overlap and linear detrending.
+* :func:`butter_power` is the squared magnitude of :func:`butter_lowpass`'s
+  response in closed form, and :func:`half_circle_mean` the mean over [0, π] of
+  a response-weighted density: the noise gains of the dead zone's velocity
+  (``core.standstill.velocity_noise_gain``) and of the torque noise's half band
+  (``core.excitation.half_band_share``).
 """
 
 from __future__ import annotations
@@ -33,7 +38,14 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 
-__all__ = ["butter_lowpass", "sosfilt", "sosfilt_zi", "welch"]
+__all__ = [
+    "butter_lowpass",
+    "butter_power",
+    "half_circle_mean",
+    "sosfilt",
+    "sosfilt_zi",
+    "welch",
+]
 
 #: Samples per block of :func:`sosfilt` (the matrix products against the loop).
 BLOCK = 64
@@ -76,6 +88,29 @@ def butter_lowpass(order: int, cutoff_hz: float, fs: float) -> np.ndarray:
     sos[:, 5] = np.abs(upper) ** 2
     sos[0, :3] *= gain
     return sos
+
+
+def butter_power(w: np.ndarray, corner: float, order: int) -> np.ndarray:
+    """|H(e^{iω})|² of the bilinear Butterworth low-pass at the angles ``w`` [rad].
+
+    ``1 / (1 + (tan(ω/2) / corner)^(2N))`` with ``corner = tan(π f_c/fs)``: the
+    pre-warped analogue Butterworth of :func:`butter_lowpass` at ω_a = tan(ω/2),
+    exactly (``w`` in [0, π]).
+    """
+    return 1.0 / (1.0 + (np.tan(0.5 * w) / corner) ** (2 * order))
+
+
+def half_circle_mean(f: np.ndarray, top: float) -> float:
+    """(1/π) ∫_0^top f(ω) dω by Simpson's rule.
+
+    Args:
+        f: the integrand on the uniform grid ``np.linspace(0, top, len(f))``, an
+            odd number of points (an even number of intervals).
+        top: the grid's end [rad], at most π.
+    """
+    step = top / (len(f) - 1)
+    simpson = f[0] + f[-1] + 4.0 * f[1:-1:2].sum() + 2.0 * f[2:-1:2].sum()
+    return float(step / 3.0 * simpson / math.pi)
 
 
 @functools.lru_cache(maxsize=32)

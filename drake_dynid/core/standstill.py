@@ -140,10 +140,8 @@ def velocity_noise(
         )
     single = is_stored(segments) or isinstance(segments, np.ndarray)
     runs = [segments] if single else list(segments)
-    trim = default_trim(time_step, cutoff_hz)
-    band = min(band_cutoff_hz, cutoff_hz)
-    filters = _Filters(time_step, cutoff_hz, band)
-    shortest = 2 * (trim + filters.edge) + MIN_RUN
+    filters = _Filters(time_step, cutoff_hz, min(band_cutoff_hz, cutoff_hz))
+    trim, shortest = filters.trim, filters.shortest
     checked = []
     for run in runs:
         q = checked_rows(_OWNER, "segments", run)
@@ -194,7 +192,7 @@ class _Filters:
 
         self.h = time_step
         fs = 1.0 / time_step
-        self.position = butter_lowpass(4, cutoff_hz, fs)
+        self.position = butter_lowpass(POSITION_FILTER_ORDER, cutoff_hz, fs)
         self.position_padding = default_padding(time_step, cutoff_hz)
         self.position_margin = max(
             settle_samples(self.position, _SETTLE), self.position_padding + 2
@@ -205,12 +203,14 @@ class _Filters:
         # The edge transients on the motion are not noise: velocity samples are
         # kept where both filters' slowest modes have decayed to EDGE_DECAY (the
         # position filter's counted from the run's end, trim samples out).
-        trim = default_trim(time_step, cutoff_hz)
+        self.trim = default_trim(time_step, cutoff_hz)
         self.edge = max(
             default_trim(time_step, band) - 1,  # two periods of f_n at least
             settle_samples(self.low, EDGE_DECAY),
-            settle_samples(self.position, EDGE_DECAY) - trim,
+            settle_samples(self.position, EDGE_DECAY) - self.trim,
         )
+        #: Samples a run needs: the trims, the edges and MIN_RUN between.
+        self.shortest = 2 * (self.trim + self.edge) + MIN_RUN
 
     def kept(self, count: int) -> tuple[int, int]:
         """Velocity samples [a, b) kept of ``count`` (empty: a run too short).
@@ -271,8 +271,7 @@ def shortest_run(time_step: float, cutoff_hz: float, band_cutoff_hz: float) -> i
     time_step = check.positive(owner, "time_step", time_step, "s")
     cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
     band_cutoff_hz = check.positive(owner, "band_cutoff_hz", band_cutoff_hz, "Hz")
-    filters = _Filters(time_step, cutoff_hz, min(band_cutoff_hz, cutoff_hz))
-    return 2 * (default_trim(time_step, cutoff_hz) + filters.edge) + MIN_RUN
+    return _Filters(time_step, cutoff_hz, min(band_cutoff_hz, cutoff_hz)).shortest
 
 
 def velocity_noise_gain(
@@ -300,15 +299,17 @@ def velocity_noise_gain(
             f"cutoff_hz must be < the Nyquist frequency {0.5 / h:g} [Hz]; "
             f"got {cutoff_hz:g}.",
         )
+    from drake_dynid.core.iir import butter_power, half_circle_mean
+
     corner = math.tan(math.pi * cutoff_hz * h)
     top = 2.0 * math.atan(_GAIN_STOP * corner)
     w = np.linspace(0.0, top, _GAIN_POINTS)
-    f = (np.sin(w) / (1.0 + (np.tan(0.5 * w) / corner) ** (2 * order))) ** 2
-    # Simpson's rule (an even number of intervals).
-    integral = (top / (3.0 * (_GAIN_POINTS - 1))) * (
-        f[0] + f[-1] + 4.0 * f[1:-1:2].sum() + 2.0 * f[2:-1:2].sum()
+    return (
+        math.sqrt(
+            half_circle_mean((np.sin(w) * butter_power(w, corner, order)) ** 2, top)
+        )
+        / h
     )
-    return math.sqrt(integral / math.pi) / h
 
 
 def dead_zone_widths(
@@ -344,10 +345,8 @@ def dead_zone_widths(
         position_noise is not None
         and shapes
         and all(len(shape) in (1, 2) for shape in shapes)
-        and all(
-            shape[0] < shortest_run(time_step, cutoff_hz, band_cutoff_hz)
-            for shape in shapes
-        )
+        and max(shape[0] for shape in shapes)
+        < shortest_run(time_step, cutoff_hz, band_cutoff_hz)
     ):
         first = shapes[0]
         sigma = np.zeros(first[1] if len(first) == 2 else 1)
