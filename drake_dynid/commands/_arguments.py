@@ -913,34 +913,20 @@ def dead_zone_widths(robot: Any) -> dict[str, float] | None:
     return dict(zip(robot.joint_names, map(float, widths), strict=True))
 
 
-def _top_speed(q: Any, h: float) -> Any:
-    """(n,) largest |q[k+1] - q[k-1]|/(2h) of a run (inf when shorter than 3)."""
-    import numpy as np
+def _top_speeds(q: Any, h: float, rows: Any) -> Any:
+    """(c,) largest |R_k (q[k+1] - q[k-1])|/(2h ρ_k) of a run, ρ_k = max_j |R_kj|.
 
-    q = np.asarray(q, dtype=float)
-    if q.shape[0] < 3:
-        return np.full(q.shape[1], np.inf)
-    return np.max(np.abs(q[2:] - q[:-2]), axis=0) / (2.0 * h)
-
-
-def _motor_top_speed(rows: Any) -> Any:
-    """(q, h) -> (c,) largest |R_k (q[k+1] - q[k-1])|/(2h ρ_k) of a run.
-
-    ρ_k = max_j |R_kj|: the coupled motors' Coulomb sign reads u_k/ρ_k in joint
-    units (``core.drive_columns``); inf when the run is shorter than 3.
+    The identity's rows give the joints' speeds; a coupled motor's its sign's
+    argument u_k/ρ_k in joint units (``core.drive_columns``). inf when the run is
+    shorter than 3.
     """
     import numpy as np
 
     rows = np.asarray(rows, dtype=float)
+    if q.shape[0] < 3:
+        return np.full(rows.shape[0], np.inf)
     scale = np.max(np.abs(rows), axis=1)
-
-    def speeds(q: Any, h: float) -> Any:
-        q = np.asarray(q, dtype=float)
-        if q.shape[0] < 3:
-            return np.full(rows.shape[0], np.inf)
-        return np.max(np.abs((q[2:] - q[:-2]) @ rows.T), axis=0) / (2.0 * h * scale)
-
-    return speeds
+    return np.max(np.abs((q[2:] - q[:-2]) @ rows.T), axis=0) / (2.0 * h * scale)
 
 
 def dead_zone_cover(robot: Any, log: Any) -> str:
@@ -953,15 +939,18 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
     motor k's too (its sign reads u_k/ρ_k = R_k v/ρ_k, within the combined width:
     its FCmk column is all zero).
     """
+    import numpy as np
+
     from drake_dynid.core.friction import DeadZoneSign
 
     widths = dead_zone_widths(robot)
     if widths is None:
         return ""
-    try:
-        speeds = log.on_longest_run(_top_speed)
+    try:  # read once (a stored segment on a long log): joints and motors
+        q = np.asarray(_longest_positions(log), dtype=float)
     except ValueError:
         return ""
+    speeds = _top_speeds(q, log.time_step, np.eye(q.shape[1]))
     covered = [
         f"{name} (width {w:.3g}; largest raw |q[k+1] - q[k-1]|/2h {speed:.3g})"
         for (name, w), speed in zip(widths.items(), speeds, strict=True)
@@ -973,9 +962,7 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         width = sign.width
         count = motors.rows.shape[0]
         motor_widths = (width,) * count if isinstance(width, float) else width
-        motor_speeds = _motor_top_speed(motors.rows)(
-            _longest_positions(log), log.time_step
-        )
+        motor_speeds = _top_speeds(q, log.time_step, motors.rows)
         covered += [
             f"motor m{number} (width {w:.3g}; largest raw |R (q[k+1] - q[k-1])|/2hρ "
             f"{speed:.3g})"
