@@ -38,6 +38,21 @@ def chain():
     return DriveChain.from_dict(DRIVE, JOINTS, source="drive file test.toml")
 
 
+def _two_files(tmp_path, t, q, effort_t, effort):
+    """pos.csv (ms stamps, degrees) and eff.csv (ms stamps) of the drive's columns."""
+    positions = _write(
+        tmp_path / "pos.csv",
+        ["stamp", "- a_position", "- b_position"],
+        [(1000 * s, *np.rad2deg(x)) for s, x in zip(t, q, strict=True)],
+    )
+    efforts = _write(
+        tmp_path / "eff.csv",
+        ["stamp", "- a_effort", "- b_effort"],
+        [(1000 * s, *x) for s, x in zip(effort_t, effort, strict=True)],
+    )
+    return positions, efforts
+
+
 def _signals(t):
     return np.column_stack([np.sin(t), np.cos(2 * t)]), np.column_stack(
         [0.3 + t, -0.2 * t]
@@ -76,16 +91,7 @@ def test_other_stamps_are_interpolated_over_the_common_span(tmp_path, chain):
     q, _ = _signals(t)
     shifted = t[::2] + 0.003  # efforts at 50 Hz, 3 ms late
     effort = np.column_stack([2 * shifted, 1 - shifted])  # linear: exact interp
-    positions = _write(
-        tmp_path / "pos.csv",
-        ["stamp", "- a_position", "- b_position"],
-        [(1000 * s, *np.rad2deg(x)) for s, x in zip(t, q, strict=True)],
-    )
-    efforts = _write(
-        tmp_path / "eff.csv",
-        ["stamp", "- a_effort", "- b_effort"],
-        [(1000 * s, *x) for s, x in zip(shifted, effort, strict=True)],
-    )
+    positions, efforts = _two_files(tmp_path, t, q, shifted, effort)
     table = read_raw_table([positions, efforts], chain.required_columns(), "stamp")
     kept = (t >= shifted[0] - 1e-12) & (t <= shifted[-1] + 1e-12)
     np.testing.assert_allclose(table.columns["stamp"], 1000 * t[kept])
@@ -379,16 +385,7 @@ def test_a_gap_of_a_joined_file_is_missing_samples_not_a_line(
     kept = np.ones(t.size, dtype=bool)
     kept[[50, 51]] = False
     kept[150:170] = False
-    positions = _write(
-        tmp_path / "pos.csv",
-        ["stamp", "- a_position", "- b_position"],
-        [(1000 * s, *np.rad2deg(x)) for s, x in zip(t, q, strict=True)],
-    )
-    efforts = _write(
-        tmp_path / "eff.csv",
-        ["stamp", "- a_effort", "- b_effort"],
-        [(1000 * s, *c) for s, c in zip(shifted[kept], current[kept], strict=True)],
-    )
+    positions, efforts = _two_files(tmp_path, t, q, shifted[kept], current[kept])
     files = [positions, efforts]
     table = read_raw_table(files, chain.required_columns(), "stamp")
     gaps = np.flatnonzero(np.isnan(table.columns["- a_effort"]))
