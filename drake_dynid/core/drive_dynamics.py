@@ -355,11 +355,17 @@ def midpoint_step_force(
         actuation - at_v - viscous @ v - friction,
     )
     tolerance = 1e-10 * (np.max(np.abs(actuation)) + np.max(np.abs(at_v)) + 1e-300)
-    size, last = math.inf, None
-    for _ in range(MIDPOINT_ITERATIONS):
+
+    def midpoint_residual(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """r(a) and ∂F/∂v at v̄ = v + (h/2) a."""
         middle = v + 0.5 * h * a
         friction, slope = law(middle)
         r = inertia @ a + bias(middle) + viscous @ middle + friction - actuation
+        return r, slope
+
+    size, last = math.inf, None
+    for _ in range(MIDPOINT_ITERATIONS):
+        r, slope = midpoint_residual(a)
         new_size = float(np.max(np.abs(r)))
         if not new_size < size:  # no decrease: halve the last step, or stop
             if not np.all(np.isfinite(a)) or last is None or new_size <= tolerance:
@@ -378,9 +384,7 @@ def midpoint_step_force(
             "the midpoint step did not converge (a non-finite acceleration).",
         )
     if not size <= tolerance:  # stopped without converging: check where it ends
-        middle = v + 0.5 * h * a
-        r = inertia @ a + bias(middle) + viscous @ middle + law(middle)[0] - actuation
-        residual = float(np.max(np.abs(r)))
+        residual = float(np.max(np.abs(midpoint_residual(a)[0])))
         if not residual <= MIDPOINT_ACCEPT * tolerance:
             _validate.fail(
                 "midpoint_step_force",
