@@ -71,7 +71,7 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core.blocks import checked_rows
-from drake_dynid.core.friction import EXACT_SIGN, SignLaw
+from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
 from drake_dynid.core.idim_friction import (
     FRICTION_KINDS,
@@ -79,6 +79,7 @@ from drake_dynid.core.idim_friction import (
     friction_series,
     signs_of,
 )
+from drake_dynid.core.standstill import reversal_run, reversal_signs
 from drake_dynid.core.zero_phase import (
     SETTLE_TOLERANCE,
     settle_samples,
@@ -208,6 +209,8 @@ class StreamPlan:
         decimation_margin: its settling length [intermediate samples].
         decimation_padding: its even-reflection padding [intermediate samples].
         block: full-rate samples per stage-1 block.
+        reversal: L of a dead zone's reversals (``core.standstill.reversal_run``
+            at f_c) [full-rate samples].
     """
 
     time_step: float
@@ -222,6 +225,7 @@ class StreamPlan:
     decimation_margin: int
     decimation_padding: int
     block: int
+    reversal: int
 
 
 def stream_plan(
@@ -298,6 +302,7 @@ def stream_plan(
         decimation_margin=max(settle_samples(decimation_sos), reduced_padding + 2),
         decimation_padding=reduced_padding,
         block=check.integer(owner, "block", block, minimum=1),
+        reversal=reversal_run(time_step, cutoff_hz),
     )
 
 
@@ -339,15 +344,25 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     margin = plan.position_margin
     lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
     hi = trim + (rb - 1) * D1 + K + 1
-    a, b = max(0, lo - 1 - margin), min(N, hi + 1 + margin)
-    q_f = zero_phase_span(
+    # A dead zone's reversals need 2L + 1 velocities of context on either side
+    # (core.standstill.reversal_signs): the block's signs are then the whole
+    # segment's.
+    reversals = isinstance(sign, DeadZoneSign) and any(
+        kind == "coulomb" for kind, _ in friction
+    )
+    context = 2 * plan.reversal + 1 if reversals else 0
+    lo_c, hi_c = max(1, lo - context), min(N - 1, hi + context)
+    a, b = max(0, lo_c - 1 - margin), min(N, hi_c + 1 + margin)
+    q_c = zero_phase_span(
         plan.position_sos,
         q[a:b],
         pad_left=pad if a == 0 else 0,
         pad_right=pad if b == N else 0,
         padtype="odd",
-    )[lo - 1 - a : hi + 1 - a]
-    v = (q_f[2:] - q_f[:-2]) / (2.0 * h)
+    )[lo_c - 1 - a : hi_c + 1 - a]
+    v_c = (q_c[2:] - q_c[:-2]) / (2.0 * h)  # samples [lo_c, hi_c)
+    q_f = q_c[lo - lo_c : hi - lo_c + 2]
+    v = v_c[lo - lo_c : hi - lo_c]
     grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
     ahead, here, behind = q_f[2:][grid], q_f[1:-1][grid], q_f[:-2][grid]
     vdot = (ahead - 2.0 * here + behind) / h**2  # at the grid only
@@ -356,7 +371,11 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     # of n columns at a time (each column on its own: the same numbers).
     n = tau.shape[1]
     series = np.asarray(tau[lo:hi], dtype=float)
-    signs = signs_of(v, friction, sign)
+    signs = (
+        reversal_signs(v_c, sign.width, plan.reversal)[lo - lo_c : hi - lo_c]
+        if isinstance(sign, DeadZoneSign) and reversals
+        else signs_of(v, friction, sign)
+    )
     out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
     out[:, n + len(friction) :] = rigid
     from scipy import signal  # lazily: not on dynid identify's path

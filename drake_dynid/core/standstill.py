@@ -37,11 +37,15 @@ through: at f_d itself a noise-free log (a simulation) measured 1e-3 rad/s of
 0.1 % (median) and flagged parameters 30 % off as identified; at 2 f_d, 1e-8 rad/s
 (``tests/core/test_standstill.py``).
 
-For Gaussian noise a joint at rest then has s = 0 on 99.7 % of its samples. Both
-engines (on-line replay and blocks, off-line IDIM) use the same widths, computed
-once on the log. A coupled motor k (Coulomb sign of u_k/ρ_k = Σ_j (R_kj/ρ_k) v_j,
-``core.drive_columns``) gets the width of that combination for independent joint
-noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½ (:func:`combined_widths`).
+For Gaussian noise a joint at rest then has s = 0 on 99.7 % of its samples. A
+moving joint's reversal is not rest: the off-line equations give a short run inside
+the zone between long runs of opposite signs the sign of the motion either side
+(:func:`reversal_signs`; the on-line engines, causal, keep the zone sample by
+sample). Both engines (on-line replay and blocks, off-line IDIM) use the same
+widths, computed once on the log. A coupled motor k (Coulomb sign of
+u_k/ρ_k = Σ_j (R_kj/ρ_k) v_j, ``core.drive_columns``) gets the width of that
+combination for independent joint noises, w_k = (Σ_j (R_kj/ρ_k)² w_j²)^½
+(:func:`combined_widths`).
 
 Measured on the TIAGo recording (README "Identify your own robot"): σ_v ≈ 0.8-3.2e-3
 rad/s on the arm (0.5e-3 m/s on the torso), against moving speeds of order 0.1 rad/s;
@@ -69,8 +73,11 @@ __all__ = [
     "MIN_RUN",
     "NOISE_BAND_FACTOR",
     "POSITION_FILTER_ORDER",
+    "REVERSAL_FRACTION",
     "combined_widths",
     "dead_zone_widths",
+    "reversal_run",
+    "reversal_signs",
     "shortest_run",
     "velocity_noise",
     "velocity_noise_gain",
@@ -78,6 +85,10 @@ __all__ = [
 
 #: The dead-zone half-width in multiples of the measured velocity noise σ_v.
 DEAD_ZONE_FACTOR = 3.0
+#: The longest run inside the zone read as a reversal, in periods of the position
+#: cutoff f_c: filtered noise at rest never crossed the zone (6 σ_v) this fast
+#: (:func:`reversal_run`).
+REVERSAL_FRACTION = 0.125
 #: The noise band's corner f_n in multiples of the decimation's band f_d.
 NOISE_BAND_FACTOR = 2.0
 #: Butterworth order of the off-line position filter (``core.idim``'s default).
@@ -360,6 +371,84 @@ def dead_zone_widths(
             check.fail(owner, "position_noise must be >= 0.")
         sigma = np.fmax(sigma, velocity_noise_gain(time_step, cutoff_hz) * white)
     return factor * sigma
+
+
+def reversal_run(time_step: float, cutoff_hz: float) -> int:
+    """L = max(1, floor(:data:`REVERSAL_FRACTION` / (f_c h))): samples [count].
+
+    The longest run inside the dead zone that :func:`reversal_signs` reads as a
+    moving joint's reversal. The off-line velocity's noise is smooth at the scale
+    of 1/f_c: in 2e6 samples of filtered white noise per case (125 Hz and 1 kHz at
+    f_c = 1.5 Hz, 100 Hz at 2.5 Hz, 1 kHz at 20 Hz; widths 3 σ_v) no run between
+    exits of opposite signs was shorter than 1/(8 f_c) (the shortest: 0.12-0.19
+    periods of f_c; 0.1 % of the samples lie in such runs shorter than 1/(2 f_c)),
+    while a joint reversing at 1 rad/s² through a zone of 2e-4 rad/s spends 0.4 ms
+    in it.
+    """
+    owner = "reversal_run"
+    h = check.positive(owner, "time_step", time_step, "s")
+    cutoff_hz = check.positive(owner, "cutoff_hz", cutoff_hz, "Hz")
+    return max(1, int(REVERSAL_FRACTION / (cutoff_hz * h)))
+
+
+def reversal_signs(v: Any, width: Any, longest: int) -> np.ndarray:
+    """The dead zone's Coulomb column of a velocity series, reversals restored.
+
+    s_k = 0 for |v_k| <= w_j, sign(v_k) outside (``core.friction.DeadZoneSign``),
+    except on a reversal: a run k = i … e-1 inside the zone of at most ``longest``
+    samples whose ``longest`` samples before are all outside with one sign and
+    whose ``longest`` samples after all outside with the other. Its samples take
+    the sign of the line through the run's neighbours,
+
+        s_k = sign(v_{i-1} + (v_e - v_{i-1}) (k - i + 1)/(e - i + 1)).
+
+    The zone is for joints at rest, where sign(v̂) is noise; at a moving joint's
+    reversal the sign is known from the motion on either side, and a 0 there is a
+    model error of FC_j per sample that σ does not hold (docs/MATH.md §2: up to
+    5.5 σ of bias on the UR5 at 125 Hz, ``benchmarks/bench_dead_zone.py``). A
+    dither spike at rest is not a reversal (too short an excursion), nor is a run
+    cut by the series' ends. Each sample's value depends on the 2L + 1 samples on
+    either side only (L = ``longest``): a block of a longer series with that much
+    context gives the whole series' values.
+
+    Args:
+        v: (N, n) velocities, rows in time order [rad/s or m/s].
+        width: w >= 0, one number or (n,) [rad/s or m/s].
+        longest: L >= 1 (:func:`reversal_run`) [samples].
+
+    Returns:
+        (N, n) values in {-1, 0, 1} (NaN for a NaN velocity).
+    """
+    v = np.asarray(v, dtype=float)
+    width = np.broadcast_to(np.asarray(width, dtype=float), v.shape[-1:])
+    with np.errstate(invalid="ignore"):
+        out = np.where(np.abs(v) <= width, 0.0, np.sign(v))
+    if v.ndim != 2 or v.shape[0] < 2 * longest + 1:
+        return out
+    count = v.shape[0]
+    for j in range(v.shape[1]):
+        s = out[:, j]
+        inside = (s == 0.0).astype(np.int8)
+        edges = np.diff(np.concatenate(([0], inside, [0])))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        keep = (ends - starts <= longest) & (starts >= longest)
+        keep &= ends + longest <= count
+        starts, ends = starts[keep], ends[keep]
+        if not starts.size:
+            continue
+        # Samples of one sign in [a, b): cumulative counts of s = +1 and s = -1.
+        plus = np.concatenate(([0], np.cumsum(s == 1.0)))
+        minus = np.concatenate(([0], np.cumsum(s == -1.0)))
+        before_up = plus[starts] - plus[starts - longest] == longest
+        before_down = minus[starts] - minus[starts - longest] == longest
+        after_up = plus[ends + longest] - plus[ends] == longest
+        after_down = minus[ends + longest] - minus[ends] == longest
+        reversal = (before_up & after_down) | (before_down & after_up)
+        for i, e in zip(starts[reversal], ends[reversal], strict=True):
+            before, after = v[i - 1, j], v[e, j]
+            k = np.arange(1, e - i + 1)
+            s[i:e] = np.sign(before + (after - before) * k / (e - i + 1))
+    return out
 
 
 def combined_widths(widths: Any, rows: Any) -> np.ndarray:
