@@ -59,9 +59,11 @@ import numpy as np
 from drake_dynid.core import _validate as check
 from drake_dynid.core import idim_stream
 from drake_dynid.core.blocks import is_stored, segment
+from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign
 from drake_dynid.core.idim import default_padding, default_trim
 from drake_dynid.core.idim_auto import auto_cutoff
 from drake_dynid.core.idim_checks import check_filter_frequency
+from drake_dynid.core.idim_friction import friction_layout
 from drake_dynid.log_store import RowSink
 from drake_dynid.offline import log_decimation_cutoff
 
@@ -419,8 +421,29 @@ def _validate(
         block=idim_stream.BLOCK_SAMPLES,
     )
 
+    # A dead zone's Coulomb columns go through the stream as the fit's do, with
+    # their reversals (core.standstill.reversal_signs): τ̂ = W_rb θ_rb + F θ_F.
+    sign: Any = getattr(robot, "sign", None)
+    layout = (
+        friction_layout(rows.names, rows.idim_rows, q.shape[1], sign)
+        if isinstance(sign, DeadZoneSign)
+        else None
+    ) or ()
+    friction = [(kind, joint) for _, kind, joint in layout]
+    split = {column for column, _, _ in layout}
+    rigid_index = [c for c in range(p) if c not in split]
+    theta_rigid = theta[rigid_index]
+    theta_friction = theta[[column for column, _, _ in layout]]  # (F, k)
+
     def predict(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
-        return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float) @ theta
+        W = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)
+        return W[..., rigid_index] @ theta_rigid if layout else W @ theta
+
+    def with_friction(rigid: np.ndarray, F: np.ndarray) -> np.ndarray:
+        """(R, n, k) predictions: the rigid part plus each friction column's."""
+        for c, (_, joint) in enumerate(friction):
+            rigid[:, joint, :] += F[:, c, None] * theta_friction[c]
+        return rigid
 
     n, k = q.shape[1], len(labels)
     sinks = {key: RowSink(n) for key in ("m", "rm")}
@@ -433,14 +456,22 @@ def _validate(
         row = start + trim
         for (
             smooth,
-            _,
+            smooth_friction,
             smooth_measured,
             raw,
-            _,
+            raw_friction,
             measured,
         ) in idim_stream.decimated_chunks(
-            segment(q, start, stop), segment(tau, start, stop), plan, predict, raw=True
+            segment(q, start, stop),
+            segment(tau, start, stop),
+            plan,
+            predict,
+            friction,
+            sign if layout else EXACT_SIGN,
+            raw=True,
         ):
+            smooth = with_friction(smooth, smooth_friction)
+            raw = with_friction(raw, raw_friction)
             count = measured.shape[0]
             moments.add(smooth_measured, smooth, measured, raw)
             for j in range(k):
