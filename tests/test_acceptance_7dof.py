@@ -22,6 +22,7 @@ import pytest
 
 from drake_dynid import cli
 from drake_dynid.core.idim import offline_derivatives, parallel_decimation
+from drake_dynid.core.standstill import reversal_run, reversal_signs
 from drake_dynid.core.trajectory import random_fourier_trajectory
 from drake_dynid.logs import read_log, write_log
 from drake_dynid.physical import check_physical
@@ -93,12 +94,13 @@ def run(tmp_path_factory):
     }
 
 
-def _sign(v, widths):
-    """The dead-zone Coulomb sign: 0 for |v_j| <= w_j, else sign(v_j)."""
-    return np.where(np.abs(v) <= widths, 0.0, np.sign(v))
+def _signs(v, widths, cutoff_hz):
+    """The dead-zone Coulomb column of the (N, 7) velocity series: 0 for |v_j| <=
+    w_j, else sign(v_j), a moving joint's reversals restored (docs/MATH.md §2)."""
+    return reversal_signs(v, widths, reversal_run(H, cutoff_hz))
 
 
-def _regressor_prediction(q, v, vdot, parameters, widths):
+def _regressor_prediction(q, v, vdot, parameters, signs):
     """τ̂ = W_std[:, leading column of each base parameter]·θ, W from Pinocchio."""
     model = pin.buildModelFromUrdf(URDF)
     data = model.createData()
@@ -117,18 +119,18 @@ def _regressor_prediction(q, v, vdot, parameters, widths):
                 out[k, j] += value * v[k, j]
             elif leading.startswith("FC"):
                 j = int(leading[2:]) - 1
-                out[k, j] += value * _sign(v[k, j], widths[j])
+                out[k, j] += value * signs[k, j]
             else:
                 out[k] += value * rows[:, column[leading]]
     return out
 
 
-def _urdf_prediction(path, q, v, vdot, widths):
+def _urdf_prediction(path, q, v, vdot, signs):
     model = pin.buildModelFromUrdf(str(path))
     data = model.createData()
     damping, friction = _urdf_friction(path)
     tau = np.array([pin.rnea(model, data, q[k], v[k], vdot[k]) for k in range(len(q))])
-    return tau + damping * v + friction * _sign(v, widths)
+    return tau + damping * v + friction * signs
 
 
 def _errors(measured, predicted):
@@ -159,11 +161,12 @@ def test_validate_reports_the_directly_computed_errors(run):
     zone = run["result"]["settings"]["coulomb_dead_zone"]
     widths = np.array([zone[name] for name in log.joint_names])
     assert np.all((widths > 0.0) & (widths < 0.05))  # 3 x the velocity noise
+    signs = _signs(v, widths, settings["cutoff_hz"])
     predictions = {
         "idim-ls": _regressor_prediction(
-            q, v, vdot, run["result"]["parameters"], widths
+            q, v, vdot, run["result"]["parameters"], signs
         ),
-        "physical": _urdf_prediction(run["urdf_out"], q, v, vdot, widths),
+        "physical": _urdf_prediction(run["urdf_out"], q, v, vdot, signs),
     }
     assert set(validation["estimates"]) == set(predictions)
     assert validation["samples_compared"] == measured.shape[0]
