@@ -38,7 +38,11 @@ columns (``DriveChain.to_columns``), one file that :func:`read_raw_log` reads ba
 Errors are ``ValueError`` (``OSError`` for a missing file) whose message names the
 file, the column and the row: a needed column found in no file (naming the drive
 file's ``[log]`` key to fix), or in two files, a file without the time column, a
-non-numeric cell, unsorted time stamps, files that do not overlap in time.
+non-numeric cell, unsorted time stamps of a joined file, files that do not overlap
+in time. The first file's stamps (the time base) go to the plain reader's checks
+(``repair``): an isolated corrupted stamp (``1e6``, going back, NaN) is dropped
+with its warning, the join bridging it (:func:`_join_stamps`); swapped rows are
+refused.
 """
 
 from __future__ import annotations
@@ -465,9 +469,10 @@ def _read_streamed(
     """One or several raw files, streamed (module docstring).
 
     Each file's needed columns are read by ``drake_dynid.log_table``'s block
-    parser (a long log's numbers go to temporary files) and its stamps checked a
-    block at a time; the first file's stamps are the time base (its rows inside
-    the files' common span), every other file's columns are taken as they are
+    parser (a long log's numbers go to temporary files) and a joined file's
+    stamps checked a block at a time; the first file's stamps are the time base
+    (its rows inside the files' common span; an outlier stamp bridged for the
+    join, :func:`_join_stamps`), every other file's columns are taken as they are
     when its stamps equal the base's, else interpolated linearly onto them, a
     block of base rows at a time (the same numbers as :func:`read_raw_table`'s
     ``np.interp`` over whole columns); ``chain.convert`` then runs a block at a
@@ -504,11 +509,13 @@ def _read_streamed(
         if not names and path != files[0]:
             warnings.append(f"file {path}: holds no needed column; not used.")
             continue
-        stamps, values, rows, read_notes = _read_file(path, names, time)
+        strict = path != files[0]  # the time base's stamps: checked by repair
+        stamps, values, rows, read_notes = _read_file(path, names, time, strict)
         tables[path] = (names, stamps, values, rows)
         notes += read_notes
     base = files[0]
-    t = tables[base][1]
+    stamps = tables[base][1]
+    t = _join_stamps(f"log {label}", stamps, tables[base][3], fill_gaps)
     low, high = 0, t.size  # the base rows inside every file's span
     for path, (_, other, _, _) in tables.items():
         if path != base:
@@ -520,7 +527,8 @@ def _read_streamed(
             f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
     same = {
-        path: other.shape == t.shape and bool(np.array_equal(other, t))
+        path: other is stamps
+        or (other.shape == t.shape and bool(np.array_equal(other, stamps)))
         for path, (_, other, _, _) in tables.items()
     }
     for path, (names, _, _, _) in tables.items():
@@ -554,7 +562,7 @@ def _read_streamed(
     for start in range(low, high, _blocks.BLOCK_ROWS):
         stop = min(high, start + _blocks.BLOCK_ROWS)
         here = t[start:stop]
-        columns = {time: here}
+        columns = {time: stamps[start:stop]}  # as read: repair drops the outliers
         for path, (names, other, values, _) in tables.items():
             if not names:
                 continue
@@ -606,15 +614,46 @@ def _read_streamed(
     return RobotLog._named(repaired, tuple(chain.joint_names))
 
 
+def _join_stamps(owner: str, t: np.ndarray, rows: Any, fill_gaps: int) -> np.ndarray:
+    """The time base's stamps for the join: increasing, outliers bridged.
+
+    ``t`` itself when it is finite and increasing; else a copy in which the rows
+    that ``repair`` drops first (``core.timestamps.order_outliers``: a stamp not
+    finite, or one corrupted amid good ones, as in the plain reader) take the
+    stamps interpolated linearly between their kept neighbours (held at the
+    ends), so that the other files are joined onto an ordered base. The rows
+    keep their stamps as read: ``repair`` drops them and says so (the plain
+    reader's warning). A break that is no outlier is the plain reader's error.
+    """
+    from drake_dynid.core.timestamps import order_outliers
+
+    steps = np.diff(t)
+    if np.all(np.isfinite(t)) and np.all(steps > 0.0):
+        return t
+
+    def where(i: int) -> str:
+        return f"row {rows[i]} (t = {t[i]:.16g})"
+
+    keep = order_outliers(t, edge_gap=fill_gaps, owner=owner, where=where)
+    if np.count_nonzero(keep) < 2:
+        return t  # repair refuses it (too few stamps), naming the rows
+    out = t.copy()
+    kept = np.flatnonzero(keep)
+    dropped = np.flatnonzero(~keep)
+    out[dropped] = np.interp(dropped, kept, t[kept])
+    return out
+
+
 def _read_file(
-    path: str, names: list[str], time: str
+    path: str, names: list[str], time: str, strict: bool = True
 ) -> tuple[np.ndarray, Any, Any, list[str]]:
     """``(stamps, values, rows, notes)`` of one file of a raw log, streamed.
 
     ``drake_dynid.log_table.read_table`` of the ``time`` column and ``names``
     (values: (R, len(names)), an array or a stored array; None without names),
-    the stamps checked a block at a time and kept (8 bytes a row: the join needs
-    them), the file's row numbers and the parser's notes.
+    the stamps kept (8 bytes a row: the join needs them) and, when ``strict``
+    (a joined file: its stamps are interpolated over), checked finite and
+    increasing a block at a time; the file's row numbers and the parser's notes.
     """
     from drake_dynid.log_table import read_table
 
@@ -624,7 +663,8 @@ def _read_file(
     stamps = np.empty(len(table.rows))
     previous = None
     for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
-        _check_block_stamps(path, block, start, previous, table.rows, time)
+        if strict:
+            _check_block_stamps(path, block, start, previous, table.rows, time)
         stamps[start : start + block.size] = block
         previous = float(block[-1])
     return stamps, table.parts[0] if names else None, table.rows, table.notes

@@ -285,7 +285,10 @@ def test_raw_files_are_read_by_blocks_with_the_same_numbers(
         assert "interpolated" not in text
 
 
-def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch):
+def test_joined_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch):
+    """A joined file's stamps (interpolated over) must be increasing, checked a
+    block at a time; the time base's go to the log checks (the plain reader's:
+    two swapped rows refused, an empty stamp dropped with a warning)."""
     from drake_dynid.core import blocks
 
     monkeypatch.setattr(blocks, "BLOCK_ROWS", 10)
@@ -295,9 +298,16 @@ def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch)
     path = _write(tmp_path / "u.csv", header, rows)
     with pytest.raises(
         ValueError,
-        match=r"u\.csv: time stamps \('stamp'\) are not increasing at row 22",
+        match=r"u\.csv: time stamps are not increasing at row 22 \(t = 0\.019\) "
+        r"after row 21 \(t = 0\.02\): the two are in the wrong order",
     ):
         read_raw_log(path, chain)
+    clock = _write(tmp_path / "c.csv", ["stamp"], [(k,) for k in range(40)])
+    with pytest.raises(
+        ValueError,
+        match=r"u\.csv: time stamps \('stamp'\) are not increasing at row 22",
+    ):
+        read_raw_log([clock, path], chain)
     rows = [(k, 0.1 * k, 0.2, 0.5, 0.25) for k in range(40)]
     rows[30] = ("", 0.1, 0.2, 0.5, 0.25)
     text = (
@@ -305,7 +315,10 @@ def test_one_file_stamps_are_checked_across_blocks(tmp_path, chain, monkeypatch)
     )
     (tmp_path / "b.csv").write_text(text)  # a blank line after the header
     with pytest.raises(ValueError, match=r"time stamp \('stamp'\) of row 33 is empty"):
-        read_raw_log(tmp_path / "b.csv", chain)
+        read_raw_log([clock, tmp_path / "b.csv"], chain)
+    log = read_raw_log(tmp_path / "b.csv", chain)
+    assert log.num_samples == 40 and log.filled.tolist() == [k == 30 for k in range(40)]
+    assert any("dropped row 33: time stamp empty" in w for w in log.warnings)
 
 
 def test_a_first_file_of_stamps_only_is_the_time_base(tmp_path, chain):
@@ -499,3 +512,54 @@ def test_bursty_stamps_of_a_joined_file_are_not_gaps(tmp_path, plain_chain):
     assert not log.bad_samples.any()
     assert 20 <= log.filled.sum() <= 45, log.warnings
     assert any("of its samples missing" in w for w in log.warnings)
+
+
+@pytest.mark.parametrize(
+    ("row", "stamp"),
+    [(1500, 1e6), (1500, 0.5), (1500, np.nan), (0, 1e6), (2999, -5.0)],
+)
+@pytest.mark.parametrize("layout", ["one", "joined"])
+def test_one_corrupted_stamp_is_dropped_as_the_plain_reader_does(
+    tmp_path, plain_chain, row, stamp, layout
+):
+    """Found by a review: the drive reader refused one corrupted stamp of the
+    time base ("not increasing ... sort the file by time", or "empty or not
+    finite") that the plain reader drops with a warning naming its row and
+    refills. Both drop it now, with the same warning and the same samples; a
+    joined file is interpolated onto the other stamps."""
+    from drake_dynid.logs import read_log, write_log
+
+    n = 3000
+    t = 1e-3 * np.arange(n)
+    q = np.column_stack([np.sin(t), np.cos(t)])
+    tau = np.column_stack([2 * t, -t])
+    t[row] = stamp
+    write_log(tmp_path / "s.csv", t, q, tau, JOINTS)
+    plain = read_log(tmp_path / "s.csv", JOINTS)
+    if layout == "one":
+        files = [tmp_path / "s.csv"]
+    else:  # positions on the corrupted stamps, efforts on their own clean ones
+        clean = 1e-3 * np.arange(-5, n + 5)
+        files = _rate_files(tmp_path, t, clean)
+        files[0] = _write(
+            files[0],
+            ["t", "q_a", "q_b"],
+            [
+                (f"{s:.17g}", *(f"{x:.17g}" for x in v))
+                for s, v in zip(t, q, strict=True)
+            ],
+        )
+    log = read_raw_log(files, plain_chain)
+    dropped = [w for w in log.warnings if w.startswith("dropped row")]
+    assert dropped == [w for w in plain.warnings if w.startswith("dropped row")]
+    assert f"dropped row {row + 2}" in dropped[0]
+    assert log.num_samples == plain.num_samples
+    np.testing.assert_array_equal(log.filled, plain.filled)
+    np.testing.assert_allclose(np.asarray(log.q), np.asarray(plain.q), atol=1e-12)
+    if layout == "one":
+        np.testing.assert_allclose(np.asarray(log.tau), np.asarray(plain.tau))
+    else:  # tau = (2 t, -t) of the efforts' own stamps, interpolated: a line
+        kept = np.delete(np.arange(n), row) if row in (0, n - 1) else np.arange(n)
+        reference = 1e-3 * kept[~np.asarray(log.filled)]
+        good = np.asarray(log.tau)[~np.asarray(log.filled)]
+        np.testing.assert_allclose(good[:, 0], 2 * reference, atol=1e-12)

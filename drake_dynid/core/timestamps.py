@@ -53,6 +53,7 @@ __all__ = [
     "fill_short_runs",
     "fit_time_grid",
     "nominal_step",
+    "order_outliers",
 ]
 
 STEP_AGREEMENT = 1e-5  # nominal_step: relative agreement (10 ppm)
@@ -322,6 +323,66 @@ def _drop_outliers(t, h0, gaps, max_outliers, run, owner, where) -> np.ndarray:
         if int(np.count_nonzero(~keep)) > max_outliers:
             fail(p, b + 1)
     return keep
+
+
+def order_outliers(
+    t: Any,
+    *,
+    max_outlier_run: int = 3,
+    edge_gap: int | None = None,
+    owner: str = "order_outliers",
+    where: Callable[[int], str] | None = None,
+) -> np.ndarray:
+    """The rows whose stamps ``fit_time_grid`` drops before anything else.
+
+    Stage 1 of the fit (module docstring) over the finite stamps: a row whose
+    stamp is not finite, or breaks the chain of steps in (0, gap·h₀] (an isolated
+    corrupted stamp, a few at either end), is an outlier; the kept stamps are
+    increasing. A reader that must order rows before the fit (a join of files on
+    time, ``drake_dynid.raw_log``) uses the kept ones; the fit itself, on the
+    same stamps, drops the same rows and reports them.
+
+    Args:
+        t: (N,) time stamps [s, or any one unit].
+        max_outlier_run: longest run of consecutive outlier rows.
+        edge_gap: longest gap [missing samples] accepted after the first or
+            before the last ``max_outlier_run`` rows (default N).
+        owner: prefix of the error messages.
+        where: names sample i in messages (default ``"sample i"``).
+
+    Returns:
+        (N,) bool, False for the outlier rows.
+
+    Raises:
+        ValueError: a break that is not an outlier (as ``fit_time_grid``).
+    """
+    where = where or _default_where
+    t = np.asarray(t, dtype=float)
+    finite = np.isfinite(t)
+    rows = np.flatnonzero(finite)
+    if rows.size < 2:
+        return finite
+    s = t[rows]
+    n = s.size
+    h0 = float(np.median(np.diff(s)))
+    if not (math.isfinite(h0) and h0 > 0.0):
+        b = int(np.flatnonzero(~(np.diff(s) > 0.0))[0]) + 1
+        raise ValueError(
+            f"{owner}: time stamps are not increasing at {where(int(rows[b]))} after "
+            f"{where(int(rows[b - 1]))}; sort the log by time."
+        )
+    gaps = (n, n if edge_gap is None else int(edge_gap))
+    keep = _drop_outliers(
+        s,
+        h0,
+        gaps,
+        3 + n // 1000,
+        max_outlier_run,
+        owner,
+        lambda i: where(int(rows[i])),
+    )
+    finite[rows[~keep]] = False
+    return finite
 
 
 def fit_time_grid(
