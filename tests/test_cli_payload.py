@@ -252,18 +252,21 @@ def test_a_log_too_slow_for_the_jacobi_window_names_the_option(tmp_path, capsys)
     assert "OnlineSettings" not in err and "bank_time_step" not in err, err
 
 
-def test_a_short_jacobi_window_names_the_option_given(tmp_path, capsys):
-    """Found by a review: --jacobi-window 0.01 alone was refused as
-    '--bank-time-step must be <= --jacobi-window/10 ... got 0.002', an option the
-    user never gave. Now it names the option given (and the bank step's default);
-    with both given, or the bank step alone, the conflict is said both ways."""
+def test_the_default_bank_step_follows_the_jacobi_window(tmp_path, capsys):
+    """Found by a review: --jacobi-window 0.01 (or 0.015) alone was refused
+    ('--jacobi-window must be >= 10 x --bank-time-step ... with
+    --bank-time-step's default 0.002'), where dynid identify derives its bank
+    step from the Jacobi window. The default is now min(2 ms, Tj/10) on the
+    log's grid, as identify's rule (1 ms for both at 1 kHz, 2 ms for 0.1 s);
+    given both, or the bank step alone, the conflict is said both ways."""
     log = _still_log(tmp_path / "log.csv", 1000.0)
     argv = ["payload", log, "--urdf", URDF, "--quiet"]
-    assert cli.main([*argv, "--jacobi-window", "0.01"]) == 2
-    err = capsys.readouterr().err
-    assert "error: --jacobi-window must be >= 10 x --bank-time-step" in err, err
-    assert "got --jacobi-window 0.01 with --bank-time-step's default 0.002" in err
-    assert "lengthen --jacobi-window to at least 0.02 s" in err
+    out = tmp_path / "p.json"
+    for window, step in (("0.01", 0.001), ("0.015", 0.001), ("0.1", 0.002)):
+        options = ["--jacobi-window", window, "--json", str(out)]
+        assert cli.main([*argv, *options]) == 0, capsys.readouterr().err
+        settings = json.loads(out.read_text())["settings"]
+        assert settings["bank_time_step"] == pytest.approx(step), window
     both = ["--jacobi-window", "0.01", "--bank-time-step", "0.002"]
     for options in (both, ["--bank-time-step", "0.05"]):
         assert cli.main([*argv, *options]) == 2

@@ -91,7 +91,11 @@ def payload_settings_of(
     """
     from drake_dynid.commands.identify import OPTION_NAMES, _frequencies
     from drake_dynid.core.online_checks import check_values
-    from drake_dynid.core.payload_step import PAYLOAD_DEFAULTS, payload_settings
+    from drake_dynid.core.payload_step import (
+        PAYLOAD_DEFAULTS,
+        payload_bank_step,
+        payload_settings,
+    )
 
     # `is not None`: a 0 given is checked (and refused), not taken for unset.
     values = {
@@ -103,23 +107,9 @@ def payload_settings_of(
     if not (isinstance(frequencies, str) and frequencies == "default"):
         values["frequencies"] = frequencies
     merged = {**PAYLOAD_DEFAULTS, **values}
-    try:
-        check_values(merged, owner=None, names=OPTION_NAMES)
-    except ValueError as error:
-        if "bank_time_step" in values or not str(error).startswith(
-            "--bank-time-step must be <="
-        ):
-            raise
-        # --jacobi-window given, the bank step its default: say so in its words.
-        step = PAYLOAD_DEFAULTS["bank_time_step"]
-        raise ValueError(
-            f"--jacobi-window must be >= 10 x --bank-time-step [s] (the bank "
-            "samples the differentiator's low-passed output; a coarser step "
-            f"aliases it); got --jacobi-window {merged['jacobi_window']:g} with "
-            f"--bank-time-step's default {step:g}: lengthen --jacobi-window to at "
-            f"least {10 * step:g} s or give --bank-time-step at most "
-            f"{merged['jacobi_window'] / 10:g} s."
-        ) from None
+    if "bank_time_step" not in values:  # the default follows --jacobi-window
+        merged["bank_time_step"] = payload_bank_step(merged["jacobi_window"])
+    check_values(merged, owner=None, names=OPTION_NAMES)
     return payload_settings(time_step, **values)
 
 
@@ -164,8 +154,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="S",
         help="bank sample period [s], a multiple of the log's (default: the "
-        "multiple closest to 0.002, at least one step: the arm's known part must be "
-        "integrated finely)",
+        "multiple closest to 0.002, at least one step, at most --jacobi-window/10 "
+        "as in dynid identify: the arm's known part must be integrated finely)",
     )
     group.add_argument(
         "--update-period",

@@ -18,11 +18,13 @@ short window needs:
   T = 1 s: 0.9 s).
 * ``frequencies`` ℓ = 0..3: the motion is slow against 1/T; higher modulating
   frequencies carry noise rather than motion (ℓ = 0..7: 1.8 times the mass error).
-* ``bank_time_step`` 2 ms: the known column (the whole arm's momentum and
-  gravity) is about 1e3 times the payload's contribution, and a trapezoid over
-  bank steps h errs by about (2πf·h)²/12 at the modulating frequency f, which the
-  arm's column turns into payload errors: noise-free, 10 ms leave a mass error
-  of 0.04 % and 6 of 10 parameters identified, 2 ms 0.002 % and 10 of 10.
+* ``bank_time_step`` 2 ms (at most ``jacobi_window``/10, as an unset bank step
+  of ``OnlineSettings.on_grid``: :func:`payload_bank_step`): the known column
+  (the whole arm's momentum and gravity) is about 1e3 times the payload's
+  contribution, and a trapezoid over bank steps h errs by about (2πf·h)²/12 at
+  the modulating frequency f, which the arm's column turns into payload errors:
+  noise-free, 10 ms leave a mass error of 0.04 % and 6 of 10 parameters
+  identified, 2 ms 0.002 % and 10 of 10.
 * ``rows_from`` raw, ``jacobi_window`` 0.1 s: no filter bias on the nonlinear
   terms (noise-free, 10 of 10 parameters identified, median error 0.14 %;
   filtered rows: 8 of 10).
@@ -60,6 +62,7 @@ from drake_dynid.core.online import (
     MIN_BANK_SAMPLES_PER_JACOBI_WINDOW,
     MIN_JACKKNIFE_GROUPS,
     OnlineSettings,
+    nearest_multiple,
     nearest_on_grid,
 )
 from drake_dynid.core.payload import eliminate_known
@@ -74,6 +77,7 @@ __all__ = [
     "PAYLOAD_DEFAULTS",
     "PayloadState",
     "check_payload_weighting",
+    "payload_bank_step",
     "payload_init",
     "payload_jackknife_groups",
     "payload_settings",
@@ -111,37 +115,66 @@ def payload_settings(
             ``core.online.nearest_on_grid``), as ``OnlineSettings.on_grid`` does
             for unset periods: a 100 Hz log gets a 10 ms bank step (2 ms is no
             multiple of it, and ``on_grid`` refuses a given period off the grid).
-            A bank step above jacobi_window/10 stays 2 ms: h itself is too coarse
-            for the Jacobi window, which ``on_grid`` then says.
+            The default bank step is at most jacobi_window/10, as identify's
+            (:func:`payload_bank_step`: 1 ms under a 10 ms window, with or
+            without h); with h above jacobi_window/10 it stays 2 ms: h itself
+            is too coarse for the Jacobi window, which ``on_grid`` then says.
         **overrides: ``OnlineSettings`` fields.
     """
     values = {**PAYLOAD_DEFAULTS, **overrides}
+    h = None
     if time_step is not None:
         h = check.positive("payload_settings", "time_step", time_step, "s")
-        for key in ("bank_time_step", "update_period"):
-            snapped = nearest_on_grid(PAYLOAD_DEFAULTS[key], h)
-            if key not in overrides and not (
-                key == "bank_time_step" and _above_bank_limit(snapped, values, h)
-            ):
-                values[key] = snapped
+        if "update_period" not in overrides:
+            values["update_period"] = nearest_on_grid(
+                PAYLOAD_DEFAULTS["update_period"], h
+            )
+    if "bank_time_step" not in overrides:
+        values["bank_time_step"] = payload_bank_step(values.get("jacobi_window"), h)
     if isinstance(values.get("frequencies"), tuple):
         values["frequencies"] = list(values["frequencies"])
     return check_payload_weighting("payload_settings", OnlineSettings(**values))
 
 
-def _above_bank_limit(bank_time_step: float, values: dict[str, Any], h: float) -> bool:
-    """Whether a bank step exceeds jacobi_window/10 (the window put on h's grid).
+def payload_bank_step(jacobi_window: Any, time_step: float | None = None) -> float:
+    """The default bank step [s]: 2 ms, at most the Jacobi window's tenth.
 
-    False when ``values``' jacobi_window is no positive number (``OnlineSettings``
-    names it).
+    As ``OnlineSettings.on_grid`` derives an unset bank step (docs/CONVENTIONS.md
+    §2) from its nominal 20 ms, with the payload's nominal 2 ms::
+
+        Δ = min(2 ms, Tj/10)                      (no time step given)
+        Δ = c·h, c >= 1 the count closest to min(2 ms, Tj/10), c·h <= Tj/10
+
+    Tj the Jacobi window [s] (on h's grid), h the log's step [s]. A window that
+    is no positive number, or shorter than 10 h, leaves 2 ms (``OnlineSettings``
+    names the window: the log is too coarse for it).
+
+    Args:
+        jacobi_window: Tj [s] (as given: checked by ``OnlineSettings``).
+        time_step: h [s], or None.
+
+    Returns:
+        The bank step Δ [s].
     """
-    window = values.get("jacobi_window")
+    nominal = float(PAYLOAD_DEFAULTS["bank_time_step"])
+    window = jacobi_window
     if isinstance(window, bool) or not isinstance(window, int | float):
-        return False
+        return nominal
     if not (math.isfinite(window) and window > 0.0):
-        return False
+        return nominal
+    if time_step is None:
+        return min(nominal, float(window) / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW)
+    h = time_step
     limit = nearest_on_grid(float(window), h) / MIN_BANK_SAMPLES_PER_JACOBI_WINDOW
-    return bank_time_step > limit * (1.0 + 1e-9)
+    if limit < h * (1.0 - 1e-9):
+        return nominal
+    wanted = min(nominal, limit)
+    if wanted == nominal and math.isclose(
+        nominal / h, round(nominal / h), rel_tol=1e-9
+    ):
+        return nominal  # 2 ms on a 1 kHz (500 Hz) log: the value itself
+    top = max(1, math.floor(limit / h + 1e-9))
+    return nearest_multiple(wanted, h, at_most=top) * h
 
 
 def check_payload_weighting(owner: str, settings: OnlineSettings) -> OnlineSettings:

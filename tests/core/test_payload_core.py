@@ -202,6 +202,34 @@ def test_settings_are_the_documented_defaults_and_accept_overrides():
         payload_settings(window=-1.0)
 
 
+@pytest.mark.parametrize(
+    ("jacobi_window", "time_step", "step"),
+    [
+        (0.1, None, 0.002),  # the documented default
+        (0.1, 1e-3, 0.002),
+        (0.01, None, 0.001),  # Tj/10 below 2 ms: Tj/10, as identify's rule
+        (0.01, 1e-3, 0.001),
+        (0.015, 1e-3, 0.001),  # the multiple of h at most Tj/10
+        (0.03, 2e-3, 0.002),
+        (0.1, 1e-2, 0.01),  # 100 Hz: at least one step
+        (0.1, 5e-3, 0.005),
+    ],
+)
+def test_the_default_bank_step_follows_the_jacobi_window(
+    jacobi_window, time_step, step
+):
+    """Found by a review: the bank step stayed 2 ms under any Jacobi window, and
+    jacobi_window 0.01 was refused; identify's unset bank step is at most
+    jacobi_window/10 (OnlineSettings.on_grid). The payload's is too."""
+    settings = payload_settings(time_step, jacobi_window=jacobi_window)
+    assert settings.bank_time_step == pytest.approx(step, rel=1e-12)
+    if time_step is not None:
+        grid = settings.on_grid(time_step)
+        assert grid.bank_time_step == pytest.approx(step, rel=1e-12)
+    given = payload_settings(time_step, jacobi_window=0.1, bank_time_step=0.01)
+    assert given.bank_time_step == 0.01  # a given step is kept
+
+
 def test_dilution_weighs_down_only_the_frequencies_near_the_noise():
     from drake_dynid.core.payload_noise import DILUTION_SNR, dilution
 
