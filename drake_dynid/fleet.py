@@ -178,7 +178,8 @@ def run_one(
         "message", "seconds", "valid", "condition_number", "model", "stderr"}``,
         ``stderr`` the lines the command printed on stderr (notes, warnings).
         :func:`run_fleet` sets a failed log's ``json`` to None unless the run
-        wrote it, and names an earlier run's file there in ``stale_json``.
+        wrote it, and moves an earlier run's file there aside, to
+        ``<name>.stale.json``, named in ``stale_json``.
     """
     configure_process()  # a Dask worker may not have been started by dynid
     start = time.perf_counter()
@@ -304,8 +305,10 @@ def _name_stale_json(
     """A failed log's ``json`` is None unless this run wrote it.
 
     The file at its path, left by an earlier run and not replaced by this one,
-    is named in ``stale_json`` (kept: nothing is lost, but never presented as
-    this run's result beside a summary that says the log failed).
+    is moved aside to ``<name>.stale.json`` (:func:`move_aside`) and named in
+    ``stale_json``: nothing is lost, and the folder holds no file a user would
+    take for this run's result of a log that failed. Where it cannot be moved
+    (``stale_json_error`` says why) it stays, named as well.
     """
     if item["status"] == "ok":
         return
@@ -314,7 +317,45 @@ def _name_stale_json(
     if now is None or now == before.get(path):
         item["json"] = None
     if now is not None and now == before.get(path):
-        item["stale_json"] = path
+        try:
+            item["stale_json"] = move_aside(path)
+        except OSError as error:
+            item["stale_json"] = path
+            item["stale_json_error"] = str(error)
+
+
+def move_aside(path: str) -> str:
+    """Renames ``DIR/NAME.json`` to ``DIR/NAME.stale.json`` and returns the new path.
+
+    The new name is taken only if no file has it (``NAME.stale-2.json``, ... when
+    one has: an earlier stale result, a log's input): an existing file is never
+    replaced. A hard link then the old name removed; where the file system has no
+    hard links, a rename (after the same check).
+
+    Raises:
+        OSError: the file could not be moved (it is left where it was).
+    """
+    folder, name = os.path.split(path)
+    stem = name[: -len(".json")] if name.endswith(".json") else name
+    for k in range(1, 1000):
+        suffix = ".stale" if k == 1 else f".stale-{k}"
+        target = os.path.join(folder, f"{stem}{suffix}.json")
+        try:
+            os.link(path, target)
+        except FileExistsError:
+            continue
+        except OSError:  # no hard links here: rename, never over a file
+            if os.path.lexists(target):
+                continue
+            os.rename(path, target)
+            return target
+        try:
+            os.unlink(path)
+        except OSError:
+            os.unlink(target)  # as it was: one file, at its old name
+            raise
+        return target
+    raise OSError(f"{path}: no free name {stem}.stale-N.json to move it aside to.")
 
 
 def _hint_split_recordings(command: str, items: list[dict[str, Any]]) -> None:

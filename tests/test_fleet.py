@@ -410,12 +410,15 @@ def test_a_log_given_twice_is_refused(logs, tmp_path, capsys, monkeypatch):
 
 def test_a_failed_rerun_does_not_present_an_earlier_runs_json(logs, tmp_path, capsys):
     """Found by a review: a log that failed on a rerun kept the previous run's
-    JSON beside the new summary, which pointed at it as the log's result. The
-    file is kept (nothing is lost) but the summary says it is an earlier run's:
-    ``json`` is null, ``stale_json`` names it; a log that fails without such a
-    file has ``json`` null too."""
+    JSON beside the new summary, which pointed at it as the log's result; then
+    (a second review) it stayed in the folder under the log's result name, only
+    the summary saying it was stale: a user opening the folder took it for the
+    current result. It is moved aside to <name>.stale.json now (never over a
+    file: robot.stale-2.json the next time), named in the summary and on
+    stderr; a log that fails without such a file has ``json`` null too."""
     log = tmp_path / "robot.csv"
-    log.write_text(pathlib.Path(logs[0]).read_text())
+    good = pathlib.Path(logs[0]).read_text()
+    log.write_text(good)
     out_dir = tmp_path / "out"
     options = ["--urdf", URDF, "--jobs", "1", "--out-dir", str(out_dir)]
     assert cli.main(["fleet", "offline", str(log), *options, "--quiet"]) == 0
@@ -425,15 +428,52 @@ def test_a_failed_rerun_does_not_present_an_earlier_runs_json(logs, tmp_path, ca
     logs_now = [str(log), str(tmp_path / "missing.csv")]
     assert cli.main(["fleet", "offline", *logs_now, *options]) == 2
     captured = capsys.readouterr()
-    assert (out_dir / "robot.json").read_text() == earlier  # kept
+    assert not (out_dir / "robot.json").exists()  # not taken for this run's
+    assert (out_dir / "robot.stale.json").read_text() == earlier  # kept
     summary = json.loads((out_dir / "summary.json").read_text())
     assert [item["status"] for item in summary] == ["bad input", "bad input"]
     assert summary[0]["json"] is None
-    assert summary[0]["stale_json"] == str(out_dir / "robot.json")
+    assert summary[0]["stale_json"] == str(out_dir / "robot.stale.json")
     assert summary[1]["json"] is None and "stale_json" not in summary[1]
-    assert "robot.json is from an earlier run, not this one's result" in captured.out
-    assert "the JSON of 1 failed log(s)" in captured.err
-    assert "is from an earlier run" in captured.err
+    moved = f"an earlier run's JSON, not this one's result, moved to {out_dir}"
+    assert moved in captured.out, captured.out
+    assert "1 failed log(s) had a JSON" in captured.err
+    assert "moved aside to <name>.stale.json" in captured.err
+    # Failing again: nothing left to move; ok, then failing: a new stale name.
+    assert cli.main(["fleet", "offline", str(log), *options, "--quiet"]) == 2
+    assert "stale_json" not in json.loads((out_dir / "summary.json").read_text())[0]
+    log.write_text(good)
+    assert cli.main(["fleet", "offline", str(log), *options, "--quiet"]) == 0
+    log.write_text("t,q_joint1\n0,0\n")
+    assert cli.main(["fleet", "offline", str(log), *options, "--quiet"]) == 2
+    assert (out_dir / "robot.stale.json").read_text() == earlier  # not replaced
+    assert (out_dir / "robot.stale-2.json").exists()
+    assert sorted(p.name for p in out_dir.iterdir()) == [
+        "robot.stale-2.json",
+        "robot.stale.json",
+        "summary.json",
+    ]
+
+
+def test_a_stale_json_that_cannot_be_moved_stays_named(tmp_path, monkeypatch):
+    """Where the file cannot be moved aside it stays, named in the summary with
+    the reason (the earlier behaviour), never lost."""
+    from drake_dynid import fleet
+
+    path = tmp_path / "robot.json"
+    path.write_text("{}")
+    before = {str(path): fleet._signature(str(path))}
+
+    def refuse(*args, **kwargs):
+        raise PermissionError("read-only folder")
+
+    monkeypatch.setattr(fleet.os, "link", refuse)
+    monkeypatch.setattr(fleet.os, "rename", refuse)
+    item = {"status": "bad input", "json": str(path)}
+    fleet._name_stale_json(item, before)
+    assert item["json"] is None and item["stale_json"] == str(path)
+    assert "read-only folder" in item["stale_json_error"]
+    assert path.read_text() == "{}"
 
 
 def test_output_checks_are_linear_in_the_number_of_logs(tmp_path, monkeypatch):

@@ -16,7 +16,8 @@ DESCRIPTION = (
     "logs run in parallel local processes (--jobs, default the CPUs it may use); with "
     "--scheduler ADDRESS they run on that Dask distributed cluster (pip install "
     "'drake-dynid[fleet]'). The command's options follow the logs, as for the "
-    "command itself. Exit code 2 when a log fails (the others are still done)."
+    "command itself. Exit code 2 when a log fails (the others are still done); "
+    "its JSON from an earlier run, if any, is moved aside to <log name>.stale.json."
 )
 
 _PER_LOG_OUTPUTS = (("--out", "out"), ("--plot", "plot"), ("--urdf-out", "urdf_out"))
@@ -112,9 +113,15 @@ def summary_table(items: list[dict[str, Any]]) -> list[str]:
         valid = "" if item.get("valid") is None else str(bool(item["valid"])).lower()
         result = item["json"] if item["status"] == "ok" else item["message"]
         result = result.strip().splitlines()[-1] if result.strip() else ""
-        if item.get("stale_json"):
+        if item.get("stale_json_error"):
             result += (
-                f" ({item['stale_json']} is from an earlier run, not this one's result)"
+                f" ({item['stale_json']} is from an earlier run, not this one's "
+                "result; it could not be moved aside)"
+            )
+        elif item.get("stale_json"):
+            result += (
+                f" (an earlier run's JSON, not this one's result, moved to "
+                f"{item['stale_json']})"
             )
         lines.append(
             f"| {item['log']} | {item['status']} | {valid} | {cond} | "
@@ -209,12 +216,26 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         print(f"wrote {summary}")
     failed = [item for item in items if item["status"] != "ok"]
-    stale = [item["stale_json"] for item in failed if item.get("stale_json")]
-    if stale:
+    moved = [
+        item["stale_json"]
+        for item in failed
+        if item.get("stale_json") and not item.get("stale_json_error")
+    ]
+    if moved:
         print(
-            f"dynid fleet: note: the JSON of {len(stale)} failed log(s) in "
-            f"{args.out_dir} is from an earlier run, not this run's result (first: "
-            f"{stale[0]}; summary.json: stale_json).",
+            f"dynid fleet: note: {len(moved)} failed log(s) had a JSON in "
+            f"{args.out_dir} from an earlier run, not this run's result: moved "
+            f"aside to <name>.stale.json (first: {moved[0]}; summary.json: "
+            "stale_json).",
+            file=sys.stderr,
+        )
+    kept = [item for item in failed if item.get("stale_json_error")]
+    if kept:
+        print(
+            f"dynid fleet: warning: the JSON of {len(kept)} failed log(s) in "
+            f"{args.out_dir} is from an earlier run, not this run's result, and "
+            f"could not be moved aside (first: {kept[0]['stale_json']}: "
+            f"{kept[0]['stale_json_error']}).",
             file=sys.stderr,
         )
     bugs = [item for item in items if item["status"] == "internal error"]
