@@ -551,16 +551,27 @@ def _read_streamed(
         if not names and path != files[0]:
             warnings.append(f"file {path}: holds no needed column; not used.")
             continue
-        strict = path != files[0]  # the time base's stamps: checked by repair
-        stamps, values, rows, read_notes = _read_file(path, names, time, strict)
+        stamps, values, rows, read_notes = _read_file(path, names, time)
         tables[path] = (names, stamps, values, rows)
         notes += read_notes
     base = files[0]
     stamps = tables[base][1]
+    same = {
+        path: other is stamps
+        or (
+            other.shape == stamps.shape
+            and bool(np.array_equal(other, stamps, equal_nan=True))
+        )
+        for path, (_, other, _, _) in tables.items()
+    }
+    for path, (_, other, _, rows) in tables.items():
+        if not same[path]:  # interpolated over: finite and increasing
+            _check_file_stamps(path, other, rows, time)
+    # The time base's stamps (and a file's equal to them) go to repair's checks.
     t = _join_stamps(f"log {label}", stamps, tables[base][3], fill_gaps)
     low, high = 0, t.size  # the base rows inside every file's span
     for path, (_, other, _, _) in tables.items():
-        if path != base:
+        if not same[path]:
             low = max(low, int(np.searchsorted(t, other[0], side="left")))
             high = min(high, int(np.searchsorted(t, other[-1], side="right")))
     if high <= low:
@@ -568,11 +579,6 @@ def _read_streamed(
             f"log {', '.join(files)}: the files have no common time span "
             f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
-    same = {
-        path: other is stamps
-        or (other.shape == t.shape and bool(np.array_equal(other, stamps)))
-        for path, (_, other, _, _) in tables.items()
-    }
     for path, (names, _, _, _) in tables.items():
         if not same[path] and names:
             warnings.append(
@@ -686,16 +692,23 @@ def _join_stamps(owner: str, t: np.ndarray, rows: Any, fill_gaps: int) -> np.nda
     return out
 
 
+def _check_file_stamps(path: str, stamps: np.ndarray, rows: Any, time: str) -> None:
+    """Finite, increasing stamps of a joined file, checked a block at a time."""
+    previous = None
+    for start, block in _blocks.blocks(stamps, _blocks.BLOCK_ROWS):
+        _check_block_stamps(path, block, start, previous, rows, time)
+        previous = float(block[-1])
+
+
 def _read_file(
-    path: str, names: list[str], time: str, strict: bool = True
+    path: str, names: list[str], time: str
 ) -> tuple[np.ndarray, Any, Any, list[str]]:
     """``(stamps, values, rows, notes)`` of one file of a raw log, streamed.
 
     ``drake_dynid.log_table.read_table`` of the ``time`` column and ``names``
     (values: (R, len(names)), an array or a stored array; None without names),
-    the stamps kept (8 bytes a row: the join needs them) and, when ``strict``
-    (a joined file: its stamps are interpolated over), checked finite and
-    increasing a block at a time; the file's row numbers and the parser's notes.
+    the stamps kept (8 bytes a row: the join needs them; checked by the caller),
+    the file's row numbers and the parser's notes.
     """
     from drake_dynid.log_table import read_table
 
@@ -703,12 +716,8 @@ def _read_file(
         groups = (len(names),) if names else ()
         table = read_table(path, stream, [time, *names], groups)
     stamps = np.empty(len(table.rows))
-    previous = None
     for start, block in _blocks.blocks(table.t, _blocks.BLOCK_ROWS):
-        if strict:
-            _check_block_stamps(path, block, start, previous, table.rows, time)
         stamps[start : start + block.size] = block
-        previous = float(block[-1])
     return stamps, table.parts[0] if names else None, table.rows, table.notes
 
 
