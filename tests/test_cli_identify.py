@@ -8,6 +8,7 @@ import sys
 
 import numpy as np
 import pytest
+from _cli import error_line
 
 from drake_dynid import cli, paper
 from drake_dynid.core.trajectory import random_fourier_trajectory
@@ -178,6 +179,33 @@ def test_identify_without_any_valid_window_exits_2(tmp_path, capsys):
     assert "q_joint1 = 0.3, q_joint2 = 0.3 never change" in warning
     assert "tau_joint1 = 0, tau_joint2 = 0 never change" in warning
     assert "Traceback" not in err and error.startswith("dynid identify: error: ")
+
+
+def test_a_lagrangian_joint_without_noise_of_its_own_is_refused(log_file, capsys):
+    # Found by a review: --position-noise 0,1e-4 --torque-noise 0 left joint 1's
+    # rows with the coupling's noise only, a nearly singular covariance (on a
+    # 4-joint arm every window ill-conditioned, the message blaming excitation).
+    args = ["identify", log_file, "--urdf", URDF, *FAST, "--weighting", "covariance"]
+    args += ["--position-noise", "0,1e-4", "--torque-noise", "0"]
+    assert cli.main(args) == 2
+    line = error_line(capsys)
+    assert "joint(s) 1 have --position-noise 0 and --torque-noise 0" in line
+    assert "nearly singular" in line and "--weighting 'frequency'" in line
+
+
+def test_no_valid_window_with_the_covariance_weighting_names_the_noise(
+    tmp_path, capsys
+):
+    t = 1e-3 * np.arange(2500)
+    zeros = np.zeros((t.size, 2))
+    path = tmp_path / "rest.csv"
+    write_log(path, t, zeros + 0.3, zeros, ("joint1", "joint2"))
+    args = ["identify", str(path), "--urdf", URDF, *FAST, "--weighting", "covariance"]
+    args += ["--position-noise", "1e-4", "--torque-noise", "0.01"]
+    assert cli.main(args) == 2
+    err = capsys.readouterr().err
+    assert "no window of the log gave a valid estimate" in err
+    assert "stds near 0 on some joints (--position-noise, --torque-noise)" in err
 
 
 def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):

@@ -198,6 +198,26 @@ def test_covariance_settings_are_checked():
         OnlineSettings(
             weighting="covariance", position_noise=0.0, torque_noise=(0.1, 0.0, 0.0)
         )
+    # Found by a review: a Lagrangian joint without a noise of its own (σ_q = σ_τ
+    # = 0) gets only the other joints' through the coupling terms; the covariance
+    # was nearly singular and every window ill-conditioned, blamed on excitation
+    # (a 4-joint UR5 log, σ_q = 0, 0, 0, 1e-4: condition 3.3e4, 191 unweighted).
+    with pytest.raises(
+        ValueError, match=r"joint\(s\) 1, 2, 3 have position_noise 0 and torque_noise"
+    ):
+        OnlineSettings(
+            weighting="covariance", position_noise=(0, 0, 0, 1e-4), torque_noise=0
+        )
+    with pytest.raises(ValueError, match=r"joint\(s\) 2 have position_noise 0"):
+        OnlineSettings(
+            weighting="covariance", position_noise=(1e-4, 0), torque_noise=(0, 0)
+        )
+    OnlineSettings(  # the power model's one equation sums every joint's noise
+        model="power",
+        weighting="covariance",
+        position_noise=(0, 1e-4),
+        torque_noise=0,
+    )
     for position, torque in ((0.0, 0.1), ((0.0, 1e-4), (0.1, 0.0))):
         OnlineSettings(  # a noise in every joint's rows
             weighting="covariance", position_noise=position, torque_noise=torque

@@ -931,6 +931,14 @@ def run(args: argparse.Namespace) -> int:
             if settings.model == "power" and len(finite)
             else ""
         )
+        noise_hint = (
+            " With --weighting covariance the noise stds weigh the rows: stds near 0 "
+            "on some joints (--position-noise, --torque-noise) leave rows nearly "
+            "noise-free, which makes every window ill-conditioned as well (compare "
+            "--weighting frequency)."
+            if settings.weighting == "covariance"
+            else ""
+        )
         raise ValueError(
             f"no window of the log gave a valid estimate (best condition number "
             f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves)"
@@ -939,7 +947,7 @@ def run(args: argparse.Namespace) -> int:
             "longer than the window with a more exciting trajectory (every joint "
             "moving, velocity reversals), a longer --window, a wider --bandwidth or "
             "--frequencies set, fewer friction columns (--friction), or a larger "
-            "--max-condition." + dead_zone_cover(robot, log)
+            "--max-condition." + noise_hint + dead_zone_cover(robot, log)
         )
     t = log.t[0] + np.asarray(trace.t)
     changes = [
