@@ -208,6 +208,26 @@ def test_no_valid_window_with_the_covariance_weighting_names_the_noise(
     assert "stds near 0 on some joints (--position-noise, --torque-noise)" in err
 
 
+def test_the_covariance_weighting_says_it_does_not_use_the_bandwidth(
+    log_file, tmp_path, capsys
+):
+    # Found by a review: its default ℓ set is every integer ℓ within the pass band;
+    # --bandwidth 0.5 was ignored without a word, and a --bandwidth whose power
+    # band 2B is above the pass band refused the run for a set it does not choose.
+    fast = [*FAST[:-2], "--model", "power", "--quiet"]  # the default ℓ set
+    documents = []
+    for band in ([], ["--bandwidth", "0.5"], ["--bandwidth", "20"]):
+        out = tmp_path / f"{len(documents)}.json"
+        args = ["identify", log_file, "--urdf", URDF, *fast, *band, "--json", str(out)]
+        assert cli.main(args) == 0
+        err = capsys.readouterr().err
+        assert ("--bandwidth" in err and "is not used" in err) == bool(band)
+        documents.append(json.loads(out.read_text()))
+    assert all(d["settings"]["weighting"] == "covariance" for d in documents)
+    values = [[p["value"] for p in d["parameters"]] for d in documents]
+    assert values[1] == values[0] and values[2] == values[0]
+
+
 def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
     out_json = tmp_path / "offline.json"
     argv = ["offline", log_file, "--urdf", URDF, "--weighted", "--json", str(out_json)]

@@ -387,6 +387,11 @@ def usable_band(settings: Any, time_step: float) -> float:
     return usable / model_band(grid.model, 1.0)  # the power set covers 2B
 
 
+def _top_frequency(settings: Any) -> float:
+    """The highest modulating frequency (max ℓ + k)/T of the settings' ℓ set [Hz]."""
+    return float((np.max(settings.ell()) + settings.order) / settings.window)
+
+
 def bootstrap_replicates(args: argparse.Namespace, settings: Any) -> int:
     """K of ``--bootstrap``: as given, else 16, or 0 with the covariance weighting.
 
@@ -612,7 +617,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--bandwidth",
         type=float,
         metavar="HZ",
-        help="highest excitation frequency covered by the auto ℓ set [Hz]",
+        help="highest excitation frequency covered by the auto ℓ set [Hz]; not "
+        "used by --weighting covariance, whose auto set is every integer ℓ within "
+        "the differentiator's pass band",
     )
     group.add_argument(
         "--jacobi-window",
@@ -860,15 +867,21 @@ def run(args: argparse.Namespace) -> int:
     log, held, held_description = validation_split(args, log, robot)
     robot = apply_dead_zone(args, robot, log)  # measured on the fitted part only
     check_log_values(args, log, settings)
-    band_measured = args.bandwidth is None and (
-        args.frequencies is None or args.frequencies.strip() == "auto"
-    )
+    default_set = args.frequencies is None or args.frequencies.strip() == "auto"
+    band_measured = args.bandwidth is None and default_set
+    # The covariance weighting's default ℓ set is every integer ℓ the pass band
+    # allows (core.ell_rule): --bandwidth does not choose it, and is said so.
+    every_ell = default_set and default_weighting(args, robot) == "covariance"
+    band_given = args.bandwidth if every_ell else None
     try:
         bandwidth = (
             measured_bandwidth(log, settings.window, settings)
             if band_measured
             else None
         )
+        if band_given is not None:  # capped as a measured band, not refused
+            bandwidth = min(band_given, usable_band(settings, log.time_step))
+            args = argparse.Namespace(**{**vars(args), "bandwidth": None})
         settings = online_settings(args, bandwidth, log.time_step, log.duration, robot)
         weighting = default_weighting(args, robot)
         covariance = weighting == "covariance"  # it models the filtered rows' noise
@@ -920,6 +933,15 @@ def run(args: argparse.Namespace) -> int:
         valid = np.asarray(trace.valid) > 0.5
         bootstrap = _final_bootstrap(
             replicates, log, robot, settings, trace, valid, background, last_solve
+        )
+    if band_given is not None:
+        print(
+            f"dynid identify: note: --bandwidth {band_given:g} Hz is not used: the "
+            "covariance weighting's ℓ set is every integer ℓ within the "
+            f"differentiator's pass band ({len(settings.ell())} functions up to "
+            f"{_top_frequency(settings):.3g} Hz); --frequencies chooses another set "
+            "(--weighting frequency uses --bandwidth)",
+            file=sys.stderr,
         )
     if not valid.any():
         finite = trace.condition_number[np.isfinite(trace.condition_number)]
@@ -978,7 +1000,14 @@ def run(args: argparse.Namespace) -> int:
         )
         if robot.coulomb_width > 0.0:
             print(f"Coulomb friction: tanh(v/{robot.coulomb_width:g}), --coulomb-width")
-        if band_measured:
+        if band_measured and every_ell:
+            print(
+                f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
+                "99 % of the velocity power); the covariance weighting's ℓ set "
+                f"covers the differentiator's pass band, "
+                f"{_top_frequency(settings):.3g} Hz, whatever the band"
+            )
+        elif band_measured:
             print(
                 f"excitation band: {settings.bandwidth:.3g} Hz (measured on the log: "
                 "99 % of the velocity power; --bandwidth to override)"
