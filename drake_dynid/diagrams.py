@@ -24,7 +24,7 @@ import importlib
 import math
 import sys
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -687,5 +687,53 @@ def replay_log(
         # bank's and the solver's offset events included), the loggers publish up
         # to N·h.
         advance(simulator, float(h * log.num_samples), progress, "dynid identify")
-    context = simulator.get_context()
-    return [chain_trace(chain, context, h) for chain in chains]
+        context = simulator.get_mutable_context()
+        return [_final_trace(chain, context, log.num_samples, h) for chain in chains]
+
+
+def _final_trace(
+    chain: IdentifierChain, context: Any, count: int, time_step: float
+) -> OnlineTrace:
+    """The chain's trace with the log's final solve and row (``core.replay``).
+
+    After the run to t_N: the final solve at the last sample t_{N-1} when it is
+    not a solve time (``core.replay.solve_samples``; the identifier's periodic
+    update evaluated at t_N, whose inputs then hold every bank update of the log),
+    and the identifier's state as the row at t_N (``core.replay.logged_samples``:
+    replacing the loggers' row at t_N, appended when t_N is not a solve period).
+    """
+    from drake_dynid.core.replay import logged_samples, solve_samples
+
+    trace = chain_trace(chain, context, time_step)
+    every = chain.settings.solve_decimation(time_step)
+    tracking = chain.settings.detect_changes is not False
+    final = solve_samples(count, every, final=not tracking)[-1]
+    identifier = chain.identifier
+    own = identifier.GetMyMutableContextFromRoot(context)
+    if final % every:  # not a periodic solve: run it now
+        own.SetDiscreteState(identifier.EvalUniquePeriodicDiscreteUpdate(own))
+    keep = len(logged_samples(count, every)) - 1  # the loggers' rows before t_N
+    row = {port: identifier.GetOutputPort(port).Eval(own) for port in chain.logs}
+
+    def ended(values: Any, last: Any) -> np.ndarray:
+        return np.concatenate([np.asarray(values)[:keep], np.asarray(last)[None]])
+
+    trace = replace(
+        trace,
+        t=ended(trace.t, count * time_step),
+        theta=ended(trace.theta, row["theta"]),
+        std=ended(trace.std, row["theta_std"]),
+        condition_number=ended(trace.condition_number, row["condition_number"][0]),
+        valid=ended(trace.valid, row["valid"][0]),
+        status=ended(trace.status, row["status"][0]),
+        unidentified=ended(trace.unidentified, row["unidentified"]),
+    )
+    if "change" not in row:
+        return trace
+    return replace(
+        trace,
+        change=ended(trace.change, row["change"][0]),
+        change_time=ended(trace.change_time, row["change"][1]),
+        tracking=ended(trace.tracking, row["change"][2]),
+        changed=ended(trace.changed, row["changed"]),
+    )

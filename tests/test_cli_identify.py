@@ -88,12 +88,13 @@ def test_identify_prints_the_table_and_writes_csv_json_png(log_file, tmp_path, c
         assert abs(value - TRUTH[name]) < 0.03 * TRUTH[name], (name, value)
         assert percent < 30.0
     # CSV: exactly t,valid,<names>,std_<names>, one row per solve (every 0.05 s)
-    # from t = 0 to t = N·h = 3 s (the state after the last sample has been
-    # processed); empty cells before the first valid estimate.
+    # from t = 0 to 3 s and the final one at t = N·h = 3.001 s (the solve at the
+    # last sample, t = 3 s: before, it ran but no row showed it); empty cells
+    # before the first valid estimate.
     with open(out_csv, newline="") as stream:
         rows = list(csv.reader(stream))
     assert rows[0] == ["t", "valid", *TRUTH, *(f"std_{name}" for name in TRUTH)]
-    assert len(rows) - 1 == 61
+    assert len(rows) - 1 == 62 and [row[0] for row in rows[-2:]] == ["3", "3.001"]
     assert rows[1][:2] == ["0", "0"] and rows[-1][1] == "1"
     assert rows[1][2:] == [""] * 16
     first = next(k for k, row in enumerate(rows[1:], 1) if row[1] == "1")

@@ -81,8 +81,16 @@ def test_replay_of_the_recorded_log_gives_the_closed_loop_estimates(robot, noise
     )
     traces = replay_log(log, robot.rows_provider(), SETTINGS)
     for replayed, online in zip(traces, noise_free.traces, strict=True):
-        np.testing.assert_allclose(replayed.theta, online.theta, rtol=1e-9, atol=1e-12)
-        np.testing.assert_array_equal(replayed.valid, online.valid)
+        # The replay ends with one more row, at t_N: its final solve at the last
+        # sample (core.replay.solve_samples); the closed loop has no log end.
+        count = online.t.size
+        assert replayed.t.size == count + 1
+        assert replayed.t[-1] == pytest.approx(len(noise_free.t) * 1e-3)
+        np.testing.assert_allclose(replayed.t[:count], online.t, atol=1e-12)
+        np.testing.assert_allclose(
+            replayed.theta[:count], online.theta, rtol=1e-9, atol=1e-12
+        )
+        np.testing.assert_array_equal(replayed.valid[:count], online.valid)
 
 
 def test_noise_matches_the_requested_snr(robot, trajectory):
@@ -316,8 +324,9 @@ def test_replay_of_a_noisy_closed_loop_log_is_exact(robot, trajectory):
     )
     log = RobotLog(noisy.t, noisy.q, noisy.tau, noisy.joint_names, 1e-3)
     (replayed,) = replay_log(log, robot.rows_provider(), settings)
+    online = noisy.traces[0]  # the replay's final row (t_N) apart
     np.testing.assert_allclose(
-        replayed.theta, noisy.traces[0].theta, rtol=1e-9, atol=1e-12
+        replayed.theta[: online.t.size], online.theta, rtol=1e-9, atol=1e-12
     )
     again = simulate_identification(
         robot, trajectory, SimulationSettings(duration=0.2, snr_db=30.0, seed=7), []

@@ -191,3 +191,30 @@ def test_filters_at_the_bank_samples_equal_the_whole_log_filters():
                 )
     assert not filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps - 1]))[3][0]
     assert filtered_at(q, tau, settings, 1e-3, np.array([1500 + taps]))[3][0]
+
+
+@pytest.mark.parametrize("count", [2200, 2187])
+def test_the_final_estimate_uses_the_log_up_to_its_last_sample(robot, log, count):
+    """Found by a review: the trace ended with the solve a period (up to 1 s with
+    the covariance weighting) before the log's end, whose last samples were never
+    used (3e-4 relative on the estimate). The final row, at t_N, is now the solve
+    at the last sample, in both engines: N a multiple of the solve period (the
+    loggers' row at t_N replaced) or not (a row appended)."""
+    from drake_dynid.core.replay import window_estimate
+
+    short = RobotLog(
+        log.t[:count], log.q[:count], log.tau[:count], log.joint_names, 1e-3
+    )
+    rows = robot.rows_provider()
+    chosen = [SETTINGS[0], SETTINGS[-1]]  # Lagrangian; power, covariance weighting
+    fast = replay_log_core(short, rows, chosen)
+    # The blocks: the Lagrangian entry (the covariance one is slower; the test
+    # above compares it, with its final solve off the 1 s period).
+    _compare(fast[:1], replay_log(short, rows, chosen[:1]))
+    for trace, settings in zip(fast, chosen, strict=True):
+        assert trace.t[-1] == pytest.approx(count * 1e-3, abs=1e-12)
+        step = round(settings.on_grid(1e-3).bank_time_step / 1e-3)
+        last = (count - 1) - (count - 1) % step  # the log's last bank sample
+        want = window_estimate(rows, settings, short.q, short.tau, last, 1e-3)
+        assert trace.valid[-1] == 1.0 and want.valid
+        np.testing.assert_allclose(trace.theta[-1], want.theta, rtol=1e-8)

@@ -405,14 +405,20 @@ def bootstrap_replicates(args: argparse.Namespace, settings: Any) -> int:
     return 0 if settings.weighting == "covariance" else DEFAULT_REPLICATES
 
 
-def bootstrap_end(settings: Any, time_step: float, last_valid: int) -> int:
+def bootstrap_end(settings: Any, time_step: float, last_valid: int, count: int) -> int:
     """The newest bank sample of the solve whose estimate is logged at ``last_valid``.
 
-    The solve at the previous logged time (``core.replay``: the trace records at
-    t_s the state after the solves at t < t_s).
+    The last solve before the logged time (``core.replay``: the trace records at
+    t_s the state after the solves at t < t_s; its final row at t_N, that of the
+    final solve at the last sample); ``count``: the log's N samples.
     """
-    sample = (last_valid - 1) * settings.solve_decimation(time_step)
-    return int(sample - sample % settings.decimation(time_step))
+    from drake_dynid.core.replay import logged_samples, solve_samples
+
+    every = settings.solve_decimation(time_step)
+    logged = logged_samples(count, every)
+    solves = solve_samples(count, every, final=settings.detect_changes is False)
+    sample = int(solves[max(0, np.searchsorted(solves, logged[last_valid]) - 1)])
+    return sample - sample % settings.decimation(time_step)
 
 
 def final_solve_index(log: Any, settings: Any) -> int:
@@ -513,7 +519,7 @@ def final_bootstrap(
             "--bootstrap K adds it"
         )
     if computed is None:
-        end = bootstrap_end(settings, log.time_step, last_valid)
+        end = bootstrap_end(settings, log.time_step, last_valid, log.num_samples)
         computed = window_bootstrap(replicates, log, robot, settings, end)
     noise, result = computed["noise"], computed["result"]
     out["position_noise"] = [json_number(x) for x in noise[0]]
@@ -774,7 +780,7 @@ def final_covariance(
     largest = float(np.max(std[finite])) if finite.any() else 1.0
     sigma = np.where(finite, std, 1e3 * largest)
     h = log.time_step
-    end = bootstrap_end(settings, h, last_valid)
+    end = bootstrap_end(settings, h, last_valid, log.num_samples)
     correlation = np.eye(p)
     try:
         s = settings.for_robot(h, int(robot.num_joints), p)
@@ -924,7 +930,7 @@ def run(args: argparse.Namespace) -> int:
     # The bootstrap of the last solve's window needs no trace: it runs beside the
     # replay (commands._background), and is used if that solve gave the estimate.
     last_solve = final_solve_index(log, settings)
-    end = bootstrap_end(settings, log.time_step, last_solve)
+    end = bootstrap_end(settings, log.time_step, last_solve, log.num_samples)
     with Background(
         lambda: window_bootstrap(replicates, log, robot, settings, end),
         enabled=replicates > 0 and getattr(args, "parallel", None) != "off",

@@ -19,7 +19,12 @@ bank_time_step/h and U = update_period/h samples:
   bank sample pushed at t_u + h/2;
 * a logger at t_s records the identifier state after the solves before t_s; the
   Simulator runs to t_N = N·h (one period after the last sample), so every sample
-  is processed and the loggers publish up to t_N.
+  is processed and the loggers publish up to t_N;
+* the replay ends with a final solve at the log's last sample t_{N-1} when that
+  is not a solve time (without change detection: :func:`solve_samples`) and a
+  final row at t_N when that is not a logged time (:func:`logged_samples`):
+  the final estimate's window ends with the log's last bank sample
+  (``drake_dynid.diagrams.replay_log`` does both after its Simulator run).
 
 Vectorised and streamed: the FIRs are evaluated at the bank samples only
 (:func:`filtered_at`: the smoothed q and τ and the velocity of q), or the raw rows
@@ -76,6 +81,7 @@ __all__ = [
     "logged_samples",
     "replay_log_core",
     "solve_equations",
+    "solve_samples",
     "window_bank_samples",
     "window_covariance",
     "window_covariance_at",
@@ -314,8 +320,8 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     covariance = entry.covariance_design(h, int(rows.num_joints))
     bank_times = np.arange(0, count, entry.decimation(h))
 
-    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1; logs at t_s, s = 0, U, ...
-    # <= count.
+    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1 and the final one at the
+    # last sample (solve_samples); logs at t_s, s = 0, U, ... <= count and count.
     log_times = logged_samples(count, solve_every)
     num_logs = len(log_times)
     # The (M, p) traces in a temporary file when large (_TraceRows); the
@@ -325,8 +331,9 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
     valid = np.zeros(num_logs)
     status = np.zeros(num_logs)
     state = identifier_init(p)
-    # The solves at t_s, s <= count - 1 (the last logged time only records).
-    solve_times = log_times[log_times <= count - 1]
+    # Change detection keeps its period (its test reads whole update periods).
+    design = change_design(entry, h, m, p)
+    solve_times = solve_samples(count, solve_every, final=design is None)
     windows = bank_windows(log, rows, entry, bank, m, p, solve_times)
     solve = dict(
         weighting=weighting,
@@ -336,7 +343,6 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         jackknife=jackknife,
     )
     # Change detection (core.change): the tracker's outputs per logged solve.
-    design = change_design(entry, h, m, p)
     tracker = None if design is None else tracker_init(design)
     change = np.zeros((num_logs if design else 0, 3))
     changed = _TraceRows(num_logs if design else 0, p)
@@ -347,7 +353,30 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
         if design is None and covariance is None
         else None
     )
+    solves = iter(solve_times)
+    u = next(solves, None)
     for index, s in enumerate(log_times):
+        while u is not None and u < s:  # the solves at t_u + 3h/4 < t_s
+            if stacked is not None:
+                state = identifier_apply(state, *next(stacked))
+                u = next(solves, None)
+                continue
+            # Solve at t_u + 3h/4: after the bank updates at t_j + h/2, t_j <= t_u.
+            ready, a, b, window = next(windows)
+            call = dict(solve)
+            if covariance is not None and ready:  # the window's K bank samples
+                upto = int(np.searchsorted(bank_times, u, side="right"))
+                samples = bank_times[upto - covariance.num_samples : upto]
+                call["covariance"] = window_covariance(
+                    covariance, plain_rows, log, entry, samples
+                )
+            if design is None or tracker is None:
+                state = identifier_update(state, ready, a, b, **call)
+            else:
+                tracker, state = tracking_update(
+                    tracker, state, design, ready, a, b, window, **call
+                )
+            u = next(solves, None)
         # Record the state after the solves at t < t_s.
         theta.add(state.theta)
         std.add(state.std)
@@ -358,26 +387,6 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
             outputs = tracker_outputs(tracker, design)
             change[index] = outputs[:3]
             changed.add(outputs[3:])
-        if s > count - 1:
-            break
-        if stacked is not None:
-            state = identifier_apply(state, *next(stacked))
-            continue
-        # Solve at t_s + 3h/4: after the bank updates at t_j + h/2, t_j <= t_s.
-        ready, a, b, window = next(windows)
-        call = dict(solve)
-        if covariance is not None and ready:  # the window's K bank samples
-            upto = int(np.searchsorted(bank_times, s, side="right"))
-            samples = bank_times[upto - covariance.num_samples : upto]
-            call["covariance"] = window_covariance(
-                covariance, plain_rows, log, entry, samples
-            )
-        if design is None or tracker is None:
-            state = identifier_update(state, ready, a, b, **call)
-        else:
-            tracker, state = tracking_update(
-                tracker, state, design, ready, a, b, window, **call
-            )
     return OnlineTrace(
         settings=entry,
         names=names,
@@ -397,13 +406,32 @@ def _replay_one(log: Any, rows: Any, entry: OnlineSettings) -> OnlineTrace:
 
 
 def logged_samples(count: int, solve_every: int) -> np.ndarray:
-    """The samples s = 0, U, 2U, ... <= N at which a replay logs its state.
+    """The samples s = 0, U, 2U, ... <= N, and N, at which a replay logs its state.
 
     ``count`` = N samples, U = ``solve_every`` (the solve period in samples);
     the state logged at s is the one after the solves at t < t_s (module
-    docstring): the trace's rows, its last one the last solve's estimate.
+    docstring): the trace's rows, its last one (at t_N, one period h after the
+    last sample) the final solve's estimate (:func:`solve_samples`).
     """
-    return np.arange(0, int(count) + 1, int(solve_every))
+    count, every = int(count), int(solve_every)
+    times = np.arange(0, count + 1, every)
+    return times if times[-1] == count else np.append(times, count)
+
+
+def solve_samples(count: int, solve_every: int, final: bool = True) -> np.ndarray:
+    """The samples u whose solve runs at t_u + 3h/4: 0, U, 2U, ... <= N - 1.
+
+    With ``final`` (the identifier without change detection) also N - 1, the
+    log's last sample, when it is not one of them: the final estimate's window
+    ends with the last bank sample of the log, not up to a solve period before
+    (a final 0.1 s, 1 s with the covariance weighting, left out before). Change
+    detection keeps the period: its test reads whole periods.
+    """
+    count, every = int(count), int(solve_every)
+    times = np.arange(0, count, every)
+    if final and count > 0 and times[-1] != count - 1:
+        times = np.append(times, count - 1)
+    return times
 
 
 class _TraceRows:

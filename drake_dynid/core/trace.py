@@ -34,7 +34,10 @@ class OnlineTrace:
         t: (M,) times at which the estimates were logged [s], every update
             period U: at t_s the state after the solves at t < t_s (the left
             limit, as Drake's loggers record it), i.e. the estimate of the solve
-            at t_s - U + 3h/4 on the samples up to t_s - U.
+            at t_s - U + 3h/4 on the samples up to t_s - U. A replayed log's
+            trace ends at t_N, one period h after its last sample, with the
+            final solve's estimate on the samples up to the last
+            (``core.replay.solve_samples``).
         theta: (M, p) estimates (the last valid one is held while ``valid`` = 0).
         std: (M, p) standard deviations (``settings.uncertainty``; inf before the
             first valid solve).
