@@ -8,18 +8,20 @@ functions. Both depend on the model:
   carry the motion's band B. The power model's rows are products of two band-B
   signals (the energy ½ vᵀM(q)v, the input power vᵀτ, the friction power v²):
   they carry frequencies up to 2B, and the power model's set covers
-  :data:`POWER_BAND_FACTOR`·B. On the paper's 2R at SNR 30 dB (seven geometries
-  and trajectories, 40 seeds, benchmarks/bench_accuracy.py) this lowers the
-  inertial error on every one (mean 4.8 → 3.6 %) and the friction error on
-  average (mean 50 → 38 %: the worst two, 104 and 123 %, become 41 and 83 %),
-  but not everywhere (two random-Fourier trajectories go from 24 to 29 and
-  37 %). 3B (the inertia M(q) adds the configuration's band) is about the same
+  :data:`POWER_BAND_FACTOR`·B. On the paper's 2R at SNR 30 dB (the seven
+  geometries and trajectories of benchmarks/bench_accuracy.py, 40 seeds, the
+  frequency weighting without noise compensation) this lowers the inertial
+  error on every one (mean 5.1 → 3.6 %) and the friction error on average
+  (mean 53 → 38 %: the worst two, 111 and 130 %, become 41 and 85 %), but not
+  everywhere (two random-Fourier trajectories go from 25 and 29 % to 29 and
+  35 %). 3B (the inertia M(q) adds the configuration's band) is about the same
   (inertial 3.9 %, friction 36 %).
 * **Count** (:func:`functions_for_rows`). Each integer ℓ gives two independent
   real rows per equation (m = 1 for the power model, n for the Lagrangian): a
   window needs m·2L >= p + ``core.row_noise.MIN_RESIDUAL_DOF`` rows for an honest
-  σ, and in practice about twice that (a 7-DOF power model is rank deficient with
-  50 functions and full rank with 60 on the iiwa7 benchmark log: its high rows
+  σ, and in practice about twice that (on the iiwa7 benchmark log of
+  benchmarks/_arm7.py, T = 20 s, a 7-DOF power model's scaled condition number
+  is 4.7e5 with 40 functions, 1.3e5 with 50 and 3.0e4 with 60: its high rows
   carry little of the motion). The rule asks for :data:`ROWS_PER_UNKNOWN` times
   the rows needed, i.e. L >= ⌈ROWS_PER_UNKNOWN·(p + MIN_RESIDUAL_DOF)/(2m)⌉.
   It changes nothing for the Lagrangian model on a 7-DOF arm (9 functions for
@@ -30,10 +32,13 @@ With the covariance weighting (``OnlineSettings.weighting``, ``core.row_covarian
 the set is every integer ℓ the limit below allows: the generalised least squares
 weighs each row by its modelled noise and correlation, so rows where the noise
 dominates cost nothing, and the high rows still carry information (the Coulomb
-term's |v| is broadband). On the paper's 2R at SNR 30 dB (benchmarks/
-bench_accuracy.py, 100 seeds) the power model's friction error is 11.3 % with the
-functions up to 3.9 Hz and 9.9 % up to 5.8 Hz (the defaults' pass band), where the
-frequency weighting is 21.6 % with its 2B set and worse with more functions.
+term's |v| is broadband). On the paper's 2R at SNR 30 dB (the main scenario of
+benchmarks/bench_accuracy.py, 100 seeds, the noise stds measured on each log) the
+power model's median friction error is 9.4 % with every function up to the 0.2 s
+Jacobi window's pass band, 5.8 Hz (116: the defaults), 12.0 % with that set cut
+at 3.9 Hz (78) and 10.4 % with a 0.3 s Jacobi window (77, up to its 3.9 Hz pass
+band), where the frequency weighting (noise bias compensated) is 22.4 % with its
+2B set (24 functions; 21.9 % with the 0.3 s window).
 
 The limit (:func:`functions_that_fit`): every function must stay inside the
 differentiator's pass band and below the bank's Nyquist frequency, at most

@@ -20,7 +20,9 @@ and ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)``. The factor 2 keeps the
 zero-phase Butterworth (|H|² = 1/(1+(f/f_c)^(2·order))) above 0.996 in the
 excitation band. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
 (Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. On the paper's 2R arm at
-1 kHz this gives about 1.5 Hz at SNR 30 dB and 40 Hz without noise.
+1 kHz (its trajectory, 21 s in closed loop) this gives 1.5 Hz at SNR 30 dB and
+35.5 Hz without noise (34.5 Hz on 30 s: the crossover f_x of the round-off floor,
+below the cap).
 
 Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
 so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
@@ -76,9 +78,10 @@ DECIMATION_BAND_FACTOR = 1.5
 MAX_VELOCITY_NOISE_SHARE = 0.1
 """Largest share of position noise in the velocity a given cutoff may let through:
 noise power / motion power of v on every joint (:func:`noise_limited_cutoff`). On
-the paper's 2R at SNR 30 dB, 0.2 (25 Hz) still gave errors within 2σ, 1.5 (50 Hz)
-5σ and 12 (100 Hz) 30σ: the errors-in-variables bias of v² and sign(v) terms, which
-σ does not show."""
+the paper's 2R at SNR 30 dB (its trajectory, 21 s in closed loop, IDIM-LS with the
+reported σ), the limit is 17 Hz (errors within 1.5σ); 0.30 (25 Hz) still gave
+errors within 2σ, 2.3 (50 Hz) 3σ and 19 (100 Hz) 16σ: the errors-in-variables
+bias of v² and sign(v) terms, which σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
 
 
@@ -186,10 +189,14 @@ def decimated_noise_factor(
     the motion band the estimate's variance is that of K·2·B_n/f_r independent
     rows, B_n the noise's equivalent bandwidth (:func:`noise_bandwidth` of the
     order-8 zero-phase filter: 0.944·f_d). Hence σ_X × √(f_r/(2·B_n)): 1.46 at
-    the automatic decimation. Monte-Carlo spread over Gautier's σ (torque noise,
-    IDIM-WLS, 40 seeds on logs of Pinocchio's inverse dynamics, a review): 1.34
-    (UR5), 1.43 (Panda) at D = 320, 2.71 at D = 80; benchmarks/
-    bench_sigma_offline.py measures it side by side.
+    the automatic decimation (f_r = 4·f_d; 1.459 on the paper's 2R log at SNR
+    30 dB, D = 268). Monte-Carlo spread over Gautier's σ (torque noise, IDIM-WLS,
+    40 seeds on logs of Pinocchio's inverse dynamics, a review): 1.34 (UR5), 1.43
+    (Panda) at D = 320, 2.71 at D = 80; benchmarks/bench_sigma_offline.py measures
+    it side by side (20 seeds, Drake's inverse dynamics, torque noise 1 %): 1.49
+    (iiwa7), 1.51 (UR5) with IDIM-WLS at D = 320; 2.16, 2.41 with IDIM-LS at
+    D = 80 (factor 2.92), but 0.97, 1.12 with IDIM-LS at D = 320, whose reported
+    σ is then 1.2-1.6 times the spread.
 
     Args:
         time_step: h [s] of the log.

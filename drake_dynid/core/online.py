@@ -132,8 +132,8 @@ ROWS_FROM = ("filtered", "raw")
 #: linear terms the matched differentiator keeps exact, gains from a longer Jacobi
 #: window than the power model, quadratic in the filtered signals. The power model's
 #: 0.2 s passes up to 5.8 Hz, which the covariance weighting's ℓ set covers (0.3 s:
-#: 3.9 Hz, friction error 11.3 % instead of 9.9 % over 100 seeds); the frequency
-#: weighting gives the same with both (21.5 and 21.6 %). ``bandwidth`` is the
+#: 3.9 Hz, friction error 10.4 % instead of 9.4 % over 100 seeds); the frequency
+#: weighting gives about the same with both (21.9 and 22.4 %). ``bandwidth`` is the
 #: excitation band the default ℓ set covers: measure it on your data with
 #: ``drake_dynid.core.excitation.estimate_bandwidth`` (``dynid identify`` does).
 MODEL_DEFAULTS: dict[str, dict[str, Any]] = {
