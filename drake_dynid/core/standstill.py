@@ -412,18 +412,36 @@ def reversal_signs(v: Any, width: Any, longest: int) -> np.ndarray:
     context gives the whole series' values.
 
     Args:
-        v: (N, n) velocities, rows in time order [rad/s or m/s].
+        v: (N, n) velocities, rows in time order, or (N,) one joint's [rad/s or
+            m/s].
         width: w >= 0, one number or (n,) [rad/s or m/s].
         longest: L >= 1 (:func:`reversal_run`) [samples].
 
     Returns:
-        (N, n) values in {-1, 0, 1} (NaN for a NaN velocity).
+        values in {-1, 0, 1} of v's shape (NaN for a NaN velocity).
     """
+    owner = "reversal_signs"
     v = np.asarray(v, dtype=float)
-    width = np.broadcast_to(np.asarray(width, dtype=float), v.shape[-1:])
+    if v.ndim == 1:
+        return reversal_signs(v[:, None], width, longest)[:, 0]
+    if v.ndim != 2:
+        check.fail(owner, f"v must be (N, n) or (N,) velocities; got shape {v.shape}.")
+    w = np.asarray(width, dtype=float)
+    if w.shape not in ((), (v.shape[1],)) or not np.all(np.isfinite(w) & (w >= 0.0)):
+        check.fail(
+            owner,
+            f"width must be one finite number >= 0 or {v.shape[1]} of them "
+            f"[rad/s or m/s]; got {width!r}.",
+        )
+    if isinstance(longest, bool) or not isinstance(longest, (int, np.integer)):
+        check.fail(owner, f"longest must be an integer >= 1; got {longest!r}.")
+    longest = int(longest)
+    if longest < 1:
+        check.fail(owner, f"longest must be an integer >= 1; got {longest}.")
+    width = np.broadcast_to(w, v.shape[-1:])
     with np.errstate(invalid="ignore"):
         out = np.where(np.abs(v) <= width, 0.0, np.sign(v))
-    if v.ndim != 2 or v.shape[0] < 2 * longest + 1:
+    if v.shape[0] < 2 * longest + 1:
         return out
     count = v.shape[0]
     for j in range(v.shape[1]):

@@ -84,6 +84,27 @@ def test_reversal_signs_restore_a_moving_joints_reversal_only():
     assert math.isnan(reversal_signs(np.array([[np.nan]]), w, L)[0, 0])
 
 
+def test_reversal_signs_reads_one_series_and_names_bad_arguments():
+    """Found in review: a 1-D series (one joint) came back with its reversal's 0s
+    (the rule was skipped for v.ndim != 2), a negative or NaN width gave the exact
+    sign, L = 0 or -1 the zone sample by sample and L = 2.5 a bare IndexError."""
+    v = np.array([-1.0, -1.0, -1.0, -0.05, 0.05, 1.0, 1.0, 1.0])
+    np.testing.assert_array_equal(
+        reversal_signs(v, 0.1, 2), [-1, -1, -1, -1, 1, 1, 1, 1]
+    )
+    np.testing.assert_array_equal(
+        reversal_signs(v, 0.1, 2), reversal_signs(v[:, None], [0.1], 2)[:, 0]
+    )
+    for width in (-0.1, np.nan, [0.1, 0.1], [[0.1]]):
+        with pytest.raises(ValueError, match="width"):
+            reversal_signs(v[:, None], width, 2)
+    for longest in (0, -1, 2.5):
+        with pytest.raises(ValueError, match="longest"):
+            reversal_signs(v[:, None], 0.1, longest)
+    with pytest.raises(ValueError, match="v must be"):
+        reversal_signs(np.zeros((2, 2, 2)), 0.1, 2)
+
+
 def test_reversal_run_is_an_eighth_of_the_cutoffs_period():
     assert reversal_run(1 / 125, 1.5) == 10
     assert reversal_run(1e-3, 1.5) == 83
