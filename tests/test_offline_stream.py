@@ -133,3 +133,63 @@ def test_a_dead_zone_keeps_the_streamed_path_with_each_joints_width():
     # The dead zone matters here: the exact sign gives other estimates.
     exact = identify_offline(log, plain, **same)
     assert np.max(np.abs(exact.theta - reference.theta) / reference.std) > 3.0
+
+
+@pytest.mark.parametrize("factor", [1, 5])
+def test_a_dead_zones_reversals_are_the_whole_segments_whatever_the_blocks(factor):
+    """Review of the reversal rule's context (core.idim_stream._stage_one_block):
+    each block reads 2L + 1 velocities either side, so the stream's Coulomb
+    columns are those of core.standstill.reversal_signs on the whole segment's
+    velocity, for blocks of 7 samples (< 2L + 1 = 25) to one block, D1 = 1 or 5,
+    and the first and last blocks of a segment (measured: 3e-12 on the friction
+    columns, 1.3e-10 of the largest raw v̇)."""
+    from drake_dynid.core import idim_stream
+    from drake_dynid.core.friction import DeadZoneSign
+    from drake_dynid.core.idim import default_padding, default_trim
+    from drake_dynid.core.standstill import reversal_signs
+    from drake_dynid.core.zero_phase import zero_phase_span
+
+    h, fc, N = 1e-3, 10.0, 3000
+    rng = np.random.default_rng(1)
+    t = h * np.arange(N)
+    # Joint 0 reverses fast through its zone (about 5 samples each time); joint
+    # 1 is at rest (noise only).
+    q = np.stack([0.05 * np.sin(2 * np.pi * 3 * t + 0.3), 1e-4 * rng.normal(size=N)], 1)
+    tau = rng.normal(size=(N, 2))
+    sign = DeadZoneSign((0.05, 0.002))
+    friction = [("coulomb", 0), ("coulomb", 1), ("viscous", 0)]
+    trim, pad = default_trim(h, fc), default_padding(h, fc)
+
+    def rows(q_f, v, vdot):
+        return np.stack([q_f, vdot], -1)
+
+    columns = {}
+    for block in (1 << 16, 500, 7):
+        plan = idim_stream.stream_plan(
+            h,
+            cutoff_hz=fc,
+            filter_order=4,
+            trim=trim,
+            padding=pad,
+            decimation=1 if factor == 1 else 2 * factor,
+            decimation_cutoff_hz=4.0,
+            factor=factor,
+            block=block,
+        )
+        chunks = idim_stream.decimated_chunks(
+            q, tau, plan, rows, friction, sign, raw=True
+        )
+        columns[block] = [np.concatenate(part) for part in zip(*chunks, strict=True)]
+    for block in (500, 7):
+        for got, whole in zip(columns[block], columns[1 << 16], strict=True):
+            scale = np.max(np.abs(whole))  # the position filter's block margins
+            np.testing.assert_allclose(got, whole, rtol=0, atol=1e-9 * scale)
+    if factor == 1:  # the raw friction columns at every sample trim … N - trim - 1
+        q_f = zero_phase_span(
+            plan.position_sos, q, pad_left=pad, pad_right=pad, padtype="odd"
+        )
+        v = (q_f[2:] - q_f[:-2]) / (2 * h)  # samples 1 … N - 2
+        expected = reversal_signs(v, sign.width, plan.reversal)[trim - 1 : N - trim - 1]
+        np.testing.assert_array_equal(columns[7][4][:, :2], expected)
+        restored = expected != sign(v)[trim - 1 : N - trim - 1]
+        assert restored[:, 0].sum() > 50 and not restored[:, 1].any()
