@@ -47,8 +47,9 @@ file, that the joint friction (and the rotor inertia, with rotor inertia) are
 the joint-side totals (its motors' reflected values included). Drake ignores the
 ``friction`` attribute (drake_dynid reads it, ``read_urdf_friction``); Drake's
 ``CalcInverseDynamics`` of the written file plus Coulomb friction FCj·s(vj), s
-the fit's law (sign(v), the dead zone or tanh(v/ε): ``robot.sign``), reproduces
-the identified model's W·θ (tests/test_urdf_writer.py: the 2R, the iiwa7,
+the fit's law (sign(v), the dead zone or tanh(v/ε): ``robot.sign``; off-line the
+dead zone with its reversals restored, ``core.standstill.reversal_signs``),
+reproduces the identified model's W·θ (tests/test_urdf_writer.py: the 2R, the iiwa7,
 locked, welded and mimic joints).
 """
 
@@ -378,7 +379,13 @@ def _law(robot: Any) -> str:
             f"{name} {float(w):.3g}"
             for name, w in zip(robot.joint_names, widths, strict=True)
         )
-        return f"sign(v), 0 for |v| <= w (dead zone, w: {listed})"
+        return (
+            f"sign(v), 0 for |v| <= w (dead zone, w: {listed}); off-line (dynid "
+            "offline, the validations) a moving joint's reversal through the zone, "
+            "a run of at most L = floor(1/(8 f_c h)) samples between L outside of "
+            "each sign, keeps the sign of the line through its neighbours "
+            "(core.standstill.reversal_signs, docs/MATH.md section 2)"
+        )
     return "sign(v)"
 
 

@@ -526,3 +526,19 @@ def test_a_moving_mimic_joints_rotor_inertia_is_written_as_zero(tmp_path):
         write_identified_urdf(robot, values, out)
         assert "written as 0: rotor inertia of fb" in out.read_text()
         _check_gripper_in_drake(out, robot, values, rng)
+
+
+def test_the_header_says_a_dead_zone_keeps_the_sign_at_reversals_off_line(tmp_path):
+    """Found in review: the header gave the dead zone as 0 at every sample
+    inside it, while the off-line fit and the validations restore a moving
+    joint's reversals (core.standstill.reversal_signs, docs/MATH.md §2): a
+    prediction made from the header's law differs at those samples."""
+    from drake_dynid.core.friction import DeadZoneSign
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    robot = robot.with_sign(DeadZoneSign((0.003, 0.004)))
+    out = tmp_path / "out.urdf"
+    write_identified_urdf(robot, robot.standard_values, out)
+    text = " ".join(out.read_text().split())
+    assert "0 for |v| <= w (dead zone, w: joint1 0.003, joint2 0.004)" in text
+    assert "reversal" in text and "reversal_signs" in text
