@@ -15,9 +15,11 @@ same equation at a fraction of the cost, in memory independent of the log length
 **Which columns are evaluated where.** The columns of W are of two kinds:
 
 * friction columns ``v_j``, ``s(v_j)``, ``1`` (joint j's row only; s the model's
-  Coulomb law: the exact sign or a standstill dead zone): cheap, and ``s(v)``
-  is discontinuous (broadband); they go through the decimation at the
-  full rate, like τ;
+  Coulomb law: the exact sign or a standstill dead zone, whose moving joints'
+  reversals are restored, ``core.standstill.reversal_signs``, each block reading
+  2L + 1 velocities of context either side): cheap, and ``s(v)`` is
+  discontinuous (broadband); they go through the decimation at the full rate,
+  like τ;
 * rigid-body columns (everything else): expensive, but smooth functions of the
   filtered q_f, v, v̇, whose spectrum the position filter limits to a few f_c.
 
@@ -487,7 +489,10 @@ def decimated_chunks(
         friction: (kind, joint) per friction column, kind in
             :data:`FRICTION_KINDS`, joint 0-based.
         sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
-            (N, n) velocity; default the exact sign).
+            (N, n) velocity; default the exact sign). A ``DeadZoneSign`` is
+            applied with the segment's reversals restored
+            (``core.standstill.reversal_signs`` at L = ``plan.reversal``), any
+            other law sample by sample.
         raw: also yield the same rows before stage 2's low-pass (with D = 1,
             e.g. ``drake_dynid.validation``: the unfiltered samples).
 
