@@ -380,7 +380,7 @@ def reversal_run(time_step: float, cutoff_hz: float) -> int:
     moving joint's reversal. The off-line velocity's noise is smooth at the scale
     of 1/f_c: in 2e6 samples of filtered white noise per case (125 Hz and 1 kHz at
     f_c = 1.5 Hz, 100 Hz at 2.5 Hz, 1 kHz at 20 Hz; widths 3 σ_v) no run between
-    exits of opposite signs was shorter than 1/(8 f_c) (the shortest: 0.12-0.19
+    exits of opposite signs was shorter than 1/(8 f_c) (the shortest: 0.22-0.32
     periods of f_c; 0.1 % of the samples lie in such runs shorter than 1/(2 f_c)),
     while a joint reversing at 1 rad/s² through a zone of 2e-4 rad/s spends 0.4 ms
     in it.
