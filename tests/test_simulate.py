@@ -518,3 +518,21 @@ def test_a_light_joint_with_coulomb_friction_does_not_chatter():
     # Measured: 0.012 rad/s per step on wrist 3, its acceleration times h (was 1.7).
     assert jump[5] < 2 * settings.coulomb_smoothing, jump
     assert log.max_tracking_error.max() < 5e-3
+
+
+def test_no_coulomb_width_hint_without_coulomb_friction(experiment, tmp_path, capsys):
+    """Found by a review: on a URDF without <dynamics friction> (FC = 0 on every
+    joint) simulate's scoring hint still said '--coulomb-width 0.01', a law that
+    changes nothing in that log."""
+    text = Path(experiment["urdf"]).read_text()
+    bare = tmp_path / "bare_2r.urdf"
+    bare.write_text(re.sub(r' friction="[^"]*"', "", text))
+    for urdf, hinted in ((experiment["urdf"], True), (str(bare), False)):
+        argv = [
+            "simulate", urdf, "--trajectory", experiment["traj"],
+            "--limits", experiment["limits"], "--duration", "0.5",
+            "--out", str(tmp_path / f"log_{hinted}.csv"),
+        ]  # fmt: skip
+        assert cli.main(argv) == 0
+        hint = re.search(r"score it with: (.*)", capsys.readouterr().out).group(1)
+        assert ("--coulomb-width 0.01" in hint) is hinted, hint

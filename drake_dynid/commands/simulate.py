@@ -201,13 +201,37 @@ def _beyond_limits(reference: Any, log: Any, limits: Any) -> list[str]:
     return out
 
 
-def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
+def simulates_coulomb(drive: Any) -> bool:
+    """Whether the simulated drive applies any Coulomb friction (joint or motor).
+
+    A URDF without ``<dynamics friction>`` (and a drive file without motor
+    ``coulomb``) has FC = 0 everywhere: the law tanh(v/ε) then changes nothing.
+    """
+    motors = drive.motors
+    motor_fc = (
+        []
+        if motors is None
+        else [
+            value
+            for name, value in zip(motors.names, motors.values, strict=True)
+            if name.startswith("FCm")
+        ]
+    )
+    return bool(np.any(drive.coulomb > 0.0) or np.any(np.asarray(motor_fc) > 0.0))
+
+
+def _identify_hint(
+    args: argparse.Namespace, robot, smoothing: float, coulomb: bool = True
+) -> str:
     """The dynid offline command line that scores the log against its truth.
 
     With ``--coulomb-width`` of the simulated Coulomb law tanh(v/ε) (``smoothing``
-    ε [rad/s]): the identified model then has the simulator's friction law (the
-    README's iiwa7 run: the well-excited parameters within 1.02 % off-line, 1.39 %
-    with sign(v) and the dead zone; on-line within 1.05 % and 0.90 %).
+    ε [rad/s]) when the simulation applied Coulomb friction (``coulomb``): the
+    identified model then has the simulator's friction law (the README's iiwa7
+    run: the well-excited parameters within 1.02 % off-line, 1.39 % with sign(v)
+    and the dead zone; on-line within 1.05 % and 0.90 %). Without any Coulomb
+    friction in the model (FC = 0) the width is not suggested: it changes nothing
+    in the log.
     """
     parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
     if args.joints:
@@ -217,7 +241,7 @@ def _identify_hint(args: argparse.Namespace, robot, smoothing: float) -> str:
             "--lock",
             ",".join(f"{k}={v!r}" for k, v in parse_locked(args.lock).items()),
         ]
-    if "coulomb" in robot.friction and smoothing > 0.0:
+    if coulomb and "coulomb" in robot.friction and smoothing > 0.0:
         parts += ["--coulomb-width", f"{smoothing:g}"]
     if args.drive:
         parts += ["--drive", str(args.drive)]
@@ -332,7 +356,10 @@ def run(args: argparse.Namespace) -> int:
             "samples; the log holds the applied (clipped) torque"
         )
     say(f"wrote {args.out} and {truth} (true base parameters)")
-    say(f"score it with: {_identify_hint(args, robot, settings.coulomb_smoothing)}")
+    hint = _identify_hint(
+        args, robot, settings.coulomb_smoothing, simulates_coulomb(drive)
+    )
+    say(f"score it with: {hint}")
     if args.meshcat:
         _replay(args, log, robot, html, say)
     return 0
