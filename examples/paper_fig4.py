@@ -42,6 +42,10 @@ def settling_time(t, estimate, target, after, tolerance=0.02):
     return float(t[outside[-1] + 1] - after) if outside.size else float(t[0] - after)
 
 
+#: --quick's presets: defaults that an explicit option overrides.
+QUICK = {"window": 3.0, "jump_time": 4.0, "duration": 8.0}
+
+
 def main(argv=None) -> int:
     """Runs the example; returns 0."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -50,8 +54,15 @@ def main(argv=None) -> int:
     parser.add_argument("--jump-time", type=float, default=9.4, help="[s] (9.4)")
     parser.add_argument("--duration", type=float, default=22.0, help="[s] (22)")
     parser.add_argument("--out", default="out", help="output folder (out/)")
-    parser.add_argument("--quick", action="store_true", help="tiny run for tests")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="tiny run for tests (--window 3 --jump-time 4 --duration 8)",
+    )
     args = parser.parse_args(argv)
+    if args.quick:  # its presets replace the defaults; explicit options win
+        parser.set_defaults(**QUICK)
+        args = parser.parse_args(argv)
     try:
         return _run(args, parser)
     except ValueError as error:  # a library check: its message names the value
@@ -62,10 +73,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """The example with parsed arguments; returns 0 (``parser.error`` exits 2)."""
     if not (0 < args.window and 0 < args.jump_time < args.duration):
         parser.error("--window must be > 0 and --jump-time within (0, --duration)")
-    if args.quick:
-        window, jump, duration = 3.0, 4.0, 8.0
-    else:
-        window, jump, duration = args.window, args.jump_time, args.duration
+    window, jump, duration = args.window, args.jump_time, args.duration
     try:  # a file of that name (or under one) was a FileExistsError traceback
         os.makedirs(args.out, exist_ok=True)
     except OSError as error:

@@ -181,3 +181,33 @@ def test_a_value_the_library_refuses_exits_2_naming_it(
         load_example(name).main([*argv, "--out", str(tmp_path)])
     assert stop.value.code == 2
     assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("name", "given", "presets"),
+    [
+        ("paper_fig1", {"duration": "7.5"}, {}),
+        ("paper_fig1", {"snr": "30"}, {"duration": 6.0}),
+        ("paper_fig3", {"window": "2"}, {"duration": 4.0}),
+        ("paper_fig4", {"window": "5", "jump_time": "6"}, {"duration": 8.0}),
+        ("paper_table2", {"window": "5"}, {}),
+        ("paper_table2", {"duration": "9"}, {"window": 6.0}),
+        ("payload_pick", {"duration": "2.5", "place": "2"}, {"pick": 1.5}),
+    ],
+)
+def test_explicit_options_win_over_quick(name, given, presets, monkeypatch):
+    """Found by a review: ``--quick --window 5`` ran with --quick's window (3 s,
+    6 s in paper_table2), the explicit option ignored without a word."""
+    example = load_example(name)
+    seen = []
+    monkeypatch.setattr(example, "_run", lambda args, parser: seen.append(args) or 0)
+    argv = ["--quick"]
+    for key, value in given.items():
+        argv += [f"--{key.replace('_', '-')}", value]
+    assert example.main(argv) == 0
+    for key, value in given.items():
+        assert getattr(seen[-1], key) == float(value), key
+    for key, value in presets.items():  # the options not given: --quick's
+        assert getattr(seen[-1], key) == value, key
+    assert example.main([]) == 0  # without --quick: the parser's defaults
+    assert all(getattr(seen[-1], key) != value for key, value in presets.items())
