@@ -266,15 +266,23 @@ class ExcitationProblem:
             E[2 * j + 1, start + H : start + 2 * H] = np.arange(1, H + 1)
         return E
 
-    def effort(self, x: np.ndarray) -> np.ndarray:
-        """Normalised effort constraints 1 ∓ τ/τ_max >= 0 (finite limits)."""
-        finite = np.isfinite(self.emax)
-        tau = self.values(x)[2][:, finite] / self.emax[finite]
+    def effort(self, x: np.ndarray, emax: np.ndarray | None = None) -> np.ndarray:
+        """Normalised effort constraints 1 ∓ τ/τ_max >= 0 (finite limits).
+
+        ``emax`` (n,) [N·m or N] replaces the margined limits (tightened where the
+        dense check finds τ beyond them between the grid's samples).
+        """
+        emax = self.emax if emax is None else emax
+        finite = np.isfinite(emax)
+        tau = self.values(x)[2][:, finite] / emax[finite]
         return np.concatenate([(1.0 - tau).ravel(), (1.0 + tau).ravel()])
 
-    def effort_jacobian(self, x: np.ndarray) -> np.ndarray:
+    def effort_jacobian(
+        self, x: np.ndarray, emax: np.ndarray | None = None
+    ) -> np.ndarray:
         """Jacobian of :meth:`effort`."""
-        finite = np.isfinite(self.emax)
-        J = self.gradients(x)[1][:, finite] / self.emax[finite][None, :, None]
+        emax = self.emax if emax is None else emax
+        finite = np.isfinite(emax)
+        J = self.gradients(x)[1][:, finite] / emax[finite][None, :, None]
         J = J.reshape(-1, self.size)
         return np.vstack([-J, J])
