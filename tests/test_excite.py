@@ -428,10 +428,48 @@ def test_the_position_margin_says_its_unit_on_a_prismatic_joint(tmp_path, capsys
     argv += ["--iterations", "3", "--out", str(tmp_path / "t.csv")]
     assert cli.main(argv) == 0
     out = capsys.readouterr().out
-    assert "margins: position 0.1 rad (m on the prismatic torso_lift_joint)," in out
+    assert "margins: position 0.1 rad, 0.02 m (prismatic torso_lift_joint), v" in out
     argv = ["excite", "iiwa7", "--duration", "5", "--iterations", "3"]
     assert cli.main([*argv, "--out", str(tmp_path / "i.csv")]) == 0
     assert "margins: position 0.1 rad, velocity" in capsys.readouterr().out
+
+
+def test_a_prismatic_joint_has_its_own_position_margin(tmp_path, capsys):
+    """Found by a review: one position margin for every joint, 0.1 "rad", kept
+    0.1 m at each end of the TIAGo torso's 0.35 m stroke (0.2 m of it unusable).
+    A prismatic joint now keeps --margin prismatic=M (default 0.02 m)."""
+    limits = JointLimits(
+        ("arm", "torso"),
+        lower=[-1.0, 0.0],
+        upper=[1.0, 0.35],
+        velocity=[1.0, 0.1],
+        effort=[10.0, 100.0],
+        prismatic=(False, True),
+    )
+    np.testing.assert_array_equal(
+        Margins().position_margins(limits.prismatic), [0.1, 0.02]
+    )
+    t = np.zeros(1)
+
+    def broken(q, margins=None):
+        z = np.zeros((1, 2))
+        found = limit_violations(t, np.array([q]), z, z, None, limits, margins)
+        return [(f.joint, f.limit) for f in found]
+
+    assert broken([0.85, 0.32]) == []  # 0.1 m from the torso's end used to break
+    assert broken([0.85, 0.34]) == [("torso", pytest.approx(0.33))]
+    assert broken([0.95, 0.3], Margins(position=0.0, prismatic=0.1)) == [
+        ("torso", pytest.approx(0.25))
+    ]
+    with pytest.raises(ValueError, match="prismatic margin must be >= 0; got -1"):
+        Margins(prismatic=-1.0)
+    joints = "torso_lift_joint,arm_1_joint"
+    argv = ["excite", "tiago_no_hand", "--joints", joints, "--duration", "5"]
+    argv += ["--iterations", "3", "--out", str(tmp_path / "t.csv")]
+    assert cli.main([*argv, "--margin", "prismatic=0.2"]) == 2
+    err = capsys.readouterr().err
+    assert "joint torso_lift_joint: the position margin 0.2 m (margin prismatic)" in err
+    assert "leaves no room within [0, 0.35] m" in err
 
 
 def test_the_effort_holds_between_the_samples_of_the_grid():

@@ -36,7 +36,14 @@ DESCRIPTION = (
     "stay weakly excited (predicted relative σ of a noisy log)."
 )
 
-MARGIN_KINDS = ("position", "velocity", "acceleration", "effort", "collision")
+MARGIN_KINDS = (
+    "position",
+    "prismatic",
+    "velocity",
+    "acceleration",
+    "effort",
+    "collision",
+)
 #: Most samples of the written trajectory or of the predicted-σ log (rate x duration).
 MAX_SAMPLES = 1e7
 WELL_EXCITED_PERCENT = 0.1
@@ -79,10 +86,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--margin",
         default="",
         metavar="KIND=V[,...]",
-        help="margins kept from the limits: position=RAD (m on a prismatic joint; "
-        "default 0.1), "
-        "velocity=FRAC (0.2), acceleration=FRAC (0.2), effort=FRAC (0.2), "
-        "collision=M (0.01)",
+        help="margins kept from the limits: position=RAD at each end of a revolute "
+        "joint's range (default 0.1), prismatic=M at each end of a prismatic "
+        "joint's stroke (0.02), velocity=FRAC (0.2), acceleration=FRAC (0.2), "
+        "effort=FRAC (0.2), collision=M (0.01)",
     )
     parser.add_argument(
         "--limits",
@@ -198,23 +205,25 @@ def _limits(robot: Any, args: argparse.Namespace) -> Any:
     return limits
 
 
-def _position_unit(robot: Any) -> str:
-    """The position margin's unit: rad, and m on the prismatic joints (named).
+def _position_margins(robot: Any, margins: Any) -> str:
+    """The position margins of the robot's joint types.
 
-    The margin is one number for every joint: on the TIAGo's torso (a 0.35 m
-    stroke) 0.1 is 0.1 m kept at each end, which "0.1 rad" did not say.
+    ``0.1 rad``, ``0.02 m (prismatic torso_lift_joint)`` or both: a revolute
+    joint keeps ``--margin position`` [rad], a prismatic one ``--margin
+    prismatic`` [m] (one number for both kept 0.1 m at each end of the TIAGo
+    torso's 0.35 m stroke).
     """
     prismatic = [
         name
         for name, slider in zip(robot.joint_names, robot.prismatic, strict=True)
         if slider
     ]
-    if not prismatic:
-        return "rad"
-    if len(prismatic) == robot.num_joints:
-        return "m"
-    joints = ", ".join(prismatic)
-    return f"rad (m on the prismatic {joints})"
+    parts = []
+    if len(prismatic) < robot.num_joints:
+        parts.append(f"{margins.position:g} rad")
+    if prismatic:
+        parts.append(f"{margins.prismatic:g} m (prismatic {', '.join(prismatic)})")
+    return ", ".join(parts)
 
 
 def _percent(value: float) -> str:
@@ -293,7 +302,7 @@ def run(args: argparse.Namespace) -> int:
     )
     say(
         f"limits: {'URDF + ' + args.limits if args.limits else 'URDF'}; margins: "
-        f"position {margins.position:g} {_position_unit(robot)}, velocity "
+        f"position {_position_margins(robot, margins)}, velocity "
         f"{margins.velocity:.0%}, "
         f"effort {margins.effort:.0%}, collision {margins.collision:g} m"
     )

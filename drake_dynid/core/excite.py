@@ -10,26 +10,27 @@ column-scaled base regressor stacked over one period::
 
 subject to, for every joint j and sample k (limits with the user's margins)::
 
-    |q_j(t_k) - mid_j| <= ρ (half_range_j - margin_q)        position   [rad or m]
+    |q_j(t_k) - mid_j| <= ρ (half_range_j - margin_q,j)      position   [rad or m]
     |v_j(t_k)|         <= ρ (1 - margin_v) v_max,j           velocity   [rad/s]
     |v̇_j(t_k)|         <= ρ (1 - margin_a) a_max,j           acceleration (if given)
     |τ_j(t_k)|         <= (1 - margin_τ) τ_max,j, τ = W θ    effort (URDF model)
     d(q(t_k))          >= margin_d                           self-collision [m]
     v(0) = 0, v̇(0) = 0                                       start (and end) at rest
 
-q, v and v̇ are linear in x, so the first three are linear constraints, and
-ρ = 1 - (πH/N)²/2 makes them hold between the samples too (Bernstein: a degree-H
-trigonometric polynomial exceeds its maximum on N uniform samples by at most that
-factor). The effort and the clearance d (a callable, e.g. Drake's signed distance)
-are constrained on the samples; a check on a 16× denser grid (each joint's peak
-refined on a 33-point grid one dense step either side) then finds their extremes
-between the samples, and where τ_j or d passes its margined bound there, the
-design is solved again from its optimum with that bound tightened by the excess
-found (τ_max,j divided by max|τ_j|/bound, margin_d raised by the shortfall), at
-most 30 SLSQP iterations, keeping the best iterate that the dense check passes as
-well; up to 3 rounds, each tightening by the excess where the last one ended (the
-UR5 at 0.3x its datasheet torques, seeds 0-3: up to 100.033 % of the margined
-effort between the samples before, at most 100 % after).
+(margin_q,j: ``Margins.position`` [rad] on a revolute joint, ``Margins.prismatic``
+[m] on a prismatic one.) q, v and v̇ are linear in x, so the first three are linear
+constraints, and ρ = 1 - (πH/N)²/2 makes them hold between the samples too
+(Bernstein: a degree-H trigonometric polynomial exceeds its maximum on N uniform
+samples by at most that factor). The effort and the clearance d (a callable, e.g.
+Drake's signed distance) are constrained on the samples; a check on a 16× denser
+grid (each joint's peak refined on a 33-point grid one dense step either side) then
+finds their extremes between the samples, and where τ_j or d passes its margined
+bound there, the design is solved again from its optimum with that bound tightened
+by the excess found (τ_max,j divided by max|τ_j|/bound, margin_d raised by the
+shortfall), at most 30 SLSQP iterations, keeping the best iterate that the dense
+check passes as well; up to 3 rounds, each tightening by the excess where the last
+one ended (the UR5 at 0.3x its datasheet torques, seeds 0-3: up to 100.033 % of the
+margined effort between the samples before, at most 100 % after).
 
 Gradients without differentiating the dynamics twice: W at sample k depends only on
 (q_k, v_k, v̇_k), so one forward difference per joint and kind (3n + 1 batched
@@ -475,11 +476,13 @@ def design_excitation(
     tight = np.flatnonzero(problem.half <= 0.0)
     if tight.size:
         j = int(tight[0])
+        kind = "prismatic" if limits.prismatic[j] else "position"
+        unit = limits.units(j)[0]
         v.fail(
             owner,
-            f"joint {limits.joint_names[j]}: the position margin {margins.position:g} "
-            f"leaves no room within [{limits.lower[j]:g}, {limits.upper[j]:g}] "
-            f"{limits.units(j)[0]}.",
+            f"joint {limits.joint_names[j]}: the position margin "
+            f"{getattr(margins, kind):g} {unit} (margin {kind}) leaves no room within "
+            f"[{limits.lower[j]:g}, {limits.upper[j]:g}] {unit}.",
         )
     x0 = _start(problem)
     baseline = _baseline(problem)

@@ -103,7 +103,9 @@ class ExcitationProblem:
         self.basis = self._basis(self.t)
         self.rho = 1.0 - 0.5 * (math.pi * H / N) ** 2
         self.mid = 0.5 * (limits.lower + limits.upper)
-        self.half = 0.5 * (limits.upper - limits.lower) - margins.position
+        self.half = 0.5 * (limits.upper - limits.lower) - margins.position_margins(
+            limits.prismatic
+        )
         self.vmax = (1.0 - margins.velocity) * limits.velocity
         self.amax = (1.0 - margins.acceleration) * limits.acceleration
         self.emax = (1.0 - margins.effort) * limits.effort
