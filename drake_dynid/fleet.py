@@ -277,7 +277,14 @@ def run_fleet(
             progress(item, sum(r is not None for r in results), len(tasks))
 
     if scheduler is not None:
-        _run_on_dask(scheduler, tasks, done)
+        cluster_tasks = [_absolute_paths(*task) for task in tasks]
+
+        def named(index: int, item: dict[str, Any]) -> None:
+            # The summary names the log and its JSON as the user did.
+            item["log"], item["json"] = tasks[index][2], tasks[index][3]
+            done(index, item)
+
+        _run_on_dask(scheduler, cluster_tasks, named)
     elif local == 1:
         for index, task in enumerate(tasks):
             done(index, run_one(*task))
@@ -288,6 +295,37 @@ def run_fleet(
     for item in items:
         _name_stale_json(item, before)
     return items
+
+
+#: The command options that name input files (``commands._paths.INPUTS``).
+_PATH_OPTIONS = ("urdf", "drive", "params", "validate", "trajectory", "limits")
+
+
+def _absolute_paths(
+    command: str, options: dict[str, Any], log: str, json_path: str
+) -> tuple[str, dict[str, Any], str, str]:
+    """A task whose relative paths are made absolute for a cluster's workers.
+
+    A Dask worker runs in the folder it was started in, not the user's: the
+    relative ``logs/robot1.csv``, ``--urdf robot.urdf`` and ``--out-dir results``
+    were read or written there (found by a review: every log failed, "the folder
+    results does not exist"). The log and the JSON are made absolute, and the
+    input options (``--urdf``, ``--drive``, ``--validate``, ...) when they name a
+    file here (a packaged model's name, ``--urdf iiwa7``, stays a name).
+    """
+
+    def absolute(value: Any) -> Any:
+        if isinstance(value, str) and value and os.path.exists(value):
+            return os.path.abspath(value)
+        if isinstance(value, list):
+            return [absolute(item) for item in value]
+        return value
+
+    options = {
+        key: absolute(value) if key in _PATH_OPTIONS else value
+        for key, value in options.items()
+    }
+    return command, options, os.path.abspath(log), os.path.abspath(json_path)
 
 
 def _signature(path: str) -> tuple[int, int, int] | None:

@@ -505,3 +505,50 @@ def test_output_checks_are_linear_in_the_number_of_logs(tmp_path, monkeypatch):
     twice = {**outputs, "--plot": outputs["json 5"]}
     with pytest.raises(ValueError, match="json 5 and --plot are the same file"):
         check_outputs(twice, inputs)
+
+
+def test_relative_paths_reach_a_dask_worker_started_in_another_folder(
+    logs, tmp_path, monkeypatch, capsys
+):
+    """Found by a review: a Dask worker runs in the folder it was started in; the
+    relative log, --urdf and --out-dir of `dynid fleet offline robot1.csv --urdf
+    planar_2r.urdf --out-dir out --scheduler ...` were looked for there, and every
+    log failed ("the folder out does not exist"). A worker is stood in for by
+    running each task after a chdir to another folder."""
+    import shutil
+
+    from drake_dynid import fleet
+
+    project, elsewhere = tmp_path / "project", tmp_path / "elsewhere"
+    project.mkdir()
+    elsewhere.mkdir()
+    for log in logs:
+        shutil.copy(log, project)
+    shutil.copy(URDF, project / "planar_2r.urdf")
+
+    def worker_in_another_folder(scheduler, tasks, done, function=fleet.run_one):
+        here = os.getcwd()
+        os.chdir(elsewhere)
+        try:
+            for index, task in enumerate(tasks):
+                done(index, function(*task))
+        finally:
+            os.chdir(here)
+
+    monkeypatch.setattr(fleet, "_run_on_dask", worker_in_another_folder)
+    monkeypatch.chdir(project)
+    argv = ["fleet", "offline", "robot1.csv", "robot2.csv", "--urdf", "planar_2r.urdf"]
+    argv += ["--out-dir", "out", "--scheduler", "tcp://127.0.0.1:8786"]
+    assert cli.main(argv) == 0, capsys.readouterr().err
+    summary = json.loads((project / "out" / "summary.json").read_text())
+    # Named as the user named them; the results are the single-log command's.
+    assert [item["log"] for item in summary] == ["robot1.csv", "robot2.csv"]
+    assert [item["json"] for item in summary] == [
+        os.path.join("out", "robot1.json"),
+        os.path.join("out", "robot2.json"),
+    ]
+    single = _single("offline", logs[0], tmp_path / "single.json")
+    assert _parameters(project / "out" / "robot1.json") == pytest.approx(
+        single, rel=1e-12
+    )
+    assert not list(elsewhere.iterdir())
