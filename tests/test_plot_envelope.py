@@ -279,3 +279,29 @@ def test_the_torque_plot_gives_a_prismatic_joint_its_force_unit(tmp_path, monkey
     validate.write_torque_plot(path, {"fit": result}, "x", (True, False))
     labels = [axis.get_ylabel() for axis in figures[0].axes if axis.get_ylabel()]
     assert labels == ["torso_lift_joint\n[N]", "arm_1_joint\n[N·m]"]
+
+
+@pytest.mark.parametrize("words", [3, 12, 90])
+def test_a_long_title_is_wrapped_inside_the_figure_above_the_panels(words):
+    """Found by a review: the TIAGo's validation plot titled with its two file
+    names ("dynid offline: held-out torques (examples/data/tiago/tiago_position.csv
+    + ...)") was one line 1.5 times the figure's width, cut at both ends."""
+    from drake_dynid.commands._report import finish_panels
+
+    plt = _report.matplotlib_pyplot()
+    figure, axes = plt.subplots(4, 2, sharex=True, figsize=(12.0, 8.0))
+    title = " ".join(f"examples/data/tiago/file{k}.csv" for k in range(words))
+    finish_panels(figure, axes.ravel(), 8, 2, title)
+    figure.canvas.draw()
+    renderer = figure.canvas.get_renderer()
+    box = figure._suptitle.get_window_extent(renderer)
+    assert 0.0 <= box.x0 and box.x1 <= figure.bbox.width
+    assert box.y1 <= figure.bbox.height
+    top = max(axis.get_tightbbox(renderer).y1 for axis in axes.ravel())
+    assert top <= box.y0
+    shown = figure._suptitle.get_text()
+    if words < 90:
+        assert shown.replace("\n", " ") == title
+    else:  # at most 4 lines, the rest cut
+        assert shown.count("\n") == 3 and shown.endswith(" ...")
+    plt.close(figure)

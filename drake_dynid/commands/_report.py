@@ -355,16 +355,36 @@ def finish_panels(figure: Any, axes: Any, count: int, columns: int, title: str) 
     and its tick labels (sharex hides them above the last row, and with an odd
     count the right column ends a row higher); the title sits 0.1 in below the
     top and the panels below it (at its default y = 0.98 the title of a tall
-    figure fell onto the first row).
+    figure fell onto the first row). A title wider than the figure is wrapped
+    at spaces into at most 4 lines (the fourth ending in "..." when it is
+    longer), and the panels make room for them (found by a review: the TIAGo's
+    two file names made one line of 1.5 figure widths, cut at both ends).
     """
+    import textwrap
+
     for axis in axes[count:]:
         axis.set_visible(False)
     for axis in axes[max(0, count - columns) : count]:
         axis.set_xlabel("t [s]")
         axis.tick_params(labelbottom=True)
     height = figure.get_figheight()
-    figure.suptitle(title, y=1.0 - 0.1 / height, va="top")
-    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.4 / height))
+    text = figure.suptitle(title, y=1.0 - 0.1 / height, va="top")
+    renderer = figure.canvas.get_renderer()
+    width = text.get_window_extent(renderer).width
+    room = 0.96 * figure.get_figwidth() * figure.dpi
+    lines = 1
+    chars = len(title)
+    while width > room and chars > 20:  # characters per line, by the width taken
+        chars = max(20, min(chars - 1, int(chars * room / width)))
+        wrapped = textwrap.wrap(title, chars)
+        if len(wrapped) > 4:  # many log files: the first of them, then "..."
+            wrapped = [*wrapped[:3], wrapped[3][: chars - 4].rstrip() + " ..."]
+        text.set_text("\n".join(wrapped))
+        lines = len(wrapped)
+        width = text.get_window_extent(renderer).width
+    line_height = text.get_fontsize() * 1.2 / 72.0  # [in]
+    top = 0.4 + (lines - 1) * line_height
+    figure.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - top / height))
 
 
 def write_trace_outputs(
