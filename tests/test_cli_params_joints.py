@@ -63,6 +63,9 @@ def test_bad_joint_input_exits_2_with_one_line(capsys):
     cases = [
         (["--joints", "torso_lift_joint,elbow"], "'elbow' is not a movable joint"),
         (["--joints", "a,,b"], "--joints must be comma-separated joint names"),
+        # Found by a review: a trailing comma was not named as the problem.
+        (["--joints", f"{TIAGO_ARM},"], "empty name (a trailing comma)"),
+        (["--joints", "a,,b"], "empty name (two commas in a row)"),
         (["--lock", "head_1_joint"], "--lock must be NAME=VALUE pairs"),
         (["--lock", "head_1_joint=inf"], "--lock must be NAME=VALUE pairs"),
         (

@@ -201,7 +201,13 @@ def parse_joints(text: str | None) -> tuple[str, ...] | None:
         return None
     names = tuple(item.strip() for item in text.split(","))
     if any(not name for name in names):
-        raise ValueError(f"--joints must be comma-separated joint names; got {text!r}.")
+        where = "a trailing comma" if not names[-1] else "two commas in a row"
+        if not names[0]:
+            where = "a leading comma"
+        raise ValueError(
+            f"--joints must be comma-separated joint names; got {text!r}, with an "
+            f"empty name ({where})."
+        )
     return names
 
 
