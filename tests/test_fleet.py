@@ -102,6 +102,10 @@ def test_fleet_errors(logs, tmp_path, capsys):
     # One output file for every log is refused, as is an output onto an input.
     assert cli.main([*base, logs[0], "--out", str(tmp_path / "x.csv")]) == 2
     assert "--out would write one file for every log" in capsys.readouterr().err
+    # Found by a review: --json (which the command's README names a per-log
+    # output) was argparse's "unrecognized arguments: --json a.json".
+    assert cli.main([*base, logs[0], "--json", str(tmp_path / "a.json")]) == 2
+    assert "--json would write one file for every log" in capsys.readouterr().err
     clash = tmp_path / "out" / "robot9.json"
     clash.write_text("{}")
     assert cli.main([*base, str(clash)]) == 2

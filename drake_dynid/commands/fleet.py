@@ -20,8 +20,13 @@ DESCRIPTION = (
     "its JSON from an earlier run, if any, is moved aside to <log name>.stale.json."
 )
 
-_PER_LOG_OUTPUTS = (("--out", "out"), ("--plot", "plot"), ("--urdf-out", "urdf_out"))
-_FLEET_OWNED = ("--json", "--quiet")
+_PER_LOG_OUTPUTS = (
+    ("--json", "json"),
+    ("--out", "out"),
+    ("--plot", "plot"),
+    ("--urdf-out", "urdf_out"),
+)
+_FLEET_OWNED = ("--quiet",)
 
 
 class _FleetParser(argparse.ArgumentParser):
@@ -29,7 +34,9 @@ class _FleetParser(argparse.ArgumentParser):
 
     The command's ``add_arguments`` declares its ``log`` positional and its
     ``--json``/``--quiet`` through this class: the positional becomes the fleet's
-    LOGS, and the fleet owns the outputs.
+    LOGS, and the fleet owns the outputs (``--json`` is still read, unlisted, so
+    that it is refused by name as the other per-log outputs, not as an
+    "unrecognized argument").
     """
 
     def add_argument(self, *names: Any, **kwargs: Any) -> Any:
@@ -42,6 +49,8 @@ class _FleetParser(argparse.ArgumentParser):
             )
         if names and names[0] in _FLEET_OWNED:
             return None
+        if names == ("--json",):  # read, to be refused by name (run)
+            kwargs["help"] = argparse.SUPPRESS
         return super().add_argument(*names, **kwargs)
 
 
