@@ -556,3 +556,23 @@ def test_relative_paths_reach_a_dask_worker_started_in_another_folder(
         single, rel=1e-12
     )
     assert not list(elsewhere.iterdir())
+
+
+def test_a_missing_urdf_or_drive_file_is_refused_once_before_any_log(
+    logs, tmp_path, capsys
+):
+    """Found by a review: a mistyped --urdf failed every log on its own (a worker
+    process started for each), the same message in every row of the table."""
+    out_dir = tmp_path / "out"
+    base = ["fleet", "offline", *logs, "--out-dir", str(out_dir), "--jobs", "2"]
+    cases = [
+        (["--urdf", str(tmp_path / "robot.urdf")], "robot.urdf: no such file (or the"),
+        (["--urdf", URDF, "--drive", str(tmp_path / "d.toml")], "d.toml: no such file"),
+        (["--urdf", URDF, "--validate", str(tmp_path / "v.csv")], "v.csv: no such"),
+    ]
+    for extra, message in cases:
+        assert cli.main([*base, *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and "every log would fail on it" in err
+        assert len(err.strip().splitlines()) == 1
+        assert not out_dir.exists()

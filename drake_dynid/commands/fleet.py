@@ -167,6 +167,36 @@ def _check_out_dir(args: argparse.Namespace) -> None:
     check_outputs(outputs, inputs)
 
 
+def _check_shared_inputs(args: argparse.Namespace) -> None:
+    """The URDF, drive file and --validate logs every log uses exist (local runs).
+
+    Found by a review: a mistyped --urdf failed each log on its own, after a
+    worker process had started for it (1 s each), with the same message in every
+    row of the table. Not checked with --scheduler: the cluster's workers read
+    the files, and this machine may not hold them.
+    """
+    from pathlib import Path
+
+    from drake_dynid.plants import MODELS_DIR
+
+    for attribute, option in (("urdf", "--urdf"), ("drive", "--drive")):
+        value = getattr(args, attribute, None)
+        if value is not None and not Path(value).is_file():
+            hint = ""
+            if attribute == "urdf":
+                names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.urdf")))
+                hint = f" (or the name of a packaged model: {names})"
+            raise ValueError(
+                f"{option} {value}: no such file{hint}; every log would fail on it."
+            )
+    validate = getattr(args, "validate", None) or ()
+    for value in [validate] if isinstance(validate, str) else validate:
+        if not Path(value).is_file():
+            raise ValueError(
+                f"--validate {value}: no such file; every log would fail on it."
+            )
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs the command over the logs; prints the summary.
 
@@ -190,6 +220,8 @@ def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:  # in its option's name
         raise ValueError(f"--jobs must be >= 1; got {args.jobs}.")
     _check_out_dir(args)
+    if args.scheduler is None:
+        _check_shared_inputs(args)
     quiet = bool(args.quiet)
 
     def progress(item: dict[str, Any], done: int, total: int) -> None:
