@@ -745,3 +745,32 @@ def test_the_validation_predicts_a_dead_zones_reversals_as_the_fit_models_them()
     np.testing.assert_allclose(
         zoned.raw_relative_rms_percent, exact.raw_relative_rms_percent, rtol=1e-6
     )
+
+
+def test_another_robots_results_with_a_drive_file_are_named_as_such(
+    logs, tmp_path, capsys
+):
+    """Found by a review: the TIAGo's results (fitted with its drive file) given to
+    `validate`/`payload` on another URDF failed as "drive file tiago.toml:
+    motors.torso_lift_motor.joint: unknown joint 'torso_lift_joint'", though no
+    drive file was given: the file's drive file, its own robot's, was loaded on the
+    other robot. It is left out with the file's joints; the parameter check names
+    the mismatch."""
+    from drake_dynid.plants import MODELS_DIR
+
+    fit_path, held_path = logs["fit"][0], logs["held"][0]
+    result = tmp_path / "r.json"
+    argv = ["offline", fit_path, "--urdf", URDF, "--json", str(result), "--quiet"]
+    assert cli.main(argv) == 0
+    document = json.loads(result.read_text())
+    document["parameters"][0]["name"] = "M1R"  # the TIAGo's first base parameter
+    document["settings"]["joints"] = ["torso_lift_joint", "arm_1_joint"]
+    document["settings"]["drive"] = str(MODELS_DIR / "tiago.toml")
+    edited = tmp_path / "tiago_like.json"
+    edited.write_text(json.dumps(document))
+    for command in ("validate", "payload"):
+        argv = [command, held_path, "--urdf", URDF, "--params", str(edited)]
+        assert cli.main(argv) == 2
+        line = _error(capsys)
+        assert "'M1R' in the file" in line and "another robot" in line, line
+        assert "drive file" not in line, line

@@ -144,15 +144,22 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     # --lock typo) are raised as they are, not blamed on the results file.
     options.pop("joints", None)
     options.pop("locked", None)
+    if named and set(named) - set(urdf_joints()[0]):
+        # The file's joints are not this URDF's (another robot): the default
+        # joints, and not the file's drive file, which is that robot's (found by
+        # a review: a TIAGo fit on the iiwa failed as "drive file tiago.toml:
+        # unknown joint 'torso_lift_joint'", no drive file having been given);
+        # the parameter check then names the mismatch.
+        if not args.drive:
+            options.pop("drive", None)
+        return robot_from_args(args, "validate", **options)
     robot = robot_from_args(args, "validate", **options)
-    if named and not set(named) - set(urdf_joints()[0]):
+    if named:
         raise ValueError(
             f"results file {args.params}: its joints and locks (settings.joints, "
             f"settings.locked) do not apply to {args.urdf}: {failure} Give "
             "--joints/--lock."
         )
-    # The file's joints are not this URDF's (another robot): the default joints;
-    # the parameter check then names the mismatch.
     return robot
 
 
