@@ -194,6 +194,11 @@ def run_one(
     }
     args = argparse.Namespace(**options)
     args.log, args.json, args.quiet = log, json_path, True
+    urdf = getattr(args, "urdf", None)
+    if isinstance(urdf, str) and urdf.startswith(_PACKAGED):
+        from drake_dynid.urdf import model_path  # this worker's installation
+
+        args.urdf = model_path(urdf[len(_PACKAGED) :])
     with captured_stderr() as stderr:
         try:
             module = importlib.import_module(f"drake_dynid.commands.{command}")
@@ -297,6 +302,9 @@ def run_fleet(
     return items
 
 
+#: Prefix of a packaged model's name in a task sent to a cluster (``--urdf iiwa7``).
+_PACKAGED = "packaged model:"
+
 #: The command options that name input files (``commands._paths.INPUTS``).
 _PATH_OPTIONS = ("urdf", "drive", "params", "validate", "trajectory", "limits")
 
@@ -311,8 +319,12 @@ def _absolute_paths(
     were read or written there (found by a review: every log failed, "the folder
     results does not exist"). The log and the JSON are made absolute, and the
     input options (``--urdf``, ``--drive``, ``--validate``, ...) when they name a
-    file here (a packaged model's name, ``--urdf iiwa7``, stays a name).
+    file here. A packaged model (``--urdf iiwa7``, which ``dynid`` resolved to
+    this installation's ``drake_dynid/models/iiwa7.urdf``) is sent by its name,
+    and :func:`run_one` resolves it in the worker's installation, which may lie
+    elsewhere.
     """
+    from drake_dynid.urdf import MODELS_DIR
 
     def absolute(value: Any) -> Any:
         if isinstance(value, str) and value and os.path.exists(value):
@@ -325,6 +337,9 @@ def _absolute_paths(
         key: absolute(value) if key in _PATH_OPTIONS else value
         for key, value in options.items()
     }
+    urdf = options.get("urdf")
+    if isinstance(urdf, str) and Path(urdf).parent == MODELS_DIR.resolve():
+        options["urdf"] = _PACKAGED + Path(urdf).stem
     return command, options, os.path.abspath(log), os.path.abspath(json_path)
 
 
