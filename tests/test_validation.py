@@ -774,3 +774,14 @@ def test_another_robots_results_with_a_drive_file_are_named_as_such(
         line = _error(capsys)
         assert "'M1R' in the file" in line and "another robot" in line, line
         assert "drive file" not in line, line
+
+
+@pytest.mark.parametrize("command", ["offline", "identify"])
+def test_compare_urdf_without_held_out_data_is_named(logs, command, capsys):
+    """Found by a review: `dynid offline LOG --urdf U --compare-urdf` (no --split,
+    no --validate) printed no comparison and said nothing."""
+    argv = [command, logs["fit"][0], "--urdf", URDF, "--compare-urdf", "--quiet"]
+    assert cli.main(argv) == 2
+    line = _error(capsys)
+    assert "--compare-urdf predicts held-out torques" in line, line
+    assert "--validate LOG2 or --split FRACTION" in line, line

@@ -129,6 +129,12 @@ def validation_split(
     other = getattr(args, "validate", None)
     if split is not None and other:
         raise ValueError("give --validate LOG2 or --split FRACTION, not both.")
+    if getattr(args, "compare_urdf", False) and split is None and not other:
+        # Found by a review: it was ignored without a word.
+        raise ValueError(
+            "--compare-urdf predicts held-out torques with the URDF's parameters: "
+            "give it with --validate LOG2 or --split FRACTION."
+        )
     if split is not None:
         if not 0.0 < split < 1.0:
             raise ValueError(f"--split must be in (0, 1); got {split}.")
