@@ -193,6 +193,11 @@ def test_regularization_beyond_its_range_is_refused_before_the_fit(files, capsys
     argv = ["offline", files["log"], "--urdf", files["urdf"], "--physical"]
     assert cli.main([*argv, "--regularization", "1e300"]) == 2
     assert "--regularization must be in [0, 1e6]" in capsys.readouterr().err
+    # Found by a review: without --physical (or --urdf-out) it was ignored.
+    for command in ("offline", "identify"):
+        argv = [command, files["log"], "--urdf", files["urdf"]]
+        assert cli.main([*argv, "--regularization", "0.1"]) == 2
+        assert "give it with --physical (or --urdf-out)" in capsys.readouterr().err
 
 
 def test_an_existing_writable_file_in_a_locked_folder_is_accepted(

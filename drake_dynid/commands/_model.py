@@ -211,12 +211,23 @@ def physical_report(
 
 
 def check_regularization(args: argparse.Namespace) -> None:
-    """``--regularization`` in [0, 1e6] (checked before the fit)."""
+    """``--regularization`` in [0, 1e6], with ``--physical`` (checked before the fit).
+
+    Without ``--physical`` or ``--urdf-out`` (which implies it) nothing uses it:
+    refused, not ignored (found by a review: it was dropped without a word).
+    """
     value = getattr(args, "regularization", None)
     if value is not None and not 0.0 <= value <= 1e6:
         raise ValueError(
             "--regularization must be in [0, 1e6] (1e6: the URDF's values, almost "
             f"regardless of the data); got {value:g}."
+        )
+    physical = getattr(args, "physical", False) or getattr(args, "urdf_out", None)
+    if value is not None and not physical:
+        raise ValueError(
+            "--regularization weighs the pull towards the URDF values of the "
+            "physically consistent estimate: give it with --physical (or "
+            "--urdf-out)."
         )
 
 
