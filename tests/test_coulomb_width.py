@@ -119,6 +119,13 @@ def test_cli_takes_and_echoes_the_coulomb_width(tanh_log, tmp_path, capsys):
     assert cli.main([*argv, "--coulomb-width", "-1"]) == 2
     err = capsys.readouterr().err
     assert "--coulomb-width must be >= 0 [rad/s or m/s]" in err and "-1" in err
+    # Found by a review: a dead-zone width beside a smooth law was dropped without
+    # a word (offline fitted tanh(v/W); validate too, with the file's width).
+    for extra in ([*argv, "--coulomb-width", str(WIDTH)], [*argv_v, "--params", out]):
+        assert cli.main([*map(str, extra), "--dead-zone", "0.05"]) == 2
+        err = capsys.readouterr().err
+        assert "--dead-zone 0.05: the Coulomb law is already smooth" in err, err
+        assert "Traceback" not in err
 
 
 def test_bad_widths_are_rejected():

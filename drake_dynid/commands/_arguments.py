@@ -879,6 +879,14 @@ def apply_dead_zone(args: argparse.Namespace, robot: Any, log: Any) -> Any:
     from drake_dynid.core.friction import DeadZoneSign
 
     choice = parse_dead_zone(getattr(args, "dead_zone", None))
+    if isinstance(choice, float) and robot.coulomb_width > 0:
+        # A width is always the user's: not dropped without a word (found by a
+        # review: --coulomb-width 0.01 --dead-zone 0.05 fitted tanh(v/0.01)).
+        raise ValueError(
+            f"--dead-zone {args.dead_zone}: the Coulomb law is already smooth, "
+            f"tanh(v/{robot.coulomb_width:g}) (--coulomb-width, or the results "
+            "file's), which replaces the dead zone; give one of the two."
+        )
     if choice is None or "coulomb" not in robot.friction or robot.coulomb_width > 0:
         return robot
     if choice == "auto":
