@@ -649,8 +649,8 @@ def check_parameters(robot: Any, parameters: Any, source: str) -> np.ndarray:
         raise ValueError(
             f"{source} holds {len(names)} base parameters but {where} has "
             f"{len(expected)}; they differ at position {first + 1}: {got!r} in the "
-            f"file, {want!r} expected. Were they identified on another robot or with "
-            "other --friction?"
+            f"file, {want!r} expected. Were they identified on another robot, on other "
+            "joints (--joints, --lock) or with other --friction?"
         )
     theta = np.empty(len(names))
     for k, (entry, definition) in enumerate(

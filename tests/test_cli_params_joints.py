@@ -66,6 +66,9 @@ def test_bad_joint_input_exits_2_with_one_line(capsys):
         # Found by a review: a trailing comma was not named as the problem.
         (["--joints", f"{TIAGO_ARM},"], "empty name (a trailing comma)"),
         (["--joints", "a,,b"], "empty name (two commas in a row)"),
+        # Found by a review: --joints "$J" with J unset meant every joint, silently.
+        (["--joints", ""], "--joints is empty (an unset shell variable?)"),
+        (["--joints", "  "], "--joints is empty"),
         (["--lock", "head_1_joint"], "--lock must be NAME=VALUE pairs"),
         (["--lock", "head_1_joint=inf"], "--lock must be NAME=VALUE pairs"),
         (

@@ -178,6 +178,9 @@ def test_results_files_of_another_model_are_refused(robot, tmp_path):
     iiwa = RobotModel.from_urdf(model_path("iiwa7"))
     with pytest.raises(ValueError, match=r"holds 8 base parameters but .*iiwa7.urdf"):
         read_estimates(document, iiwa, "r.json")
+    # Found by a review: other joints (--joints, --lock) were not among the causes.
+    with pytest.raises(ValueError, match=r"on other joints \(--joints, --lock\)"):
+        read_estimates(document, iiwa, "r.json")
     path = tmp_path / "broken.json"
     path.write_text("{not json")
     with pytest.raises(ValueError, match="not valid JSON"):

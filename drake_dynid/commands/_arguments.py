@@ -192,13 +192,19 @@ def add_joint_arguments(
 
 
 def parse_joints(text: str | None) -> tuple[str, ...] | None:
-    """``"a, b"`` -> ``("a", "b")``; None or blank -> None (every joint).
+    """``"a, b"`` -> ``("a", "b")``; None (not given) -> None (every joint).
 
     Raises:
-        ValueError: an empty name (``"a,,b"``).
+        ValueError: an empty name (``"a,,b"``), or a blank ``--joints`` (``--joints
+            "$J"`` with J unset meant every joint, silently).
     """
-    if text is None or not text.strip():
+    if text is None:
         return None
+    if not text.strip():
+        raise ValueError(
+            "--joints is empty (an unset shell variable?): give the joints to "
+            "identify, or leave --joints out for every movable joint."
+        )
     names = tuple(item.strip() for item in text.split(","))
     if any(not name for name in names):
         where = "a trailing comma" if not names[-1] else "two commas in a row"
