@@ -65,3 +65,15 @@ def median_ratio(samples: Mapping[str, list[float]], over: str, under: str) -> f
     """Median over rounds of ``samples[over][k] / samples[under][k]``."""
     pairs = zip(samples[over], samples[under], strict=True)
     return statistics.median(a / b for a, b in pairs)
+
+
+def quick_or(given, quick: bool, quick_value, value):
+    """An option's value: as given, else ``quick_value`` (``--quick``) or ``value``.
+
+    ``--quick`` changes the defaults only: an option typed on the command line
+    wins (``--quick --seeds 10`` runs 10 seeds). ``given`` is None when the option
+    was not typed (its argparse default).
+    """
+    if given is not None:
+        return given
+    return quick_value if quick else value

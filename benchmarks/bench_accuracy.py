@@ -73,6 +73,7 @@ import _change_floor
 import numpy as np
 from _independent import exact_log, honesty, window_solves
 from _scenarios import _rf, robots, scenarios
+from _timing import quick_or
 
 from drake_dynid import paper
 from drake_dynid.core.ell_rule import POWER_BAND_FACTOR
@@ -543,7 +544,9 @@ def run_2r(args, seeds, report) -> None:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seeds", type=int, default=40)
+    parser.add_argument(
+        "--seeds", type=int, default=None, help="noise seeds (default 40; --quick 3)"
+    )
     parser.add_argument(
         "--quick", action="store_true", help="few seeds, main cases only (smoke run)"
     )
@@ -556,13 +559,16 @@ def main(argv=None) -> int:
         "(benchmarks/_accuracy_payload.py) or all (default)",
     )
     parser.add_argument(
-        "--seeds7", type=int, default=10, help="noise seeds of the iiwa7 section"
+        "--seeds7",
+        type=int,
+        default=None,
+        help="noise seeds of the iiwa7 section (default 10; --quick 1)",
     )
     parser.add_argument(
         "--payload-seeds",
         type=int,
-        default=16,
-        help="noise seeds of the payload section (16)",
+        default=None,
+        help="noise seeds of the payload section (default 16; --quick 1)",
     )
     parser.add_argument(
         "--power-seeds",
@@ -574,7 +580,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.quick:
         args.power_seeds = min(args.power_seeds, 20)
-    seeds = range(3 if args.quick else args.seeds)
+    seeds = range(quick_or(args.seeds, args.quick, 3, 40))
     start = time.perf_counter()
     report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}
     if args.robot in ("2r", "all"):
@@ -582,11 +588,12 @@ def main(argv=None) -> int:
     if args.robot in ("iiwa7", "all"):
         import _accuracy_arm7 as _arm7
 
-        arm = _arm7.run(range(1 if args.quick else args.seeds7), quick=args.quick)
+        seeds7 = quick_or(args.seeds7, args.quick, 1, 10)
+        arm = _arm7.run(range(seeds7), quick=args.quick)
         _arm7.print_report(arm)
         report["iiwa7"] = arm
         if not args.quick:  # change detection on a log without a change
-            seeds7 = range(min(args.seeds7, 5))
+            seeds7 = range(min(seeds7, 5))
             alarms = _change.false_alarms_arm7(_arm7.Arm7(), seeds7)
             _change.print_tracking({"false_arm7": alarms}, seeds7)
             report["iiwa7_false_alarms"] = alarms
@@ -597,7 +604,7 @@ def main(argv=None) -> int:
         import _accuracy_payload as _payload
 
         payload = _payload.run(
-            range(1 if args.quick else args.payload_seeds), args.quick
+            range(quick_or(args.payload_seeds, args.quick, 1, 16)), args.quick
         )
         _payload.print_report(payload)
         report["payload"] = payload

@@ -23,7 +23,7 @@ import statistics
 import time
 
 import numpy as np
-from _timing import time_call  # benchmarks/_timing.py
+from _timing import quick_or, time_call  # benchmarks/_timing.py
 
 from drake_dynid.core.lsq import solve_least_squares
 from drake_dynid.core.modulating import (
@@ -52,14 +52,14 @@ def _push_cost(bank, state, samples: np.ndarray, repeats: int) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--window", type=float, default=20.0, help="T [s]")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--window", type=float, default=None, help="T [s] (20)")
+    parser.add_argument("--repeats", type=int, default=None, help="default 5")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
-    repeats, min_time, pushes, window = args.repeats, 0.2, 2000, args.window
-    if args.quick:
-        repeats, min_time, pushes, window = 1, 0.0, 20, 1.0
+    repeats = quick_or(args.repeats, args.quick, 1, 5)
+    window = quick_or(args.window, args.quick, 1.0, 20.0)
+    min_time, pushes = (0.0, 20) if args.quick else (0.2, 2000)
     rng = np.random.default_rng(0)
     rows = []
 

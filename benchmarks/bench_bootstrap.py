@@ -34,6 +34,7 @@ from pathlib import Path
 import bench_accuracy as ba
 import numpy as np
 from _scenarios import robots, scenarios
+from _timing import quick_or
 
 from drake_dynid.core._threads import configure_process
 from drake_dynid.core.bootstrap import bootstrap_std
@@ -115,18 +116,20 @@ def summary(runs: list[dict]) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--seeds", type=int, default=5, help="noise seeds per case")
+    parser.add_argument(
+        "--seeds", type=int, default=None, help="noise seeds per case (default 5)"
+    )
     parser.add_argument(
         "--quick", action="store_true", help="one 2R scenario, one seed, K = 4"
     )
     parser.add_argument("--json", metavar="FILE")
     args = parser.parse_args(argv)
     configure_process()  # one BLAS thread, as dynid
-    seeds = range(1 if args.quick else args.seeds)
+    seeds = range(quick_or(args.seeds, args.quick, 1, 5))
     replicates = 4 if args.quick else 16
     cases = two_r_cases(seeds, replicates, args.quick)
     if not args.quick:
-        cases.update(arm_cases(range(min(args.seeds, 3)), replicates))
+        cases.update(arm_cases(range(min(len(seeds), 3)), replicates))
     table = {label: summary(runs) for label, runs in cases.items()}
     print(
         f"\n## Bootstrap σ_B: linearised raw-row replicates / exact re-solves "

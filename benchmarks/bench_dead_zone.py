@@ -36,6 +36,7 @@ import dataclasses
 
 import numpy as np
 from _independent import exact_log, with_noise
+from _timing import quick_or
 from bench_sigma_offline import trajectory
 
 from drake_dynid.core._threads import configure_process
@@ -82,11 +83,11 @@ def _metrics(estimates, stds, truth):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--seeds", type=int, default=None, help="default 20")
     parser.add_argument("--quick", action="store_true", help="4 seeds, UR5 only")
     args = parser.parse_args(argv)
     configure_process()
-    seeds = 4 if args.quick else args.seeds
+    seeds = quick_or(args.seeds, args.quick, 4, 20)
     robots = ("ur5",) if args.quick else ("ur5", "iiwa7")
     print(
         f"dynid offline with three Coulomb columns ({seeds} seeds, 60 s, Drake inverse "

@@ -27,6 +27,7 @@ import sys
 import time
 
 import numpy as np
+from _timing import quick_or
 
 TIME_STEP = 1e-3
 WINDOWS = (0.1, 0.3, 1.0)
@@ -126,16 +127,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--repeats", type=int, default=5, help="repeats (median)")
+    parser.add_argument("--repeats", type=int, default=None, help="repeats (median; 5)")
     parser.add_argument(
-        "--seconds", type=float, default=2.0, help="simulated seconds per run"
+        "--seconds", type=float, default=None, help="simulated seconds per run (2)"
     )
     parser.add_argument("--json", metavar="FILE", help="also write the rows as JSON")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     args = parser.parse_args(argv)
-    windows = WINDOWS
-    if args.quick:
-        args.repeats, args.seconds, windows = 1, 0.1, WINDOWS[:1]
+    windows = WINDOWS[:1] if args.quick else WINDOWS
+    args.repeats = quick_or(args.repeats, args.quick, 1, 5)
+    args.seconds = quick_or(args.seconds, args.quick, 0.1, 2.0)
 
     floor = bench_simulator(None, args.seconds, args.repeats, consume=True)
     rows = []

@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 from _arm7 import run_case
+from _timing import quick_or
 
 from drake_dynid.core._threads import configure_process
 from drake_dynid.core.trajectory import random_fourier_trajectory
@@ -94,7 +95,9 @@ def write_drive_log(path: str, hours: float) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--hours", type=float, nargs="+", default=[2.5, 10.0])
+    parser.add_argument(
+        "--hours", type=float, nargs="+", default=None, help="default 2.5 10"
+    )
     parser.add_argument("--identify", action="store_true", help="also dynid identify")
     parser.add_argument(
         "--validate",
@@ -105,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
     configure_process()
-    hours = [2.0 / 60.0] if args.quick else args.hours
+    hours = quick_or(args.hours, args.quick, [2.0 / 60.0], [2.5, 10.0])
     commands = ["offline"] + ["identify"] * args.identify
     commands += ["validate"] * (args.validate or args.quick)
     results: dict[str, dict] = {}

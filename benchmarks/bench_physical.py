@@ -29,6 +29,7 @@ import statistics  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _timing import quick_or  # noqa: E402
 
 from drake_dynid.core.trajectory import random_fourier_trajectory  # noqa: E402
 from drake_dynid.logs import RobotLog  # noqa: E402
@@ -54,11 +55,12 @@ def _median_seconds(function, repeats: int) -> tuple[float, object]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--repeats", type=int, default=None, help="default 5")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
-    duration, repeats = (4.0, 1) if args.quick else (20.0, args.repeats)
+    duration = 4.0 if args.quick else 20.0
+    repeats = quick_or(args.repeats, args.quick, 1, 5)
 
     robot = RobotModel.from_urdf(model_path("iiwa7"))
     h = 2e-3

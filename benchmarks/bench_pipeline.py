@@ -59,7 +59,7 @@ import time
 
 import numpy as np
 from _arm7 import arm_log, run_case
-from _timing import median_ratio, time_call, time_side_by_side
+from _timing import median_ratio, quick_or, time_call, time_side_by_side
 
 from drake_dynid.core import modulating
 from drake_dynid.core._threads import configure_process
@@ -150,7 +150,7 @@ def _table(title: str, header: tuple[str, ...], rows: list[tuple]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=None, help="default 3")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     parser.add_argument(
@@ -167,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     configure_process()
     quick = args.quick
-    repeats = 1 if quick else args.repeats
+    repeats = quick_or(args.repeats, quick, 1, 3)
     only = {
         "arm_only": lambda r, arm: _arm_table(r, arm, repeats, quick),
         "solves_only": lambda r, arm: _solves_table(r, arm, quick),

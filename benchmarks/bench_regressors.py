@@ -14,7 +14,7 @@ import argparse
 import json
 
 import numpy as np
-from _timing import time_call  # benchmarks/_timing.py
+from _timing import quick_or, time_call  # benchmarks/_timing.py
 
 from drake_dynid.core.planar2r import Planar2RRows
 from drake_dynid.plants import RobotModel, model_path
@@ -30,14 +30,14 @@ OPERATIONS = {
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--batch", type=int, default=1000, help="batch size N")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--batch", type=int, default=None, help="batch size N (1000)")
+    parser.add_argument("--repeats", type=int, default=None, help="default 5")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
-    repeats, min_time, batch = args.repeats, 0.2, args.batch
-    if args.quick:
-        repeats, min_time, batch = 1, 0.0, 10
+    repeats = quick_or(args.repeats, args.quick, 1, 5)
+    batch = quick_or(args.batch, args.quick, 10, 1000)
+    min_time = 0.0 if args.quick else 0.2
 
     generic_2r = RobotModel.from_urdf(model_path("planar_2r"))
     providers = {

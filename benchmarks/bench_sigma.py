@@ -30,6 +30,7 @@ import json
 import math
 
 import numpy as np
+from _timing import quick_or
 
 from drake_dynid import paper
 from drake_dynid.core.equations import assemble_equations, direct_fourier_integrals
@@ -101,14 +102,14 @@ def _ratios(estimates, sigmas) -> tuple[float, float, np.ndarray]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--seeds", type=int, default=48, help="noise seeds")
-    parser.add_argument("--duration", type=float, default=30.0, help="log [s]")
+    parser.add_argument("--seeds", type=int, default=None, help="noise seeds (48)")
+    parser.add_argument("--duration", type=float, default=None, help="log [s] (30)")
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
-    seeds, duration, names = args.seeds, args.duration, list(OPTION_SETS)
-    if args.quick:
-        seeds, duration, names = 4, 24.0, list(QUICK_SETS)
+    seeds = quick_or(args.seeds, args.quick, 4, 48)
+    duration = quick_or(args.duration, args.quick, 24.0, 30.0)
+    names = list(QUICK_SETS) if args.quick else list(OPTION_SETS)
     robot = RobotModel.from_urdf(model_path("planar_2r"))
     rows = robot.rows_provider()
     trajectory = paper.paper_trajectory()

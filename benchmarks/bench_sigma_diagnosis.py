@@ -37,6 +37,7 @@ import bench_accuracy as ba
 import numpy as np
 from _independent import window_solves
 from _scenarios import robots, scenarios
+from _timing import quick_or
 
 from drake_dynid.core.excitation import estimate_bandwidth
 from drake_dynid.core.friction import DeadZoneSign
@@ -86,7 +87,7 @@ def _stats(theta, sigma, truth) -> dict:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--scenario", default="g1 / rf seed 3")
-    parser.add_argument("--seeds", type=int, default=200)
+    parser.add_argument("--seeds", type=int, default=None, help="default 200")
     parser.add_argument("--quick", action="store_true", help="4 seeds (smoke run)")
     parser.add_argument("--json", metavar="FILE")
     parser.add_argument(
@@ -105,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         "identify's default; default none: the exact sign (the accuracy benchmark)",
     )
     args = parser.parse_args(argv)
-    seeds = range(4 if args.quick else args.seeds)
+    seeds = range(quick_or(args.seeds, args.quick, 4, 200))
     with tempfile.TemporaryDirectory() as tmp:
         models = robots(Path(tmp))
         robot_name, trajectory = scenarios(False)[args.scenario]

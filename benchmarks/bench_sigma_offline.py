@@ -31,6 +31,7 @@ import json
 
 import numpy as np
 from _independent import exact_log, with_noise
+from _timing import quick_or
 
 from drake_dynid.core._threads import configure_process
 from drake_dynid.core.trajectory import random_fourier_trajectory
@@ -80,12 +81,12 @@ def _metrics(estimates, stds, truth, divide=1.0):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--seeds", type=int, default=None, help="default 20")
     parser.add_argument("--quick", action="store_true", help="8 seeds, iiwa7 only")
     parser.add_argument("--json", metavar="FILE", help="write the rows as JSON")
     args = parser.parse_args(argv)
     configure_process()
-    seeds = 8 if args.quick else args.seeds
+    seeds = quick_or(args.seeds, args.quick, 8, 20)
     robots = ("iiwa7",) if args.quick else ("iiwa7", "ur5")
     print(
         f"dynid offline σ against the Monte-Carlo spread ({seeds} seeds, 60 s at "

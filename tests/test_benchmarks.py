@@ -49,6 +49,27 @@ def test_benchmark_quick_run(name, tmp_path, capsys, monkeypatch):
     assert json.loads(out.read_text())
 
 
+def test_quick_changes_the_defaults_not_the_options_given(monkeypatch, capsys):
+    """Found by a review: ``--quick --seeds 10`` ran --quick's seeds (4, 8, 1 ...)
+    in eight scripts; an option typed wins now (``_timing.quick_or``)."""
+    timing = load_benchmark("_timing", monkeypatch)
+    assert timing.quick_or(None, True, 4, 20) == 4
+    assert timing.quick_or(None, False, 4, 20) == 20
+    assert timing.quick_or(10, True, 4, 20) == 10
+    assert timing.quick_or(0, True, 4, 20) == 0  # a typed 0 is a value
+    bench = load_benchmark("bench_bootstrap", monkeypatch)
+    seen = {}
+
+    def cases(seeds, replicates, quick):
+        seen["seeds"] = list(seeds)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(bench, "two_r_cases", cases)
+    with pytest.raises(SystemExit):
+        bench.main(["--quick", "--seeds", "2"])
+    assert seen["seeds"] == [0, 1]
+
+
 @pytest.mark.slow
 def test_bench_accuracy_quick_run(tmp_path, capsys, monkeypatch):
     out = tmp_path / "accuracy.json"
