@@ -194,11 +194,12 @@ def run_one(
     }
     args = argparse.Namespace(**options)
     args.log, args.json, args.quiet = log, json_path, True
-    urdf = getattr(args, "urdf", None)
-    if isinstance(urdf, str) and urdf.startswith(_PACKAGED):
-        from drake_dynid.urdf import model_path  # this worker's installation
+    for option in _PACKAGED_OPTIONS:
+        value = getattr(args, option, None)
+        if isinstance(value, str) and value.startswith(_PACKAGED):
+            from drake_dynid.urdf import MODELS_DIR  # this worker's installation
 
-        args.urdf = model_path(urdf[len(_PACKAGED) :])
+            setattr(args, option, str(MODELS_DIR / value[len(_PACKAGED) :]))
     with captured_stderr() as stderr:
         try:
             module = importlib.import_module(f"drake_dynid.commands.{command}")
@@ -304,6 +305,8 @@ def run_fleet(
 
 #: Prefix of a packaged model's name in a task sent to a cluster (``--urdf iiwa7``).
 _PACKAGED = "packaged model:"
+#: The options that may name a packaged file (``--urdf iiwa7``, ``--drive tiago``).
+_PACKAGED_OPTIONS = ("urdf", "drive")
 
 #: The command options that name input files (``commands._paths.INPUTS``).
 _PATH_OPTIONS = ("urdf", "drive", "params", "validate", "trajectory", "limits")
@@ -320,7 +323,8 @@ def _absolute_paths(
     results does not exist"). The log and the JSON are made absolute, and the
     input options (``--urdf``, ``--drive``, ``--validate``, ...) when they name a
     file here. A packaged model (``--urdf iiwa7``, which ``dynid`` resolved to
-    this installation's ``drake_dynid/models/iiwa7.urdf``) is sent by its name,
+    this installation's ``drake_dynid/models/iiwa7.urdf``; ``--drive tiago``
+    likewise) is sent by its file name,
     and :func:`run_one` resolves it in the worker's installation, which may lie
     elsewhere.
     """
@@ -337,9 +341,10 @@ def _absolute_paths(
         key: absolute(value) if key in _PATH_OPTIONS else value
         for key, value in options.items()
     }
-    urdf = options.get("urdf")
-    if isinstance(urdf, str) and Path(urdf).parent == MODELS_DIR.resolve():
-        options["urdf"] = _PACKAGED + Path(urdf).stem
+    for option in _PACKAGED_OPTIONS:
+        value = options.get(option)
+        if isinstance(value, str) and Path(value).parent == MODELS_DIR.resolve():
+            options[option] = _PACKAGED + Path(value).name
     return command, options, os.path.abspath(log), os.path.abspath(json_path)
 
 

@@ -598,8 +598,30 @@ def test_a_packaged_model_reaches_a_dask_worker_by_its_name(
     argv = ["fleet", "offline", logs[0], "--urdf", "planar_2r"]
     argv += ["--out-dir", str(tmp_path / "out"), "--scheduler", "tcp://h:8786"]
     assert cli.main(argv) == 0, capsys.readouterr().err
-    assert sent == ["packaged model:planar_2r"]
+    assert sent == ["packaged model:planar_2r.urdf"]
     single = _single("offline", logs[0], tmp_path / "single.json")
     assert _parameters(tmp_path / "out" / "robot1.json") == pytest.approx(
         single, rel=1e-12
     )
+
+
+def test_a_packaged_drive_file_is_named_and_sent_by_its_name(tmp_path, monkeypatch):
+    """`--drive tiago` is drake_dynid/models/tiago.toml from any folder (as `--urdf
+    iiwa7`), and a cluster's task carries its name, not this installation's path."""
+    from drake_dynid import fleet
+    from drake_dynid.urdf import MODELS_DIR
+
+    monkeypatch.chdir(tmp_path)
+    args = cli.build_parser().parse_args(
+        ["offline", "log.csv", "--urdf", "tiago_no_hand", "--drive", "tiago"]
+    )
+    assert args.drive == str(MODELS_DIR / "tiago.toml")
+    (tmp_path / "tiago").write_text("")  # a file of that name here is that file
+    argv = ["offline", "log.csv", "--urdf", "iiwa7", "--drive", "tiago"]
+    args = cli.build_parser().parse_args(argv)
+    assert args.drive == "tiago"
+    options = {"urdf": str(MODELS_DIR / "iiwa7.urdf")}
+    options["drive"] = str(MODELS_DIR / "tiago.toml")
+    _, sent, _, _ = fleet._absolute_paths("offline", options, "a.csv", "a.json")
+    assert sent["urdf"] == "packaged model:iiwa7.urdf"
+    assert sent["drive"] == "packaged model:tiago.toml"

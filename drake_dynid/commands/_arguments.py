@@ -35,8 +35,10 @@ def add_drive_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds ``--drive`` (drive file) and ``--rotor-inertia``."""
     parser.add_argument(
         "--drive",
-        metavar="FILE.toml",
-        help="drive file (docs/DRIVE.md): log column names and units, motor-side "
+        metavar=DRIVE_METAVAR,
+        type=drive_argument,
+        help="drive file (docs/DRIVE.md; or a packaged one's name: tiago): log "
+        "column names and units, motor-side "
         "positions, currents and torque constants, zero offsets, gear ratios and "
         "coupled joints; it overrides the URDF's <transmission> elements; coupled "
         "motors get their own friction (and, with --rotor-inertia, inertia) "
@@ -369,6 +371,26 @@ def urdf_argument(text: str) -> str:
 
 
 URDF_HELP = "the robot's URDF file, or the name of a packaged model (iiwa7, ur5, ...)"
+
+
+def drive_argument(text: str) -> str:
+    """A ``--drive`` option (argparse type): a file, or a packaged drive file's name.
+
+    ``tiago`` is ``drake_dynid/models/tiago.toml`` when no file of that name
+    exists (as :func:`urdf_argument` for the URDFs), so the shipped TIAGo's drive
+    file needs no path from another folder.
+    """
+    import os
+
+    from drake_dynid.urdf import MODELS_DIR
+
+    if os.sep in text or text.lower().endswith(".toml") or os.path.isfile(text):
+        return text
+    packaged = MODELS_DIR / f"{text}.toml"
+    return str(packaged) if packaged.is_file() else text
+
+
+DRIVE_METAVAR = "FILE.toml"
 
 
 def fill_gaps_count(text: str) -> int:

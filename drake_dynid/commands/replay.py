@@ -10,10 +10,12 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import (
+    DRIVE_METAVAR,
     URDF_HELP,
     add_joint_arguments,
     add_log_argument,
     add_time_unit_argument,
+    drive_argument,
     log_files,
     read_robot_log,
     robot_from_args,
@@ -42,8 +44,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_log_argument(parser)
     parser.add_argument(
         "--drive",
-        metavar="FILE.toml",
-        help="drive file (docs/DRIVE.md) of a raw log: its columns and units",
+        metavar=DRIVE_METAVAR,
+        type=drive_argument,
+        help="drive file (docs/DRIVE.md; or a packaged one's name: tiago) of a raw "
+        "log: its columns and units",
     )
     add_joint_arguments(parser)
     add_time_unit_argument(parser)

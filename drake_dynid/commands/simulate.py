@@ -14,10 +14,12 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.commands._arguments import (
+    DRIVE_METAVAR,
     URDF_HELP,
     absolute,
     add_friction_argument,
     add_joint_arguments,
+    drive_argument,
     parse_friction,
     parse_joints,
     parse_locked,
@@ -66,8 +68,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_joint_arguments(parser, "simulate", "simulated")
     parser.add_argument(
         "--drive",
-        metavar="FILE.toml",
-        help="drive file (docs/DRIVE.md): simulate its motors (rotor inertia "
+        metavar=DRIVE_METAVAR,
+        type=drive_argument,
+        help="drive file (docs/DRIVE.md; or a packaged one's name: tiago): simulate "
+        "its motors (rotor inertia "
         "reflected through the gear ratios, motor friction, coupled motors) and "
         "write the log in its raw columns and units; the truth then holds the "
         "motor parameters (IAj, IAmk, FVmk, ...)",
