@@ -94,10 +94,16 @@ def run(tmp_path_factory):
     }
 
 
-def _signs(v, widths, cutoff_hz):
-    """The dead-zone Coulomb column of the (N, 7) velocity series: 0 for |v_j| <=
-    w_j, else sign(v_j), a moving joint's reversals restored (docs/MATH.md §2)."""
-    return reversal_signs(v, widths, reversal_run(H, cutoff_hz))
+def _signs(q, widths, settings):
+    """The dead-zone Coulomb column at the compared samples: 0 for |v_j| <= w_j,
+    else sign(v_j), a moving joint's reversals restored (docs/MATH.md §2), found
+    on the whole log's velocity (the validation reads beyond the trim too)."""
+    trim, cutoff = settings["trim"], settings["cutoff_hz"]
+    _, v, _ = offline_derivatives(
+        q, H, cutoff_hz=cutoff, trim=1, padding=settings["padding"]
+    )
+    signs = reversal_signs(v, widths, reversal_run(H, cutoff))
+    return signs[trim - 1 : signs.shape[0] - (trim - 1)]
 
 
 def _regressor_prediction(q, v, vdot, parameters, signs):
@@ -161,7 +167,8 @@ def test_validate_reports_the_directly_computed_errors(run):
     zone = run["result"]["settings"]["coulomb_dead_zone"]
     widths = np.array([zone[name] for name in log.joint_names])
     assert np.all((widths > 0.0) & (widths < 0.05))  # 3 x the velocity noise
-    signs = _signs(v, widths, settings["cutoff_hz"])
+    signs = _signs(log.q, widths, settings)
+    assert signs.shape == v.shape
     predictions = {
         "idim-ls": _regressor_prediction(
             q, v, vdot, run["result"]["parameters"], signs
