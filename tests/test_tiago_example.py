@@ -79,6 +79,9 @@ def test_the_readme_walkthrough_runs_on_an_excerpt(tmp_path, capsys, monkeypatch
             assert "drive: drive file drake_dynid/models/tiago.toml; 8 motors" in out
             continue
         assert "Coulomb dead zone (|v| <= w: sign(v) = 0): torso_lift_joint" in out
+        # The off-line fit restores a moving joint's reversals, the on-line not.
+        reversals = "a moving joint's reversal through it keeps its sign" in out
+        assert reversals == (argv[0] == "offline")
         for label in ("URDF a-priori", "idim-ls" if argv[0] == "offline" else "lag"):
             table = out.split(f"estimate: {label}", 1)[1]
             rows = re.findall(r"^(\w+_joint)\s+\S+\s+\S+\s+([0-9.]+)", table, re.M)

@@ -1031,10 +1031,12 @@ def _longest_positions(log: Any) -> Any:
     return segment(log.q, start, stop)
 
 
-def dead_zone_line(robot: Any, args: Any = None) -> str | None:
+def dead_zone_line(robot: Any, args: Any = None, reversals: bool = False) -> str | None:
     """One printed line with the dead-zone widths (None with the exact sign).
 
     When ``--dead-zone auto`` could not measure the noise, the line says so.
+    ``reversals``: the off-line equations and the validation, which restore a
+    moving joint's reversals through the zone (``core.standstill.reversal_signs``).
     """
     widths = dead_zone_widths(robot)
     if widths is None:
@@ -1045,7 +1047,10 @@ def dead_zone_line(robot: Any, args: Any = None) -> str | None:
         f"{name} {w:.2g} {'m' if p else 'rad'}/s"
         for (name, w), p in zip(widths.items(), prismatic, strict=True)
     )
-    return f"Coulomb dead zone (|v| <= w: sign(v) = 0): {text}"
+    line = f"Coulomb dead zone (|v| <= w: sign(v) = 0): {text}"
+    if reversals:
+        line += "; a moving joint's reversal through it keeps its sign"
+    return line
 
 
 def absolute(path: str | None) -> str | None:

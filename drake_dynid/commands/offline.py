@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if not args.quiet:
         print(log_line(args, log, total_samples))
-        line = dead_zone_line(robot, args)
+        line = dead_zone_line(robot, args, reversals=True)
         if line:
             print(line)
         print(

@@ -526,7 +526,7 @@ def run(args: argparse.Namespace) -> int:
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "
             f"parameters{', with a physical estimate' if len(estimates) > 1 else ''})"
         )
-        line = dead_zone_line(robot)
+        line = dead_zone_line(robot, reversals=True)
         if line:
             print(line)
         if robot.coulomb_width > 0.0:
