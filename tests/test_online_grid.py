@@ -62,6 +62,20 @@ def test_given_periods_must_be_on_the_grid():
         OnlineSettings().on_grid(0.0)
 
 
+def test_a_power_set_above_the_pass_band_names_the_bandwidth():
+    """Found by a review: the power model's default ℓ set reaches 2B by design;
+    with --bandwidth 3 it reached 6 Hz above the 5.8 Hz pass band, and the message
+    blamed the set's minimum number of functions instead of the bandwidth."""
+    from drake_dynid.core.online_checks import check_log
+
+    settings = OnlineSettings(model="power", bandwidth=3.0, window=4.0)
+    with pytest.raises(ValueError, match=r"--bandwidth must keep every .* lower"):
+        check_log(settings, 1e-3, 20.0, owner=None, names={"bandwidth": "--bandwidth"})
+    lagrangian = OnlineSettings(bandwidth=1.0, window=0.5)  # 8 functions: 14 Hz
+    with pytest.raises(ValueError, match=r"the default ℓ set \(at least 8"):
+        check_log(lagrangian, 1e-3, 20.0, owner=None)
+
+
 @pytest.fixture(scope="module")
 def robot():
     return RobotModel.from_urdf(model_path("planar_2r"))

@@ -576,7 +576,8 @@ def check_log(
     band = pass_band(grid, h)
     if top > band:
         subject, remedy = f"{which} must keep", f"lower {which}, "
-        if grid.frequencies is None and top > grid.bandwidth * (1.0 + 1e-9):
+        band_of_model = model_band(grid.model, grid.bandwidth)  # power: 2B
+        if grid.frequencies is None and top > band_of_model * (1.0 + 1e-9):
             subject = (
                 f"the default ℓ set (at least {MIN_FUNCTIONS} functions over "
                 f"{say('window')} {grid.window:g} s) must keep"
