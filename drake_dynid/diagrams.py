@@ -69,6 +69,7 @@ __all__ = [
     "add_online_identifiers",
     "advance",
     "chain_trace",
+    "final_row",
     "log_source",
     "reference_noise_std",
     "replay_log",
@@ -696,24 +697,10 @@ def _final_trace(
 ) -> OnlineTrace:
     """The chain's trace with the log's final solve and row (``core.replay``).
 
-    After the run to t_N: the final solve at the last sample t_{N-1} when it is
-    not a solve time (``core.replay.solve_samples``; the identifier's periodic
-    update evaluated at t_N, whose inputs then hold every bank update of the log),
-    and the identifier's state as the row at t_N (``core.replay.logged_samples``:
-    replacing the loggers' row at t_N, appended when t_N is not a solve period).
+    :func:`final_row`, in place of the loggers' row at t_N or appended.
     """
-    from drake_dynid.core.replay import logged_samples, solve_samples
-
     trace = chain_trace(chain, context, time_step)
-    every = chain.settings.solve_decimation(time_step)
-    tracking = chain.settings.detect_changes is not False
-    final = solve_samples(count, every, final=not tracking)[-1]
-    identifier = chain.identifier
-    own = identifier.GetMyMutableContextFromRoot(context)
-    if final % every:  # not a periodic solve: run it now
-        own.SetDiscreteState(identifier.EvalUniquePeriodicDiscreteUpdate(own))
-    keep = len(logged_samples(count, every)) - 1  # the loggers' rows before t_N
-    row = {port: identifier.GetOutputPort(port).Eval(own) for port in chain.logs}
+    keep, row = final_row(chain, context, count, time_step)
 
     def ended(values: Any, last: Any) -> np.ndarray:
         return np.concatenate([np.asarray(values)[:keep], np.asarray(last)[None]])
@@ -737,3 +724,31 @@ def _final_trace(
         tracking=ended(trace.tracking, row["change"][2]),
         changed=ended(trace.changed, row["changed"]),
     )
+
+
+def final_row(
+    chain: IdentifierChain, context: Any, count: int, time_step: float
+) -> tuple[int, dict[str, np.ndarray]]:
+    """The log's final solve and row, after a Simulator run to t_N = N·h.
+
+    Runs the final solve at the last sample t_{N-1} when it is not a solve time
+    (``core.replay.solve_samples``; the identifier's periodic update evaluated at
+    t_N, whose inputs then hold every bank update of the log) in ``context``, and
+    returns ``(keep, row)``: the number of the loggers' rows before t_N
+    (``core.replay.logged_samples``; a logged row at t_N is replaced) and the
+    identifier's outputs, by logged port name, as the row at t_N. The on-line
+    identifier's replay (:func:`replay_log`) and the payload identifier's
+    (``payload_diagrams.replay_payload_log``) end their traces with it.
+    """
+    from drake_dynid.core.replay import logged_samples, solve_samples
+
+    every = chain.settings.solve_decimation(time_step)
+    tracking = chain.settings.detect_changes is not False
+    final = solve_samples(count, every, final=not tracking)[-1]
+    identifier = chain.identifier
+    own = identifier.GetMyMutableContextFromRoot(context)
+    if final % every:  # not a periodic solve: run it now
+        own.SetDiscreteState(identifier.EvalUniquePeriodicDiscreteUpdate(own))
+    keep = len(logged_samples(count, every)) - 1  # the loggers' rows before t_N
+    row = {port: identifier.GetOutputPort(port).Eval(own) for port in chain.logs}
+    return keep, row

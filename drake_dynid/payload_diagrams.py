@@ -11,12 +11,17 @@ arm's known column) and ending in the ``PayloadIdentifier`` block::
 with the same event offsets (docs/CONVENTIONS.md §2) and the same settings
 (``core.payload_step.payload_settings``). :func:`replay_payload_log` runs it over
 a recorded log in a Simulator; ``core.payload_replay.replay_payload_core`` gives
-the same trace without one (``tests/systems/test_payload_block.py``).
+the same trace without one (``tests/systems/test_payload_block.py``), both ending
+with the final solve at the log's last sample, recorded at t_N = N·h
+(``core.replay.solve_samples``, ``drake_dynid.diagrams.final_row``).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
+
+import numpy as np
 
 from drake_dynid.core import _validate as check
 from drake_dynid.core._threads import thread_limit
@@ -35,6 +40,7 @@ from drake_dynid.diagrams import (
     add_bank_front,
     advance,
     chain_logs,
+    final_row,
     log_source,
 )
 
@@ -169,7 +175,9 @@ def replay_payload_log(
 
     The log is played by ``drake_dynid.diagrams.log_source`` (sample k held over
     [t_k - h/2, t_k + h/2)) and the Simulator runs to t_N = N·h, as
-    ``drake_dynid.diagrams.replay_log``.
+    ``drake_dynid.diagrams.replay_log``; the trace ends, as that one's, with the
+    final solve at the last sample t_{N-1}, recorded at t_N
+    (``drake_dynid.diagrams.final_row``).
 
     Args:
         log: a ``drake_dynid.logs.RobotLog`` of the arm.
@@ -196,4 +204,22 @@ def replay_payload_log(
     with thread_limit():
         simulator.Initialize()
         advance(simulator, float(h * log.num_samples), progress, "dynid payload")
-    return payload_chain_trace(chain, simulator.get_context(), h)
+        context = simulator.get_mutable_context()
+        trace = payload_chain_trace(chain, context, h)
+        keep, row = final_row(chain, context, log.num_samples, h)
+    p = len(chain.names)
+
+    def ended(values: Any, last: Any) -> np.ndarray:
+        return np.concatenate([np.asarray(values)[:keep], np.asarray(last)[None]])
+
+    return replace(
+        trace,
+        t=ended(trace.t, log.num_samples * h),
+        theta=ended(trace.theta, row["theta"]),
+        std=ended(trace.std, row["theta_std"]),
+        condition_number=ended(trace.condition_number, row["condition_number"][0]),
+        valid=ended(trace.valid, row["valid"][0]),
+        status=ended(trace.status, row["status"][0]),
+        unidentified=ended(trace.unidentified, row["unidentified"]),
+        correlation=ended(trace.correlation, np.reshape(row["correlation"], (p, p))),
+    )

@@ -219,7 +219,13 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         f"mass within 5 % of {MASS:g} kg from {settle:.2f} s after the pick "
         f"(latency {trace.delay:.3f} s)"
     )
-    end = int(np.searchsorted(trace.t, min(place, duration) - 1e-9)) - 1
+    # Before the place: the last row before it; without one, the final row (t_N:
+    # the solve at the log's last sample, core.replay.solve_samples).
+    end = (
+        int(np.searchsorted(trace.t, place - 1e-9)) - 1
+        if place < duration
+        else len(trace.t) - 1
+    )
     summary = payload_summary(
         rows, trace.theta[end], trace.std[end], trace.correlation[end]
     )

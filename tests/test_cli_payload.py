@@ -82,6 +82,10 @@ def test_payload_command_prints_and_writes_the_estimate(log_file, tmp_path, caps
     with csv_path.open() as stream:
         rows = list(csv.reader(stream))
     assert rows[0][:3] == ["t", "valid", "XX"] and len(rows) > 50
+    # The final row (printed, --out's last) is the solve at the log's last sample
+    # (3 s), at t_N = 3.001 s: before, the last row (3 s) held the solve at 2.95 s.
+    assert "final estimate (t = 3.001 s)" in printed
+    assert [row[0] for row in rows[-2:]] == ["3", "3.001"] and len(rows) - 1 == 62
 
 
 def test_arm_parameters_from_a_results_file_and_the_blocks_engine(

@@ -7,7 +7,11 @@ timing is the on-line identifier's (docs/CONVENTIONS.md §2, ``core.replay``): t
 updates at t_j + h/2 with the rows of sample j (filtered or raw rows of
 ``core.payload.PayloadRows``), the solver at t_u + 3h/4 with the bank's window
 up to t_u (:func:`core.payload_step.payload_update`), and the trace records, at
-t_s, the state after the solves before t_s.
+t_s, the state after the solves before t_s. As ``core.replay``, the replay ends
+with a final solve at the log's last sample t_{N-1} when that is not a solve time
+(``core.replay.solve_samples``) and a final row at t_N = N·h
+(``core.replay.logged_samples``): the final estimate's window ends with the log's
+last bank sample, not up to two solve periods before it.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from drake_dynid.core.payload_step import (
     payload_jackknife_groups,
     payload_update,
 )
-from drake_dynid.core.replay import bank_windows
+from drake_dynid.core.replay import bank_windows, logged_samples, solve_samples
 
 __all__ = ["PayloadTrace", "replay_payload_core"]
 
@@ -58,7 +62,10 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     noise = entry.row_noise(m, bank)
     jackknife = payload_jackknife_groups(entry, m, bank)
 
-    log_times = np.arange(0, count + 1, solve_every)
+    # Solves at t_u + 3h/4, u = 0, U, ... <= count - 1 and the final one at the
+    # last sample (solve_samples); logs at t_s, s = 0, U, ... <= count and count.
+    log_times = logged_samples(count, solve_every)
+    solve_times = solve_samples(count, solve_every)
     num_logs = len(log_times)
     size = len(names)
     theta = np.zeros((num_logs, size))
@@ -69,8 +76,25 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     unidentified = np.zeros((num_logs, size))
     correlation = np.zeros((num_logs, size, size))
     state = payload_init(size)
-    windows = bank_windows(log, rows, entry, bank, m, p, log_times)
+    windows = bank_windows(log, rows, entry, bank, m, p, solve_times)
+    solves = iter(solve_times)
+    u = next(solves, None)
     for index, s in enumerate(log_times):
+        while u is not None and u < s:  # the solves at t_u + 3h/4 < t_s
+            ready, a, b, _ = next(windows)
+            state = payload_update(
+                state,
+                ready,
+                a,
+                b,
+                weighting=weighting,
+                max_condition=entry.max_condition,
+                names=names,
+                noise=noise,
+                jackknife=jackknife,
+            )
+            u = next(solves, None)
+        # Record the state after the solves at t < t_s.
         estimate = state.estimate
         theta[index], std[index] = estimate.theta, estimate.std
         condition[index], valid[index] = estimate.condition_number, estimate.valid
@@ -79,20 +103,6 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
             estimate.unidentified,
         )
         correlation[index] = state.correlation
-        if s > count - 1:
-            break
-        ready, a, b, _ = next(windows)
-        state = payload_update(
-            state,
-            ready,
-            a,
-            b,
-            weighting=weighting,
-            max_condition=entry.max_condition,
-            names=names,
-            noise=noise,
-            jackknife=jackknife,
-        )
     return PayloadTrace(
         settings=entry,
         names=names,

@@ -75,6 +75,42 @@ def test_blocks_equal_the_core_replay(case, rows_from):
     assert abs(core.theta[-1, rows.payload_names.index("M")] - 0.5) < 0.01
 
 
+@pytest.mark.parametrize("count", [1751, 1800, 1787])
+def test_the_final_estimate_uses_the_log_up_to_its_last_sample(case, count):
+    """Found by a review (as for dynid identify, commit ca095dc): the trace ended
+    with the solve one to two solve periods before the log's end, whose last
+    samples never entered the estimate. The final row, at t_N = N·h, is now the
+    solve at the last sample t_{N-1}, in both engines: N - 1 a solve time (the
+    row appended), N one (the loggers' row at t_N replaced), neither (a solve
+    added and a row appended)."""
+    rows, log = case
+    settings = payload_settings(window=0.5)
+    short = RobotLog(log.t[:count], log.q[:count], log.tau[:count], log.joint_names, H)
+    core = replay_payload_core(short, rows, settings)
+    blocks = replay_payload_log(short, rows, settings)
+    np.testing.assert_allclose(blocks.t, core.t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(blocks.theta, core.theta, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(blocks.std, core.std, rtol=1e-7)
+    np.testing.assert_allclose(blocks.correlation, core.correlation, atol=1e-9)
+    for name in ("valid", "status", "unidentified"):
+        np.testing.assert_array_equal(getattr(blocks, name), getattr(core, name))
+    every = 50  # the solve period, 50 ms, in samples
+    assert core.t[-1] == pytest.approx(count * H, abs=1e-12)
+    np.testing.assert_allclose(core.t[:-1], H * np.arange(0, count, every), atol=1e-12)
+    assert core.valid[-1] == 1
+    # The whole log (1801 samples) records at t_s the solves before t_s: its row
+    # at 1.8 s holds the solve at 1.75 s.
+    full = replay_payload_core(log, rows, settings)
+    if (count - 1) % every == 0:  # the last sample is a solve time: causal, equal
+        at = np.flatnonzero(np.isclose(full.t, (count - 1 + every) * H))[0]
+        np.testing.assert_allclose(core.theta[-1], full.theta[at], rtol=1e-12)
+        np.testing.assert_allclose(core.std[-1], full.std[at], rtol=1e-12)
+    else:  # the final solve at t_{N-1} saw the samples after the periodic one
+        at = np.flatnonzero(np.isclose(full.t, 1.8))[0]
+        change = np.abs(core.theta[-1] - full.theta[at]) / core.std[-1]
+        assert change.max() > 0.1, change  # 0.26-0.62 σ here
+
+
 def test_two_simulators_on_one_chain_give_identical_logs(case):
     rows, log = case
     builder = DiagramBuilder()
