@@ -701,29 +701,42 @@ def _final_trace(
     """
     trace = chain_trace(chain, context, time_step)
     keep, row = final_row(chain, context, count, time_step)
+    extra = {}
+    if "change" in row:
+        extra = {
+            "change": row["change"][0],
+            "change_time": row["change"][1],
+            "tracking": row["change"][2],
+            "changed": row["changed"],
+        }
+    return with_final_row(trace, keep, row, count * time_step, extra)
+
+
+def with_final_row(
+    trace: Any, keep: int, row: dict[str, np.ndarray], end: float, extra: Any = None
+) -> Any:
+    """``trace``'s first ``keep`` rows and the final ``row`` of :func:`final_row`.
+
+    The row is recorded at ``end`` = t_N [s]; ``extra`` maps more of the trace's
+    fields to their final values (the change detection's, the payload's
+    correlation).
+    """
 
     def ended(values: Any, last: Any) -> np.ndarray:
         return np.concatenate([np.asarray(values)[:keep], np.asarray(last)[None]])
 
-    trace = replace(
-        trace,
-        t=ended(trace.t, count * time_step),
-        theta=ended(trace.theta, row["theta"]),
-        std=ended(trace.std, row["theta_std"]),
-        condition_number=ended(trace.condition_number, row["condition_number"][0]),
-        valid=ended(trace.valid, row["valid"][0]),
-        status=ended(trace.status, row["status"][0]),
-        unidentified=ended(trace.unidentified, row["unidentified"]),
-    )
-    if "change" not in row:
-        return trace
-    return replace(
-        trace,
-        change=ended(trace.change, row["change"][0]),
-        change_time=ended(trace.change_time, row["change"][1]),
-        tracking=ended(trace.tracking, row["change"][2]),
-        changed=ended(trace.changed, row["changed"]),
-    )
+    fields = {
+        "t": ended(trace.t, end),
+        "theta": ended(trace.theta, row["theta"]),
+        "std": ended(trace.std, row["theta_std"]),
+        "condition_number": ended(trace.condition_number, row["condition_number"][0]),
+        "valid": ended(trace.valid, row["valid"][0]),
+        "status": ended(trace.status, row["status"][0]),
+        "unidentified": ended(trace.unidentified, row["unidentified"]),
+    }
+    for name, last in (extra or {}).items():
+        fields[name] = ended(getattr(trace, name), last)
+    return replace(trace, **fields)
 
 
 def final_row(

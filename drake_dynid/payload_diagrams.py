@@ -18,7 +18,6 @@ with the final solve at the log's last sample, recorded at t_N = N·h
 
 from __future__ import annotations
 
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +41,7 @@ from drake_dynid.diagrams import (
     chain_logs,
     final_row,
     log_source,
+    with_final_row,
 )
 
 __all__ = ["add_payload_identifier", "payload_chain_trace", "replay_payload_log"]
@@ -208,18 +208,7 @@ def replay_payload_log(
         trace = payload_chain_trace(chain, context, h)
         keep, row = final_row(chain, context, log.num_samples, h)
     p = len(chain.names)
-
-    def ended(values: Any, last: Any) -> np.ndarray:
-        return np.concatenate([np.asarray(values)[:keep], np.asarray(last)[None]])
-
-    return replace(
-        trace,
-        t=ended(trace.t, log.num_samples * h),
-        theta=ended(trace.theta, row["theta"]),
-        std=ended(trace.std, row["theta_std"]),
-        condition_number=ended(trace.condition_number, row["condition_number"][0]),
-        valid=ended(trace.valid, row["valid"][0]),
-        status=ended(trace.status, row["status"][0]),
-        unidentified=ended(trace.unidentified, row["unidentified"]),
-        correlation=ended(trace.correlation, np.reshape(row["correlation"], (p, p))),
+    correlation = np.reshape(row["correlation"], (p, p))
+    return with_final_row(
+        trace, keep, row, log.num_samples * h, {"correlation": correlation}
     )
