@@ -229,6 +229,37 @@ def test_the_covariance_weighting_says_it_does_not_use_the_bandwidth(
     assert values[1] == values[0] and values[2] == values[0]
 
 
+def test_no_valid_window_with_near_silent_joints_leads_with_the_noise():
+    """Found by a review: --position-noise 1e-12,1e-4 --torque-noise 0 (near 0,
+    not 0: past the up-front check) made every window invalid on a 4-joint arm,
+    and the message began by blaming excitation. It now names the joints."""
+    import types
+
+    from drake_dynid.commands.identify import (
+        near_silent_joints,
+        no_valid_window_message,
+    )
+    from drake_dynid.core.online import OnlineSettings
+
+    robot = RobotModel.from_urdf(URDF)
+    trace = types.SimpleNamespace(
+        condition_number=np.array([np.inf, 4e7]), t=np.zeros(2), names=("a",) * 8
+    )
+    log = types.SimpleNamespace(q=np.zeros((10, 2)), t=np.arange(10) * 1e-3)
+    quiet = OnlineSettings(
+        weighting="covariance", position_noise=(1e-12, 1e-4), torque_noise=0.0
+    )
+    assert near_silent_joints(quiet, 2) == [0]
+    message = no_valid_window_message(trace, quiet, robot, log)
+    assert "with --weighting covariance, joint1 have --position-noise" in message
+    assert "not all excited" not in message and "best condition number 4e+07" in message
+    loud = OnlineSettings(
+        weighting="covariance", position_noise=(1e-5, 1e-4), torque_noise=1e-2
+    )
+    assert near_silent_joints(loud, 2) == []
+    assert near_silent_joints(OnlineSettings(), 2) == []  # frequency weighting
+
+
 def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
     out_json = tmp_path / "offline.json"
     argv = ["offline", log_file, "--urdf", URDF, "--weighted", "--json", str(out_json)]

@@ -807,6 +807,75 @@ def final_covariance(
     return 0.5 * (covariance + covariance.T)
 
 
+#: Under the covariance weighting, a joint whose position and torque noise are
+#: both at most this fraction of their largest is taken as nearly noise-free.
+NEAR_SILENT = 1e-6
+
+
+def near_silent_joints(settings: Any, num_joints: int) -> list[int]:
+    """Joints (0-based) whose stds are both <= :data:`NEAR_SILENT` of the largest.
+
+    Each channel (position, torque) on its own, against its largest std over the
+    joints; a channel that is 0 for every joint counts as quiet.
+
+    With the covariance weighting their rows are taken as nearly noise-free and
+    every window is ill-conditioned (h64's review: 0 for both is refused up
+    front, ``core.online_checks``; 1e-12 against 1e-4 was not).
+    """
+    if settings.weighting != "covariance":
+        return []
+    q = np.broadcast_to(np.asarray(settings.position_noise or 0.0, float), num_joints)
+    tau = np.broadcast_to(np.asarray(settings.torque_noise or 0.0, float), num_joints)
+    quiet = np.ones(num_joints, dtype=bool)
+    for std in (q, tau):
+        top = float(np.max(std)) if std.size else 0.0
+        quiet &= std <= NEAR_SILENT * top if top > 0.0 else np.ones_like(quiet)
+    return [int(j) for j in np.flatnonzero(quiet)]
+
+
+def no_valid_window_message(trace: Any, settings: Any, robot: Any, log: Any) -> str:
+    """Why no window of the replay gave a valid estimate, and what to change."""
+    finite = trace.condition_number[np.isfinite(trace.condition_number)]
+    best = f"{finite.min():.3g}" if finite.size else "inf"
+    head = (
+        f"no window of the log gave a valid estimate (best condition number "
+        f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves)"
+    )
+    quiet = near_silent_joints(settings, robot.num_joints)
+    if quiet:
+        names = ", ".join(robot.joint_names[j] for j in quiet)
+        return (
+            f"{head}: with --weighting covariance, {names} have --position-noise "
+            f"and --torque-noise near 0 (at most {NEAR_SILENT:g} of the other "
+            "joints'), so their rows are taken as nearly noise-free and every "
+            "window is ill-conditioned; give each joint its real noise (auto "
+            "measures it on the log), or use --weighting frequency."
+        )
+    power = (
+        " (the power model has one equation per ℓ: on a multi-joint arm its "
+        "windows are ill-conditioned even on exact data, README Accuracy; "
+        "--model lagrangian uses n)"
+        if settings.model == "power" and len(finite)
+        else ""
+    )
+    noise_hint = (
+        " With --weighting covariance the noise stds weigh the rows: stds near 0 "
+        "on some joints (--position-noise, --torque-noise) leave rows nearly "
+        "noise-free, which makes every window ill-conditioned as well (compare "
+        "--weighting frequency)."
+        if settings.weighting == "covariance"
+        else ""
+    )
+    return (
+        f"{head}{power}: the {len(trace.names)} base parameters are not all excited. "
+        "Use a log "
+        "longer than the window with a more exciting trajectory (every joint "
+        "moving, velocity reversals), a longer --window, a wider --bandwidth or "
+        "--frequencies set, fewer friction columns (--friction), or a larger "
+        "--max-condition." + noise_hint + dead_zone_cover(robot, log)
+    )
+
+
 def _change_lines(changes: list[dict[str, Any]]) -> list[str]:
     """The printed lines of ``--detect-changes``."""
     if not changes:
@@ -950,33 +1019,7 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not valid.any():
-        finite = trace.condition_number[np.isfinite(trace.condition_number)]
-        best = f"{finite.min():.3g}" if finite.size else "inf"
-        power = (
-            " (the power model has one equation per ℓ: on a multi-joint arm its "
-            "windows are ill-conditioned even on exact data, README Accuracy; "
-            "--model lagrangian uses n)"
-            if settings.model == "power" and len(finite)
-            else ""
-        )
-        noise_hint = (
-            " With --weighting covariance the noise stds weigh the rows: stds near 0 "
-            "on some joints (--position-noise, --torque-noise) leave rows nearly "
-            "noise-free, which makes every window ill-conditioned as well (compare "
-            "--weighting frequency)."
-            if settings.weighting == "covariance"
-            else ""
-        )
-        raise ValueError(
-            f"no window of the log gave a valid estimate (best condition number "
-            f"{best}, limit {settings.max_condition:g}; {trace.t.size} solves)"
-            f"{power}: the {len(trace.names)} base parameters are not all excited. "
-            "Use a log "
-            "longer than the window with a more exciting trajectory (every joint "
-            "moving, velocity reversals), a longer --window, a wider --bandwidth or "
-            "--frequencies set, fewer friction columns (--friction), or a larger "
-            "--max-condition." + noise_hint + dead_zone_cover(robot, log)
-        )
+        raise ValueError(no_valid_window_message(trace, settings, robot, log))
     t = log.t[0] + np.asarray(trace.t)
     changes = [
         {
