@@ -219,10 +219,11 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         f"mass within 5 % of {MASS:g} kg from {settle:.2f} s after the pick "
         f"(latency {trace.delay:.3f} s)"
     )
-    # Before the place: the last row before it; without one, the final row (t_N:
-    # the solve at the log's last sample, core.replay.solve_samples).
+    # Before the place: the row at it (a row holds the solve of the period before,
+    # whose window ends before the place: docs/CONVENTIONS.md §2); without one,
+    # the final row (t_N: the solve at the log's last sample).
     end = (
-        int(np.searchsorted(trace.t, place - 1e-9)) - 1
+        int(np.searchsorted(trace.t, place + 1e-9)) - 1
         if place < duration
         else len(trace.t) - 1
     )
@@ -250,8 +251,11 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             + f") m; true ({', '.join(f'{c:g}' for c in COM)})"
         )
     if place < duration:
-        after = mass[trace.t >= place + 1.0]
-        print(f"after the place: mass {after[-1]:+.3f} kg (payload gone)")
+        after = mass[trace.t >= place + 1.0]  # the window has forgotten the payload
+        if after.size:
+            print(f"after the place: mass {after[-1]:+.3f} kg (payload gone)")
+        else:
+            print("after the place: the log ends less than 1 s after it")
 
     import matplotlib
 

@@ -64,3 +64,18 @@ def test_payload_pick_refuses_bad_times_and_noise(argv, message, tmp_path, capsy
     assert raised.value.code == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err, err
+
+
+def test_payload_pick_reports_the_estimate_at_the_place(tmp_path, capsys):
+    """Found by a review: with a place the example reported the row one update
+    period before it (6.95 s for a place at 7 s, the solve at 6.90 s), though the
+    row at the place holds a solve whose window ends before it."""
+    example = load_example("payload_pick")
+    argv = ["--quick", "--place", "2.6", "--out", str(tmp_path)]
+    assert example.main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "estimate at t = 2.60 s" in printed
+    assert "the log ends less than 1 s after it" in printed  # 3.2 s: no crash
+    argv = ["--quick", "--place", "2.6", "--duration", "3.8", "--out", str(tmp_path)]
+    assert example.main(argv) == 0
+    assert "after the place: mass" in capsys.readouterr().out
