@@ -55,6 +55,7 @@ locked, welded and mimic joints).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import xml.etree.ElementTree as ElementTree
@@ -69,7 +70,7 @@ from drake_dynid.core import _validate as check
 from drake_dynid.drive_urdf import DRAKE_NAMESPACE, parse_urdf_xml
 from drake_dynid.files import write_text_whole
 
-__all__ = ["UrdfExport", "write_identified_urdf"]
+__all__ = ["UrdfExport", "doubtful_links", "write_identified_urdf"]
 
 #: Written in the header comment of a file identified with a drive file (the
 #: joint friction and rotor inertia are joint-side totals); ``RobotModel``
@@ -80,6 +81,8 @@ _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 _TOLERANCE = 1e-9  # relative: smallest accepted pseudo-inertia eigenvalue
 _ROUND_OFF = 1e-12  # relative: smaller centre-of-mass or inertia entries are 0
 _ROUND_OFF_FRICTION = 1e-9  # relative to the largest friction (or 1): smaller is 0
+_DOUBTFUL_MASS = 1e-2  # a written mass below this fraction of the URDF's
+_DOUBTFUL_REACH = 10.0  # a centre of mass farther than this many L_j from the origin
 _PROLOG = re.compile(r"\A\s*(?:<\?xml[^>]*\?>\s*)?((?:<!--.*?-->\s*)*)", re.S)
 
 
@@ -442,6 +445,50 @@ def _header(
             f"{totals} {DRIVE_TOTALS}{twice}{inertia}"
         )
     return lines
+
+
+def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
+    """The written links whose mass or centre of mass is implausible, described.
+
+    A consistent estimate can still put a link's mass near 0 and its centre of
+    mass metres away (m·c small, m·|c|² within the inertia): the data see only the
+    base parameters, and a regrouped link's mass and first moment are shared with
+    its neighbours. A link is named when its mass is below 1 % of the URDF's
+    (``robot.standard_values``), or its centre of mass is more than 10 L_j from
+    the link origin, L_j = √(tr Σ_j / m_j) the URDF's radius of gyration about
+    that origin [m] (Σ_j the second moment of the pseudo-inertia).
+
+    Returns:
+        One ``"link: mass m kg (URDF m0), centre of mass d m from its origin
+        (URDF d0)"`` per such link, in joint order.
+    """
+    names = tuple(robot.standard_names)
+    values = dict(zip(names, np.asarray(standard_values, dtype=float), strict=True))
+    prior = dict(
+        zip(names, np.asarray(robot.standard_values, dtype=float), strict=True)
+    )
+    moving = tuple(getattr(robot, "links", ()) or robot.joint_names)
+    out = []
+    for k, joint_name in enumerate(moving):
+        j = k + 1
+        link = robot.plant.GetJointByName(joint_name).child_body().name()
+        mass, mass0 = values[f"M{j}"], prior[f"M{j}"]
+        if not mass0 > 0.0:
+            continue
+        first = np.array([values[f"M{a}{j}"] for a in "XYZ"])
+        first0 = np.array([prior[f"M{a}{j}"] for a in "XYZ"])
+        trace0 = sum(prior[f"{a}{j}"] for a in ("XX", "YY", "ZZ"))  # tr Σ = tr Ī / 2
+        reach = math.sqrt(max(0.5 * trace0, 0.0) / mass0)
+        distance = float(np.linalg.norm(first) / mass) if mass > 0.0 else math.inf
+        if mass < _DOUBTFUL_MASS * mass0 or (
+            reach > 0.0 and distance > _DOUBTFUL_REACH * reach
+        ):
+            out.append(
+                f"{link}: mass {mass:.3g} kg (URDF {mass0:.3g}), centre of mass "
+                f"{distance:.3g} m from its origin (URDF "
+                f"{float(np.linalg.norm(first0)) / mass0:.3g})"
+            )
+    return tuple(out)
 
 
 def write_identified_urdf(

@@ -542,3 +542,60 @@ def test_the_header_says_a_dead_zone_keeps_the_sign_at_reversals_off_line(tmp_pa
     text = " ".join(out.read_text().split())
     assert "0 for |v| <= w (dead zone, w: joint1 0.003, joint2 0.004)" in text
     assert "reversal" in text and "reversal_signs" in text
+
+
+def _emptied_link_7(robot):
+    """The iiwa7's URDF values with link 7 as `dynid offline --physical` wrote it
+    on a noisy Drake log (σ_q 1e-4, τ 1 %, λ = 1e-3): consistent (12.7 mg at
+    (1.54, -1.77, -16.3) m, the URDF's inertia about the origin), base parameters
+    changed only through the regrouped M7, MZ7."""
+    values = np.array(robot.standard_values, dtype=float)
+    index = {name: k for k, name in enumerate(robot.standard_names)}
+    mass, com = 1.27e-5, np.array([1.54, -1.77, -16.3])
+    values[index["M7"]] = mass
+    for axis, value in zip("XYZ", mass * com, strict=True):
+        values[index[f"M{axis}7"]] = value
+    # Ī about the origin: the URDF's plus the point mass's m(|c|²1 − c cᵀ).
+    extra = mass * (com @ com * np.eye(3) - np.outer(com, com))
+    for name, (a, b) in {
+        "XX": (0, 0), "XY": (0, 1), "XZ": (0, 2), "YY": (1, 1), "YZ": (1, 2),
+        "ZZ": (2, 2),
+    }.items():  # fmt: skip
+        values[index[f"{name}7"]] += extra[a, b]
+    return values
+
+
+def test_a_consistent_but_emptied_link_is_named_in_the_header_and_a_warning(
+    tmp_path, capsys
+):
+    """Found in review: on the iiwa7 (noisy Drake log, default λ) `--urdf-out`
+    wrote iiwa_link_7 with mass 1.27e-5 kg (URDF 0.3) and its centre of mass
+    16.5 m from the joint (URDF 0.02), consistent and reproducing W·θ, without a
+    word: the written URDF looked like a measured link. Such links are named."""
+    import argparse
+    from types import SimpleNamespace
+
+    from drake_dynid.commands._model import _write_urdf
+    from drake_dynid.urdf_writer import doubtful_links
+
+    robot = RobotModel.from_urdf(model_path("iiwa7"))
+    values = _emptied_link_7(robot)
+    link7 = [
+        values[robot.standard_names.index(f"{p}7")]
+        for p in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+    ]
+    assert np.linalg.eigvalsh(pseudo_inertia(link7))[0] > 0.0  # consistent
+    assert doubtful_links(robot, robot.standard_values) == ()
+    (named,) = doubtful_links(robot, values)
+    assert named.startswith("iiwa_link_7: mass 1.27e-05 kg (URDF 0.3)")
+    assert "16.5 m from its origin (URDF 0.02)" in named
+    args = argparse.Namespace(urdf_out=str(tmp_path / "out.urdf"), quiet=True)
+    theta = robot.base.values(values)
+    fit = SimpleNamespace(names=robot.base.names, theta=theta, std=0.01 * abs(theta))
+    entry: dict = {}
+    _write_urdf(args, robot, SimpleNamespace(standard_values=values), entry, fit)
+    assert entry["urdf_doubtful_links"] == ["iiwa_link_7"]
+    assert "1 link(s) written with a mass below 1 %" in capsys.readouterr().err
+    text = " ".join((tmp_path / "out.urdf").read_text().split())
+    assert "Consistent but implausible, check before use" in text
+    assert "iiwa_link_7: mass 1.27e-05 kg" in text

@@ -314,7 +314,7 @@ def _write_urdf(
     once the other outputs are written.
     """
     from drake_dynid.commands._report import not_identified
-    from drake_dynid.urdf_writer import write_identified_urdf
+    from drake_dynid.urdf_writer import doubtful_links, write_identified_urdf
 
     flagged = not_identified(fit.names, fit.theta, fit.std)
     notes = list(notes)
@@ -334,6 +334,26 @@ def _write_urdf(
             file=sys.stderr,
         )
     entry["urdf_not_identified"] = flagged
+    doubtful = doubtful_links(robot, physical.standard_values)
+    if doubtful:
+        notes.append(
+            "Consistent but implausible, check before use (the base parameters "
+            "share a link's mass and first moment with its neighbours, or the data "
+            "contradict the URDF; a larger regularization λ pulls towards the URDF's): "
+            + "; ".join(doubtful)
+            + "."
+        )
+        print(
+            f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
+            f"--urdf-out: {len(doubtful)} link(s) written with a mass below 1 % of "
+            "the URDF's or a centre of mass beyond 10 of its radii of gyration "
+            "(consistent, but the base parameters share a link's mass and first "
+            "moment with its neighbours, or the data contradict the URDF; "
+            "--regularization pulls towards the URDF's; the file's header lists "
+            "them): " + "; ".join(doubtful),
+            file=sys.stderr,
+        )
+    entry["urdf_doubtful_links"] = [text.split(":")[0] for text in doubtful]
     try:
         export = write_identified_urdf(
             robot, physical.standard_values, args.urdf_out, notes=notes
