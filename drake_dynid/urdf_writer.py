@@ -81,7 +81,7 @@ _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 _TOLERANCE = 1e-9  # relative: smallest accepted pseudo-inertia eigenvalue
 _ROUND_OFF = 1e-12  # relative: smaller centre-of-mass or inertia entries are 0
 _ROUND_OFF_FRICTION = 1e-9  # relative to the largest friction (or 1): smaller is 0
-_DOUBTFUL_MASS = 1e-2  # a written mass below this fraction of the URDF's
+_DOUBTFUL_MASS = (1e-2, 10.0)  # a written mass outside these multiples of the URDF's
 _DOUBTFUL_REACH = 10.0  # a centre of mass farther than this many L_j from the origin
 _PROLOG = re.compile(r"\A\s*(?:<\?xml[^>]*\?>\s*)?((?:<!--.*?-->\s*)*)", re.S)
 
@@ -453,10 +453,12 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
     A consistent estimate can still put a link's mass near 0 and its centre of
     mass metres away (m·c small, m·|c|² within the inertia): the data see only the
     base parameters, and a regrouped link's mass and first moment are shared with
-    its neighbours. A link is named when its mass is below 1 % of the URDF's
-    (``robot.standard_values``), or its centre of mass is more than 10 L_j from
-    the link origin, L_j = √(tr Σ_j / m_j) the URDF's radius of gyration about
-    that origin [m] (Σ_j the second moment of the pseudo-inertia).
+    its neighbours, and with λ = 0 nothing holds what the data do not see (a
+    UR5's shoulder_link at 86 kg). A link is named when its mass is below 1 % or
+    above 10 times the URDF's (``robot.standard_values``), or its centre of mass
+    is more than 10 L_j from the link origin, L_j = √(tr Σ_j / m_j) the URDF's
+    radius of gyration about that origin [m] (Σ_j the second moment of the
+    pseudo-inertia).
 
     Returns:
         One ``"link: mass m kg (URDF m0), centre of mass d m from its origin
@@ -480,7 +482,8 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
         trace0 = sum(prior[f"{a}{j}"] for a in ("XX", "YY", "ZZ"))  # tr Σ = tr Ī / 2
         reach = math.sqrt(max(0.5 * trace0, 0.0) / mass0)
         distance = float(np.linalg.norm(first) / mass) if mass > 0.0 else math.inf
-        if mass < _DOUBTFUL_MASS * mass0 or (
+        low, high = _DOUBTFUL_MASS
+        if not low * mass0 <= mass <= high * mass0 or (
             reach > 0.0 and distance > _DOUBTFUL_REACH * reach
         ):
             out.append(

@@ -595,7 +595,26 @@ def test_a_consistent_but_emptied_link_is_named_in_the_header_and_a_warning(
     entry: dict = {}
     _write_urdf(args, robot, SimpleNamespace(standard_values=values), entry, fit)
     assert entry["urdf_doubtful_links"] == ["iiwa_link_7"]
-    assert "1 link(s) written with a mass below 1 %" in capsys.readouterr().err
+    assert "1 link(s) written with a mass outside 1 % - 10" in capsys.readouterr().err
     text = " ".join((tmp_path / "out.urdf").read_text().split())
     assert "Consistent but implausible, check before use" in text
     assert "iiwa_link_7: mass 1.27e-05 kg" in text
+
+
+def test_a_link_ten_times_heavier_than_the_urdfs_is_named():
+    """Found in review: with --regularization 0 nothing holds the directions
+    the data do not see; on a noisy Drake log of the UR5 `--urdf-out` wrote
+    shoulder_link (its mass regrouped away) at 85.7 kg for the URDF's 3.7."""
+    from drake_dynid.urdf_writer import doubtful_links
+
+    robot = RobotModel.from_urdf(model_path("ur5"))
+    values = np.array(robot.standard_values, dtype=float)
+    scaled = values.copy()
+    for p in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M"):
+        k = robot.standard_names.index(f"{p}1")
+        scaled[k] = 23.0 * values[k]  # the same body, 23 times as dense
+    (named,) = doubtful_links(robot, scaled)
+    assert named.startswith("shoulder_link: mass 85.1 kg (URDF 3.7)")
+    for k in range(len(values)):
+        scaled[k] = values[k] * (9.0 if robot.standard_names[k].endswith("1") else 1)
+    assert doubtful_links(robot, scaled) == ()  # 9 times: within the bounds

@@ -345,8 +345,9 @@ def _write_urdf(
         )
         print(
             f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
-            f"--urdf-out: {len(doubtful)} link(s) written with a mass below 1 % of "
-            "the URDF's or a centre of mass beyond 10 of its radii of gyration "
+            f"--urdf-out: {len(doubtful)} link(s) written with a mass outside 1 % - "
+            "10 times the URDF's or a centre of mass beyond 10 of its radii of "
+            "gyration "
             "(consistent, but the base parameters share a link's mass and first "
             "moment with its neighbours, or the data contradict the URDF; "
             "--regularization pulls towards the URDF's; the file's header lists "
