@@ -3,6 +3,8 @@
 import json
 import pathlib
 
+import pytest
+
 from drake_dynid import cli
 from drake_dynid.urdf import model_path
 
@@ -69,6 +71,8 @@ def test_bad_joint_input_exits_2_with_one_line(capsys):
         # Found by a review: --joints "$J" with J unset meant every joint, silently.
         (["--joints", ""], "--joints is empty (an unset shell variable?)"),
         (["--joints", "  "], "--joints is empty"),
+        # Found by a review: --lock "$L" with L unset locked every joint at 0.
+        (["--lock", ""], "--lock is empty (an unset shell variable?)"),
         (["--lock", "head_1_joint"], "--lock must be NAME=VALUE pairs"),
         (["--lock", "head_1_joint=inf"], "--lock must be NAME=VALUE pairs"),
         (
@@ -88,6 +92,14 @@ def test_bad_joint_input_exits_2_with_one_line(capsys):
     assert cli.main(["params", model_path("tiago_no_hand"), "--joints", "x"]) == 2
     err = capsys.readouterr().err
     assert "available: wheel_right_joint, wheel_left_joint, torso_lift_joint" in err
+    # Found by a review: --drive "$D" with D unset meant no drive file (with
+    # validate --params, the results file's), silently.
+    for command in ("params", "simulate", "replay"):
+        with pytest.raises(SystemExit) as exit_:
+            cli.main([command, model_path("tiago_no_hand"), "--drive", ""])
+        assert exit_.value.code == 2
+        err = capsys.readouterr().err
+        assert "argument --drive: empty (an unset shell variable?)" in err, err
 
 
 def test_a_results_file_with_a_locked_mimic_leader_validates(tmp_path, capsys):

@@ -223,12 +223,18 @@ def parse_locked(text: str | None) -> dict[str, float]:
     """``"a=0.2,b=-1"`` -> ``{"a": 0.2, "b": -1.0}`` [rad or m]; None -> ``{}``.
 
     Raises:
-        ValueError: an item without ``=``, an empty name, a value that is not a
-            finite number, or a joint given twice.
+        ValueError: a blank ``--lock`` (``--lock "$L"`` with L unset locked every
+            joint at 0, silently), an item without ``=``, an empty name, a value
+            that is not a finite number, or a joint given twice.
     """
     out: dict[str, float] = {}
-    if text is None or not text.strip():
+    if text is None:
         return out
+    if not text.strip():
+        raise ValueError(
+            "--lock is empty (an unset shell variable?): give NAME=VALUE pairs, or "
+            "leave --lock out to lock the joints not chosen at 0."
+        )
     for item in text.split(","):
         name, sep, value = item.partition("=")
         name = name.strip()
@@ -379,11 +385,20 @@ def drive_argument(text: str) -> str:
     ``tiago`` is ``drake_dynid/models/tiago.toml`` when no file of that name
     exists (as :func:`urdf_argument` for the URDFs), so the shipped TIAGo's drive
     file needs no path from another folder.
+
+    Raises:
+        argparse.ArgumentTypeError: a blank text (``--drive "$D"`` with D unset
+            meant no drive file, silently; with ``--params`` the results file's).
     """
     import os
 
     from drake_dynid.urdf import MODELS_DIR
 
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            "empty (an unset shell variable?): give the drive file or a packaged "
+            "one's name, or leave --drive out."
+        )
     if os.sep in text or text.lower().endswith(".toml") or os.path.isfile(text):
         return text
     packaged = MODELS_DIR / f"{text}.toml"
