@@ -573,13 +573,13 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--power-seeds",
         type=int,
-        default=200,
-        help="noise seeds of the power model's bias/spread section",
+        default=None,
+        help="noise seeds of the power model's bias/spread section (default 200; "
+        "--quick 20)",
     )
     parser.add_argument("--json", type=str, default=None)
     args = parser.parse_args(argv)
-    if args.quick:
-        args.power_seeds = min(args.power_seeds, 20)
+    args.power_seeds = quick_or(args.power_seeds, args.quick, 20, 200)
     seeds = range(quick_or(args.seeds, args.quick, 3, 40))
     start = time.perf_counter()
     report: dict = {"seeds": list(seeds), "snr_db": 30.0, "window": T}

@@ -70,6 +70,23 @@ def test_quick_changes_the_defaults_not_the_options_given(monkeypatch, capsys):
     assert seen["seeds"] == [0, 1]
 
 
+def test_quick_keeps_a_typed_power_seeds(monkeypatch, capsys):
+    """Found by a review of the above: bench_accuracy's --quick still capped a typed
+    --power-seeds at 20 (``--quick --power-seeds 50`` ran 20)."""
+    bench = load_benchmark("bench_accuracy", monkeypatch)
+    seen = []
+
+    def run_2r(args, seeds, report):
+        seen.append(args.power_seeds)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(bench, "run_2r", run_2r)
+    for argv in (["--quick", "--power-seeds", "50"], ["--quick"], []):
+        with pytest.raises(SystemExit):
+            bench.main([*argv, "--robot", "2r"])
+    assert seen == [50, 20, 200]
+
+
 @pytest.mark.slow
 def test_bench_accuracy_quick_run(tmp_path, capsys, monkeypatch):
     out = tmp_path / "accuracy.json"
