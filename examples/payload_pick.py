@@ -103,6 +103,9 @@ def settling_time(t, estimate, target, after, tolerance=0.05) -> float:
     return float(t[outside[-1] + 1] - after) if outside.size else float(t[0] - after)
 
 
+#: Seconds after the pick before the estimate is reported: the payload window
+#: (0.75 s) fills, and the noise model pools its windows (docs/PAYLOAD.md §3).
+FILL = 1.0
 #: --quick's presets: defaults that an explicit option overrides (no place).
 QUICK = {"pick": 1.5, "place": np.inf, "duration": 3.2}
 
@@ -161,6 +164,12 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             parser.error(f"--{name.replace('_', '-')} must be a finite σ >= 0")
     if not args.pick < min(args.place, args.duration):
         parser.error("--pick must come before --place and --duration")
+    if min(args.place, args.duration) - args.pick < FILL:
+        parser.error(
+            f"--place and --duration must come at least {FILL:g} s after --pick: "
+            "the identifier's 0.75 s window must fill with the payload before its "
+            "estimate is reported"
+        )
     pick, place, duration = args.pick, args.place, args.duration
     try:  # a file of that name (or under one) was a FileExistsError traceback
         os.makedirs(args.out, exist_ok=True)

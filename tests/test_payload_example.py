@@ -52,6 +52,10 @@ def test_bench_accuracy_payload_quick_run(tmp_path, capsys, monkeypatch):
         (["--duration", "nan"], "--duration"),
         (["--tau-noise", "-1"], "--tau-noise"),
         (["--q-noise", "nan"], "--q-noise"),
+        # Found by a review: a place 0.2 s after the pick printed an estimate of
+        # 0 with σ inf, "mass error: -100.00 %" and "from inf s", exit 0.
+        (["--quick", "--pick", "0.1", "--place", "0.3"], "at least 1 s after --pick"),
+        (["--quick", "--pick", "2.5"], "at least 1 s after --pick"),  # 3.2 s log
     ],
 )
 def test_payload_pick_refuses_bad_times_and_noise(argv, message, tmp_path, capsys):

@@ -204,8 +204,8 @@ def parse_joints(text: str | None) -> tuple[str, ...] | None:
         return None
     if not text.strip():
         raise ValueError(
-            "--joints is empty (an unset shell variable?): give the joints to "
-            "identify, or leave --joints out for every movable joint."
+            "--joints is empty (an unset shell variable?): give the joints, "
+            "comma-separated, or leave --joints out for every movable joint."
         )
     names = tuple(item.strip() for item in text.split(","))
     if any(not name for name in names):
