@@ -22,6 +22,7 @@ import sys
 import time
 
 import numpy as np
+from _example import run_example
 
 TIME_STEP = 1e-3  # [s]
 SNR_DB = 30.0
@@ -196,11 +197,7 @@ def main(argv=None) -> int:
     parser.add_argument("--kappa", type=float, default=0.0, help="κ (0)")
     parser.add_argument("--mu", type=float, default=0.0, help="μ (0)")
     parser.add_argument("--q", type=int, default=1, help="q (1)")
-    args = parser.parse_args(argv)
-    try:
-        return _run(args, parser)
-    except ValueError as error:  # a library check: its message names the value
-        parser.error(str(error))
+    return run_example(parser, argv, _run)
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

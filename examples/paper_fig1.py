@@ -26,6 +26,7 @@ import os
 import sys
 
 import numpy as np
+from _example import run_example
 
 from drake_dynid.core import lsq, modulating
 from drake_dynid.core.friction import friction_column
@@ -111,14 +112,7 @@ def main(argv=None) -> int:
     parser.add_argument(
         "--quick", action="store_true", help="tiny run for tests (--duration 6)"
     )
-    args = parser.parse_args(argv)
-    if args.quick:  # its presets replace the defaults; explicit options win
-        parser.set_defaults(**QUICK)
-        args = parser.parse_args(argv)
-    try:
-        return _run(args, parser)
-    except ValueError as error:  # a library check: its message names the value
-        parser.error(str(error))
+    return run_example(parser, argv, _run, QUICK)
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -18,6 +18,7 @@ import os
 import sys
 
 import numpy as np
+from _example import run_example
 
 from drake_dynid.diagrams import (
     OnlineSettings,
@@ -59,14 +60,7 @@ def main(argv=None) -> int:
         action="store_true",
         help="tiny run for tests (--window 3 --jump-time 4 --duration 8)",
     )
-    args = parser.parse_args(argv)
-    if args.quick:  # its presets replace the defaults; explicit options win
-        parser.set_defaults(**QUICK)
-        args = parser.parse_args(argv)
-    try:
-        return _run(args, parser)
-    except ValueError as error:  # a library check: its message names the value
-        parser.error(str(error))
+    return run_example(parser, argv, _run, QUICK)
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

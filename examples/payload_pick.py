@@ -23,6 +23,7 @@ import os
 import sys
 
 import numpy as np
+from _example import run_example
 
 from drake_dynid.core.payload import payload_parameters
 from drake_dynid.core.payload_report import payload_summary
@@ -135,14 +136,7 @@ def main(argv=None) -> int:
         metavar="FILE.csv",
         help="also write the noisy log (for dynid payload, README)",
     )
-    args = parser.parse_args(argv)
-    if args.quick:  # its presets replace the defaults; explicit options win
-        parser.set_defaults(**QUICK)
-        args = parser.parse_args(argv)
-    try:
-        return _run(args, parser)
-    except ValueError as error:  # a library check: its message names the value
-        parser.error(str(error))
+    return run_example(parser, argv, _run, QUICK)
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:

@@ -7,6 +7,7 @@ with ``--quick`` and a temporary ``--out`` directory.
 import importlib.util
 import pathlib
 import re
+import sys
 
 import pytest
 
@@ -14,6 +15,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 def load_example(name):
+    # The scripts import their shared frame (examples/_example.py) by name, as
+    # when run from the command line.
+    folder = str(ROOT / "examples")
+    if folder not in sys.path:
+        sys.path.insert(0, folder)
     path = ROOT / "examples" / f"{name}.py"
     spec = importlib.util.spec_from_file_location(f"example_{name}", path)
     module = importlib.util.module_from_spec(spec)
