@@ -365,14 +365,23 @@ def urdf_argument(text: str) -> str:
     ``iiwa7``, ``ur5``, ``planar_2r``, ... (``drake_dynid/models``) when no file of
     that name exists, so an installed package's robots need no path.
     """
+    return _packaged(text, ".urdf")
+
+
+def _packaged(text: str, suffix: str) -> str:
+    """``text``, or ``drake_dynid/models/<text><suffix>`` when that is meant.
+
+    The packaged file when ``text`` is a bare name (no folder, not ending in
+    ``suffix``) that names no file here and a packaged file of that name exists.
+    A folder of that name is no such file: the packaged one is meant.
+    """
     import os
 
     from drake_dynid.urdf import MODELS_DIR
 
-    if os.sep in text or text.lower().endswith(".urdf") or os.path.isfile(text):
+    if os.sep in text or text.lower().endswith(suffix) or os.path.isfile(text):
         return text
-    packaged = MODELS_DIR / f"{text}.urdf"
-    # A folder of that name is no URDF: the packaged robot is meant.
+    packaged = MODELS_DIR / f"{text}{suffix}"
     return str(packaged) if packaged.is_file() else text
 
 
@@ -390,19 +399,12 @@ def drive_argument(text: str) -> str:
         argparse.ArgumentTypeError: a blank text (``--drive "$D"`` with D unset
             meant no drive file, silently; with ``--params`` the results file's).
     """
-    import os
-
-    from drake_dynid.urdf import MODELS_DIR
-
     if not text.strip():
         raise argparse.ArgumentTypeError(
             "empty (an unset shell variable?): give the drive file or a packaged "
             "one's name, or leave --drive out."
         )
-    if os.sep in text or text.lower().endswith(".toml") or os.path.isfile(text):
-        return text
-    packaged = MODELS_DIR / f"{text}.toml"
-    return str(packaged) if packaged.is_file() else text
+    return _packaged(text, ".toml")
 
 
 DRIVE_METAVAR = "FILE.toml"
