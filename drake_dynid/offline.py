@@ -330,9 +330,7 @@ def offline_rows(
         decimation_cutoff_hz=decimation_cutoff_hz,
         factor=regressor_decimation,
     )
-    friction = [(kind, joint) for _, kind, joint in layout]
-    friction_columns = {column for column, _, _ in layout}
-    rigid_index = [c for c in range(len(names)) if c not in friction_columns]
+    friction, rigid_index = idim_stream.split_layout(layout, len(names))
 
     def rigid(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
         return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)[..., rigid_index]

@@ -63,7 +63,7 @@ from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign
 from drake_dynid.core.idim import default_padding, default_trim
 from drake_dynid.core.idim_auto import auto_cutoff
 from drake_dynid.core.idim_checks import check_filter_frequency
-from drake_dynid.core.idim_friction import friction_layout
+from drake_dynid.core.idim_friction import friction_layout, split_layout
 from drake_dynid.log_store import RowSink
 from drake_dynid.offline import log_decimation_cutoff
 
@@ -429,9 +429,7 @@ def _validate(
         if isinstance(sign, DeadZoneSign)
         else None
     ) or ()
-    friction = [(kind, joint) for _, kind, joint in layout]
-    split = {column for column, _, _ in layout}
-    rigid_index = [c for c in range(p) if c not in split]
+    friction, rigid_index = split_layout(layout, p)
     theta_rigid = theta[rigid_index]
     theta_friction = theta[[column for column, _, _ in layout]]  # (F, k)
 

@@ -17,7 +17,13 @@ import numpy as np
 from drake_dynid.core.friction import EXACT_SIGN, SignLaw
 from drake_dynid.core.planar2r import FRICTION_PREFIX
 
-__all__ = ["FRICTION_KINDS", "friction_layout", "friction_series", "signs_of"]
+__all__ = [
+    "FRICTION_KINDS",
+    "friction_layout",
+    "friction_series",
+    "signs_of",
+    "split_layout",
+]
 
 FRICTION_KINDS = ("viscous", "coulomb", "offset")
 """Friction column kinds: v_j [rad/s or m/s], s(v_j), 1 (joint j's row)."""
@@ -106,3 +112,19 @@ def friction_layout(
         if not np.allclose(rows[:, :, column], expected, rtol=1e-12, atol=1e-12):
             return None
     return tuple(layout)
+
+
+def split_layout(
+    layout: Sequence[tuple[int, str, int]], num_columns: int
+) -> tuple[list[tuple[str, int]], list[int]]:
+    """``(friction, rigid)`` of a :func:`friction_layout`: the stream's columns.
+
+    ``friction``: (kind, joint) of each friction column, in the layout's order
+    (``core.idim_stream.decimated_chunks``); ``rigid``: the other columns of the
+    ``num_columns``, in order (the rigid-body rows the stream evaluates).
+    """
+    split = {column for column, _, _ in layout}
+    return (
+        [(kind, joint) for _, kind, joint in layout],
+        [c for c in range(num_columns) if c not in split],
+    )

@@ -80,6 +80,7 @@ from drake_dynid.core.idim_friction import (
     friction_layout,
     friction_series,
     signs_of,
+    split_layout,
 )
 from drake_dynid.core.standstill import reversal_run, reversal_signs
 from drake_dynid.core.zero_phase import (
@@ -101,6 +102,7 @@ __all__ = [
     "friction_layout",
     "regressor_decimation",
     "settle_samples",
+    "split_layout",
     "stream_plan",
     "zero_phase_span",
 ]
@@ -349,10 +351,13 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     # A dead zone's reversals need 2L + 1 velocities of context on either side
     # (core.standstill.reversal_signs): the block's signs are then the whole
     # segment's.
-    reversals = isinstance(sign, DeadZoneSign) and any(
-        kind == "coulomb" for kind, _ in friction
+    zone = (
+        sign
+        if isinstance(sign, DeadZoneSign)
+        and any(kind == "coulomb" for kind, _ in friction)
+        else None
     )
-    context = 2 * plan.reversal + 1 if reversals else 0
+    context = 2 * plan.reversal + 1 if zone is not None else 0
     lo_c, hi_c = max(1, lo - context), min(N - 1, hi + context)
     a, b = max(0, lo_c - 1 - margin), min(N, hi_c + 1 + margin)
     q_c = zero_phase_span(
@@ -374,8 +379,8 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     n = tau.shape[1]
     series = np.asarray(tau[lo:hi], dtype=float)
     signs = (
-        reversal_signs(v_c, sign.width, plan.reversal)[lo - lo_c : hi - lo_c]
-        if isinstance(sign, DeadZoneSign) and reversals
+        reversal_signs(v_c, zone.width, plan.reversal)[lo - lo_c : hi - lo_c]
+        if zone is not None
         else signs_of(v, friction, sign)
     )
     out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
