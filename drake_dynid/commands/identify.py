@@ -829,7 +829,8 @@ def near_silent_joints(settings: Any, num_joints: int) -> list[int]:
     quiet = np.ones(num_joints, dtype=bool)
     for std in (q, tau):
         top = float(np.max(std)) if std.size else 0.0
-        quiet &= std <= NEAR_SILENT * top if top > 0.0 else np.ones_like(quiet)
+        if top > 0.0:  # a channel that is 0 everywhere counts as quiet
+            quiet &= std <= NEAR_SILENT * top
     return [int(j) for j in np.flatnonzero(quiet)]
 
 
