@@ -42,7 +42,8 @@ non-numeric cell, unsorted time stamps of a joined file, files that do not overl
 in time. The first file's stamps (the time base) go to the plain reader's checks
 (``repair``): an isolated corrupted stamp (``1e6``, going back, NaN) is dropped
 with its warning, the join bridging it (:func:`_join_stamps`); swapped rows are
-refused.
+refused. A joined file's empty or NaN stamp is dropped too, with a note
+(:func:`_drop_empty_stamps`).
 """
 
 from __future__ import annotations
@@ -59,7 +60,7 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.files import repeated_file, write_whole
-from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options
+from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options, rows_text
 from drake_dynid.log_table import (
     listed_columns,
     parse_cell,
@@ -564,8 +565,13 @@ def _read_streamed(
         )
         for path, (_, other, _, _) in tables.items()
     }
-    for path, (_, other, _, rows) in tables.items():
+    for path, (names, other, values, rows) in list(tables.items()):
         if not same[path]:  # interpolated over: finite and increasing
+            other, values, rows, dropped = _drop_empty_stamps(
+                path, other, values, rows, time
+            )
+            tables[path] = (names, other, values, rows)
+            notes += dropped
             _check_file_stamps(path, other, rows, time)
     # The time base's stamps (and a file's equal to them) go to repair's checks.
     t = _join_stamps(f"log {label}", stamps, tables[base][3], fill_gaps)
@@ -690,6 +696,55 @@ def _join_stamps(owner: str, t: np.ndarray, rows: Any, fill_gaps: int) -> np.nda
     dropped = np.flatnonzero(~keep)
     out[dropped] = np.interp(dropped, kept, t[kept])
     return out
+
+
+def _drop_empty_stamps(
+    path: str, stamps: np.ndarray, values: Any, rows: Any, time: str
+) -> tuple[np.ndarray, Any, Any, list[str]]:
+    """A joined file's rows whose stamp is empty or not finite, dropped.
+
+    As the plain reader drops a corrupted stamp (``log_repair.repair``): at most
+    3 + 1 in 1000 of the file's rows (more, or fewer than 10 left: the error
+    naming the first), each named in a note; the file then misses those samples
+    (a gap of its own, bridged as any other, :func:`_missing`). ``values`` is
+    read through the kept rows (:class:`_KeptRows`). Returns ``(stamps, values,
+    rows, notes)``.
+    """
+    keep = np.isfinite(stamps)
+    bad = np.flatnonzero(~keep)
+    if not bad.size:
+        return stamps, values, rows, []
+    if bad.size > 3 + stamps.size // 1000 or stamps.size - bad.size < 10:
+        raise ValueError(
+            f"log {path}: time stamp ('{time}') of row {rows[int(bad[0])]} is "
+            f"empty or not finite ({bad.size} such rows of {stamps.size}; up to "
+            "3 + 1 in 1000 are dropped)."
+        )
+    note = (
+        f"file {path}: dropped {rows_text('row', rows[bad])}: time stamp "
+        f"('{time}') empty or not finite."
+    )
+    index = np.flatnonzero(keep)
+    kept_values = None if values is None else _KeptRows(values, index)
+    return stamps[keep], kept_values, np.asarray(rows[keep]), [note]
+
+
+class _KeptRows:
+    """Rows ``index`` of a file's values (an array or a stored array), by slices.
+
+    The join reads a joined file's values as ``values[a:b]``; with rows dropped
+    (:func:`_drop_empty_stamps`) slice ``a:b`` of the kept rows is
+    ``values[index[a:b]]``, read from the store a slice at a time.
+    """
+
+    def __init__(self, values: Any, index: np.ndarray):
+        self.values, self.index = values, index
+
+    def __len__(self) -> int:
+        return int(self.index.size)
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        return np.asarray(self.values[self.index[rows]], dtype=float)
 
 
 def _check_file_stamps(path: str, stamps: np.ndarray, rows: Any, time: str) -> None:
