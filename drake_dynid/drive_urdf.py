@@ -296,6 +296,14 @@ def load_drive(
             source=f"URDF {os.fspath(urdf_path)}",
         )
     else:
+        if not os.path.exists(drive_path):  # the hint the URDF's message gives
+            from drake_dynid.urdf import MODELS_DIR
+
+            names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.toml")))
+            raise FileNotFoundError(
+                f"drive file {os.fspath(drive_path)}: no such file (the dynid "
+                f"command also takes the name of a packaged drive file: {names})."
+            )
         chain = read_drive(
             drive_path, joint_names, prismatic_joints=prismatic, urdf=urdf.as_dict()
         )

@@ -226,6 +226,12 @@ def test_bad_options_exit_2(files, tmp_path, capsys):
     missing = tmp_path / "none.toml"
     assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", str(missing)]) == 2
     assert "none.toml: no such file" in error_line(capsys)
+    # A mistyped packaged name is told the packaged drive files (as a URDF's).
+    assert cli.main(["offline", *raw, "--urdf", URDF, "--drive", "TIAGO"]) == 2
+    assert (
+        "TIAGO: no such file (the dynid command also takes the name of a "
+        "packaged drive file: tiago)" in error_line(capsys)
+    )
 
 
 def test_power_model_noise_options_with_a_drive_name_the_options(files, capsys):
