@@ -167,6 +167,18 @@ def _check_out_dir(args: argparse.Namespace) -> None:
     check_outputs(outputs, inputs)
 
 
+def _check_joint_options(args: argparse.Namespace) -> None:
+    """``--joints`` and ``--lock`` as every log's command will read them.
+
+    Found by a review: ``--joints ""`` (an unset shell variable) failed each log
+    on its own, with the same message in every row of the table.
+    """
+    from drake_dynid.commands._arguments import parse_joints, parse_locked
+
+    parse_joints(getattr(args, "joints", None))
+    parse_locked(getattr(args, "lock", None))
+
+
 def _check_shared_inputs(args: argparse.Namespace) -> None:
     """The URDF, drive file and --validate logs every log uses exist (local runs).
 
@@ -182,10 +194,11 @@ def _check_shared_inputs(args: argparse.Namespace) -> None:
     for attribute, option in (("urdf", "--urdf"), ("drive", "--drive")):
         value = getattr(args, attribute, None)
         if value is not None and not Path(value).is_file():
-            hint = ""
-            if attribute == "urdf":
-                names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.urdf")))
-                hint = f" (or the name of a packaged model: {names})"
+            suffix, kind = {"urdf": ("urdf", "model"), "drive": ("toml", "drive file")}[
+                attribute
+            ]
+            names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob(f"*.{suffix}")))
+            hint = f" (or the name of a packaged {kind}: {names})"
             raise ValueError(
                 f"{option} {value}: no such file{hint}; every log would fail on it."
             )
@@ -220,6 +233,7 @@ def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:  # in its option's name
         raise ValueError(f"--jobs must be >= 1; got {args.jobs}.")
     _check_out_dir(args)
+    _check_joint_options(args)
     if args.scheduler is None:
         _check_shared_inputs(args)
     quiet = bool(args.quiet)
