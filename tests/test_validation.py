@@ -214,7 +214,9 @@ def test_offline_fits_validates_and_writes(logs, tmp_path, capsys):
     assert re.search(r"^estimate: idim-ls$", out, re.M)
     assert re.search(r"^estimate: physical$", out, re.M)
     assert re.search(
-        r"^joint\s+RMS τ\s+residual σ\s+error %\s+R²\s+raw error %$", out, re.M
+        r"^joint\s+RMS τ\s+residual σ\s+error %\s+moving error %\s+R²\s+raw error %$",
+        out,
+        re.M,
     )
     document = json.loads(out_json.read_text())
     validation = document["validation"]
@@ -497,14 +499,32 @@ def test_the_metrics_summed_by_blocks_equal_the_whole_arrays():
     measured[:, 2] = 0.3  # a constant torque: R² undefined (NaN)
     predicted = measured + 0.01 * rng.standard_normal((1000, 3))
     raw_m, raw_p = measured + 0.1, predicted - 0.1
+    moving = rng.random((1000, 3)) < 0.6
+    moving[:, 1] = False  # a joint that never moves: no moving error (NaN)
     whole, blocks = _Moments(3, 1), _Moments(3, 1)  # one estimate
-    whole.add(measured, predicted[..., None], raw_m, raw_p[..., None])
+    whole.add(measured, predicted[..., None], raw_m, raw_p[..., None], moving)
     for a, b in ((0, 1), (1, 1), (1, 250), (250, 999), (999, 1000)):
         blocks.add(
-            measured[a:b], predicted[a:b, :, None], raw_m[a:b], raw_p[a:b, :, None]
+            measured[a:b],
+            predicted[a:b, :, None],
+            raw_m[a:b],
+            raw_p[a:b, :, None],
+            moving[a:b],
         )
     residual = measured - predicted
     got = blocks.metrics(0)
+    for j in (0, 2):  # over the moving samples only
+        at = moving[:, j]
+        expected = 100 * np.sqrt(
+            np.sum(residual[at, j] ** 2) / np.sum(measured[at, j] ** 2)
+        )
+        np.testing.assert_allclose(got["moving_relative_rms_percent"][j], expected)
+    assert np.isnan(got["moving_relative_rms_percent"][1])
+    np.testing.assert_allclose(got["moving_fraction"], moving.mean(axis=0))
+    expected = 100 * np.sqrt(
+        np.sum(residual**2 * moving) / np.sum(measured**2 * moving)
+    )
+    np.testing.assert_allclose(got["total_moving_relative_rms_percent"], expected)
     np.testing.assert_allclose(got["residual_std"], residual.std(axis=0), rtol=1e-12)
     centred = np.sum((measured - measured.mean(axis=0)) ** 2, axis=0)[:2]
     np.testing.assert_allclose(
@@ -823,3 +843,68 @@ def test_a_physical_estimate_worse_than_the_fit_is_named():
         physical_worse({"idim-ls": clean, "physical": result([0.09, 0.05], 0.07)})
         is None
     )
+
+
+def test_the_moving_error_leaves_out_the_torque_static_friction_holds(robot):
+    """A joint at rest is held by static friction at a torque no model here
+    predicts (the real TIAGo's efforts drift at rest). The 2R (Pinocchio's inverse
+    dynamics + viscous and sign(v) friction, the true parameters) moves for 4 s
+    and rests 2 s with 0.3 N·m held beyond gravity: the error over every sample
+    counts the hold, the moving error only the motion."""
+    from drake_dynid.core.friction import DeadZoneSign
+
+    model = pin.buildModelFromUrdf(URDF)
+    data = model.createData()
+    t = H * np.arange(6001)
+    period, w = 2.0, 2 * np.pi / 2.0
+    inside = t < 2 * period  # (1 - cos)²: v and v̇ reach 0 at the rest
+    c, s = np.cos(w * t), np.sin(w * t)
+    amplitude = np.array([0.6, -0.8])
+    q = np.where(inside, 1.0, 0.0)[:, None] * amplitude * (1 - c[:, None]) ** 2
+    v = np.where(inside, 1.0, 0.0)[:, None] * amplitude * (2 * w * (1 - c) * s)[:, None]
+    a = (
+        np.where(inside, 1.0, 0.0)[:, None]
+        * amplitude
+        * (2 * w**2 * (s**2 + (1 - c) * c))[:, None]
+    )
+    config = np.stack([np.cos(q), np.sin(q)], axis=-1).reshape(t.size, -1)
+    tau = np.array(
+        [pin.rnea(model, data, config[k], v[k], a[k]) for k in range(t.size)]
+    )
+    tau += FV * v + FC * np.sign(v)
+    tau[~inside] += 0.3  # held by static friction
+    rng = np.random.default_rng(0)
+    log = RobotLog(
+        t, q + 1e-6 * rng.standard_normal(q.shape), tau, robot.joint_names, H
+    )
+    result = validate_torques(log, robot, robot.base_values)
+    assert result.moving_rule == "measured"
+    moving = result.moving_relative_rms_percent
+    assert np.all(moving < 0.5), moving
+    assert np.all(result.relative_rms_percent > 8 * moving), result.relative_rms_percent
+    assert result.total_moving_relative_rms_percent < 0.5
+    assert np.all(np.abs(result.moving_fraction - 2 / 3) < 0.04), result.moving_fraction
+    # The fit's dead zone is the moving threshold when the robot has one.
+    zoned = validate_torques(
+        log, robot.with_sign(DeadZoneSign((0.01, 0.02))), robot.base_values
+    )
+    assert zoned.moving_rule == "dead zone"
+    np.testing.assert_array_equal(zoned.moving_widths, [0.01, 0.02])
+    assert np.all(zoned.moving_relative_rms_percent < 0.5)
+
+
+def test_a_log_too_short_to_measure_the_standstill_keeps_the_validations_message(
+    robot,
+):
+    """The standstill widths need longer segments than the validation: a log the
+    validation refuses keeps its own message (not the width measure's), and one
+    it accepts but too short for the measure gets NaN moving errors ("none")."""
+    t = H * np.arange(120)
+    q = np.column_stack([np.sin(3 * t), np.cos(2 * t)])
+    log = RobotLog(t, q, np.ones((120, 2)), robot.joint_names, H)
+    result = validate_torques(log, robot, robot.base_values)
+    assert result.moving_rule == "none"
+    assert np.all(np.isnan(result.moving_relative_rms_percent))
+    short = RobotLog(t[:40], q[:40], np.ones((40, 2)), robot.joint_names, H)
+    with pytest.raises(ValueError, match="validate_torques: no finite segment"):
+        validate_torques(short, robot, robot.base_values)

@@ -203,7 +203,15 @@ def validation_lines(validations: Mapping[str, Any], description: str) -> list[s
         f"low-pass ({settings['decimation_cutoff_rule']}); "
         f"{first.num_samples_used} samples compared"
     ]
-    headers = ("joint", "RMS τ", "residual σ", "error %", "R²", "raw error %")
+    headers = (
+        "joint",
+        "RMS τ",
+        "residual σ",
+        "error %",
+        "moving error %",
+        "R²",
+        "raw error %",
+    )
     for label, result in validations.items():
         rows = [
             (
@@ -211,13 +219,23 @@ def validation_lines(validations: Mapping[str, Any], description: str) -> list[s
                 _cell(result.rms_measured[j]),
                 _cell(result.residual_std[j], 3),
                 f"{result.relative_rms_percent[j]:.2f}",
+                f"{result.moving_relative_rms_percent[j]:.2f} "
+                f"({100 * result.moving_fraction[j]:.0f} %)",
                 f"{result.r_squared[j]:.4f}",
                 f"{result.raw_relative_rms_percent[j]:.2f}",
             )
             for j, name in enumerate(result.joint_names)
         ]
         rows.append(
-            ("all joints", "", "", f"{result.total_relative_rms_percent:.2f}", "", "")
+            (
+                "all joints",
+                "",
+                "",
+                f"{result.total_relative_rms_percent:.2f}",
+                f"{result.total_moving_relative_rms_percent:.2f}",
+                "",
+                "",
+            )
         )
         widths = [
             max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)
@@ -237,6 +255,19 @@ def validation_lines(validations: Mapping[str, Any], description: str) -> list[s
                     for k, (c, w) in enumerate(zip(row, widths, strict=True))
                 ).rstrip()
             )
+    rule = {
+        "dead zone": "its dead zone",
+        "measured": "measured on this log",
+        "none": "not measured: the log is too short; nan",
+    }
+    lines += [
+        "",
+        "moving error %: over the samples where the joint moves (their share in "
+        "brackets), |v| above its standstill width ("
+        f"{rule.get(first.moving_rule, first.moving_rule)}); at rest static "
+        "friction holds any torque within its breakaway level, which the model "
+        "does not predict",
+    ]
     return lines
 
 
@@ -260,12 +291,21 @@ def validation_document(
                     "raw_relative_rms_percent": json_number(
                         result.raw_relative_rms_percent[j]
                     ),
+                    "moving_relative_rms_percent": json_number(
+                        result.moving_relative_rms_percent[j]
+                    ),
+                    "moving_fraction": json_number(result.moving_fraction[j]),
+                    "moving_width": json_number(result.moving_widths[j]),
                 }
                 for j, name in enumerate(result.joint_names)
             ],
             "total_relative_rms_percent": json_number(
                 result.total_relative_rms_percent
             ),
+            "total_moving_relative_rms_percent": json_number(
+                result.total_moving_relative_rms_percent
+            ),
+            "moving_rule": result.moving_rule,
         }
     return {
         "log": {
