@@ -414,7 +414,8 @@ def write_torque_plot(
                 color=f"C{k}",
                 lw=0.9,
                 ls="--" if k else "-",
-                label=f"{label} ({result.relative_rms_percent[j]:.2f} %)",
+                label=f"{label} ({result.relative_rms_percent[j]:.2f} %; moving "
+                f"{result.moving_relative_rms_percent[j]:.2f} %)",
             )
             residuals.plot(t, series[2 + 2 * k][:, j], color=f"C{k}", lw=0.5, alpha=0.5)
         residuals.tick_params(labelsize=7, colors="0.4")
