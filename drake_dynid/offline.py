@@ -291,9 +291,12 @@ def offline_rows(
 
     # Friction columns go through the decimation at the full rate, with the
     # provider's Coulomb law (a RobotModel's ``sign``: a dead zone by default in
-    # dynid); the others (rigid body) are evaluated every D1-th sample.
+    # dynid; a coupled motor's Coulomb column with its own, ``motor_columns``);
+    # the others (rigid body) are evaluated every D1-th sample.
     sign = getattr(rows, "sign", EXACT_SIGN)
-    layout = idim_stream.friction_layout(names, rows.idim_rows, n, sign)
+    layout = idim_stream.friction_layout(
+        names, rows.idim_rows, n, sign, getattr(rows, "motor_columns", None)
+    )
     factor_rule = "given" if regressor_decimation is not None else "auto"
     if regressor_decimation is not None:
         regressor_decimation = check.integer(
@@ -303,11 +306,12 @@ def offline_rows(
             check.fail(
                 owner,
                 "regressor_decimation must be 1 for this row provider: its columns "
-                "named FVj/FCj/OFFj are not the friction columns v_j, s(v_j), 1 (or "
-                "it has motor friction columns).",
+                "named FVj/FCj/OFFj (or FCmk) are not the friction columns v_j, "
+                "s(v_j), 1 (or a coupled motor's R_kᵀ s(x_k)).",
             )
-    if layout is None:
-        regressor_decimation, layout = 1, ()
+    if layout is None:  # every column from the rows, at every sample
+        regressor_decimation = 1
+        layout = idim_stream.FrictionLayout.rows_only(len(names), n)
     if decimation is None:
         decimation = auto_decimation(h, decimation_cutoff_hz)
         factor = regressor_decimation or idim_stream.regressor_decimation(
@@ -330,7 +334,7 @@ def offline_rows(
         decimation_cutoff_hz=decimation_cutoff_hz,
         factor=regressor_decimation,
     )
-    friction, rigid_index = idim_stream.split_layout(layout, len(names))
+    friction, rigid_index = layout.friction, list(layout.rigid)
 
     def rigid(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
         return np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)[..., rigid_index]
@@ -355,14 +359,14 @@ def offline_rows(
             rigid,
             friction,
             sign,
+            channels=layout.channels,
         ):
             count = tau_d.shape[0]
             part = (
                 W[row : row + count] if keep_rows else np.zeros((count, *W.shape[1:]))
             )
             part[..., rigid_index] = W_rigid
-            for c, (column, _, joint) in enumerate(layout):
-                part[:, joint, column] = F[:, c]
+            part[..., list(layout.columns)] = layout.place(F)
             reduced = reduce_rows(part, tau_d, reduced)
             if keep_rows:
                 tau_out[row : row + count] = tau_d

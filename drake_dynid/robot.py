@@ -478,6 +478,14 @@ class RobotModel(RobotRows):
         )
 
     @property
+    def motor_columns(self) -> MotorColumns | None:
+        """The coupled motors' columns, or None without a coupled motor.
+
+        ``core.drive_columns.MotorColumns``, with their Coulomb law (:meth:`with_sign`).
+        """
+        return self._motors
+
+    @property
     def coulomb_width(self) -> float:
         """ε of a smooth Coulomb law tanh(v/ε) [rad/s or m/s]; 0 for any other law."""
         return self.sign.width if isinstance(self.sign, TanhSign) else 0.0

@@ -73,7 +73,7 @@ from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign
 from drake_dynid.core.idim import default_padding, default_trim
 from drake_dynid.core.idim_auto import auto_cutoff
 from drake_dynid.core.idim_checks import check_filter_frequency
-from drake_dynid.core.idim_friction import friction_layout, split_layout
+from drake_dynid.core.idim_friction import FrictionLayout, friction_layout
 from drake_dynid.log_store import RowSink
 from drake_dynid.offline import log_decimation_cutoff
 
@@ -469,20 +469,28 @@ def _validate(
         block=idim_stream.BLOCK_SAMPLES,
     )
 
-    # A dead zone's Coulomb columns go through the stream as the fit's do, with
-    # their reversals (core.standstill.reversal_signs): τ̂ = W_rb θ_rb + F θ_F.
+    # A dead zone's Coulomb columns (the joints' and the coupled motors') go
+    # through the stream as the fit's do, with their reversals
+    # (core.standstill.reversal_signs): τ̂ = W_rb θ_rb + F θ_F.
     sign: Any = getattr(robot, "sign", None)
     layout = (
-        friction_layout(rows.names, rows.idim_rows, q.shape[1], sign)
+        friction_layout(
+            rows.names,
+            rows.idim_rows,
+            q.shape[1],
+            sign,
+            getattr(rows, "motor_columns", None),
+        )
         if isinstance(sign, DeadZoneSign)
         else None
-    ) or ()
-    friction, rigid_index = split_layout(layout, p)
+    ) or FrictionLayout.rows_only(p, q.shape[1])
+    rigid_index = list(layout.rigid)
     widths, moving_rule = _moving_widths(log, sign, cutoff_hz, decimation_cutoff_hz)
     # v̂ of every joint rides along as viscous columns (F = v̂), after the fit's.
     motion = [("viscous", j) for j in range(q.shape[1])]
     theta_rigid = theta[rigid_index]
-    theta_friction = theta[[column for column, _, _ in layout]]  # (F, k)
+    # (F, n, k): each friction series' torque per unit, on every joint's row.
+    theta_friction = layout.weights[:, :, None] * theta[list(layout.columns)][:, None]
 
     def predict(q_f: np.ndarray, v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
         W = np.asarray(rows.idim_rows(q_f, v, vdot), dtype=float)
@@ -490,8 +498,7 @@ def _validate(
 
     def with_friction(rigid: np.ndarray, F: np.ndarray) -> np.ndarray:
         """(R, n, k) predictions: the rigid part plus each friction column's."""
-        for c, (_, joint) in enumerate(friction):
-            rigid[:, joint, :] += F[:, c, None] * theta_friction[c]
+        rigid += np.einsum("rc,cnk->rnk", F, theta_friction)
         return rigid
 
     n, k = q.shape[1], len(labels)
@@ -515,14 +522,16 @@ def _validate(
             segment(tau, start, stop),
             plan,
             predict,
-            [*friction, *motion],
+            [*layout.friction, *motion],
             sign if layout else EXACT_SIGN,
             raw=True,
+            channels=layout.channels,
         ):
-            smooth = with_friction(smooth, smooth_friction)
-            raw = with_friction(raw, raw_friction)
+            fitted = len(layout)  # the fit's friction columns, then v̂
+            smooth = with_friction(smooth, smooth_friction[:, :fitted])
+            raw = with_friction(raw, raw_friction[:, :fitted])
             count = measured.shape[0]
-            moving = np.abs(raw_friction[:, len(friction) :]) > widths
+            moving = np.abs(raw_friction[:, fitted:]) > widths
             moments.add(smooth_measured, smooth, measured, raw, moving)
             for j in range(k):
                 predictions[j][0].append(smooth[..., j])

@@ -145,10 +145,12 @@ def test_a_dead_zones_reversals_are_the_whole_segments_whatever_the_blocks(facto
     columns are those of core.standstill.reversal_signs on the whole segment's
     velocity, for blocks of 7 samples (< 2L + 1 = 25) to one block, D1 = 1 or 5,
     and the first and last blocks of a segment (measured: 3e-12 on the friction
-    columns, 1.3e-10 of the largest raw v̇)."""
+    columns, 1.3e-10 of the largest raw v̇). The same for a coupled motor's
+    channel x = (R·v)/ρ with its own zone (core.idim_friction.MotorChannels)."""
     from drake_dynid.core import idim_stream
     from drake_dynid.core.friction import DeadZoneSign
     from drake_dynid.core.idim import default_padding, default_trim
+    from drake_dynid.core.idim_friction import MotorChannels
     from drake_dynid.core.standstill import reversal_signs
     from drake_dynid.core.zero_phase import zero_phase_span
 
@@ -160,7 +162,9 @@ def test_a_dead_zones_reversals_are_the_whole_segments_whatever_the_blocks(facto
     q = np.stack([0.05 * np.sin(2 * np.pi * 3 * t + 0.3), 1e-4 * rng.normal(size=N)], 1)
     tau = rng.normal(size=(N, 2))
     sign = DeadZoneSign((0.05, 0.002))
-    friction = [("coulomb", 0), ("coulomb", 1), ("viscous", 0)]
+    # A motor turning with 40 (q0 + 0.5 q1): x = v0 + 0.5 v1, its zone 0.04.
+    channels = MotorChannels(np.array([[40.0, 20.0]]), DeadZoneSign((0.04,)))
+    friction = [("coulomb", 0), ("coulomb", 1), ("viscous", 0), ("coulomb", 2)]
     trim, pad = default_trim(h, fc), default_padding(h, fc)
 
     def rows(q_f, v, vdot):
@@ -180,7 +184,7 @@ def test_a_dead_zones_reversals_are_the_whole_segments_whatever_the_blocks(facto
             block=block,
         )
         chunks = idim_stream.decimated_chunks(
-            q, tau, plan, rows, friction, sign, raw=True
+            q, tau, plan, rows, friction, sign, raw=True, channels=channels
         )
         columns[block] = [np.concatenate(part) for part in zip(*chunks, strict=True)]
     for block in (500, 7):
@@ -196,3 +200,9 @@ def test_a_dead_zones_reversals_are_the_whole_segments_whatever_the_blocks(facto
         np.testing.assert_array_equal(columns[7][4][:, :2], expected)
         restored = expected != sign(v)[trim - 1 : N - trim - 1]
         assert restored[:, 0].sum() > 50 and not restored[:, 1].any()
+        x = v[:, 0] + 0.5 * v[:, 1]
+        motor = reversal_signs(x, 0.04, plan.reversal)[trim - 1 : N - trim - 1]
+        np.testing.assert_array_equal(columns[7][4][:, 3], motor)
+        assert (
+            np.sum(motor != channels.sign(x[trim - 1 : N - trim - 1, None])[:, 0]) > 50
+        )

@@ -1015,7 +1015,7 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         for (name, w), speed in zip(widths.items(), speeds, strict=True)
         if speed <= w
     ]
-    motors = getattr(robot, "_motors", None)
+    motors = getattr(robot, "motor_columns", None)
     sign = getattr(motors, "sign", None)
     if motors is not None and isinstance(sign, DeadZoneSign):
         width = sign.width

@@ -17,9 +17,11 @@ same equation at a fraction of the cost, in memory independent of the log length
 * friction columns ``v_j``, ``s(v_j)``, ``1`` (joint j's row only; s the model's
   Coulomb law: the exact sign or a standstill dead zone, whose moving joints'
   reversals are restored, ``core.standstill.reversal_signs``, each block reading
-  2L + 1 velocities of context either side): cheap, and ``s(v)`` is
-  discontinuous (broadband); they go through the decimation at the full rate,
-  like τ;
+  2L + 1 velocities of context either side), and a coupled motor's Coulomb
+  column, one series s_m(x_k) of its velocity x_k = (R_k·v)/ρ_k with its own
+  zone and reversals, which the caller spreads over the rows by R_kᵀ
+  (``core.idim_friction``): cheap, and ``s(v)`` is discontinuous (broadband);
+  they go through the decimation at the full rate, like τ;
 * rigid-body columns (everything else): expensive, but smooth functions of the
   filtered q_f, v, v̇, whose spectrum the position filter limits to a few f_c.
 
@@ -77,10 +79,12 @@ from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign, SignLaw
 from drake_dynid.core.idim import DECIMATION_FILTER_ORDER, default_padding
 from drake_dynid.core.idim_friction import (
     FRICTION_KINDS,
+    FrictionLayout,
+    MotorChannels,
+    channel_velocities,
     friction_layout,
     friction_series,
     signs_of,
-    split_layout,
 )
 from drake_dynid.core.standstill import reversal_run, reversal_signs
 from drake_dynid.core.zero_phase import (
@@ -95,6 +99,7 @@ __all__ = [
     "BAND_FACTOR",
     "FRICTION_KINDS",
     "SETTLE_TOLERANCE",
+    "FrictionLayout",
     "StreamPlan",
     "anti_alias_taps",
     "decimated_chunks",
@@ -102,7 +107,6 @@ __all__ = [
     "friction_layout",
     "regressor_decimation",
     "settle_samples",
-    "split_layout",
     "stream_plan",
     "zero_phase_span",
 ]
@@ -325,7 +329,7 @@ def _stage_one(
     plan: StreamPlan,
     rows: RigidRows,
     friction: Sequence[tuple[str, int]],
-    sign: SignLaw,
+    laws: tuple[SignLaw, MotorChannels | None],
 ) -> Iterator[np.ndarray]:
     """Intermediate-rate columns [τ_A, friction_A, W_rb] in consecutive chunks."""
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
@@ -333,12 +337,36 @@ def _stage_one(
     for ra in range(0, count, chunk):
         # One block per call: its full-rate arrays are freed before the yield.
         yield _stage_one_block(
-            q, tau, plan, rows, friction, sign, ra, min(count, ra + chunk)
+            q, tau, plan, rows, friction, laws, ra, min(count, ra + chunk)
         )
 
 
-def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
+def _restored_signs(
+    v: np.ndarray, sign: SignLaw, channels: MotorChannels | None, longest: int
+) -> np.ndarray:
+    """Signs s of every channel of v (n joints, then c motors), reversals restored.
+
+    A dead zone (the joints' ``sign``, the motors' ``channels.sign``) gives
+    ``core.standstill.reversal_signs`` with its widths; any other law its values
+    sample by sample.
+    """
+    n = v.shape[1] - (0 if channels is None else channels.rows.shape[0])
+    groups = [(slice(0, n), sign)]
+    if channels is not None:
+        groups.append((slice(n, None), channels.sign))
+    out = np.empty_like(v)
+    for part, law in groups:
+        out[:, part] = (
+            reversal_signs(v[:, part], law.width, longest)
+            if isinstance(law, DeadZoneSign)
+            else law(v[:, part])
+        )
+    return out
+
+
+def _stage_one_block(q, tau, plan, rows, friction, laws, ra, rb) -> np.ndarray:
     """Intermediate samples [ra, rb) of :func:`_stage_one`."""
+    sign, channels = laws
     h, trim, D1 = plan.time_step, plan.trim, plan.factor
     N = q.shape[0]
     K = (plan.taps.size - 1) // 2
@@ -348,16 +376,14 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     margin = plan.position_margin
     lo = trim + ra * D1 - K  # full-rate range [lo, hi) of stage 1's support
     hi = trim + (rb - 1) * D1 + K + 1
-    # A dead zone's reversals need 2L + 1 velocities of context on either side
-    # (core.standstill.reversal_signs): the block's signs are then the whole
-    # segment's.
-    zone = (
-        sign
-        if isinstance(sign, DeadZoneSign)
-        and any(kind == "coulomb" for kind, _ in friction)
-        else None
-    )
-    context = 2 * plan.reversal + 1 if zone is not None else 0
+    # A dead zone's reversals (the joints' or the motors') need 2L + 1 velocities
+    # of context on either side (core.standstill.reversal_signs): the block's
+    # signs are then the whole segment's.
+    zone = any(
+        isinstance(law, DeadZoneSign)
+        for law in (sign, None if channels is None else channels.sign)
+    ) and any(kind == "coulomb" for kind, _ in friction)
+    context = 2 * plan.reversal + 1 if zone else 0
     lo_c, hi_c = max(1, lo - context), min(N - 1, hi + context)
     a, b = max(0, lo_c - 1 - margin), min(N, hi_c + 1 + margin)
     q_c = zero_phase_span(
@@ -370,6 +396,8 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     v_c = (q_c[2:] - q_c[:-2]) / (2.0 * h)  # samples [lo_c, hi_c)
     q_f = q_c[lo - lo_c : hi - lo_c + 2]
     v = v_c[lo - lo_c : hi - lo_c]
+    x_c = channel_velocities(v_c, channels)  # the joints', then the motors'
+    x = x_c[lo - lo_c : hi - lo_c]
     grid = slice(K, K + (rb - ra - 1) * D1 + 1, D1)
     ahead, here, behind = q_f[2:][grid], q_f[1:-1][grid], q_f[:-2][grid]
     vdot = (ahead - 2.0 * here + behind) / h**2  # at the grid only
@@ -379,9 +407,9 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
     n = tau.shape[1]
     series = np.asarray(tau[lo:hi], dtype=float)
     signs = (
-        reversal_signs(v_c, zone.width, plan.reversal)[lo - lo_c : hi - lo_c]
-        if zone is not None
-        else signs_of(v, friction, sign)
+        _restored_signs(x_c, sign, channels, plan.reversal)[lo - lo_c : hi - lo_c]
+        if zone
+        else signs_of(x, friction, sign, channels)
     )
     out = np.empty((rb - ra, n + len(friction) + rigid.shape[1]))
     out[:, n + len(friction) :] = rigid
@@ -389,7 +417,7 @@ def _stage_one_block(q, tau, plan, rows, friction, sign, ra, rb) -> np.ndarray:
 
     for c in range(0, n + len(friction), n):
         if c:
-            series = friction_series(v, friction[c - n : c], sign, signs=signs)
+            series = friction_series(x, friction[c - n : c], sign, signs=signs)
         if D1 == 1:
             out[:, c : c + series.shape[1]] = series
             continue
@@ -452,6 +480,7 @@ def decimated_chunks(
     friction: Sequence[tuple[str, int]] = (),
     sign: SignLaw = EXACT_SIGN,
     raw: Literal[False] = False,
+    channels: MotorChannels | None = None,
 ) -> Iterator[_Chunk]: ...
 
 
@@ -465,6 +494,7 @@ def decimated_chunks(
     sign: SignLaw = EXACT_SIGN,
     *,
     raw: Literal[True],
+    channels: MotorChannels | None = None,
 ) -> Iterator[
     tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 ]: ...
@@ -478,6 +508,7 @@ def decimated_chunks(
     friction: Sequence[tuple[str, int]] = (),
     sign: SignLaw = EXACT_SIGN,
     raw: bool = False,
+    channels: MotorChannels | None = None,
 ) -> Iterator[tuple[np.ndarray, ...]]:
     """Decimated rigid-body rows, friction columns and torques of one finite segment.
 
@@ -491,20 +522,25 @@ def decimated_chunks(
         tau: (N, n) finite torques [N·m or N], likewise.
         plan: the :class:`StreamPlan`.
         rows: ``rows(q_f, v, v̇) -> (R, n, p_rb)`` rigid-body columns.
-        friction: (kind, joint) per friction column, kind in
-            :data:`FRICTION_KINDS`, joint 0-based.
-        sign: the Coulomb sign law s of the ``coulomb`` columns (applied to the
-            (N, n) velocity; default the exact sign). A ``DeadZoneSign`` is
-            applied with the segment's reversals restored
+        friction: (kind, channel) per friction column, kind in
+            :data:`FRICTION_KINDS`, channel 0-based: joint j < n, or n + i for
+            motor i of ``channels``.
+        sign: the Coulomb sign law s of the joints' ``coulomb`` columns (applied
+            to the (N, n) velocity; default the exact sign). A ``DeadZoneSign``
+            is applied with the segment's reversals restored
             (``core.standstill.reversal_signs`` at L = ``plan.reversal``), any
-            other law sample by sample.
+            other law sample by sample; so is the motors' law ``channels.sign``
+            on their (N, c) velocities.
         raw: also yield the same rows before stage 2's low-pass (with D = 1,
             e.g. ``drake_dynid.validation``: the unfiltered samples).
+        channels: the coupled motors' channels x_i = (R_i·v)/ρ_i
+            (``core.idim_friction.MotorChannels``), or None.
 
     Yields:
         ``(W_rb, F, tau_d)`` chunks of (k, n, p_rb) rigid-body rows, (k,
-        len(friction)) friction columns (column c belongs to row
-        ``friction[c][1]``) and (k, n) torques; K = ceil((N - 2·trim)/D) rows in
+        len(friction)) friction series (column c belongs to joint j's row for
+        channel j < n; the caller spreads a motor's by R_iᵀ,
+        ``FrictionLayout.place``) and (k, n) torques; K = ceil((N - 2·trim)/D) rows in
         all. With ``raw``, followed by ``(W_rb, F, tau)`` before the low-pass.
     """
     owner = "decimated_chunks"
@@ -518,12 +554,20 @@ def decimated_chunks(
             f"q must have at least {2 * plan.trim + 1} samples for trim {plan.trim}; "
             f"got {q.shape[0]}.",
         )
-    for kind, joint in friction:
-        if kind not in FRICTION_KINDS or not 0 <= joint < q.shape[1]:
-            check.fail(owner, f"bad friction column ({kind!r}, {joint}).")
+    if channels is not None and (
+        channels.rows.ndim != 2 or channels.rows.shape[1] != q.shape[1]
+    ):
+        check.fail(
+            owner,
+            f"channels.rows must be (c, {q.shape[1]}); got {channels.rows.shape}.",
+        )
     n, width = q.shape[1], len(friction)
+    total = n + (0 if channels is None else channels.rows.shape[0])
+    for kind, channel in friction:
+        if kind not in FRICTION_KINDS or not 0 <= channel < total:
+            check.fail(owner, f"bad friction column ({kind!r}, {channel}).")
     count = -(-(q.shape[0] - 2 * plan.trim) // plan.factor)
-    chunks = _stage_one(q, tau, plan, rows, friction, sign)
+    chunks = _stage_one(q, tau, plan, rows, friction, (sign, channels))
     for data in _stage_two(chunks, count, plan, raw):
         out: tuple[np.ndarray, ...] = ()
         for part in np.split(data, 2, axis=1) if raw else (data,):
@@ -543,12 +587,15 @@ def decimated_segment(
     rows: RigidRows,
     friction: Sequence[tuple[str, int]] = (),
     sign: SignLaw = EXACT_SIGN,
+    channels: MotorChannels | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`decimated_chunks` of one segment, stacked.
 
     Arguments and chunks as there: ``(W_rb, F, tau_d)`` with K = ceil((N -
     2·trim)/D) rows.
     """
-    parts = list(decimated_chunks(q, tau, plan, rows, friction, sign))
+    parts = list(
+        decimated_chunks(q, tau, plan, rows, friction, sign, channels=channels)
+    )
     W_rb, F, tau_d = (np.concatenate([part[i] for part in parts]) for i in range(3))
     return W_rb, F, tau_d
