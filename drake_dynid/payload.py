@@ -99,6 +99,7 @@ def payload_model(
     xyz: Sequence[float] | None = None,
     rpy: Sequence[float] | None = None,
     arm: Any = None,
+    arm_covariance: Any = None,
     seed: int = 0,
 ) -> PayloadRows:
     """The row provider of a payload attached to ``frame`` of ``robot``.
@@ -113,6 +114,8 @@ def payload_model(
         xyz: the offset's translation [m] (default 0).
         rpy: the offset's roll, pitch, yaw [rad] (default 0).
         arm: the arm's base parameters (default: the URDF's, ``robot.base_values``).
+        arm_covariance: their (p_arm, p_arm) covariance, or None (the arm taken
+            as exact; ``core.payload.payload_rows``).
         seed: seed of the structural reduction's random states.
 
     Raises:
@@ -144,6 +147,7 @@ def payload_model(
         rotation=pose[:3, :3],
         translation=pose[:3, 3],
         arm=arm,
+        arm_covariance=arm_covariance,
         frame_name=str(name),
         seed=seed,
     )

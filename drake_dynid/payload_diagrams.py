@@ -121,6 +121,7 @@ def add_payload_identifier(
             row_weighting=settings.row_weighting(m, design),
             row_noise=settings.row_noise(m, design),
             jackknife_groups=payload_jackknife_groups(settings, m, design),
+            arm_columns=rows.num_arm_columns,
         )
     )
     builder.Connect(bank.get_output_port_A(), identifier.get_input_port_A())

@@ -282,6 +282,14 @@ def test_offline_prints_the_table_and_writes_json(log_file, tmp_path, capsys):
     assert document["samples_used"] < 3001
     assert [p["name"] for p in document["parameters"]] == list(TRUTH)
     assert document["parameters"][0]["definition"] == {"ZZ1": 1.0, "M2": 1.0}
+    # The fit's covariance (dynid payload --params propagates it): σ² on its
+    # diagonal, symmetric, a correlation within [-1, 1].
+    covariance = np.array(document["covariance"])
+    std = np.array([p["std"] for p in document["parameters"]])
+    np.testing.assert_allclose(np.diag(covariance), std**2, rtol=1e-9)
+    np.testing.assert_allclose(covariance, covariance.T, rtol=1e-12)
+    assert (np.abs(covariance / np.outer(std, std)) <= 1.0 + 1e-9).all()
+    assert np.linalg.eigvalsh(covariance).min() > 0.0
     # Given cutoff and decimation are echoed.
     argv = ["offline", log_file, "--urdf", URDF, "--cutoff", "20", "--decimation"]
     argv += ["20", "--json", str(out_json), "--quiet"]

@@ -230,7 +230,7 @@ def test_the_params_file_gives_the_friction_columns_and_dead_zone(
     base = ["payload", log_file, "--urdf", URDF, "--params", str(arm)]
     assert cli.main(base) == 0, capsys.readouterr().err
     printed = capsys.readouterr().out
-    assert "(64 base parameters, known)" in printed
+    assert "(64 base parameters, known; no covariance in the file" in printed
     assert "iiwa_joint_1 0.025 rad/s" in printed
 
 
@@ -303,3 +303,50 @@ def test_a_params_file_without_a_coulomb_law_gets_the_auto_dead_zone(
     assert isinstance(plain.sign, DeadZoneSign)
     assert isinstance(with_params.sign, DeadZoneSign)
     np.testing.assert_allclose(with_params.sign.width, plain.sign.width)
+
+
+def test_the_params_files_covariance_widens_sigma_and_is_recorded(
+    log_file, tmp_path, capsys
+):
+    """A results file with the arm's covariance (dynid offline --json writes it):
+    its image through each window's solve adds to σ (docs/PAYLOAD.md §4), the
+    estimate unchanged; the printout and the JSON say which σ terms are in. A
+    covariance that is none is refused, naming the file."""
+    arm = tmp_path / "arm.json"
+    assert cli.main(["params", URDF, "--json", str(arm)]) == 0
+    document = json.loads(arm.read_text())
+    values = np.array([p["value"] for p in document["parameters"]])
+    document["covariance"] = np.diag((0.002 * np.abs(values) + 1e-5) ** 2).tolist()
+    given = tmp_path / "arm_cov.json"
+    given.write_text(json.dumps(document))
+    capsys.readouterr()
+    base = ["payload", log_file, "--urdf", URDF, *COMMON]
+    one, two = tmp_path / "a.json", tmp_path / "b.json"
+    assert cli.main([*base, "--params", str(arm), "--json", str(one)]) == 0
+    assert "known; no covariance in the file" in capsys.readouterr().out
+    assert cli.main([*base, "--params", str(given), "--json", str(two)]) == 0
+    assert "known; their covariance propagated to σ" in capsys.readouterr().out
+    plain, wide = (json.loads(p.read_text()) for p in (one, two))
+    assert plain["sigma_terms"] == {
+        "rows_noise": True,
+        "arm_covariance": False,
+        "arm_model_error": False,
+    }
+    assert wide["sigma_terms"]["arm_covariance"] is True
+    mass = plain["payload"]["mass"], wide["payload"]["mass"]
+    assert mass[1]["value"] == mass[0]["value"]
+    assert mass[1]["std"] > 1.2 * mass[0]["std"], mass
+    gautier = tmp_path / "c.json"
+    argv = [*base, "--params", str(given), "--uncertainty", "gautier"]
+    assert cli.main([*argv, "--json", str(gautier)]) == 0
+    assert "not propagated under --uncertainty gautier" in capsys.readouterr().out
+    assert json.loads(gautier.read_text())["sigma_terms"]["arm_covariance"] is False
+    for bad, message in (
+        ([[1.0, 2.0]], "'covariance' must be a 57 × 57 matrix"),
+        ((-np.eye(57)).tolist(), "'covariance' must be positive semi-definite"),
+    ):
+        document["covariance"] = bad
+        given.write_text(json.dumps(document))
+        assert cli.main([*base, "--params", str(given), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert f"--params {given}: {message}" in err and "Traceback" not in err, err

@@ -158,6 +158,7 @@ def run(args: argparse.Namespace) -> int:
             "parameters": parameters_document(
                 robot, result.names, result.theta, result.std
             ),
+            "covariance": _covariance(result),
             "condition_number": json_number(result.condition_number),
             "window": float(log.duration),
             "model": result.model,
@@ -191,6 +192,28 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {args.json}")
     raise_urdf_error(args)
     return 0
+
+
+def _covariance(result: Any) -> list[list[float]] | None:
+    """The fit's (p, p) covariance as JSON rows (None when not computable).
+
+    ``core.idim.idim_covariance``: σ's diagonal, the solve's correlation; in the
+    order of ``parameters`` [their units, squared]. ``dynid payload --params``
+    propagates it to the payload's σ (docs/PAYLOAD.md §4).
+    """
+    import numpy as np
+
+    from drake_dynid.core.idim import idim_covariance
+
+    if result.reduced is None or not result.valid:
+        return None
+    try:
+        covariance = idim_covariance(
+            result.reduced, result.std, weighted=result.model == "idim-wls"
+        )
+    except ValueError:
+        return None
+    return [[float(x) for x in row] for row in np.asarray(covariance)]
 
 
 #: Joints' equation-error σ differing by more than this factor: IDIM-LS is told

@@ -133,7 +133,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--params",
         metavar="ARM.json",
         help="the arm's parameters: a results file of dynid offline/identify "
-        "--json (or dynid params --json); default: the URDF's values",
+        "--json (or dynid params --json); default: the URDF's values. The "
+        "covariance a dynid offline file holds is propagated to the payload's σ",
     )
     group = parser.add_argument_group(
         "identifier settings (default: the payload identifier's, "
@@ -204,8 +205,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
-    """(robot, log, θ_arm, source): the arm's model, the log and its parameters."""
+def _arm_covariance(document: dict[str, Any], size: int, source: str) -> Any:
+    """Σ_arm of a results file (``covariance``, ``dynid offline --json``) or None.
+
+    Checked as ``core.payload.arm_factor`` checks it (a size × size symmetric
+    positive semi-definite matrix of finite numbers), with the file named.
+    """
+    from drake_dynid.core.payload import arm_factor
+
+    value = document.get("covariance")
+    if value is None:
+        return None
+    try:
+        covariance = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        covariance = np.zeros(0)
+    if covariance.shape != (size, size) or not np.isfinite(covariance).all():
+        raise ValueError(
+            f"--params {source}: 'covariance' must be a {size} × {size} matrix of "
+            "finite numbers (the covariance of its parameters, as dynid offline "
+            f"--json writes it); got shape {covariance.shape}."
+        )
+    try:
+        arm_factor(covariance, size)
+    except ValueError as error:
+        text = str(error).replace("arm_factor: covariance", "'covariance'")
+        raise ValueError(f"--params {source}: {text}") from None
+    return covariance
+
+
+def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
+    """(robot, log, θ_arm, source, Σ_arm or None): the arm, the log, its parameters."""
     from drake_dynid.validation import read_estimates, read_results
 
     if args.params:
@@ -222,6 +252,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
             args.dead_zone = "auto"
         robot = results_robot(args, document)
         arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
+        covariance = _arm_covariance(document, len(arm), str(args.params))
         log = read_robot_log(
             log_files(args),
             robot,
@@ -230,7 +261,8 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
             fill_gaps=args.fill_gaps,
             time_unit=getattr(args, "time_unit", None),
         )
-        return results_sign(args, document, robot, log), log, arm, str(args.params)
+        robot = results_sign(args, document, robot, log)
+        return robot, log, arm, str(args.params), covariance
     if args.dead_zone is None:  # no --params: measured on the log
         args.dead_zone = "auto"
     robot = robot_from_args(args, "payload")
@@ -242,7 +274,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str]:
         fill_gaps=args.fill_gaps,
         time_unit=getattr(args, "time_unit", None),
     )
-    return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf"
+    return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf", None
 
 
 def _document_entry(entry: dict[str, Any] | None) -> dict[str, Any] | None:
@@ -277,11 +309,15 @@ def run(args: argparse.Namespace) -> int:
     payload_settings_of(args)  # every value checked before the log is read
     if args.plot:
         matplotlib_pyplot()
-    robot, log, arm, source = _robot(args)
+    robot, log, arm, source, covariance = _robot(args)
     settings = payload_settings_of(args, log.time_step)
+    if settings.uncertainty == "gautier":
+        covariance = None  # Gautier's σ has no term for it (_arm_line)
     xyz, rpy = offset if offset is not None else (None, None)
     try:
-        rows = payload_model(robot, args.frame, xyz=xyz, rpy=rpy, arm=arm)
+        rows = payload_model(
+            robot, args.frame, xyz=xyz, rpy=rpy, arm=arm, arm_covariance=covariance
+        )
     except ValueError as error:
         raise ValueError(
             str(error).replace("payload_model: frame", "--frame")
@@ -371,6 +407,11 @@ def run(args: argparse.Namespace) -> int:
                 "not_identifiable": summary["not_identifiable"],
             },
             "arm": {"source": source, "num_parameters": len(arm)},
+            "sigma_terms": {
+                "rows_noise": True,
+                "arm_covariance": rows.arm_factor is not None,
+                "arm_model_error": False,
+            },
             "valid": final_valid,
             "reason": reason,
             "last_valid_time": float(t[last]),
@@ -406,10 +447,7 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
         f" + offset {args.offset}" if args.offset else ""
     )
     print(f"payload: on link {rows.link + 1} ({rows.link_name}), {where}")
-    print(
-        f"arm: {'the URDF' if source == 'urdf' else source} ({len(rows.arm)} base "
-        "parameters, known)"
-    )
+    print(_arm_line(args, rows, source))
     print(
         f"window: {settings.window:g} s; ℓ = "
         f"{', '.join(f'{x:g}' for x in settings.ell())}; {settings.rows_from} rows; "
@@ -443,6 +481,20 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
             f"final window INVALID: {reason}; the last valid estimate (t = "
             f"{t[last]:.4g} s) is shown"
         )
+
+
+def _arm_line(args: argparse.Namespace, rows: Any, source: str) -> str:
+    """The printout's line on the arm: its source and what σ holds of its error."""
+    where = "the URDF" if source == "urdf" else source
+    if rows.arm_factor is not None:
+        held = "their covariance propagated to σ"
+    elif source == "urdf":
+        held = "taken as exact: σ holds no error of the arm"
+    elif getattr(args, "uncertainty", None) == "gautier":
+        held = "their covariance not propagated under --uncertainty gautier"
+    else:
+        held = "no covariance in the file: taken as exact"
+    return f"arm: {where} ({len(rows.arm)} base parameters, known; {held})"
 
 
 def _print_every(every: float, rows, trace, settings, t) -> None:

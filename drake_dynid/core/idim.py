@@ -43,6 +43,7 @@ __all__ = [
     "ReducedRows",
     "default_padding",
     "default_trim",
+    "idim_covariance",
     "idim_least_squares",
     "idim_solve",
     "joint_noise_fits",
@@ -458,3 +459,44 @@ def idim_solve(
         names=names,
         num_rows=reduced.num_samples * joints,
     )
+
+
+def idim_covariance(reduced: ReducedRows, std: Any, *, weighted: bool = False):
+    """The (p, p) covariance of :func:`idim_solve`'s estimate, its σ given.
+
+    ``C = S K S``: S = diag(σ) (``std``: the solve's σ, e.g. Gautier's times the
+    decimated rows' correlation factor of ``drake_dynid.offline``), K the
+    correlation of the solve's errors, (AᵀA)⁻¹ of the stacked R_j (each divided
+    by σ_j for IDIM-WLS, as :func:`idim_solve` solves) normalised to a unit
+    diagonal::
+
+        A S_A⁻¹ = Q R  (S_A: column norms),  (AᵀA)⁻¹ ∝ S_A⁻¹ R⁻¹ R⁻ᵀ S_A⁻¹
+
+    so that ``diag(C) = σ²`` [units of the parameters, squared]. Used by
+    ``dynid payload --params`` (the arm's parameters' error propagated to the
+    payload's σ, docs/PAYLOAD.md §4).
+
+    Raises:
+        ValueError: ``std`` not (p,) finite and positive, or rows that do not
+            determine every parameter (rank deficient).
+    """
+    owner = "idim_covariance"
+    p = reduced.num_parameters
+    sigma = v.array(owner, "std", std, (p,))
+    if not (np.isfinite(sigma).all() and (sigma > 0.0).all()):
+        v.fail(owner, "std must be finite and > 0 for every parameter.")
+    R = reduced.R
+    if weighted and reduced.num_samples > 0 and np.isfinite(R).all():
+        R = joint_weighted(reduced)
+    a = R.reshape(-1, p + 1)[:, :-1]
+    norms = np.linalg.norm(a, axis=0)
+    if not (np.isfinite(a).all() and (norms > 0.0).all()):
+        v.fail(owner, "the rows must be finite, with no zero column.")
+    r = np.linalg.qr(a / norms, mode="r")
+    if not np.all(np.abs(np.diag(r)) > 1e-12 * np.abs(np.diag(r)).max()):
+        v.fail(owner, "the rows are rank deficient: no covariance.")
+    inverse = np.linalg.solve(r, np.eye(p))
+    k = inverse @ inverse.T
+    d = 1.0 / np.sqrt(np.diag(k))
+    k = k * d[:, None] * d[None, :]
+    return k * sigma[:, None] * sigma[None, :]

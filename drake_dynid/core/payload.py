@@ -33,6 +33,15 @@ rows and the modulating bank run unchanged; the identifier moves the known
 column to the right-hand side (:func:`eliminate_known`: B' = B - A[:, -1]) and
 solves only the payload's parameters (``core.payload_step``).
 
+**The arm's error.** When θ_arm comes with a covariance Σ_arm (a previous
+identification's, ``dynid offline --json``), :func:`payload_rows` factors it,
+Σ_arm = L Lᵀ (:func:`arm_factor`, L: p_arm × k), and the provider carries k more
+columns between the payload's and the known one: D_arm L, G_arm L, the arm's
+rows along L's columns. The bank integrates them as any column, so each window
+holds K_L, the rows of the known column's error δK = K_L z (z ~ N(0, 1_k)), and
+the solve adds its image to the payload's covariance (``core.payload_noise``:
+Cov_θ += G K_L K_Lᵀ Gᵀ, G the window's solve operator; docs/PAYLOAD.md §4).
+
 Identifiable parameters: the joints below L see only some combinations of θ_F
 (planar motion without gravity: ZZ, MX, MY and, through the joint before, M).
 :func:`payload_rows` reduces the 10 columns W_L Φ at seeded random states with the
@@ -59,9 +68,11 @@ from drake_dynid.core.base_parameters import BaseParameters, base_parameters
 from drake_dynid.core.rows import check_model_kind
 
 __all__ = [
+    "ARM_COLUMN",
     "KNOWN_COLUMN",
     "PAYLOAD_NAMES",
     "PayloadRows",
+    "arm_factor",
     "eliminate_known",
     "payload_parameters",
     "payload_rows",
@@ -74,6 +85,9 @@ PAYLOAD_NAMES = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 
 #: Name of the known column (the arm's D θ_arm, G θ_arm; its coefficient is 1).
 KNOWN_COLUMN = "arm"
+
+#: Prefix of the names of the arm's error columns (``arm_error0``, ...).
+ARM_COLUMN = "arm_error"
 
 _SYMMETRIC = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
@@ -180,14 +194,55 @@ def eliminate_known(A: Any, B: Any) -> tuple[np.ndarray, np.ndarray]:
     return a[:, :-1], b - a[:, -1]
 
 
+def arm_factor(covariance: Any, num_parameters: int) -> np.ndarray:
+    """L (p_arm, k) with L Lᵀ = Σ_arm: the arm's error columns (module docstring).
+
+    From the eigen decomposition Σ = V diag(λ) Vᵀ: L = V_k diag(√λ_k) over the k
+    eigenvalues above 1e-12 λ_max (the others carry no variance). Units: those
+    of the arm's base parameters.
+
+    Args:
+        covariance: Σ_arm (p_arm, p_arm), symmetric positive semi-definite
+            (within 1e-9 of its largest entry) [units of θ_arm, squared].
+        num_parameters: p_arm.
+
+    Raises:
+        ValueError: a wrong shape, a non-finite entry, an asymmetric matrix or a
+            negative eigenvalue beyond round-off.
+    """
+    owner = "arm_factor"
+    p = int(num_parameters)
+    sigma = check.array(owner, "covariance", covariance, (p, p))
+    scale = float(np.abs(sigma).max()) if sigma.size else 0.0
+    if not np.allclose(sigma, sigma.T, rtol=0.0, atol=1e-9 * scale):
+        check.fail(
+            owner,
+            "covariance must be symmetric; got entries apart by up to "
+            f"{np.abs(sigma - sigma.T).max():.3g} [parameter units²].",
+        )
+    values, vectors = np.linalg.eigh(0.5 * (sigma + sigma.T))
+    top = float(values.max()) if values.size else 0.0
+    if values.size and values.min() < -1e-9 * max(top, scale):
+        check.fail(
+            owner,
+            "covariance must be positive semi-definite; got the eigenvalue "
+            f"{values.min():.3g} (largest {top:.3g}).",
+        )
+    keep = values > 1e-12 * top if top > 0.0 else np.zeros(values.shape, bool)
+    out = vectors[:, keep] * np.sqrt(values[keep])
+    out.flags.writeable = False
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class PayloadRows:
     """Row provider of a payload on a known arm (module docstring).
 
     Build it with :func:`payload_rows`. ``model_rows(kind, q, v, tau)`` returns
-    the (D, G, y) of docs/CONVENTIONS.md §3 with ``num_parameters`` = p_F + 1
-    columns: the payload's base parameters (``payload_names``), then the known
-    column :data:`KNOWN_COLUMN` (coefficient 1).
+    the (D, G, y) of docs/CONVENTIONS.md §3 with ``num_parameters`` = p_F + k + 1
+    columns: the payload's base parameters (``payload_names``), the k arm's
+    error columns (``arm_factor``, k = 0 without the arm's covariance), then the
+    known column :data:`KNOWN_COLUMN` (coefficient 1).
 
     Attributes:
         robot: the arm (a ``drake_dynid.RobotModel``).
@@ -200,6 +255,8 @@ class PayloadRows:
         rotation: R_LF (3, 3); translation: p_LF (3,) [m].
         arm: (p_arm,) the arm's known base parameters (``robot.base.names``).
         base: the payload's base parameters (reduction of ``W_L Φ``).
+        arm_factor: (p_arm, k) L, Σ_arm = L Lᵀ (:func:`arm_factor`), or None: the
+            arm taken as exact (k = 0).
     """
 
     robot: Any
@@ -212,6 +269,7 @@ class PayloadRows:
     translation: np.ndarray
     arm: np.ndarray
     base: BaseParameters
+    arm_factor: np.ndarray | None = None
 
     @property
     def num_joints(self) -> int:
@@ -224,9 +282,14 @@ class PayloadRows:
         return len(self.base.names)
 
     @property
+    def num_arm_columns(self) -> int:
+        """k, the arm's error columns (0 without the arm's covariance)."""
+        return 0 if self.arm_factor is None else int(self.arm_factor.shape[1])
+
+    @property
     def num_parameters(self) -> int:
-        """p_F + 1: the payload's base parameters and the known column."""
-        return self.num_payload + 1
+        """p_F + k + 1: the payload's, the arm's error and the known columns."""
+        return self.num_payload + self.num_arm_columns + 1
 
     @property
     def payload_names(self) -> tuple[str, ...]:
@@ -235,8 +298,9 @@ class PayloadRows:
 
     @property
     def names(self) -> tuple[str, ...]:
-        """Column names: ``payload_names`` and :data:`KNOWN_COLUMN`."""
-        return (*self.base.names, KNOWN_COLUMN)
+        """Column names: ``payload_names``, the arm's error columns, the known one."""
+        errors = tuple(f"{ARM_COLUMN}{k}" for k in range(self.num_arm_columns))
+        return (*self.base.names, *errors, KNOWN_COLUMN)
 
     def _payload(self, standard: np.ndarray) -> np.ndarray:
         """Standard-column rows (..., p_std) -> the payload's base columns."""
@@ -254,12 +318,13 @@ class PayloadRows:
     def model_rows(
         self, kind: str, q: Any, v: Any, tau: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(D, G, y) with the payload's columns and the known column last.
+        """(D, G, y): the payload's columns, the arm's error columns, the known one.
 
         Lagrangian: D = [∂h_E/∂v·Φ, (∂h_E/∂v)_arm θ_arm], G = [(∂h_U/∂q -
         ∂h_E/∂q)·Φ, G_arm θ_arm] (G_arm with the arm's friction), y = τ. Power:
         D = [h·Φ, h_arm θ_arm], G = [0, friction power θ_arm], y = vᵀτ. Batch
         shapes of ``RobotModel.model_rows``; (n,) inputs drop the sample axis.
+        The arm's error columns are D_arm L and G_arm L (``arm_factor``).
         """
         kind = check_model_kind("PayloadRows", kind)
         d_arm, g_arm, y = self.robot.model_rows(kind, q, v, tau)
@@ -275,9 +340,14 @@ class PayloadRows:
             d_rows = self._payload(self.robot.energy_rows(q, v, columns="standard"))
             d_rows = d_rows[..., None, :]
             g_rows = np.zeros_like(d_rows)
+        factor = (
+            self.arm_factor
+            if self.arm_factor is not None
+            else np.zeros((self.arm.size, 0))
+        )
         return (
-            np.concatenate([d_rows, known_d[..., None]], axis=-1),
-            np.concatenate([g_rows, known_g[..., None]], axis=-1),
+            np.concatenate([d_rows, d_arm @ factor, known_d[..., None]], axis=-1),
+            np.concatenate([g_rows, g_arm @ factor, known_g[..., None]], axis=-1),
             y,
         )
 
@@ -302,6 +372,7 @@ def payload_rows(
     rotation: Any = None,
     translation: Any = None,
     arm: Any = None,
+    arm_covariance: Any = None,
     frame_name: str = "",
     seed: int = 0,
 ) -> PayloadRows:
@@ -321,12 +392,17 @@ def payload_rows(
         translation: p_LF (3,) [m] (default 0).
         arm: (p_arm,) the arm's base parameters (default ``robot.base_values``,
             the URDF's values).
+        arm_covariance: (p_arm, p_arm) the covariance of ``arm`` [units of
+            θ_arm, squared], or None: the arm taken as exact. Given, the rows
+            carry the arm's error columns (:func:`arm_factor`) and the payload's
+            σ holds that error (docs/PAYLOAD.md §4).
         frame_name: a name for F in reports.
         seed: seed of the random states of the reduction.
 
     Raises:
         ValueError: a link out of range, a non-rotation, an ``arm`` of the wrong
-            size or not finite, or a payload that the joints cannot see at all.
+            size or not finite, an ``arm_covariance`` that is no covariance of
+            it, or a payload that the joints cannot see at all.
     """
     owner = "payload_rows"
     check.having(
@@ -349,6 +425,7 @@ def payload_rows(
         robot.base_values if arm is None else check.array(owner, "arm", arm, (p_arm,)),
         dtype=float,
     )
+    factor = None if arm_covariance is None else arm_factor(arm_covariance, p_arm)
     transform = payload_transform(r, p)
     rng = np.random.default_rng(seed)
     count = max(20, -(-40 // n))
@@ -381,4 +458,5 @@ def payload_rows(
         translation=p,
         arm=theta_arm,
         base=base,
+        arm_factor=factor,
     )

@@ -54,7 +54,14 @@ noise is learned).
        s_j² = max(1, ‖W_j ρ_j‖² / (tr Σ̃_j - tr((ÃᵀÃ)⁻¹ Ã_jᵀ Σ̃_j Ã_j)))
 
    (σ [units of θ] = √diag C_θ; Σ_ν over the rows of frequency ν, all
-   equations; t₀ = :data:`FREQUENCY_SCALE_FLOOR`). The weights' estimation
+   equations; t₀ = :data:`FREQUENCY_SCALE_FLOOR`). With the arm's error
+   columns K_L of the window (``core.payload.PayloadRows.arm_factor``: the
+   known column's error is K_L z, z ~ N(0, 1_k)), their image through the
+   solve is added, exact to first order (the weights held)::
+
+       C_θ += G K_L K_Lᵀ Gᵀ,   G = (ÃᵀÃ)⁻¹ Ãᵀ W   (θ̂ = G B)
+
+   (docs/PAYLOAD.md §4). The weights' estimation
    enters through t_ν and s_j: a window whose rows are noisier than the pool
    says inflates σ, one quieter at ν lowers it, by √t₀ at most. On a slow arm the
    noise of a frequency changes from window to window (the velocity estimate's
@@ -259,6 +266,7 @@ def pooled_solve(
     max_condition: float,
     names: Any = None,
     known: Any = None,
+    arm: Any = None,
 ) -> PooledSolve:
     """One window's solve with the pooled noise (module docstring, steps 1-3).
 
@@ -273,6 +281,8 @@ def pooled_solve(
         names: p parameter names (messages).
         known: (r,) the window's known column (the arm's rows, [unit of B]) for
             the dilution factor (:func:`dilution`), or None: λ = 1.
+        arm: (r, k) the window's arm's error columns K_L [unit of B] (module
+            docstring, step 3), or None: the arm taken as exact.
 
     Returns:
         :class:`PooledSolve` (an invalid result, rank deficient or
@@ -356,6 +366,11 @@ def pooled_solve(
         observed = float(np.sum((weights[rows] * residual[rows]) ** 2))
         ratio = observed / expected if expected > 0.0 else np.inf
         meat += max(1.0, ratio) * meat_j
+    if arm is not None:
+        # The arm's error K_L z moves θ̂ by -G K_L z: in the scaled columns,
+        # -R⁻¹ Qᵀ W K_L z (As = Q).
+        image = As.T @ (weights[:, None] * np.asarray(arm, dtype=float))
+        meat += image @ image.T
     covariance = R_inv @ meat @ R_inv.T
     diagonal = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
     std = diagonal / norms

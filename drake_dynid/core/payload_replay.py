@@ -56,7 +56,7 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
     solve_every = entry.solve_decimation(h)
     bank = entry.bank()
     m = entry.num_equations(rows.num_joints)
-    p = rows.num_parameters  # the payload's columns and the known one
+    p = rows.num_parameters  # the payload's, the arm's error and the known columns
     names = rows.payload_names
     weighting = entry.row_weighting(m, bank)
     noise = entry.row_noise(m, bank)
@@ -92,6 +92,7 @@ def _replay(log: Any, rows: PayloadRows, entry: OnlineSettings) -> PayloadTrace:
                 names=names,
                 noise=noise,
                 jackknife=jackknife,
+                arm_columns=rows.num_arm_columns,
             )
             u = next(solves, None)
         # Record the state after the solves at t < t_s.

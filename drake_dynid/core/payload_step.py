@@ -296,11 +296,16 @@ def payload_update(
     names: Any = None,
     noise: Any = None,
     jackknife: Any = None,
+    arm_columns: int = 0,
 ) -> PayloadState:
     """One solve of the payload identifier: the new state (the old is unchanged).
 
-    ``A [θ; 1] = B`` (the bank's equations of ``PayloadRows``: p payload columns
-    and the known column last) becomes ``A[:, :p] θ = B - A[:, p]``. With
+    ``A [θ; z; 1] = B`` (the bank's equations of ``PayloadRows``: p payload
+    columns, k = ``arm_columns`` arm's error columns K_L with z ~ N(0, 1_k), the
+    known column last) becomes ``A[:, :p] θ = B - A[:, -1]``; with the pooled
+    noise, the arm's error K_L z adds G K_L K_Lᵀ Gᵀ to θ̂'s covariance
+    (``core.payload_noise.pooled_solve``, docs/PAYLOAD.md §4; Gautier's σ
+    leaves it out). With
     ``noise`` (the default ``uncertainty``), the solve is
     ``core.payload_noise.pooled_solve``: the rows weighed by the noise pooled
     across windows and one level per equation, the sandwich σ (docs/PAYLOAD.md
@@ -316,7 +321,7 @@ def payload_update(
         state: the current state.
         window_valid: whether the window is full and holds no invalid sample
             (``A`` and ``B`` are not read otherwise; they may be None).
-        A: (r, p + 1) the window's equations.
+        A: (r, p + k + 1) the window's equations.
         B: (r,) right-hand side.
         weighting: None (ordinary least squares), or ``(row_frequency,
             row_group)`` of the rows: weighted (by the pool with ``noise``, else
@@ -328,18 +333,23 @@ def payload_update(
         jackknife: None, or the (r,) jackknife group of every row
             (:func:`payload_jackknife_groups`): σ is then, per parameter, the
             larger of the sandwich's and the jackknife's.
+        arm_columns: k, the arm's error columns of A (``PayloadRows.
+            num_arm_columns``).
     """
     if not window_valid:
         estimate = identifier_update(state.estimate, False, None, None)
         return dataclasses.replace(state, estimate=estimate)
-    a, b = eliminate_known(A, B)
     p = state.num_parameters
-    if a.shape[1] != p:
+    k = check.integer("payload_update", "arm_columns", arm_columns, 0)
+    full = np.asarray(A, dtype=float)
+    if full.ndim != 2 or full.shape[1] != p + k + 1:
         check.fail(
             "payload_update",
-            f"A must have {p + 1} columns (the payload's {p} and the known one); "
-            f"got {a.shape[1] + 1}.",
+            f"A must have {p + k + 1} columns (the payload's {p}, the arm's {k} "
+            f"error columns and the known one); got shape {full.shape}.",
         )
+    arm = full[:, p : p + k] if k > 0 else None
+    a, b = eliminate_known(np.concatenate([full[:, :p], full[:, -1:]], axis=1), B)
     if noise is None:
         estimate = identifier_update(
             state.estimate,
@@ -356,7 +366,9 @@ def payload_update(
         if estimate.valid:
             correlation = _frozen(solve_correlation(a))
         return PayloadState(estimate, correlation, state.pool)
-    if not (np.isfinite(a).all() and np.isfinite(b).all()):
+    if not (np.isfinite(a).all() and np.isfinite(b).all()) or (
+        arm is not None and not np.isfinite(arm).all()
+    ):
         estimate = identifier_update(state.estimate, False, None, None)
         return dataclasses.replace(state, estimate=estimate)
     pool = state.pool if state.pool is not None else pooled_noise_init(a.shape[0])
@@ -369,7 +381,8 @@ def payload_update(
         weighted=weighting is not None,
         max_condition=max_condition,
         names=names,
-        known=np.asarray(A, dtype=float)[:, -1],
+        known=full[:, -1],
+        arm=arm,
     )
     if not ready:
         # The noise model has fewer than MIN_POOLED_WINDOWS windows: σ would be

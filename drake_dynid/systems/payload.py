@@ -13,6 +13,7 @@ from pydrake.systems.framework import (
     OutputPort,
 )
 
+from drake_dynid.core import _validate as check
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
 from drake_dynid.core.payload_noise import PooledNoise, pooled_noise_init
 from drake_dynid.core.payload_step import PayloadState, payload_init, payload_update
@@ -84,12 +85,13 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
         row_weighting: tuple[Any, Any] | None = None,
         row_noise: Any = None,
         jackknife_groups: Any = None,
+        arm_columns: int = 0,
     ):
         """Builds the block.
 
         Args:
-            num_parameters: p, the payload's base parameters (``A`` has p + 1
-                columns).
+            num_parameters: p, the payload's base parameters (``A`` has
+                p + k + 1 columns).
             num_rows: r, rows of A and B (``ModulatingIntegralBank.num_rows``).
             update_period: seconds between two solves [s].
             max_condition: largest accepted condition number of the column-scaled
@@ -105,6 +107,9 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
                 (``OnlineSettings.row_noise``), or None: Gautier's σ.
             jackknife_groups: (r,) the jackknife group of each row
                 (``OnlineSettings.jackknife_groups``), or None.
+            arm_columns: k, the arm's error columns of ``A``
+                (``core.payload.PayloadRows.num_arm_columns``; their image adds
+                to σ, ``core.payload_step.payload_update``).
         """
         super().__init__()
         offset = self._configure(
@@ -119,8 +124,9 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
             row_noise,
             jackknife_groups,
         )
+        self._k = check.integer("PayloadIdentifier", "arm_columns", arm_columns, 0)
         self._declare(
-            self._p + 1,
+            self._p + self._k + 1,
             _GROUPS,
             self._as_vectors(payload_init(self._p)),
             offset,
@@ -155,7 +161,8 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
 
     def _Solve(self, context: Context, discrete_state: DiscreteValues) -> None:
         ready = self._window_valid.Eval(context)[0] > 0.5
-        a = self._a.Eval(context).reshape(self._r, self._p + 1) if ready else None
+        columns = self._p + self._k + 1
+        a = self._a.Eval(context).reshape(self._r, columns) if ready else None
         b = self._b.Eval(context) if ready else None
         new = payload_update(
             self.state(context),
@@ -167,6 +174,7 @@ class PayloadIdentifier(SolverBlock, LeafSystem):
             names=self._names,
             noise=self._noise,
             jackknife=self._jackknife,
+            arm_columns=self._k,
         )
         for name, value in zip(_GROUPS, self._as_vectors(new), strict=True):
             discrete_state.set_value(int(self._groups[name]), value)

@@ -241,3 +241,59 @@ def test_dilution_weighs_down_only_the_frequencies_near_the_noise():
     np.testing.assert_allclose(weight[:2], 1.0, atol=1e-6)
     np.testing.assert_allclose(weight[2:4], 0.5)
     assert (weight[4:] < 1e-4).all()
+
+
+def _pooled_windows(rng, k, count=12):
+    """``count`` windows (r = 16 rows: 2 equations) of 2 payload columns, k arm's
+    error columns and the known column; B = A θ + K + noise."""
+    settings = payload_settings()
+    noise = settings.row_noise(2, settings.bank())
+    r = noise.num_rows
+    theta = np.array([0.5, -0.2])
+    windows = []
+    for _ in range(count):
+        a = rng.normal(size=(r, 2 + k + 1))
+        b = a[:, :2] @ theta + a[:, -1] + 0.01 * rng.normal(size=r)
+        windows.append((a, b))
+    return noise, windows
+
+
+def test_the_arms_error_columns_add_their_image_to_sigma():
+    # The arm's parameters off by z ~ N(0, Σ), Σ = L Lᵀ: the known column is off
+    # by K_L z, the estimate by -G K_L z. With ordinary least squares (weighting
+    # None) G = (AᵀA)⁻¹Aᵀ, computed here independently of the solver: σ² must
+    # grow by diag(G K_L K_Lᵀ Gᵀ) exactly, θ̂ and the pool stay the same.
+    rng = np.random.default_rng(7)
+    k = 3
+    noise, windows = _pooled_windows(rng, k)
+    with_arm = without = payload_init(2)
+    for a, b in windows:
+        with_arm = payload_update(with_arm, True, a, b, noise=noise, arm_columns=k)
+        plain = np.concatenate([a[:, :2], a[:, -1:]], axis=1)
+        without = payload_update(without, True, plain, b, noise=noise)
+    assert with_arm.estimate.valid and without.estimate.valid
+    np.testing.assert_array_equal(with_arm.estimate.theta, without.estimate.theta)
+    a = windows[-1][0]
+    image = np.linalg.pinv(a[:, :2]) @ a[:, 2 : 2 + k]
+    grown = with_arm.estimate.std**2 - without.estimate.std**2
+    np.testing.assert_allclose(grown, np.sum(image**2, axis=1), rtol=1e-9)
+    assert (grown > 0.05 * without.estimate.std**2).all()  # a visible term
+    with pytest.raises(ValueError, match="A must have 6 columns"):
+        payload_update(with_arm, True, a[:, :-1], windows[-1][1], arm_columns=k)
+
+
+def test_arm_factor_reproduces_the_covariance_and_refuses_non_covariances():
+    from drake_dynid.core.payload import arm_factor
+
+    rng = np.random.default_rng(8)
+    root = rng.normal(size=(5, 3))
+    covariance = root @ root.T  # rank 3
+    factor = arm_factor(covariance, 5)
+    assert factor.shape == (5, 3)
+    np.testing.assert_allclose(factor @ factor.T, covariance, atol=1e-12)
+    with pytest.raises(ValueError, match="must be symmetric"):
+        arm_factor(covariance + np.triu(np.ones((5, 5)), 1), 5)
+    with pytest.raises(ValueError, match="positive semi-definite"):
+        arm_factor(covariance - np.eye(5), 5)
+    with pytest.raises(ValueError, match="shape"):
+        arm_factor(covariance, 4)

@@ -232,3 +232,24 @@ def test_settings_the_payload_solve_does_not_have_are_refused(case):
         ValueError, match=r"replay_payload_core: settings\.detect_changes"
     ):
         replay_payload_core(log, rows, given)
+
+
+def test_blocks_equal_the_core_with_the_arms_covariance(case):
+    """The arm's error columns (payload_rows(arm_covariance=...)) go through the
+    blocks' bank as through the core's: the same σ, which the covariance widens."""
+    rows, log = case
+    robot = rows.robot
+    theta = np.asarray(robot.base_values, dtype=float)
+    covariance = np.diag((0.01 * np.abs(theta) + 1e-4) ** 2)
+    wide = payload_rows(robot, arm_covariance=covariance)
+    assert wide.num_parameters == rows.num_parameters + wide.num_arm_columns
+    settings = payload_settings(window=0.5)
+    core = replay_payload_core(log, wide, settings)
+    blocks = replay_payload_log(log, wide, settings)
+    np.testing.assert_allclose(blocks.theta, core.theta, rtol=1e-9, atol=1e-12)
+    finite = np.isfinite(core.std)
+    np.testing.assert_array_equal(finite, np.isfinite(blocks.std))
+    np.testing.assert_allclose(blocks.std[finite], core.std[finite], rtol=1e-7)
+    plain = replay_payload_core(log, rows, settings)
+    np.testing.assert_array_equal(plain.theta, core.theta)
+    assert (core.std[-1] > plain.std[-1]).all()
