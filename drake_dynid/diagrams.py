@@ -69,6 +69,7 @@ __all__ = [
     "add_online_identifiers",
     "advance",
     "chain_trace",
+    "check_measurement",
     "final_row",
     "log_source",
     "reference_noise_std",
@@ -162,6 +163,7 @@ def add_bank_front(
     from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
 
     n = int(rows.num_joints)
+    check_measurement(owner, measurement, n)
     _check_on_grid(owner, settings, time_step)
     _warn_sampled_plant(owner, builder, measurement)
     if differentiator is None:
@@ -221,6 +223,55 @@ def add_bank_front(
         differentiator.get_output_port_valid(), bank.get_input_port_sample_valid()
     )
     return differentiator, model_rows, bank, design
+
+
+def check_measurement(owner: str, measurement: Any, n: int) -> None:
+    """The measurement must be a vector output port of size 2n carrying [q; τ].
+
+    A ``MultibodyPlant``'s state port ([q; v], also of size 2n for a chain of
+    revolute joints) is refused: a review wired the 2R plant's
+    ``get_state_output_port()`` into the chain, which took v for τ and reported
+    FV1 = FV2 = 1.000 ± 0.0005, every other parameter 0, "valid".
+
+    Raises:
+        TypeError: ``measurement`` is not an ``OutputPort`` with a vector value
+            (a system, an input port, an abstract port).
+        ValueError: its size is not 2n, or it is a ``MultibodyPlant``'s state.
+    """
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import ModelInstanceIndex
+    from pydrake.systems.framework import OutputPort, PortDataType
+
+    vector = isinstance(measurement, OutputPort) and (
+        measurement.get_data_type() == PortDataType.kVectorValued
+    )
+    if not vector:
+        what = type(measurement).__name__
+        if isinstance(measurement, OutputPort):
+            what = f"the abstract-valued port {measurement.get_name()!r}"
+        raise TypeError(
+            f"{owner}: measurement must be the vector OutputPort carrying [q; tau] "
+            f"(e.g. source.get_output_port()); got {what}."
+        )
+    if measurement.size() != 2 * n:
+        check.fail(
+            owner,
+            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
+            f"{measurement.size()}.",
+        )
+    plant = measurement.get_system()
+    if isinstance(plant, MultibodyPlant) and plant.is_finalized():
+        states = [plant.get_state_output_port()] + [
+            plant.get_state_output_port(ModelInstanceIndex(index))
+            for index in range(plant.num_model_instances())
+        ]
+        if measurement.get_index() in {port.get_index() for port in states}:
+            check.fail(
+                owner,
+                f"measurement is the MultibodyPlant's state port "
+                f"{measurement.get_name()!r}, [q; v]: the chain needs [q; tau] (a "
+                "Multiplexer of the plant's positions and the torque it applies).",
+            )
 
 
 def _check_on_grid(owner: str, settings: OnlineSettings, time_step: float) -> None:
@@ -381,12 +432,7 @@ def add_online_identifier(
             f"{owner}: settings must be an OnlineSettings; got "
             f"{type(settings).__name__}."
         )
-    if measurement.size() != 2 * n:
-        check.fail(
-            owner,
-            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
-            f"{measurement.size()}.",
-        )
+    check_measurement(owner, measurement, n)
     settings = settings.for_robot(time_step, n, int(rows.num_parameters))
     plain_rows = rows
     rows = settings.row_provider(rows, time_step)  # noise-compensated power rows

@@ -39,6 +39,7 @@ from drake_dynid.diagrams import (
     add_bank_front,
     advance,
     chain_logs,
+    check_measurement,
     final_row,
     log_source,
     with_final_row,
@@ -98,12 +99,7 @@ def add_payload_identifier(
     check.instance(owner, "settings", settings, OnlineSettings, "an OnlineSettings")
     check_payload_weighting(owner, settings)
     n = rows.num_joints
-    if measurement.size() != 2 * n:
-        check.fail(
-            owner,
-            f"measurement must have size 2n = {2 * n} ([q; tau]); got "
-            f"{measurement.size()}.",
-        )
+    check_measurement(owner, measurement, n)
     settings = settings.on_grid(time_step)
     differentiator, model_rows, bank, design = add_bank_front(
         builder, rows, settings, measurement, time_step, differentiator, owner=owner

@@ -666,3 +666,46 @@ def test_advance_goes_forward_from_the_simulator_s_time():
         "advance: t_end must be >= the simulator's time 2 [s] (a Simulator cannot "
         "go back); got 1."
     )
+
+
+def test_the_measurement_must_be_a_q_tau_output_port(robot):
+    """Found by a review (a Drake user wiring the chain): the plant's state port,
+    [q; v] of size 2n, was taken for [q; τ] (the 2R closed loop, 25 s: FV1 = FV2
+    = 1.000 ± 0.0005, every other parameter 0, "valid"); a system, an input port
+    or an abstract port given as the measurement failed with an AttributeError
+    or Drake's message about Connect's arguments."""
+    from pydrake.common.value import AbstractValue
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantValueSource, ConstantVectorSource
+
+    from drake_dynid.core.payload import payload_rows
+    from drake_dynid.core.payload_step import payload_settings
+    from drake_dynid.diagrams import add_bank_front, add_online_identifier
+    from drake_dynid.payload_diagrams import add_payload_identifier
+    from drake_dynid.urdf import load_plant
+
+    builder = DiagramBuilder()
+    plant = builder.AddSystem(load_plant(robot.path, 1e-3))
+    source = builder.AddSystem(ConstantVectorSource(np.zeros(4)))
+    text = builder.AddSystem(ConstantValueSource(AbstractValue.Make("q, tau")))
+    rows = robot.rows_provider()
+    settings = SETTINGS[0]
+    for port in (
+        plant.get_state_output_port(),
+        plant.get_state_output_port(plant.GetModelInstanceByName("planar_2r")),
+    ):
+        with pytest.raises(ValueError, match="measurement is the MultibodyPlant's"):
+            add_online_identifier(builder, rows, port, 1e-3, settings)
+        with pytest.raises(ValueError, match=r"state port .*\[q; v\]"):
+            add_payload_identifier(
+                builder, payload_rows(robot), port, 1e-3, payload_settings()
+            )
+    wrong = (source, plant.get_actuation_input_port(), text.get_output_port())
+    for measurement in wrong:
+        with pytest.raises(TypeError, match="measurement must be the vector Output"):
+            add_online_identifier(builder, rows, measurement, 1e-3, settings)
+    with pytest.raises(TypeError, match="got the abstract-valued port"):
+        add_bank_front(
+            builder, rows, settings.on_grid(1e-3), text.get_output_port(), 1e-3
+        )
+    assert builder.GetSystems() == [plant, source, text]  # nothing added
