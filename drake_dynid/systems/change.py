@@ -129,6 +129,14 @@ class ChangeTrackingIdentifier(SlidingQRIdentifier):
         a = self._a.Eval(context).reshape(self._r, self._p) if ready else None
         b = self._b.Eval(context) if ready else None
         vector = context.get_discrete_state(int(self._tracker)).get_value()
+        window = check.having(
+            "ChangeTrackingIdentifier",
+            "window_state",
+            self._window_state.Eval(context),
+            ("count", "ring", "last_invalid"),
+            "the bank's streaming state (connect the ModulatingIntegralBank's "
+            "get_output_port_window_state())",
+        )
         tracker, reported = tracking_update(
             tracker_from_vector(vector, self._design),
             self.state(context),
@@ -136,7 +144,7 @@ class ChangeTrackingIdentifier(SlidingQRIdentifier):
             ready,
             a,
             b,
-            self._window_state.Eval(context),
+            window,
             weighting=self._weighting,
             max_condition=self._max_condition,
             names=self._names,

@@ -22,6 +22,7 @@ from drake_dynid.core.identifier import (
     identifier_update,
 )
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
+from drake_dynid.core.rows import check_rows
 from drake_dynid.systems._solver_block import (
     ESTIMATE_GROUPS,
     SolverBlock,
@@ -33,6 +34,28 @@ __all__ = ["SlidingQRIdentifier"]
 # The state groups of the block, in declaration order (p: the parameters); each is
 # also an output port of the same name.
 _GROUPS = ESTIMATE_GROUPS
+
+
+def _covariance_pair(owner: str, covariance: Any) -> tuple[Any, Any]:
+    """``(design, rows)`` checked: a ``CovarianceDesign`` and a row provider."""
+    from drake_dynid.core.row_covariance import CovarianceDesign
+
+    if not (isinstance(covariance, tuple) and len(covariance) == 2):
+        raise TypeError(
+            f"{owner}: covariance must be a pair (CovarianceDesign, rows) "
+            f"(OnlineSettings.covariance_design, the row provider); got "
+            f"{type(covariance).__name__}."
+        )
+    design, rows = covariance
+    check.instance(
+        owner,
+        "covariance design",
+        design,
+        CovarianceDesign,
+        "a core.row_covariance.CovarianceDesign (OnlineSettings.covariance_design)",
+    )
+    check_rows(owner, rows)
+    return design, rows
 
 
 class SlidingQRIdentifier(SolverBlock, LeafSystem):
@@ -154,7 +177,7 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
         self._covariance = covariance
         self._window_signals = None
         if covariance is not None:
-            design, _ = covariance
+            design, _ = _covariance_pair(owner, covariance)
             if design.num_rows != self._r:
                 check.fail(
                     owner,
@@ -186,6 +209,12 @@ class SlidingQRIdentifier(SolverBlock, LeafSystem):
             raise RuntimeError(
                 "SlidingQRIdentifier: window_signals holds fewer samples than the "
                 "bank's window; connect the SignalWindow of the same bank."
+            )
+        if not (isinstance(window, tuple) and len(window) == 3):
+            raise TypeError(
+                "SlidingQRIdentifier: window_signals must be a SignalWindow's "
+                "window, (q_hat, v_hat, tau_hat) or None; got "
+                f"{type(window).__name__}."
             )
         design, rows = self._covariance
         q_hat, v_hat, tau_hat = window

@@ -483,3 +483,53 @@ def test_a_cloned_bank_context_fed_other_samples_does_not_touch_the_original():
         run(fresh, samples, 0, 90)
         for got, want in zip(outputs(context), outputs(fresh), strict=True):
             np.testing.assert_array_equal(got, want)
+
+
+def test_the_solver_blocks_name_a_wrong_abstract_input_or_covariance():
+    """Found by a review (a Drake user unit-testing single blocks): a
+    ChangeTrackingIdentifier whose ``window_state`` was fixed to anything but
+    the bank's state failed with "'NoneType' object has no attribute 'count'";
+    a ``covariance`` that is not a (design, rows) pair with "cannot unpack" or
+    "'NoneType' object has no attribute 'num_rows'"; a ``window_signals`` value
+    that is not the SignalWindow's triple with "cannot unpack"."""
+    from drake_dynid.core.change import change_design
+    from drake_dynid.core.online import OnlineSettings
+    from drake_dynid.systems.change import ChangeTrackingIdentifier
+
+    h, rows = 1e-3, Planar2RRows(L1=1.0)
+    tracked = OnlineSettings(detect_changes=True).for_robot(h, 2, 8)
+    r = tracked.bank().num_rows(2)
+    block = ChangeTrackingIdentifier(8, r, 0.1, change_design(tracked, h, 2, 8))
+    a = np.random.default_rng(1).normal(size=(r, 8))
+    context = block.CreateDefaultContext()
+    block.get_input_port_A().FixValue(context, a.ravel())
+    block.get_input_port_B().FixValue(context, a @ np.arange(1.0, 9.0))
+    block.get_input_port_window_valid().FixValue(context, [1.0])
+    for wrong in (None, 3, np.zeros(5)):
+        block.get_input_port_window_state().FixValue(context, wrong)
+        with pytest.raises(TypeError, match="window_state must be the bank's stream"):
+            block.EvalUniquePeriodicDiscreteUpdate(context)
+    block.get_input_port_window_state().FixValue(context, tracked.bank().init_state(34))
+    assert block.EvalUniquePeriodicDiscreteUpdate(context).get_vector(0).size() == 8
+
+    weighted = OnlineSettings(
+        weighting="covariance", position_noise=1e-4, torque_noise=0.01
+    ).for_robot(h, 2, 8)
+    design = weighted.covariance_design(h, 2)
+    r = weighted.bank().num_rows(2)
+    for wrong, match in (
+        (design, "covariance must be a pair"),
+        ((None, rows), "covariance design must be a core.row_covariance"),
+        ((design, object()), "rows must be a row provider"),
+    ):
+        with pytest.raises(TypeError, match=match):
+            SlidingQRIdentifier(8, r, 1.0, covariance=wrong)
+    block = SlidingQRIdentifier(8, r, 1.0, covariance=(design, rows))
+    a = np.random.default_rng(2).normal(size=(r, 8))
+    context = block.CreateDefaultContext()
+    block.get_input_port_A().FixValue(context, a.ravel())
+    block.get_input_port_B().FixValue(context, a @ np.arange(1.0, 9.0))
+    block.get_input_port_window_valid().FixValue(context, [1.0])
+    block.get_input_port_window_signals().FixValue(context, 3)
+    with pytest.raises(TypeError, match="window_signals must be a SignalWindow's"):
+        block.EvalUniquePeriodicDiscreteUpdate(context)
