@@ -164,8 +164,20 @@ class CausalJacobiDifferentiator(LeafSystem):
         return self._input
 
     def get_output_port_derivative(self, order: int):
-        """The output port ``derivative_<order>``."""
-        return self.GetOutputPort(f"derivative_{int(order)}")
+        """The output port ``derivative_<order>``.
+
+        Raises:
+            TypeError: ``order`` is not a whole number (1.7 was read as 1).
+            ValueError: the block has no such order.
+        """
+        order = _validate.integer(_OWNER, "order", order)
+        orders = tuple(f.order for f in self._filters)
+        if order not in orders:
+            _validate.fail(
+                _OWNER,
+                f"order must be one of the block's orders {orders}; got {order}.",
+            )
+        return self.GetOutputPort(f"derivative_{order}")
 
     def get_output_port_valid(self):
         """The output port ``valid``."""

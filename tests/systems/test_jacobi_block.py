@@ -90,6 +90,17 @@ def test_ports_properties_and_no_direct_feedthrough():
     assert block.num_signals == 3 and block.time_step == H
 
 
+def test_the_derivative_getter_wants_one_of_the_block_s_orders():
+    """Found by a review: ``get_output_port_derivative(1.7)`` returned
+    ``derivative_1`` (int() truncated it)."""
+    block = make_block(orders=(0, 1))
+    assert block.get_output_port_derivative(np.int64(1)).get_name() == "derivative_1"
+    with pytest.raises(TypeError, match=r"order must be an integer; got 1\.7"):
+        block.get_output_port_derivative(1.7)
+    with pytest.raises(ValueError, match=r"order must be one of .*\(0, 1\); got 2"):
+        block.get_output_port_derivative(2)
+
+
 def test_explicit_xi_and_single_order():
     block = make_block(orders=(1,), xi=0.0)
     assert block.delay == 0.0
