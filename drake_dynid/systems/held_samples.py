@@ -98,6 +98,12 @@ class HeldSamples(LeafSystem):
         if after_end not in ("hold", "nan"):
             check.fail(owner, f"after_end must be 'hold' or 'nan'; got {after_end!r}.")
         self._nan_after = after_end == "nan"
+        if isinstance(tables, np.ndarray) and tables.ndim == 2:
+            # Its rows were taken for N tables: "got [(2,), (2,), (2,)]".
+            raise TypeError(
+                f"{owner}: tables must be a sequence of (N, m_i) tables; got one "
+                f"{tables.shape} array: pass [table]."
+            )
         self._tables = list(tables)
         if not self._tables:
             check.fail(owner, "tables must hold at least one (N, m) table.")

@@ -79,6 +79,14 @@ def test_bad_tables_are_refused(tables, step, message):
         HeldSamples(tables, step)
 
 
+def test_one_table_not_in_a_list_is_named():
+    """Found by a review: ``HeldSamples(table, h)`` took the table's rows for
+    tables ("tables must be (N, m_i) with the same N; got [(2,), (2,), (2,)]")."""
+    with pytest.raises(TypeError, match=r"got one \(3, 2\) array: pass \[table\]"):
+        HeldSamples(np.zeros((3, 2)), H)
+    assert HeldSamples(np.zeros((1, 3, 2)), H).get_output_port_y().size() == 2
+
+
 def test_after_end_nan_says_the_recording_has_ended():
     rows = np.arange(8.0).reshape(4, 2)
     h = 1e-3
