@@ -135,6 +135,8 @@ _LAZY: dict[str, str] = {
     "RawModelRows": "drake_dynid.systems.identification",
     "ModulatingIntegralBank": "drake_dynid.systems.identification",
     "SlidingQRIdentifier": "drake_dynid.systems.identification",
+    "ChangeTrackingIdentifier": "drake_dynid.systems.change",
+    "SignalWindow": "drake_dynid.systems.signal_window",
     # logs (no pydrake)
     "RobotLog": "drake_dynid.logs",
     "read_log": "drake_dynid.logs",
@@ -157,7 +159,10 @@ _LAZY: dict[str, str] = {
     "write_identified_urdf": "drake_dynid.urdf_writer",
     # diagrams and the simulated set-up (pydrake)
     "add_online_identifier": "drake_dynid.diagrams",
+    "add_online_identifiers": "drake_dynid.diagrams",
     "log_source": "drake_dynid.diagrams",
+    "chain_trace": "drake_dynid.diagrams",
+    "final_row": "drake_dynid.diagrams",
     "replay_log": "drake_dynid.diagrams",
     "SimulationSettings": "drake_dynid.simulation",
     "SimulationResult": "drake_dynid.simulation",

@@ -141,3 +141,27 @@ def test_console_blocks_show_what_the_commands_print(
         printed = [_shown(line, digits) for line in printed]
         missing = [line for line in shown if line not in printed]
         assert not missing, (words, missing)
+
+
+def test_the_compose_section_s_names_import_from_the_package():
+    """Found by a review: the Compose section names ChangeTrackingIdentifier,
+    SignalWindow, chain_trace, final_row and replay_payload_log for a user's own
+    diagram, but ``from drake_dynid import ...`` had none of them (only their
+    modules did)."""
+    import drake_dynid
+    from drake_dynid import diagrams, payload_diagrams
+    from drake_dynid.systems import change, signal_window
+
+    text = (ROOT / "README.md").read_text()
+    section = text.split("## Compose the blocks in your own diagram", 1)[1]
+    section = section.split("\n## ", 1)[0]
+    named = set(re.findall(r"`([A-Za-z_]\w*)[`(]", section))
+    modules = (diagrams, payload_diagrams, change, signal_window)
+    public = {
+        name
+        for module in modules
+        for name in named
+        if callable(getattr(module, name, None)) and not name.startswith("_")
+    }
+    assert {"ChangeTrackingIdentifier", "SignalWindow", "final_row"} <= public
+    assert sorted(public - set(drake_dynid.__all__)) == []
