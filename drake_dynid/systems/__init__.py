@@ -7,5 +7,7 @@ The blocks are double-only Python systems: ``ToAutoDiffXd``/``ToSymbolic`` and
 ``System.Clone()`` (hence ``copy.deepcopy`` of a system) raise Drake's message that
 the system has no scalar conversion. Contexts clone and reset as usual
 (``context.Clone()``, ``SetDefaultContext``): two Contexts of one diagram never
-share state.
+share state. Every stateful block declares its periodic update as a forced event
+too (as Drake's ``DiscreteDerivative``): ``ExecuteForcedEvents(context)`` runs one
+update with the inputs as fixed, for unit tests without a Simulator.
 """

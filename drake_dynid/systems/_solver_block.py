@@ -153,6 +153,7 @@ class SolverBlock:
             for name, value in zip(groups, values, strict=True)
         }
         system.DeclarePeriodicDiscreteUpdateEvent(self._period, offset, solve)
+        system.DeclareForcedDiscreteUpdateEvent(solve)  # on demand: one solve
         self._outputs = {
             name: system.DeclareStateOutputPort(name, index)
             for name, index in self._groups.items()

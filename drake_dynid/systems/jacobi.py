@@ -115,6 +115,9 @@ class CausalJacobiDifferentiator(LeafSystem):
         self.DeclarePeriodicDiscreteUpdateEvent(
             period_sec=self._time_step, offset_sec=0.0, update=self._Update
         )
+        # The same update on demand (ExecuteForcedEvents), as Drake's
+        # DiscreteDerivative: one sample taken in a unit test without a Simulator.
+        self.DeclareForcedDiscreteUpdateEvent(self._Update)
         ticket = {self.xd_ticket()}
         for index, filt in enumerate(self._filters):
             self.DeclareVectorOutputPort(

@@ -108,6 +108,7 @@ class ModulatingIntegralBank(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(
             bank.time_step, offset, self._UpdateWindow
         )
+        self.DeclareForcedUnrestrictedUpdateEvent(self._UpdateWindow)  # on demand
         ticket = {self.abstract_state_ticket(self._window)}
         self._equations_cache = self.DeclareCacheEntry(
             description="modulated equations (A, B) of the current window",

@@ -64,6 +64,7 @@ class SignalWindow(LeafSystem):
         self._rates = self.DeclareVectorInputPort("rates", 2 * self._n)
         self._ring = self.DeclareAbstractState(AbstractValue.Make(initial))
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, offset, self._Push)
+        self.DeclareForcedUnrestrictedUpdateEvent(self._Push)  # on demand
         self._window = self.DeclareAbstractOutputPort(
             "window",
             lambda: AbstractValue.Make(ring_window(initial)),

@@ -533,3 +533,66 @@ def test_the_solver_blocks_name_a_wrong_abstract_input_or_covariance():
     block.get_input_port_window_signals().FixValue(context, 3)
     with pytest.raises(TypeError, match="window_signals must be a SignalWindow's"):
         block.EvalUniquePeriodicDiscreteUpdate(context)
+
+
+def test_forced_events_run_one_update_of_every_stateful_block():
+    """Found by a review (a Drake user unit-testing single blocks):
+    ``ExecuteForcedEvents`` and ``CalcForcedDiscreteVariableUpdate`` left every
+    block's state as it was (no forced events declared), and the bank and the
+    signal window, whose updates are unrestricted, could only be stepped by a
+    Simulator. Now, as Drake's DiscreteDerivative, a forced update is the
+    periodic one."""
+    from drake_dynid.core.payload import payload_rows
+    from drake_dynid.plants import RobotModel, model_path
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+    from drake_dynid.systems.payload import PayloadIdentifier
+    from drake_dynid.systems.signal_window import SignalWindow
+
+    rng = np.random.default_rng(3)
+
+    def fixed(block):
+        context = block.CreateDefaultContext()
+        for i in range(block.num_input_ports()):
+            port = block.get_input_port(i)
+            port.FixValue(context, rng.normal(size=port.size()))
+        return context
+
+    differentiator = CausalJacobiDifferentiator(2, H, 0.05, kappa=0, mu=0, q=1)
+    bank = modulating.fourier_bank(0.5, H, order=1, ell=[0.0, 1.0, 2.0])
+    rows = payload_rows(RobotModel.from_urdf(model_path("planar_2r")))
+    blocks = (
+        differentiator,
+        SlidingQRIdentifier(2, 12, 0.1),
+        PayloadIdentifier(rows.num_payload, 12, 0.1),
+    )
+    contexts = [fixed(block) for block in blocks]
+    for block, context in zip(blocks, contexts, strict=True):
+        if block is not differentiator:  # a window to solve
+            block.get_input_port_window_valid().FixValue(context, [1.0])
+        periodic = block.EvalUniquePeriodicDiscreteUpdate(context)
+        forced = block.AllocateDiscreteVariables()
+        block.CalcForcedDiscreteVariableUpdate(context, forced)
+        for group in range(periodic.num_groups()):
+            np.testing.assert_array_equal(
+                forced.get_vector(group).value(), periodic.get_vector(group).value()
+            )
+        block.ExecuteForcedEvents(context)
+        for group in range(periodic.num_groups()):
+            np.testing.assert_array_equal(
+                context.get_discrete_state(group).get_value(),
+                periodic.get_vector(group).value(),
+            )
+    assert differentiator.get_output_port_history().Eval(contexts[0]).any()
+
+    block = ModulatingIntegralBank(bank, 1, 2)
+    context = fixed(block)
+    block.get_input_port_sample_valid().FixValue(context, [1.0])
+    for _ in range(3):
+        block.ExecuteForcedEvents(context)
+    assert block.get_output_port_window_state().Eval(context).count == 3
+    window = SignalWindow(2, 2, 0.02)
+    context = fixed(window)
+    assert window.get_output_port_window().Eval(context) is None
+    window.ExecuteForcedEvents(context)
+    window.ExecuteForcedEvents(context)
+    assert window.get_output_port_window().Eval(context)[0].shape == (2, 2)
