@@ -709,3 +709,52 @@ def test_the_measurement_must_be_a_q_tau_output_port(robot):
             builder, rows, settings.on_grid(1e-3), text.get_output_port(), 1e-3
         )
     assert builder.GetSystems() == [plant, source, text]  # nothing added
+
+
+def test_final_row_gives_identify_s_estimate_and_the_ports_then_hold_it(
+    robot, noise_free
+):
+    """The README (Compose): after a Simulator run to N·h the ports hold the solve
+    of the last multiple of U, chain_trace's last row the one before, and
+    ``final_row`` runs the solve at the log's last sample that ``dynid identify``
+    (``replay_log_core``) reports. A review found the README saying that
+    chain_trace(...).final() was identify's (stale since the final solve)."""
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+
+    from drake_dynid.core.replay import replay_log_core
+    from drake_dynid.diagrams import (
+        add_online_identifier,
+        chain_trace,
+        final_row,
+        log_source,
+    )
+
+    count = 2575  # last sample 2.574 s: not a solve time (U = 0.05 s)
+    log = RobotLog(
+        noise_free.t[:count],
+        noise_free.q[:count],
+        noise_free.tau[:count],
+        noise_free.joint_names,
+        1e-3,
+    )
+    settings = SETTINGS[0]
+    core = replay_log_core(log, robot.rows_provider(), [settings])[0].final()
+    builder = DiagramBuilder()
+    source = builder.AddSystem(log_source(log))
+    chain = add_online_identifier(
+        builder, robot.rows_provider(), source.get_output_port(), 1e-3, settings
+    )
+    simulator = Simulator(builder.Build())
+    simulator.AdvanceTo(count * 1e-3)
+    context = simulator.get_mutable_context()
+    own = chain.identifier.GetMyContextFromRoot(context)
+    ports = chain.identifier.get_output_port_theta().Eval(own).copy()
+    logged = chain_trace(chain, context, 1e-3).final()["theta"]
+    assert core["valid"] and np.abs(ports - core["theta"]).max() > 1e-6
+    assert np.abs(logged - core["theta"]).max() > np.abs(ports - core["theta"]).max()
+    _, row = final_row(chain, context, count, 1e-3)
+    np.testing.assert_allclose(row["theta"], core["theta"], rtol=1e-9)
+    np.testing.assert_allclose(
+        chain.identifier.get_output_port_theta().Eval(own), core["theta"], rtol=1e-9
+    )
