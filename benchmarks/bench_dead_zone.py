@@ -29,7 +29,8 @@ parameters whose median reported σ is <= 5 % of the true value: ``p90`` of
 |θ̂ - θ|/σ (1.64 for an honest σ), and ``bias``: the largest |mean θ̂ - θ| over the
 seeds in units of the median σ (the seed mean's own spread is about 0.2 of it).
 
-Run: ``python benchmarks/bench_dead_zone.py [--seeds 20] [--quick] [--robot NAME]``
+Run: ``python benchmarks/bench_dead_zone.py [--seeds 20] [--quick] [--robot NAME]
+[--rates 125,500,1000] [--truth sign|tanh] [--duration 60] [--json FILE]``
 (``--robot`` ur5, iiwa7 or ur5-wrist, repeatable; default all three; ``--rates``
 to choose among 125, 500 and 1000 Hz).
 """
@@ -37,6 +38,7 @@ to choose among 125, 500 and 1000 Hz).
 from __future__ import annotations
 
 import argparse
+import json
 import dataclasses
 
 import numpy as np
@@ -83,9 +85,9 @@ def _robot(name: str) -> RobotModel:
     return RobotModel.from_urdf(model_path("ur5"), drive=wrist_drive(plain.joint_names))
 
 
-def _log(robot: RobotModel, h: float, width: float) -> RobotLog:
+def _log(robot: RobotModel, h: float, width: float, duration: float) -> RobotLog:
     """The exact log; with coupled motors, their friction through R added."""
-    log, v = exact_log(robot, trajectory(robot.num_joints), 60.0, h, width)
+    log, v = exact_log(robot, trajectory(robot.num_joints), duration, h, width)
     chain = robot.drive
     if chain is None or not chain.coupled_motors:
         return log
@@ -171,15 +173,21 @@ def main(argv=None) -> int:
         choices=("sign", "tanh"),
         help="the logs' friction law (default both)",
     )
+    parser.add_argument(
+        "--duration", type=float, default=60.0, help="log length [s] (default 60)"
+    )
+    parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
     configure_process()
     seeds = quick_or(args.seeds, args.quick, 4, 20)
     robots = args.robot or (("ur5",) if args.quick else ROBOTS)
     print(
-        f"dynid offline with three Coulomb columns ({seeds} seeds, 60 s, Drake inverse "
+        f"dynid offline with three Coulomb columns ({seeds} seeds, {args.duration:g} s, "
+        "Drake inverse "
         "dynamics, σ_q 1e-4 rad, τ 1 %): p90 |err|/σ, largest |bias|/σ"
     )
     print()
+    table = []
     print("| robot | truth | rate | dead zone | dead zone per sample | exact sign |")
     print("|---|---|---|---|---|---|")
     for name in robots:
@@ -189,7 +197,7 @@ def main(argv=None) -> int:
         for law_name in args.truth or laws:
             width = laws[law_name]
             for rate in args.rates:
-                log = _log(robot, 1.0 / rate, width)
+                log = _log(robot, 1.0 / rate, width, args.duration)
                 runs: dict[str, tuple[list, list]] = {}
                 for seed in range(seeds):
                     noisy = with_noise(log, 1e-4, 0.01 * log.tau.std(axis=0), seed)
@@ -205,9 +213,23 @@ def main(argv=None) -> int:
                     coulomb = np.array([x.startswith("FC") for x in robot.base.names])
                     rows[", FC only"] = coulomb
                 for suffix, chosen in rows.items():
+                    metrics = {
+                        label: _metrics(e, s, truth, chosen)
+                        for label, (e, s) in runs.items()
+                    }
+                    table.append(
+                        {
+                            "robot": name + suffix,
+                            "truth": law_name,
+                            "rate": rate,
+                            **{
+                                label: {"p90": p90, "bias": bias}
+                                for label, (p90, bias) in metrics.items()
+                            },
+                        }
+                    )
                     cells = [
-                        "{:.2f} / {:.1f}".format(*_metrics(e, s, truth, chosen))
-                        for e, s in runs.values()
+                        "{:.2f} / {:.1f}".format(*value) for value in metrics.values()
                     ]
                     print(
                         f"| {name}{suffix} | {law_name} | {rate} Hz | "
@@ -215,6 +237,11 @@ def main(argv=None) -> int:
                         + " |",
                         flush=True,
                     )
+    if args.json:
+        with open(args.json, "w") as stream:
+            json.dump(
+                {"seeds": seeds, "duration": args.duration, "rows": table}, stream
+            )
     return 0
 
 
