@@ -38,8 +38,8 @@ to choose among 125, 500 and 1000 Hz).
 from __future__ import annotations
 
 import argparse
-import json
 import dataclasses
+import json
 
 import numpy as np
 from _independent import exact_log, with_noise
