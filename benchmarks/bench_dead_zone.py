@@ -182,9 +182,9 @@ def main(argv=None) -> int:
     seeds = quick_or(args.seeds, args.quick, 4, 20)
     robots = args.robot or (("ur5",) if args.quick else ROBOTS)
     print(
-        f"dynid offline with three Coulomb columns ({seeds} seeds, {args.duration:g} s, "
-        "Drake inverse "
-        "dynamics, σ_q 1e-4 rad, τ 1 %): p90 |err|/σ, largest |bias|/σ"
+        f"dynid offline with three Coulomb columns ({seeds} seeds, "
+        f"{args.duration:g} s, Drake inverse dynamics, σ_q 1e-4 rad, τ 1 %): "
+        "p90 |err|/σ, largest |bias|/σ"
     )
     print()
     table = []
