@@ -158,6 +158,7 @@ def test_a_long_validation_is_plotted_as_envelopes_broken_between_segments(
         predicted=_stored(predicted),
         num_samples_used=count,
         relative_rms_percent=np.ones(n),
+        moving_relative_rms_percent=np.ones(n),
     )
     np.testing.assert_array_equal(validate._segment_breaks(stored.segment), [3001])
     x, series = validate._torque_series({"fit": stored})
@@ -274,6 +275,7 @@ def test_the_torque_plot_gives_a_prismatic_joint_its_force_unit(tmp_path, monkey
         predicted=values,
         num_samples_used=count,
         relative_rms_percent=np.zeros(2),
+        moving_relative_rms_percent=np.zeros(2),
     )
     path = str(tmp_path / "torques.png")
     validate.write_torque_plot(path, {"fit": result}, "x", (True, False))
