@@ -32,6 +32,7 @@ from drake_dynid.core import _validate as check
 
 __all__ = [
     "INERTIAL",
+    "PRIOR_FLOOR",
     "Layout",
     "SdpProblem",
     "link_names",
@@ -42,6 +43,11 @@ __all__ = [
 ]
 
 INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+
+PRIOR_FLOOR = 1e-3
+"""Smallest eigenvalue of a URDF link's scaled pseudo-inertia T_j J_j,0 T_j in the
+entropic regulariser (dimensionless; m_j and L_j make its mass entry 1 and its
+trace about 2; the smallest of the 2R, iiwa7 and UR5 URDFs is 0.005)."""
 
 
 # Pseudo-inertia J = Σ_i θ_i F_i for θ = [XX XY XZ YY YZ ZZ MX MY MZ M].
@@ -248,6 +254,103 @@ class SdpProblem:
         prog.AddLinearCost([weight], 0.0, t)
         return t
 
+    def other_columns(self) -> np.ndarray:
+        """Indices of the standard parameters outside every link's ten (IA, FV, ...)."""
+        inside = {k for idx in self.layout.links for k in idx}
+        return np.array([k for k in range(self.scales.size) if k not in inside], int)
+
+    def prior_pseudo_inertias(self) -> tuple[np.ndarray, ...]:
+        """The URDF's scaled T_j J_j,0 T_j, eigenvalues floored at PRIOR_FLOOR.
+
+        A URDF link that is a point mass, or massless, or inconsistent has a
+        singular (or indefinite) prior; the floor makes it a body of that shape
+        with a little spread, so that the entropic divergence is finite.
+        """
+        out = []
+        for idx, f in zip(self.layout.links, self.lmis, strict=True):
+            values, vectors = np.linalg.eigh(np.tensordot(self.prior[list(idx)], f, 1))
+            floored = np.maximum(values, PRIOR_FLOOR)
+            out.append((vectors * floored) @ vectors.T)
+        return tuple(out)
+
+    def entropic_divergence(self, x: np.ndarray) -> float:
+        """Σ_j d(K_j, P_j) at scaled values x (numpy; inf when a K_j is not ≻ 0)."""
+        total = 0.0
+        for idx, f, prior in zip(
+            self.layout.links, self.lmis, self.prior_pseudo_inertias(), strict=True
+        ):
+            matrix = np.tensordot(x[list(idx)], f, axes=1)
+            sign, logdet = np.linalg.slogdet(matrix)
+            if sign <= 0.0 or not math.isfinite(logdet):
+                return math.inf
+            total += (
+                -logdet
+                + np.linalg.slogdet(prior)[1]
+                + np.trace(np.linalg.solve(prior, matrix))
+                - 4.0
+            )
+        return float(total)
+
+    def add_squared_norm_cost(self, prog, x, G: np.ndarray, g: np.ndarray) -> Any:
+        """Adds the cost t with t ≥ ‖G x − g‖² (a rotated Lorentz cone); returns t."""
+        t = prog.NewContinuousVariables(1, "t")
+        rows, cols = G.shape
+        A = np.zeros((rows + 2, cols + 1))
+        A[0, 0] = 1.0
+        A[2:, 1:] = G
+        b = np.concatenate([[0.0, 1.0], -g])
+        prog.AddRotatedLorentzConeConstraint(A, b, [t[0], *x])
+        prog.AddLinearCost([1.0], 0.0, t)
+        return t
+
+    def add_entropic_cost(self, prog, x, weight: float) -> None:
+        """Adds weight·Σ_j [tr(P_j⁻¹ K_j) − log det K_j], K_j = T_j J_j T_j.
+
+        P_j = :meth:`prior_pseudo_inertias`. Up to the constant
+        weight·Σ_j (log det P_j − 4) this is weight·Σ_j d(K_j, P_j), the log-det
+        (Bregman) divergence of Lee, Wensing & Park (IEEE T-RO 36(2), 2020), which
+        is invariant under the congruence T_j (so it is the divergence of J_j from
+        the URDF's J_j,0) and infinite at a singular K_j. −log det is Drake's
+        ``AddMaximizeLogDeterminantCost`` (a PSD block and one exponential cone per
+        diagonal entry), weighted here, of the whitened P_j^(-1/2) K_j P_j^(-1/2)
+        (the same divergence: d is invariant under congruence; the prior becomes
+        the identity, which Clarabel resolves where K_j itself, with eigenvalues
+        down to 0.005, left it "almost solved" 8e-5 outside the cone).
+        """
+        for idx, f, prior in zip(
+            self.layout.links, self.lmis, self.prior_pseudo_inertias(), strict=True
+        ):
+            variables = x[list(idx)]
+            values, vectors = np.linalg.eigh(prior)
+            root = (vectors / np.sqrt(values)) @ vectors.T  # P^(-1/2)
+            whitened = np.einsum("ab,kbc,cd->kad", root, f, root)
+            matrix = _symbolic_sum(variables, whitened)
+            cost, _, _ = prog.AddMaximizeLogDeterminantCost(matrix)
+            count = cost.evaluator().a().size
+            cost.evaluator().UpdateCoefficients(-weight * np.ones(count))
+            trace = np.einsum("kaa->k", whitened)
+            prog.AddLinearCost(weight * trace, 0.0, variables)
+
+
+def _symbolic_sum(variables, matrices: np.ndarray) -> np.ndarray:
+    """Σ_k variables[k]·matrices[k] as a matrix of Drake expressions.
+
+    Built entry by entry in Python: numpy's object ``tensordot`` reports the
+    floating-point flags a previous solve left raised as its own "invalid value"
+    warning.
+    """
+    rows, cols = matrices.shape[1:]
+    out = np.empty((rows, cols), dtype=object)
+    for a in range(rows):
+        for b in range(cols):
+            terms = [
+                float(matrices[k, a, b]) * variables[k]
+                for k in range(len(variables))
+                if matrices[k, a, b] != 0.0
+            ]
+            out[a, b] = sum(terms[1:], terms[0]) if terms else 0.0 * variables[0]
+    return out
+
 
 class _Hold(logging.Filter):
     """Drops every record of Drake's logger (a solver's own log lines)."""
@@ -285,17 +388,21 @@ def _quiet_solver() -> Iterator[None]:
         drake_logger.removeFilter(hold)
 
 
-def solve_program(owner: str, prog, accept) -> tuple[Any, str, float]:
+def solve_program(
+    owner: str, prog, accept, fallback: bool = True
+) -> tuple[Any, str, float]:
     """Clarabel, then SCS; ValueError when neither gives an acceptable solution.
 
     ``accept(result)`` returns None for a usable solution, else why not (a solver
     may report success with an inaccurate point, e.g. SCS "solved inaccurate").
+    ``fallback=False``: Clarabel alone.
     """
     from pydrake.solvers import ClarabelSolver, ScsSolver
 
     failures = []
     start = time.perf_counter()
-    for solver in (ClarabelSolver(), ScsSolver()):
+    solvers = (ClarabelSolver(), ScsSolver()) if fallback else (ClarabelSolver(),)
+    for solver in solvers:
         name = solver.solver_id().name()
         if not (solver.available() and solver.enabled()):
             failures.append(f"{name}: not available")

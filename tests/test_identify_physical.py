@@ -80,3 +80,42 @@ def test_identify_refuses_a_bad_regularization_before_the_replay(tmp_path, capsy
     argv = ["identify", str(tmp_path / "none.csv"), "--urdf", model_path("planar_2r")]
     assert cli.main([*argv, "--regularization", "-1"]) == 2
     assert "--regularization" in capsys.readouterr().err
+
+
+def test_the_regularizer_is_recorded_and_an_unknown_one_refused(
+    robot, tmp_path, capsys
+):
+    """--regularizer entropic (the log-det divergence from the URDF's
+    pseudo-inertias) reaches offline's solve and identify's projection, is
+    printed beside λ and recorded in the JSON; the default is euclidean."""
+    t, q, tau = exact_paper_2r(robot, duration_samples=12001)
+    rng = np.random.default_rng(4)
+    log = tmp_path / "log.csv"
+    write_log(log, t, q, tau + 0.02 * rng.standard_normal(tau.shape), robot.joint_names)
+    base = [str(log), "--urdf", model_path("planar_2r"), "--dead-zone", "none"]
+    runs = {
+        "offline": ["offline", *base],
+        "identify": ["identify", *base, "--window", "10"],
+    }
+    for command, argv in runs.items():
+        for choice in (None, "entropic"):
+            out = tmp_path / f"{command}-{choice}.json"
+            extra = [] if choice is None else ["--regularizer", choice]
+            assert cli.main([*argv, "--physical", *extra, "--json", str(out)]) == 0
+            printed = capsys.readouterr().out
+            physical = json.loads(out.read_text())["physical"]
+            expected = choice or "euclidean"
+            assert physical["regularizer"] == expected, command
+            assert f"λ = 0.001, {expected})" in printed
+    for argv in runs.values():
+        with pytest.raises(SystemExit) as exit_code:  # argparse's choices
+            cli.main([*argv, "--physical", "--regularizer", "logdet"])
+        assert exit_code.value.code == 2
+        err = capsys.readouterr().err
+        assert "argument --regularizer: invalid choice: 'logdet'" in err, err
+        assert cli.main([*argv, "--regularizer", "entropic"]) == 2
+        err = capsys.readouterr().err
+        assert "--regularizer chooses what --regularization weighs" in err, err
+        assert (
+            "give it with --physical (or --urdf-out)" in err and "Traceback" not in err
+        )

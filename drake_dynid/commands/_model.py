@@ -27,7 +27,9 @@ from drake_dynid.commands.validate import (
 def add_physical_arguments(
     parser: argparse.ArgumentParser, online: bool = False
 ) -> Any:
-    """``--physical``, ``--regularization``, ``--urdf-out``; returns their group.
+    """``--physical``, ``--regularization``, ``--regularizer``, ``--urdf-out``.
+
+    Returns their group.
 
     ``online``: ``dynid identify``'s wording (the final estimate is projected in
     its window's covariance metric, ``physical.project_physical``).
@@ -56,6 +58,18 @@ def add_physical_arguments(
         "1e-3; in residual variances per squared parameter scale)",
     )
     group.add_argument(
+        "--regularizer",
+        choices=("euclidean", "entropic"),
+        default=None,
+        help="what --regularization weighs in --physical: 'euclidean' (default) "
+        "the squared distance of the scaled standard parameters from the URDF's, "
+        "which can empty a link the data barely see (mass near 0, centre of mass "
+        "metres away); 'entropic' each link's log-det divergence from the URDF's "
+        "pseudo-inertia (Lee, Wensing & Park 2020): no mass reaches 0 and the "
+        "centre of mass stays inside the body (friction and rotor inertia keep "
+        "the squared distance)",
+    )
+    group.add_argument(
         "--urdf-out",
         metavar="FILE.urdf",
         help="write a copy of the URDF with the consistent identified parameters "
@@ -65,7 +79,7 @@ def add_physical_arguments(
 
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--physical``, ``--regularization``, ``--urdf-out``, ``--out``, ``--plot``."""
+    """The physical options (:func:`add_physical_arguments`), ``--out``, ``--plot``."""
     group = add_physical_arguments(parser)
     group.add_argument(
         "--out",
@@ -166,6 +180,11 @@ def _regularization(args: argparse.Namespace) -> float:
     return DEFAULT_REGULARIZATION if value is None else float(value)
 
 
+def _regularizer(args: argparse.Namespace) -> str:
+    value = getattr(args, "regularizer", None)
+    return "euclidean" if value is None else str(value)
+
+
 def _physical(args: argparse.Namespace, robot: Any, result: Any):
     from drake_dynid.physical import solve_physical_reduced
 
@@ -174,6 +193,7 @@ def _physical(args: argparse.Namespace, robot: Any, result: Any):
         result.reduced,
         weighted=bool(result.settings.get("weighted")),
         regularization=_regularization(args),
+        regularizer=_regularizer(args),
     )
     cost = "data cost +{:.4g} residual variances"
     return physical, physical_report(args, robot, result, physical, cost)
@@ -192,7 +212,8 @@ def physical_report(
         print()
         print(
             f"physically consistent estimate ({physical.solver}, "
-            f"{physical.solve_time:.3g} s; λ = {regularization:g}): "
+            f"{physical.solve_time:.3g} s; λ = {regularization:g}, "
+            f"{physical.regularizer}): "
             f"{cost.format(physical.data_cost)}; active constraints: {active}"
         )
         print()
@@ -205,16 +226,19 @@ def physical_report(
         "link_min_eigenvalues": [float(x) for x in physical.link_min_eigenvalues],
         "data_cost": float(physical.data_cost),
         "regularization": float(regularization),
+        "regularizer": physical.regularizer,
         "solver": physical.solver,
         "solve_time": float(physical.solve_time),
     }
 
 
 def check_regularization(args: argparse.Namespace) -> None:
-    """``--regularization`` in [0, 1e6], with ``--physical`` (checked before the fit).
+    """``--regularization`` in [0, 1e6] and ``--regularizer``, with ``--physical``.
 
-    Without ``--physical`` or ``--urdf-out`` (which implies it) nothing uses it:
-    refused, not ignored (found by a review: it was dropped without a word).
+    Checked before the fit. Without ``--physical`` or ``--urdf-out`` (which
+    implies it) nothing uses them: refused, not ignored (found by a review:
+    ``--regularization`` was dropped without a word). argparse refuses a
+    ``--regularizer`` other than its choices.
     """
     value = getattr(args, "regularization", None)
     if value is not None and not 0.0 <= value <= 1e6:
@@ -228,6 +252,11 @@ def check_regularization(args: argparse.Namespace) -> None:
             "--regularization weighs the pull towards the URDF values of the "
             "physically consistent estimate: give it with --physical (or "
             "--urdf-out)."
+        )
+    if getattr(args, "regularizer", None) is not None and not physical:
+        raise ValueError(
+            "--regularizer chooses what --regularization weighs in the physically "
+            "consistent estimate: give it with --physical (or --urdf-out)."
         )
 
 
@@ -339,9 +368,8 @@ def _write_urdf(
         notes.append(
             "Consistent but implausible, check before use (the base parameters "
             "share a link's mass and first moment with its neighbours, or the data "
-            "contradict the URDF; a larger regularization λ pulls towards the URDF's): "
-            + "; ".join(doubtful)
-            + "."
+            "contradict the URDF; a larger regularization λ pulls towards the URDF's, "
+            "--regularizer entropic keeps masses off 0): " + "; ".join(doubtful) + "."
         )
         print(
             f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
@@ -350,8 +378,8 @@ def _write_urdf(
             "gyration "
             "(consistent, but the base parameters share a link's mass and first "
             "moment with its neighbours, or the data contradict the URDF; "
-            "--regularization pulls towards the URDF's; the file's header lists "
-            "them): " + "; ".join(doubtful),
+            "--regularization pulls towards the URDF's, --regularizer entropic "
+            "keeps masses off 0; the file's header lists them): " + "; ".join(doubtful),
             file=sys.stderr,
         )
     entry["urdf_doubtful_links"] = [text.split(":")[0] for text in doubtful]
@@ -417,7 +445,11 @@ def finish_identify(
         from drake_dynid.physical import project_physical
 
         physical = project_physical(
-            robot, theta, covariance(), regularization=_regularization(args)
+            robot,
+            theta,
+            covariance(),
+            regularization=_regularization(args),
+            regularizer=_regularizer(args),
         )
         cost = "Mahalanobis distance² +{:.4g} from the estimate"
         document["physical"] = physical_report(args, robot, fit, physical, cost)
