@@ -42,6 +42,7 @@ SUBCOMMANDS = (
     "validate",
     "fleet",
     "replay",
+    "bag2csv",
 )
 
 EXIT_OK = 0

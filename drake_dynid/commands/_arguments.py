@@ -355,7 +355,15 @@ def add_log_argument(parser: argparse.ArgumentParser) -> None:
         metavar="LOG.csv",
         help="the robot log (CSV); several files (e.g. positions and efforts "
         "recorded apart) are joined on their time column: the other files are "
-        "interpolated onto the first file's time stamps over the common span",
+        "interpolated onto the first file's time stamps over the common span. Or "
+        "a ROS bag of sensor_msgs/JointState (a ROS 1 .bag; a ROS 2 bag folder, "
+        "or its .db3/.mcap file), given alone",
+    )
+    parser.add_argument(
+        "--topic",
+        metavar="NAME",
+        help="the sensor_msgs/JointState topic of a ROS bag log (default: the "
+        "bag's one topic of that type; a CSV log has no topic: not used)",
     )
 
 
@@ -506,6 +514,7 @@ def read_robot_log(
     fill_gaps: int | None = None,
     time_unit: str | None = None,
     torques_optional: bool = False,
+    topic: str | None = None,
 ) -> Any:
     """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
@@ -515,8 +524,41 @@ def read_robot_log(
     without ``--drive``). ``fill_gaps``: ``--fill-gaps`` (None: the reader's
     default); ``time_unit``: ``--time-unit`` (None: the drive file's, else s).
     ``torques_optional``: files without every torque column are read for their
-    positions (τ = 0, not checked; ``dynid replay``).
+    positions (τ = 0, not checked; ``dynid replay``). A ROS bag (alone) is read
+    as its CSV export (:func:`_read_bag_log`); ``topic``: ``--topic`` (a bag's;
+    not used with CSV files: the fitted log may be a bag and ``--validate``'s a
+    CSV file).
     """
+    from drake_dynid.ros_bag import is_bag
+
+    if any(is_bag(path) for path in files):
+        return _read_bag_log(
+            files,
+            robot,
+            resample=resample,
+            command=command,
+            fill_gaps=fill_gaps,
+            time_unit=time_unit,
+            torques_optional=torques_optional,
+            topic=topic,
+        )
+    log, torques = _read_files(
+        files, robot, resample, fill_gaps, time_unit, torques_optional
+    )
+    check_log_magnitudes(log, files)
+    print_log_warnings(log, files, command, robot, torques=torques)
+    return log
+
+
+def _read_files(
+    files: Sequence[str],
+    robot: Any,
+    resample: bool,
+    fill_gaps: int | None,
+    time_unit: str | None,
+    torques_optional: bool,
+) -> tuple[Any, bool]:
+    """The read of :func:`read_robot_log` (CSV files); whether τ was read."""
     from drake_dynid.log_repair import FILL_GAPS
 
     gaps = FILL_GAPS if fill_gaps is None else fill_gaps
@@ -543,8 +585,89 @@ def read_robot_log(
         if not torques:
             chain = chain.positions_only()
         log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
-    check_log_magnitudes(log, files)
-    print_log_warnings(log, files, command, robot, torques=torques)
+    return log, torques
+
+
+#: The start of the CSV reader's warning on integer nanosecond stamps
+#: (``log_repair``), not repeated for a ROS bag.
+EPOCH_NOTE = "time stamps read as integer nanoseconds since the epoch"
+
+
+def _read_bag_log(
+    files: Sequence[str],
+    robot: Any,
+    *,
+    resample: bool,
+    command: str,
+    fill_gaps: int | None,
+    time_unit: str | None,
+    torques_optional: bool,
+    topic: str | None,
+) -> Any:
+    """A ROS bag's JointState messages read as a CSV log (``drake_dynid.ros_bag``).
+
+    The columns the robot's log format needs (``t``, ``q_<joint>``,
+    ``tau_<joint>``; with a drive chain its ``[log]`` columns, in its time unit)
+    are written from the messages to a temporary CSV file, one row per message,
+    which the CSV readers read (:func:`_read_files`: the same repairs); the
+    messages name the bag instead of that file (its rows are those of ``dynid
+    bag2csv``'s export). The bag's notes (skipped messages, receive times) come
+    first among the log's warnings.
+    """
+    import dataclasses
+    import os
+    import tempfile
+
+    from drake_dynid.ros_bag import needed_joints, read_joint_states, write_export
+
+    if len(files) != 1:
+        raise ValueError(
+            f"log {' + '.join(files)}: a ROS bag is a whole log: give it alone "
+            "(files joined on time are CSV files)."
+        )
+    if time_unit is not None:
+        raise ValueError(
+            f"--time-unit {time_unit}: the log {files[0]} is a ROS bag, whose "
+            "header stamps are nanoseconds; the option is for CSV logs."
+        )
+    bag = files[0]
+    chain = robot.drive
+    if chain is None:
+        time, unit = "t", None
+        positions = [f"q_{name}" for name in robot.joint_names]
+        torques = [f"tau_{name}" for name in robot.joint_names]
+    else:
+        time, unit = chain.log.time, chain.log.time_unit
+        positions = list(chain.log.position_columns)
+        torques = list(chain.log.torque_columns)
+    try:
+        joints = needed_joints([*positions, *torques])
+    except ValueError as error:
+        raise ValueError(f"log {bag}: --drive {robot.drive.source}: {error}") from None
+    states = read_joint_states(bag, joints, topic=topic)
+    if states.effort is None and torques_optional:
+        torques = []
+    name = os.path.basename(os.path.normpath(bag)) or "bag"
+    with tempfile.TemporaryDirectory(prefix="dynid-bag-") as folder:
+        export = os.path.join(folder, f"{name}.csv")
+        write_export(export, states, [*positions, *torques], time=time, time_unit=unit)
+
+        def named(text: str) -> str:
+            return text.replace(export, bag)
+
+        try:
+            log, read = _read_files(
+                [export], robot, resample, fill_gaps, None, torques_optional
+            )
+        except (ValueError, OSError) as error:
+            raise type(error)(named(str(error))) from None
+        # A bag's stamps are nanoseconds: the CSV reader's note that it read
+        # integers as such says nothing here.
+        said = tuple(w for w in log.warnings if not w.startswith(EPOCH_NOTE))
+        warnings = (*states.notes, *(named(w) for w in said))
+        log = dataclasses.replace(log, warnings=warnings)
+        check_log_magnitudes(log, [bag])
+        print_log_warnings(log, [export], command, robot, torques=read, label=bag)
     return log
 
 
@@ -896,14 +1019,16 @@ def print_log_warnings(
     robot: Any = None,
     *,
     torques: bool = True,
+    label: str | None = None,
 ) -> None:
     """Each of the reader's warnings as one line on stderr, naming the log.
 
     Also :func:`constant_channels`'s (of q only without ``torques``: τ = 0 was
     not read), and with ``robot`` :func:`locked_motion`'s and
-    :func:`outside_limits`'s.
+    :func:`outside_limits`'s. ``label``: the log's name in the lines (default:
+    the files).
     """
-    label = " + ".join(files)
+    label = label or " + ".join(files)
     extra = [constant_channels(log, torques=torques)]
     if robot is not None:
         extra.append(locked_motion(files, robot))
@@ -1099,6 +1224,8 @@ def model_settings(args: argparse.Namespace, robot: Any) -> dict[str, Any]:
         out["drive_chain"] = robot.drive.summary()
     if getattr(args, "time_unit", None):
         out["time_unit"] = args.time_unit
+    if getattr(args, "topic", None):
+        out["topic"] = args.topic  # a ROS bag log's (for the record)
     return out
 
 
@@ -1149,6 +1276,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
             command=command,
             fill_gaps=getattr(args, "fill_gaps", None),
             time_unit=getattr(args, "time_unit", None),
+            topic=getattr(args, "topic", None),
         )
     else:
         check_log_magnitudes(log, files)
@@ -1168,6 +1296,10 @@ def _log_prefetch(files: Sequence[str], args: argparse.Namespace) -> Any:
     if getattr(args, "drive", None) or getattr(args, "time_unit", None):
         return None
     path = files[0]
+    from drake_dynid.ros_bag import is_bag
+
+    if is_bag(path) or getattr(args, "topic", None):
+        return None  # read here (read_robot_log)
     try:
         status = os.stat(path)
         # A regular file only: a pipe or FIFO can be read once (by the child).

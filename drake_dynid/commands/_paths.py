@@ -64,6 +64,29 @@ def _paths(value: Any) -> list[str]:
     return []
 
 
+def _with_bag_files(path: str) -> list[str]:
+    """``[path]``, and for a ROS 2 bag (its folder or a storage file) the bag's files.
+
+    A ROS 2 bag is read whole (``drake_dynid.ros_bag``): its ``metadata.yaml`` and
+    its ``.db3`` / ``.mcap`` files are inputs too.
+    """
+    folder = path if os.path.isdir(path) else None
+    if folder is None and path.lower().endswith((".db3", ".mcap")):
+        folder = os.path.dirname(os.path.abspath(path))
+    if folder is None or not os.path.isfile(os.path.join(folder, "metadata.yaml")):
+        return [path]
+    try:
+        names = sorted(os.listdir(folder))
+    except OSError:
+        return [path]
+    bag = [
+        os.path.join(folder, name)
+        for name in names
+        if name == "metadata.yaml" or name.lower().endswith((".db3", ".mcap"))
+    ]
+    return [path, *bag]
+
+
 def _check_parent(option: str, path: str) -> None:
     """Raises ValueError unless an output can be written where it goes.
 
@@ -121,7 +144,8 @@ def check_outputs(
     # outputs against its n inputs in linear time, not n² same_file calls.
     sources: dict[tuple[Any, ...], tuple[str, str]] = {}
     for description, source in named:
-        sources.setdefault(file_key(source), (description, source))
+        for path in _with_bag_files(source):
+            sources.setdefault(file_key(path), (description, source))
     seen: dict[tuple[Any, ...], tuple[str, str]] = {}
     for option, path in given:
         key = file_key(path)

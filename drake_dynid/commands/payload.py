@@ -260,6 +260,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
             command="payload",
             fill_gaps=args.fill_gaps,
             time_unit=getattr(args, "time_unit", None),
+            topic=getattr(args, "topic", None),
         )
         robot = results_sign(args, document, robot, log)
         return robot, log, arm, str(args.params), covariance
@@ -273,6 +274,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
         command="payload",
         fill_gaps=args.fill_gaps,
         time_unit=getattr(args, "time_unit", None),
+        topic=getattr(args, "topic", None),
     )
     return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf", None
 

@@ -26,7 +26,8 @@ from drake_dynid.commands._paths import check_output_paths
 HELP = "replay a log or a trajectory in Drake's Meshcat viewer (browser)"
 DESCRIPTION = (
     "Replays the joint positions of a robot log (the plain CSV format, several "
-    "files, or a drive file's raw columns with --drive) or of a trajectory file "
+    "files, a drive file's raw columns with --drive, or a ROS bag of "
+    "sensor_msgs/JointState) or of a trajectory file "
     "(dynid excite's CSV: t, q_<joint>, v_<joint>; or its JSON coefficients) as an "
     "animation in Drake's Meshcat viewer: prints the URL of the live page (served "
     "on localhost while the command runs), writes a standalone copy (--html, "
@@ -147,6 +148,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.commands._options import option_message
     from drake_dynid.commands.simulate import truth_path
     from drake_dynid.meshcat_replay import replay_in_meshcat
+    from drake_dynid.ros_bag import is_bag
     from drake_dynid.trajectory_file import read_trajectory
 
     files = log_files(args)
@@ -155,9 +157,11 @@ def run(args: argparse.Namespace) -> int:
     check_output_paths(args)
     robot = robot_from_args(args, "replay", rotor_inertia=True)
     say = (lambda *a: None) if args.quiet else print
+    bag = any(is_bag(path) for path in files)  # read by read_robot_log
     if (
         len(files) == 1
         and not args.drive
+        and not bag
         and _is_trajectory(files[0], robot.joint_names)
     ):
         if args.time_unit not in (None, "s"):
@@ -167,7 +171,12 @@ def run(args: argparse.Namespace) -> int:
             )
         motion = read_trajectory(files[0], robot.joint_names)
         kind = "trajectory"
-    elif len(files) == 1 and not args.drive and _positions_only(files[0], robot):
+    elif (
+        len(files) == 1
+        and not args.drive
+        and not bag
+        and _positions_only(files[0], robot)
+    ):
         motion = _read_positions(files[0], robot, args.time_unit)
         kind = "log (positions)"
     else:
@@ -178,6 +187,7 @@ def run(args: argparse.Namespace) -> int:
             command="replay",
             time_unit=args.time_unit,
             torques_optional=True,  # only the positions are shown
+            topic=args.topic,
         )
         kind = "log"
     q = _held_over_bad_samples(np.asarray(motion.q, dtype=float))

@@ -162,6 +162,7 @@ def validation_split(
             command=getattr(args, "command", "dynid"),
             fill_gaps=getattr(args, "fill_gaps", None),
             time_unit=getattr(args, "time_unit", None),
+            topic=getattr(args, "topic", None),
         )
         _check_held_out(args, held, str(other))
         return log, held, str(other)
@@ -616,6 +617,7 @@ def run(args: argparse.Namespace) -> int:
         command="validate",
         fill_gaps=args.fill_gaps,
         time_unit=getattr(args, "time_unit", None),
+        topic=getattr(args, "topic", None),
     )
     robot = results_sign(args, document, robot, log)
     if not args.quiet:

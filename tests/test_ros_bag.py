@@ -1,0 +1,380 @@
+"""ROS bags of sensor_msgs/JointState read as logs (``drake_dynid.ros_bag``).
+
+The bags are written with rosbags' own writers (ROS 1 .bag, ROS 2 sqlite3 and
+mcap) from a log simulated independently (Drake's inverse dynamics of the packaged
+2R, ``tests/_drake_dynamics.py``) and from the packaged TIAGo recording; the same
+samples are written as the CSV log a user would export. A bag is read as its CSV
+export (one row per message, the stamps as integer nanoseconds, 17 digits), so
+the estimates on the bag are the CSV's bit for bit (the same numbers reach the
+same reader).
+"""
+
+import json
+import pathlib
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+
+from _cli import error_line
+from _drake_dynamics import exact_paper_2r
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+from drake_dynid import cli
+from drake_dynid.logs import read_log
+from drake_dynid.robot import RobotModel
+from drake_dynid.ros_bag import MISSING, read_joint_states
+from drake_dynid.urdf import MODELS_DIR
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TIAGO = ROOT / "examples" / "data" / "tiago"
+TIAGO_JOINTS = ["torso_lift_joint", *(f"arm_{k}_joint" for k in range(1, 8))]
+EPOCH = 1_700_000_000 * 10**9  # header stamps [ns]
+STATE = "sensor_msgs/msg/JointState"
+
+
+def write_bag(path, kind, messages, topics=("/joint_states",), others=()):
+    """A bag of JointState messages: ``(topic index, stamp ns, receive ns, names,
+    positions, efforts)`` each; ``others``: extra ``(topic, type)`` connections
+    (no message). ``kind``: ros1, sqlite3 or mcap."""
+    store = get_typestore(Stores.ROS1_NOETIC if kind == "ros1" else Stores.ROS2_HUMBLE)
+    types = store.types
+    joint_state, header, stamp_type = (
+        types[STATE],
+        types["std_msgs/msg/Header"],
+        types["builtin_interfaces/msg/Time"],
+    )
+    if kind == "ros1":
+        writer, serialize = Writer1(path), store.serialize_ros1
+    else:
+        plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer2(path, version=9, storage_plugin=plugin)
+        serialize = store.serialize_cdr
+    with writer:
+        connections = [
+            writer.add_connection(topic, STATE, typestore=store) for topic in topics
+        ]
+        for topic, kind_ in others:
+            writer.add_connection(topic, kind_, typestore=store)
+        for k, (which, stamp, received, names, p, e) in enumerate(messages):
+            time = stamp_type(sec=int(stamp // 10**9), nanosec=int(stamp % 10**9))
+            fields = {"seq": k} if kind == "ros1" else {}
+            message = joint_state(
+                header=header(**fields, stamp=time, frame_id=""),
+                name=list(names),
+                position=np.array(p, dtype=float),
+                velocity=np.array([], dtype=float),
+                effort=np.array(e, dtype=float),
+            )
+            writer.write(connections[which], int(received), serialize(message, STATE))
+
+
+@pytest.fixture(scope="module")
+def arm():
+    """The packaged 2R's exact log: 8 s at 1 kHz, τ from Drake's inverse dynamics."""
+    robot = RobotModel.from_urdf(str(MODELS_DIR / "planar_2r.urdf"))
+    t, q, tau = exact_paper_2r(robot, 8001)
+    stamps = EPOCH + np.arange(t.size, dtype=np.int64) * 10**6
+    return list(robot.joint_names), stamps, q, tau
+
+
+def csv_log(path, arm, rows=slice(None)):
+    """The CSV export a user would write: integer ns stamps, 17 digits."""
+    names, stamps, q, tau = arm
+    header = ["t", *(f"q_{j}" for j in names), *(f"tau_{j}" for j in names)]
+    lines = [",".join(header)]
+    for k in np.arange(stamps.size)[rows]:
+        cells = [f"{x:.17g}" for x in (*q[k], *tau[k])]
+        lines.append(",".join([str(stamps[k]), *cells]))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def arm_messages(arm, rows=slice(None), shuffled=True, zero_stamps=False):
+    """One message a sample; the joint order reversed on every other message."""
+    names, stamps, q, tau = arm
+    out = []
+    for k in np.arange(stamps.size)[rows]:
+        order = slice(None, None, -1) if shuffled and k % 2 else slice(None)
+        stamp = 0 if zero_stamps else stamps[k]
+        received = stamps[k] if zero_stamps else stamps[k] + 350_000
+        out.append((0, stamp, received, names[order], q[k][order], tau[k][order]))
+    return out
+
+
+def run_json(capsys, argv, path):
+    code = cli.main([*argv, "--json", str(path)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    document = json.loads(path.read_text())
+    document.pop("log")
+    return document, err
+
+
+def offline(capsys, log, path, *options):
+    return run_json(
+        capsys, ["offline", str(log), "--urdf", "planar_2r", *options], path
+    )
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "mcap"])
+def test_offline_on_a_bag_is_the_csv_estimate_bit_for_bit(arm, tmp_path, capsys, kind):
+    bag = tmp_path / ("log.bag" if kind == "ros1" else "log")
+    write_bag(bag, kind, arm_messages(arm))
+    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
+    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
+    assert on_bag == on_csv
+    assert "warning" not in err  # integer ns stamps: no note for a bag
+    if kind != "ros1":  # the storage file names the bag too
+        storage = next(bag.glob("*.db3" if kind == "sqlite3" else "*.mcap"))
+        again, _ = offline(capsys, storage, tmp_path / "again.json")
+        assert again == on_csv
+
+
+def test_identify_on_a_bag_is_the_csv_estimate(arm, tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    options = ["--urdf", "planar_2r", "--window", "4", "--quiet"]
+    on_bag, _ = run_json(capsys, ["identify", str(bag), *options], tmp_path / "b.json")
+    log = csv_log(tmp_path / "log.csv", arm)
+    on_csv, _ = run_json(capsys, ["identify", str(log), *options], tmp_path / "c.json")
+    for document in (on_bag, on_csv):  # the CSV's note on its ns stamps apart
+        document.pop("warnings", None)
+    assert on_bag == on_csv
+
+
+def test_another_publisher_on_the_topic_is_skipped_and_counted(arm, tmp_path, capsys):
+    messages = []
+    for k, message in enumerate(arm_messages(arm)):
+        messages.append(message)
+        if k % 10 == 0:  # a gripper's publisher, 100 Hz, between the arm's
+            stamp = message[1] + 500_000
+            messages.append((0, stamp, stamp, ["gripper_joint"], [0.01], [0.5]))
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages)
+    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
+    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
+    assert on_bag == on_csv
+    assert (
+        f"log {bag}: skipped 801 of 8802 message(s) on /joint_states that lack "
+        "joint(s) of joint1, joint2 (their joints: gripper_joint): another "
+        "publisher on the topic." in err
+    )
+
+
+def test_no_message_with_every_joint_names_the_joints_the_topic_has(tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    messages = [
+        (0, EPOCH + k, EPOCH + k, ["a", "joint1"], [0, 0], [0, 0]) for k in (1, 2)
+    ]
+    write_bag(bag, "ros1", messages)
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    assert error_line(capsys).endswith(
+        f"ROS bag {bag}: no message on /joint_states holds every joint needed "
+        "(joint1, joint2); its messages name: [a, joint1]."
+    )
+
+
+def test_zero_header_stamps_take_the_receive_times(arm, tmp_path, capsys):
+    bag = tmp_path / "log.db3.d"
+    write_bag(bag, "sqlite3", arm_messages(arm, zero_stamps=True))
+    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
+    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
+    assert on_bag == on_csv
+    assert (
+        "every header.stamp on /joint_states is 0: the bag's receive times are used."
+        in err
+    )
+
+
+def test_gaps_and_nan_are_repaired_as_in_the_csv(arm, tmp_path, capsys):
+    names, stamps, q, tau = arm
+    q = q.copy()
+    q[3000, 1] = np.nan  # a bad cell: filled
+    broken = (names, stamps, q, tau)
+    rows = np.r_[0:1000, 1003 : stamps.size]  # 3 dropped messages: filled
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(broken, rows))
+    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
+    log = csv_log(tmp_path / "log.csv", broken, rows)
+    on_csv, csv_err = offline(capsys, log, tmp_path / "c.json")
+    assert on_bag == on_csv
+    said = [line.split(": ", 3)[3] for line in err.splitlines() if "warning" in line]
+    csv_said = [
+        line.split(": ", 3)[3]
+        for line in csv_err.splitlines()
+        if "warning" in line and "nanoseconds" not in line
+    ]
+    assert said == csv_said and len(said) == 2, err  # the dropped rows, the NaN
+
+
+def test_several_joint_state_topics_need_topic(arm, tmp_path, capsys):
+    messages = arm_messages(arm)
+    extra = [(1, m[1], m[2], ["x"], [0.0], [0.0]) for m in messages[:5]]
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages + extra, topics=("/joint_states", "/head/states"))
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    assert error_line(capsys).endswith(
+        f"ROS bag {bag}: 2 topics of type {STATE} (/head/states, /joint_states): "
+        "name the one to read with --topic."
+    )
+    on_bag, _ = offline(capsys, bag, tmp_path / "b.json", "--topic", "/joint_states")
+    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
+    assert on_bag["settings"].pop("topic") == "/joint_states"  # recorded
+    assert on_bag == on_csv
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r", "--topic", "/j"]) == 2
+    assert "--topic /j: no such topic; the bag's" in error_line(capsys)
+
+
+def test_a_bag_without_joint_states_lists_its_topics(tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", [], topics=(), others=[("/imu", "sensor_msgs/msg/Imu")])
+    assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "x.csv")]) == 2
+    assert error_line(capsys).endswith(
+        f"ROS bag {bag}: no topic of type {STATE}; its topics: /imu "
+        "(sensor_msgs/msg/Imu)."
+    )
+
+
+def test_without_rosbags_a_bag_is_a_clear_error(arm, tmp_path, capsys, monkeypatch):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 10)))
+    monkeypatch.setitem(sys.modules, "rosbags", None)  # import rosbags fails
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    assert error_line(capsys) == f"dynid offline: error: {MISSING}"
+    assert MISSING == (
+        "reading a ROS bag needs the rosbags package: pip install 'drake_dynid[ros]'"
+    )
+    log = csv_log(tmp_path / "log.csv", arm)  # a CSV log needs no rosbags
+    assert cli.main(["offline", str(log), "--urdf", "planar_2r", "--quiet"]) == 0
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_a_truncated_bag_names_the_file(arm, tmp_path, capsys, kind):
+    bag = tmp_path / ("log.bag" if kind == "ros1" else "log")
+    write_bag(bag, kind, arm_messages(arm, slice(0, 500)))
+    storage = bag if kind == "ros1" else next(bag.glob("*.mcap"))
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) // 2])
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    line = error_line(capsys)
+    assert line.startswith(f"dynid offline: error: ROS bag {bag}: cannot be read (")
+    assert "is it a complete ROS 1 .bag or ROS 2 bag?" in line
+
+
+def test_an_output_never_overwrites_the_bag(arm, tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 10)))
+    before = bag.read_bytes()
+    assert (
+        cli.main(["offline", str(bag), "--urdf", "planar_2r", "--json", str(bag)]) == 2
+    )
+    assert f"--json {bag} is an input of this command (the log {bag})" in error_line(
+        capsys
+    )
+    folder = tmp_path / "ros2"
+    write_bag(folder, "mcap", arm_messages(arm, slice(0, 10)))
+    for target in (folder / "metadata.yaml", next(folder.glob("*.mcap"))):
+        argv = ["bag2csv", str(folder), "--out", str(target)]
+        assert cli.main(argv) == 2
+        assert f"is an input of this command (the log {folder})" in error_line(capsys)
+    assert bag.read_bytes() == before
+
+
+def test_bag2csv_writes_the_log_the_commands_read(arm, tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+    names, stamps, q, _ = arm
+    log = read_log(out, names)
+    reference = read_log(csv_log(tmp_path / "log.csv", arm), names)
+    assert np.array_equal(log.q, reference.q) and np.array_equal(log.tau, reference.tau)
+    assert log.time_offset == reference.time_offset
+    states = read_joint_states(bag, ["joint2"])
+    assert np.array_equal(states.position[:, 0], q[:, 1])
+    assert np.array_equal(states.stamps, stamps)
+
+
+def test_the_tiago_recording_as_a_bag_reads_through_the_drive_file(tmp_path, capsys):
+    """The TIAGo's two CSV files as one JointState bag (20 s excerpt, with a head
+    joint in each message): --drive tiago reads its `- <joint>_position` and
+    `- <joint>_effort` columns from the bag; the estimate is the CSV files'."""
+
+    def columns(path):
+        lines = path.read_text().splitlines()
+        header = lines[0].split(",")
+        rows = np.array(
+            [[float(x) for x in line.split(",")] for line in lines[2001:4001]]
+        )
+        return header, rows, lines[0] + "\n" + "\n".join(lines[2001:4001]) + "\n"
+
+    p_header, p_rows, p_text = columns(TIAGO / "tiago_position.csv")
+    e_header, e_rows, e_text = columns(TIAGO / "tiago_effort.csv")
+    (tmp_path / "p.csv").write_text(p_text)
+    (tmp_path / "e.csv").write_text(e_text)
+    messages = []
+    for k in range(p_rows.shape[0]):
+        stamp = EPOCH + round(p_rows[k, 0] * 1e9)
+        names = ["head_1_joint", *TIAGO_JOINTS[::-1]]
+        p = [0.1, *(p_rows[k, p_header.index(f"- {j}_position")] for j in names[1:])]
+        e = [0.0, *(e_rows[k, e_header.index(f"- {j}_effort")] for j in names[1:])]
+        messages.append((0, stamp, stamp, names, p, e))
+    bag = tmp_path / "tiago"
+    write_bag(bag, "mcap", messages)
+    options = ["--urdf", "tiago_no_hand", "--joints", ",".join(TIAGO_JOINTS)]
+    options += ["--drive", "tiago", "--split", "0.6", "--quiet"]
+    on_bag, _ = run_json(capsys, ["offline", str(bag), *options], tmp_path / "b.json")
+    files = [str(tmp_path / "p.csv"), str(tmp_path / "e.csv")]
+    on_csv, _ = run_json(capsys, ["offline", *files, *options], tmp_path / "c.json")
+    assert on_bag["parameters"] == on_csv["parameters"]
+    assert on_bag["validation"]["estimates"] == on_csv["validation"]["estimates"]
+
+
+def test_bag2csv_keeps_the_most_frequent_joints_and_empty_efforts(
+    arm, tmp_path, capsys
+):
+    names, stamps, q, tau = arm
+    messages = []
+    for k in range(40):
+        e = [] if k == 7 else tau[k]  # one message without efforts
+        messages.append((0, stamps[k], stamps[k], names, q[k], e))
+        if k % 4 == 0:
+            messages.append((0, stamps[k], stamps[k], ["gripper"], [0.0], [0.0]))
+    messages.append((0, stamps[40], stamps[40], names, q[40][:1], tau[40]))  # bad
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "wrote" in captured.out and "joints joint1, joint2" in captured.out
+    assert "skipped 10 of 51 message(s)" in captured.err
+    assert "(their joints: gripper)" in captured.err
+    assert "skipped 1 message(s) on /joint_states whose position[]" in captured.err
+    assert "1 message(s) on /joint_states have an empty effort[]" in captured.err
+    rows = out.read_text().splitlines()
+    assert len(rows) == 41 and rows[8].endswith(",nan,nan")
+
+
+def test_a_bag_of_positions_is_replayed_and_refused_for_identification(
+    arm, tmp_path, capsys
+):
+    names, stamps, q, _ = arm
+    messages = [(0, stamps[k], stamps[k], names, q[k], []) for k in range(0, 2000)]
+    bag = tmp_path / "positions.bag"
+    write_bag(bag, "ros1", messages)
+    html = tmp_path / "page.html"
+    argv = ["replay", "planar_2r", str(bag), "--html", str(html), "--quiet"]
+    assert cli.main(argv) == 0
+    assert html.stat().st_size > 0
+    capsys.readouterr()
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    assert error_line(capsys).endswith(
+        f"ROS bag {bag}: the messages on /joint_states carry no effort[] (torques), "
+        "needed for column 'tau_joint1'."
+    )
