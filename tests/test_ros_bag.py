@@ -378,3 +378,20 @@ def test_a_bag_of_positions_is_replayed_and_refused_for_identification(
         f"ROS bag {bag}: the messages on /joint_states carry no effort[] (torques), "
         "needed for column 'tau_joint1'."
     )
+
+
+def test_validate_and_payload_read_a_bag_as_the_csv(arm, tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    log = csv_log(tmp_path / "log.csv", arm)
+    fit = tmp_path / "fit.json"
+    offline(capsys, log, fit)
+    for command in ("validate", "payload"):
+        argv = [command, "--urdf", "planar_2r", "--params", str(fit), "--quiet"]
+        on_bag, _ = run_json(capsys, [*argv, str(bag)], tmp_path / "b.json")
+        on_csv, _ = run_json(capsys, [*argv, str(log)], tmp_path / "c.json")
+        assert on_bag == on_csv, command
+    held = ["offline", str(log), "--urdf", "planar_2r", "--validate", str(bag)]
+    on_bag, _ = run_json(capsys, held, tmp_path / "v.json")
+    assert on_bag["validation"]["log"]["description"] == str(bag)
+    assert on_bag["validation"]["log"]["samples"] == 8001
