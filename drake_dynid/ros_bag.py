@@ -385,23 +385,34 @@ def export_columns(
     return out
 
 
-def time_text(stamps: np.ndarray, unit: str | None = None) -> list[str]:
-    """The time column's cells: stamps [ns] in ``unit`` (``core.drive_log.TIME_UNITS``).
+def time_scale(stamps: np.ndarray, unit: str | None = None) -> float | None:
+    """How the time column is written: None as integer ns, else ns times this scale.
 
     ``unit`` None (the plain format, ``drake_dynid.logs``): epoch stamps (>= 1e17
     ns) as integer nanoseconds, exact (the CSV reader's epoch rule), others in
-    seconds. A drive file's unit (``drake_dynid.raw_log`` reads its time column
-    in that unit): ns as integers, the others with 17 digits.
+    seconds. A drive file's unit (``core.drive_log.TIME_UNITS``; ``drake_dynid.
+    raw_log`` reads its time column in that unit): ns as integers, the others
+    with 17 digits.
     """
     from drake_dynid.core.drive_log import TIME_UNITS
 
     stamps = np.asarray(stamps, dtype=np.int64)
     epoch = unit is None and stamps.size and stamps.min() >= _EPOCH_NS
     if unit == "ns" or epoch:
+        return None
+    return 1e-9 / TIME_UNITS[unit or "s"]
+
+
+def time_text(stamps: np.ndarray, scale: float | None) -> list[str]:
+    """The time column's cells of ``stamps`` [ns] (``scale``: :func:`time_scale`)."""
+    stamps = np.asarray(stamps, dtype=np.int64)
+    if scale is None:
         return [str(int(x)) for x in stamps]
-    unit = unit or "s"
-    scale = 1e-9 / TIME_UNITS[unit]
     return [f"{x:.17g}" for x in stamps * scale]
+
+
+#: Messages written at a time by :func:`write_export` (its memory: a block's text).
+EXPORT_ROWS = 1 << 16
 
 
 def write_export(
@@ -414,25 +425,29 @@ def write_export(
 ) -> None:
     """Writes the messages as a CSV log: ``time`` then ``columns`` (17 digits).
 
-    One row per kept message (row 2: the first). ``time_unit``: the time column's
-    unit, None for the plain format (:func:`time_text`).
+    One row per kept message (row 2: the first), :data:`EXPORT_ROWS` rows at a
+    time. ``time_unit``: the time column's unit, None for the plain format
+    (:func:`time_scale`).
     """
     import csv
 
     values = export_columns(states, columns)
-    stamps = time_text(states.stamps, time_unit)
+    scale = time_scale(states.stamps, time_unit)
     data = np.column_stack([values[c] for c in columns]) if columns else None
 
     def write(stream: Any) -> None:
         csv.writer(stream, lineterminator="\n").writerow([time, *columns])
-        if data is None:
-            stream.write("".join(f"{s}\n" for s in stamps))
-            return
-        body = io.StringIO()
-        np.savetxt(body, data, delimiter=",", fmt="%.17g")
-        lines = body.getvalue().splitlines()
-        stream.write(
-            "".join(f"{s},{line}\n" for s, line in zip(stamps, lines, strict=True))
-        )
+        for start in range(0, states.stamps.size, EXPORT_ROWS):
+            rows = slice(start, start + EXPORT_ROWS)
+            stamps = time_text(states.stamps[rows], scale)
+            if data is None:
+                stream.write("".join(f"{s}\n" for s in stamps))
+                continue
+            body = io.StringIO()
+            np.savetxt(body, data[rows], delimiter=",", fmt="%.17g")
+            lines = body.getvalue().splitlines()
+            stream.write(
+                "".join(f"{s},{line}\n" for s, line in zip(stamps, lines, strict=True))
+            )
 
     write_whole(path, write)

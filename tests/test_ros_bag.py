@@ -395,3 +395,17 @@ def test_validate_and_payload_read_a_bag_as_the_csv(arm, tmp_path, capsys):
     on_bag, _ = run_json(capsys, held, tmp_path / "v.json")
     assert on_bag["validation"]["log"]["description"] == str(bag)
     assert on_bag["validation"]["log"]["samples"] == 8001
+
+
+def test_the_export_is_written_a_block_at_a_time(arm, tmp_path, capsys, monkeypatch):
+    from drake_dynid import ros_bag
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 100)))
+    whole = tmp_path / "whole.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(whole), "--quiet"]) == 0
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 7)  # 100 = 14 blocks of 7 + 2
+    blocks = tmp_path / "blocks.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(blocks), "--quiet"]) == 0
+    assert blocks.read_bytes() == whole.read_bytes()
+    assert len(whole.read_text().splitlines()) == 101
