@@ -42,7 +42,7 @@ import re
 from array import array
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -113,6 +113,8 @@ class JointStates:
         effort: (N, n) effort[] (NaN where a message's effort[] is empty), or None
             when no kept message has efforts.
         notes: what was skipped or substituted, one sentence each.
+        optional: ``{joint: (N,) position}`` of the optional joints read (NaN in a
+            message without the joint); only joints some kept message holds.
     """
 
     path: str
@@ -122,6 +124,7 @@ class JointStates:
     position: np.ndarray
     effort: np.ndarray | None
     notes: tuple[str, ...]
+    optional: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def _storage(path: str) -> Any:
@@ -191,6 +194,7 @@ def read_joint_states(
     joints: Sequence[str] | None = None,
     *,
     topic: str | None = None,
+    optional: Sequence[str] = (),
 ) -> JointStates:
     """Reads a bag's JointState messages (module docstring).
 
@@ -199,6 +203,9 @@ def read_joint_states(
         joints: the joints needed; None: those of the topic's most frequent set of
             names, in its order.
         topic: the topic; None: the bag's one JointState topic.
+        optional: joints whose positions are read where a kept message holds
+            them (``JointStates.optional``; the locked and mimic joints, whose
+            motion ``commands._arguments.locked_motion`` checks).
 
     Raises:
         ValueError: rosbags missing, a bag that cannot be read (named), no or
@@ -216,7 +223,7 @@ def read_joint_states(
                 (reader.deserialize(data, c.msgtype), received)
                 for c, received, data in reader.messages(connections=connections)
             )
-            return _kept(path, topic, messages, wanted)
+            return _kept(path, topic, messages, wanted, tuple(optional))
     except (ValueError, OSError):
         raise
     except Exception as error:  # rosbags' own errors, struct.error, KeyError, ...
@@ -233,8 +240,9 @@ class _Rows:
     Streamed: a long bag holds 8 bytes a value here, not its decoded messages.
     """
 
-    def __init__(self, wanted: tuple[str, ...]):
+    def __init__(self, wanted: tuple[str, ...], optional: tuple[str, ...] = ()):
         self.wanted = wanted
+        self.optional = {name: array("d") for name in optional if name not in wanted}
         self.stamps = array("q")
         self.received = array("q")
         self.position = array("d")
@@ -253,6 +261,8 @@ class _Rows:
         stamp = message.header.stamp
         self.stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
         self.received.append(int(received))
+        for name, values in self.optional.items():
+            values.append(float(p[index[name]]) if name in index else math.nan)
         self.position.extend(p[at].tolist())
         if e.size:
             self.effort.extend(e[at].tolist())
@@ -262,7 +272,11 @@ class _Rows:
 
 
 def _kept(
-    path: str, topic: str, messages: Any, wanted: tuple[str, ...] | None
+    path: str,
+    topic: str,
+    messages: Any,
+    wanted: tuple[str, ...] | None,
+    optional: tuple[str, ...] = (),
 ) -> JointStates:
     """The messages holding every wanted joint, their fields in that order.
 
@@ -280,7 +294,7 @@ def _kept(
         if wanted is None:
             rows = groups.get(key) or groups.setdefault(key, _Rows(tuple(names)))
         elif all(name in index for name in wanted):
-            rows = groups.get(None) or groups.setdefault(None, _Rows(wanted))
+            rows = groups.get(None) or groups.setdefault(None, _Rows(wanted, optional))
         else:
             continue
         rows.add(message, received, index)
@@ -327,6 +341,7 @@ def _kept(
             "their torques are empty cells."
         )
     position = np.frombuffer(chosen.position, dtype=float).reshape(kept, n)
+    found = {name: np.array(values) for name, values in chosen.optional.items()}
     effort = np.frombuffer(chosen.effort, dtype=float).reshape(kept, n)
     return JointStates(
         path,
@@ -336,6 +351,7 @@ def _kept(
         position.copy(),
         effort.copy() if efforts else None,
         tuple(notes),
+        {name: values for name, values in found.items() if np.isfinite(values).any()},
     )
 
 
@@ -429,25 +445,36 @@ def write_export(
     time. ``time_unit``: the time column's unit, None for the plain format
     (:func:`time_scale`).
     """
+    values = export_columns(states, columns)
+    data = np.column_stack([values[c] for c in columns]) if columns else None
+    write_rows(path, [time, *columns], states.stamps, data, time_unit)
+
+
+def write_rows(
+    path: str | os.PathLike,
+    header: Sequence[str],
+    stamps: np.ndarray,
+    data: np.ndarray | None,
+    time_unit: str | None = None,
+) -> None:
+    """A CSV file: ``header``, then each stamp [ns] (:func:`time_scale`) and row."""
     import csv
 
-    values = export_columns(states, columns)
-    scale = time_scale(states.stamps, time_unit)
-    data = np.column_stack([values[c] for c in columns]) if columns else None
+    scale = time_scale(stamps, time_unit)
 
     def write(stream: Any) -> None:
-        csv.writer(stream, lineterminator="\n").writerow([time, *columns])
-        for start in range(0, states.stamps.size, EXPORT_ROWS):
+        csv.writer(stream, lineterminator="\n").writerow(header)
+        for start in range(0, stamps.size, EXPORT_ROWS):
             rows = slice(start, start + EXPORT_ROWS)
-            stamps = time_text(states.stamps[rows], scale)
+            cells = time_text(stamps[rows], scale)
             if data is None:
-                stream.write("".join(f"{s}\n" for s in stamps))
+                stream.write("".join(f"{s}\n" for s in cells))
                 continue
             body = io.StringIO()
             np.savetxt(body, data[rows], delimiter=",", fmt="%.17g")
             lines = body.getvalue().splitlines()
             stream.write(
-                "".join(f"{s},{line}\n" for s, line in zip(stamps, lines, strict=True))
+                "".join(f"{s},{line}\n" for s, line in zip(cells, lines, strict=True))
             )
 
     write_whole(path, write)

@@ -409,3 +409,23 @@ def test_the_export_is_written_a_block_at_a_time(arm, tmp_path, capsys, monkeypa
     assert cli.main(["bag2csv", str(bag), "--out", str(blocks), "--quiet"]) == 0
     assert blocks.read_bytes() == whole.read_bytes()
     assert len(whole.read_text().splitlines()) == 101
+
+
+def test_a_locked_joint_moving_in_the_bag_is_named_as_in_the_csv(arm, tmp_path, capsys):
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    log = csv_log(tmp_path / "log.csv", arm)
+    said = {}
+    for path in (bag, log):
+        argv = ["offline", str(path), "--urdf", "planar_2r", "--joints", "joint1"]
+        cli.main([*argv, "--quiet"])
+        err = capsys.readouterr().err
+        said[path] = [
+            line.split(": ", 3)[3]
+            for line in err.splitlines()
+            if "not identified move" in line
+        ]
+    assert said[bag] == said[log] and len(said[bag]) == 1
+    assert said[bag][0].startswith(
+        "joint(s) not identified move in the log (joint2 from -2.36 to 1.9)"
+    )

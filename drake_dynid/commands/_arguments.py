@@ -644,13 +644,18 @@ def _read_bag_log(
         joints = needed_joints([*positions, *torques])
     except ValueError as error:
         raise ValueError(f"log {bag}: --drive {robot.drive.source}: {error}") from None
-    states = read_joint_states(bag, joints, topic=topic)
+    held = [
+        *(getattr(robot, "locked", None) or {}),
+        *(getattr(robot, "mimic", None) or {}),
+    ]
+    states = read_joint_states(bag, joints, topic=topic, optional=held)
     if states.effort is None and torques_optional:
         torques = []
     name = os.path.basename(os.path.normpath(bag)) or "bag"
     with tempfile.TemporaryDirectory(prefix="dynid-bag-") as folder:
         export = os.path.join(folder, f"{name}.csv")
         write_export(export, states, [*positions, *torques], time=time, time_unit=unit)
+        checked = _held_positions(states, robot, os.path.join(folder, "held.csv"))
 
         def named(text: str) -> str:
             return text.replace(export, bag)
@@ -667,8 +672,40 @@ def _read_bag_log(
         warnings = (*states.notes, *(named(w) for w in said))
         log = dataclasses.replace(log, warnings=warnings)
         check_log_magnitudes(log, [bag])
-        print_log_warnings(log, [export], command, robot, torques=read, label=bag)
+        print_log_warnings(
+            log, [checked or export], command, robot, torques=read, label=bag
+        )
     return log
+
+
+def _held_positions(states: Any, robot: Any, path: str) -> str | None:
+    """A CSV of the bag's positions that :func:`locked_motion` checks, or None.
+
+    The positions of the locked and mimic joints that the bag has (and of the
+    mimic joints' leaders), named as the log format names a position (``q_<joint>``,
+    or the drive file's joint-side template), written to ``path`` beside the
+    export (whose columns are the identified joints' only).
+    """
+    import numpy as np
+
+    from drake_dynid.ros_bag import write_rows
+
+    if not states.optional:
+        return None
+    column = (
+        "q_{joint}"
+        if robot.drive is None
+        else getattr(robot.drive.log, "joint_position_template", None)
+    )
+    if column is None:
+        return None
+    at = {name: k for k, name in enumerate(states.joint_names)}
+    values = dict(states.optional)
+    for name in at:
+        values.setdefault(name, states.position[:, at[name]])
+    header = ["t", *(column.format(joint=name) for name in values)]
+    write_rows(path, header, states.stamps, np.column_stack(list(values.values())))
+    return path
 
 
 def _has_torque_columns(files: Sequence[str], chain: Any, robot: Any) -> bool:
