@@ -45,7 +45,8 @@ class _FleetParser(argparse.ArgumentParser):
                 "logs",
                 nargs="+",
                 metavar="LOG.csv",
-                help="the logs, one recording each (CSV, as for the command)",
+                help="the logs, one recording each (CSV files or ROS bags, as for "
+                "the command)",
             )
         if names and names[0] in _FLEET_OWNED:
             return None
