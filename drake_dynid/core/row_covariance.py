@@ -68,6 +68,7 @@ __all__ = [
     "ITERATIONS",
     "CovarianceDesign",
     "covariance_design",
+    "covariance_weighted_fit",
     "covariance_weighted_solve",
     "row_covariance",
     "sample_sensitivities",
@@ -374,13 +375,41 @@ def covariance_weighted_solve(
             filtered rows' bias on a multi-joint arm: on the iiwa7 benchmark the
             GLS σ alone gives err/σ p90 3-5, with the jackknife 1.3-1.6).
     """
+    return covariance_weighted_fit(
+        A,
+        B,
+        covariance,
+        max_condition=max_condition,
+        names=names,
+        iterations=iterations,
+        jackknife=jackknife,
+    )[0]
+
+
+def covariance_weighted_fit(
+    A: Any,
+    B: Any,
+    covariance: Callable[[np.ndarray], np.ndarray],
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+    iterations: int = ITERATIONS,
+    jackknife: Any = None,
+) -> tuple[LeastSquaresResult, np.ndarray | None, np.ndarray | None]:
+    """:func:`covariance_weighted_solve` and its whitened rows ``L⁻¹A``, ``L⁻¹B``.
+
+    The rows are None when the ordinary first solve is not valid. The
+    generalised least squares' covariance is ``σ̂_ρ² (ÃᵀÃ)⁻¹`` of the whitened
+    Ã = L⁻¹A (``core.weighted_lsq.window_covariance``).
+    """
     iterations = check.integer(_OWNER, "iterations", iterations, minimum=1)
     result = solve_least_squares(A, B, max_condition=max_condition, names=names)
     A = np.asarray(A, dtype=float)
     B = np.asarray(B, dtype=float)
+    white_a = white_b = None
     for _ in range(iterations):
         if not result.valid:
-            return result
+            return result, white_a, white_b
         cov = np.asarray(covariance(np.asarray(result.theta)), dtype=float)
         if cov.shape != (A.shape[0], A.shape[0]) or not np.all(np.isfinite(cov)):
             check.fail(
@@ -389,8 +418,8 @@ def covariance_weighted_solve(
                 f"matrix; got shape {cov.shape}.",
             )
         result, white_a, white_b = _whitened_solve(A, B, cov, max_condition, names)
-    if jackknife is None:
-        return result
+    if jackknife is None or white_a is None:
+        return result, white_a, white_b
     from drake_dynid.core.weighted_lsq import with_jackknife
 
-    return with_jackknife(result, white_a, white_b, jackknife, None)
+    return with_jackknife(result, white_a, white_b, jackknife, None), white_a, white_b

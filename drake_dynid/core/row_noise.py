@@ -44,6 +44,7 @@ __all__ = [
     "honest_std",
     "noise_model_std",
     "row_noise",
+    "sandwich_covariance",
     "stacked_honest_std",
 ]
 
@@ -310,6 +311,60 @@ def stacked_honest_std(
         ``(std (K, p), residual_std (K,), dof (K,))``: NaN, NaN and 0 for a window
         whose residual has no degree of freedom left.
     """
+    std, sigma, dof, _ = _sandwich(
+        A, B, theta, weights, relative_std, noise, R_inv, norms
+    )
+    return std, sigma, dof
+
+
+def sandwich_covariance(
+    A: np.ndarray,
+    B: np.ndarray,
+    theta: np.ndarray,
+    weights: np.ndarray,
+    relative_std: np.ndarray,
+    noise: RowNoise,
+    R_inv: np.ndarray,
+    norms: np.ndarray,
+) -> np.ndarray:
+    """The full (p, p) sandwich covariance C_X of one window (module docstring).
+
+    Arguments as :func:`honest_std` with its ``factor`` ``(R_inv, norms)``
+    (one window, unstacked): every entry of
+    ``C_X = σ̂² S⁻¹ (ÃᵀÃ)⁻¹ M (ÃᵀÃ)⁻¹ S⁻¹``, whose diagonal is
+    :func:`honest_std`'s σ² to round-off [units of X, squared]; symmetric
+    positive semi-definite. NaN when the residual has no degree of freedom left.
+    For the final solve only (``core.weighted_lsq.window_covariance``): the
+    identifier's every solve keeps the diagonal.
+    """
+    _, _, _, covariance = _sandwich(
+        A[None],
+        B[None],
+        theta[None],
+        weights[None],
+        relative_std[None],
+        noise,
+        R_inv[None],
+        norms[None],
+        full=True,
+    )
+    assert covariance is not None
+    return covariance[0]
+
+
+def _sandwich(
+    A: np.ndarray,
+    B: np.ndarray,
+    theta: np.ndarray,
+    weights: np.ndarray,
+    relative_std: np.ndarray,
+    noise: RowNoise,
+    R_inv: np.ndarray,
+    norms: np.ndarray,
+    *,
+    full: bool = False,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`stacked_honest_std` and, with ``full``, the (K, p, p) covariances."""
     K, _, p = A.shape
     As = (A * weights[..., None]) / norms[:, None, :]
     inverse = R_inv @ np.swapaxes(R_inv, 1, 2)
@@ -332,6 +387,8 @@ def stacked_honest_std(
     trace_s = np.sum(s * s, axis=1)
     trace_s2 = np.sum(G * G, axis=(1, 2, 3))
     hat = inverse @ meat
+    if full:  # C_X = σ̂² S⁻¹ (ÃᵀÃ)⁻¹ M (ÃᵀÃ)⁻¹ S⁻¹, every entry (final solve only)
+        sandwich = (hat @ inverse) / (norms[:, :, None] * norms[:, None, :])
     dof_num = trace_s - np.trace(hat, axis1=1, axis2=2)
     denominator = (
         trace_s2
@@ -351,4 +408,10 @@ def stacked_honest_std(
     std = np.sqrt(np.clip(variance, 0.0, None)) / norms
     std[~has_dof] = np.nan
     sigma = np.where(has_dof, np.sqrt(np.where(has_dof, sigma2, 0.0)), np.nan)
-    return std, sigma, dof
+    if full:
+        with np.errstate(invalid="ignore"):
+            covariance = sigma2[:, None, None] * sandwich
+        covariance = 0.5 * (covariance + np.swapaxes(covariance, 1, 2))
+        covariance[~has_dof] = np.nan
+        return std, sigma, dof, covariance
+    return std, sigma, dof, None

@@ -33,11 +33,15 @@ from drake_dynid.core.lsq import (
 )
 
 __all__ = [
+    "WindowCovariance",
+    "covariance_correlation",
     "frequency_noise_weights",
+    "scaled_covariance",
     "solve_frequency_weighted_least_squares",
     "solve_window",
     "solve_windows",
     "too_few_dof",
+    "window_covariance",
     "with_jackknife",
 ]
 
@@ -246,10 +250,133 @@ def solve_window(
             jackknife on the whitened rows) and ``weighting`` and ``noise`` are
             not used.
     """
-    if covariance is not None:
-        from drake_dynid.core.row_covariance import covariance_weighted_solve
+    return _solve_window(
+        A, B, weighting, max_condition, names, noise, jackknife, covariance, False
+    )[0]
 
-        return covariance_weighted_solve(
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class WindowCovariance:
+    """:func:`window_covariance`'s outcome: the solve and its full covariance.
+
+    Attributes:
+        result: the window's :func:`solve_window` result (the same θ̂ and σ).
+        correlation: (p, p) K, the correlation of the estimator's covariance
+            model (NaN when ``result`` is not valid).
+        covariance: (p, p) S K S with S = diag(``result.std``): its diagonal is
+            σ² exactly [units of the parameters, squared].
+        method: the covariance model K comes from: ``"sandwich"`` (the honest
+            sandwich of the frequency-weighted or ordinary solve,
+            ``core.row_noise``), ``"gls"`` (the covariance-weighted solve's
+            Gautier covariance of the whitened rows), ``"gautier"`` (σ_ρ²
+            (ÃᵀÃ)⁻¹ of the (weighted) rows).
+    """
+
+    result: LeastSquaresResult
+    correlation: np.ndarray
+    covariance: np.ndarray
+    method: str
+
+
+def window_covariance(
+    A: Any,
+    B: Any,
+    weighting: tuple[Any, Any] | None = None,
+    *,
+    max_condition: float = DEFAULT_MAX_CONDITION,
+    names: Sequence[str] | None = None,
+    noise: Any = None,
+    jackknife: Any = None,
+    covariance: Any = None,
+) -> WindowCovariance:
+    """:func:`solve_window` (same arguments, same result) and its full covariance.
+
+    The covariance model of the estimator the solve uses, every entry, not only
+    its diagonal: with ``noise`` the sandwich (``core.row_noise``,
+    ``C_X = σ̂² S⁻¹ (ÃᵀÃ)⁻¹ M (ÃᵀÃ)⁻¹ S⁻¹``, Ã the weighted rows); with
+    ``covariance`` the generalised least squares' ``σ̂_ρ² (ÃᵀÃ)⁻¹``, Ã the
+    whitened rows; else Gautier's ``σ_ρ² (ÃᵀÃ)⁻¹`` of the (frequency-weighted or
+    ordinary) rows. K is its correlation, and the returned covariance ``S K S``
+    with S = diag(σ) the σ the solve reports: where the jackknife's σ is the
+    larger one (``jackknife``), the row and column of that parameter are scaled
+    up with it (first order: the jackknife's own cross terms are not used, its
+    few groups determine a p × p matrix poorly). One more p × p product than
+    the solve: for the final estimate, not every solve.
+    """
+    result, model, method = _solve_window(
+        A, B, weighting, max_condition, names, noise, jackknife, covariance, True
+    )
+    p = result.theta.size
+    if not result.valid or model is None:
+        nan = np.full((p, p), np.nan)
+        return WindowCovariance(result, nan, nan.copy(), method)
+    correlation = covariance_correlation(model)
+    std = np.asarray(result.std, dtype=float)
+    return WindowCovariance(
+        result, correlation, scaled_covariance(correlation, std), method
+    )
+
+
+def covariance_correlation(covariance: np.ndarray) -> np.ndarray:
+    """K = D⁻¹ C D⁻¹ (D = diag(√C_ii)), symmetric, unit diagonal exactly.
+
+    A zero or non-finite variance gets a unit row and column of zeros off the
+    diagonal (no correlation known).
+    """
+    covariance = 0.5 * (covariance + covariance.T)
+    scale = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    good = np.isfinite(scale) & (scale > 0.0)
+    safe = np.where(good, scale, 1.0)
+    with np.errstate(invalid="ignore"):
+        correlation = covariance / np.outer(safe, safe)
+    correlation[~good, :] = 0.0
+    correlation[:, ~good] = 0.0
+    correlation = np.clip(correlation, -1.0, 1.0)
+    np.fill_diagonal(correlation, 1.0)
+    return correlation
+
+
+def scaled_covariance(correlation: np.ndarray, std: np.ndarray) -> np.ndarray:
+    """S K S, S = diag(``std``): the covariance whose diagonal is σ² exactly.
+
+    Symmetric by construction; positive semi-definite when K is.
+    """
+    std = np.asarray(std, dtype=float)
+    out = std[:, None] * correlation * std[None, :]
+    out = 0.5 * (out + out.T)
+    np.fill_diagonal(out, std * std)
+    return out
+
+
+def _gautier_covariance(Aw: np.ndarray, residual_std: float) -> np.ndarray:
+    """σ_ρ² (ÃᵀÃ)⁻¹ of the (weighted or whitened) rows Ã, by the column-scaled QR."""
+    norms = np.sqrt(np.einsum("ij,ij->j", Aw, Aw))
+    R = np.asarray(np.linalg.qr(Aw / norms, mode="r"))
+    R_inv = np.linalg.inv(R)
+    inverse = (R_inv @ R_inv.T) / np.outer(norms, norms)
+    return residual_std**2 * inverse
+
+
+def _solve_window(
+    A: Any,
+    B: Any,
+    weighting: tuple[Any, Any] | None,
+    max_condition: float,
+    names: Sequence[str] | None,
+    noise: Any,
+    jackknife: Any,
+    covariance: Any,
+    full: bool,
+) -> tuple[LeastSquaresResult, np.ndarray | None, str]:
+    """:func:`solve_window`; with ``full`` also the estimator's (p, p) covariance.
+
+    Returns ``(result, C or None, method)`` (:class:`WindowCovariance`); C is
+    None without ``full`` or when the result is not valid.
+    """
+    if covariance is not None:
+        from drake_dynid.core.row_covariance import covariance_weighted_fit
+
+        result, white_a, _ = covariance_weighted_fit(
             A,
             B,
             covariance,
@@ -257,6 +384,10 @@ def solve_window(
             names=names,
             jackknife=jackknife,
         )
+        model = None
+        if full and result.valid and white_a is not None:
+            model = _gautier_covariance(white_a, result.residual_std)
+        return result, model, "gls"
     if noise is None:
         if weighting is None:
             result = solve_least_squares(A, B, max_condition=max_condition, names=names)
@@ -266,11 +397,18 @@ def solve_window(
             result, weights = _frequency_weighted(
                 A, B, frequency, group, max_condition, names
             )
-        return with_jackknife(result, A, B, jackknife, weights)
+        model = None
+        if full and result.valid:
+            Aw = np.asarray(A, dtype=float)
+            if weights is not None:
+                Aw = Aw * weights[:, None]
+            model = _gautier_covariance(Aw, result.residual_std)
+        return with_jackknife(result, A, B, jackknife, weights), model, "gautier"
     from drake_dynid.core.row_noise import (
         MIN_RESIDUAL_DOF,
         honest_std,
         noise_model_std,
+        sandwich_covariance,
     )
 
     # First pass: X̂₀ only when it is re-solved with weights (no SVD then).
@@ -278,7 +416,7 @@ def solve_window(
         A, B, max_condition, names, bound_first=weighting is not None
     )
     if isinstance(first, LeastSquaresResult):
-        return first
+        return first, None, "sandwich"
     if A.shape[0] != noise.num_rows:
         v.fail(
             "solve_window",
@@ -297,7 +435,7 @@ def solve_window(
             A * weights[:, None], B * weights, max_condition, names
         )
         if isinstance(second, LeastSquaresResult):
-            return second
+            return second, None, "sandwich"
         factor = _with_inverse(second)
     result = _estimate(factor)
     assert factor.R_inv is not None
@@ -305,11 +443,20 @@ def solve_window(
     relative = noise_model_std(B - A @ result.theta, noise.frequency, noise.group)
     honest = honest_std(A, B, result.theta, weights, relative, noise, factor=reuse)
     if not honest.dof >= MIN_RESIDUAL_DOF:
-        return too_few_dof(result, honest.dof)
+        return too_few_dof(result, honest.dof), None, "sandwich"
     result = dataclasses.replace(
         _with_std(result, honest.std), residual_std=honest.residual_std
     )
-    return with_jackknife(result, A, B, jackknife, weights, factor=reuse)
+    full_covariance = None
+    if full:
+        full_covariance = sandwich_covariance(
+            A, B, result.theta, weights, relative, noise, *reuse
+        )
+    return (
+        with_jackknife(result, A, B, jackknife, weights, factor=reuse),
+        full_covariance,
+        "sandwich",
+    )
 
 
 def too_few_dof(result: LeastSquaresResult, dof: float) -> LeastSquaresResult:
