@@ -116,6 +116,12 @@ def test_cli_prints_and_writes_the_detections(fig4, tmp_path, capsys):
     assert document["bootstrap"]["applied"] is False
     assert "a detected change restarted it" in document["bootstrap"]["reason"]
     assert "no bootstrap: the final window is not the sliding window" in printed
+    # Nor the final solve's correlation: the covariance is σ² on its diagonal,
+    # and the file says so (dynid payload propagates it as such).
+    assert document["covariance_method"] == "diagonal"
+    assert "a detected change restarted it" in document["covariance_reason"]
+    std = np.array([p["std"] for p in document["parameters"]])
+    np.testing.assert_array_equal(np.array(document["covariance"]), np.diag(std**2))
     assert cli.main([*argv, "--engine", "blocks", "--json", str(out)]) == 0
     assert json.loads(out.read_text())["changes"] == document["changes"]
     assert cli.main([*argv[:-1], "--json", str(out), "--quiet"]) == 0

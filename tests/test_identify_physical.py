@@ -12,8 +12,9 @@ import pytest
 from _drake_dynamics import drake_torques, exact_paper_2r
 
 from drake_dynid import cli, paper
-from drake_dynid.commands.identify import final_covariance
+from drake_dynid.commands.identify import final_covariance_of, projection_covariance
 from drake_dynid.core.online import OnlineSettings
+from drake_dynid.core.replay import replay_log_core
 from drake_dynid.logs import RobotLog, write_log
 from drake_dynid.plants import RobotModel, model_path
 
@@ -52,24 +53,31 @@ def test_identify_writes_a_urdf_that_drake_reproduces(robot, tmp_path, capsys):
     assert np.all(error < 1e-3), error
 
 
-def test_the_projection_metric_is_the_window_correlation_scaled_by_sigma(robot):
+def test_the_projection_metric_is_the_final_covariance(robot):
+    """--physical projects in the metric --json writes (final_covariance_of: the
+    final solve's sandwich correlation scaled by σ); a σ that is not finite
+    becomes 1e3 times the largest, uncorrelated: the projection moves it freely."""
     t, q, tau = exact_paper_2r(robot)
     rng = np.random.default_rng(3)
     log = RobotLog(t, q, tau + 0.05 * rng.standard_normal(tau.shape),
                    robot.joint_names, 1e-3)  # fmt: skip
     settings = OnlineSettings(window=10.0, bandwidth=1.0).on_grid(1e-3)
+    (trace,) = replay_log_core(log, robot.rows_provider(), [settings])
     p = robot.num_parameters
     std = np.linspace(0.01, 0.08, p)
     std[3] = np.inf  # a parameter the window does not see
-    last = int(19.0 / settings.solve_decimation(1e-3) / 1e-3)
-    covariance = final_covariance(log, robot, settings, last, std)
+    last = len(trace.t) - 1
+    found = final_covariance_of(log, robot, settings, trace, last, std)
+    assert found["method"] == "sandwich"
+    covariance = projection_covariance(found["covariance"])
     assert covariance.shape == (p, p)
     np.testing.assert_allclose(covariance, covariance.T, rtol=0, atol=0)
     finite = np.isfinite(std)
     np.testing.assert_allclose(np.diag(covariance)[finite], std[finite] ** 2)
     assert covariance[3, 3] == pytest.approx((1e3 * 0.08) ** 2)
+    assert np.all(np.delete(covariance[3], 3) == 0.0)
     assert np.linalg.eigvalsh(covariance).min() > -1e-12 * covariance.max()
-    # Correlated, not diagonal: the window's equations couple the parameters.
+    # Correlated, not diagonal: the window's solve couples the parameters.
     off = np.abs(
         covariance / np.sqrt(np.outer(np.diag(covariance), np.diag(covariance)))
     )

@@ -755,37 +755,53 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_validation_arguments(parser)
 
 
-def final_covariance(
-    log: Any, robot: Any, settings: Any, last_valid: int, std: np.ndarray
-) -> np.ndarray:
-    """C = S K S of the final estimate (``--physical``): the metric of its projection.
+#: ``covariance_method`` of the final estimate (``dynid identify --json``): the
+#: covariance model its correlation K comes from (``core.weighted_lsq``), or
+#: ``"diagonal"`` when the final window's solve cannot be reproduced (K = 1).
+COVARIANCE_METHODS = ("sandwich", "gls", "gautier", "diagonal")
 
-    K: the correlation of the final window's (AᵀA)⁻¹ (its equations by direct
-    quadrature, ``core.replay.window_equations``, columns scaled to unit norm);
-    S = diag(σ), the final σ (the window's, or the bootstrap's when larger). A σ
-    that is not finite (a parameter the window does not see) becomes 1e3 times
-    the largest finite one, so that the projection moves it freely. K is that of
-    the whole window's unweighted equations (the solve weights them by frequency,
-    and a change detection may have restarted it shorter): the metric, and the
-    printed Mahalanobis distance, are approximate. K = 1 when the window's
-    equations cannot be formed.
+
+def final_covariance_of(
+    log: Any,
+    robot: Any,
+    settings: Any,
+    trace: Any,
+    last_valid: int,
+    std: np.ndarray,
+) -> dict[str, Any]:
+    """The final estimate's covariance C = S K S and how it was obtained.
+
+    The window of the solve that gave the estimate logged at ``last_valid``
+    (:func:`bootstrap_end`) solved again by direct quadrature with the
+    identifier's settings and its full covariance
+    (``core.replay.window_estimate_covariance``): K the correlation of the
+    estimator's covariance model (the sandwich of the frequency-weighted solve,
+    the generalised least squares' of the covariance weighting, or Gautier's),
+    S = diag(``std``), the reported σ (the window's, the jackknife's or the
+    bootstrap's, whichever is larger per parameter): the diagonal is σ² exactly.
+    When that solve does not reproduce the logged estimate (to 1e-6, as the
+    bootstrap's check: a detected change restarted the window, whose segment
+    estimate holds parameters at their values before the change) or cannot be
+    formed, K = 1 (``"diagonal"``: the correlation is not known).
+
+    Returns:
+        ``{"covariance": (p, p), "correlation": (p, p), "method": one of
+        COVARIANCE_METHODS, "reason": why "diagonal" (else "")}``; entries of a
+        parameter whose σ is not finite are NaN.
     """
-    from scipy.linalg import solve_triangular
-
     from drake_dynid.core.bootstrap import window_start
-    from drake_dynid.core.replay import window_equations
+    from drake_dynid.core.replay import window_estimate_covariance
+    from drake_dynid.core.weighted_lsq import scaled_covariance
 
+    std = np.asarray(std, dtype=float)
     p = std.size
-    finite = np.isfinite(std) & (std > 0.0)
-    largest = float(np.max(std[finite])) if finite.any() else 1.0
-    sigma = np.where(finite, std, 1e3 * largest)
     h = log.time_step
     end = bootstrap_end(settings, h, last_valid, log.num_samples)
-    correlation = np.eye(p)
+    correlation, method, reason = np.eye(p), "diagonal", ""
     try:
         s = settings.for_robot(h, int(robot.num_joints), p)
         start = window_start(s, h, end)
-        a, _ = window_equations(
+        found = window_estimate_covariance(
             robot.rows_provider(),
             s,
             np.asarray(log.q[start : end + 1], dtype=float),
@@ -793,18 +809,54 @@ def final_covariance(
             end - start,
             h,
         )
-        a = np.asarray(a, dtype=float).reshape(-1, p)
-        norms = np.linalg.norm(a, axis=0)
-        if np.all(norms > 0.0) and np.all(np.isfinite(a)):
-            r = np.linalg.qr(a / norms, mode="r")
-            inverse = solve_triangular(r, np.eye(p))
-            covariance = inverse @ inverse.T
-            scale = np.sqrt(np.diag(covariance))
-            correlation = covariance / np.outer(scale, scale)
-    except (ValueError, np.linalg.LinAlgError):
-        pass
-    covariance = sigma[:, None] * correlation * sigma[None, :]
-    return 0.5 * (covariance + covariance.T)
+        theta = np.asarray(trace.theta[last_valid], dtype=float)
+        scale = np.fmax(np.abs(theta), np.asarray(trace.std[last_valid]))
+        if not found.result.valid:
+            reason = f"the final window's solve is not valid: {found.result.reason}"
+        elif not np.all(np.abs(found.result.theta - theta) <= 1e-6 * scale):
+            reason = (
+                "the final estimate is not the sliding window's solve (a detected "
+                "change restarted it)"
+            )
+        elif not np.all(np.isfinite(found.correlation)):
+            reason = "the final window's covariance is not finite"
+        else:
+            correlation, method = found.correlation, found.method
+    except (ValueError, np.linalg.LinAlgError) as error:
+        reason = f"the final window's equations cannot be formed ({error})"
+    finite = np.isfinite(std)
+    covariance = scaled_covariance(correlation, np.where(finite, std, 0.0))
+    covariance[~finite, :] = np.nan
+    covariance[:, ~finite] = np.nan
+    return {
+        "covariance": covariance,
+        "correlation": correlation,
+        "method": method,
+        "reason": reason,
+    }
+
+
+def projection_covariance(covariance: np.ndarray) -> np.ndarray:
+    """The metric of ``--physical``'s projection from the final covariance.
+
+    A parameter whose σ is not finite (NaN row and column; a parameter the window
+    does not see) gets 1e3 times the largest finite σ and no correlation, so
+    that the projection moves it freely.
+    """
+    covariance = np.array(covariance, dtype=float)
+    diagonal = np.diag(covariance).copy()
+    finite = np.isfinite(diagonal) & (diagonal > 0.0)
+    largest = float(np.max(diagonal[finite])) if finite.any() else 1.0
+    covariance[~finite, :] = 0.0
+    covariance[:, ~finite] = 0.0
+    diagonal = np.where(finite, diagonal, 1e6 * largest)
+    np.fill_diagonal(covariance, diagonal)
+    return covariance
+
+
+def covariance_document(covariance: np.ndarray) -> list[list[float | None]]:
+    """The (p, p) covariance as JSON rows: null where not finite."""
+    return [[json_number(x) for x in row] for row in np.asarray(covariance)]
 
 
 #: Under the covariance weighting, a joint whose position and torque noise are
@@ -1094,6 +1146,15 @@ def run(args: argparse.Namespace) -> int:
         if settings.detect_changes is not False:
             for line in _change_lines(changes):
                 print(line)
+    computed: dict[str, Any] = {}
+
+    def covariance_final() -> dict[str, Any]:  # for --json, --physical
+        if not computed:
+            computed.update(
+                final_covariance_of(log, robot, settings, trace, last_valid, std)
+            )
+        return computed
+
     extra = finish_identify(
         args,
         robot,
@@ -1101,7 +1162,7 @@ def run(args: argparse.Namespace) -> int:
         held_description,
         {settings.model: theta},
         fit=SimpleNamespace(names=trace.names, theta=theta, std=std),
-        covariance=lambda: final_covariance(log, robot, settings, last_valid, std),
+        covariance=lambda: projection_covariance(covariance_final()["covariance"]),
         urdf_notes=[
             f"From dynid identify's {'final' if final_valid else 'last valid'} "
             f"window ({settings.window:g} s ending at t = {t[last_valid]:.6g} s)"
@@ -1126,6 +1187,9 @@ def run(args: argparse.Namespace) -> int:
             "reason": reason,
             "last_valid_time": float(t[last_valid]),
             "delay": float(trace.delay),
+            "covariance": covariance_document(covariance_final()["covariance"]),
+            "covariance_method": covariance_final()["method"],
+            "covariance_reason": covariance_final()["reason"],
             "bootstrap": {k: value for k, value in bootstrap.items() if k != "line"},
             "changes": changes if settings.detect_changes is not False else None,
             "settings": {

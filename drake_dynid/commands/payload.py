@@ -134,7 +134,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="ARM.json",
         help="the arm's parameters: a results file of dynid offline/identify "
         "--json (or dynid params --json); default: the URDF's values. The "
-        "covariance a dynid offline file holds is propagated to the payload's σ",
+        "covariance a dynid offline/identify file holds is propagated to the "
+        "payload's σ",
     )
     group = parser.add_argument_group(
         "identifier settings (default: the payload identifier's, "
@@ -205,33 +206,62 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _arm_covariance(document: dict[str, Any], size: int, source: str) -> Any:
-    """Σ_arm of a results file (``covariance``, ``dynid offline --json``) or None.
+def _arm_covariance(
+    document: dict[str, Any], size: int, source: str, names: Any = None
+) -> tuple[Any, dict[str, Any]]:
+    """Σ_arm of a results file (``covariance``) or None, and what it records.
 
-    Checked as ``core.payload.arm_factor`` checks it (a size × size symmetric
-    positive semi-definite matrix of finite numbers), with the file named.
+    ``dynid offline --json`` and ``dynid identify --json`` write it (p × p in
+    the order of ``parameters``). Checked as ``core.payload.arm_factor`` checks
+    it (a size × size symmetric positive semi-definite matrix), with the file
+    named. A parameter whose row and column are all null (``dynid identify``
+    writes them so for a σ that is not finite) is taken as exact: its row and
+    column are 0, and it is named. ``names``: the arm's parameter names.
+
+    Returns:
+        ``(Σ_arm or None, {"method": the file's covariance_method or None,
+        "exact": names of the parameters taken as exact})``.
     """
     from drake_dynid.core.payload import arm_factor
 
+    method = document.get("covariance_method")
+    info: dict[str, Any] = {
+        "method": method if isinstance(method, str) else None,
+        "exact": [],
+    }
     value = document.get("covariance")
     if value is None:
-        return None
+        return None, info
     try:
-        covariance = np.array(value, dtype=float)
+        covariance = np.array(
+            [[np.nan if x is None else x for x in row] for row in value],
+            dtype=float,
+        )
     except (TypeError, ValueError):
         covariance = np.zeros(0)
+    if covariance.shape == (size, size):
+        unknown = np.isnan(covariance).all(axis=1) & np.isnan(covariance).all(axis=0)
+        covariance[unknown, :] = 0.0
+        covariance[:, unknown] = 0.0
+        labels = list(names) if names is not None else [str(i) for i in range(size)]
+        info["exact"] = [str(labels[i]) for i in np.flatnonzero(unknown)]
     if covariance.shape != (size, size) or not np.isfinite(covariance).all():
         raise ValueError(
             f"--params {source}: 'covariance' must be a {size} × {size} matrix of "
-            "finite numbers (the covariance of its parameters, as dynid offline "
-            f"--json writes it); got shape {covariance.shape}."
+            "finite numbers, null only in whole rows and columns (the covariance of "
+            "its parameters, as dynid offline/identify --json write it); got "
+            + (
+                f"shape {covariance.shape}."
+                if covariance.shape != (size, size)
+                else "a null or non-finite entry outside a whole row and column."
+            )
         )
     try:
         arm_factor(covariance, size)
     except ValueError as error:
         text = str(error).replace("arm_factor: covariance", "'covariance'")
         raise ValueError(f"--params {source}: {text}") from None
-    return covariance
+    return covariance, info
 
 
 def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
@@ -252,7 +282,13 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
             args.dead_zone = "auto"
         robot = results_robot(args, document)
         arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
-        covariance = _arm_covariance(document, len(arm), str(args.params))
+        names = [entry.get("name") for entry in document.get("parameters", [])]
+        covariance, args.arm_covariance = _arm_covariance(
+            document,
+            len(arm),
+            str(args.params),
+            names if len(names) == len(arm) else None,
+        )
         log = read_robot_log(
             log_files(args),
             robot,
@@ -408,7 +444,14 @@ def run(args: argparse.Namespace) -> int:
                 },
                 "not_identifiable": summary["not_identifiable"],
             },
-            "arm": {"source": source, "num_parameters": len(arm)},
+            "arm": {
+                "source": source,
+                "num_parameters": len(arm),
+                "covariance_method": _arm_info(args)["method"],
+                "taken_as_exact": _arm_info(args)["exact"]
+                if rows.arm_factor is not None
+                else None,
+            },
             "sigma_terms": {
                 "rows_noise": True,
                 "arm_covariance": rows.arm_factor is not None,
@@ -485,11 +528,25 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
         )
 
 
+def _arm_info(args: argparse.Namespace) -> dict[str, Any]:
+    """What ``--params``' covariance records (:func:`_arm_covariance`)."""
+    info = getattr(args, "arm_covariance", None)
+    return info if isinstance(info, dict) else {"method": None, "exact": []}
+
+
 def _arm_line(args: argparse.Namespace, rows: Any, source: str) -> str:
     """The printout's line on the arm: its source and what σ holds of its error."""
     where = "the URDF" if source == "urdf" else source
+    info = _arm_info(args)
     if rows.arm_factor is not None:
         held = "their covariance propagated to σ"
+        if info["method"] == "diagonal":
+            held += " (the file's is diagonal: their correlation not known)"
+        if info["exact"]:
+            held += (
+                f"; {', '.join(info['exact'])} without a finite σ in the file: "
+                "taken as exact"
+            )
     elif source == "urdf":
         held = "taken as exact: σ holds no error of the arm"
     elif getattr(args, "uncertainty", None) == "gautier":

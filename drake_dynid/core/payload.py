@@ -34,7 +34,7 @@ column to the right-hand side (:func:`eliminate_known`: B' = B - A[:, -1]) and
 solves only the payload's parameters (``core.payload_step``).
 
 **The arm's error.** When θ_arm comes with a covariance Σ_arm (a previous
-identification's, ``dynid offline --json``), :func:`payload_rows` factors it,
+identification's, ``dynid offline/identify --json``), :func:`payload_rows` factors it,
 Σ_arm = L Lᵀ (:func:`arm_factor`, L: p_arm × k), and the provider carries k more
 columns between the payload's and the known one: D_arm L, G_arm L, the arm's
 rows along L's columns. The bank integrates them as any column, so each window

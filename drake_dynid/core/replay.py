@@ -87,6 +87,7 @@ __all__ = [
     "window_covariance_at",
     "window_equations",
     "window_estimate",
+    "window_estimate_covariance",
 ]
 
 Signals = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]
@@ -679,6 +680,37 @@ def window_estimate(
     a, b = window_equations(rows, s, q, tau, end, time_step, signals=signals)
     covariance = window_covariance_at(rows, s, q, tau, end, time_step, signals=signals)
     return solve_equations(rows, s, a, b, covariance)
+
+
+def window_estimate_covariance(
+    rows: Any,
+    settings: OnlineSettings,
+    q: np.ndarray,
+    tau: np.ndarray,
+    end: int,
+    time_step: float,
+) -> Any:
+    """:func:`window_estimate` with the estimator's full (p, p) covariance.
+
+    ``core.weighted_lsq.window_covariance`` of the window's equations (direct
+    quadrature) with the identifier's settings: its ``result`` is
+    :func:`window_estimate`'s. Arguments as :func:`window_equations`.
+    """
+    from drake_dynid.core.weighted_lsq import window_covariance
+
+    s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
+    a, b = window_equations(rows, s, q, tau, end, time_step)
+    m = s.num_equations(int(rows.num_joints))
+    return window_covariance(
+        a,
+        b,
+        s.row_weighting(m),
+        max_condition=s.max_condition,
+        names=rows.names,
+        noise=s.row_noise(m),
+        jackknife=s.jackknife_groups(m),
+        covariance=window_covariance_at(rows, s, q, tau, end, time_step),
+    )
 
 
 def window_covariance_at(
