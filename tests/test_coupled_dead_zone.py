@@ -117,3 +117,19 @@ def test_the_validation_of_a_coupled_robot_uses_the_fits_law(coupled):
     np.testing.assert_allclose(
         zoned.raw_relative_rms_percent, exact.raw_relative_rms_percent, rtol=1e-6
     )
+
+
+def test_the_printed_dead_zone_line_shows_the_motors_combined_widths(coupled):
+    """Before: the line listed the joints' widths only, though motor m2's sign
+    reads (v1 + v2) with its own width, the joints' combined (0.003·√2)."""
+    from drake_dynid.commands._arguments import dead_zone_line
+
+    robot, _ = coupled
+    line = dead_zone_line(robot.with_sign(ZONE), reversals=True)
+    assert line is not None
+    assert "joint1 0.003 rad/s, joint2 0.003 rad/s" in line
+    motors = "coupled motors, on R_k·v/ρ_k (the joints' widths combined): m2 0.0042"
+    assert f"{motors} rad/s" in line
+    assert line.endswith("keeps its sign")
+    plain = RobotModel.from_urdf(model_path("planar_2r")).with_sign(ZONE)
+    assert "coupled" not in (dead_zone_line(plain) or "")

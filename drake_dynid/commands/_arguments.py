@@ -1210,6 +1210,38 @@ def _longest_positions(log: Any) -> Any:
     return segment(log.q, start, stop)
 
 
+def motor_dead_zone_widths(robot: Any) -> dict[str, tuple[float, bool]]:
+    """``{motor: (width, prismatic)}`` of the coupled motors' dead zone, or {}.
+
+    A coupled motor k's Coulomb sign reads x_k = R_k·v/ρ_k in joint units with
+    its own width, the joints' widths combined (``core.standstill.
+    combined_widths``); ``prismatic``: the unit of its largest |R_kj|'s joint.
+    """
+    import numpy as np
+
+    from drake_dynid.core.friction import DeadZoneSign
+
+    motors = getattr(robot, "motor_columns", None)
+    sign = getattr(motors, "sign", None)
+    if motors is None or not isinstance(sign, DeadZoneSign):
+        return {}
+    count = motors.rows.shape[0]
+    width = sign.width
+    widths = (width,) * count if isinstance(width, float) else tuple(width)
+    chain = getattr(robot, "drive", None)
+    names = (
+        [chain.motor_names[k] for k in chain.coupled_motors]
+        if chain is not None and len(chain.coupled_motors) == count
+        else [f"m{k}" for k in motors.numbers]
+    )
+    prismatic = getattr(robot, "prismatic", (False,) * motors.rows.shape[1])
+    lead = np.argmax(np.abs(motors.rows), axis=1)
+    return {
+        name: (float(w), bool(prismatic[j]))
+        for name, w, j in zip(names, widths, lead, strict=True)
+    }
+
+
 def dead_zone_line(robot: Any, args: Any = None, reversals: bool = False) -> str | None:
     """One printed line with the dead-zone widths (None with the exact sign).
 
@@ -1227,6 +1259,14 @@ def dead_zone_line(robot: Any, args: Any = None, reversals: bool = False) -> str
         for (name, w), p in zip(widths.items(), prismatic, strict=True)
     )
     line = f"Coulomb dead zone (|v| <= w: sign(v) = 0): {text}"
+    motors = motor_dead_zone_widths(robot)
+    if motors:
+        line += "; coupled motors, on R_k·v/ρ_k (the joints' widths combined): " + (
+            ", ".join(
+                f"{name} {w:.2g} {'m' if p else 'rad'}/s"
+                for name, (w, p) in motors.items()
+            )
+        )
     if reversals:
         line += "; a moving joint's reversal through it keeps its sign"
     return line
