@@ -350,3 +350,17 @@ def test_the_params_files_covariance_widens_sigma_and_is_recorded(
         assert cli.main([*base, "--params", str(given), "--quiet"]) == 2
         err = capsys.readouterr().err
         assert f"--params {given}: {message}" in err and "Traceback" not in err, err
+
+
+def test_the_params_files_model_notes_name_dynid_payload(tmp_path, capsys):
+    """Found by a review: with --params, the model's notes (Drake's parser's
+    warnings on the TIAGo URDF) were printed as 'dynid validate: note:'."""
+    arm = tmp_path / "arm.json"
+    argv = ["--urdf", "tiago_no_hand", "--joints", "arm_1_joint,arm_2_joint"]
+    assert cli.main(["params", "tiago_no_hand", *argv[2:], "--json", str(arm)]) == 0
+    capsys.readouterr()
+    missing = str(tmp_path / "missing.csv")
+    assert cli.main(["payload", missing, *argv, "--params", str(arm)]) == 2
+    err = capsys.readouterr().err
+    assert "dynid payload: note: Drake's parser" in err, err
+    assert "dynid validate" not in err, err

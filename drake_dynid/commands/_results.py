@@ -97,6 +97,8 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     """
     from drake_dynid.commands._arguments import robot_from_args
 
+    # The notes name the command running (dynid payload --params reads one too).
+    command = getattr(args, "command", None) or "validate"
     parsed: list[tuple[dict[str, str], set[str]]] = []
 
     def urdf_joints() -> tuple[dict[str, str], set[str]]:
@@ -134,7 +136,7 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
     if not args.drive and isinstance(drive, str) and drive:
         options["drive"] = results_drive(args, drive)
     try:
-        return robot_from_args(args, "validate", **options)
+        return robot_from_args(args, command, **options)
     except ValueError as error:
         if "joints" not in options and "locked" not in options:
             raise
@@ -152,8 +154,8 @@ def results_robot(args: argparse.Namespace, document: Mapping[str, Any]) -> Any:
         # the parameter check then names the mismatch.
         if not args.drive:
             options.pop("drive", None)
-        return robot_from_args(args, "validate", **options)
-    robot = robot_from_args(args, "validate", **options)
+        return robot_from_args(args, command, **options)
+    robot = robot_from_args(args, command, **options)
     if named:
         raise ValueError(
             f"results file {args.params}: its joints and locks (settings.joints, "
