@@ -172,7 +172,8 @@ def friction_layout(
 
     A column named ``FVj``, ``FCj`` or ``OFFj`` (j = 1..n) is a friction column of
     joint j - 1 (:data:`~drake_dynid.core.planar2r.FRICTION_PREFIX`); ``FCmk`` is
-    coupled motor k's Coulomb column when ``motors`` has motor k. The provider's
+    coupled motor k's Coulomb column when ``motors`` has motor k (either with a
+    trailing ``R``: regrouped, the column is still that one). The provider's
     rows at seeded random states must hold ``v_j``, ``s(v_j)`` (``sign``, the
     provider's Coulomb law) or 1 in joint j's row and 0 in the others there, and
     R_kᵀ s_m(x_k) for ``FCmk`` (s_m the motors' law ``motors.sign``);
@@ -202,8 +203,11 @@ def friction_layout(
         channels = MotorChannels(np.asarray(motors.rows, dtype=float), law)
     columns, friction, weights = [], [], []
     for column, name in enumerate(names):
-        joint = re.fullmatch(r"(FV|FC|OFF)([1-9][0-9]*)", name)
-        motor = re.fullmatch(r"FCm([1-9][0-9]*)", name)
+        # A trailing R: a regrouped base parameter (another column's value added
+        # to it, e.g. FCm4R = FCm4 + FCm5 of two motors on the same row, opposite
+        # ways); its column is the independent one's, which the check below reads.
+        joint = re.fullmatch(r"(FV|FC|OFF)([1-9][0-9]*)R?", name)
+        motor = re.fullmatch(r"FCm([1-9][0-9]*)R?", name)
         if joint and int(joint[2]) <= n:
             columns.append(column)
             friction.append((kinds[joint[1]], int(joint[2]) - 1))
