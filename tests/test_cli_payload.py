@@ -341,6 +341,11 @@ def test_the_params_files_covariance_widens_sigma_and_is_recorded(
     assert cli.main([*argv, "--json", str(gautier)]) == 0
     assert "not propagated under --uncertainty gautier" in capsys.readouterr().out
     assert json.loads(gautier.read_text())["sigma_terms"]["arm_covariance"] is False
+    # Found by a review: a file without one said "their covariance not propagated
+    # under --uncertainty gautier" too.
+    argv = [*base, "--params", str(arm), "--uncertainty", "gautier"]
+    assert cli.main(argv) == 0
+    assert "known; no covariance in the file" in capsys.readouterr().out
     for bad, message in (
         ([[1.0, 2.0]], "'covariance' must be a 57 × 57 matrix"),
         ((-np.eye(57)).tolist(), "'covariance' must be positive semi-definite"),

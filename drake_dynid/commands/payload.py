@@ -350,7 +350,9 @@ def run(args: argparse.Namespace) -> int:
     robot, log, arm, source, covariance = _robot(args)
     settings = payload_settings_of(args, log.time_step)
     if settings.uncertainty == "gautier":
-        covariance = None  # Gautier's σ has no term for it (_arm_line)
+        # Gautier's σ has no term for it (_arm_line says so when the file has one).
+        args.arm_covariance_dropped = covariance is not None
+        covariance = None
     xyz, rpy = offset if offset is not None else (None, None)
     try:
         rows = payload_model(
@@ -549,7 +551,7 @@ def _arm_line(args: argparse.Namespace, rows: Any, source: str) -> str:
             )
     elif source == "urdf":
         held = "taken as exact: σ holds no error of the arm"
-    elif getattr(args, "uncertainty", None) == "gautier":
+    elif getattr(args, "arm_covariance_dropped", False):
         held = "their covariance not propagated under --uncertainty gautier"
     else:
         held = "no covariance in the file: taken as exact"
