@@ -538,3 +538,12 @@ def test_a_dead_zone_wider_than_every_speed_is_named_with_a_drive(files, capsys)
         error
     )
     assert "motor m4 (width 1.41e+300" in error
+    # Found by a review: with --joints j3,j4 the motor's columns are FCm2 (the
+    # second motor of those joints' chain) and the hint said "motor m2", the
+    # drive file's motor of j2; now the drive file's name, m4.
+    joints = ["--joints", "j3,j4", "--dead-zone", "1e300"]
+    assert cli.main([*argv, *joints]) == 2
+    error = capsys.readouterr().err  # a warning first: enc_m1 ... not used
+    assert "Traceback" not in error
+    assert "FCm2" in error and "motor m4 (width 1.41e+300" in error, error
+    assert "motor m2" not in error

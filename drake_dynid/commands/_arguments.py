@@ -1185,10 +1185,13 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         motor_widths = (width,) * count if isinstance(width, float) else width
         motor_speeds = _top_speeds(q, log.time_step, motors.rows)
         covered += [
-            f"motor m{number} (width {w:.3g}; largest raw |R (q[k+1] - q[k-1])|/2hρ "
+            f"motor {name} (width {w:.3g}; largest raw |R (q[k+1] - q[k-1])|/2hρ "
             f"{speed:.3g})"
-            for number, w, speed in zip(
-                motors.numbers, motor_widths, motor_speeds, strict=True
+            for name, w, speed in zip(
+                coupled_motor_names(robot, motors),
+                motor_widths,
+                motor_speeds,
+                strict=True,
             )
             if speed <= w
         ]
@@ -1210,6 +1213,18 @@ def _longest_positions(log: Any) -> Any:
     return segment(log.q, start, stop)
 
 
+def coupled_motor_names(robot: Any, motors: Any) -> list[str]:
+    """The drive file's names of the coupled motors (``MotorColumns`` order).
+
+    Their columns' numbers (``FCm7``) count the motors of the identified joints'
+    chain; the messages name them as the drive file does (``arm_6_motor``).
+    """
+    chain = getattr(robot, "drive", None)
+    if chain is not None and len(chain.coupled_motors) == motors.rows.shape[0]:
+        return [str(chain.motor_names[k]) for k in chain.coupled_motors]
+    return [f"m{k}" for k in motors.numbers]
+
+
 def motor_dead_zone_widths(robot: Any) -> dict[str, tuple[float, bool]]:
     """``{motor: (width, prismatic)}`` of the coupled motors' dead zone, or {}.
 
@@ -1228,12 +1243,7 @@ def motor_dead_zone_widths(robot: Any) -> dict[str, tuple[float, bool]]:
     count = motors.rows.shape[0]
     width = sign.width
     widths = (width,) * count if isinstance(width, float) else tuple(width)
-    chain = getattr(robot, "drive", None)
-    names = (
-        [chain.motor_names[k] for k in chain.coupled_motors]
-        if chain is not None and len(chain.coupled_motors) == count
-        else [f"m{k}" for k in motors.numbers]
-    )
+    names = coupled_motor_names(robot, motors)
     prismatic = getattr(robot, "prismatic", (False,) * motors.rows.shape[1])
     lead = np.argmax(np.abs(motors.rows), axis=1)
     return {
