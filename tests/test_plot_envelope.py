@@ -275,12 +275,23 @@ def test_the_torque_plot_gives_a_prismatic_joint_its_force_unit(tmp_path, monkey
         predicted=values,
         num_samples_used=count,
         relative_rms_percent=np.zeros(2),
-        moving_relative_rms_percent=np.zeros(2),
+        moving_relative_rms_percent=np.array([np.nan, 0.0]),
     )
     path = str(tmp_path / "torques.png")
     validate.write_torque_plot(path, {"fit": result}, "x", (True, False))
     labels = [axis.get_ylabel() for axis in figures[0].axes if axis.get_ylabel()]
     assert labels == ["torso_lift_joint\n[N]", "arm_1_joint\n[N·m]"]
+    # The legend's moving error (2620346); a joint that never moves says so
+    # (it read 'moving nan %').
+    legends = [
+        [text.get_text() for text in axis.get_legend().get_texts()]
+        for axis in figures[0].axes
+        if axis.get_legend() is not None
+    ]
+    assert legends == [
+        ["measured", "fit (0.00 %; never moving)"],
+        ["measured", "fit (0.00 %; moving 0.00 %)"],
+    ]
 
 
 @pytest.mark.parametrize("words", [3, 12, 90])

@@ -415,8 +415,8 @@ def write_torque_plot(
                 color=f"C{k}",
                 lw=0.9,
                 ls="--" if k else "-",
-                label=f"{label} ({result.relative_rms_percent[j]:.2f} %; moving "
-                f"{result.moving_relative_rms_percent[j]:.2f} %)",
+                label=f"{label} ({result.relative_rms_percent[j]:.2f} %; "
+                f"{_moving_text(result.moving_relative_rms_percent[j])})",
             )
             residuals.plot(t, series[2 + 2 * k][:, j], color=f"C{k}", lw=0.5, alpha=0.5)
         residuals.tick_params(labelsize=7, colors="0.4")
@@ -429,6 +429,11 @@ def write_torque_plot(
     )
     figure.savefig(path, dpi=100)
     plt.close(figure)
+
+
+def _moving_text(percent: float) -> str:
+    """The legend's moving error: ``moving 7.37 %``, or ``never moving`` (NaN)."""
+    return f"moving {percent:.2f} %" if math.isfinite(percent) else "never moving"
 
 
 #: The physical estimate is called worse than the fit when its held-out error
