@@ -533,7 +533,29 @@ class RobotRows:
         friction = self._friction_slice()
         kept = [i for i in self.base.independent if friction.start <= i < friction.stop]
         if kept != list(range(friction.start, friction.stop)):
+            names = self.base.standard_names
+            lost = [
+                names[i]
+                for i in range(friction.start, friction.stop)
+                if i not in self.base.independent
+            ]
+            where = []
+            for name in lost:
+                into = [
+                    base
+                    for base, definition in zip(
+                        self.base.names, self.base.definitions, strict=True
+                    )
+                    if definition.get(name, 0.0) != 0.0
+                ]
+                where.append(
+                    f"{name} (regrouped into {', '.join(into)})"
+                    if into
+                    else f"{name} (not seen)"
+                )
             raise ValueError(
-                "RobotModel: a friction column is not identifiable (all must be); "
-                "check the friction kinds."
+                "RobotModel: a friction column is not identifiable (all must be): "
+                f"{'; '.join(where)}; leave out that friction kind (--friction) or "
+                "the parameter it shares its column with (e.g. a vertical prismatic "
+                "joint's offset is its mass's gravity column)."
             )

@@ -317,3 +317,25 @@ def test_core_replay_equals_the_blocks_with_a_drive_and_a_dead_zone(robot):
         assert got.names == want.names == zoned.names
         np.testing.assert_array_equal(got.valid, want.valid)
         np.testing.assert_allclose(got.theta, want.theta, rtol=1e-9, atol=1e-12)
+
+
+def test_a_regrouped_friction_column_is_named_with_where_it_went():
+    """Found by a review: the on-line rows refused a friction column regrouped
+    into others with 'a friction column is not identifiable ...; check the
+    friction kinds', naming none. The TIAGo torso's offset (a vertical prismatic
+    joint) shares its column with its mass's gravity and, with the rotor
+    inertia, is regrouped: the message names OFF1 and where it went."""
+    from drake_dynid.plants import RobotModel, model_path
+
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"),
+        joints=("torso_lift_joint", "arm_1_joint"),
+        friction=("viscous", "coulomb", "offset"),
+        rotor_inertia=True,
+    )
+    assert "OFF1" not in robot.base.names
+    q = np.zeros((4, 2))
+    with pytest.raises(
+        ValueError, match=r"not identifiable \(all must be\): OFF1 \(regrouped into M1R"
+    ):
+        robot.rows_provider().mean_packed_rows("lagrangian", q, q + 1, q, 2)
