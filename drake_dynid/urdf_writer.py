@@ -453,12 +453,12 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
     A consistent estimate can still put a link's mass near 0 and its centre of
     mass metres away (m·c small, m·|c|² within the inertia): the data see only the
     base parameters, and a regrouped link's mass and first moment are shared with
-    its neighbours, and with λ = 0 nothing holds what the data do not see (a
-    UR5's shoulder_link at 86 kg). A link is named when its mass is below 1 % or
-    above 10 times the URDF's (``robot.standard_values``), or its centre of mass
-    is more than 10 L_j from the link origin, L_j = √(tr Σ_j / m_j) the URDF's
-    radius of gyration about that origin [m] (Σ_j the second moment of the
-    pseudo-inertia).
+    its neighbours, and with λ = 0 nothing holds what the data do not see (the
+    README's UR5 log: shoulder_link at 52.3 kg for 3.7). A link is named when its
+    mass is below 1 % or above 10 times the URDF's (``robot.standard_values``), or
+    its centre of mass is more than 10 L_j from the link origin, L_j =
+    √(tr Σ_j / m_j) the URDF's radius of gyration about that origin [m] (Σ_j the
+    second moment of the pseudo-inertia).
 
     Returns:
         One ``"link: mass m kg (URDF m0), centre of mass d m from its origin

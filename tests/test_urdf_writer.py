@@ -545,10 +545,12 @@ def test_the_header_says_a_dead_zone_keeps_the_sign_at_reversals_off_line(tmp_pa
 
 
 def _emptied_link_7(robot):
-    """The iiwa7's URDF values with link 7 as `dynid offline --physical` wrote it
-    on a noisy Drake log (σ_q 1e-4, τ 1 %, λ = 1e-3): consistent (12.7 mg at
-    (1.54, -1.77, -16.3) m, the URDF's inertia about the origin), base parameters
-    changed only through the regrouped M7, MZ7."""
+    """The iiwa7's URDF values with link 7 as a review reported `dynid offline
+    --physical` writing it on a noisy Drake log (σ_q 1e-4, τ 1 %, λ = 1e-3; not
+    reproduced since: the README's simulated logs keep every link above 3 % of
+    its mass, weakly excited programs empty it, tests/test_physical.py): consistent
+    (12.7 mg at (1.54, -1.77, -16.3) m, the URDF's inertia about the origin), base
+    parameters changed only through the regrouped M7, MZ7."""
     values = np.array(robot.standard_values, dtype=float)
     index = {name: k for k, name in enumerate(robot.standard_names)}
     mass, com = 1.27e-5, np.array([1.54, -1.77, -16.3])
@@ -604,7 +606,8 @@ def test_a_consistent_but_emptied_link_is_named_in_the_header_and_a_warning(
 def test_a_link_ten_times_heavier_than_the_urdfs_is_named():
     """Found in review: with --regularization 0 nothing holds the directions
     the data do not see; on a noisy Drake log of the UR5 `--urdf-out` wrote
-    shoulder_link (its mass regrouped away) at 85.7 kg for the URDF's 3.7."""
+    shoulder_link (its mass regrouped away) at 85.7 kg for the URDF's 3.7 (the
+    README's UR5 log, --regularization 0: 52.3 kg)."""
     from drake_dynid.urdf_writer import doubtful_links
 
     robot = RobotModel.from_urdf(model_path("ur5"))
