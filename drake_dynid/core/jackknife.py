@@ -9,6 +9,14 @@ of rows (one group per pair of adjacent modulating functions) measures the sprea
 of the estimate between them instead of modelling it; the identifier reports the
 larger of the two per parameter (``core.lsq.solve_window``,
 ``OnlineSettings.uncertainty``).
+
+A group that alone carries most of a direction (the modulating function ℓ = 0,
+the only one with a non-zero mean, carries the nearly constant gravity columns)
+leaves a replicate without it almost undetermined there, and the plain deletion
+blows its σ up: on the real TIAGo's final window (README) the replicate without
+ℓ = 0, 1 keeps 8e-7 of one direction's information and the total mass M1R got
+0.87 kg, 208 times the window's sandwich σ (the off-line fit: 0.0084 kg). Such a
+group enters with its bias-reduced deviation instead (:data:`MIN_INFORMATION`).
 """
 
 from __future__ import annotations
@@ -19,7 +27,19 @@ import numpy as np
 
 from drake_dynid.core import _validate as v
 
-__all__ = ["jackknife_std", "stacked_jackknife_std"]
+__all__ = ["MIN_INFORMATION", "jackknife_std", "stacked_jackknife_std"]
+
+#: A group whose deletion leaves less than this share of some direction's
+#: information (the smallest eigenvalue μ_g of I - Q_g Q_gᵀ) enters the jackknife
+#: with its bias-reduced deviation S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-1/2) e_g (Bell and
+#: McCaffrey's CR2: unbiased for independent rows of one variance) instead of the
+#: deletion's S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)⁻¹ e_g, whose variance along that
+#: direction is 1/μ_g times the group's share (docs/MATH.md §4). The TIAGo's final
+#: window (μ = 8e-7): σ of M1R 0.87 -> 0.0042 kg. Low on purpose: the Lagrangian
+#: benchmarks' windows (μ_g >= 3.6e-5) keep their deletions, whose larger σ
+#: covers a bias of the rows (at 0.05 the iiwa7's err/σ p90 rose to 2.7-3.4
+#: with filtered rows).
+MIN_INFORMATION = 1e-5
 
 
 def jackknife_std(
@@ -29,6 +49,7 @@ def jackknife_std(
     *,
     weights: Any = None,
     factor: tuple[np.ndarray, np.ndarray] | None = None,
+    min_information: float = MIN_INFORMATION,
 ) -> np.ndarray:
     """Delete-one-group jackknife standard deviations of the least-squares solution.
 
@@ -42,7 +63,11 @@ def jackknife_std(
     rows of group g, ``θ̂_(g) = θ̂ - S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)⁻¹ e_g``. Unlike
     Gautier's σ it does not assume independent rows of equal variance: it follows
     the spread of the estimate between groups of rows (for the modulated
-    equations, one group per pair of modulating functions).
+    equations, one group per pair of modulating functions). A group whose
+    deletion keeps less than ``min_information`` of some direction's information
+    (the smallest eigenvalue μ_g of I - Q_g Q_gᵀ) enters with
+    ``S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-1/2) e_g`` in place of θ̂ - θ̂_(g)
+    (:data:`MIN_INFORMATION`).
 
     Args:
         A: (r, p) regressor, full column rank.
@@ -53,6 +78,9 @@ def jackknife_std(
             of the QR of the weighted, column-scaled A and the column norms S,
             ``core.lsq``), from a solve that found A full rank and well
             conditioned: then ``Q = A S⁻¹ R⁻¹`` and no new QR is taken.
+        min_information: μ_g below which a group's deviation is the
+            bias-reduced one; 0: every group's is the deletion's (the plain
+            jackknife).
 
     Returns:
         (p,) σ_J in the units of θ; NaN when there are fewer than 2 groups or
@@ -88,7 +116,7 @@ def jackknife_std(
         R_inv = np.linalg.inv(R)
     residual = B - Q @ (Q.T @ B)
     return stacked_jackknife_std(
-        Q[None], residual[None], groups, R_inv[None], norms[None]
+        Q[None], residual[None], groups, R_inv[None], norms[None], min_information
     )[0]
 
 
@@ -98,6 +126,7 @@ def stacked_jackknife_std(
     groups: np.ndarray,
     R_inv: np.ndarray,
     norms: np.ndarray,
+    min_information: float = MIN_INFORMATION,
 ) -> np.ndarray:
     """:func:`jackknife_std` of K solves with the same row groups, stacked.
 
@@ -107,6 +136,7 @@ def stacked_jackknife_std(
         groups: (r,) integer group of every row (at least two groups).
         R_inv: (K, p, p) the triangular factors' inverses.
         norms: (K, p) the column norms S.
+        min_information: as :func:`jackknife_std`.
 
     Returns:
         (K, p) σ_J; NaN for a solve where deleting a group leaves θ undetermined.
@@ -136,7 +166,16 @@ def stacked_jackknife_std(
         fine = _smallest_above(leverage, 1e-10)
         determined &= fine
         leverage[~fine] = np.eye(Qg.shape[2])
-        solved = np.linalg.solve(leverage, eg[..., None])
+        if min_information <= 0.0 or _all_above(leverage, min_information):
+            solved = np.linalg.solve(leverage, eg[..., None])
+        else:  # a group below min_information somewhere: group by group
+            solved = np.stack(
+                [
+                    _deviation(leverage[:, j], eg[:, j], min_information)
+                    for j in range(Qg.shape[1])
+                ],
+                axis=1,
+            )
         deleted.append((Qg_t @ solved)[..., 0] @ np.swapaxes(R_inv, 1, 2))
     estimates = np.concatenate(deleted, axis=1)  # (K, G, p)
     spread = estimates - estimates.mean(axis=1, keepdims=True)
@@ -146,6 +185,21 @@ def stacked_jackknife_std(
     return out
 
 
+def _deviation(leverage: np.ndarray, e: np.ndarray, limit: float) -> np.ndarray:
+    """L⁻¹ e, or L^(-1/2) e where L's smallest eigenvalue is below ``limit``.
+
+    ``leverage``: (K, n, n) I - Q_g Q_gᵀ of one group in K solves; ``e``: (K, n).
+    Returns (K, n, 1). The eigenvalues only when a Cholesky test fails.
+    """
+    if _all_above(leverage, limit):
+        return np.linalg.solve(leverage, e[..., None])
+    mu, vectors = np.linalg.eigh(leverage)
+    power = np.where(mu[:, :1] >= limit, 1.0, 0.5)  # (K, 1): per solve
+    mu = np.maximum(mu, np.finfo(float).tiny)  # the undetermined: NaN in the caller
+    projected = np.swapaxes(vectors, -1, -2) @ e[..., None]
+    return vectors @ (projected / (mu**power)[..., None])
+
+
 def _smallest_above(matrices: np.ndarray, limit: float) -> np.ndarray:
     """Whether the smallest eigenvalue of each symmetric (K, g, n, n) is > ``limit``.
 
@@ -153,8 +207,18 @@ def _smallest_above(matrices: np.ndarray, limit: float) -> np.ndarray:
     eigenvalue of M is above the limit (to round-off): one stacked factorisation,
     a tenth of the eigenvalues' cost; when one fails, the eigenvalues decide.
     """
+    if _all_above(matrices, limit):
+        return np.ones(matrices.shape[0], dtype=bool)
+    return np.linalg.eigvalsh(matrices)[..., 0].min(axis=1) > limit
+
+
+def _all_above(matrices: np.ndarray, limit: float) -> bool:
+    """Whether every eigenvalue of every symmetric matrix is above ``limit``.
+
+    ``M - limit·I`` has a Cholesky factor exactly then (to round-off).
+    """
     try:
         np.linalg.cholesky(matrices - limit * np.eye(matrices.shape[-1]))
     except np.linalg.LinAlgError:
-        return np.linalg.eigvalsh(matrices)[..., 0].min(axis=1) > limit
-    return np.ones(matrices.shape[0], dtype=bool)
+        return False
+    return True

@@ -105,3 +105,64 @@ def test_online_groups_are_pairs_of_adjacent_modulating_functions():
     assert OnlineSettings(uncertainty="gautier").row_noise(3) is None
     with pytest.raises(ValueError, match="uncertainty must be one of"):
         OnlineSettings(uncertainty="bootstrap")
+
+
+def _one_group_carries(rng):
+    """Rows whose second column group 0 alone sees (as ℓ = 0 the gravity columns).
+
+    10 groups of 8 rows; column 1 is 1 in group 0 and 1e-4·N(0, 1) elsewhere:
+    deleting group 0 keeps ~1e-7 of that direction's information (TIAGo: 8e-7).
+    """
+    groups = np.repeat(np.arange(10), 8)
+    A = np.stack([rng.normal(size=80), 1e-4 * rng.normal(size=80)], axis=1)
+    A[groups == 0, 1] = 1.0
+    return A, groups
+
+
+def _monte_carlo(A, groups, std, rng, runs=300):
+    """Spread of θ̂ over noise draws and the draws' σ (Gautier, jackknives)."""
+    estimates, gautier, jackknife, plain = [], [], [], []
+    for _ in range(runs):
+        B = A @ [1.0, 2.0] + std * rng.normal(size=A.shape[0])
+        result = solve_least_squares(A, B)
+        estimates.append(result.theta)
+        gautier.append(result.std)
+        jackknife.append(jackknife_std(A, B, groups))
+        plain.append(jackknife_std(A, B, groups, min_information=0.0))
+    rms = [np.sqrt(np.mean(np.square(x), axis=0)) for x in (gautier, jackknife, plain)]
+    return np.std(estimates, axis=0), *rms
+
+
+def test_a_group_that_alone_carries_a_direction_does_not_blow_sigma_up():
+    # The plain deletion (min_information 0) leaves θ_1 almost undetermined: its
+    # jackknife σ is ~1000 times the spread. The bias-reduced deviation of that
+    # group has the variance of its share of θ̂ (here all of θ_1's): about the
+    # spread (one group: a one-degree-of-freedom estimate, hence RMS over draws).
+    rng = np.random.default_rng(5)
+    A, groups = _one_group_carries(rng)
+    spread, gautier, jackknife, plain = _monte_carlo(A, groups, 0.1, rng)
+    ratio = jackknife / spread
+    assert np.all((ratio > 0.7) & (ratio < 1.4)), ratio
+    assert plain[1] > 30 * spread[1]  # the blow-up it replaces
+    assert gautier[1] == pytest.approx(spread[1], rel=0.2)
+
+
+def test_with_such_a_group_heteroscedastic_noise_still_inflates_sigma():
+    # Noise std ∝ |x| in every row: Gautier's σ of θ_0 is low, the jackknife
+    # follows the spread (its other groups keep their deletions).
+    rng = np.random.default_rng(6)
+    A, groups = _one_group_carries(rng)
+    spread, gautier, jackknife, _ = _monte_carlo(A, groups, 0.3 * np.abs(A[:, 0]), rng)
+    assert gautier[0] < 0.75 * spread[0]
+    assert jackknife[0] == pytest.approx(spread[0], rel=0.2)
+
+
+def test_without_min_information_it_is_the_plain_deletion_jackknife():
+    rng = np.random.default_rng(7)
+    A, groups = _one_group_carries(rng)
+    B = A @ [1.0, 2.0] + 0.1 * rng.normal(size=80)
+    np.testing.assert_allclose(
+        jackknife_std(A, B, groups, min_information=0.0),
+        _resolved(A, B, groups, np.ones(80)),
+        rtol=1e-6,
+    )
