@@ -36,11 +36,8 @@ that the packaged ``tiago.toml`` names).
 from __future__ import annotations
 
 import io
-import math
 import os
 import re
-from array import array
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,8 +48,10 @@ from drake_dynid.files import write_whole
 
 __all__ = [
     "JOINT_STATE",
+    "BagExport",
     "JointStates",
     "column_field",
+    "export_bag",
     "export_columns",
     "is_bag",
     "read_joint_states",
@@ -196,7 +195,10 @@ def read_joint_states(
     topic: str | None = None,
     optional: Sequence[str] = (),
 ) -> JointStates:
-    """Reads a bag's JointState messages (module docstring).
+    """Reads a bag's JointState messages into arrays (module docstring).
+
+    The commands stream the messages into their CSV export instead
+    (:func:`export_bag`, same rows); this holds them all.
 
     Args:
         path: a ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
@@ -212,18 +214,333 @@ def read_joint_states(
             several JointState topics, no message with every needed joint.
         FileNotFoundError: no such file.
     """
+    sink = _Collect()
+    done, _ = _scan(path, joints, topic, optional, sink)
+    blocks = sink.blocks
+    n, m = len(done.joint_names), len(sink.held)
+
+    def joined(field: str, width: int, dtype: Any = float) -> np.ndarray:
+        parts = [getattr(b, field) for b in blocks]
+        if not parts:
+            return np.empty((0, width) if width >= 0 else 0, dtype=dtype)
+        return np.concatenate(parts)
+
+    stamps = joined("received" if sink.plan.received else "stamps", -1, np.int64)
+    held = joined("held", m)
+    return JointStates(
+        done.path,
+        done.topic,
+        stamps,
+        done.joint_names,
+        joined("position", n),
+        joined("effort", n) if done.efforts else None,
+        done.notes,
+        {
+            name: held[:, j].copy()
+            for j, name in enumerate(sink.held)
+            if name in done.held
+        },
+    )
+
+
+@dataclass(frozen=True)
+class BagExport:
+    """What :func:`export_bag` wrote from a bag's JointState topic.
+
+    Attributes:
+        path: the bag as given.
+        topic: the topic read.
+        joint_names: the joints read.
+        rows: the messages kept (the export's rows after its header).
+        efforts: whether a kept message has an effort[] (else the effort columns
+            are empty (NaN) cells).
+        notes: what was skipped or substituted, one sentence each.
+        held: the optional joints that a kept message holds.
+        held_path: the file of their positions, or None (none held, or no
+            ``held_out``).
+        passes: the passes over the bag (2 when its first block of messages
+            misjudged a whole-bag property; see :func:`export_bag`).
+    """
+
+    path: str
+    topic: str
+    joint_names: tuple[str, ...]
+    rows: int
+    efforts: bool
+    notes: tuple[str, ...]
+    held: tuple[str, ...]
+    held_path: str | None
+    passes: int
+
+
+def export_bag(
+    path: str | os.PathLike,
+    out: str | os.PathLike,
+    joints: Sequence[str] | None,
+    columns: Any,
+    *,
+    topic: str | None = None,
+    optional: Sequence[str] = (),
+    time: str = "t",
+    time_unit: str | None = None,
+    held_out: str | os.PathLike | None = None,
+    held_column: str = "q_{joint}",
+) -> BagExport:
+    """Streams a bag's JointState messages into a CSV log at ``out``.
+
+    The rows of :func:`write_export` on :func:`read_joint_states`'s arrays, bit
+    for bit, in bounded memory: the messages are decoded and written
+    :data:`EXPORT_ROWS` at a time, nothing else grows with the bag (but
+    rosbags' own index of a ROS 1 bag, about 200 bytes a message).
+
+    What the header and the time column need of the whole bag (the joints when
+    ``joints`` is None: the most frequent set of names; whether every stamp is
+    0; whether every stamp is an epoch time (:func:`time_scale`); whether a
+    message has efforts; which optional joints occur) is judged from the first
+    block and checked at the end: where the bag proves it wrong, the file is
+    written again in a second pass over the bag (time, not memory). An output
+    that cannot be rewound (a pipe) is written after a pass that only reads.
+
+    Args:
+        path: the bag (:func:`read_joint_states`).
+        out: the CSV file written (whole or not at all: ``files.write_whole``).
+        joints: the joints read; None: the most frequent set of names.
+        topic: the topic; None: the bag's one JointState topic.
+        optional: joints whose positions are written to ``held_out``.
+        columns: ``columns(joint_names, efforts) -> [column, ...]``: the log
+            columns after ``time`` (:func:`column_field`; an effort column of
+            messages without efforts is NaN cells).
+        time: the time column's name.
+        time_unit: its unit (:func:`time_scale`).
+        held_out: where to write the optional joints' positions (``t``, the
+            held joints, then the joints read; :func:`time_scale`'s plain
+            format), when a kept message holds one.
+        held_column: their column names (``{joint}``).
+
+    Raises:
+        ValueError, FileNotFoundError: as :func:`read_joint_states`.
+    """
+    holder: list[BagExport] = []
+
+    def write(stream: Any) -> None:
+        sink = _Export(stream, columns, time, time_unit, held_out, held_column)
+        try:
+            plan = None
+            if not _rewinds(stream):
+                plan = _scan(path, joints, topic, optional, None)[1]
+            holder.append(_scan(path, joints, topic, optional, sink, plan)[0])
+        finally:
+            sink.close()
+
+    write_whole(out, write)
+    return holder[0]
+
+
+def _rewinds(stream: Any) -> bool:
+    """Whether ``stream`` can be rewound and cut (a regular file)."""
+    try:
+        return bool(stream.seekable())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """What the export's header and time column need of the whole bag."""
+
+    wanted: tuple[str, ...]  # the joints read
+    exact: frozenset[str] | None  # joints None: the message's set of names kept
+    received: bool  # every header stamp 0: the receive times
+    epoch: bool  # every time stamp >= 1e17 ns
+    efforts: bool  # a kept message has efforts
+    held: tuple[str, ...]  # the optional joints some kept message holds
+
+
+@dataclass
+class _Block:
+    """Kept messages, decoded: (B,) int64 stamps [ns], (B, n) and (B, m) floats."""
+
+    stamps: np.ndarray
+    received: np.ndarray
+    position: np.ndarray
+    effort: np.ndarray
+    held: np.ndarray
+    empty: int  # messages with an empty effort[] (NaN rows in effort)
+
+
+@dataclass
+class _Tally:
+    """A pass's counts (for the notes and the final plan)."""
+
+    total: int = 0
+    sets: dict[frozenset[str], list[Any]] = field(default_factory=dict)
+    kept: int = 0
+    malformed: int = 0
+    empty_effort: int = 0
+    stamped: bool = False  # a nonzero header stamp
+    low_stamp: bool = False  # a header stamp < 1e17
+    low_received: bool = False  # a receive time < 1e17
+    present: set[str] = field(default_factory=set)
+
+    def add(self, block: _Block, held: tuple[str, ...]) -> None:
+        """Counts a block of kept messages."""
+        self.kept += block.stamps.size
+        self.empty_effort += block.empty
+        if block.stamps.size:
+            self.stamped = self.stamped or bool(block.stamps.any())
+            self.low_stamp = self.low_stamp or bool(block.stamps.min() < _EPOCH_NS)
+            self.low_received = self.low_received or bool(
+                block.received.min() < _EPOCH_NS
+            )
+        found = np.isfinite(block.held).any(axis=0)
+        self.present.update(name for name, f in zip(held, found, strict=True) if f)
+
+    def plan(
+        self,
+        wanted: tuple[str, ...],
+        exact: frozenset[str] | None,
+        optional: tuple[str, ...],
+    ) -> _Plan:
+        """The plan these counts imply, for the joints ``wanted``."""
+        received = not self.stamped
+        low = self.low_received if received else self.low_stamp
+        return _Plan(
+            wanted,
+            exact,
+            received,
+            bool(self.kept) and not low,
+            self.kept > self.empty_effort,
+            tuple(name for name in optional if name in self.present),
+        )
+
+
+class _Collect:
+    """A sink that keeps every block (:func:`read_joint_states`)."""
+
+    def __init__(self) -> None:
+        self.blocks: list[_Block] = []
+        self.held: tuple[str, ...] = ()
+        self.plan: Any = None
+
+    def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
+        self.blocks, self.held, self.plan = [], held, plan
+
+    def rows(self, block: _Block) -> None:
+        self.blocks.append(block)
+
+    def close(self) -> None:
+        pass
+
+
+class _Export:
+    """A sink that writes each block as CSV rows (:func:`export_bag`)."""
+
+    def __init__(
+        self,
+        stream: Any,
+        columns: Any,
+        time: str,
+        time_unit: str | None,
+        held_out: Any,
+        held_column: str,
+    ) -> None:
+        self.stream, self.columns, self.time, self.unit = (
+            stream,
+            columns,
+            time,
+            time_unit,
+        )
+        self.held_out, self.held_column = held_out, held_column
+        self.held_stream: Any = None
+        self.started = False
+
+    def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
+        import csv
+
+        if self.started:  # a second pass: the files again
+            self.stream.seek(0)
+            self.stream.truncate()
+            if self.held_stream is not None:
+                self.held_stream.close()
+                self.held_stream = None
+                os.remove(self.held_out)
+        self.started = True
+        self.plan, self.held = plan, held
+        self.names = list(self.columns(plan.wanted, plan.efforts))
+        at = {name: k for k, name in enumerate(plan.wanted)}
+        self.picks = []
+        for column in self.names:
+            meant = column_field(column)
+            if meant is None or meant[0] not in at:
+                raise ValueError(f"no column {column!r}.")
+            self.picks.append((meant[1] == "effort", at[meant[0]]))
+        csv.writer(self.stream, lineterminator="\n").writerow([self.time, *self.names])
+        self.scale = _scale(plan.epoch, self.unit)
+        if self.held_out is not None and plan.held:
+            self.held_stream = open(self.held_out, "w", encoding="utf-8", newline="")
+            header = [*plan.held, *(n for n in plan.wanted if n not in plan.held)]
+            self.held_at = [held.index(name) for name in plan.held]
+            self.held_scale = _scale(plan.epoch, None)
+            names = [self.held_column.format(joint=name) for name in header]
+            csv.writer(self.held_stream, lineterminator="\n").writerow(["t", *names])
+
+    def rows(self, block: _Block) -> None:
+        stamps = block.received if self.plan.received else block.stamps
+        data = None
+        if self.picks:
+            data = np.column_stack(
+                [(block.effort if e else block.position)[:, k] for e, k in self.picks]
+            )
+        _write_block(self.stream, time_text(stamps, self.scale), data)
+        if self.held_stream is not None:
+            data = np.column_stack([block.held[:, self.held_at], block.position])
+            _write_block(self.held_stream, time_text(stamps, self.held_scale), data)
+
+    def close(self) -> None:
+        if self.held_stream is not None:
+            self.held_stream.close()
+            self.held_stream = None
+
+
+def _scan(
+    path: str | os.PathLike,
+    joints: Sequence[str] | None,
+    topic: str | None,
+    optional: Sequence[str],
+    sink: Any,
+    plan: _Plan | None = None,
+) -> tuple[BagExport, _Plan]:
+    """Passes over the bag until the plan holds (:func:`export_bag`).
+
+    ``sink`` None: read only. Returns what the final pass wrote, and the bag's
+    plan.
+    """
     path = os.fspath(path)
     storage = _storage(path)
     highlevel = _rosbags()
-    wanted = None if joints is None else tuple(joints)
+    given = None if joints is None else tuple(joints)
     try:
         with highlevel.AnyReader([storage]) as reader:
             topic, connections = _topic(path, reader, topic)
-            messages = (
-                (reader.deserialize(data, c.msgtype), received)
-                for c, received, data in reader.messages(connections=connections)
-            )
-            return _kept(path, topic, messages, wanted, tuple(optional))
+            passes = 0
+            while True:
+                passes += 1
+                tally, used, chosen = _pass(
+                    reader, connections, given, tuple(optional), plan, sink
+                )
+                final = _final_plan(path, topic, tally, given, tuple(optional))
+                if not tally.kept and chosen == (final.wanted, final.exact):
+                    held = "; ".join(f"[{', '.join(sorted(s))}]" for s in tally.sets)
+                    raise ValueError(
+                        f"ROS bag {path}: no message on {topic} holds every joint "
+                        f"needed ({', '.join(final.wanted)}); its messages name: "
+                        f"{held}."
+                    )
+                if used == final:
+                    break
+                if passes >= 4:  # cannot happen: the plan is the bag's by then
+                    raise RuntimeError(f"no consistent plan after {passes} passes")
+                plan = final
     except (ValueError, OSError):
         raise
     except Exception as error:  # rosbags' own errors, struct.error, KeyError, ...
@@ -232,127 +549,207 @@ def read_joint_states(
             "is it a complete ROS 1 .bag or ROS 2 bag? (a ROS 1 "
             "recording that was killed needs rosbag reindex)"
         ) from None
+    done = BagExport(
+        path,
+        topic,
+        final.wanted,
+        tally.kept,
+        final.efforts,
+        _notes(topic, tally, final),
+        final.held,
+        getattr(sink, "held_out", None) if final.held else None,
+        passes,
+    )
+    return done, final
 
 
-class _Rows:
-    """The kept messages of one set of joints, as flat arrays.
+@dataclass(frozen=True)
+class _Entry:
+    """What a message with one tuple of names gives (cached per tuple)."""
 
-    Streamed: a long bag holds 8 bytes a value here, not its decoded messages.
+    key: frozenset[str]
+    keep: bool
+    width: int  # distinct names: the values a well-formed field has
+    at: np.ndarray  # indices of the wanted joints
+    held: tuple[tuple[int, int], ...]  # (optional joint's column, index)
+
+
+def _pass(
+    reader: Any,
+    connections: Any,
+    given: tuple[str, ...] | None,
+    optional: tuple[str, ...],
+    plan: _Plan | None,
+    sink: Any,
+) -> tuple[_Tally, _Plan | None, tuple[Any, Any]]:
+    """One pass over the topic's messages, a block at a time into ``sink``.
+
+    ``plan`` None: judged from the first block (the joints, when not
+    ``given``, from the first message). Returns the counts, the plan used
+    (None: no message kept) and the joints kept ``(wanted, exact)``.
     """
+    tally = _Tally()
+    wanted, exact = (plan.wanted, plan.exact) if plan else (given, None)
+    held: tuple[str, ...] = ()
+    if wanted is not None:
+        held = tuple(name for name in optional if name not in wanted)
+    cache: dict[tuple[str, ...], _Entry] = {}
+    stamps: list[int] = []
+    received: list[int] = []
+    entries: list[_Entry] = []
+    positions: list[np.ndarray] = []
+    efforts: list[np.ndarray] = []
 
-    def __init__(self, wanted: tuple[str, ...], optional: tuple[str, ...] = ()):
-        self.wanted = wanted
-        self.optional = {name: array("d") for name in optional if name not in wanted}
-        self.stamps = array("q")
-        self.received = array("q")
-        self.position = array("d")
-        self.effort = array("d")
-        self.empty_effort = 0  # kept messages with an empty effort[]
-        self.malformed = 0
+    def flush() -> None:
+        nonlocal plan
+        if not stamps:
+            return
+        assert wanted is not None
+        block = _decoded(stamps, received, entries, positions, efforts, wanted, held)
+        tally.add(block, held)
+        if plan is None:
+            plan = tally.plan(wanted, exact, optional)
+        if sink is not None:
+            if tally.kept == block.stamps.size:
+                sink.begin(plan, held)
+            sink.rows(block)
+        for buffer in (stamps, received, entries, positions, efforts):
+            buffer.clear()
 
-    def add(self, message: Any, received: int, index: dict[str, int]) -> None:
-        """Keeps ``message`` (holding every wanted joint), unless malformed."""
+    for c, time, data in reader.messages(connections=connections):
+        message = reader.deserialize(data, c.msgtype)
+        tally.total += 1
+        names = tuple(message.name)
+        entry = cache.get(names)
+        if entry is None:
+            if wanted is None:  # the first message's set of names
+                wanted, exact = names, frozenset(names)
+                held = tuple(name for name in optional if name not in wanted)
+            entry = cache[names] = _entry(names, wanted, exact, held)
+            counted = tally.sets.setdefault(entry.key, [0, names])
+        else:
+            counted = tally.sets[entry.key]
+        counted[0] += 1
+        if not entry.keep:
+            continue
         p = np.asarray(message.position, dtype=float)
         e = np.asarray(message.effort, dtype=float)
-        if p.size != len(index) or e.size not in (0, len(index)):
-            self.malformed += 1  # not one value per name[]
-            return
-        at = [index[name] for name in self.wanted]
+        if p.size != entry.width or e.size not in (0, entry.width):
+            tally.malformed += 1  # not one value per name[]
+            continue
         stamp = message.header.stamp
-        self.stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
-        self.received.append(int(received))
-        for name, values in self.optional.items():
-            values.append(float(p[index[name]]) if name in index else math.nan)
-        self.position.extend(p[at].tolist())
-        if e.size:
-            self.effort.extend(e[at].tolist())
-        else:
-            self.empty_effort += 1
-            self.effort.extend([math.nan] * len(at))
+        stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
+        received.append(int(time))
+        entries.append(entry)
+        positions.append(p)
+        efforts.append(e)
+        if len(stamps) >= EXPORT_ROWS:
+            flush()
+    flush()
+    return tally, plan, (wanted, exact)
 
 
-def _kept(
+def _entry(
+    names: tuple[str, ...],
+    wanted: tuple[str, ...],
+    exact: frozenset[str] | None,
+    held: tuple[str, ...],
+) -> _Entry:
+    """The :class:`_Entry` of a message naming ``names``."""
+    index = {name: k for k, name in enumerate(names)}
+    key = frozenset(index)
+    keep = key == exact if exact is not None else all(n in index for n in wanted)
+    at = np.array([index[n] for n in wanted] if keep else [], dtype=np.intp)
+    found = tuple((j, index[n]) for j, n in enumerate(held) if n in index)
+    return _Entry(key, keep, len(index), at, found)
+
+
+def _decoded(
+    stamps: list[int],
+    received: list[int],
+    entries: list[_Entry],
+    positions: list[np.ndarray],
+    efforts: list[np.ndarray],
+    wanted: tuple[str, ...],
+    held: tuple[str, ...],
+) -> _Block:
+    """A block's arrays: the messages of one tuple of names gathered at once."""
+    count, n = len(stamps), len(wanted)
+    position = np.empty((count, n))
+    effort = np.full((count, n), np.nan)
+    values = np.full((count, len(held)), np.nan)
+    groups: dict[int, list[int]] = {}
+    empty = count
+    for k, entry in enumerate(entries):
+        groups.setdefault(id(entry), []).append(k)
+    for rows in groups.values():
+        entry = entries[rows[0]]
+        p = np.stack([positions[k] for k in rows])
+        position[rows] = p[:, entry.at]
+        for j, k in entry.held:
+            values[rows, j] = p[:, k]
+        full = [k for k in rows if efforts[k].size]
+        empty -= len(full)
+        if full:
+            effort[full] = np.stack([efforts[k] for k in full])[:, entry.at]
+    return _Block(
+        np.array(stamps, dtype=np.int64),
+        np.array(received, dtype=np.int64),
+        position,
+        effort,
+        values,
+        empty,
+    )
+
+
+def _final_plan(
     path: str,
     topic: str,
-    messages: Any,
-    wanted: tuple[str, ...] | None,
-    optional: tuple[str, ...] = (),
-) -> JointStates:
-    """The messages holding every wanted joint, their fields in that order.
-
-    ``wanted`` None: the most frequent set of names (its first message's order).
-    """
-    sets: Counter[frozenset[str]] = Counter()
-    groups: dict[Any, _Rows] = {}
-    total = 0
-    for message, received in messages:
-        total += 1
-        names = list(message.name)
-        index = {name: k for k, name in enumerate(names)}
-        key = frozenset(index)
-        sets[key] += 1
-        if wanted is None:
-            rows = groups.get(key) or groups.setdefault(key, _Rows(tuple(names)))
-        elif all(name in index for name in wanted):
-            rows = groups.get(None) or groups.setdefault(None, _Rows(wanted, optional))
-        else:
-            continue
-        rows.add(message, received, index)
-    if not total:
+    tally: _Tally,
+    given: tuple[str, ...] | None,
+    optional: tuple[str, ...],
+) -> _Plan:
+    """The bag's plan from a pass's counts; the errors of an unusable topic."""
+    if not tally.total:
         raise ValueError(f"ROS bag {path}: topic {topic} holds no message.")
-    if wanted is None:
-        chosen = max(groups.values(), key=lambda g: len(g.stamps) + g.malformed)
-        if not chosen.wanted:
+    if given is None:
+        chosen = max(tally.sets, key=lambda key: tally.sets[key][0])
+        wanted, exact = tuple(tally.sets[chosen][1]), chosen
+        if not wanted:
             raise ValueError(f"ROS bag {path}: topic {topic}'s messages name no joint.")
     else:
-        chosen = groups.get(None) or _Rows(wanted)
-    wanted = chosen.wanted
-    kept, n = len(chosen.stamps), len(wanted)
+        wanted, exact = given, None
+    plan = tally.plan(wanted, exact, optional)
+    return plan
+
+
+def _notes(topic: str, tally: _Tally, plan: _Plan) -> tuple[str, ...]:
+    """The notes of the final pass (module docstring)."""
+    wanted, kept = plan.wanted, tally.kept
     notes = []
-    lacking = total - kept - chosen.malformed
+    lacking = tally.total - kept - tally.malformed
     if lacking:
-        others = sorted({name for s in sets for name in s} - set(wanted))
+        others = sorted({name for s in tally.sets for name in s} - set(wanted))
         extra = f" (their joints: {', '.join(others)})" if others else ""
         notes.append(
-            f"skipped {lacking} of {total} message(s) on {topic} that lack "
+            f"skipped {lacking} of {tally.total} message(s) on {topic} that lack "
             f"joint(s) of {', '.join(wanted)}{extra}: another publisher on the topic."
         )
-    if chosen.malformed:
+    if tally.malformed:
         notes.append(
-            f"skipped {chosen.malformed} message(s) on {topic} whose position[] or "
+            f"skipped {tally.malformed} message(s) on {topic} whose position[] or "
             "effort[] does not have one value per name[]."
         )
-    if not kept:
-        held = "; ".join(f"[{', '.join(sorted(s))}]" for s in sets)
-        raise ValueError(
-            f"ROS bag {path}: no message on {topic} holds every joint needed "
-            f"({', '.join(wanted)}); its messages name: {held}."
-        )
-    times = np.frombuffer(chosen.stamps, dtype=np.int64).copy()
-    if not times.any():
-        times = np.frombuffer(chosen.received, dtype=np.int64).copy()
+    if plan.received:
         notes.append(
             f"every header.stamp on {topic} is 0: the bag's receive times are used."
         )
-    efforts = kept - chosen.empty_effort
-    if efforts and chosen.empty_effort:
+    if plan.efforts and tally.empty_effort:
         notes.append(
-            f"{chosen.empty_effort} message(s) on {topic} have an empty effort[]: "
+            f"{tally.empty_effort} message(s) on {topic} have an empty effort[]: "
             "their torques are empty cells."
         )
-    position = np.frombuffer(chosen.position, dtype=float).reshape(kept, n)
-    found = {name: np.array(values) for name, values in chosen.optional.items()}
-    effort = np.frombuffer(chosen.effort, dtype=float).reshape(kept, n)
-    return JointStates(
-        path,
-        topic,
-        times,
-        tuple(wanted),
-        position.copy(),
-        effort.copy() if efforts else None,
-        tuple(notes),
-        {name: values for name, values in found.items() if np.isfinite(values).any()},
-    )
+    return tuple(notes)
 
 
 def needed_joints(columns: Sequence[str]) -> tuple[str, ...]:
@@ -410,11 +807,15 @@ def time_scale(stamps: np.ndarray, unit: str | None = None) -> float | None:
     raw_log`` reads its time column in that unit): ns as integers, the others
     with 17 digits.
     """
+    stamps = np.asarray(stamps, dtype=np.int64)
+    return _scale(bool(stamps.size and stamps.min() >= _EPOCH_NS), unit)
+
+
+def _scale(epoch: bool, unit: str | None) -> float | None:
+    """:func:`time_scale` of stamps that are all epoch times or not."""
     from drake_dynid.core.drive_log import TIME_UNITS
 
-    stamps = np.asarray(stamps, dtype=np.int64)
-    epoch = unit is None and stamps.size and stamps.min() >= _EPOCH_NS
-    if unit == "ns" or epoch:
+    if unit == "ns" or (unit is None and epoch):
         return None
     return 1e-9 / TIME_UNITS[unit or "s"]
 
@@ -427,8 +828,9 @@ def time_text(stamps: np.ndarray, scale: float | None) -> list[str]:
     return [f"{x:.17g}" for x in stamps * scale]
 
 
-#: Messages written at a time by :func:`write_export` (its memory: a block's text).
-EXPORT_ROWS = 1 << 16
+#: Messages decoded and written at a time (:func:`export_bag`, :func:`write_export`;
+#: their memory: a block's decoded arrays and text, some 10 MB).
+EXPORT_ROWS = 1 << 14
 
 
 def write_export(
@@ -466,15 +868,18 @@ def write_rows(
         csv.writer(stream, lineterminator="\n").writerow(header)
         for start in range(0, stamps.size, EXPORT_ROWS):
             rows = slice(start, start + EXPORT_ROWS)
-            cells = time_text(stamps[rows], scale)
-            if data is None:
-                stream.write("".join(f"{s}\n" for s in cells))
-                continue
-            body = io.StringIO()
-            np.savetxt(body, data[rows], delimiter=",", fmt="%.17g")
-            lines = body.getvalue().splitlines()
-            stream.write(
-                "".join(f"{s},{line}\n" for s, line in zip(cells, lines, strict=True))
-            )
+            block = None if data is None else data[rows]
+            _write_block(stream, time_text(stamps[rows], scale), block)
 
     write_whole(path, write)
+
+
+def _write_block(stream: Any, cells: list[str], data: np.ndarray | None) -> None:
+    """CSV rows: each time cell, then its row of ``data`` (17 digits)."""
+    if data is None:
+        stream.write("".join(f"{s}\n" for s in cells))
+        return
+    body = io.StringIO()
+    np.savetxt(body, data, delimiter=",", fmt="%.17g")
+    lines = body.getvalue().splitlines()
+    stream.write("".join(f"{s},{line}\n" for s, line in zip(cells, lines, strict=True)))

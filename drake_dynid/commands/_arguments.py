@@ -618,7 +618,7 @@ def _read_bag_log(
     import os
     import tempfile
 
-    from drake_dynid.ros_bag import needed_joints, read_joint_states, write_export
+    from drake_dynid.ros_bag import export_bag, needed_joints
 
     if len(files) != 1:
         raise ValueError(
@@ -648,14 +648,37 @@ def _read_bag_log(
         *(getattr(robot, "locked", None) or {}),
         *(getattr(robot, "mimic", None) or {}),
     ]
-    states = read_joint_states(bag, joints, topic=topic, optional=held)
-    if states.effort is None and torques_optional:
-        torques = []
+    # The positions that locked_motion checks (the locked and mimic joints'),
+    # named as the log format names a position.
+    template = (
+        "q_{joint}"
+        if chain is None
+        else getattr(chain.log, "joint_position_template", None)
+    )
+
+    def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
+        return [*positions, *(torques if efforts or not torques_optional else [])]
+
     name = os.path.basename(os.path.normpath(bag)) or "bag"
     with tempfile.TemporaryDirectory(prefix="dynid-bag-") as folder:
         export = os.path.join(folder, f"{name}.csv")
-        write_export(export, states, [*positions, *torques], time=time, time_unit=unit)
-        checked = _held_positions(states, robot, os.path.join(folder, "held.csv"))
+        done = export_bag(
+            bag,
+            export,
+            joints,
+            columns,
+            topic=topic,
+            optional=held if template is not None else (),
+            time=time,
+            time_unit=unit,
+            held_out=os.path.join(folder, "held.csv"),
+            held_column=template or "q_{joint}",
+        )
+        if not done.efforts and not torques_optional:
+            raise ValueError(
+                f"ROS bag {bag}: the messages on {done.topic} carry no effort[] "
+                f"(torques), needed for column {torques[0]!r}."
+            )
 
         def named(text: str) -> str:
             return text.replace(export, bag)
@@ -669,43 +692,13 @@ def _read_bag_log(
         # A bag's stamps are nanoseconds: the CSV reader's note that it read
         # integers as such says nothing here.
         said = tuple(w for w in log.warnings if not w.startswith(EPOCH_NOTE))
-        warnings = (*states.notes, *(named(w) for w in said))
+        warnings = (*done.notes, *(named(w) for w in said))
         log = dataclasses.replace(log, warnings=warnings)
         check_log_magnitudes(log, [bag])
         print_log_warnings(
-            log, [checked or export], command, robot, torques=read, label=bag
+            log, [done.held_path or export], command, robot, torques=read, label=bag
         )
     return log
-
-
-def _held_positions(states: Any, robot: Any, path: str) -> str | None:
-    """A CSV of the bag's positions that :func:`locked_motion` checks, or None.
-
-    The positions of the locked and mimic joints that the bag has (and of the
-    mimic joints' leaders), named as the log format names a position (``q_<joint>``,
-    or the drive file's joint-side template), written to ``path`` beside the
-    export (whose columns are the identified joints' only).
-    """
-    import numpy as np
-
-    from drake_dynid.ros_bag import write_rows
-
-    if not states.optional:
-        return None
-    column = (
-        "q_{joint}"
-        if robot.drive is None
-        else getattr(robot.drive.log, "joint_position_template", None)
-    )
-    if column is None:
-        return None
-    at = {name: k for k, name in enumerate(states.joint_names)}
-    values = dict(states.optional)
-    for name in at:
-        values.setdefault(name, states.position[:, at[name]])
-    header = ["t", *(column.format(joint=name) for name in values)]
-    write_rows(path, header, states.stamps, np.column_stack(list(values.values())))
-    return path
 
 
 def _has_torque_columns(files: Sequence[str], chain: Any, robot: Any) -> bool:

@@ -44,28 +44,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Writes the CSV log. Returns 0."""
-    from drake_dynid.ros_bag import read_joint_states, write_export
+    from drake_dynid.ros_bag import export_bag
 
     args.log = args.bag  # an input: --out is checked against it
     check_output_paths(args)
     joints = parse_joints(args.joints)
-    states = read_joint_states(args.bag, joints, topic=args.topic)
-    names = states.joint_names
-    columns = [f"q_{name}" for name in names]
-    if states.effort is not None:
-        columns += [f"tau_{name}" for name in names]
-    write_export(args.out, states, columns)
-    for note in states.notes:
+
+    def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
+        out = [f"q_{name}" for name in names]
+        return out + [f"tau_{name}" for name in names] * efforts
+
+    done = export_bag(args.bag, args.out, joints, columns, topic=args.topic)
+    names = done.joint_names
+    for note in done.notes:
         print(f"dynid bag2csv: note: {note}", file=sys.stderr)
-    if states.effort is None:
+    if not done.efforts:
         print(
-            f"dynid bag2csv: note: the messages on {states.topic} carry no effort[]: "
+            f"dynid bag2csv: note: the messages on {done.topic} carry no effort[]: "
             "no tau_<joint> column written.",
             file=sys.stderr,
         )
     if not args.quiet:
         print(
-            f"wrote {args.out}: {states.stamps.size} messages of {states.topic}, "
+            f"wrote {args.out}: {done.rows} messages of {done.topic}, "
             f"joints {', '.join(names)}"
         )
     return 0
