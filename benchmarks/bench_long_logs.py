@@ -13,12 +13,17 @@ numpy default_rng(0). Each length runs ``dynid offline`` once in a fresh process
 (``_arm7.run_case``: end to end, its own resident high-water mark); with
 ``--identify``, ``dynid identify`` too (about 1 s per minute of log); with
 ``--validate``, ``dynid validate`` of the off-line estimate on the same log with
-``--plot`` (the compared samples stay on disk, the plot draws envelopes). The peak
-must not grow with the length: the reader streams the CSV into temporary files
-and the off-line fit reduces its rows by QR as they come (README, Performance).
+``--plot`` (the compared samples stay on disk, the plot draws envelopes); with
+``--bag``, ``dynid offline`` on the same samples as a ROS 2 mcap bag of
+``/joint_states`` (rosbags' writer; the two head joints in each message too,
+not read; stamps 1.7e9 s + t; full-precision values, so not the CSV's
+estimate bit for bit). The peak must not grow with the length: the reader
+streams the CSV into temporary files (a bag: decoded into its CSV export a
+block at a time) and the off-line fit reduces its rows by QR as they come
+(README, Performance).
 
 Usage: ``python benchmarks/bench_long_logs.py [--hours 2.5 10] [--identify]
-[--validate]``
+[--validate] [--bag]``
 (the 10-hour log is a 1.3 GB CSV in a temporary folder).
 """
 
@@ -93,6 +98,47 @@ def write_drive_log(path: str, hours: float) -> None:
             )
 
 
+def write_drive_bag(path: str, hours: float) -> None:
+    """Writes the drive log of ``hours`` as a ROS 2 mcap bag at ``path`` (a folder)."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    kind = "sensor_msgs/msg/JointState"
+    state, header, stamp_type = (
+        store.types[kind],
+        store.types["std_msgs/msg/Header"],
+        store.types["builtin_interfaces/msg/Time"],
+    )
+    q, current = period_samples()
+    rng = np.random.default_rng(0)
+    scale = 0.01 * current.std(axis=0)
+    names = ["head_1_joint", "head_2_joint", *JOINTS]
+    head = np.array([0.1, -0.2])
+    epoch = 1_700_000_000 * 10**9
+    step = round(H * 1e9)
+    periods = round(hours * 3600.0 / PERIOD)
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    with writer:
+        topic = writer.add_connection("/joint_states", kind, typestore=store)
+        for k in range(periods):
+            noisy_q = q + 1e-4 * rng.standard_normal(q.shape)
+            noisy_i = current + scale * rng.standard_normal(current.shape)
+            for i in range(q.shape[0]):
+                stamp = epoch + (k * q.shape[0] + i) * step
+                message = state(
+                    header=header(
+                        stamp=stamp_type(sec=stamp // 10**9, nanosec=stamp % 10**9),
+                        frame_id="",
+                    ),
+                    name=names,
+                    position=np.concatenate([head, noisy_q[i]]),
+                    velocity=np.zeros(0),
+                    effort=np.concatenate([np.zeros(2), noisy_i[i]]),
+                )
+                writer.write(topic, stamp, store.serialize_cdr(message, kind))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument(
@@ -104,6 +150,11 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="also dynid validate --plot of the off-line estimate",
     )
+    parser.add_argument(
+        "--bag",
+        action="store_true",
+        help="also dynid offline on the log as a ROS 2 mcap bag (needs rosbags)",
+    )
     parser.add_argument("--quick", action="store_true", help="tiny run (smoke test)")
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
@@ -111,6 +162,14 @@ def main(argv: list[str] | None = None) -> int:
     hours = quick_or(args.hours, args.quick, [2.0 / 60.0], [2.5, 10.0])
     commands = ["offline"] + ["identify"] * args.identify
     commands += ["validate"] * (args.validate or args.quick)
+    if args.bag or args.quick:
+        try:
+            import rosbags  # noqa: F401
+        except ImportError:
+            if args.bag:
+                raise
+        else:
+            commands.append("offline-bag")
     results: dict[str, dict] = {}
     lines = [
         "\n### Long TIAGo drive logs (8 joints, 100 Hz, --drive), end to end\n",
@@ -123,12 +182,22 @@ def main(argv: list[str] | None = None) -> int:
             start = time.perf_counter()
             write_drive_log(path, length)
             written = time.perf_counter() - start
-            size = os.path.getsize(path) / 1e6
             for command in commands:
                 out = os.path.join(folder, f"{command}.json")
+                log, size, made = path, os.path.getsize(path) / 1e6, written
+                if command == "offline-bag":
+                    log = os.path.join(folder, f"tiago{length:g}h")
+                    start = time.perf_counter()
+                    write_drive_bag(log, length)
+                    made = time.perf_counter() - start
+                    size = sum(
+                        os.path.getsize(os.path.join(log, name))
+                        for name in os.listdir(log)
+                    )
+                    size /= 1e6
                 argv_case = [
-                    command,
-                    path,
+                    command.split("-")[0],
+                    log,
                     "--urdf",
                     URDF,
                     "--joints",
@@ -148,13 +217,16 @@ def main(argv: list[str] | None = None) -> int:
                 results[key] = {
                     "hours": length,
                     "csv_mb": size,
-                    "csv_write_s": written,
+                    "bag": command == "offline-bag",
+                    "csv_write_s": made,
                     "wall_s": case["wall"],
                     "peak_mb": case["peak_mb"],
                     "real_time": length * 3600.0 / case["wall"],
                 }
+                what = "bag" if log != path else "CSV"
                 lines.append(
-                    f"| {length:.3g} h ({size:.0f} MB CSV) | {command} | "
+                    f"| {length:.3g} h ({size:.0f} MB {what}) "
+                    f"| {command.replace('-bag', ' (mcap bag)')} | "
                     f"{case['wall']:.3g} | {length * 3600.0 / case['wall']:.0f} | "
                     f"{case['peak_mb']:.0f} |"
                 )
