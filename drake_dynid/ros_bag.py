@@ -21,9 +21,11 @@ What is read (README "Logs from ROS bags"):
   ``effort[]`` gives empty (NaN) torque cells; ``velocity[]`` is not read
   (the positions are differentiated).
 
-The messages then become the rows of a CSV log (:func:`export_columns`,
-:func:`write_export`; ``dynid bag2csv`` writes that file): one row per message kept,
-in the bag's order, row 2 the first one. The commands read that export with the
+The messages then become the rows of a CSV log (:func:`export_bag`, which streams
+them into it a block at a time in bounded memory; ``dynid bag2csv`` writes that
+file; :func:`read_joint_states` with :func:`write_export` write the same bytes from
+arrays of every message): one row per message kept, in the bag's order, row 2 the
+first one. The commands read that export with the
 CSV readers (``drake_dynid.logs``, ``drake_dynid.raw_log``), so a bag's time stamps,
 gaps and NaN cells are repaired exactly as a CSV log's, and its messages name the
 export's rows. Column names (:func:`column_field`): ``t``, ``q_<joint>``,
