@@ -624,10 +624,16 @@ def test_a_final_solve_that_is_not_valid_gets_its_own_window_bootstrap(simulatio
 
     trace = SimpleNamespace(theta=np.ones((20, 8)), std=np.ones((20, 8)), valid=valid)
     background = Background(not_wanted, enabled=False)
-    out = _final_bootstrap(4, log, robot, settings, trace, valid > 0.5, background, 19)
+    out, beside = _final_bootstrap(
+        4, log, robot, settings, trace, valid > 0.5, background, 19
+    )
     assert out["applied"] is False and "is not full" in out["reason"]
+    assert beside is None  # nor its covariance
     none = np.zeros(20, bool)
-    assert _final_bootstrap(4, log, robot, settings, trace, none, background, 19) == {}
+    assert _final_bootstrap(4, log, robot, settings, trace, none, background, 19) == (
+        {},
+        None,
+    )
 
 
 def test_the_readme_json_example_has_the_keys_identify_writes(log_file, tmp_path):

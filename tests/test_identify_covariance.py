@@ -164,3 +164,36 @@ def test_a_null_entry_outside_a_whole_row_is_refused(identified, tmp_path, capsy
     err = capsys.readouterr().err
     assert "a null or non-finite entry outside a whole row and column" in err
     assert "Traceback" not in err
+
+
+def test_the_covariance_computed_beside_the_replay_is_the_one_computed_after(
+    identified, tmp_path, monkeypatch
+):
+    """The final window's covariance runs in the forked child beside the replay
+    (with the bootstrap: off dynid identify's main path, issue 15); with
+    --parallel off it runs after the replay, here. The same file either way."""
+    from drake_dynid.commands import _background, identify
+
+    log, _, document = identified
+    calls = []
+    original = identify.window_covariance_at
+
+    def counted(*args):
+        calls.append(1)  # in this process only (a forked child's do not count)
+        return original(*args)
+
+    monkeypatch.setattr(identify, "window_covariance_at", counted)
+    fit = tmp_path / "off.json"
+    argv = ["identify", str(log), "--urdf", URDF, "--window", "10"]
+    argv += ["--dead-zone", "none", "--quiet", "--json"]
+    assert cli.main([*argv, str(fit), "--parallel", "off"]) == 0
+    assert calls == [1]
+    here = json.loads(fit.read_text())
+    np.testing.assert_array_equal(
+        np.array(here["covariance"], dtype=float),
+        np.array(document["covariance"], dtype=float),
+    )
+    assert here["covariance_method"] == document["covariance_method"]
+    calls.clear()
+    assert cli.main([*argv, str(tmp_path / "auto.json")]) == 0
+    assert calls == ([] if _background.can_fork() else [1])

@@ -547,6 +547,28 @@ def final_bootstrap(
     return out
 
 
+def _beside_replay(
+    replicates: int, log: Any, robot: Any, settings: Any, end: int, covariance: bool
+) -> dict[str, Any]:
+    """What ``dynid identify`` computes beside the replay on the last solve's window.
+
+    ``{"bootstrap": window_bootstrap(...) or None (K = 0), "covariance": (end,
+    window_covariance_at(...)) or None (not wanted)}``: neither needs the trace.
+    """
+    return {
+        "bootstrap": (
+            window_bootstrap(replicates, log, robot, settings, end)
+            if replicates > 0
+            else None
+        ),
+        "covariance": (
+            (end, window_covariance_at(log, robot, settings, end))
+            if covariance
+            else None
+        ),
+    }
+
+
 def _final_bootstrap(
     replicates: int,
     log: Any,
@@ -556,23 +578,28 @@ def _final_bootstrap(
     valid: np.ndarray,
     background: Background[dict[str, Any]],
     last_solve: int,
-) -> dict[str, Any]:
+) -> tuple[dict[str, Any], tuple[int, Any] | None]:
     """:func:`final_bootstrap`, from the window computed beside the replay if it fits.
 
     ``valid``: the trace's (M,) bool validity. The window computed beside the
-    replay is the last solve's: used when that solve was valid. {} when no solve
-    was valid.
+    replay (:func:`_beside_replay`) is the last solve's: used when that solve was
+    valid. Returns the bootstrap ({} when no solve was valid) and the final
+    window's covariance computed beside the replay (None: not computed there).
     """
     if not valid.any():
-        return {}  # no estimate at all: run() says so
+        background.cancel()
+        return {}, None  # no estimate at all: run() says so
     last_valid = int(np.flatnonzero(valid)[-1])
-    computed = None
-    if replicates > 0 and last_valid == last_solve:
-        computed = background.result()
+    beside: dict[str, Any] = {}
+    if last_valid == last_solve:
+        beside = background.result()
     else:  # another window (or none): the child's work is not wanted
         background.cancel()
-    return final_bootstrap(
-        replicates, log, robot, settings, trace, last_valid, computed
+    return (
+        final_bootstrap(
+            replicates, log, robot, settings, trace, last_valid, beside.get("bootstrap")
+        ),
+        beside.get("covariance"),
     )
 
 
@@ -761,6 +788,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 COVARIANCE_METHODS = ("sandwich", "gls", "gautier", "diagonal")
 
 
+def window_covariance_at(log: Any, robot: Any, settings: Any, end: int) -> Any:
+    """``core.replay.window_estimate_covariance`` of the window ending at ``end``.
+
+    The final window's direct-quadrature solve with its full covariance; needs no
+    trace, so ``dynid identify`` computes it beside the replay (with the
+    bootstrap, ``commands._background``). The ``ValueError`` or ``LinAlgError``
+    of a window whose equations cannot be formed is returned, not raised (a
+    forked child's result crosses as a value).
+    """
+    from drake_dynid.core.bootstrap import window_start
+    from drake_dynid.core.replay import window_estimate_covariance
+
+    h = log.time_step
+    try:
+        s = settings.for_robot(h, int(robot.num_joints), int(robot.num_parameters))
+        start = window_start(s, h, end)
+        return window_estimate_covariance(
+            robot.rows_provider(),
+            s,
+            np.asarray(log.q[start : end + 1], dtype=float),
+            np.asarray(log.tau[start : end + 1], dtype=float),
+            end - start,
+            h,
+        )
+    except (ValueError, np.linalg.LinAlgError) as error:
+        return error
+
+
 def final_covariance_of(
     log: Any,
     robot: Any,
@@ -768,6 +823,7 @@ def final_covariance_of(
     trace: Any,
     last_valid: int,
     std: np.ndarray,
+    computed: tuple[int, Any] | None = None,
 ) -> dict[str, Any]:
     """The final estimate's covariance C = S K S and how it was obtained.
 
@@ -784,31 +840,26 @@ def final_covariance_of(
     estimate holds parameters at their values before the change) or cannot be
     formed, K = 1 (``"diagonal"``: the correlation is not known).
 
+    ``computed``: ``(end, window_covariance_at(..., end))`` computed already
+    (beside the replay), used when ``end`` is that window's.
+
     Returns:
         ``{"covariance": (p, p), "correlation": (p, p), "method": one of
         COVARIANCE_METHODS, "reason": why "diagonal" (else "")}``; entries of a
         parameter whose σ is not finite are NaN.
     """
-    from drake_dynid.core.bootstrap import window_start
-    from drake_dynid.core.replay import window_estimate_covariance
     from drake_dynid.core.weighted_lsq import scaled_covariance
 
     std = np.asarray(std, dtype=float)
     p = std.size
-    h = log.time_step
-    end = bootstrap_end(settings, h, last_valid, log.num_samples)
+    end = bootstrap_end(settings, log.time_step, last_valid, log.num_samples)
     correlation, method, reason = np.eye(p), "diagonal", ""
     try:
-        s = settings.for_robot(h, int(robot.num_joints), p)
-        start = window_start(s, h, end)
-        found = window_estimate_covariance(
-            robot.rows_provider(),
-            s,
-            np.asarray(log.q[start : end + 1], dtype=float),
-            np.asarray(log.tau[start : end + 1], dtype=float),
-            end - start,
-            h,
-        )
+        if computed is None or computed[0] != end:
+            computed = (end, window_covariance_at(log, robot, settings, end))
+        found = computed[1]
+        if isinstance(found, Exception):
+            raise found
         theta = np.asarray(trace.theta[last_valid], dtype=float)
         scale = np.fmax(np.abs(theta), np.asarray(trace.std[last_valid]))
         if not found.result.valid:
@@ -1053,13 +1104,18 @@ def run(args: argparse.Namespace) -> int:
     # replay (commands._background), and is used if that solve gave the estimate.
     last_solve = final_solve_index(log, settings)
     end = bootstrap_end(settings, log.time_step, last_solve, log.num_samples)
+    # So is the final window's covariance (--json, --physical): beside the replay.
+    from drake_dynid.commands._model import wants_physical
+
+    wants_covariance = bool(args.json) or wants_physical(args)
     with Background(
-        lambda: window_bootstrap(replicates, log, robot, settings, end),
-        enabled=replicates > 0 and getattr(args, "parallel", None) != "off",
+        lambda: _beside_replay(replicates, log, robot, settings, end, wants_covariance),
+        enabled=(replicates > 0 or wants_covariance)
+        and getattr(args, "parallel", None) != "off",
     ) as background:
         (trace,) = replay(log, robot.rows_provider(), [settings], progress=progress)
         valid = np.asarray(trace.valid) > 0.5
-        bootstrap = _final_bootstrap(
+        bootstrap, covariance_beside = _final_bootstrap(
             replicates, log, robot, settings, trace, valid, background, last_solve
         )
     if band_given is not None:
@@ -1151,7 +1207,9 @@ def run(args: argparse.Namespace) -> int:
     def covariance_final() -> dict[str, Any]:  # for --json, --physical
         if not computed:
             computed.update(
-                final_covariance_of(log, robot, settings, trace, last_valid, std)
+                final_covariance_of(
+                    log, robot, settings, trace, last_valid, std, covariance_beside
+                )
             )
         return computed
 
