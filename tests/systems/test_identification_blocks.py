@@ -596,3 +596,45 @@ def test_forced_events_run_one_update_of_every_stateful_block():
     window.ExecuteForcedEvents(context)
     window.ExecuteForcedEvents(context)
     assert window.get_output_port_window().Eval(context)[0].shape == (2, 2)
+
+
+def test_a_forced_event_on_a_diagram_steps_every_block_once_whatever_its_period():
+    """What README Compose says of ExecuteForcedEvents on a whole chain (found
+    by helper-79's review; not a bug, undocumented): every block makes its update
+    once (the differentiator one sample, the bank one push, though its period is
+    20 samples, the identifier one solve), the loggers record one row, and the
+    Context's time does not move: not a Simulator's step."""
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from drake_dynid.diagrams import OnlineSettings, add_online_identifier
+    from drake_dynid.plants import RobotModel, model_path
+    from drake_dynid.systems.jacobi import CausalJacobiDifferentiator
+    from drake_dynid.systems.modulating_bank import ModulatingIntegralBank
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    builder = DiagramBuilder()
+    source = builder.AddSystem(ConstantVectorSource(np.array([0.3, -0.2, 1.0, 0.5])))
+    settings = OnlineSettings(window=0.5)
+    chain = add_online_identifier(
+        builder, robot, source.get_output_port(), 1e-3, settings
+    )
+    assert chain.settings.bank_time_step == pytest.approx(0.02)
+    diagram = builder.Build()
+    context = diagram.CreateDefaultContext()
+    blocks = {type(s): s for s in diagram.GetSystems()}
+    bank = blocks[ModulatingIntegralBank]
+    differentiator = blocks[CausalJacobiDifferentiator]
+    for _ in range(3):
+        diagram.ExecuteForcedEvents(context)
+    assert context.get_time() == 0.0
+    state = bank.get_output_port_window_state().Eval(
+        diagram.GetSubsystemContext(bank, context)
+    )
+    assert state.count == 3  # three bank steps (0.06 s) for three samples
+    history = differentiator.get_output_port_history().Eval(
+        diagram.GetSubsystemContext(differentiator, context)
+    )
+    assert history.any()  # its samples taken
+    for s in diagram.GetSystems():
+        if type(s).__name__ == "VectorLogSink":
+            assert s.FindLog(context).num_samples() == 3
