@@ -142,6 +142,11 @@ def _storage(path: str) -> Any:
         return Path(path)
     if path.lower().endswith(".bag"):
         return Path(path)
+    if not path.lower().endswith(BAG_SUFFIXES):
+        raise ValueError(
+            f"ROS bag {path}: not a ROS bag by its name (a ROS 1 .bag file, a ROS 2 "
+            "bag folder holding metadata.yaml, or its .db3 / .mcap file)."
+        )
     folder = os.path.dirname(os.path.abspath(path))
     if not os.path.isfile(os.path.join(folder, "metadata.yaml")):
         raise ValueError(

@@ -509,3 +509,15 @@ def test_a_first_block_that_misjudges_the_bag_is_written_again(
     assert read == [whole.read_bytes()]
     rows = whole.read_text().splitlines()
     assert len(rows) == 49 and rows[1].startswith("0,") and rows[1].endswith(",nan,nan")
+
+
+def test_bag2csv_of_a_file_that_is_no_bag_says_so(tmp_path, capsys):
+    """It said 'a ROS 2 storage file is read with its bag folder's metadata.yaml'
+    of a CSV file."""
+    log = tmp_path / "log.csv"
+    log.write_text("t,q_a\n0,0\n")
+    assert cli.main(["bag2csv", str(log), "--out", str(tmp_path / "o.csv")]) == 2
+    assert error_line(capsys).endswith(
+        f"ROS bag {log}: not a ROS bag by its name (a ROS 1 .bag file, a ROS 2 bag "
+        "folder holding metadata.yaml, or its .db3 / .mcap file)."
+    )
