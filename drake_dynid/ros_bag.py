@@ -37,6 +37,7 @@ that the packaged ``tiago.toml`` names).
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import os
 import re
@@ -335,7 +336,18 @@ def export_bag(
             plan = None
             if not _rewinds(stream):
                 plan = _scan(path, joints, topic, optional, None)[1]
-            holder.append(_scan(path, joints, topic, optional, sink, plan)[0])
+            done = _scan(path, joints, topic, optional, sink, plan)[0]
+            if sink.reordered:
+                done = dataclasses.replace(
+                    done,
+                    notes=(
+                        *done.notes,
+                        f"{sink.reordered} message(s) on {done.topic} were recorded "
+                        "after one with a later header.stamp: written in stamp "
+                        "order.",
+                    ),
+                )
+            holder.append(done)
         finally:
             sink.close()
 
@@ -435,6 +447,9 @@ class _Collect:
     def rows(self, block: _Block) -> None:
         self.blocks.append(block)
 
+    def end(self) -> None:
+        pass
+
     def close(self) -> None:
         pass
 
@@ -460,6 +475,8 @@ class _Export:
         self.held_out, self.held_column = held_out, held_column
         self.held_stream: Any = None
         self.started = False
+        self.carry: _Block | None = None  # held back for the order (REORDER_ROWS)
+        self.reordered = 0  # messages recorded after a later-stamped one
 
     def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
         import csv
@@ -472,6 +489,7 @@ class _Export:
                 self.held_stream = None
                 os.remove(self.held_out)
         self.started = True
+        self.carry, self.reordered = None, 0
         self.plan, self.held = plan, held
         self.names = list(self.columns(plan.wanted, plan.efforts))
         at = {name: k for k, name in enumerate(plan.wanted)}
@@ -492,6 +510,34 @@ class _Export:
             csv.writer(self.held_stream, lineterminator="\n").writerow(["t", *names])
 
     def rows(self, block: _Block) -> None:
+        """Writes ``block`` in stamp order, holding back its newest messages.
+
+        With those held back from the block before; the newest
+        :data:`REORDER_ROWS` wait for the next block (:meth:`end`: the last).
+        """
+        held = 0 if self.carry is None else self.carry.stamps.size
+        if self.carry is not None:
+            block = _joined(self.carry, block)
+        stamps = block.received if self.plan.received else block.stamps
+        # A message is late when an earlier one has a later stamp (the held-back
+        # messages hold the newest stamps written so far).
+        late = stamps[1:] < np.maximum.accumulate(stamps)[:-1]
+        if late.any():
+            self.reordered += int(np.count_nonzero(late[max(0, held - 1) :]))
+            block = _taken(block, np.argsort(stamps, kind="stable"))
+        keep = max(0, block.stamps.size - REORDER_ROWS)
+        self.carry = _taken(block, np.arange(keep, block.stamps.size))
+        self._write(_taken(block, np.arange(keep)))
+
+    def end(self) -> None:
+        """Writes the messages held back (the pass is complete)."""
+        if self.carry is not None:
+            self._write(self.carry)
+            self.carry = None
+
+    def _write(self, block: _Block) -> None:
+        if not block.stamps.size:
+            return
         stamps = block.received if self.plan.received else block.stamps
         data = None
         if self.picks:
@@ -653,6 +699,8 @@ def _pass(
         if len(stamps) >= EXPORT_ROWS:
             flush()
     flush()
+    if sink is not None and tally.kept:
+        sink.end()
     return tally, plan, (wanted, exact)
 
 
@@ -706,6 +754,30 @@ def _decoded(
         effort,
         values,
         empty,
+    )
+
+
+def _taken(block: _Block, rows: np.ndarray) -> _Block:
+    """The messages ``rows`` of a block (its ``empty`` count is not kept)."""
+    return _Block(
+        block.stamps[rows],
+        block.received[rows],
+        block.position[rows],
+        block.effort[rows],
+        block.held[rows],
+        0,
+    )
+
+
+def _joined(first: _Block, second: _Block) -> _Block:
+    """Two blocks' messages, in that order."""
+    return _Block(
+        np.concatenate([first.stamps, second.stamps]),
+        np.concatenate([first.received, second.received]),
+        np.concatenate([first.position, second.position]),
+        np.concatenate([first.effort, second.effort]),
+        np.concatenate([first.held, second.held]),
+        first.empty + second.empty,
     )
 
 
@@ -838,6 +910,12 @@ def time_text(stamps: np.ndarray, scale: float | None) -> list[str]:
 #: Messages decoded and written at a time (:func:`export_bag`, :func:`write_export`;
 #: their memory: a block's decoded arrays and text, some 10 MB).
 EXPORT_ROWS = 1 << 14
+
+#: Messages held back by :func:`export_bag` to put messages recorded out of
+#: header-stamp order back in order (a transport's reordering spans a few
+#: messages); one later than this many is left where it is (the log reader then
+#: names the two rows).
+REORDER_ROWS = 1 << 12
 
 
 def write_export(
