@@ -16,7 +16,10 @@ What is read (README "Logs from ROS bags"):
 * the needed joints by name, in each message's own order (it may differ between
   messages); a message without one of them (another publisher on the topic, e.g. a
   gripper's) is skipped and counted in a note; none with all of them is an error
-  naming the joints the topic's messages have. ``position`` is q [rad or m],
+  naming the joints the topic's messages have. A message whose ``position[]`` or
+  ``effort[]`` has not one value per name is skipped and counted (every one: an
+  error saying so); without ``joints``, the joints are the most frequent set of
+  names among the well-formed messages. ``position`` is q [rad or m],
   ``effort`` τ [N·m or N] (or a drive's raw reading, docs/DRIVE.md); an empty
   ``effort[]`` gives empty (NaN) torque cells; ``velocity[]`` is not read
   (the positions are differentiated).
@@ -583,11 +586,19 @@ def _scan(
                 )
                 final = _final_plan(path, topic, tally, given, tuple(optional))
                 if not tally.kept and chosen == (final.wanted, final.exact):
+                    needed = ", ".join(final.wanted)
+                    if tally.malformed:
+                        raise ValueError(
+                            f"ROS bag {path}: {tally.malformed} message(s) on {topic} "
+                            f"hold every joint needed ({needed}), but none has one "
+                            "value per name[] in position[] and effort[] (an empty "
+                            "effort[] is read as no torques): a publisher that "
+                            "fills them for some of its joints only."
+                        )
                     held = "; ".join(f"[{', '.join(sorted(s))}]" for s in tally.sets)
                     raise ValueError(
                         f"ROS bag {path}: no message on {topic} holds every joint "
-                        f"needed ({', '.join(final.wanted)}); its messages name: "
-                        f"{held}."
+                        f"needed ({needed}); its messages name: {held}."
                     )
                 if used == final:
                     break
@@ -679,17 +690,23 @@ def _pass(
                 wanted, exact = names, frozenset(names)
                 held = tuple(name for name in optional if name not in wanted)
             entry = cache[names] = _entry(names, wanted, exact, held)
-            counted = tally.sets.setdefault(entry.key, [0, names])
+            counted = tally.sets.setdefault(entry.key, [0, names, 0])
         else:
             counted = tally.sets[entry.key]
         counted[0] += 1
+        # One value per name[] (else the message is malformed, skipped).
+        formed = len(message.position) == entry.width and len(message.effort) in (
+            0,
+            entry.width,
+        )
+        counted[2] += formed
         if not entry.keep:
+            continue
+        if not formed:
+            tally.malformed += 1
             continue
         p = np.asarray(message.position, dtype=float)
         e = np.asarray(message.effort, dtype=float)
-        if p.size != entry.width or e.size not in (0, entry.width):
-            tally.malformed += 1  # not one value per name[]
-            continue
         stamp = message.header.stamp
         stamps.append(int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec))
         received.append(int(time))
@@ -792,7 +809,10 @@ def _final_plan(
     if not tally.total:
         raise ValueError(f"ROS bag {path}: topic {topic} holds no message.")
     if given is None:
-        chosen = max(tally.sets, key=lambda key: tally.sets[key][0])
+        # The most frequent set of well-formed messages (then of any).
+        chosen = max(
+            tally.sets, key=lambda key: (tally.sets[key][2], tally.sets[key][0])
+        )
         wanted, exact = tuple(tally.sets[chosen][1]), chosen
         if not wanted:
             raise ValueError(f"ROS bag {path}: topic {topic}'s messages name no joint.")

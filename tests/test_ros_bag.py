@@ -560,3 +560,34 @@ def test_messages_recorded_out_of_stamp_order_are_written_in_stamp_order(
     assert cli.main(argv) == 0  # as a CSV's single stamp going back: dropped
     err = capsys.readouterr().err
     assert "dropped row 2718 (t = 1.700000001e+18): time stamp(s) off the grid" in err
+
+
+def test_messages_without_one_value_per_name_are_named_not_joints_missing(
+    tmp_path, capsys
+):
+    """A publisher that names 3 joints but sends 2 efforts (every message malformed)
+    was told 'no message on /joint_states holds every joint needed (a, b, c)',
+    though every message holds them; and without --joints the most frequent set
+    was chosen counting the malformed messages: 24 such messages beat 16 good
+    ones of [a, b], and the export failed. Now the most frequent set of
+    well-formed messages is read (the 16) and the error says what is wrong."""
+
+    def message(k, names, efforts):
+        p = [0.1 * k, -0.1 * k, 0.3][: len(names)]
+        return (0, EPOCH + k * 10**6, EPOCH + k * 10**6, names, p, efforts)
+
+    messages = [message(k, ["a", "b"], [1.0, 2.0]) for k in range(16)]
+    messages += [message(k, ["a", "b", "c"], [1.0, 2.0]) for k in range(16, 40)]
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert out.read_text().splitlines()[0] == "t,q_a,q_b,tau_a,tau_b"
+    assert len(out.read_text().splitlines()) == 17
+    assert "skipped 24 of 40 message(s)" in err
+    argv = ["bag2csv", str(bag), "--out", str(out), "--joints", "a,b,c"]
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    assert "24 message(s) on /joint_states hold every joint needed" in line, line
+    assert "one value per name[]" in line, line
