@@ -591,3 +591,29 @@ def test_messages_without_one_value_per_name_are_named_not_joints_missing(
     line = error_line(capsys)
     assert "24 message(s) on /joint_states hold every joint needed" in line, line
     assert "one value per name[]" in line, line
+
+
+def test_a_full_disk_while_exporting_names_the_bag_and_the_temporary_folder(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """The commands export a bag to a temporary folder: a full disk there said
+    '[Errno 28] No space left on device: '/tmp/dynid-bag-60t35d_9/log.bag.csv'',
+    a file the user never named and that is gone when the message is read. Now
+    the bag, the temporary folder and TMPDIR are named."""
+    import errno
+    import tempfile
+
+    from drake_dynid import ros_bag
+
+    def full(stream, cells, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 200)))
+    monkeypatch.setattr(ros_bag, "_write_block", full)
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    line = error_line(capsys)
+    assert line.startswith(f"dynid offline: error: ROS bag {bag}: "), line
+    assert f"its CSV export in {tempfile.gettempdir()}" in line, line
+    assert "No space left on device" in line and "TMPDIR" in line, line
+    assert "dynid-bag-" not in line, line

@@ -662,18 +662,30 @@ def _read_bag_log(
     name = os.path.basename(os.path.normpath(bag)) or "bag"
     with tempfile.TemporaryDirectory(prefix="dynid-bag-") as folder:
         export = os.path.join(folder, f"{name}.csv")
-        done = export_bag(
-            bag,
-            export,
-            joints,
-            columns,
-            topic=topic,
-            optional=held if template is not None else (),
-            time=time,
-            time_unit=unit,
-            held_out=os.path.join(folder, "held.csv"),
-            held_column=template or "q_{joint}",
-        )
+        try:
+            done = export_bag(
+                bag,
+                export,
+                joints,
+                columns,
+                topic=topic,
+                optional=held if template is not None else (),
+                time=time,
+                time_unit=unit,
+                held_out=os.path.join(folder, "held.csv"),
+                held_column=template or "q_{joint}",
+            )
+        except OSError as error:
+            # A write to the temporary folder (a full disk): the files named
+            # are gone with the folder; say where the export went instead.
+            if not str(error.filename or "").startswith(folder):
+                raise
+            raise OSError(
+                f"ROS bag {bag}: writing its CSV export in "
+                f"{os.path.dirname(folder)} failed ({error.strerror or error}); "
+                "set TMPDIR to a folder with room, or export it once with dynid "
+                "bag2csv BAG --out LOG.csv and give that file."
+            ) from None
         if not done.efforts and not torques_optional:
             raise ValueError(
                 f"ROS bag {bag}: the messages on {done.topic} carry no effort[] "
