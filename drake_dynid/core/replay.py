@@ -639,16 +639,26 @@ def channel_equations(
 
 
 def solve_equations(
-    rows: Any, settings: OnlineSettings, a: np.ndarray, b: np.ndarray, covariance=None
-) -> LeastSquaresResult:
+    rows: Any,
+    settings: OnlineSettings,
+    a: np.ndarray,
+    b: np.ndarray,
+    covariance=None,
+    *,
+    full: bool = False,
+) -> Any:
     """The identifier's solve of one window's ``A θ = B``.
 
     ``core.lsq.solve_window`` with the weighting, ``max_condition``, row noise and
     jackknife groups of ``settings`` (resolved for the robot); ``covariance``:
-    :func:`window_covariance_at`'s θ -> Σ, or None.
+    :func:`window_covariance_at`'s θ -> Σ, or None. ``full``: its
+    ``core.weighted_lsq.window_covariance`` instead (the same solve and the
+    estimator's full covariance).
     """
+    from drake_dynid.core.weighted_lsq import window_covariance
+
     m = settings.num_equations(int(rows.num_joints))
-    return solve_window(
+    return (window_covariance if full else solve_window)(
         a,
         b,
         settings.row_weighting(m),
@@ -696,21 +706,10 @@ def window_estimate_covariance(
     quadrature) with the identifier's settings: its ``result`` is
     :func:`window_estimate`'s. Arguments as :func:`window_equations`.
     """
-    from drake_dynid.core.weighted_lsq import window_covariance
-
     s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
     a, b = window_equations(rows, s, q, tau, end, time_step)
-    m = s.num_equations(int(rows.num_joints))
-    return window_covariance(
-        a,
-        b,
-        s.row_weighting(m),
-        max_condition=s.max_condition,
-        names=rows.names,
-        noise=s.row_noise(m),
-        jackknife=s.jackknife_groups(m),
-        covariance=window_covariance_at(rows, s, q, tau, end, time_step),
-    )
+    covariance = window_covariance_at(rows, s, q, tau, end, time_step)
+    return solve_equations(rows, s, a, b, covariance, full=True)
 
 
 def window_covariance_at(
