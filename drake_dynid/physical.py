@@ -343,7 +343,8 @@ class PhysicalResult:
             ``(‖Wθ − τ‖² − ‖Wθ̂ − τ‖²)/σ̂²`` (:func:`solve_physical`) or the
             Mahalanobis distance² (θ − θ̂)ᵀC⁻¹(θ − θ̂) (:func:`project_physical`).
         regularization: λ.
-        regularizer: what λ weighs, ``"euclidean"`` or ``"entropic"``.
+        regularizer: what λ weighs, ``"euclidean"`` or ``"entropic"`` (with λ = 0
+            the two are one program: ``"euclidean"``).
         solver: ``"Clarabel"`` or ``"SCS"``.
         solve_time: wall time of the solver call [s].
     """
@@ -472,7 +473,8 @@ def _constrained(
         link_min_eigenvalues=eigenvalues,
         data_cost=float(residual @ residual),
         regularization=regularization,
-        regularizer=regularizer,
+        # λ = 0: one program either way, the euclidean one (said so, not "entropic").
+        regularizer="entropic" if entropic else "euclidean",
         solver=solver,
         solve_time=seconds,
     )

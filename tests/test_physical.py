@@ -386,6 +386,10 @@ def test_the_entropic_regularizer_keeps_a_link_the_euclidean_one_empties(iiwa):
     euclidean = solve_physical(iiwa, W, tau)
     entropic = solve_physical(iiwa, W, tau, regularizer="entropic")
     assert euclidean.regularizer == "euclidean" and entropic.regularizer == "entropic"
+    # λ = 0 is one program, the euclidean one, and is recorded so (it said
+    # "entropic"; helper-79's review).
+    free = solve_physical(iiwa, W, tau, regularization=0.0, regularizer="entropic")
+    assert free.regularizer == "euclidean"
     emptied = euclidean.standard_parameters()["M7"] / urdf[-1]
     assert emptied < 1e-3 and "J(iiwa_link_7) ⪰ 0" in euclidean.active
     kept = np.array([entropic.standard_parameters()[m] for m in mass]) / urdf
