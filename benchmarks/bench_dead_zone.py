@@ -178,6 +178,8 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--json", metavar="FILE", help="write the results as JSON")
     args = parser.parse_args(argv)
+    if not args.duration > 0.0:
+        parser.error(f"--duration must be > 0 s; got {args.duration:g}")
     configure_process()
     seeds = quick_or(args.seeds, args.quick, 4, 20)
     robots = args.robot or (("ur5",) if args.quick else ROBOTS)
