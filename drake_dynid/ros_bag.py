@@ -340,15 +340,22 @@ def export_bag(
             if not _rewinds(stream):
                 plan = _scan(path, joints, topic, optional, None)[1]
             done = _scan(path, joints, topic, optional, sink, plan)[0]
+            notes = []
             if sink.reordered:
+                notes.append(
+                    f"{sink.reordered} message(s) on {done.topic} were recorded "
+                    "after one with a later header.stamp: written in stamp order."
+                )
+            if sink.repeated:
+                notes.append(
+                    f"dropped {sink.repeated} message(s) on {done.topic} repeating "
+                    "the one before (the same header.stamp and values)."
+                )
+            if notes:
                 done = dataclasses.replace(
                     done,
-                    notes=(
-                        *done.notes,
-                        f"{sink.reordered} message(s) on {done.topic} were recorded "
-                        "after one with a later header.stamp: written in stamp "
-                        "order.",
-                    ),
+                    rows=done.rows - sink.repeated,
+                    notes=(*done.notes, *notes),
                 )
             holder.append(done)
         finally:
@@ -480,6 +487,7 @@ class _Export:
         self.started = False
         self.carry: _Block | None = None  # held back for the order (REORDER_ROWS)
         self.reordered = 0  # messages recorded after a later-stamped one
+        self.repeated = 0  # messages recorded twice, dropped
 
     def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
         import csv
@@ -492,7 +500,7 @@ class _Export:
                 self.held_stream = None
                 os.remove(self.held_out)
         self.started = True
-        self.carry, self.reordered = None, 0
+        self.carry, self.reordered, self.repeated = None, 0, 0
         self.plan, self.held = plan, held
         self.names = list(self.columns(plan.wanted, plan.efforts))
         at = {name: k for k, name in enumerate(plan.wanted)}
@@ -528,6 +536,13 @@ class _Export:
         if late.any():
             self.reordered += int(np.count_nonzero(late[max(0, held - 1) :]))
             block = _taken(block, np.argsort(stamps, kind="stable"))
+            stamps = block.received if self.plan.received else block.stamps
+        # A message recorded twice (the same stamp and values) is written once.
+        repeated = (stamps[1:] == stamps[:-1]) & _same_rows(block.position)
+        repeated &= _same_rows(block.effort)
+        if repeated.any():
+            self.repeated += int(np.count_nonzero(repeated))
+            block = _taken(block, np.flatnonzero(np.concatenate([[True], ~repeated])))
         keep = max(0, block.stamps.size - REORDER_ROWS)
         self.carry = _taken(block, np.arange(keep, block.stamps.size))
         self._write(_taken(block, np.arange(keep)))
@@ -772,6 +787,12 @@ def _decoded(
         values,
         empty,
     )
+
+
+def _same_rows(values: np.ndarray) -> np.ndarray:
+    """(B - 1,) whether each row equals the one before (NaN equal to NaN)."""
+    a, b = values[1:], values[:-1]
+    return np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
 
 
 def _taken(block: _Block, rows: np.ndarray) -> _Block:

@@ -617,3 +617,30 @@ def test_a_full_disk_while_exporting_names_the_bag_and_the_temporary_folder(
     assert f"its CSV export in {tempfile.gettempdir()}" in line, line
     assert "No space left on device" in line and "TMPDIR" in line, line
     assert "dynid-bag-" not in line, line
+
+
+def test_a_message_recorded_twice_is_written_once(arm, tmp_path, capsys):
+    """A message recorded twice (the same header.stamp and values: a bag recorded
+    from two bridges, a replayed topic) was 'duplicated time stamp', exit 2; it
+    is dropped with a warning counting it (helper-79's review). Two messages with
+    one stamp and different values stay the reader's error."""
+    messages = arm_messages(arm)
+    for k in (2000, 5000):
+        messages.insert(k + 1, messages[k])
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages)
+    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
+    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
+    assert on_bag == on_csv
+    assert (
+        f"log {bag}: dropped 2 message(s) on /joint_states repeating the one before "
+        "(the same header.stamp and values)." in err
+    )
+    k = 3000
+    other = messages[k]
+    messages.insert(k + 1, (*other[:4], other[4] + 0.1, other[5]))
+    bag = tmp_path / "other.bag"
+    write_bag(bag, "ros1", messages)
+    argv = ["offline", str(bag), "--urdf", "planar_2r", "--quiet"]
+    assert cli.main(argv) == 2
+    assert "duplicated time stamp at row 3002" in capsys.readouterr().err
