@@ -297,12 +297,12 @@ def load_drive(
         )
     else:
         if not os.path.exists(drive_path):  # the hint the URDF's message gives
-            from drake_dynid.urdf import MODELS_DIR
+            from drake_dynid.urdf import packaged_names
 
-            names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.toml")))
             raise FileNotFoundError(
                 f"drive file {os.fspath(drive_path)}: no such file (the dynid "
-                f"command also takes the name of a packaged drive file: {names})."
+                "command also takes the name of a packaged drive file: "
+                f"{packaged_names('.toml')})."
             )
         chain = read_drive(
             drive_path, joint_names, prismatic_joints=prismatic, urdf=urdf.as_dict()

@@ -67,12 +67,21 @@ def model_path(name: str) -> str:
     """
     path = MODELS_DIR / f"{name}.urdf"
     if not isinstance(name, str) or not path.is_file():
-        available = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.urdf")))
+        available = packaged_names(".urdf")
         raise ValueError(
             f"model_path: name must be one of the packaged models ({available}); "
             f"got {name!r}."
         )
     return str(path)
+
+
+def packaged_names(suffix: str) -> str:
+    """The packaged files ending in ``suffix`` (``drake_dynid/models``), by stem.
+
+    Comma-separated and sorted, for the messages that offer them (``".urdf"``:
+    the models; ``".toml"``: the drive files).
+    """
+    return ", ".join(sorted(p.stem for p in MODELS_DIR.glob(f"*{suffix}")))
 
 
 def _check_file(owner: str, path: Any) -> Path:
@@ -82,7 +91,7 @@ def _check_file(owner: str, path: Any) -> Path:
     if file.is_dir():
         raise ValueError(f"{owner}: URDF {file} is a directory, expected a file.")
     if not file.is_file():
-        available = ", ".join(sorted(p.stem for p in MODELS_DIR.glob("*.urdf")))
+        available = packaged_names(".urdf")
         raise ValueError(
             f"{owner}: URDF file not found: {file} (the dynid command also takes "
             f"the name of a packaged model: {available})."

@@ -190,16 +190,16 @@ def _check_shared_inputs(args: argparse.Namespace) -> None:
     """
     from pathlib import Path
 
-    from drake_dynid.plants import MODELS_DIR
+    from drake_dynid.urdf import packaged_names
 
     for attribute, option in (("urdf", "--urdf"), ("drive", "--drive")):
         value = getattr(args, attribute, None)
         if value is not None and not Path(value).is_file():
-            suffix, kind = {"urdf": ("urdf", "model"), "drive": ("toml", "drive file")}[
-                attribute
-            ]
-            names = ", ".join(sorted(p.stem for p in MODELS_DIR.glob(f"*.{suffix}")))
-            hint = f" (or the name of a packaged {kind}: {names})"
+            suffix, kind = {
+                "urdf": (".urdf", "model"),
+                "drive": (".toml", "drive file"),
+            }[attribute]
+            hint = f" (or the name of a packaged {kind}: {packaged_names(suffix)})"
             raise ValueError(
                 f"{option} {value}: no such file{hint}; every log would fail on it."
             )
