@@ -159,6 +159,15 @@ def _seconds(owner, t, exact) -> tuple[np.ndarray, float, list[str]]:
     return s, base * 1e-9, [note]
 
 
+def stamps_droppable(bad: int, count: int) -> bool:
+    """Whether ``bad`` empty or non-finite stamps of ``count`` rows may be dropped.
+
+    At most 3 + 1 in 1000 of them (``core.timestamps``' outlier limit), with at
+    least 10 rows left; else the reader names the first and stops.
+    """
+    return bad <= 3 + count // 1000 and count - bad >= 10
+
+
 def repair(
     owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None, joined=None
 ):
@@ -200,7 +209,7 @@ def repair(
     ).astype(np.int64)
     if bad_t.size:
         first = int(bad_t[0])
-        if bad_t.size > 3 + t.size // 1000 or t.size - bad_t.size < 10:
+        if not stamps_droppable(bad_t.size, t.size):
             raise ValueError(
                 f"{owner}: the time stamp of {noun} {labels[first]} is empty or not "
                 f"finite (got {shown[first]})."

@@ -60,7 +60,13 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.files import repeated_file, write_whole
-from drake_dynid.log_repair import FILL_GAPS, JITTER_TOLERANCE, Options, rows_text
+from drake_dynid.log_repair import (
+    FILL_GAPS,
+    JITTER_TOLERANCE,
+    Options,
+    rows_text,
+    stamps_droppable,
+)
 from drake_dynid.log_table import (
     listed_columns,
     parse_cell,
@@ -714,7 +720,7 @@ def _drop_empty_stamps(
     bad = np.flatnonzero(~keep)
     if not bad.size:
         return stamps, values, rows, []
-    if bad.size > 3 + stamps.size // 1000 or stamps.size - bad.size < 10:
+    if not stamps_droppable(bad.size, stamps.size):
         raise ValueError(
             f"log {path}: time stamp ('{time}') of row {rows[int(bad[0])]} is "
             f"empty or not finite ({bad.size} such rows of {stamps.size}; up to "
