@@ -145,6 +145,18 @@ def _objective(robot, W, tau, standard, regularization):
     return (residual @ residual - rho2) / sigma2 + regularization * prior @ prior
 
 
+def _to_cholesky(robot):
+    """The URDF's values as :func:`_from_cholesky`'s z (a search's start)."""
+    values = robot.standard_values
+    links = [
+        np.linalg.cholesky(pseudo_inertia(values[10 * j : 10 * j + 10]))[
+            np.tril_indices(4)
+        ]
+        for j in range(robot.num_joints)
+    ]
+    return np.concatenate([*links, np.sqrt(values[10 * robot.num_joints :])])
+
+
 def _from_cholesky(robot, z):
     """Standard values from 10 Cholesky entries per link (J = L Lᵀ) + √friction."""
     values = np.array(robot.standard_values, dtype=float)
@@ -185,15 +197,7 @@ def test_constrained_fit_is_the_global_optimum_of_the_documented_problem(robot_2
         result.theta, robot_2r.base.values(result.standard_values), atol=1e-12
     )
     sdp = _objective(robot_2r, W, tau, result.standard_values, 1e-3)
-    start = np.concatenate(
-        [
-            np.linalg.cholesky(
-                pseudo_inertia(robot_2r.standard_values[10 * j : 10 * j + 10])
-            )[np.tril_indices(4)]
-            for j in range(2)
-        ]
-        + [np.sqrt(robot_2r.standard_values[20:])]
-    )
+    start = _to_cholesky(robot_2r)
     local = optimize.minimize(
         lambda z: _objective(robot_2r, W, tau, _from_cholesky(robot_2r, z), 1e-3),
         start,
@@ -445,15 +449,7 @@ def test_the_entropic_fit_is_the_optimum_of_the_documented_problem(robot_2r):
     assert check_physical(robot_2r, result.theta).consistent
     assert result.link_min_eigenvalues.min() > 1e-6
     sdp = _entropic_objective(robot_2r, W, tau, result.standard_values, 1e-2)
-    start = np.concatenate(
-        [
-            np.linalg.cholesky(
-                pseudo_inertia(robot_2r.standard_values[10 * j : 10 * j + 10])
-            )[np.tril_indices(4)]
-            for j in range(2)
-        ]
-        + [np.sqrt(robot_2r.standard_values[20:])]
-    )
+    start = _to_cholesky(robot_2r)
     diagonal = [10 * j + k for j in range(2) for k in (0, 2, 5, 9)]  # L_ii
 
     def objective(z):
