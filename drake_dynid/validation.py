@@ -488,6 +488,7 @@ def _validate(
     widths, moving_rule = _moving_widths(log, sign, cutoff_hz, decimation_cutoff_hz)
     # v̂ of every joint rides along as viscous columns (F = v̂), after the fit's.
     motion = [("viscous", j) for j in range(q.shape[1])]
+    fitted = len(layout)  # the stream's columns: the fit's friction, then v̂
     theta_rigid = theta[rigid_index]
     # (F, n, k): each friction series' torque per unit, on every joint's row.
     theta_friction = layout.weights[:, :, None] * theta[list(layout.columns)][:, None]
@@ -527,7 +528,6 @@ def _validate(
             raw=True,
             channels=layout.channels,
         ):
-            fitted = len(layout)  # the fit's friction columns, then v̂
             smooth = with_friction(smooth, smooth_friction[:, :fitted])
             raw = with_friction(raw, raw_friction[:, :fitted])
             count = measured.shape[0]
