@@ -135,14 +135,19 @@ def _rows(robot, seed, samples=400):
 
 def _objective(robot, W, tau, standard, regularization):
     """(‖Wθ − τ‖² − ρ²)/σ̂² + λ‖(θ_std − θ_URDF)/s‖², as documented."""
+    scales, _, _ = parameter_scales(robot)
+    prior = (standard - robot.standard_values) / scales
+    return _data_cost(robot, W, tau, standard) + regularization * prior @ prior
+
+
+def _data_cost(robot, W, tau, standard):
+    """(‖Wθ − τ‖² − ρ²)/σ̂²: the data term above the unconstrained optimum."""
     A, b = W.reshape(-1, W.shape[-1]), tau.reshape(-1)
     fit = np.linalg.lstsq(A, b, rcond=None)[0]
     rho2 = float(np.sum((A @ fit - b) ** 2))
     sigma2 = rho2 / (A.shape[0] - A.shape[1])
     residual = A @ robot.base.values(standard) - b
-    scales, _, _ = parameter_scales(robot)
-    prior = (standard - robot.standard_values) / scales
-    return (residual @ residual - rho2) / sigma2 + regularization * prior @ prior
+    return (residual @ residual - rho2) / sigma2
 
 
 def _to_cholesky(robot):
@@ -410,11 +415,6 @@ def _entropic_objective(robot, W, tau, standard, regularization, logdets=None):
     pseudo-inertia T_j J_j T_j (the divergence is congruence-invariant, so with
     J_j itself and the URDF's J_j,0). ``logdets``: log det J_j when known (from a
     Cholesky factor)."""
-    A, b = W.reshape(-1, W.shape[-1]), tau.reshape(-1)
-    fit = np.linalg.lstsq(A, b, rcond=None)[0]
-    rho2 = float(np.sum((A @ fit - b) ** 2))
-    sigma2 = rho2 / (A.shape[0] - A.shape[1])
-    residual = A @ robot.base.values(standard) - b
     scales, _, _ = parameter_scales(robot)
     divergence = 0.0
     for j in range(robot.num_joints):
@@ -431,7 +431,7 @@ def _entropic_objective(robot, W, tau, standard, regularization, logdets=None):
         )
     other = slice(10 * robot.num_joints, None)
     prior = (standard[other] - robot.standard_values[other]) / scales[other]
-    data = (residual @ residual - rho2) / sigma2
+    data = _data_cost(robot, W, tau, standard)
     return data + regularization * (divergence + prior @ prior)
 
 
