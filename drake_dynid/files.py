@@ -8,13 +8,17 @@
   leaves the previous file, or none, never a truncated one); :func:`write_whole`
   the same for a file written piece by piece (the CSV outputs: logs, estimates,
   trajectories), so that a long one is never held in memory as one string.
+* :func:`json_text`: a JSON document indented, its lists of numbers on one line
+  each (a covariance matrix one row per line, not one number).
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import os
+import re
 import secrets
 import stat
 from collections.abc import Callable, Sequence
@@ -23,6 +27,7 @@ from typing import Any, TextIO
 
 __all__ = [
     "file_key",
+    "json_text",
     "repeated_file",
     "same_file",
     "write_text_whole",
@@ -70,6 +75,29 @@ def file_key(path: str | os.PathLike) -> tuple[Any, ...]:
         return ("file", found.st_dev, found.st_ino)
     except OSError:  # realpath, not Path.resolve: a link loop is a path
         return ("path", os.path.realpath(name))
+
+
+# An indented list of numbers or nulls: ``[`` then a newline (never inside a JSON
+# string, which escapes it), items separated by a comma and a newline.
+_NUMBER = r"(?:-?[0-9][0-9.eE+-]*|null|NaN|-?Infinity)"
+_NUMBER_LIST = re.compile(rf"\[\n\s*({_NUMBER}(?:,\n\s*{_NUMBER})*)\n\s*\]")
+
+
+def json_text(document: Any, *, allow_nan: bool = False) -> str:
+    """``document`` as JSON indented by 2, each list of numbers on one line.
+
+    ``json.dumps(document, indent=2, allow_nan=allow_nan)`` (by default a
+    ValueError on NaN or infinity: invalid JSON) with every list holding only
+    numbers or nulls joined onto one line: the same values (``json.loads``
+    returns the same document), a (p, p) covariance in p lines instead of p².
+    """
+    text = json.dumps(document, indent=2, allow_nan=allow_nan)
+    return (
+        _NUMBER_LIST.sub(
+            lambda m: "[" + ", ".join(re.split(r",\n\s*", m.group(1))) + "]", text
+        )
+        + "\n"
+    )
 
 
 def write_text_whole(path: str | os.PathLike, text: str) -> None:

@@ -27,7 +27,7 @@ import numpy as np
 
 from drake_dynid.core._validate import real, utf8_text
 from drake_dynid.core.trajectory import FourierTrajectory
-from drake_dynid.files import write_text_whole, write_whole
+from drake_dynid.files import json_text, write_text_whole, write_whole
 
 __all__ = [
     "SampledTrajectory",
@@ -239,7 +239,7 @@ def write_coefficients(
         ),
         **(extra or {}),
     }
-    write_text_whole(path, json.dumps(document, indent=2) + "\n")
+    write_text_whole(path, json_text(document))
 
 
 def read_coefficients(

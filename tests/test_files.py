@@ -1,10 +1,13 @@
 """drake_dynid.files: outputs written whole, one file by any name."""
 
 import errno
+import json
 import os
 import stat
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from drake_dynid import files
 from drake_dynid.files import same_file, write_text_whole
@@ -235,3 +238,35 @@ def test_a_csv_output_is_written_whole(tmp_path, monkeypatch, name):
     assert calls and path.read_text() == whole
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.csv"]
     monkeypatch.setattr(np, "savetxt", real)
+
+
+_JSON_VALUES = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(10**20), 10**20)
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text(alphabet="[]{},:\n\\\" 0123456789-eEnul", max_size=12),
+    lambda inner: st.lists(inner, max_size=5)
+    | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+    max_leaves=30,
+)
+
+
+@given(_JSON_VALUES)
+@settings(max_examples=300, deadline=None)
+def test_json_text_is_the_same_document(document):
+    text = files.json_text(document)
+    assert json.loads(text) == document
+    assert text.endswith("\n")
+
+
+def test_json_text_writes_a_matrix_one_row_per_line():
+    covariance = [[1.5e-3, -2.0e-7, 0.0], [-2.0e-7, 4.0, None], [0.0, None, 1e300]]
+    document = {"covariance": covariance, "names": ["M1R", "ZZ1R"], "n": 3}
+    text = files.json_text(document)
+    assert json.loads(text) == document
+    assert "    [0.0015, -2e-07, 0.0],\n" in text
+    assert len(text.splitlines()) == 12  # { cov [ 3 rows ] names n }: not 3x3 lines
+    with pytest.raises(ValueError):
+        files.json_text({"x": [float("nan")]})
+    assert json.loads(files.json_text([float("nan")], allow_nan=True))[0] != 0

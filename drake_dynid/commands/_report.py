@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
@@ -152,9 +151,9 @@ def write_json(path: str, document: Mapping[str, Any]) -> None:
     Raises:
         OSError: naming ``path`` (a full disk's error names no file).
     """
-    from drake_dynid.files import write_text_whole
+    from drake_dynid.files import json_text, write_text_whole
 
-    write_text_whole(path, json.dumps(document, indent=2, allow_nan=False) + "\n")
+    write_text_whole(path, json_text(document))
 
 
 def matplotlib_pyplot() -> Any:

@@ -216,7 +216,6 @@ def run(args: argparse.Namespace) -> int:
 
     Exit 1 if a log met an internal error (a bug), else 2 if a log failed.
     """
-    import json
     from pathlib import Path
 
     from drake_dynid.fleet import run_fleet
@@ -262,10 +261,10 @@ def run(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         progress=progress,
     )
-    from drake_dynid.files import write_text_whole
+    from drake_dynid.files import json_text, write_text_whole
 
     summary = Path(args.out_dir) / "summary.json"
-    write_text_whole(summary, json.dumps(items, indent=2) + "\n")
+    write_text_whole(summary, json_text(items, allow_nan=True))
     if not quiet:
         print()
         for line in summary_table(items):

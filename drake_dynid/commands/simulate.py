@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
-import json
 import sys
 import time
 from pathlib import Path
@@ -26,7 +25,7 @@ from drake_dynid.commands._arguments import (
     urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
-from drake_dynid.files import write_text_whole
+from drake_dynid.files import json_text, write_text_whole
 
 HELP = "simulate a robot log (the URDF arm tracking a trajectory, with noise)"
 DESCRIPTION = (
@@ -333,7 +332,7 @@ def run(args: argparse.Namespace) -> int:
     document["simulation"] = _simulation_entry(args, settings, log, robot)
     if "coulomb" in robot.friction:  # the simulated law (read back by validate)
         document["settings"]["coulomb_width"] = settings.coulomb_smoothing
-    write_text_whole(truth, json.dumps(document, indent=2) + "\n")
+    write_text_whole(truth, json_text(document))
     say(f"robot: {args.urdf}; trajectory: {args.trajectory}")
     say(
         f"simulated {log.t[-1]:g} s at {1.0 / args.time_step:g} Hz in {elapsed:.1f} s "
