@@ -240,9 +240,9 @@ def simulate_experiment(
             owner,
             f"the simulated joints must be the reference's {n} joints "
             f"({', '.join(names)}), each actuated; the plant's actuated joints are "
-            f"{', '.join(simulated) or 'none'}"
+            f"{check.listed(simulated) or 'none'}"
             + (
-                f" and {', '.join(passive)} move unactuated (a mimic joint, which "
+                f" and {check.listed(passive)} move unactuated (a mimic joint, which "
                 "the simulator does not couple to its leader: lock the leader, "
                 "or simulate without it)"
                 if passive

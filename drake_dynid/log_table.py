@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.blocks import is_stored
 from drake_dynid.log_store import RowSink
 
@@ -256,9 +257,7 @@ def listed_columns(names: Sequence[str]) -> str:
     The list of the readers' extra-columns warnings (20 000 extra columns made
     a 149 kB line).
     """
-    listed = ", ".join(names[:LISTED_COLUMNS])
-    left = len(names) - LISTED_COLUMNS
-    return f"{listed} and {left} more" if left > 0 else listed
+    return listed(names, LISTED_COLUMNS)
 
 
 def unused_columns(header: Sequence[str], used: Any) -> list[str]:
@@ -494,7 +493,7 @@ def read_table(
         raise ValueError(
             f"log {path}: missing column(s) {', '.join(missing)}; the header must hold "
             "t, q_<joint> and tau_<joint> for every joint "
-            f"(found: {', '.join(header)}){_format_hint(header, wanted)}."
+            f"(found: {listed(header)}){_format_hint(header, wanted)}."
         )
     index = [header.index(name) for name in wanted]
     bounds = np.cumsum([1, *groups])

@@ -58,6 +58,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import blocks as _blocks
+from drake_dynid.core._validate import listed
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.files import repeated_file, write_whole
 from drake_dynid.log_repair import (
@@ -338,7 +339,7 @@ def _owners(
             owner[name] = holders[0]
     missing = [name for name in wanted if name not in owner]
     if missing:
-        found = "; ".join(f"{p}: {', '.join(headers[p])}" for p in files)
+        found = "; ".join(f"{p}: {listed(headers[p])}" for p in files)
         # A header of one cell holding ; tab or |: another separator (the plain
         # reader's hint, log_table._format_hint).
         other = [

@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.files import write_whole
 
 __all__ = [
@@ -76,6 +77,9 @@ BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 #: Stamps from this many nanoseconds on are epoch times: written as integer
 #: nanoseconds (exact; ``drake_dynid.logs`` reads integers >= 1e17 so).
 _EPOCH_NS = 10**17
+
+#: Sets of joint names an error lists (each :func:`core._validate.listed`).
+LISTED_SETS = 4
 
 _FIELD = re.compile(r"^(?:- )?(?P<joint>.+)_(?P<field>position|effort)$")
 
@@ -178,23 +182,22 @@ def _topic(path: str, reader: Any, topic: str | None) -> Any:
             found = (
                 f"it is of type {types[topic]}" if topic in types else "no such topic"
             )
-            listed = ", ".join(states) or "none"
             raise ValueError(
                 f"ROS bag {path}: --topic {topic}: {found}; the bag's "
-                f"{JOINT_STATE} topics: {listed}."
+                f"{JOINT_STATE} topics: {listed(states) or 'none'}."
             )
     elif len(states) == 1:
         topic = states[0]
     elif states:
         raise ValueError(
             f"ROS bag {path}: {len(states)} topics of type {JOINT_STATE} "
-            f"({', '.join(states)}): name the one to read with --topic."
+            f"({listed(states)}): name the one to read with --topic."
         )
     else:
-        listed = ", ".join(f"{name} ({kind})" for name, kind in sorted(types.items()))
+        topics = listed(f"{name} ({kind})" for name, kind in sorted(types.items()))
         raise ValueError(
             f"ROS bag {path}: no topic of type {JOINT_STATE}; its topics: "
-            f"{listed or 'none'}."
+            f"{topics or 'none'}."
         )
     return topic, [c for c in reader.connections if c.topic == topic]
 
@@ -601,7 +604,7 @@ def _scan(
                 )
                 final = _final_plan(path, topic, tally, given, tuple(optional))
                 if not tally.kept and chosen == (final.wanted, final.exact):
-                    needed = ", ".join(final.wanted)
+                    needed = listed(final.wanted)
                     if tally.malformed:
                         raise ValueError(
                             f"ROS bag {path}: {tally.malformed} message(s) on {topic} "
@@ -610,7 +613,14 @@ def _scan(
                             "effort[] is read as no torques): a publisher that "
                             "fills them for some of its joints only."
                         )
-                    held = "; ".join(f"[{', '.join(sorted(s))}]" for s in tally.sets)
+                    held = listed(
+                        (
+                            f"[{listed(sorted(s))}]"
+                            for s in sorted(tally.sets, key=lambda s: -tally.sets[s][0])
+                        ),
+                        LISTED_SETS,
+                        "; ",
+                    )
                     raise ValueError(
                         f"ROS bag {path}: no message on {topic} holds every joint "
                         f"needed ({needed}); its messages name: {held}."
@@ -850,10 +860,10 @@ def _notes(topic: str, tally: _Tally, plan: _Plan) -> tuple[str, ...]:
     lacking = tally.total - kept - tally.malformed
     if lacking:
         others = sorted({name for s in tally.sets for name in s} - set(wanted))
-        extra = f" (their joints: {', '.join(others)})" if others else ""
+        extra = f" (their joints: {listed(others)})" if others else ""
         notes.append(
             f"skipped {lacking} of {tally.total} message(s) on {topic} that lack "
-            f"joint(s) of {', '.join(wanted)}{extra}: another publisher on the topic."
+            f"joint(s) of {listed(wanted)}{extra}: another publisher on the topic."
         )
     if tally.malformed:
         notes.append(

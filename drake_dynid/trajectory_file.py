@@ -25,7 +25,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from drake_dynid.core._validate import real, utf8_text
+from drake_dynid.core._validate import listed, real, utf8_text
 from drake_dynid.core.trajectory import FourierTrajectory
 from drake_dynid.files import json_text, write_text_whole, write_whole
 
@@ -115,7 +115,7 @@ def read_trajectory(
         trajectory, names, duration = read_coefficients(file)
         if tuple(names) != tuple(joint_names):
             raise ValueError(
-                f"trajectory {file}: its joints {', '.join(names)} are not the "
+                f"trajectory {file}: its joints {listed(names)} are not the "
                 f"robot's {', '.join(joint_names)}."
             )
         sampled = SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)

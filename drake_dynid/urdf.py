@@ -881,7 +881,7 @@ def load_urdf(
     orphaned = (
         f"{len(orphans)} <transmission> element(s) naming a joint the file does not "
         "have ignored: "
-        + ", ".join(f"{name} ({joint})" for name, joint in orphans.items())
+        + _validate.listed(f"{name} ({joint})" for name, joint in orphans.items())
         if orphans
         else None
     )

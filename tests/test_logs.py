@@ -392,3 +392,14 @@ def test_a_header_without_the_columns_says_what_it_looks_like(tmp_path, header, 
     path = write_text(tmp_path / "h.csv", header + body)
     with pytest.raises(ValueError, match=hint):
         read_log(path, JOINTS)
+
+
+def test_a_header_of_many_columns_is_listed_in_one_short_line(tmp_path):
+    """A log of 2000 other joints missing the robot's: its header's first 20
+    columns named, the rest counted (a 27 kB message before)."""
+    header = ["t", *(f"q_other_{k}" for k in range(2000))]
+    path = write_text(tmp_path / "wide.csv", ",".join(header) + "\n")
+    with pytest.raises(ValueError, match="missing column") as raised:
+        read_log(path, JOINTS)
+    text = str(raised.value)
+    assert "q_other_18 and 1981 more" in text and len(text) < 800, len(text)

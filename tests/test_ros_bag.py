@@ -644,3 +644,26 @@ def test_a_message_recorded_twice_is_written_once(arm, tmp_path, capsys):
     argv = ["offline", str(bag), "--urdf", "planar_2r", "--quiet"]
     assert cli.main(argv) == 2
     assert "duplicated time stamp at row 3002" in capsys.readouterr().err
+
+
+def test_a_bag_of_many_joints_is_named_in_short_lines(tmp_path, capsys):
+    """A bag of 2000 joints: every list of its joints (the error's sets of
+    names, the skipped messages' note) names the first 20 and counts the rest
+    (16 kB lines before)."""
+    wide = [f"j{k}" for k in range(2000)]
+    bag = tmp_path / "log.bag"
+    messages = [(0, EPOCH + k, EPOCH + k, wide, [0.0] * 2000, []) for k in (1, 2)]
+    write_bag(bag, "ros1", messages)
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    assert error_line(capsys).endswith(
+        "holds every joint needed (joint1, joint2); its messages name: [j0, j1, "
+        "j10, j100, j1000, j1001, j1002, j1003, j1004, j1005, j1006, j1007, j1008, "
+        "j1009, j101, j1010, j1011, j1012, j1013, j1014 and 1980 more]."
+    )
+    many = [(0, EPOCH + k, EPOCH + k, ["a"], [k], [0.0]) for k in range(3, 9)]
+    write_bag(tmp_path / "two.bag", "ros1", messages + many)
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(tmp_path / "two.bag"), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "(their joints: j0, j1, j10, " in err and "j1014 and 1980 more)" in err
+    assert max(len(line) for line in err.splitlines()) < 600, err

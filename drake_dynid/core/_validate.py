@@ -12,7 +12,7 @@ All checks raise ``ValueError`` (bad value) or ``TypeError`` (bad type).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -30,6 +30,23 @@ def utf8_text(raw: bytes, what: str) -> str:
         raise ValueError(
             f"{what}: not UTF-8 text (byte {error.start}); save it as UTF-8."
         ) from None
+
+
+#: Names a message lists before it counts the rest (:func:`listed`).
+LISTED_NAMES = 20
+
+
+def listed(names: Iterable[str], limit: int = LISTED_NAMES, sep: str = ", ") -> str:
+    """``"a, b, c"``; of more than ``limit`` names, the first ones "and N more".
+
+    The one list of names a message prints (a log's or a URDF's joints, a
+    bag's topics, a log's columns), so that it stays one readable line: a ROS
+    bag of 2000 joints made 16 kB lines. ``sep``: the separator.
+    """
+    names = list(names)
+    shown = sep.join(names[:limit])
+    left = len(names) - limit
+    return f"{shown} and {left} more" if left > 0 else shown
 
 
 def _unit(unit: str | None) -> str:

@@ -27,6 +27,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
+
 __all__ = ["JointMap", "joint_map"]
 
 #: Largest |locked position| [rad or m]: a prismatic joint locked at 1e300 m lumps
@@ -78,7 +80,7 @@ def _fail(owner: str, message: str) -> None:
 
 
 def _listing(names: Sequence[str]) -> str:
-    return ", ".join(names) if names else "none"
+    return listed(names) if names else "none"
 
 
 def _resolve_mimic(

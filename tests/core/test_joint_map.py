@@ -93,3 +93,14 @@ def test_errors(kwargs, match):
 def test_joints_must_not_be_a_string():
     with pytest.raises(TypeError, match="sequence of joint names"):
         joint_map(MOVABLE, joints="j1")
+
+
+def test_a_urdf_of_many_joints_is_listed_in_one_short_line():
+    """2000 movable joints: the first 20 named and the rest counted (a 20 kB
+    message before)."""
+    movable = [f"joint_{k}" for k in range(2000)]
+    with pytest.raises(ValueError) as raised:
+        joint_map(movable, joints=["elbow"], owner="RobotModel")
+    text = str(raised.value)
+    assert text.endswith("joint_18, joint_19 and 1980 more.")
+    assert len(text) < 400
