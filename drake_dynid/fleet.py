@@ -194,6 +194,13 @@ def run_one(
     }
     args = argparse.Namespace(**options)
     args.log, args.json, args.quiet = log, json_path, True
+    if getattr(args, "topic", None) is not None:
+        from drake_dynid.commands._arguments import log_files
+        from drake_dynid.ros_bag import is_bag
+
+        # --topic is a bag's (checked on the whole fleet): not a CSV log's.
+        if not any(is_bag(path) for path in [log, *log_files(args, "validate")]):
+            args.topic = None
     for option in _PACKAGED_OPTIONS:
         value = getattr(args, option, None)
         if isinstance(value, str) and value.startswith(_PACKAGED):

@@ -667,3 +667,60 @@ def test_a_bag_of_many_joints_is_named_in_short_lines(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "(their joints: j0, j1, j10, " in err and "j1014 and 1980 more)" in err
     assert max(len(line) for line in err.splitlines()) < 600, err
+
+
+def test_topic_without_a_bag_is_refused(arm, tmp_path, capsys):
+    """--topic with CSV logs only was ignored without a word (a bag's fit then
+    validated on a CSV file by mistake): an error naming the option and the
+    file, in every command taking it and in a fleet; with a bag among the logs
+    (--validate's included) it is read for the bag."""
+    log = csv_log(tmp_path / "log.csv", arm)
+    other = csv_log(tmp_path / "other.csv", arm, slice(0, 4000))
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    fit = tmp_path / "fit.json"
+    offline(capsys, log, fit)
+    topic = ["--topic", "/joint_states"]
+    model = ["--urdf", "planar_2r"]
+    refused = {
+        "offline": ["offline", str(log), *model],
+        "identify": ["identify", str(log), *model],
+        "payload": ["payload", str(log), *model, "--params", str(fit)],
+        "validate": ["validate", str(log), *model, "--params", str(fit)],
+        "replay": ["replay", "planar_2r", str(log), "--html", str(tmp_path / "r.html")],
+        "offline --validate": ["offline", str(log), *model, "--validate", str(other)],
+    }
+    for name, argv in refused.items():
+        assert cli.main([*argv, *topic]) == 2, name
+        line = error_line(capsys)
+        assert "error: --topic /joint_states: no log is a ROS bag (" in line, name
+        assert line.endswith(
+            "a CSV log has no topic: leave the option out, or give the bag."
+        ), name
+    assert cli.main([*refused["offline"], *topic]) == 2
+    assert error_line(capsys) == (
+        f"dynid offline: error: --topic /joint_states: no log is a ROS bag ({log}); "
+        "a CSV log has no topic: leave the option out, or give the bag."
+    )
+    # A bag among the logs: the topic is the bag's.
+    on_bag, _ = run_json(
+        capsys,
+        ["offline", str(log), *model, "--validate", str(bag), *topic],
+        tmp_path / "v.json",
+    )
+    assert on_bag["validation"]["log"]["description"] == str(bag)
+    out = tmp_path / "fleet"
+    fleet = ["fleet", "offline", str(log), str(other), *model, "--out-dir", str(out)]
+    assert cli.main([*fleet, "--jobs", "1", *topic]) == 2
+    assert error_line(capsys).endswith(
+        f"--topic /joint_states: no log is a ROS bag ({log}, {other}); a CSV log "
+        "has no topic: leave the option out, or give the bag."
+    )
+    fleet[2] = str(bag)  # a bag and a CSV file: each read, the topic the bag's
+    assert cli.main([*fleet, "--jobs", "1", "--quiet", *topic]) == 0
+    capsys.readouterr()
+    settings = [
+        json.loads((out / f"{name}.json").read_text())["settings"]
+        for name in ("log", "other")
+    ]
+    assert settings[0]["topic"] == "/joint_states" and "topic" not in settings[1]

@@ -363,8 +363,33 @@ def add_log_argument(parser: argparse.ArgumentParser) -> None:
         "--topic",
         metavar="NAME",
         help="the sensor_msgs/JointState topic of a ROS bag log (default: the "
-        "bag's one topic of that type; a CSV log has no topic: not used)",
+        "bag's one topic of that type; refused when no log is a bag)",
     )
+
+
+def check_topic(args: argparse.Namespace, logs: Sequence[str] | None = None) -> None:
+    """``--topic`` names a bag's topic: refused when no log of the command is a bag.
+
+    The logs: ``LOG`` and ``--validate``'s files (``logs``: a fleet's). A topic
+    given with CSV logs only was ignored, so a bag's fit could be validated on
+    a CSV file by mistake, without a word.
+
+    Raises:
+        ValueError: naming the option and the logs.
+    """
+    from drake_dynid.core._validate import listed
+    from drake_dynid.ros_bag import is_bag
+
+    topic = getattr(args, "topic", None)
+    if topic is None:
+        return
+    if logs is None:
+        logs = [*log_files(args), *log_files(args, "validate")]
+    if not any(is_bag(path) for path in logs):
+        raise ValueError(
+            f"--topic {topic}: no log is a ROS bag ({listed(logs, 4)}); a CSV log "
+            "has no topic: leave the option out, or give the bag."
+        )
 
 
 def urdf_argument(text: str) -> str:
@@ -527,7 +552,7 @@ def read_robot_log(
     positions (τ = 0, not checked; ``dynid replay``). A ROS bag (alone) is read
     as its CSV export (:func:`_read_bag_log`); ``topic``: ``--topic`` (a bag's;
     not used with CSV files: the fitted log may be a bag and ``--validate``'s a
-    CSV file).
+    CSV file; :func:`check_topic` refuses it when no log is a bag).
     """
     from drake_dynid.ros_bag import is_bag
 

@@ -180,6 +180,17 @@ def _check_joint_options(args: argparse.Namespace) -> None:
     parse_locked(getattr(args, "lock", None))
 
 
+def _check_topic(args: argparse.Namespace) -> None:
+    """``--topic`` needs a ROS bag among the logs (``--validate``'s included).
+
+    Each log's run then reads it for a bag only (``fleet.run_one``), so that a
+    fleet of bags and CSV files reads the bags' topic.
+    """
+    from drake_dynid.commands._arguments import check_topic, log_files
+
+    check_topic(args, [*args.logs, *log_files(args, "validate")])
+
+
 def _check_shared_inputs(args: argparse.Namespace) -> None:
     """The URDF, drive file and --validate logs every log uses exist (local runs).
 
@@ -234,6 +245,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--jobs must be >= 1; got {args.jobs}.")
     _check_out_dir(args)
     _check_joint_options(args)
+    _check_topic(args)
     if args.scheduler is None:
         _check_shared_inputs(args)
     quiet = bool(args.quiet)

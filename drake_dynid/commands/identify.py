@@ -13,6 +13,7 @@ import numpy as np
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    check_topic,
     dead_zone_cover,
     dead_zone_line,
     load_robot_and_log,
@@ -1029,6 +1030,7 @@ def run(args: argparse.Namespace) -> int:
     )
 
     check_output_paths(args)
+    check_topic(args)
     check_regularization(args)
     if args.bootstrap is not None and (
         args.bootstrap < 0 or args.bootstrap == 1 or args.bootstrap > MAX_REPLICATES

@@ -9,6 +9,7 @@ from typing import Any
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    check_topic,
     dead_zone_cover,
     dead_zone_line,
     load_robot_and_log,
@@ -89,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.offline import identify_offline
 
     check_output_paths(args)
+    check_topic(args)
     check_regularization(args)
     if args.plot:
         matplotlib_pyplot()  # fail before the fit

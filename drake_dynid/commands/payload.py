@@ -12,6 +12,7 @@ import numpy as np
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    check_topic,
     dead_zone_line,
     log_files,
     model_settings,
@@ -341,6 +342,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.payload import payload_model
 
     check_output_paths(args)
+    check_topic(args)
     if args.every is not None and not (math.isfinite(args.every) and args.every > 0):
         raise ValueError(f"--every must be > 0 [s]; got {args.every:g}.")
     offset = _triple_or_six(args.offset)

@@ -15,6 +15,7 @@ from drake_dynid.commands._arguments import (
     add_joint_arguments,
     add_log_argument,
     add_time_unit_argument,
+    check_topic,
     drive_argument,
     log_files,
     read_robot_log,
@@ -155,6 +156,7 @@ def run(args: argparse.Namespace) -> int:
     if args.html is None:
         args.html = str(truth_path(files[0], ".meshcat.html"))
     check_output_paths(args)
+    check_topic(args)
     robot = robot_from_args(args, "replay", rotor_inertia=True)
     say = (lambda *a: None) if args.quiet else print
     bag = any(is_bag(path) for path in files)  # read by read_robot_log

@@ -24,6 +24,7 @@ from drake_dynid.commands._arguments import (
     add_joint_arguments,
     add_log_argument,
     add_time_unit_argument,
+    check_topic,
     dead_zone_line,
     log_files,
     read_robot_log,
@@ -599,6 +600,7 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.validation import read_estimates, read_results
 
     check_output_paths(args)
+    check_topic(args)
     if args.plot:
         from drake_dynid.commands._report import matplotlib_pyplot
 
