@@ -26,13 +26,27 @@ from pathlib import Path
 from typing import Any, TextIO
 
 __all__ = [
+    "STDOUT",
     "file_key",
     "json_text",
+
+
+    "is_stdout",
     "repeated_file",
     "same_file",
     "write_text_whole",
     "write_whole",
 ]
+
+
+#: The output path that means standard output (the commands' JSON and CSV
+#: outputs: ``--json -``, ``--out -``; README "Bad options and outputs").
+STDOUT = "-"
+
+
+def is_stdout(path: str | os.PathLike | None) -> bool:
+    """Whether ``path`` is :data:`STDOUT` (standard output, not a file)."""
+    return path is not None and os.fspath(path) == STDOUT
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
@@ -120,7 +134,8 @@ def write_whole(
     file keeps its permissions (a new one gets the umask's). Anything else
     (``/dev/null``, a named pipe), a file in a folder where no other file can
     be made, or a file that cannot be replaced (a bind mount of one file:
-    ``EBUSY``), is written in place.
+    ``EBUSY``), is written in place. ``path`` :data:`STDOUT` (``-``): written
+    to ``sys.stdout``, then flushed (as a pipe, not whole or not at all).
 
     Raises:
         OSError: naming ``path`` (a full disk's error names no file); the
@@ -131,6 +146,13 @@ def write_whole(
     def in_place(name: str | os.PathLike) -> None:
         with open(name, "w", encoding="utf-8", newline=newline) as stream:
             write(stream)
+
+    if is_stdout(path):
+        import sys
+
+        write(sys.stdout)
+        sys.stdout.flush()
+        return
 
     try:
         try:

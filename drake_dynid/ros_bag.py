@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core._validate import listed
-from drake_dynid.files import write_whole
+from drake_dynid.files import is_stdout, write_whole
 
 __all__ = [
     "JOINT_STATE",
@@ -313,7 +313,8 @@ def export_bag(
     message has efforts; which optional joints occur) is judged from the first
     block and checked at the end: where the bag proves it wrong, the file is
     written again in a second pass over the bag (time, not memory). An output
-    that cannot be rewound (a pipe) is written after a pass that only reads.
+    that cannot be rewound (a pipe; ``out`` ``-``, standard output, always) is
+    written after a pass that only reads.
 
     Args:
         path: the bag (:func:`read_joint_states`).
@@ -340,7 +341,7 @@ def export_bag(
         sink = _Export(stream, columns, time, time_unit, held_out, held_column)
         try:
             plan = None
-            if not _rewinds(stream):
+            if is_stdout(out) or not _rewinds(stream):
                 plan = _scan(path, joints, topic, optional, None)[1]
             done = _scan(path, joints, topic, optional, sink, plan)[0]
             notes = []

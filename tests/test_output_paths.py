@@ -255,3 +255,50 @@ def test_an_empty_output_path_is_refused(files, capsys, command, option):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1, err
     assert f"{option}: the path is empty" in err, err
+
+
+REFUSED_ON_STDOUT = [
+    ("identify {log} --urdf {urdf} --plot -", "--plot"),
+    ("offline {log} --urdf {urdf} --urdf-out -", "--urdf-out"),
+    ("validate {log} --urdf {urdf} --params {params} --plot -", "--plot"),
+    ("simulate {urdf} --trajectory {trajectory} --out -", "--out"),
+    ("replay {urdf} {log} --html -", "--html"),
+    ("fleet offline {log} --urdf {urdf} --out-dir -", "--out-dir"),
+    ("offline {log} --urdf {urdf} --json - --out -", "--out and --json"),
+]
+
+
+@pytest.mark.parametrize(("command", "option"), REFUSED_ON_STDOUT)
+def test_an_output_that_is_no_text_for_a_pipe_refuses_dash(
+    files, capsys, monkeypatch, tmp_path, command, option
+):
+    """``-`` wrote a file named "-" (after the whole run); a figure, a URDF, a
+    page, a simulated log with its truth file and a fleet's folder refuse it,
+    and so do two outputs on standard output, before any work."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(command.format(**files).split()) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"error: {option} " in err and "'-'" in err, err
+    assert not (tmp_path / "-").exists()
+
+
+def test_dash_writes_the_json_and_csv_outputs_to_standard_output(
+    capsys, monkeypatch, tmp_path
+):
+    """``--json -`` and ``--out -`` (JSON, CSV) are standard output, holding
+    that file alone (the report is not printed, as with --quiet): the bytes
+    of the file the option writes; no file named "-"."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["params", "planar_2r", "--json", "p.json"]) == 0
+    capsys.readouterr()
+    assert cli.main(["params", "planar_2r", "--json", "-"]) == 0
+    assert capsys.readouterr().out == (tmp_path / "p.json").read_text()
+    trajectory = ["excite", "iiwa7", "--duration", "5", "--sample-rate", "50"]
+    assert cli.main([*trajectory, "--out", "t.csv", "--json", "t.json"]) == 0
+    capsys.readouterr()
+    assert cli.main([*trajectory, "--out", "-", "--json", "e.json"]) == 0
+    out = capsys.readouterr().out
+    assert out == (tmp_path / "t.csv").read_text()
+    assert out.startswith("t,q_iiwa_joint_1,") and out.count("\n") == 252
+    assert not (tmp_path / "-").exists()

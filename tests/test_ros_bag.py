@@ -724,3 +724,19 @@ def test_topic_without_a_bag_is_refused(arm, tmp_path, capsys):
         for name in ("log", "other")
     ]
     assert settings[0]["topic"] == "/joint_states" and "topic" not in settings[1]
+
+
+def test_bag2csv_out_dash_writes_the_export_to_standard_output(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """--out - wrote a file named "-"; it is standard output (read in a first
+    pass, never rewound: a redirected output may hold more), the bytes of the
+    exported file."""
+    monkeypatch.chdir(tmp_path)
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 500)))
+    assert cli.main(["bag2csv", str(bag), "--out", "log.csv", "--quiet"]) == 0
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == (tmp_path / "log.csv").read_text(), captured.err
+    assert not (tmp_path / "-").exists()

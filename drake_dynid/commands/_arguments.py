@@ -522,7 +522,11 @@ def add_common_arguments(
     )
     add_fill_gaps_argument(parser)
     add_time_unit_argument(parser)
-    parser.add_argument("--json", metavar="FILE", help="write a JSON summary to FILE")
+    parser.add_argument(
+        "--json",
+        metavar="FILE",
+        help="write a JSON summary to FILE (-: standard output)",
+    )
     parser.add_argument(
         "--quiet",
         action="store_true",

@@ -85,7 +85,7 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         "--out",
         metavar="FILE.csv",
         help="write the estimate as dynid identify --out does: t,valid,<names>,"
-        "std_<names> (one row, at the end of the fitted log)",
+        "std_<names> (one row, at the end of the fitted log; -: standard output)",
     )
     group.add_argument(
         "--plot",

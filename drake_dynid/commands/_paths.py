@@ -8,6 +8,11 @@ derived files such as ``dynid simulate``'s truth file) with every input
 resolved path, and by ``os.path.samefile`` where both exist (hard links and
 symbolic links included), and two outputs with each other. A new input or output
 option of any command is one entry in these tables.
+
+An output given as ``-`` is standard output where a pipe can take it, the JSON
+and CSV outputs (:data:`STDOUT_OUTPUTS`); the command then prints no report
+there (as ``--quiet``). Any other output refuses ``-`` (it wrote a file named
+``-``).
 """
 
 from __future__ import annotations
@@ -18,9 +23,15 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from drake_dynid.files import file_key
+from drake_dynid.files import file_key, is_stdout
 
-__all__ = ["INPUTS", "OUTPUTS", "check_output_paths", "check_outputs"]
+__all__ = [
+    "INPUTS",
+    "OUTPUTS",
+    "STDOUT_OUTPUTS",
+    "check_output_paths",
+    "check_outputs",
+]
 
 #: Attribute of the parsed arguments -> how a message names that input. A value
 #: may be one path or a list of paths (several raw logs).
@@ -46,6 +57,18 @@ OUTPUTS: dict[str, str] = {
     "html": "--html",
 }
 
+#: Command -> its outputs that ``-`` writes to standard output: the JSON and CSV
+#: files (not a figure, a URDF whose mesh paths are relative to its folder, a
+#: page, or a simulated log beside its truth file).
+STDOUT_OUTPUTS: dict[str, tuple[str, ...]] = {
+    "offline": ("--json", "--out"),
+    "identify": ("--json", "--out"),
+    "payload": ("--json", "--out"),
+    "validate": ("--json",),
+    "params": ("--json",),
+    "excite": ("--json", "--out"),
+    "bag2csv": ("--out",),
+}
 
 #: The figure formats ``--plot`` writes (matplotlib's Agg canvas), by extension.
 FIGURE_SUFFIXES = frozenset(
@@ -117,17 +140,23 @@ def _check_parent(option: str, path: str) -> None:
 def check_outputs(
     outputs: Mapping[str, str | os.PathLike | None],
     inputs: Sequence[str | os.PathLike | None] | Mapping[str, Any],
+    *,
+    stdout: Sequence[str] = (),
+    command: str = "this command",
 ) -> None:
     """Raises ValueError if an output would overwrite an input or another output.
 
     Also if the output's folder is missing or cannot be written, or its path is
-    empty (an output asked for must be written).
+    empty (an output asked for must be written), or it is ``-`` (standard
+    output) and not one of ``stdout``, or two are ``-``.
 
     Args:
         outputs: option name (e.g. ``"--out"``) -> path (None: not written).
         inputs: the paths read by the command (None entries ignored), or a mapping
             description -> path(s) (the description names the input in the
             message).
+        stdout: the options that may be ``-`` (:data:`STDOUT_OUTPUTS`).
+        command: how the messages name the command (``dynid offline``).
     """
     if isinstance(inputs, Mapping):
         named = [
@@ -139,7 +168,28 @@ def check_outputs(
         if path is not None and os.fspath(path) == "":
             # --urdf-out "" (an unset shell variable) would silently write nothing.
             raise ValueError(f"{option}: the path is empty; give a file path.")
-    given = [(name, os.fspath(path)) for name, path in outputs.items() if path]
+    piped = [name for name, path in outputs.items() if is_stdout(path)]
+    for option in piped:
+        if option not in stdout:
+            takes = (
+                f"{command} writes {' and '.join(stdout)} only there (JSON or CSV text)"
+                if stdout
+                else f"{command} writes none of its outputs there"
+            )
+            raise ValueError(
+                f"{option} -: '-' is standard output, and {takes}; give {option} "
+                "a file name."
+            )
+    if len(piped) > 1:
+        raise ValueError(
+            f"{' and '.join(piped)} are both '-' (standard output); give one of "
+            "them a file name."
+        )
+    given = [
+        (name, os.fspath(path))
+        for name, path in outputs.items()
+        if path and not is_stdout(path)
+    ]
     # One key a path (files.file_key), so that a fleet of n logs checks its n
     # outputs against its n inputs in linear time, not n² same_file calls.
     sources: dict[tuple[Any, ...], tuple[str, str]] = {}
@@ -208,4 +258,12 @@ def check_output_paths(
         for attribute, description in INPUTS.items()
     }
     found_inputs.update(inputs or {})
-    check_outputs(found_outputs, found_inputs)
+    command = getattr(args, "command", None)
+    check_outputs(
+        found_outputs,
+        found_inputs,
+        stdout=STDOUT_OUTPUTS.get(command or "", ()),
+        command=f"dynid {command}" if command else "this command",
+    )
+    if any(is_stdout(path) for path in found_outputs.values()):
+        args.quiet = True  # standard output holds the file alone

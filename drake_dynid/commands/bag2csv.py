@@ -25,7 +25,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Adds the ``dynid bag2csv`` arguments."""
     parser.add_argument("bag", metavar="BAG", help="the ROS bag")
     parser.add_argument(
-        "--out", required=True, metavar="LOG.csv", help="the CSV log to write"
+        "--out",
+        required=True,
+        metavar="LOG.csv",
+        help="the CSV log to write (-: standard output)",
     )
     parser.add_argument(
         "--topic",

@@ -124,7 +124,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out",
         required=True,
         metavar="TRAJ.csv",
-        help="write the sampled trajectory (CSV)",
+        help="write the sampled trajectory (CSV; -: standard output)",
     )
     parser.add_argument(
         "--json",

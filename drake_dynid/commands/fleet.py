@@ -152,6 +152,11 @@ def _check_out_dir(args: argparse.Namespace) -> None:
     from drake_dynid.fleet import output_paths
 
     folder = Path(args.out_dir)
+    if args.out_dir == "-":
+        raise ValueError(
+            "--out-dir -: a fleet writes a folder of files, not standard output "
+            "('-'); give a folder."
+        )
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"--out-dir {folder} is a file; give a folder.")
     if not folder.exists():

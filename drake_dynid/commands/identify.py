@@ -769,7 +769,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out",
         metavar="FILE.csv",
         help="write the estimates over time: t,valid,<base parameter names>,"
-        "std_<names> (empty cells before the first valid estimate)",
+        "std_<names> (empty cells before the first valid estimate; -: standard "
+        "output)",
     )
     outputs.add_argument(
         "--plot",

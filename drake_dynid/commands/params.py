@@ -41,7 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_joint_arguments(parser)
     add_drive_arguments(parser)
     parser.add_argument(
-        "--json", metavar="FILE", help="also write the parameters as JSON to FILE"
+        "--json",
+        metavar="FILE",
+        help="also write the parameters as JSON to FILE (-: standard output, alone)",
     )
 
 
@@ -168,41 +170,43 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.commands._paths import check_output_paths
 
     check_output_paths(args)  # --json never overwrites the URDF
+    # --json -: the JSON alone on standard output (check_output_paths).
+    say = (lambda *a: None) if getattr(args, "quiet", False) else print
     model = robot_from_args(args, "params")
     base = model.base
     values = model.base_values
     friction = ", ".join(model.friction) or "none"
-    print(f"robot: {args.urdf}")
-    print(f"joints ({model.num_joints}): {', '.join(model.joint_names)}")
+    say(f"robot: {args.urdf}")
+    say(f"joints ({model.num_joints}): {', '.join(model.joint_names)}")
     if model.locked:
         locked = ", ".join(f"{k}={v:g}" for k, v in model.locked.items())
-        print(f"locked ({len(model.locked)}): {locked}")
+        say(f"locked ({len(model.locked)}): {locked}")
     for k, (name, (leader, a, b)) in enumerate(model.mimic.items()):
         link = model.num_joints + k + 1
-        print(f"mimic: {name} = {a:g} x {leader} + {b:g} (link {link})")
+        say(f"mimic: {name} = {a:g} x {leader} + {b:g} (link {link})")
     if model.drive is not None:
         for line in drive_lines(model.drive):
-            print(line)
-    print(
+            say(line)
+    say(
         f"standard parameters: {base.num_standard}; base parameters: "
         f"{base.num_base} (friction: {friction}; rotor inertia: "
         f"{'yes' if model.rotor_inertia else 'no'})"
     )
     for line in rank_lines(base):
-        print(line)
+        say(line)
     rows = [
         (name, _number(value), base.definition_text(name))
         for name, value in zip(base.names, values, strict=True)
     ]
     headers = ("name", "value", "definition")
     widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(headers)]
-    print()
-    print(f"{headers[0]:<{widths[0]}}  {headers[1]:>{widths[1]}}  {headers[2]}")
-    print(f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}")
+    say()
+    say(f"{headers[0]:<{widths[0]}}  {headers[1]:>{widths[1]}}  {headers[2]}")
+    say(f"{'-' * widths[0]}  {'-' * widths[1]}  {'-' * widths[2]}")
     for name, value, definition in rows:
-        print(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
+        say(f"{name:<{widths[0]}}  {value:>{widths[1]}}  {definition}")
     if args.json:
         document = params_document(model, args.urdf, args.drive)
         write_json(args.json, document)  # whole or not at all
-        print(f"\nwrote {args.json}")
+        say(f"\nwrote {args.json}")
     return 0

@@ -200,7 +200,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     outputs.add_argument(
         "--out",
         metavar="FILE.csv",
-        help="write the estimates over time: t,valid,<payload names>,std_<names>",
+        help="write the estimates over time: t,valid,<payload names>,std_<names> "
+        "(-: standard output)",
     )
     outputs.add_argument(
         "--plot", metavar="FILE.png", help="plot the estimates over time"

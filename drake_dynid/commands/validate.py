@@ -581,7 +581,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_fill_gaps_argument(parser)
     add_time_unit_argument(parser)
-    parser.add_argument("--json", metavar="FILE", help="write the errors as JSON")
+    parser.add_argument(
+        "--json", metavar="FILE", help="write the errors as JSON (-: standard output)"
+    )
     parser.add_argument(
         "--plot", metavar="FILE.png", help="plot measured and predicted torques"
     )
