@@ -44,6 +44,7 @@ import dataclasses
 import io
 import os
 import re
+import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -304,8 +305,9 @@ def export_bag(
 
     The rows of :func:`write_export` on :func:`read_joint_states`'s arrays, bit
     for bit, in bounded memory: the messages are decoded and written
-    :data:`EXPORT_ROWS` at a time, nothing else grows with the bag (but
-    rosbags' own index of a ROS 1 bag, about 200 bytes a message).
+    :data:`EXPORT_ROWS` at a time, nothing else grows with the bag (a ROS 1
+    bag is read a chunk at a time, :class:`_Ros1Chunks`; where rosbags' reader
+    reads it, its index of every message, about 350 bytes each).
 
     What the header and the time column need of the whole bag (the joints when
     ``joints`` is None: the most frequent set of names; whether every stamp is
@@ -595,7 +597,10 @@ def _scan(
     highlevel = _rosbags()
     given = None if joints is None else tuple(joints)
     try:
-        with highlevel.AnyReader([storage]) as reader:
+        chunks = None
+        if path.lower().endswith(".bag"):
+            chunks = _Ros1Chunks.open(path)  # None: rosbags' reader
+        with chunks or highlevel.AnyReader([storage]) as reader:
             topic, connections = _topic(path, reader, topic)
             passes = 0
             while True:
@@ -1020,3 +1025,206 @@ def _write_block(stream: Any, cells: list[str], data: np.ndarray | None) -> None
     np.savetxt(body, data, delimiter=",", fmt="%.17g")
     lines = body.getvalue().splitlines()
     stream.write("".join(f"{s},{line}\n" for s, line in zip(cells, lines, strict=True)))
+
+
+# ------------------------------------------------------------------ ROS 1 chunks
+_U32 = struct.Struct("<I")
+_TIME = struct.Struct("<II")
+
+
+@dataclass(frozen=True)
+class _Connection:
+    """A ROS 1 bag's connection record (as rosbags' ``Connection`` names them)."""
+
+    id: int
+    topic: str
+    msgtype: str
+    msgdef: str
+    digest: str
+
+
+class BagFormatError(Exception):
+    """A ROS 1 bag's record that cannot be read (named with the bag by ``_scan``)."""
+
+
+def _fields(data: Any, pos: int) -> tuple[dict[str, bytes], int]:
+    """A record header's ``name=value`` fields at ``pos``, and where it ends."""
+    (size,) = _U32.unpack_from(data, pos)
+    pos, end = pos + 4, pos + 4 + size
+    fields = {}
+    while pos < end:
+        (length,) = _U32.unpack_from(data, pos)
+        name, _, value = bytes(data[pos + 4 : pos + 4 + length]).partition(b"=")
+        fields[name.decode("latin-1")] = value  # ASCII names; never fails
+        pos += 4 + length
+    if pos != end:
+        raise BagFormatError("a record header overruns its length")
+    return fields, end
+
+
+def _read_record(stream: Any) -> tuple[dict[str, bytes], bytes]:
+    """The file's next record: its header fields and its data."""
+    (size,) = _U32.unpack(stream.read(4))
+    header = _U32.pack(size) + stream.read(size)
+    fields, _ = _fields(header, 0)
+    (size,) = _U32.unpack(stream.read(4))
+    data = stream.read(size)
+    if len(data) != size:
+        raise BagFormatError("a record is cut short")
+    return fields, data
+
+
+#: Chunks of a ROS 1 bag whose receive times may overlap at one instant, at most,
+#: for :class:`_Ros1Chunks` (held decompressed together; more: rosbags' reader).
+ROS1_OVERLAP = 8
+
+
+class _Ros1Chunks:
+    """A ROS 1 bag read a chunk at a time (bounded memory), in rosbags' order.
+
+    rosbags' ROS 1 reader indexes every message when it opens a bag (about
+    350 B a message: 486 MB on 1 M messages). This reads the ROS bag 2.0
+    format's records itself (http://wiki.ros.org/Bags/Format/2.0): the bag
+    header, the connection and chunk-info records at its index position, then
+    the chunks by start time, each decompressed whole (none, bz2, lz4), their
+    messages merged in rosbags' order (receive time, then the connection's
+    rank, the chunk's place in the file and the message's in the chunk); a
+    chunk is read once the merge reaches its start time, so only the chunks
+    whose receive times overlap are held together (a recording's: one or two).
+    rosbags' typestore deserializes the messages from the connections'
+    definitions (as its ``AnyReader``). :meth:`open` returns None where
+    rosbags' reader is to decide (its errors: no index, encryption, a record
+    it would refuse, a definition that does not match its md5), or where more
+    than :data:`ROS1_OVERLAP` chunks overlap at one instant.
+    """
+
+    def __init__(
+        self,
+        stream: Any,
+        connections: list[_Connection],
+        chunks: list[tuple[int, int, int]],
+    ) -> None:
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self.stream, self.connections = stream, connections
+        self.chunks = chunks  # (start time [ns], position, place in the file)
+        self.typestore = get_typestore(Stores.EMPTY)
+        states = [c for c in connections if c.msgtype == JOINT_STATE]
+        for c in states:
+            self.typestore.register(get_types_from_msg(c.msgdef, c.msgtype))
+        for c in states:
+            if self.typestore.generate_msgdef(c.msgtype)[1] != c.digest:
+                raise ValueError("a message definition does not match its md5")
+
+    @classmethod
+    def open(cls, path: str) -> _Ros1Chunks | None:
+        """The bag, or None where rosbags' reader is to read it (class docstring)."""
+        import contextlib
+
+        stream = open(path, "rb")
+        try:
+            if stream.readline() != b"#ROSBAG V2.0\n":
+                raise ValueError("no ROS bag 2.0")
+            fields, _ = _read_record(stream)
+            (index,) = struct.unpack("<Q", fields["index_pos"])
+            if not index or fields.get("encryptor"):
+                raise ValueError("not indexed, or encrypted")
+            (count,) = _U32.unpack(fields["conn_count"])
+            (chunks,) = _U32.unpack(fields["chunk_count"])
+            stream.seek(index)
+            connections = []
+            for _ in range(count):
+                fields, data = _read_record(stream)
+                about, _ = _fields(_U32.pack(len(data)) + data, 0)  # fields only
+                kind = about["type"].decode()
+                topic = fields["topic"].decode()
+                connections.append(
+                    _Connection(
+                        _U32.unpack(fields["conn"])[0],
+                        ("/" if topic.startswith("/") else "")
+                        + "/".join(x for x in topic.split("/") if x),
+                        kind if "/msg/" in kind else kind.replace("/", "/msg/", 1),
+                        about["message_definition"].decode(),
+                        about["md5sum"].decode(),
+                    )
+                )
+            infos, events = [], []
+            for _ in range(chunks):
+                fields, _ = _read_record(stream)
+                (position,) = struct.unpack("<Q", fields["chunk_pos"])
+                start, end = _time(fields["start_time"]), _time(fields["end_time"])
+                infos.append((start, position))
+                events += [(start, 0), (end, 1)]  # at one time: starts first
+            depth = held = 0
+            for _, kind_ in sorted(events):
+                held += 1 if kind_ == 0 else -1
+                depth = max(depth, held)
+            if depth > ROS1_OVERLAP:
+                raise ValueError("too many chunks overlap in time")
+            places = {p: k for k, p in enumerate(sorted(p for _, p in infos))}
+            ordered = sorted((start, p, places[p]) for start, p in infos)
+            return cls(stream, connections, ordered)
+        except Exception:  # rosbags' reader reads it, or names the problem
+            with contextlib.suppress(OSError):
+                stream.close()
+            return None
+
+    def __enter__(self) -> _Ros1Chunks:
+        return self
+
+    def __exit__(self, *args: object) -> None:
+        self.stream.close()
+
+    def messages(self, connections: Sequence[_Connection]) -> Any:
+        """``(connection, receive time [ns], data)`` in rosbags' order."""
+        import heapq
+
+        rank = {c.id: (k, c) for k, c in enumerate(connections)}
+        heap: list[tuple[int, int, int, int, Any, bytes, int]] = []
+        chunks = iter(self.chunks)
+        waiting = next(chunks, None)
+        while heap or waiting is not None:
+            # Every chunk starting at or before the earliest message held.
+            while waiting is not None and (not heap or waiting[0] <= heap[0][0]):
+                for item in self._chunk(waiting[1], waiting[2], rank):
+                    heapq.heappush(heap, item)
+                waiting = next(chunks, None)
+            if heap:
+                time, _, _, stop, c, data, start = heapq.heappop(heap)
+                yield c, time, data[start:stop]  # the chunk's bytes: held till then
+
+    def _chunk(self, position: int, place: int, rank: dict[int, Any]) -> Any:
+        """The messages of the chunk at ``position``, as ``messages``' heap keys."""
+        import bz2
+
+        import lz4.frame  # type: ignore[import-untyped]  # rosbags needs it
+
+        self.stream.seek(position)
+        fields, data = _read_record(self.stream)
+        compression = fields["compression"]
+        if compression == b"bz2":
+            data = bz2.decompress(data)
+        elif compression == b"lz4":
+            data = lz4.frame.decompress(data)
+        elif compression != b"none":
+            raise BagFormatError(f"compression {compression.decode()!r} unknown")
+        pos = 0
+        while pos < len(data):
+            header, pos = _fields(data, pos)
+            (size,) = _U32.unpack_from(data, pos)
+            pos += 4 + size
+            if header["op"] == b"\x02":
+                found = rank.get(_U32.unpack(header["conn"])[0])
+                if found is not None:
+                    time = _time(header["time"])
+                    yield time, found[0], place, pos, found[1], data, pos - size
+
+    def deserialize(self, data: bytes, msgtype: str) -> Any:
+        """The message (rosbags' typestore)."""
+        return self.typestore.deserialize_ros1(data, msgtype)
+
+
+def _time(value: bytes) -> int:
+    """A ROS 1 time field (two uint32: s, ns) in ns."""
+    sec, ns = _TIME.unpack(value)
+    return sec * 1_000_000_000 + ns
