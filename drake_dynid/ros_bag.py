@@ -1084,7 +1084,7 @@ class _Ros1Chunks:
 
     rosbags' ROS 1 reader indexes every message when it opens a bag (about
     350 B a message: 486 MB on 1 M messages). This reads the ROS bag 2.0
-    format's records itself (http://wiki.ros.org/Bags/Format/2.0): the bag
+    format's records itself: the bag
     header, the connection and chunk-info records at its index position, then
     the chunks by start time, each decompressed whole (none, bz2, lz4), their
     messages merged in rosbags' order (receive time, then the connection's
