@@ -724,6 +724,11 @@ def test_a_bag_of_many_joints_is_named_in_short_lines(tmp_path, capsys):
     bag = tmp_path / "log.bag"
     messages = [(0, EPOCH + k, EPOCH + k, wide, [0.0] * 2000, []) for k in (1, 2)]
     write_bag(bag, "ros1", messages)
+    assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "wide.csv")]) == 0
+    assert capsys.readouterr().out.endswith(
+        "2 messages of /joint_states, joints j0, j1, j2, j3, j4, j5, j6, j7, j8, "
+        "j9, j10, j11, j12, j13, j14, j15, j16, j17, j18, j19 and 1980 more\n"
+    )
     assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
     assert error_line(capsys).endswith(
         "holds every joint needed (joint1, joint2); its messages name: [j0, j1, "

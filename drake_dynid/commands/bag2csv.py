@@ -68,8 +68,10 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not args.quiet:
+        from drake_dynid.core._validate import listed
+
         print(
             f"wrote {args.out}: {done.rows} messages of {done.topic}, "
-            f"joints {', '.join(names)}"
+            f"joints {listed(names)}"
         )
     return 0
