@@ -28,10 +28,8 @@ from typing import Any, TextIO
 __all__ = [
     "STDOUT",
     "file_key",
-    "json_text",
-
-
     "is_stdout",
+    "json_text",
     "repeated_file",
     "same_file",
     "write_text_whole",
