@@ -168,6 +168,39 @@ def test_the_readme_makes_this_log_with_the_example(log_file, tmp_path, capsys):
     np.testing.assert_array_equal(made.tau, fixture.tau)
 
 
+def test_an_invalid_final_window_labels_the_table_with_its_estimates_time(
+    log_file, tmp_path, capsys
+):
+    """The pick log, then 1 s at rest: the final window is not valid and the table
+    holds the last valid window's estimate. Its heading said "final estimate (t =
+    4.001 s)" above the estimate of 3.8 s (the TIAGo recording: t = 80.22 s above
+    the window of 68.75 s), which only a line below the table corrected."""
+    from drake_dynid.logs import read_log
+
+    names = RobotModel.from_urdf(URDF).joint_names
+    log = read_log(log_file, names)
+    q, tau = np.asarray(log.q), np.asarray(log.tau)
+    rng = np.random.default_rng(0)
+    rest = 1000
+    path = tmp_path / "pick_rest.csv"
+    write_log(
+        path,
+        np.arange(q.shape[0] + rest) * log.time_step,
+        np.vstack([q, q[-1] + 1e-4 * rng.normal(size=(rest, 7))]),
+        np.vstack([tau, tau[-1] + 0.05 * rng.normal(size=(rest, 7))]),
+        names,
+    )
+    assert cli.main(["payload", str(path), "--urdf", URDF, *COMMON]) == 0
+    printed = capsys.readouterr().out
+    last = re.search(r"the last valid estimate \(t = ([0-9.]+) s\) is shown", printed)
+    assert last, printed
+    assert "final estimate (t = 4.001 s)" not in printed
+    assert (
+        f"last valid estimate (t = {last[1]} s; the final window, t = 4.001 s, is "
+        "not valid), about the attachment frame, in its axes:"
+    ) in printed
+
+
 @pytest.mark.parametrize(
     "option, message",
     [

@@ -507,9 +507,15 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
         print()
         _print_every(args.every, rows, trace, settings, t)
     print()
-    print(
-        f"final estimate (t = {t[-1]:.4g} s), about the attachment frame, in its axes:"
+    last = int(np.flatnonzero(np.asarray(trace.valid) > 0.5)[-1]) if reason else -1
+    # The table holds the last valid window's estimate: its time heads it.
+    shown = (
+        f"last valid estimate (t = {t[last]:.4g} s; the final window, t = "
+        f"{t[-1]:.4g} s, is not valid)"
+        if reason
+        else f"final estimate (t = {t[-1]:.4g} s)"
     )
+    print(f"{shown}, about the attachment frame, in its axes:")
     for text in estimates_table(trace.names, trace.theta[-1], trace.std[-1]):
         print(text)
     print()
@@ -526,7 +532,6 @@ def _print(args, robot, log, rows, trace, summary, settings, source, t, reason) 
             f"{', '.join(summary['not_identifiable'])} (regrouped or never seen)"
         )
     if reason:
-        last = int(np.flatnonzero(np.asarray(trace.valid) > 0.5)[-1])
         print(
             f"final window INVALID: {reason}; the last valid estimate (t = "
             f"{t[last]:.4g} s) is shown"
