@@ -337,6 +337,35 @@ def test_the_tiago_recording_as_a_bag_reads_through_the_drive_file(tmp_path, cap
     on_csv, _ = run_json(capsys, ["offline", *files, *options], tmp_path / "c.json")
     assert on_bag["parameters"] == on_csv["parameters"]
     assert on_bag["validation"]["estimates"] == on_csv["validation"]["estimates"]
+    # dynid bag2csv with the command's --urdf, --joints and --drive writes the
+    # export that command read (the drive file's columns, its time unit): the
+    # same estimate. Its plain-format file (q_, tau_, ns stamps) was all it wrote,
+    # which --drive tiago refuses ("no column(s) '- torso_lift_joint_position'").
+    export = tmp_path / "export.csv"
+    argv = ["bag2csv", str(bag), "--out", str(export), *options[:6]]
+    assert cli.main(argv) == 0, capsys.readouterr().err
+    header = export.read_text().split("\n", 1)[0].split(",")
+    assert header[:2] == ["t", "- torso_lift_joint_position"]
+    assert header[-1] == "- arm_7_joint_effort" and len(header) == 17
+    on_export, _ = run_json(
+        capsys, ["offline", str(export), *options], tmp_path / "x.json"
+    )
+    assert on_export["parameters"] == on_bag["parameters"]
+    assert on_export["validation"]["estimates"] == on_bag["validation"]["estimates"]
+
+
+def test_bag2csv_takes_urdf_and_lock_only_with_a_drive_file(arm, tmp_path, capsys):
+    names, stamps, q, tau = arm
+    bag = tmp_path / "log.bag"
+    write_bag(
+        bag, "ros1", [(0, stamps[k], stamps[k], names, q[k], tau[k]) for k in range(20)]
+    )
+    out = str(tmp_path / "out.csv")
+    assert cli.main(["bag2csv", str(bag), "--out", out, "--urdf", "planar_2r"]) == 2
+    assert "--urdf is for --drive" in error_line(capsys)
+    assert cli.main(["bag2csv", str(bag), "--out", out, "--drive", "tiago"]) == 2
+    assert "needs --urdf" in error_line(capsys)
+    assert not pathlib.Path(out).exists()
 
 
 def test_bag2csv_keeps_the_most_frequent_joints_and_empty_efforts(

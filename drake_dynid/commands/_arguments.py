@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import sys
 from collections.abc import Mapping, Sequence
@@ -622,6 +623,70 @@ def _read_files(
 EPOCH_NOTE = "time stamps read as integer nanoseconds since the epoch"
 
 
+@dataclasses.dataclass(frozen=True)
+class BagLayout:
+    """The CSV export of a ROS bag that the robot's log reader reads.
+
+    Attributes:
+        time: the time column's name (``t``; a drive file's ``[log] time``).
+        time_unit: its unit (None: the plain format's; a drive file's unit).
+        positions: the position columns (``q_<joint>``; the drive file's).
+        torques: the torque columns (``tau_<joint>``; the drive file's).
+        joints: the joints the messages must hold for those columns.
+        held: the locked and mimic joints, whose positions ``locked_motion``
+            checks.
+        held_template: their column names (``{joint}``), or None when the
+            log format names no joint-side position.
+    """
+
+    time: str
+    time_unit: str | None
+    positions: list[str]
+    torques: list[str]
+    joints: tuple[str, ...]
+    held: list[str]
+    held_template: str | None
+
+
+def bag_layout(robot: Any, bag: str) -> BagLayout:
+    """The columns a bag's messages are written to for ``robot``'s log reader.
+
+    The plain format (``t`` in integer ns, ``q_<joint>``, ``tau_<joint>``), or with
+    a drive chain its ``[log]`` columns in its time unit: what the commands read
+    when given the bag, and what ``dynid bag2csv`` writes with the same options.
+
+    Raises:
+        ValueError: a drive file's column that no JointState field gives (named).
+    """
+    from drake_dynid.ros_bag import needed_joints
+
+    chain = robot.drive
+    if chain is None:
+        time, unit = "t", None
+        positions = [f"q_{name}" for name in robot.joint_names]
+        torques = [f"tau_{name}" for name in robot.joint_names]
+    else:
+        time, unit = chain.log.time, chain.log.time_unit
+        positions = list(chain.log.position_columns)
+        torques = list(chain.log.torque_columns)
+    try:
+        joints = needed_joints([*positions, *torques])
+    except ValueError as error:
+        raise ValueError(f"log {bag}: --drive {chain.source}: {error}") from None
+    held = [
+        *(getattr(robot, "locked", None) or {}),
+        *(getattr(robot, "mimic", None) or {}),
+    ]
+    # The positions that locked_motion checks (the locked and mimic joints'),
+    # named as the log format names a position.
+    template = (
+        "q_{joint}"
+        if chain is None
+        else getattr(chain.log, "joint_position_template", None)
+    )
+    return BagLayout(time, unit, positions, torques, joints, held, template)
+
+
 def _read_bag_log(
     files: Sequence[str],
     robot: Any,
@@ -643,11 +708,10 @@ def _read_bag_log(
     bag2csv``'s export). The bag's notes (skipped messages, receive times) come
     first among the log's warnings.
     """
-    import dataclasses
     import os
     import tempfile
 
-    from drake_dynid.ros_bag import export_bag, needed_joints
+    from drake_dynid.ros_bag import export_bag
 
     if len(files) != 1:
         raise ValueError(
@@ -661,29 +725,10 @@ def _read_bag_log(
         )
     bag = files[0]
     chain = robot.drive
-    if chain is None:
-        time, unit = "t", None
-        positions = [f"q_{name}" for name in robot.joint_names]
-        torques = [f"tau_{name}" for name in robot.joint_names]
-    else:
-        time, unit = chain.log.time, chain.log.time_unit
-        positions = list(chain.log.position_columns)
-        torques = list(chain.log.torque_columns)
-    try:
-        joints = needed_joints([*positions, *torques])
-    except ValueError as error:
-        raise ValueError(f"log {bag}: --drive {robot.drive.source}: {error}") from None
-    held = [
-        *(getattr(robot, "locked", None) or {}),
-        *(getattr(robot, "mimic", None) or {}),
-    ]
-    # The positions that locked_motion checks (the locked and mimic joints'),
-    # named as the log format names a position.
-    template = (
-        "q_{joint}"
-        if chain is None
-        else getattr(chain.log, "joint_position_template", None)
-    )
+    layout = bag_layout(robot, bag)
+    time, unit, joints = layout.time, layout.time_unit, layout.joints
+    positions, torques = layout.positions, layout.torques
+    held, template = layout.held, layout.held_template
 
     def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
         return [*positions, *(torques if efforts or not torques_optional else [])]
@@ -713,7 +758,14 @@ def _read_bag_log(
                 f"ROS bag {bag}: writing its CSV export in "
                 f"{os.path.dirname(folder)} failed ({error.strerror or error}); "
                 "set TMPDIR to a folder with room, or export it once with dynid "
-                "bag2csv BAG --out LOG.csv and give that file."
+                "bag2csv BAG --out LOG.csv"
+                + (
+                    ""
+                    if chain is None
+                    else " (with this command's --urdf, --joints, --lock and "
+                    "--drive: the drive file's columns)"
+                )
+                + " and give that file."
             ) from None
         if not done.efforts and not torques_optional:
             raise ValueError(

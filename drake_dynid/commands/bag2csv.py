@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 import sys
 
-from drake_dynid.commands._arguments import parse_joints
+from drake_dynid.commands._arguments import (
+    DRIVE_METAVAR,
+    URDF_HELP,
+    drive_argument,
+    parse_joints,
+    robot_from_args,
+    urdf_argument,
+)
 from drake_dynid.commands._paths import check_output_paths
 
 HELP = "write a ROS bag's sensor_msgs/JointState messages as a CSV log"
@@ -16,8 +23,11 @@ DESCRIPTION = (
     "every stamp is 0), q_<joint> (position[]) and tau_<joint> (effort[], when the "
     "messages have efforts), one row per message, row 2 the first. It is the file "
     "the other commands read when given the bag (their messages name its rows); "
-    "messages without every joint (another publisher on the topic) are skipped, "
-    "with a note. Needs the rosbags package (pip install 'drake_dynid[ros]')."
+    "with a drive file they read the drive file's [log] columns instead, in its "
+    "time unit: give --drive with the command's --urdf (and --joints, --lock) to "
+    "write those, the file the command then reads as it reads the bag. Messages "
+    "without every joint (another publisher on the topic) are skipped, with a "
+    "note. Needs the rosbags package (pip install 'drake_dynid[ros]')."
 )
 
 
@@ -40,7 +50,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--joints",
         metavar="J1,J2,...",
         help="the joints written, in this order (default: the joints of the "
-        "topic's most frequent message, in its order)",
+        "topic's most frequent message, in its order); with --drive, the "
+        "command's --joints: the joints whose drive columns are written",
+    )
+    parser.add_argument(
+        "--drive",
+        metavar=DRIVE_METAVAR,
+        type=drive_argument,
+        help="write the columns of this drive file's [log] table (its time column "
+        "and unit, e.g. tiago's '- <joint>_position' and '- <joint>_effort' in "
+        "seconds) instead of the plain format: the export that the commands read "
+        "when given the bag with this drive file; needs --urdf",
+    )
+    parser.add_argument(
+        "--urdf",
+        metavar="MODEL.urdf",
+        type=urdf_argument,
+        help=f"with --drive: {URDF_HELP}, whose joints the drive file's motors drive",
+    )
+    parser.add_argument(
+        "--lock",
+        metavar="NAME=VALUE,...",
+        help="with --drive: the command's --lock (locked joints' positions)",
     )
     parser.add_argument("--quiet", action="store_true", help="print nothing on stdout")
 
@@ -51,20 +82,46 @@ def run(args: argparse.Namespace) -> int:
 
     args.log = args.bag  # an input: --out is checked against it
     check_output_paths(args)
-    joints = parse_joints(args.joints)
+    if args.drive is None:
+        for option, value in (("--urdf", args.urdf), ("--lock", args.lock)):
+            if value is not None:
+                raise ValueError(
+                    f"{option} is for --drive (the drive file's columns are "
+                    "resolved against the robot's joints); without --drive the "
+                    "plain format needs no robot: leave it out."
+                )
+        joints = parse_joints(args.joints)
+        time, unit = "t", None
 
-    def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
-        out = [f"q_{name}" for name in names]
-        return out + [f"tau_{name}" for name in names] * efforts
+        def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
+            out = [f"q_{name}" for name in names]
+            return out + [f"tau_{name}" for name in names] * efforts
 
-    done = export_bag(args.bag, args.out, joints, columns, topic=args.topic)
+    else:
+        from drake_dynid.commands._arguments import bag_layout
+
+        if args.urdf is None:
+            raise ValueError(
+                f"--drive {args.drive} needs --urdf (with the command's --joints "
+                "and --lock): the drive file's motors and columns are resolved "
+                "against the robot's joints."
+            )
+        layout = bag_layout(robot_from_args(args, "bag2csv"), args.bag)
+        joints, time, unit = layout.joints, layout.time, layout.time_unit
+
+        def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
+            return [*layout.positions, *layout.torques * efforts]
+
+    done = export_bag(
+        args.bag, args.out, joints, columns, topic=args.topic, time=time, time_unit=unit
+    )
     names = done.joint_names
     for note in done.notes:
         print(f"dynid bag2csv: note: {note}", file=sys.stderr)
     if not done.efforts:
         print(
             f"dynid bag2csv: note: the messages on {done.topic} carry no effort[]: "
-            "no tau_<joint> column written.",
+            "no torque column written.",
             file=sys.stderr,
         )
     if not args.quiet:
