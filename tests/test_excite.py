@@ -11,6 +11,7 @@ import json
 
 import numpy as np
 import pytest
+from _cli import error_line
 from _drake_dynamics import drake_torques
 
 from drake_dynid import cli
@@ -282,6 +283,29 @@ def test_cli_excite_missing_limits_and_never_overwrites(tmp_path, capsys):
     ]  # fmt: skip
     assert cli.main(argv) == 0
     assert "collision geometries" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "outputs, option",
+    [
+        (["--out", "traj.json"], "--out"),
+        (["--out", "t.csv", "--json", "c.csv"], "--json"),
+    ],
+)
+def test_an_output_named_as_the_other_format_is_refused(
+    tmp_path, capsys, outputs, option
+):
+    """A user's `--out traj.json` got the CSV samples in a .json file, which
+    simulate and replay then read as --json's coefficients: 'trajectory
+    coefficients traj.json: unreadable (Expecting value ...); expected the JSON
+    written by dynid excite --json'. Refused before the design, naming the
+    format each option writes."""
+    urdf = folding_urdf(tmp_path)
+    argv = ["excite", urdf, *(str(tmp_path / p) if "." in p else p for p in outputs)]
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    assert line.startswith(f"dynid excite: error: {option} ") and "CSV" in line
+    assert not any((tmp_path / p).exists() for p in outputs if "." in p)
 
 
 def test_a_limits_file_of_the_whole_robot_serves_a_subset_of_its_joints():

@@ -243,6 +243,20 @@ def run(args: argparse.Namespace) -> int:
     from drake_dynid.urdf import MissingFileError
 
     check_output_paths(args)
+    # simulate and replay read a .json trajectory as --json's coefficients and
+    # any other as --out's CSV samples: a file named as the other format is read
+    # as it, and refused there with a message that does not say why.
+    if args.out.lower().endswith(".json"):
+        raise ValueError(
+            f"--out {args.out}: --out writes the sampled trajectory as CSV, and a "
+            ".json trajectory is read as the coefficients of --json; name it .csv "
+            "(the coefficients: --json FILE.json)."
+        )
+    if args.json and args.json.lower().endswith(".csv"):
+        raise ValueError(
+            f"--json {args.json}: --json writes the coefficients as JSON, and a .csv "
+            "trajectory is read as the CSV samples of --out; name it .json."
+        )
     margins = parse_margins(args.margin)
     try:
         settings = ExcitationSettings(
