@@ -347,6 +347,13 @@ def test_identify_bad_options_exit_2(log_file, capsys):
     assert cli.main([*base, "--window", "5"]) == 2
     message = _error(capsys)
     assert "lasts 3 s" in message and "shorten --window" in message
+    # With --split, the fitted part is what is too short: the message said 'log
+    # LOG lasts 1.499 s' of this 3 s log ('--split 0.3' of the iiwa7's 60 s log:
+    # 'lasts 17.999 s').
+    assert cli.main([*base, "--window", "2", "--split", "0.5"]) == 2
+    message = _error(capsys)
+    assert "its first 50 % (--split 0.5) lasts 1.499 s" in message
+    assert "raise --split" in message
     assert cli.main([*base, "--window", "-1"]) == 2
     assert "window must be > 0" in _error(capsys)
     assert cli.main([*base, *FAST[2:], "--window", "2", "--frequencies", "a,b"]) == 2
@@ -372,6 +379,11 @@ def test_offline_bad_options_exit_2(log_file, capsys):
     assert "--decimation-cutoff must be in (0, 500) [Hz]" in _error(capsys)
     assert cli.main([*base, "--cutoff", "0.5"]) == 2
     assert "--cutoff must be >= 1.33 Hz on this log" in _error(capsys)
+    # The fitted part of --split is named, not the log ('log LOG: the longest
+    # finite segment has 3 samples' of a 3001-sample log).
+    assert cli.main([*base, "--split", "0.001"]) == 2
+    message = _error(capsys)
+    assert "robot.csv, its first 0.1 % (--split 0.001): the longest finite" in message
 
 
 def test_installed_entry_point_runs_offline(log_file, tmp_path):

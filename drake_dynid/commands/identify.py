@@ -361,10 +361,18 @@ def check_log_values(args: argparse.Namespace, log: Any, settings: Any) -> None:
         raise ValueError(f"log {args.log}: {str(error).split(': ', 1)[1]}") from None
     needed = settings.window + settings.jacobi_window
     if log.duration <= needed:
+        split = getattr(args, "split", None)  # ``log`` is then the fitted part
+        fitted = (
+            f"log {args.log} lasts"
+            if split is None
+            else f"log {args.log}: its first {100 * split:g} % (--split {split:g}) "
+            "lasts"
+        )
+        longer = "record a longer log" + (", raise --split" if split else "")
         raise ValueError(
-            f"log {args.log} lasts {log.duration:g} s; the on-line identifier needs "
-            f"more than --window + --jacobi-window = {needed:g} s before its first "
-            "estimate: record a longer log or shorten --window."
+            f"{fitted} {log.duration:g} s; the on-line identifier needs more than "
+            f"--window + --jacobi-window = {needed:g} s before its first estimate: "
+            f"{longer} or shorten --window."
         )
 
 

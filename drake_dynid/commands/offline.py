@@ -85,6 +85,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_model_arguments(parser)
 
 
+def _fitted(args: argparse.Namespace) -> str:
+    """The fitted log in a message: with ``--split``, its first part, so named."""
+    split = getattr(args, "split", None)
+    if split is None:
+        return f"log {args.log}"
+    return f"log {args.log}, its first {100 * split:g} % (--split {split:g})"
+
+
 def run(args: argparse.Namespace) -> int:
     """Runs IDIM-LS/WLS on the log; prints the table; writes JSON when asked."""
     from drake_dynid.offline import identify_offline
@@ -109,11 +117,11 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as error:
         message = option_message(str(error), FILTER_OPTIONS, ("identify_offline",))
-        raise ValueError(f"log {args.log}: {message}") from None
+        raise ValueError(f"{_fitted(args)}: {message}") from None
     settings = result.settings
     if not result.valid:
         raise ValueError(
-            f"the least squares on log {args.log} failed: "
+            f"the least squares on {_fitted(args)} failed: "
             f"{result.reason.rstrip('.')}. Use a log "
             "with more excitation (every joint moving, velocity reversals), fewer "
             "friction columns (--friction), or another --cutoff."
