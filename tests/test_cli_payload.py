@@ -313,6 +313,28 @@ def test_the_default_bank_step_follows_the_jacobi_window(tmp_path, capsys):
         assert "or shorten --bank-time-step to at most" in err
 
 
+def test_the_arm_line_says_a_files_physical_estimate_is_not_used(
+    log_file, tmp_path, capsys
+):
+    """--params of a `dynid offline --physical --json` file takes its fit (whose
+    covariance the file records), not its physical estimate; the arm line named
+    the file alone ('arm: fit.json (57 base parameters, known; ...)'), so a user
+    who ran --physical for a consistent arm could not tell which was used."""
+    arm = tmp_path / "apriori.json"
+    assert cli.main(["params", URDF, "--json", str(arm)]) == 0
+    document = json.loads(arm.read_text())
+    document["physical"] = {"parameters": document["parameters"]}
+    both = tmp_path / "both.json"
+    both.write_text(json.dumps(document))
+    argv = ["payload", log_file, "--urdf", URDF, *COMMON]
+    assert cli.main([*argv, "--params", str(both)]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("arm:"))
+    assert "known, the fit's estimate; not the file's physical one" in line
+    assert cli.main([*argv, "--params", str(arm)]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("arm:"))
+    assert "physical" not in line
+
+
 def test_a_params_file_without_a_coulomb_law_gets_the_auto_dead_zone(
     log_file, tmp_path
 ):

@@ -136,7 +136,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the arm's parameters: a results file of dynid offline/identify "
         "--json (or dynid params --json); default: the URDF's values. The "
         "covariance a dynid offline/identify file holds is propagated to the "
-        "payload's σ",
+        "payload's σ; of a file with a --physical estimate, the fit's (whose "
+        "covariance it is) is used",
     )
     group = parser.add_argument_group(
         "identifier settings (default: the payload identifier's, "
@@ -283,7 +284,9 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
             # a-priori values): the widths are measured on the log, as without it.
             args.dead_zone = "auto"
         robot = results_robot(args, document)
-        arm = read_estimates(document, robot, f"--params {args.params}")["fit"]
+        estimates = read_estimates(document, robot, f"--params {args.params}")
+        arm = estimates["fit"]  # the covariance the file records is the fit's
+        args.arm_physical_unused = "physical" in estimates
         names = [entry.get("name") for entry in document.get("parameters", [])]
         covariance, args.arm_covariance = _arm_covariance(
             document,
@@ -563,7 +566,12 @@ def _arm_line(args: argparse.Namespace, rows: Any, source: str) -> str:
         held = "their covariance not propagated under --uncertainty gautier"
     else:
         held = "no covariance in the file: taken as exact"
-    return f"arm: {where} ({len(rows.arm)} base parameters, known; {held})"
+    which = (
+        ", the fit's estimate; not the file's physical one"
+        if getattr(args, "arm_physical_unused", False)
+        else ""
+    )
+    return f"arm: {where} ({len(rows.arm)} base parameters, known{which}; {held})"
 
 
 def _print_every(every: float, rows, trace, settings, t) -> None:
