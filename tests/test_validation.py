@@ -893,6 +893,24 @@ def test_the_moving_error_leaves_out_the_torque_static_friction_holds(robot):
     assert np.all(zoned.moving_relative_rms_percent < 0.5)
 
 
+def test_a_joint_whose_position_never_changes_never_moves(robot):
+    """A frozen encoder (q_j constant on the whole log): the standstill width
+    measured on it is round-off (3.1e-14 rad/s on the iiwa7's joint 7), and the
+    round-off velocities of its filtered constant passed it on 3 % of the
+    samples, which counted as moving (`100.00 (3 %)`, and in the all-joint
+    moving error). README: 'nan (0 %) for a joint that never moves'."""
+    log = _pinocchio_log(5, 4.0, noise=1.0)
+    q = np.array(log.q)
+    q[:, 1] = 0.07  # joint 2's encoder frozen (its torque as recorded)
+    frozen = RobotLog(log.t, q, log.tau, log.joint_names, H)
+    result = validate_torques(frozen, robot, robot.base_values)
+    assert result.moving_rule == "measured"
+    assert result.moving_fraction[1] == 0.0 and np.isinf(result.moving_widths[1])
+    assert np.isnan(result.moving_relative_rms_percent[1])
+    assert np.isfinite(result.moving_widths[0]) and result.moving_fraction[0] > 0.3
+    assert np.isfinite(result.moving_relative_rms_percent[0])
+
+
 def test_a_log_too_short_to_measure_the_standstill_keeps_the_validations_message(
     robot,
 ):

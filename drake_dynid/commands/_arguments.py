@@ -1014,41 +1014,6 @@ def _sample_line(cells, checks, low, high, worst) -> None:
             worst[name] = max(worst.get(name, 0.0), abs(value - expected))
 
 
-def _constant_columns(values: Any) -> list[tuple[int, float]]:
-    """(column, value) of the columns whose finite samples are all one value.
-
-    An array is screened on every 64th row first (a reduction along a narrow
-    C-order array costs 1.6 ms per 60 000 × 7): only the columns constant there
-    are read in full. A stored log's columns are read a block at a time.
-    """
-    import numpy as np
-
-    from drake_dynid.core.blocks import blocks, is_stored
-
-    def extremes(block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        finite = np.isfinite(block)
-        return (
-            np.min(block, axis=0, where=finite, initial=np.inf),
-            np.max(block, axis=0, where=finite, initial=-np.inf),
-        )
-
-    columns = list(range(values.shape[1]))
-    if not is_stored(values):
-        low, high = extremes(np.asarray(values[::64], dtype=float))
-        columns = [j for j in columns if low[j] == high[j]]
-        if not columns:
-            return []
-        values = np.asarray(values, dtype=float)[:, columns]
-    low = np.full(len(columns), np.inf)
-    high = np.full(len(columns), -np.inf)
-    for _, block in blocks(values):
-        if block.shape[1] != len(columns):
-            block = block[:, columns]
-        block_low, block_high = extremes(block)
-        low, high = np.minimum(low, block_low), np.maximum(high, block_high)
-    return [(j, float(low[k])) for k, j in enumerate(columns) if low[k] == high[k]]
-
-
 def constant_channels(log: Any, *, torques: bool = True) -> str | None:
     """A warning naming the q and τ columns that never change (None if none).
 
@@ -1057,10 +1022,12 @@ def constant_channels(log: Any, *, torques: bool = True) -> str | None:
     changes (all zeros: not recorded) makes every estimate fit that constant.
     Finite samples only; q only without ``torques`` (a log read for its motion).
     """
+    from drake_dynid.core.blocks import constant_columns
+
     names = log.joint_names
     channels = (("q", log.q), ("tau", log.tau)) if torques else (("q", log.q),)
     found = {
-        label: [f"{label}_{names[j]} = {value:g}" for j, value in _constant_columns(x)]
+        label: [f"{label}_{names[j]} = {value:g}" for j, value in constant_columns(x)]
         for label, x in channels
     }
     found.setdefault("tau", [])

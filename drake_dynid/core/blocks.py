@@ -17,7 +17,14 @@ import numpy as np
 
 from drake_dynid.core import _validate as check
 
-__all__ = ["BLOCK_ROWS", "blocks", "checked_rows", "is_stored", "segment"]
+__all__ = [
+    "BLOCK_ROWS",
+    "blocks",
+    "checked_rows",
+    "constant_columns",
+    "is_stored",
+    "segment",
+]
 
 BLOCK_ROWS = 1 << 16
 """Rows per block of the loops over a log."""
@@ -64,3 +71,35 @@ def checked_rows(owner: str, name: str, x: Any, ndim: int | None = None) -> Any:
     if bad:
         check.fail(owner, f"{name} must be finite; got {bad} NaN or infinite value(s).")
     return x
+
+
+def constant_columns(values: Any) -> list[tuple[int, float]]:
+    """(column, value) of the columns whose finite samples are all one value.
+
+    An array is screened on every 64th row first (a reduction along a narrow
+    C-order array costs 1.6 ms per 60 000 × 7): only the columns constant there
+    are read in full. A stored log's columns are read a block at a time.
+    """
+
+    def extremes(block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        finite = np.isfinite(block)
+        return (
+            np.min(block, axis=0, where=finite, initial=np.inf),
+            np.max(block, axis=0, where=finite, initial=-np.inf),
+        )
+
+    columns = list(range(values.shape[1]))
+    if not is_stored(values):
+        low, high = extremes(np.asarray(values[::64], dtype=float))
+        columns = [j for j in columns if low[j] == high[j]]
+        if not columns:
+            return []
+        values = np.asarray(values, dtype=float)[:, columns]
+    low = np.full(len(columns), np.inf)
+    high = np.full(len(columns), -np.inf)
+    for _, block in blocks(values):
+        if block.shape[1] != len(columns):
+            block = block[:, columns]
+        block_low, block_high = extremes(block)
+        low, high = np.minimum(low, block_low), np.maximum(high, block_high)
+    return [(j, float(low[k])) for k, j in enumerate(columns) if low[k] == high[k]]
