@@ -354,6 +354,33 @@ def test_the_tiago_recording_as_a_bag_reads_through_the_drive_file(tmp_path, cap
     assert on_export["validation"]["estimates"] == on_bag["validation"]["estimates"]
 
 
+def test_a_drive_file_whose_columns_no_message_gives_is_named_once(
+    arm, tmp_path, capsys
+):
+    """The wrist4 drive file names motor encoders ('enc_m1'), which no JointState
+    field gives: the message said '--drive drive file F: column ...'."""
+    names, stamps, q, tau = arm
+    bag = tmp_path / "log.bag"
+    write_bag(
+        bag, "ros1", [(0, stamps[k], stamps[k], names, q[k], tau[k]) for k in range(20)]
+    )
+    data = ROOT / "tests" / "data"
+    options = [
+        "--urdf",
+        str(data / "wrist4.urdf"),
+        "--drive",
+        str(data / "wrist4.toml"),
+    ]
+    for argv in (
+        ["offline", str(bag), *options],
+        ["bag2csv", str(bag), "--out", str(tmp_path / "x.csv"), *options],
+    ):
+        assert cli.main(argv) == 2
+        line = error_line(capsys)
+        assert f"log {bag}: drive file {data / 'wrist4.toml'}: column 'enc_m1'" in line
+        assert "--drive drive file" not in line
+
+
 def test_bag2csv_takes_urdf_and_lock_only_with_a_drive_file(arm, tmp_path, capsys):
     names, stamps, q, tau = arm
     bag = tmp_path / "log.bag"

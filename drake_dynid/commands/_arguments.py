@@ -672,7 +672,7 @@ def bag_layout(robot: Any, bag: str) -> BagLayout:
     try:
         joints = needed_joints([*positions, *torques])
     except ValueError as error:
-        raise ValueError(f"log {bag}: --drive {chain.source}: {error}") from None
+        raise ValueError(f"log {bag}: {chain.source}: {error}") from None
     held = [
         *(getattr(robot, "locked", None) or {}),
         *(getattr(robot, "mimic", None) or {}),
