@@ -295,3 +295,23 @@ def test_the_fitted_log_is_no_validation_log(tmp_path, capsys, monkeypatch):
     line = error_line(capsys)
     assert "--validate ./log.csv is the fitted log (log.csv)" in line
     assert "--split" in line
+
+
+def test_files_in_other_column_names_are_pointed_to_a_drive_file(tmp_path, capsys):
+    """Positions and efforts apart in ROS-export names (the TIAGo's '- <joint>_
+    position'), given without --drive: one file of them named a drive file in its
+    message, two joined on time did not (a new user's first run on the TIAGo)."""
+    rows = range(40)
+    (tmp_path / "p.csv").write_text(
+        "t,- joint1_position,- joint2_position\n"
+        + "".join(f"{0.01 * k},{0.01 * k},{-0.01 * k}\n" for k in rows)
+    )
+    (tmp_path / "e.csv").write_text(
+        "t,- joint1_effort,- joint2_effort\n"
+        + "".join(f"{0.01 * k},1,2\n" for k in rows)
+    )
+    files = [str(tmp_path / "p.csv"), str(tmp_path / "e.csv")]
+    for logs in (files[:1], files):
+        assert cli.main(["offline", *logs, "--urdf", "planar_2r"]) == 2
+        line = error_line(capsys)
+        assert "column(s)" in line and "described in a drive file" in line, line

@@ -610,11 +610,23 @@ def _read_files(
         from drake_dynid.core.drive import DriveChain
         from drake_dynid.raw_log import read_raw_log
 
+        plain = chain is None
         if chain is None:
             chain = DriveChain.from_dict({}, robot.joint_names, source="log format")
         if not torques:
             chain = chain.positions_only()
-        log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
+        try:
+            log = read_raw_log(files, chain, resample=resample, fill_gaps=gaps)
+        except ValueError as error:
+            # As the one-file reader says (log_table): the plain names are not
+            # the only ones a log may have.
+            if not (plain and ": no column(s) " in str(error)):
+                raise
+            raise ValueError(
+                f"{str(error).rstrip('.')}; other column names are described in a "
+                "drive file ([log] time, position and torque templates, "
+                "docs/DRIVE.md)."
+            ) from None
     return log, torques
 
 
