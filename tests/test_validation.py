@@ -9,6 +9,7 @@ import csv
 import json
 import os
 import re
+import types
 
 import numpy as np
 import pytest
@@ -814,7 +815,6 @@ def test_a_physical_estimate_worse_than_the_fit_is_named():
     """Found by a review: on the TIAGo (whose torso effort leaves gravity out) the
     physical estimate predicted the held-out torques at 20.8 % against the fit's
     14.5 % (torso 185 % against 35.5 %), and nothing said so."""
-    import types
 
     from drake_dynid.commands.validate import physical_worse
 
@@ -926,3 +926,27 @@ def test_a_log_too_short_to_measure_the_standstill_keeps_the_validations_message
     short = RobotLog(t[:40], q[:40], np.ones((40, 2)), robot.joint_names, H)
     with pytest.raises(ValueError, match="validate_torques: no finite segment"):
         validate_torques(short, robot, robot.base_values)
+
+
+def test_validate_does_not_call_its_log_held_out(monkeypatch, capsys):
+    """Found by a new user's pass: ``dynid validate`` of the fitted log itself said
+    the physical estimate 'predicts the held-out torques worse'."""
+    from drake_dynid.commands import validate as command
+
+    def result(total):
+        return types.SimpleNamespace(
+            joint_names=("j",),
+            relative_rms_percent=np.array([total]),
+            total_relative_rms_percent=total,
+        )
+
+    found = {"idim-ls": result(1.0), "physical": result(30.0)}
+    monkeypatch.setattr(command, "run_validations", lambda *a, **k: found)
+    monkeypatch.setattr(command, "validation_document", lambda *a: {})
+    for name, words in (
+        ("validate", "predicts the torques of the validated log worse"),
+        ("offline", "predicts the held-out torques worse"),
+    ):
+        args = types.SimpleNamespace(command=name, quiet=True, plot=None)
+        command.report_validation(args, None, None, "log.csv", {})
+        assert words in capsys.readouterr().err

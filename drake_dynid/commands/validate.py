@@ -446,8 +446,13 @@ PHYSICAL_WORSE = 1.25
 PHYSICAL_WORSE_POINTS = 1.0
 
 
-def physical_worse(validations: Mapping[str, Any]) -> str | None:
+def physical_worse(
+    validations: Mapping[str, Any], what: str = "the held-out torques"
+) -> str | None:
     """A note when the physical estimate predicts the held-out torques worse.
+
+    ``what`` names the torques compared (``dynid validate``: a log that may be
+    the fitted one, so not called held out).
 
     The constraints (positive masses, inertias, friction) can pull an estimate
     away from what the data say: a torque the model cannot describe (the TIAGo's
@@ -480,7 +485,7 @@ def physical_worse(validations: Mapping[str, Any]) -> str | None:
     ]
     where = f" ({'; '.join(joints)})" if joints else ""
     return (
-        f"the physical estimate predicts the held-out torques worse than the fit: "
+        f"the physical estimate predicts {what} worse than the fit: "
         f"{total:.3g} % against {reference:.3g} % over all joints{where}. The "
         "constraints pull it away from what the data say (a torque the model "
         "cannot describe, such as gravity left out of a logged effort, or too "
@@ -522,9 +527,14 @@ def report_validation(
         print()
         for line in validation_lines(validations, description):
             print(line)
-    worse = physical_worse(validations)
+    command = getattr(args, "command", None) or "validate"
+    worse = physical_worse(
+        validations,
+        "the torques of the validated log"
+        if command == "validate"
+        else "the held-out torques",
+    )
     if worse:
-        command = getattr(args, "command", None) or "validate"
         print(f"dynid {command}: note: {worse}", file=sys.stderr)
     if plot_title is not None and args.plot:
         write_torque_plot(
