@@ -536,3 +536,29 @@ def test_no_coulomb_width_hint_without_coulomb_friction(experiment, tmp_path, ca
         assert cli.main(argv) == 0
         hint = re.search(r"score it with: (.*)", capsys.readouterr().out).group(1)
         assert ("--coulomb-width 0.01" in hint) is hinted, hint
+
+
+def test_hint_names_a_packaged_model_as_typed_and_units(
+    experiment, tmp_path, capsys, monkeypatch
+):
+    """Found by a new user's pass: 'dynid simulate planar_2r ...' suggested
+    '--urdf /abs/path/to/drake_dynid/models/planar_2r.urdf' and printed σ_q and
+    the tracking error without units."""
+    monkeypatch.chdir(tmp_path)
+    argv = [
+        "simulate", "planar_2r", "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--duration", "0.5",
+        "--out", "log.csv",
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out
+    hint = re.search(r"score it with: (.*)", out).group(1)
+    assert hint.startswith("dynid offline log.csv --urdf planar_2r "), hint
+    assert re.search(r"σ_q = [0-9.e-]+ rad,", out), out
+    assert re.search(r"largest tracking error [0-9.e-]+ rad \(joint", out), out
+    # A file of that name here is what the bare name means: the path is kept.
+    from drake_dynid.commands._arguments import short_packaged
+
+    (tmp_path / "planar_2r").write_text("")
+    assert short_packaged(model_path("planar_2r")) == str(model_path("planar_2r"))
+    assert short_packaged("my/robot.urdf") == "my/robot.urdf"

@@ -402,6 +402,25 @@ def urdf_argument(text: str) -> str:
     return _packaged(text, ".urdf")
 
 
+def short_packaged(path: Any, suffix: str = ".urdf") -> str:
+    """The name a user types for ``path``: a packaged file's bare name, else ``path``.
+
+    ``drake_dynid/models/iiwa7.urdf`` -> ``iiwa7`` when that name, given again,
+    still means the packaged file (:func:`_packaged`); for the command lines the
+    commands suggest (``dynid simulate``'s "score it with").
+    """
+    from pathlib import Path
+
+    text = str(path)
+    name = Path(text).name
+    if not name.lower().endswith(suffix):
+        return text
+    stem = name[: -len(suffix)]
+    if stem and _packaged(stem, suffix) == text:
+        return stem
+    return text
+
+
 def _packaged(text: str, suffix: str) -> str:
     """``text``, or ``drake_dynid/models/<text><suffix>`` when that is meant.
 

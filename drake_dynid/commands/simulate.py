@@ -22,6 +22,7 @@ from drake_dynid.commands._arguments import (
     parse_friction,
     parse_joints,
     parse_locked,
+    short_packaged,
     urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
@@ -236,7 +237,7 @@ def _identify_hint(
     friction in the model (FC = 0) the width is not suggested: it changes nothing
     in the log.
     """
-    parts = ["dynid offline", str(args.out), "--urdf", str(args.urdf)]
+    parts = ["dynid offline", str(args.out), "--urdf", short_packaged(args.urdf)]
     if args.joints:
         parts += ["--joints", ",".join(robot.joint_names)]
     if args.lock:
@@ -247,7 +248,7 @@ def _identify_hint(
     if coulomb and "coulomb" in robot.friction and smoothing > 0.0:
         parts += ["--coulomb-width", f"{smoothing:g}"]
     if args.drive:
-        parts += ["--drive", str(args.drive)]
+        parts += ["--drive", short_packaged(args.drive, ".toml")]
     if robot.rotor_inertia:
         parts.append("--rotor-inertia")
     if tuple(robot.friction) != ("viscous", "coulomb"):
@@ -341,15 +342,19 @@ def run(args: argparse.Namespace) -> int:
     )
     if robot.drive is not None:
         say(_drive_line(robot, drive))
+    prismatic = tuple(getattr(robot, "prismatic", ())) or (False,)
+    unit = "m" if all(prismatic) else "rad or m" if any(prismatic) else "rad"
     noise = (
         f"SNR {args.snr:g} dB"
         if args.snr is not None
-        else f"σ_q = {settings.noise_q:g}, σ_τ = {settings.noise_tau:g} × std(τ)"
+        else f"σ_q = {settings.noise_q:g} {unit}, σ_τ = {settings.noise_tau:g} × std(τ)"
     )
+    worst = int(np.argmax(log.max_tracking_error))
+    worst_unit = "m" if worst < len(prismatic) and prismatic[worst] else "rad"
     say(
         f"log: {log.t.size} samples at {args.rate:g} Hz, seeded noise ({noise}); "
-        f"largest tracking error {log.max_tracking_error.max():.3g} "
-        f"(joint {robot.joint_names[int(np.argmax(log.max_tracking_error))]})"
+        f"largest tracking error {log.max_tracking_error.max():.3g} {worst_unit} "
+        f"(joint {robot.joint_names[worst]})"
     )
     for note in (*log.notes, *_beyond_limits(reference, log, limits)):
         print(f"dynid simulate: warning: {note}", file=sys.stderr)
