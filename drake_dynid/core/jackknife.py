@@ -16,7 +16,8 @@ leaves a replicate without it almost undetermined there, and the plain deletion
 blows its σ up: on the real TIAGo's final window (README) the replicate without
 ℓ = 0, 1 keeps 8e-7 of one direction's information and the total mass M1R got
 0.87 kg, 208 times the window's sandwich σ (the off-line fit: 0.0084 kg). Such a
-group enters with its bias-reduced deviation instead (:data:`MIN_INFORMATION`).
+group enters with its bias-reduced deviation instead, and a group near the limit
+with a blend of the two that is continuous in μ (:data:`MIN_INFORMATION`).
 """
 
 from __future__ import annotations
@@ -27,18 +28,26 @@ import numpy as np
 
 from drake_dynid.core import _validate as v
 
-__all__ = ["MIN_INFORMATION", "jackknife_std", "stacked_jackknife_std"]
+__all__ = [
+    "MIN_INFORMATION",
+    "deviation_power",
+    "jackknife_std",
+    "stacked_jackknife_std",
+]
 
-#: A group whose deletion leaves less than this share of some direction's
-#: information (the smallest eigenvalue μ_g of I - Q_g Q_gᵀ) enters the jackknife
-#: with its bias-reduced deviation S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-1/2) e_g (Bell and
-#: McCaffrey's CR2: unbiased for independent rows of one variance) instead of the
-#: deletion's S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)⁻¹ e_g, whose variance along that
-#: direction is 1/μ_g times the group's share (docs/MATH.md §4). The TIAGo's final
-#: window (μ = 8e-7): σ of M1R 0.87 -> 0.0042 kg. Low on purpose: the Lagrangian
-#: benchmarks' windows (μ_g >= 3.6e-5) keep their deletions, whose larger σ
-#: covers a bias of the rows (at 0.05 the iiwa7's err/σ p90 rose to 2.7-3.4
-#: with filtered rows).
+#: Where a group's deletion stops being trusted: the centre, in log μ, of the
+#: decade over which a group whose deletion leaves the share μ_g of some
+#: direction's information (the smallest eigenvalue of I - Q_g Q_gᵀ) passes from
+#: the deletion's deviation S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)⁻¹ e_g, whose variance
+#: along that direction is 1/μ_g times the group's share, to the bias-reduced
+#: S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-1/2) e_g (Bell and McCaffrey's CR2: unbiased
+#: for independent rows of one variance); in between (I - Q_g Q_gᵀ)^(-p) with p
+#: linear in log μ_g (:func:`deviation_power`, docs/MATH.md §4). Before, a
+#: step at μ_g = 1e-5: σ fell 340 times as μ_g crossed it (tests). The TIAGo's
+#: final window (μ = 8e-7): σ of M1R 0.87 -> 0.0042 kg. Low on purpose: the
+#: Lagrangian benchmarks' windows (μ_g >= 3.6e-5, above the blend) keep their
+#: deletions, whose larger σ covers a bias of the rows (at 0.05 the iiwa7's
+#: err/σ p90 rose to 2.7-3.4 with filtered rows).
 MIN_INFORMATION = 1e-5
 
 
@@ -64,10 +73,11 @@ def jackknife_std(
     Gautier's σ it does not assume independent rows of equal variance: it follows
     the spread of the estimate between groups of rows (for the modulated
     equations, one group per pair of modulating functions). A group whose
-    deletion keeps less than ``min_information`` of some direction's information
-    (the smallest eigenvalue μ_g of I - Q_g Q_gᵀ) enters with
-    ``S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-1/2) e_g`` in place of θ̂ - θ̂_(g)
-    (:data:`MIN_INFORMATION`).
+    deletion keeps little of some direction's information (μ_g, the smallest
+    eigenvalue of I - Q_g Q_gᵀ, below √10 · ``min_information``) enters with
+    ``S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-p) e_g`` in place of θ̂ - θ̂_(g), p from 1
+    (the deletion) down to 1/2 (the bias-reduced deviation) a decade lower
+    (:func:`deviation_power`, :data:`MIN_INFORMATION`).
 
     Args:
         A: (r, p) regressor, full column rank.
@@ -78,9 +88,9 @@ def jackknife_std(
             of the QR of the weighted, column-scaled A and the column norms S,
             ``core.lsq``), from a solve that found A full rank and well
             conditioned: then ``Q = A S⁻¹ R⁻¹`` and no new QR is taken.
-        min_information: μ_g below which a group's deviation is the
-            bias-reduced one; 0: every group's is the deletion's (the plain
-            jackknife).
+        min_information: the centre of the decade of μ_g over which a
+            group's deviation passes from the deletion's to the bias-reduced
+            one; 0: every group's is the deletion's (the plain jackknife).
 
     Returns:
         (p,) σ_J in the units of θ; NaN when there are fewer than 2 groups or
@@ -166,9 +176,9 @@ def stacked_jackknife_std(
         fine = _smallest_above(leverage, 1e-10)
         determined &= fine
         leverage[~fine] = np.eye(Qg.shape[2])
-        if min_information <= 0.0 or _all_above(leverage, min_information):
+        if min_information <= 0.0 or _all_above(leverage, _HALF * min_information):
             solved = np.linalg.solve(leverage, eg[..., None])
-        else:  # a group below min_information somewhere: group by group
+        else:  # a group within or below the blend somewhere: group by group
             solved = np.stack(
                 [
                     _deviation(leverage[:, j], eg[:, j], min_information)
@@ -185,16 +195,41 @@ def stacked_jackknife_std(
     return out
 
 
-def _deviation(leverage: np.ndarray, e: np.ndarray, limit: float) -> np.ndarray:
-    """L⁻¹ e, or L^(-1/2) e where L's smallest eigenvalue is below ``limit``.
+#: Half the blend's width in log μ: √10, the blend spans a decade.
+_HALF = np.sqrt(10.0)
 
-    ``leverage``: (K, n, n) I - Q_g Q_gᵀ of one group in K solves; ``e``: (K, n).
-    Returns (K, n, 1). The eigenvalues only when a Cholesky test fails.
+
+def deviation_power(mu: Any, centre: float = MIN_INFORMATION) -> np.ndarray:
+    """The power p of a group's deviation ``S⁻¹ R⁻¹ Q_gᵀ (I - Q_g Q_gᵀ)^(-p) e_g``.
+
+    ::
+
+        p(μ) = 1/2 + 1/2 · clip(log10(μ / centre) + 1/2, 0, 1)
+
+    μ: the group's μ_g (dimensionless, a share of information). p = 1 (the
+    deletion, θ̂ - θ̂_(g)) for μ >= √10 · centre, p = 1/2 (the bias-reduced
+    deviation) for μ <= centre/√10, linear in log μ between: a geometric blend
+    of the two, each direction's factor (1/μ_k)^w (1/√μ_k)^(1 - w) with
+    w = 2p - 1, continuous in μ (docs/MATH.md §4).
     """
-    if _all_above(leverage, limit):
+    share = np.maximum(np.asarray(mu, dtype=float), np.finfo(float).tiny)
+    return 0.5 + 0.5 * np.clip(np.log10(share / centre) + 0.5, 0.0, 1.0)
+
+
+def _deviation(leverage: np.ndarray, e: np.ndarray, centre: float) -> np.ndarray:
+    """L^(-p(μ)) e, L = I - Q_g Q_gᵀ, p from the smallest eigenvalue μ of L.
+
+    ``leverage``: (K, n, n) L of one group in K solves; ``e``: (K, n). Returns
+    (K, n, 1). One power per solve, for every direction of the group: the other
+    directions of a group that alone carries one keep little information too
+    (the TIAGo's final (ℓ = 0, 1): 1.4e-4, 1.7e-4, 7e-4 besides 8e-7), and
+    their deletions gave σ of MX3R 2.04 kg·m instead of 0.106 (sandwich 0.064,
+    off-line fit 0.021). The eigenvalues only when a Cholesky test fails.
+    """
+    if _all_above(leverage, _HALF * centre):
         return np.linalg.solve(leverage, e[..., None])
     mu, vectors = np.linalg.eigh(leverage)
-    power = np.where(mu[:, :1] >= limit, 1.0, 0.5)  # (K, 1): per solve
+    power = deviation_power(mu[:, :1], centre)  # (K, 1): per solve
     mu = np.maximum(mu, np.finfo(float).tiny)  # the undetermined: NaN in the caller
     projected = np.swapaxes(vectors, -1, -2) @ e[..., None]
     return vectors @ (projected / (mu**power)[..., None])

@@ -166,3 +166,65 @@ def test_without_min_information_it_is_the_plain_deletion_jackknife():
         _resolved(A, B, groups, np.ones(80)),
         rtol=1e-6,
     )
+
+
+def _carried_with_share(share):
+    """(A, B, groups): group 0 alone carries θ_1's direction, keeping ``share``.
+
+    As :func:`_one_group_carries` with column 1 ε·z outside group 0 (z, column 0
+    and the noise fixed), ε solved so that μ_0, the smallest eigenvalue of
+    I - Q_0 Q_0ᵀ, is ``share``: σ_J as a function of μ_0 alone.
+    """
+    from scipy.optimize import brentq
+
+    rng = np.random.default_rng(5)
+    groups = np.repeat(np.arange(10), 8)
+    column, z, noise = rng.normal(size=(3, 80))
+
+    def build(eps):
+        A = np.stack([column, eps * z], axis=1)
+        A[groups == 0, 1] = 1.0
+        return A
+
+    def log_mu(log_eps):
+        Q0 = np.linalg.qr(build(np.exp(log_eps)))[0][groups == 0]
+        return np.log(np.linalg.eigvalsh(np.eye(8) - Q0 @ Q0.T)[0] / share)
+
+    A = build(np.exp(brentq(log_mu, np.log(1e-6), np.log(10.0), xtol=1e-13)))
+    return A, A @ [1.0, 2.0] + 0.1 * noise, groups
+
+
+def test_sigma_is_continuous_in_the_share_a_carrying_group_leaves():
+    """No step at MIN_INFORMATION: a sliding window's μ_0 drifts across it.
+
+    Asserted (σ_J of both parameters as μ_0 varies, everything else fixed):
+    * across the old step (μ_0 = 0.99 and 1.01 times 1e-5) σ changes < 2×
+      (before: 340× on θ_1, 2.84 -> 0.0084);
+    * on a sweep 1e-7..1e-3 in steps of 0.05 decade no step exceeds 10^(0.05·3.5)
+      (|d log σ / d log μ| <= 3.5: the blend's steepest is 2.75, the
+      deletion's 0.5);
+    * θ_1's σ is unimodal: flat (bias-reduced) up to 1e-5/√10, rising through
+      the blend, then falling as the deletion's 1/√μ: one change of direction;
+    * above the blend it is the plain deletion's, below it flat (to 1 %).
+    """
+    from drake_dynid.core.jackknife import MIN_INFORMATION
+
+    def sigma(share, **kw):
+        return jackknife_std(*_carried_with_share(share), **kw)
+
+    below, above = sigma(0.99 * MIN_INFORMATION), sigma(1.01 * MIN_INFORMATION)
+    assert np.all(np.abs(np.log(above / below)) < np.log(2.0)), (below, above)
+
+    shares = np.logspace(-7, -3, 81)
+    sigmas = np.array([sigma(m) for m in shares])
+    steps = np.diff(np.log10(sigmas), axis=0)
+    assert np.abs(steps).max() <= 0.05 * 3.5, np.abs(steps).max(axis=0)
+    moves = np.sign(steps[:, 1][np.abs(steps[:, 1]) > 1e-3])
+    assert np.count_nonzero(np.diff(moves)) <= 1, moves
+    high = shares >= np.sqrt(10.0) * MIN_INFORMATION
+    plain = np.array([sigma(m, min_information=0.0) for m in shares[high]])
+    np.testing.assert_allclose(sigmas[high], plain, rtol=1e-10)
+    low = shares <= MIN_INFORMATION / np.sqrt(10.0)
+    np.testing.assert_allclose(
+        sigmas[low], np.broadcast_to(sigmas[0], sigmas[low].shape), rtol=0.01
+    )

@@ -229,3 +229,42 @@ def test_stacked_arguments_are_checked_as_the_single_solve_checks_them():
     with pytest.raises(ValueError, match=r"A must have shape \(K, rows, p\)"):
         solve_windows(A[0], B[0], noise=noise)
     assert noise_model_std(np.zeros(0), np.zeros(0), np.zeros(0, int)).shape == (0,)
+
+
+def test_stacked_jackknife_equals_the_single_one_within_the_blend(monkeypatch):
+    """Windows whose pair (ℓ = 0, 1) alone carries column 5 (as ℓ = 0 the gravity
+    columns), the others seeing ε of it: bias-reduced, blended and plain
+    deviations in one stacked call, one power per window (seed 12: 0.5, 0.5,
+    0.91, 0.82, 1)."""
+    from drake_dynid.core import jackknife
+
+    powers, power = [], jackknife.deviation_power
+
+    def recorded(mu, centre=jackknife.MIN_INFORMATION):
+        powers.append(power(mu, centre))
+        return powers[-1]
+
+    monkeypatch.setattr(jackknife, "deviation_power", recorded)
+    noise, groups = _design()
+    rng = np.random.default_rng(12)
+    theta = np.linspace(1.0, 2.0, P)
+    windows = []
+    for eps in (1e-5, 1e-3, 3e-3, 5e-3, 3e-2):
+        A = np.empty((noise.num_rows, P))
+        for j in range(M):
+            rows = noise.group == j
+            A[rows] = noise.factor @ rng.standard_normal((noise.factor.shape[1], P))
+        A[:, 5] *= np.where(groups == 0, 1.0, eps)
+        e = 0.05 * (1.0 + 0.2 * noise.frequency) * rng.standard_normal(len(A))
+        windows.append((A, A @ theta + e))
+    solve = dict(
+        weighting=(noise.frequency, noise.group), noise=noise, jackknife=groups
+    )
+    many = solve_windows(
+        np.stack([a for a, _ in windows]), np.stack([b for _, b in windows]), **solve
+    )
+    stacked = np.concatenate([np.ravel(p) for p in powers])
+    assert np.any(stacked == 0.5) and np.any(stacked == 1.0)
+    assert np.any((stacked > 0.55) & (stacked < 0.95))
+    for (a, b), result in zip(windows, many, strict=True):
+        _same(solve_window(a, b, **solve), result)
