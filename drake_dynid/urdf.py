@@ -406,6 +406,41 @@ def load_plant(
     return loaded.plant
 
 
+def _drop_placeholder_limits(plant: Any) -> str | None:
+    """Reads a movable joint's ``<limit>`` left at 0 as no limit; returns a note.
+
+    A revolute or prismatic joint whose ``lower == upper`` or whose ``velocity``
+    is 0 could not move: these are placeholders (the double pendulum of
+    example-robot-data writes ``lower="0" upper="0" effort="0" velocity="0"``).
+    Drake's discrete plant enforces position limits, so a [0, 0] range pinned the
+    simulated joint (a 3341 N·m command at t = 0 and exit 2), and ``dynid
+    excite`` refused a velocity limit of 0 without saying where it came from.
+    They become ±inf (not given: ``dynid excite`` then asks for ``--limits``);
+    an effort of 0 already reads as no effort limit.
+    """
+    found = []
+    for index in plant.GetJointIndices():
+        joint = plant.get_joint(index)
+        if joint.num_velocities() != 1:
+            continue
+        kinds = []
+        lower, upper = joint.position_lower_limits(), joint.position_upper_limits()
+        if lower[0] == upper[0]:
+            kinds.append(f"position {lower[0]:g} .. {upper[0]:g}")
+            joint.set_position_limits([-math.inf], [math.inf])
+        if joint.velocity_upper_limits()[0] == 0.0:
+            kinds.append("velocity 0")
+            joint.set_velocity_limits([-math.inf], [math.inf])
+        if kinds:
+            found.append(f"{joint.name()} ({', '.join(kinds)})")
+    if not found:
+        return None
+    return (
+        f"{len(found)} joint(s) whose <limit> gives a range or velocity of 0, a "
+        f"placeholder (the joint moves), read as no limit: {', '.join(found)}"
+    )
+
+
 def _check_limit(owner: str, file: Path, joint: Any) -> None:
     """A ``<limit>`` Drake asserts on (a crash, exit 1): lower > upper, velocity < 0.
 
@@ -869,6 +904,7 @@ def load_urdf(
         )
     if locked:
         _lock_joints(owner, plant, file, locked, mimic)
+    placeholders = _drop_placeholder_limits(plant)
     efforts = _urdf_efforts(root)
     untransmitted = _actuate_all(plant, mimic, efforts)
     actuated = untransmitted_note(untransmitted, efforts)
@@ -885,7 +921,9 @@ def load_urdf(
         if orphans
         else None
     )
-    notes = tuple(note for note in (actuated, summary, inertia, orphaned) if note)
+    notes = tuple(
+        note for note in (actuated, placeholders, summary, inertia, orphaned) if note
+    )
     return LoadedUrdf(
         plant=plant,
         notes=notes,

@@ -562,3 +562,30 @@ def test_hint_names_a_packaged_model_as_typed_and_units(
     (tmp_path / "planar_2r").write_text("")
     assert short_packaged(model_path("planar_2r")) == str(model_path("planar_2r"))
     assert short_packaged("my/robot.urdf") == "my/robot.urdf"
+
+
+def test_limits_left_at_zero_are_placeholders_not_a_pinned_joint(tmp_path, capsys):
+    """Found by the example-robot-data sweep: the double pendulum's <limit> is
+    lower="0" upper="0" effort="0" velocity="0". Drake's discrete plant enforced
+    the [0, 0] range, so `dynid simulate` (limits given by --limits) stopped at
+    t = 0 with a 3341 N·m command, and `dynid excite` refused "velocity limit of
+    joint joint1 must be > 0" without naming the URDF or --limits. Both read as
+    no limit now, with a note; excite asks for --limits, simulate tracks."""
+    text = Path(model_path("planar_2r")).read_text()
+    zero = '<limit lower="0" upper="0" effort="0" velocity="0"/>'
+    urdf = tmp_path / "zeros.urdf"
+    urdf.write_text(text.replace('<limit effort="10000" velocity="1000"/>', zero))
+    assert urdf.read_text().count(zero) == 2
+    assert cli.main(["excite", str(urdf), "--out", str(tmp_path / "x.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "placeholder" in err and "joint1 (position 0 .. 0, velocity 0)" in err
+    assert "lack(s) limits" in err and "--limits FILE" in err
+    limits = tmp_path / "limits.json"
+    entry = {"lower": -3.0, "upper": 3.0, "velocity": 5.0, "effort": 100.0}
+    limits.write_text(json.dumps({"joint1": entry, "joint2": entry}))
+    write_trajectory(tmp_path / "t.csv", _arm_sine(("joint1", "joint2"), 1.0))
+    argv = ["simulate", str(urdf), "--trajectory", str(tmp_path / "t.csv")]
+    argv += ["--limits", str(limits), "--out", str(tmp_path / "log.csv")]
+    assert cli.main(argv) == 0, capsys.readouterr().err
+    log = read_log(tmp_path / "log.csv", ("joint1", "joint2"))
+    assert np.ptp(log.q, axis=0).min() > 0.5  # both joints swing, none pinned at 0
