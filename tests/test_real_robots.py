@@ -151,6 +151,69 @@ CASES = {
         None,
         38,
     ),
+    # The sweep of every arm of example-robot-data through the CLI (README, "The
+    # whole CLI on every arm"): the counts it printed, checked here too.
+    "ur3": (
+        lambda: example_robot("ur_description/urdf/ur3_robot.urdf"),
+        None,
+        None,
+        36,
+    ),
+    "xarm7": (
+        lambda: example_robot("xarm_description/urdf/xarm7.urdf"),
+        None,
+        None,
+        43,
+    ),
+    "so101": (
+        lambda: example_robot("so_arm_description/urdf/so101.urdf"),
+        None,
+        None,
+        38,
+    ),
+    "double_pendulum": (
+        lambda: example_robot("double_pendulum_description/urdf/double_pendulum.urdf"),
+        None,
+        None,
+        6,
+    ),
+    "baxter_left_arm": (
+        lambda: example_robot("baxter_description/urdf/baxter.urdf"),
+        ("left_s0", "left_s1", "left_e0", "left_e1", "left_w0", "left_w1", "left_w2"),
+        None,
+        43,
+    ),
+    "pr2_left_arm": (  # two continuous joints
+        lambda: example_robot("pr2_description/urdf/pr2.urdf"),
+        tuple(
+            f"l_{j}_joint"
+            for j in (
+                "shoulder_pan",
+                "shoulder_lift",
+                "upper_arm_roll",
+                "forearm_roll",
+                "elbow_flex",
+                "wrist_flex",
+                "wrist_roll",
+            )
+        ),
+        None,
+        43,
+    ),
+    "romeo_left_arm": (
+        lambda: example_robot("romeo_description/urdf/romeo.urdf"),
+        (
+            "LShoulderPitch",
+            "LShoulderYaw",
+            "LElbowRoll",
+            "LElbowYaw",
+            "LWristRoll",
+            "LWristYaw",
+            "LWristPitch",
+        ),
+        None,
+        45,
+    ),
 }
 
 
