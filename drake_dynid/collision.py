@@ -38,6 +38,8 @@ class SelfCollision:
     Attributes:
         num_geometries: collision geometries of the robot.
         ignored: names of the pairs ignored (in contact at the reference).
+        held: "pair (distance m)" of the pairs closer than the margin at the
+            reference, held no closer than there.
     """
 
     def __init__(
@@ -47,6 +49,7 @@ class SelfCollision:
         scene_graph: Any,
         q_reference,
         embedding: JointEmbedding | None = None,
+        margin: float = 0.0,
     ):
         for name, value in (("diagram", diagram), ("scene_graph", scene_graph)):
             if not hasattr(
@@ -67,14 +70,25 @@ class SelfCollision:
         inspector = scene_graph.model_inspector()
         self.num_geometries = len(inspector.GetAllGeometryIds())
         self._ignored: set[tuple[Any, Any]] = set()
+        # A pair closer than the margin at the reference (the SO-101's jaw 9.4 mm
+        # from its wrist, the Talos' gripper links 0.7 mm apart: no design could
+        # start) is held no closer than there: its distance counts
+        # margin - d_reference more.
+        self._offset: dict[tuple[Any, Any], float] = {}
         for pair in self._pairs(np.asarray(q_reference, dtype=float)):
             if pair.distance < 0.0:
                 self._ignored.add(self._key(pair))
+            elif pair.distance < margin:
+                self._offset[self._key(pair)] = margin - pair.distance
         self.ignored = tuple(sorted(self._describe(a, b) for a, b in self._ignored))
+        self.held = tuple(
+            f"{self._describe(a, b)} ({margin - offset:.2g} m)"
+            for (a, b), offset in sorted(self._offset.items(), key=lambda i: i[1])
+        )
 
     @classmethod
     def from_urdf(
-        cls, path: str | Path, q_reference: Any, robot: Any = None
+        cls, path: str | Path, q_reference: Any, robot: Any = None, margin: float = 0.0
     ) -> SelfCollision | None:
         """Loads the URDF with a SceneGraph; None if it has no collision geometry.
 
@@ -85,6 +99,10 @@ class SelfCollision:
                 that order); the URDF's other joints at their ``locked``
                 positions, its mimic joints following their leaders. None: q is
                 the plant's whole position vector.
+            margin: the clearance the design keeps [m]; a pair closer than it at
+                q_reference (not in contact) is held at its reference distance
+                (``held``): its distance is reported ``margin - d_reference``
+                larger.
         """
         from pydrake.geometry import Role
         from pydrake.systems.framework import DiagramBuilder
@@ -103,7 +121,7 @@ class SelfCollision:
         if robot is not None:
             embedding = _embedding(plant, robot)
             _exclude_rigid_pairs(plant, scene_graph, robot)
-        return cls(builder.Build(), plant, scene_graph, q_reference, embedding)
+        return cls(builder.Build(), plant, scene_graph, q_reference, embedding, margin)
 
     @staticmethod
     def _key(pair: Any) -> tuple[Any, Any]:
@@ -131,16 +149,20 @@ class SelfCollision:
         out = np.full(q.shape[0], MAX_DISTANCE)
         for k in range(q.shape[0]):
             for pair in self._pairs(q[k]):
-                if pair.distance < out[k] and self._key(pair) not in self._ignored:
-                    out[k] = pair.distance
+                key = self._key(pair)
+                distance = pair.distance + self._offset.get(key, 0.0)
+                if distance < out[k] and key not in self._ignored:
+                    out[k] = distance
         return out
 
     def closest(self, q: Any) -> tuple[float, str]:
         """(distance [m], "bodyA-bodyB") of the closest checked pair at one q."""
         best, name = MAX_DISTANCE, ""
         for pair in self._pairs(np.asarray(q, dtype=float)):
-            if pair.distance < best and self._key(pair) not in self._ignored:
-                best, name = pair.distance, self._describe(pair.id_A, pair.id_B)
+            key = self._key(pair)
+            distance = pair.distance + self._offset.get(key, 0.0)
+            if distance < best and key not in self._ignored:
+                best, name = distance, self._describe(pair.id_A, pair.id_B)
         return float(best), name
 
 

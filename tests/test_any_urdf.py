@@ -549,3 +549,32 @@ def test_the_collision_check_skips_the_pairs_no_identified_joint_moves():
     )
     assert len(pairs) < 700  # 1167 before
     assert np.isfinite(check(q)).all()
+
+
+def test_a_pair_closer_than_the_margin_at_mid_range_is_held_there():
+    """Found by the example-robot-data sweep: at mid-range the SO-101's jaw is
+    9.4 mm from its wrist and finger_edu's middle link 2.8 mm from its base
+    (Talos' gripper links 0.7 mm, the G1's elbow and wrist 9.5 mm): below the
+    0.01 m margin, so no design could start, and `dynid excite` refused naming
+    an unrelated constraint of the last iterate ("joint gripper: position
+    -2.979 rad ... exceeds the limit -0.07453 rad", after 111 s). Such a pair
+    is now held no closer than its mid-range distance (finger_edu here: the
+    SO-101's STL meshes take 15 s to hull)."""
+    from test_real_robots import example_robot
+
+    from drake_dynid.collision import SelfCollision
+    from drake_dynid.limits import joint_limits
+
+    path = example_robot("finger_edu_description/robots/finger_edu.urdf")
+    pair = "finger_base_link-finger_middle_link"
+    robot = RobotModel.from_urdf(path)
+    limits = joint_limits(robot)
+    mid = 0.5 * (limits.lower + limits.upper)
+    plain = SelfCollision.from_urdf(path, mid, robot)
+    assert plain.closest(mid)[0] < 0.01 and pair in plain.closest(mid)[1]
+    check = SelfCollision.from_urdf(path, mid, robot, margin=0.01)
+    assert check(mid)[0] == pytest.approx(0.01)
+    assert any(pair in held for held in check.held)
+    # Elsewhere that pair counts by its distance less the mid-range one, plus 0.01.
+    q = mid + np.random.default_rng(2).uniform(-0.3, 0.3, mid.size)
+    assert check(q)[0] <= plain(q)[0] + 0.01 - plain.closest(mid)[0] + 1e-12

@@ -304,7 +304,7 @@ def run(args: argparse.Namespace) -> int:
     mid = 0.5 * (limits.lower + limits.upper)
     unchecked = "the URDF has no collision geometry"
     try:
-        collision = SelfCollision.from_urdf(args.urdf, mid, robot)
+        collision = SelfCollision.from_urdf(args.urdf, mid, robot, margins.collision)
     except MissingFileError as error:
         # A collision mesh the loader cannot find (package:// paths of another
         # workspace: the shipped TIAGo): the design goes on without the check.
@@ -324,9 +324,13 @@ def run(args: argparse.Namespace) -> int:
         say(f"self-collision: not checked ({unchecked})")
     else:
         ignored = f"; ignored (in contact at mid-range): {', '.join(collision.ignored)}"
+        held = (
+            f"; closer than the margin at mid-range, held no closer: "
+            f"{', '.join(collision.held)}"
+        )
         say(
             f"self-collision: {collision.num_geometries} collision geometries"
-            f"{ignored if collision.ignored else ''}"
+            f"{ignored if collision.ignored else ''}{held if collision.held else ''}"
         )
     start = time.perf_counter()
     design = design_excitation(
