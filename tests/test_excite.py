@@ -8,6 +8,7 @@ geometry gets a collision-free motion; bad input exits 2 naming the constraint.
 """
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -516,3 +517,34 @@ def test_the_effort_holds_between_the_samples_of_the_grid():
     assert used.max() > 0.99  # the effort limit is the active one
     # The design reports the same maximum (its dense grid, refined at the peaks).
     np.testing.assert_allclose(design.usage["effort"] / 0.8, used, rtol=1e-6)
+
+
+def test_a_continuous_joint_is_designed_within_one_turn(tmp_path, capsys):
+    """Found by a sweep of example-robot-data (the PR2's forearm and wrist
+    rolls): a continuous joint has no position limits and excite refused the
+    robot ('lack(s) limits ... (position)'), asking for a limits file that such
+    a joint should not need. Now it gets [-π, π] with a note; --limits still
+    sets another range."""
+    text = Path(folding_urdf(tmp_path)).read_text()
+    text = text.replace(
+        '<joint name="j1" type="revolute">', '<joint name="j1" type="continuous">'
+    ).replace('<limit lower="-3" upper="3" velocity="3"', '<limit velocity="3"', 1)
+    urdf = tmp_path / "continuous.urdf"
+    urdf.write_text(text)
+    out = tmp_path / "t.csv"
+    argv = [
+        "excite", str(urdf), "--duration", "5", "--harmonics", "2",
+        "--iterations", "10", "--out", str(out), "--json", str(tmp_path / "c.json"),
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    err = capsys.readouterr().err
+    assert "j1 has no position limits (continuous)" in err
+    assert "[-3.142, 3.142] rad" in err
+    q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1]
+    assert np.all(np.abs(q) <= np.pi) and np.ptp(q) > 0.1
+    limits = tmp_path / "limits.json"
+    limits.write_text(json.dumps({"j1": {"lower": -0.5, "upper": 0.5}}))
+    assert cli.main([*argv, "--limits", str(limits)]) == 0
+    assert "no position limits" not in capsys.readouterr().err
+    q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1]
+    assert np.all(np.abs(q) <= 0.5)

@@ -190,10 +190,42 @@ def parse_margins(text: str) -> Any:
     return Margins(**values)
 
 
+#: The position range [rad] the design gives a revolute joint without position
+#: limits (a URDF ``continuous`` joint: a PR2 forearm or wrist roll), centred
+#: on 0: one turn, so that the trajectory's amplitude stays the velocity
+#: limit's and the design needs no limits file for it.
+CONTINUOUS_RANGE = (-math.pi, math.pi)
+
+
 def _limits(robot: Any, args: argparse.Namespace) -> Any:
+    """The design's limits: the URDF's, ``--limits``, a continuous joint's range.
+
+    A revolute joint whose position limits are both infinite after both
+    sources (a continuous joint) gets :data:`CONTINUOUS_RANGE`, with a note on
+    stderr; other missing limits are an error naming them.
+    """
     from drake_dynid.limits import joint_limits
 
     limits = joint_limits(robot, args.limits)
+    free = [
+        name
+        for j, name in enumerate(limits.joint_names)
+        if not robot.prismatic[j]
+        and np.isinf(limits.lower[j])
+        and np.isinf(limits.upper[j])
+    ]
+    if free:
+        low, high = CONTINUOUS_RANGE
+        limits = limits.with_overrides(
+            {name: {"lower": low, "upper": high} for name in free}
+        )
+        print(
+            f"dynid excite: note: {', '.join(free)} ha{'s' if len(free) == 1 else 've'}"
+            f" no position limits (continuous): the design keeps "
+            f"{'it' if len(free) == 1 else 'them'} within [{low:.4g}, {high:.4g}] rad "
+            "(give lower/upper in --limits FILE for another range).",
+            file=sys.stderr,
+        )
     missing = limits.missing()
     if missing:
         source = f"{args.urdf} and {args.limits}" if args.limits else args.urdf
