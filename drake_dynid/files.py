@@ -136,7 +136,8 @@ def write_whole(
     to ``sys.stdout``, then flushed (as a pipe, not whole or not at all).
 
     Raises:
-        OSError: naming ``path`` (a full disk's error names no file); the
+        OSError: naming ``path`` (a full disk's error names no file; an
+            error without errno, a message of ``write``'s, as it is); the
             temporary file is removed and ``path`` is unchanged. Any error of
             ``write`` likewise leaves ``path`` unchanged and is raised as it is.
     """
@@ -194,6 +195,8 @@ def write_whole(
             os.unlink(temporary)
         in_place(target)
     except OSError as error:
+        if error.errno is None:  # a message of ``write``'s own (a missing input)
+            raise
         raise OSError(error.errno, error.strerror, str(path)) from None
 
 

@@ -894,3 +894,20 @@ def test_a_ros1_chunk_that_cannot_be_read_names_the_bag(arm, tmp_path, capsys):
     assert line.startswith(f"dynid bag2csv: error: ROS bag {bag}: cannot be read ("), (
         line
     )
+
+
+def test_a_missing_bag_is_named_not_the_output(tmp_path, capsys):
+    """A bag path that does not exist: the error names the bag (it read
+    '[Errno None] None: OUT.csv' in bag2csv, and in offline a full temporary
+    folder), exit 2."""
+    bag, out = tmp_path / "gone.bag", tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out)]) == 2
+    assert error_line(capsys) == (
+        f"dynid bag2csv: error: ROS bag {bag}: no such file or folder."
+    )
+    assert not out.exists()
+    urdf = str(MODELS_DIR / "planar_2r.urdf")
+    assert cli.main(["offline", str(bag), "--urdf", urdf]) == 2
+    assert error_line(capsys) == (
+        f"dynid offline: error: ROS bag {bag}: no such file or folder."
+    )
