@@ -291,6 +291,8 @@ def test_cli_excite_missing_limits_and_never_overwrites(tmp_path, capsys):
     [
         (["--out", "traj.json"], "--out"),
         (["--out", "t.csv", "--json", "c.csv"], "--json"),
+        (["--out", "t.csv", "--json", "c.txt"], "--json"),  # read as CSV too
+        (["--out", "t.csv", "--json", "coeffs"], "--json"),
     ],
 )
 def test_an_output_named_as_the_other_format_is_refused(
@@ -302,11 +304,11 @@ def test_an_output_named_as_the_other_format_is_refused(
     written by dynid excite --json'. Refused before the design, naming the
     format each option writes."""
     urdf = folding_urdf(tmp_path)
-    argv = ["excite", urdf, *(str(tmp_path / p) if "." in p else p for p in outputs)]
+    argv = ["excite", urdf, *(p if p[0] == "-" else str(tmp_path / p) for p in outputs)]
     assert cli.main(argv) == 2
     line = error_line(capsys)
     assert line.startswith(f"dynid excite: error: {option} ") and "CSV" in line
-    assert not any((tmp_path / p).exists() for p in outputs if "." in p)
+    assert not any((tmp_path / p).exists() for p in outputs if p[0] != "-")
 
 
 def test_a_limits_file_of_the_whole_robot_serves_a_subset_of_its_joints():

@@ -129,7 +129,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json",
         metavar="COEFFS.json",
-        help="write the Fourier coefficients and the report (JSON)",
+        help="write the Fourier coefficients and the report (JSON; named .json, "
+        "as simulate and replay read it back)",
     )
     parser.add_argument(
         "--plot",
@@ -262,6 +263,27 @@ def _percent(value: float) -> str:
     return f"{value:.2g}" if math.isfinite(value) else "inf"
 
 
+def _json_named(path: str) -> bool:
+    """Whether simulate and replay read ``path`` back as --json's coefficients.
+
+    They read a trajectory named ``.json`` (any case) as the coefficients and
+    any other as --out's CSV samples; standard output (``-``) and an existing
+    file that is no regular file (``/dev/null``, a named pipe) are read by no
+    one as a trajectory.
+    """
+    import os
+    import stat
+
+    from drake_dynid.files import is_stdout
+
+    if is_stdout(path) or path.lower().endswith(".json"):
+        return True
+    try:
+        return not stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 def run(args: argparse.Namespace) -> int:
     """Designs the trajectory, prints the report, writes the files. Returns 0."""
     from drake_dynid.collision import SelfCollision
@@ -277,17 +299,19 @@ def run(args: argparse.Namespace) -> int:
     check_output_paths(args)
     # simulate and replay read a .json trajectory as --json's coefficients and
     # any other as --out's CSV samples: a file named as the other format is read
-    # as it, and refused there with a message that does not say why.
+    # as it, and refused there with a message that does not say why (--json
+    # coeffs.txt: 'missing column(s) t, ... (found: {)').
     if args.out.lower().endswith(".json"):
         raise ValueError(
             f"--out {args.out}: --out writes the sampled trajectory as CSV, and a "
             ".json trajectory is read as the coefficients of --json; name it .csv "
             "(the coefficients: --json FILE.json)."
         )
-    if args.json and args.json.lower().endswith(".csv"):
+    if args.json and not _json_named(args.json):
         raise ValueError(
-            f"--json {args.json}: --json writes the coefficients as JSON, and a .csv "
-            "trajectory is read as the CSV samples of --out; name it .json."
+            f"--json {args.json}: --json writes the coefficients as JSON, and a "
+            "trajectory not named .json is read as the CSV samples of --out; name "
+            "it .json."
         )
     margins = parse_margins(args.margin)
     try:
