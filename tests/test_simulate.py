@@ -589,3 +589,23 @@ def test_limits_left_at_zero_are_placeholders_not_a_pinned_joint(tmp_path, capsy
     assert cli.main(argv) == 0, capsys.readouterr().err
     log = read_log(tmp_path / "log.csv", ("joint1", "joint2"))
     assert np.ptp(log.q, axis=0).min() > 0.5  # both joints swing, none pinned at 0
+
+
+def test_hint_quotes_paths_with_spaces(experiment, tmp_path, capsys, monkeypatch):
+    """A log or URDF named with a space: 'score it with: dynid offline my log.csv
+    --urdf my 2r.urdf' ran offline on the logs 'my' and 'log.csv'; the paths are
+    quoted as a shell reads them (plain names as before)."""
+    import shlex
+
+    monkeypatch.chdir(tmp_path)
+    urdf = tmp_path / "my 2r.urdf"
+    urdf.write_text(Path(experiment["urdf"]).read_text())
+    argv = [
+        "simulate", str(urdf), "--trajectory", experiment["traj"],
+        "--limits", experiment["limits"], "--duration", "0.5",
+        "--out", "my log.csv",
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    hint = re.search(r"score it with: (.*)", capsys.readouterr().out).group(1)
+    words = shlex.split(hint)
+    assert words[:5] == ["dynid", "offline", "my log.csv", "--urdf", str(urdf)], hint

@@ -237,7 +237,9 @@ def _identify_hint(
     friction in the model (FC = 0) the width is not suggested: it changes nothing
     in the log.
     """
-    parts = ["dynid offline", str(args.out), "--urdf", short_packaged(args.urdf)]
+    import shlex
+
+    parts = ["dynid", "offline", str(args.out), "--urdf", short_packaged(args.urdf)]
     if args.joints:
         parts += ["--joints", ",".join(robot.joint_names)]
     if args.lock:
@@ -253,7 +255,7 @@ def _identify_hint(
         parts.append("--rotor-inertia")
     if tuple(robot.friction) != ("viscous", "coulomb"):
         parts += ["--friction", ",".join(robot.friction) or "none"]
-    return " ".join(parts)
+    return shlex.join(parts)  # a path with a space quoted as a shell reads it
 
 
 def run(args: argparse.Namespace) -> int:
