@@ -133,7 +133,8 @@ def write_whole(
     (``/dev/null``, a named pipe), a file in a folder where no other file can
     be made, or a file that cannot be replaced (a bind mount of one file:
     ``EBUSY``), is written in place. ``path`` :data:`STDOUT` (``-``): written
-    to ``sys.stdout``, then flushed (as a pipe, not whole or not at all).
+    to ``sys.stdout`` in UTF-8 (as the file, whatever the locale's encoding),
+    then flushed (as a pipe, not whole or not at all).
 
     Raises:
         OSError: naming ``path`` (a full disk's error names no file; an
@@ -147,10 +148,25 @@ def write_whole(
             write(stream)
 
     if is_stdout(path):
+        import codecs
         import sys
 
-        write(sys.stdout)
-        sys.stdout.flush()
+        stream = sys.stdout
+        # The file's UTF-8 bytes whatever the locale's encoding (a joint named
+        # '関節1' under an ASCII locale failed); the encoding restored after.
+        encoding = getattr(stream, "encoding", None) or "utf-8"
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is None or codecs.lookup(encoding).name == "utf-8":
+            write(stream)
+            stream.flush()
+            return
+        stream.flush()
+        reconfigure(encoding="utf-8")
+        try:
+            write(stream)
+            stream.flush()
+        finally:
+            reconfigure(encoding=encoding)
         return
 
     try:

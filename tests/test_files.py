@@ -245,9 +245,11 @@ _JSON_VALUES = st.recursive(
     | st.booleans()
     | st.integers(-(10**20), 10**20)
     | st.floats(allow_nan=False, allow_infinity=False)
-    | st.text(alphabet="[]{},:\n\\\" 0123456789-eEnul", max_size=12),
-    lambda inner: st.lists(inner, max_size=5)
-    | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+    | st.text(alphabet='[]{},:\n\\" 0123456789-eEnul', max_size=12),
+    lambda inner: (
+        st.lists(inner, max_size=5)
+        | st.dictionaries(st.text(max_size=5), inner, max_size=4)
+    ),
     max_leaves=30,
 )
 
@@ -270,3 +272,20 @@ def test_json_text_writes_a_matrix_one_row_per_line():
     with pytest.raises(ValueError):
         files.json_text({"x": [float("nan")]})
     assert json.loads(files.json_text([float("nan")], allow_nan=True))[0] != 0
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "latin-1"])
+def test_standard_output_gets_the_files_utf8_bytes(monkeypatch, encoding):
+    """'-' (standard output) is the file: its UTF-8 bytes whatever the locale's
+    encoding (a bag's joint named '関節1' made 'dynid bag2csv BAG --out -' fail
+    under PYTHONIOENCODING=ascii: "'ascii' codec can't encode characters");
+    the stream's encoding is restored after."""
+    import io
+    import sys
+
+    raw = io.BytesIO()
+    stream = io.TextIOWrapper(raw, encoding=encoding, newline="")
+    monkeypatch.setattr(sys, "stdout", stream)
+    files.write_whole("-", lambda s: s.write("t,q_関節1,q_é\n0,1,2\n"))
+    assert raw.getvalue() == "t,q_関節1,q_é\n0,1,2\n".encode()
+    assert stream.encoding == encoding
