@@ -82,6 +82,13 @@ class _ClosableStream:
         except BrokenPipeError:
             self._closed()
             return len(text)
+        except UnicodeEncodeError:
+            # A terminal that cannot show σ, ×, · (PYTHONIOENCODING=ascii, a C
+            # locale): the characters as escapes, not the command stopped by its
+            # report (dynid excite exited 2 on its first 'σ').
+            encoding = getattr(self._stream, "encoding", None) or "ascii"
+            self.write(text.encode(encoding, "backslashreplace").decode(encoding))
+            return len(text)
 
     def flush(self) -> None:
         try:

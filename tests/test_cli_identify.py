@@ -703,3 +703,26 @@ def test_a_dead_zone_wider_than_every_speed_is_named(log_file, capsys):
     # A dead zone that leaves the columns alone is not blamed.
     argv = ["offline", log_file, "--urdf", URDF, "--dead-zone", "0.01"]
     assert cli.main([*argv, "--friction", "viscous,coulomb", "--quiet"]) == 0
+
+
+def test_a_terminal_without_unicode_gets_escapes_not_an_error(log_file, tmp_path):
+    """Found by a review: on a terminal that cannot encode σ or × (a C locale,
+    PYTHONIOENCODING=ascii) the first such character of a report stopped the
+    command ('ascii' codec can't encode character '\\u03c3', exit 2)."""
+    import io
+    import os
+
+    from drake_dynid.cli import _ClosableStream
+
+    raw = io.BytesIO()
+    stream = _ClosableStream(io.TextIOWrapper(raw, encoding="ascii"))
+    assert stream.write("σ = 2 × h\n") == len("σ = 2 × h\n")
+    stream.flush()
+    assert raw.getvalue() == b"\\u03c3 = 2 \\xd7 h\n"
+    env = {**os.environ, "PYTHONIOENCODING": "ascii"}
+    argv = [sys.executable, "-m", "drake_dynid.cli", "offline", log_file]
+    done = subprocess.run(
+        [*argv, "--urdf", URDF], capture_output=True, env=env, check=False
+    )
+    assert done.returncode == 0, done.stderr.decode()
+    assert b"\\u03c3" in done.stdout  # the table's σ column
