@@ -631,3 +631,15 @@ def test_a_packaged_drive_file_is_named_and_sent_by_its_name(tmp_path, monkeypat
     _, sent, _, _ = fleet._absolute_paths("offline", options, "a.csv", "a.json")
     assert sent["urdf"] == "packaged model:iiwa7.urdf"
     assert sent["drive"] == "packaged model:tiago.toml"
+
+
+@pytest.mark.parametrize("command", ["identify", "offline"])
+def test_the_help_does_not_offer_the_refused_per_log_outputs(command, capsys):
+    """Found by a review: 'dynid fleet offline -h' described '--out FILE.csv ...
+    -: standard output', an option the fleet refuses."""
+    with pytest.raises(SystemExit):
+        cli.main(["fleet", command, "-h"])
+    text = capsys.readouterr().out
+    assert "--out-dir" in text
+    for option in ("--out FILE", "--plot", "--urdf-out", "--json"):
+        assert option not in text, option

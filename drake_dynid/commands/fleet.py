@@ -34,9 +34,9 @@ class _FleetParser(argparse.ArgumentParser):
 
     The command's ``add_arguments`` declares its ``log`` positional and its
     ``--json``/``--quiet`` through this class: the positional becomes the fleet's
-    LOGS, and the fleet owns the outputs (``--json`` is still read, unlisted, so
-    that it is refused by name as the other per-log outputs, not as an
-    "unrecognized argument").
+    LOGS, and the fleet owns the outputs (the per-log outputs ``--json``,
+    ``--out``, ``--plot``, ``--urdf-out`` are still read, unlisted in the help,
+    so that they are refused by name, not as an "unrecognized argument").
     """
 
     def add_argument(self, *names: Any, **kwargs: Any) -> Any:
@@ -70,6 +70,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             description=f"dynid {name} over many logs: {module.HELP}.",
         )
         module.add_arguments(sub)
+        for action in sub._actions:  # in argument groups too
+            if set(action.option_strings) & set(dict(_PER_LOG_OUTPUTS)):
+                # Read, to be refused by name (run), not offered in the help (it
+                # described '--out FILE.csv ... -: standard output').
+                action.help = argparse.SUPPRESS
         fleet = sub.add_argument_group("fleet")
         fleet.add_argument(
             "--out-dir",
