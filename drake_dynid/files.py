@@ -89,9 +89,10 @@ def file_key(path: str | os.PathLike) -> tuple[Any, ...]:
         return ("path", os.path.realpath(name))
 
 
-# An indented list of numbers or nulls: ``[`` then a newline (never inside a JSON
-# string, which escapes it), items separated by a comma and a newline.
-_NUMBER = r"(?:-?[0-9][0-9.eE+-]*|null|NaN|-?Infinity)"
+# An indented list of numbers, booleans or nulls: ``[`` then a newline (never
+# inside a JSON string, which escapes it), items separated by a comma and a
+# newline.
+_NUMBER = r"(?:-?[0-9][0-9.eE+-]*|null|true|false|NaN|-?Infinity)"
 _NUMBER_LIST = re.compile(rf"\[\n\s*({_NUMBER}(?:,\n\s*{_NUMBER})*)\n\s*\]")
 
 
@@ -100,8 +101,9 @@ def json_text(document: Any, *, allow_nan: bool = False) -> str:
 
     ``json.dumps(document, indent=2, allow_nan=allow_nan)`` (by default a
     ValueError on NaN or infinity: invalid JSON) with every list holding only
-    numbers or nulls joined onto one line: the same values (``json.loads``
-    returns the same document), a (p, p) covariance in p lines instead of p².
+    numbers, booleans or nulls joined onto one line: the same values
+    (``json.loads`` returns the same document), a (p, p) covariance in p lines
+    instead of p².
     """
     text = json.dumps(document, indent=2, allow_nan=allow_nan)
     return (

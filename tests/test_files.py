@@ -269,6 +269,9 @@ def test_json_text_writes_a_matrix_one_row_per_line():
     assert json.loads(text) == document
     assert "    [0.0015, -2e-07, 0.0],\n" in text
     assert len(text.splitlines()) == 12  # { cov [ 3 rows ] names n }: not 3x3 lines
+    assert '"flags": [true, false, null, 1]' in files.json_text(
+        {"flags": [True, False, None, 1]}
+    )
     with pytest.raises(ValueError):
         files.json_text({"x": [float("nan")]})
     assert json.loads(files.json_text([float("nan")], allow_nan=True))[0] != 0
