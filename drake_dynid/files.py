@@ -150,25 +150,13 @@ def write_whole(
             write(stream)
 
     if is_stdout(path):
-        import codecs
-        import sys
-
-        stream = sys.stdout
-        # The file's UTF-8 bytes whatever the locale's encoding (a joint named
-        # '関節1' under an ASCII locale failed); the encoding restored after.
-        encoding = getattr(stream, "encoding", None) or "utf-8"
-        reconfigure = getattr(stream, "reconfigure", None)
-        if reconfigure is None or codecs.lookup(encoding).name == "utf-8":
-            write(stream)
-            stream.flush()
-            return
-        stream.flush()
-        reconfigure(encoding="utf-8")
         try:
-            write(stream)
-            stream.flush()
-        finally:
-            reconfigure(encoding=encoding)
+            _write_stdout(write)
+        except OSError as error:
+            if error.errno is None:  # a message of ``write``'s own
+                raise
+            # A full disk behind '>' named no file.
+            raise OSError(error.errno, error.strerror, "standard output") from None
         return
 
     try:
@@ -216,6 +204,31 @@ def write_whole(
         if error.errno is None:  # a message of ``write``'s own (a missing input)
             raise
         raise OSError(error.errno, error.strerror, str(path)) from None
+
+
+def _write_stdout(write: Callable[[TextIO], object]) -> None:
+    """``write(sys.stdout)`` in UTF-8, flushed (:func:`write_whole`'s ``-``).
+
+    The file's UTF-8 bytes whatever the locale's encoding (a joint named
+    '関節1' under an ASCII locale failed); the encoding restored after.
+    """
+    import codecs
+    import sys
+
+    stream = sys.stdout
+    encoding = getattr(stream, "encoding", None) or "utf-8"
+    reconfigure = getattr(stream, "reconfigure", None)
+    if reconfigure is None or codecs.lookup(encoding).name == "utf-8":
+        write(stream)
+        stream.flush()
+        return
+    stream.flush()
+    reconfigure(encoding="utf-8")
+    try:
+        write(stream)
+        stream.flush()
+    finally:
+        reconfigure(encoding=encoding)
 
 
 def _open_temporary(target: Path, *, new: bool) -> tuple[int, str]:

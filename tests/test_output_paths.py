@@ -7,6 +7,8 @@ is left byte for byte as it was (also through a hard link and a ./ prefix).
 
 import os
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -302,3 +304,18 @@ def test_dash_writes_the_json_and_csv_outputs_to_standard_output(
     assert out == (tmp_path / "t.csv").read_text()
     assert out.startswith("t,q_iiwa_joint_1,") and out.count("\n") == 252
     assert not (tmp_path / "-").exists()
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full")
+def test_a_full_standard_output_is_named(tmp_path):
+    """``--json - > /dev/full`` said '[Errno 28] No space left on device' and
+    named nothing (a file output names its path)."""
+    argv = [sys.executable, "-m", "drake_dynid.cli", "params", "planar_2r"]
+    with open("/dev/full", "w") as full:
+        done = subprocess.run(
+            [*argv, "--json", "-"], stdout=full, stderr=subprocess.PIPE, check=False
+        )
+    assert done.returncode == 2
+    err = done.stderr.decode()
+    assert "No space left on device: 'standard output'" in err, err
+    assert "Traceback" not in err
