@@ -1202,11 +1202,17 @@ class _Ros1Chunks:
         self.stream.seek(position)
         fields, data = _read_record(self.stream)
         compression = fields["compression"]
-        if compression == b"bz2":
-            data = bz2.decompress(data)
-        elif compression == b"lz4":
-            data = lz4.frame.decompress(data)
-        elif compression != b"none":
+        try:
+            if compression == b"bz2":
+                data = bz2.decompress(data)
+            elif compression == b"lz4":
+                data = lz4.frame.decompress(data)
+        except Exception as error:  # bz2: OSError, ValueError; lz4: RuntimeError
+            raise BagFormatError(
+                f"the {compression.decode()} chunk at byte {position} cannot be "
+                f"decompressed ({error})"
+            ) from None
+        if compression not in (b"bz2", b"lz4", b"none"):
             raise BagFormatError(f"compression {compression.decode()!r} unknown")
         pos = 0
         while pos < len(data):
