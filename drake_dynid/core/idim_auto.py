@@ -18,11 +18,14 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
 
 and ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)``. The factor 2 keeps the
 zero-phase Butterworth (|H|² = 1/(1+(f/f_c)^(2·order))) above 0.996 in the
-excitation band. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
-(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. On the paper's 2R arm at
-1 kHz (its trajectory, 21 s in closed loop) this gives 1.5 Hz at SNR 30 dB and
-35.5 Hz without noise (34.5 Hz on 30 s: the crossover f_x of the round-off floor,
-below the cap).
+excitation band; on a low-noise log that 0.4 % droop of the band edge is a bias
+σ does not show (an xArm7 excite design, 2 Hz: XX3R 13.7 % high noise-free, 1-6σ
+on 7 seeds; 3·f_99 gave errors of either sign but costs the paper's 2R arm at
+SNR 30 dB: README, "Real robot descriptions"). 40 Hz is ten times a typical 4 Hz
+position closed-loop bandwidth (Gautier's ω_c ≥ 10·ω_dyn), the cap for clean
+logs. On the paper's 2R arm at 1 kHz (its trajectory, 21 s in closed loop) this
+gives 1.5 Hz at SNR 30 dB and 35.5 Hz without noise (34.5 Hz on 30 s: the
+crossover f_x of the round-off floor, below the cap).
 
 Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
 so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
