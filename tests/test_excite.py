@@ -550,3 +550,37 @@ def test_a_continuous_joint_is_designed_within_one_turn(tmp_path, capsys):
     assert "no position limits" not in capsys.readouterr().err
     q = np.loadtxt(out, delimiter=",", skiprows=1)[:, 1]
     assert np.all(np.abs(q) <= 0.5)
+
+
+def test_a_refusal_on_self_collision_names_the_pair_and_what_to_do():
+    """Found by the example-robot-data sweep: the SO-101 and the PR2's left arm
+    were refused with "self-collision clearance -0.052 m at t = 0.719 s is below
+    the 0.01 m margin" (and -0.1853 m), naming neither the links that met nor
+    what to change (the advice was about limits, margins, f0 and harmonics)."""
+
+    class Clearance:
+        """Every configuration 5 mm from the margin, the pair 'upper-lower'."""
+
+        def __call__(self, q):
+            return np.full(np.atleast_2d(q).shape[0], 0.005)
+
+        def closest(self, q):
+            return 0.005, "upper-lower"
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    limits = JointLimits(
+        robot.joint_names, [-2.0, -2.0], [2.0, 2.0], [2.0, 2.0], [50.0, 50.0]
+    )
+    settings = ExcitationSettings(duration=5.0, harmonics=2, iterations=3)
+    with pytest.raises(ValueError) as error:
+        design_excitation(
+            robot.idim_rows,
+            robot.base_values,
+            limits,
+            settings,
+            clearance_fn=Clearance(),
+        )
+    message = str(error.value)
+    assert "self-collision clearance 0.005 m between links upper-lower" in message
+    assert "--margin collision=M" in message and "--lock" in message
+    assert "lower f0/harmonics" not in message  # the advice for the other limits

@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -398,6 +398,11 @@ def _dense_holds(problem: ExcitationProblem, x: np.ndarray) -> bool:
 
 
 def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
+    """The constraint x breaks most, and what a user can do about it.
+
+    A clearance shortfall names the pair of links when ``clearance_fn`` has a
+    ``closest(q) -> (d [m], "A-B")`` method (``collision.SelfCollision``).
+    """
     trajectory = problem.trajectory(x)
     q, qd, qdd = trajectory.evaluate(problem.t)
     tau = problem.values(x)[2]
@@ -414,12 +419,32 @@ def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
         tolerance=1e-3,
     )
     if not found:
-        return "the constraints could not be met together"
+        return (
+            "the constraints could not be met together. Raise the limits, lower the "
+            "margins (--margin), or lower f0/harmonics"
+        )
     worst = max(
         found,
         key=lambda f: abs(f.value - f.limit) / max(abs(f.limit), 1e-9),
     )
-    return str(worst)
+    closest = getattr(problem.clearance_fn, "closest", None)
+    if worst.kind != "collision":
+        return (
+            f"{worst}. Raise the limits, lower the margins (--margin), or lower "
+            "f0/harmonics"
+        )
+    if callable(closest) and clearance is not None:
+        pair = str(closest(q[int(np.argmin(clearance))])[1])
+        worst = replace(worst, joint=pair)
+    links = f"links {worst.joint}" if worst.joint else "the links"
+    return (
+        f"{worst} (at the optimiser's last iterate; none it tried met every "
+        f"constraint). If {links} cannot meet in the real robot (a convex hull of a "
+        "coarse collision mesh covers more than the part), simplify their "
+        "collision geometry; otherwise narrow the ranges of the joints that bring "
+        "them together (--limits lower/upper), lock one (--lock), or lower the "
+        "collision margin (--margin collision=M)"
+    )
 
 
 def design_excitation(
@@ -446,7 +471,9 @@ def design_excitation(
             ``ExcitationSettings()``).
         margins: margins kept from the limits (default ``Margins()``).
         clearance_fn: optional (M, n) q -> (M,) smallest signed distance between
-            collision geometries [m] (self-collision constraint).
+            collision geometries [m] (self-collision constraint); with a
+            ``closest(q) -> (d, "A-B")`` method, a refusal on the clearance names
+            the pair of links.
         max_condition: a result above this condition number is an error (no
             trajectory within the limits excites every base parameter).
 
@@ -555,8 +582,7 @@ def design_excitation(
         v.fail(
             owner,
             f"no trajectory meets the limits (after the margins): "
-            f"{_most_violated(problem, best['last'])}. Raise the limits, lower the "
-            "margins (--margin), or lower f0/harmonics.",
+            f"{_most_violated(problem, best['last'])}.",
         )
     x = best["x"]
     condition = float(best["cost"])

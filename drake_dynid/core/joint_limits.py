@@ -203,7 +203,7 @@ class Violation:
     """One limit exceeded by a trajectory.
 
     Attributes:
-        joint: joint name ("" for a collision).
+        joint: joint name (for a collision: the pair of links, "A-B", or "").
         kind: "position", "velocity", "acceleration", "effort" or "collision".
         time: when [s] (first worst sample).
         value: the value reached (position q, |v|, |v̇|, |τ|, or distance [m]).
@@ -220,9 +220,10 @@ class Violation:
 
     def __str__(self) -> str:
         if self.kind == "collision":
+            pair = f" between links {self.joint}" if self.joint else ""
             return (
-                f"self-collision clearance {self.value:.4g} m at t = {self.time:.3f} "
-                f"s is below the {self.limit:g} m margin"
+                f"self-collision clearance {self.value:.4g} m{pair} at t = "
+                f"{self.time:.3f} s is below the {self.limit:g} m margin"
             )
         return (
             f"joint {self.joint}: {self.kind} {self.value:.4g} {self.unit} at t = "
