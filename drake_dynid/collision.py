@@ -27,6 +27,9 @@ __all__ = ["SelfCollision"]
 
 #: Distances beyond this are not computed [m]; d(q) is capped at it.
 MAX_DISTANCE = 1.0
+#: A pair closer than the margin at the reference is held no closer than this
+#: fraction of its distance there.
+HELD = 0.5
 
 
 class SelfCollision:
@@ -39,7 +42,7 @@ class SelfCollision:
         num_geometries: collision geometries of the robot.
         ignored: names of the pairs ignored (in contact at the reference).
         held: "pair (distance m)" of the pairs closer than the margin at the
-            reference, held no closer than there.
+            reference (that distance), held no closer than ``HELD`` (half) of it.
     """
 
     def __init__(
@@ -72,18 +75,24 @@ class SelfCollision:
         self._ignored: set[tuple[Any, Any]] = set()
         # A pair closer than the margin at the reference (the SO-101's jaw 9.4 mm
         # from its wrist, the Talos' gripper links 0.7 mm apart: no design could
-        # start) is held no closer than there: its distance counts
-        # margin - d_reference more.
+        # start) is held no closer than half its distance there: its distance
+        # counts margin - d_reference/2 more. Held at d_reference itself, the
+        # reference sat on the bound and any motion about it brought the pair
+        # closer at some instant (the SO-101: 29 of 80 samples at 1e-4 of the
+        # start's amplitude), so the design's start shrunk out of collision
+        # was a standstill.
         self._offset: dict[tuple[Any, Any], float] = {}
+        reference: dict[tuple[Any, Any], float] = {}
         for pair in self._pairs(np.asarray(q_reference, dtype=float)):
             if pair.distance < 0.0:
                 self._ignored.add(self._key(pair))
             elif pair.distance < margin:
-                self._offset[self._key(pair)] = margin - pair.distance
+                self._offset[self._key(pair)] = margin - HELD * pair.distance
+                reference[self._key(pair)] = pair.distance
         self.ignored = tuple(sorted(self._describe(a, b) for a, b in self._ignored))
         self.held = tuple(
-            f"{self._describe(a, b)} ({margin - offset:.2g} m)"
-            for (a, b), offset in sorted(self._offset.items(), key=lambda i: i[1])
+            f"{self._describe(a, b)} ({d:.2g} m)"
+            for (a, b), d in sorted(reference.items(), key=lambda i: -i[1])
         )
 
     @classmethod
@@ -100,9 +109,9 @@ class SelfCollision:
                 positions, its mimic joints following their leaders. None: q is
                 the plant's whole position vector.
             margin: the clearance the design keeps [m]; a pair closer than it at
-                q_reference (not in contact) is held at its reference distance
-                (``held``): its distance is reported ``margin - d_reference``
-                larger.
+                q_reference (not in contact) is held no closer than half its
+                reference distance (``held``): its distance is reported
+                ``margin - d_reference/2`` larger.
         """
         from pydrake.geometry import Role
         from pydrake.systems.framework import DiagramBuilder

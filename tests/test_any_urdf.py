@@ -558,8 +558,8 @@ def test_a_pair_closer_than_the_margin_at_mid_range_is_held_there():
     0.01 m margin, so no design could start, and `dynid excite` refused naming
     an unrelated constraint of the last iterate ("joint gripper: position
     -2.979 rad ... exceeds the limit -0.07453 rad", after 111 s). Such a pair
-    is now held no closer than its mid-range distance (finger_edu here: the
-    SO-101's STL meshes take 15 s to hull)."""
+    is now held no closer than half its mid-range distance (finger_edu here:
+    the SO-101's STL meshes take 15 s to hull)."""
     from test_real_robots import example_robot
 
     from drake_dynid.collision import SelfCollision
@@ -573,8 +573,9 @@ def test_a_pair_closer_than_the_margin_at_mid_range_is_held_there():
     plain = SelfCollision.from_urdf(path, mid, robot)
     assert plain.closest(mid)[0] < 0.01 and pair in plain.closest(mid)[1]
     check = SelfCollision.from_urdf(path, mid, robot, margin=0.01)
-    assert check(mid)[0] == pytest.approx(0.01)
+    assert check(mid)[0] > 0.01  # room to move about mid-range
     assert any(pair in held for held in check.held)
-    # Elsewhere that pair counts by its distance less the mid-range one, plus 0.01.
+    # Elsewhere that pair counts by its distance less half the mid-range one,
+    # plus 0.01.
     q = mid + np.random.default_rng(2).uniform(-0.3, 0.3, mid.size)
-    assert check(q)[0] <= plain(q)[0] + 0.01 - plain.closest(mid)[0] + 1e-12
+    assert check(q)[0] <= plain(q)[0] + 0.01 - plain.closest(mid)[0] / 2 + 1e-12

@@ -584,3 +584,27 @@ def test_a_refusal_on_self_collision_names_the_pair_and_what_to_do():
     assert "self-collision clearance 0.005 m between links upper-lower" in message
     assert "--margin collision=M" in message and "--lock" in message
     assert "lower f0/harmonics" not in message  # the advice for the other limits
+
+
+def test_a_pair_held_at_mid_range_leaves_room_to_move_about_it(tmp_path):
+    """Found by the example-robot-data sweep: a pair closer than the collision
+    margin at mid-range (the SO-101's jaw 9.4 mm from its wrist) was held no
+    closer than that very distance, so mid-range sat on the bound and any motion
+    about it brought the pair closer at some instant (29 of 80 samples at 1e-4
+    of the start's amplitude): the design's start shrunk out of collision was a
+    standstill, SLSQP stopped on it after 1 iteration, and the SO-101 was refused.
+    Held no closer than half that distance, small motions keep the margin."""
+    from drake_dynid.collision import SelfCollision
+
+    urdf = folding_urdf(tmp_path)
+    robot = RobotModel.from_urdf(urdf)
+    limits = joint_limits(robot)
+    mid = 0.5 * (limits.lower + limits.upper)
+    plain = SelfCollision.from_urdf(urdf, mid)
+    distance, pair = plain.closest(mid)
+    assert pair == "base-l2" and 0.1 < distance < 0.12  # 0.111 m
+    check = SelfCollision.from_urdf(urdf, mid, margin=0.15)
+    assert check.held == (f"base-l2 ({distance:.2g} m)",)
+    assert check(mid)[0] > 0.15  # 0.15 before
+    steps = 0.01 * np.vstack([np.eye(3), -np.eye(3)])
+    assert np.all(check(mid + steps) >= 0.15)  # j2 folding towards the base too

@@ -381,7 +381,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         ignored = f"; ignored (in contact at mid-range): {', '.join(collision.ignored)}"
         held = (
-            f"; closer than the margin at mid-range, held no closer: "
+            f"; closer than the margin at mid-range, held no closer than half "
+            f"that: "
             f"{', '.join(collision.held)}"
         )
         say(
