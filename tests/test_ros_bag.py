@@ -125,13 +125,23 @@ def offline(capsys, log, path, *options):
     )
 
 
-@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "mcap"])
-def test_offline_on_a_bag_is_the_csv_estimate_bit_for_bit(arm, tmp_path, capsys, kind):
-    bag = tmp_path / ("log.bag" if kind == "ros1" else "log")
-    write_bag(bag, kind, arm_messages(arm))
+def bag_fit_is_the_csv_fit(capsys, tmp_path, arm, bag, kind, messages):
+    """Writes ``messages`` as a ``kind`` bag at ``bag``, asserts that ``dynid
+    offline`` on it gives the JSON of the arm's CSV export: (that JSON, the bag
+    run's stderr)."""
+    write_bag(bag, kind, messages)
     on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
     on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
     assert on_bag == on_csv
+    return on_csv, err
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "mcap"])
+def test_offline_on_a_bag_is_the_csv_estimate_bit_for_bit(arm, tmp_path, capsys, kind):
+    bag = tmp_path / ("log.bag" if kind == "ros1" else "log")
+    on_csv, err = bag_fit_is_the_csv_fit(
+        capsys, tmp_path, arm, bag, kind, arm_messages(arm)
+    )
     assert "warning" not in err  # integer ns stamps: no note for a bag
     if kind != "ros1":  # the storage file names the bag too
         storage = next(bag.glob("*.db3" if kind == "sqlite3" else "*.mcap"))
@@ -159,10 +169,7 @@ def test_another_publisher_on_the_topic_is_skipped_and_counted(arm, tmp_path, ca
             stamp = message[1] + 500_000
             messages.append((0, stamp, stamp, ["gripper_joint"], [0.01], [0.5]))
     bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", messages)
-    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
-    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
-    assert on_bag == on_csv
+    _, err = bag_fit_is_the_csv_fit(capsys, tmp_path, arm, bag, "ros1", messages)
     assert (
         f"log {bag}: skipped 801 of 8802 message(s) on /joint_states that lack "
         "joint(s) of joint1, joint2 (their joints: gripper_joint): another "
@@ -185,10 +192,9 @@ def test_no_message_with_every_joint_names_the_joints_the_topic_has(tmp_path, ca
 
 def test_zero_header_stamps_take_the_receive_times(arm, tmp_path, capsys):
     bag = tmp_path / "log.db3.d"
-    write_bag(bag, "sqlite3", arm_messages(arm, zero_stamps=True))
-    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
-    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
-    assert on_bag == on_csv
+    _, err = bag_fit_is_the_csv_fit(
+        capsys, tmp_path, arm, bag, "sqlite3", arm_messages(arm, zero_stamps=True)
+    )
     assert (
         "every header.stamp on /joint_states is 0: the bag's receive times are used."
         in err
@@ -668,10 +674,7 @@ def test_messages_recorded_out_of_stamp_order_are_written_in_stamp_order(
         messages[k] = (0, late[1], early[2], *late[3:])
         messages[k + 1] = (0, early[1], late[2], *early[3:])
     bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", messages)
-    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
-    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
-    assert on_bag == on_csv
+    _, err = bag_fit_is_the_csv_fit(capsys, tmp_path, arm, bag, "ros1", messages)
     assert (
         f"log {bag}: 12 message(s) on /joint_states were recorded after one with a "
         "later header.stamp: written in stamp order." in err
@@ -754,10 +757,7 @@ def test_a_message_recorded_twice_is_written_once(arm, tmp_path, capsys):
     for k in (2000, 5000):
         messages.insert(k + 1, messages[k])
     bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", messages)
-    on_bag, err = offline(capsys, bag, tmp_path / "bag.json")
-    on_csv, _ = offline(capsys, csv_log(tmp_path / "log.csv", arm), tmp_path / "c.json")
-    assert on_bag == on_csv
+    _, err = bag_fit_is_the_csv_fit(capsys, tmp_path, arm, bag, "ros1", messages)
     assert (
         f"log {bag}: dropped 2 message(s) on /joint_states repeating the one before "
         "(the same header.stamp and values)." in err
