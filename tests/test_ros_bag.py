@@ -873,21 +873,35 @@ def test_bag2csv_out_dash_writes_the_export_to_standard_output(
     assert not (tmp_path / "-").exists()
 
 
-def test_a_ros1_chunk_that_cannot_be_read_names_the_bag(arm, tmp_path, capsys):
-    """A damaged record inside a chunk (the index intact): read a chunk at a
-    time, the error names the bag, as rosbags' reader's did."""
+@pytest.mark.parametrize(
+    ("compression", "damage"),
+    [(None, b"\xff\xff\xff\x7f"), ("BZ2", b"\x00" * 16), ("LZ4", b"\x00" * 16)],
+)
+def test_a_ros1_chunk_that_cannot_be_read_names_the_bag(
+    arm, tmp_path, capsys, compression, damage
+):
+    """A damaged record inside a chunk (the index intact; uncompressed: its
+    first record's size): read a chunk at a time, the error names the bag, as
+    rosbags' reader's did. Found by a review: a compressed chunk whose bytes
+    are damaged raised the decompressor's own error (bz2: OSError 'Invalid data
+    stream'), which named no bag."""
     import struct
 
     from drake_dynid import ros_bag
 
+    def setup(writer):
+        small_chunks(writer)
+        if compression:
+            writer.set_compression(Writer1.CompressionFormat[compression])
+
     bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm, slice(0, 3000)), setup=small_chunks)
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 3000)), setup=setup)
     with ros_bag._Ros1Chunks.open(str(bag)) as chunks:
         position = chunks.chunks[3][1]
     data = bytearray(bag.read_bytes())
     (size,) = struct.unpack_from("<I", data, position)
-    start = position + 4 + size + 4  # the chunk's data: its first record
-    data[start : start + 4] = b"\xff\xff\xff\x7f"
+    start = position + 4 + size + 4  # the chunk's data
+    data[start : start + len(damage)] = damage
     bag.write_bytes(bytes(data))
     assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "x.csv")]) == 2
     line = error_line(capsys)
@@ -910,35 +924,4 @@ def test_a_missing_bag_is_named_not_the_output(tmp_path, capsys):
     assert cli.main(["offline", str(bag), "--urdf", urdf]) == 2
     assert error_line(capsys) == (
         f"dynid offline: error: ROS bag {bag}: no such file or folder."
-    )
-
-
-@pytest.mark.parametrize("compression", ["BZ2", "LZ4"])
-def test_a_ros1_chunk_that_cannot_be_decompressed_names_the_bag(
-    arm, tmp_path, capsys, compression
-):
-    """Found by a review: a compressed chunk whose bytes are damaged raised the
-    decompressor's own error (bz2: OSError 'Invalid data stream'), which named
-    no bag."""
-    import struct
-
-    from drake_dynid import ros_bag
-
-    def setup(writer):
-        small_chunks(writer)
-        writer.set_compression(Writer1.CompressionFormat[compression])
-
-    bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm, slice(0, 3000)), setup=setup)
-    with ros_bag._Ros1Chunks.open(str(bag)) as chunks:
-        position = chunks.chunks[3][1]
-    data = bytearray(bag.read_bytes())
-    (size,) = struct.unpack_from("<I", data, position)
-    start = position + 4 + size + 4  # the chunk's compressed data
-    data[start : start + 16] = b"\x00" * 16
-    bag.write_bytes(bytes(data))
-    assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "x.csv")]) == 2
-    line = error_line(capsys)
-    assert line.startswith(f"dynid bag2csv: error: ROS bag {bag}: cannot be read ("), (
-        line
     )
