@@ -81,7 +81,7 @@ from drake_dynid.urdf import (
     read_urdf_mimic,
     untransmitted_note,
 )
-from drake_dynid.urdf_writer import DRIVE_TOTALS, motor_friction
+from drake_dynid.urdf_writer import drive_totals, motor_friction
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
@@ -241,6 +241,13 @@ class RobotModel(RobotRows):
         notes = tuple(note for note in loaded.notes if note != own)
         for note in notes:
             _LOGGER.info("RobotModel: %s.", note)
+        # A file dynid --urdf-out wrote with a drive file holds the joint-side
+        # totals: read as they are, the same drive file adds nothing again.
+        totals = (False, False)
+        if drive is not None:
+            totals = drive_totals(
+                Path(path).read_text(encoding="utf-8", errors="replace")
+            )
         model = cls.from_plant(
             loaded.plant,
             friction=friction,
@@ -256,21 +263,35 @@ class RobotModel(RobotRows):
             drive=drive,
             coulomb_width=coulomb_width,
             untransmitted=untransmitted,
+            totals=totals,
         )
-        if (
-            model.drive is not None
-            and motor_friction(model.drive)
-            and DRIVE_TOTALS in Path(path).read_text(encoding="utf-8", errors="replace")
-        ):
-            note = (
-                f"{Path(path).name} was written by dynid --urdf-out with a drive "
-                "file: its joint damping and friction already include the motors' "
-                "reflected values, and the drive file's motor friction is added "
-                "again in the a-priori values (dynid params, --compare-urdf); the "
-                "identification itself is not affected"
+        if model.drive is not None and any(totals):
+            given = rotor_inertia and any(
+                not motor.coupled and motor.rotor_inertia is not None
+                for motor in model.drive.motors
             )
-            _LOGGER.info("RobotModel: %s.", note)
-            object.__setattr__(model, "notes", (*model.notes, note))
+            kept = [
+                *(
+                    ["the drive file's motor friction is not added to them again"]
+                    if motor_friction(model.drive)
+                    else []
+                ),
+                *(
+                    ["its rotor inertia does not replace them"]
+                    if totals[1] and given
+                    else []
+                ),
+            ]
+            if kept:
+                what = "friction and rotor inertia" if totals[1] else "friction"
+                note = (
+                    f"{Path(path).name} was written by dynid --urdf-out with a drive "
+                    f"file: its joint damping, {what} are joint-side totals, the "
+                    f"motors' reflected values included, read as they are "
+                    f"({'; '.join(kept)})"
+                )
+                _LOGGER.info("RobotModel: %s.", note)
+                object.__setattr__(model, "notes", (*model.notes, note))
         return model
 
     @classmethod
@@ -291,6 +312,7 @@ class RobotModel(RobotRows):
         drive: Any = None,
         coulomb_width: float = 0.0,
         untransmitted: tuple[Sequence[str], Collection[str]] = ((), ()),
+        totals: tuple[bool, bool] = (False, False),
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -302,7 +324,9 @@ class RobotModel(RobotRows):
         ``untransmitted``: (joints without a ``<transmission>``, those of them with
         an effort limit) whose note (``urdf.untransmitted_note``) the caller left to
         this method: with a drive chain it names the joints the chain does not
-        drive.
+        drive. ``totals``: whether the plant's joint friction and rotor inertia
+        already hold a drive chain's reflected values
+        (``urdf_writer.drive_totals``; ``robot_drive.drive_table``).
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
@@ -342,6 +366,7 @@ class RobotModel(RobotRows):
                 num_joints=n,
                 rotor_inertia=bool(rotor_inertia),
                 friction=friction,
+                totals=totals,
             )
             names, values, scales = table.names, table.values, table.scales
             motors = table.columns

@@ -128,6 +128,7 @@ def drive_table(
     num_joints: int,
     rotor_inertia: bool,
     friction: tuple[str, ...],
+    totals: tuple[bool, bool] = (False, False),
 ) -> DriveTable:
     """Inserts the motor columns into a standard table (module docstring).
 
@@ -139,6 +140,11 @@ def drive_table(
         num_joints: n.
         rotor_inertia: whether the ``IAj`` (and ``IAmk``) columns are modelled.
         friction: the friction kinds.
+        totals: whether ``values`` already hold the joint-side totals of (the
+            joint friction, the rotor inertia IAj), as in a file that
+            ``dynid --urdf-out`` wrote with a drive file: the simple motors'
+            friction is then not added to them, their rotor inertia does not
+            replace them.
     """
     names = list(names)
     values = np.array(values, dtype=float)
@@ -150,10 +156,11 @@ def drive_table(
     for motor in chain.motors:
         if not motor.coupled and motor.rotor_inertia is not None:
             known[motor.joints[0]] = True
-    if rotor_inertia:
+    friction_total, inertia_total = totals
+    if rotor_inertia and not inertia_total:
         for j in np.flatnonzero(known):
             values[names.index(f"IA{j + 1}")] = reflected[j]
-    else:
+    elif not rotor_inertia:
         given = [mo.name for mo in chain.motors if mo.rotor_inertia is not None]
         if given:
             notes.append(
@@ -161,7 +168,7 @@ def drive_table(
                 "without rotor inertia columns (--rotor-inertia)"
             )
     extra = chain.reflected_friction()
-    for index, kind in enumerate(friction):
+    for index, kind in enumerate(friction if not friction_total else ()):
         for joint in range(n):
             values[start + joint * len(friction) + index] += extra[kind][joint]
     columns = None

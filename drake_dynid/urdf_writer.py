@@ -70,11 +70,12 @@ from drake_dynid.core import _validate as check
 from drake_dynid.drive_urdf import DRAKE_NAMESPACE, parse_urdf_xml
 from drake_dynid.files import write_text_whole
 
-__all__ = ["UrdfExport", "doubtful_links", "write_identified_urdf"]
+__all__ = ["UrdfExport", "doubtful_links", "drive_totals", "write_identified_urdf"]
 
 #: Written in the header comment of a file identified with a drive file (the
 #: joint friction and rotor inertia are joint-side totals); ``RobotModel``
-#: notes it when such a file is loaded with a drive file again.
+#: reads them as they are when such a file is loaded with a drive file again
+#: (:func:`drive_totals`).
 DRIVE_TOTALS = "are joint-side totals, its motors' reflected values included"
 _OWNER = "write_identified_urdf"
 _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
@@ -213,11 +214,27 @@ def motor_friction(drive: Any) -> bool:
     """Whether a drive chain adds motor friction to the joints' a-priori values.
 
     ``DriveChain.reflected_friction`` (its simple motors' ``viscous``,
-    ``coulomb``, ``offset``) not all 0: loaded with such a drive file, a file
-    written with it counts that friction twice (the URDF's joint friction is
-    already the total).
+    ``coulomb``, ``offset``) not all 0: a file written with it holds that
+    friction in its joint friction already (:func:`drive_totals`).
     """
     return any(np.any(values != 0.0) for values in drive.reflected_friction().values())
+
+
+def drive_totals(text: str) -> tuple[bool, bool]:
+    """Whether a URDF's joint (friction, rotor inertia) are a drive's totals.
+
+    ``text``: the file. A file this module wrote with a drive file says so in
+    its header (:data:`DRIVE_TOTALS`): its ``<dynamics damping friction>`` are
+    FVj, FCj with the motors' reflected friction included, and with rotor
+    inertia columns its ``drake:rotor_inertia`` reflects to IAj, the motors'
+    included. Loaded with a drive file again, ``RobotModel`` reads them as they
+    are (``robot_drive.drive_table``): the round trip gives the fit's standard
+    values (the motor-side ``IAmk``, ``FVmk``, ``FCmk`` and ``OFFj`` have no
+    URDF field: the drive file's a-priori values).
+    """
+    if DRIVE_TOTALS not in text:
+        return (False, False)
+    return (True, f"rotor inertia {DRIVE_TOTALS}" in text)
 
 
 def _dynamics(joint: Any) -> Any:
@@ -423,17 +440,17 @@ def _header(
     if skipped:
         lines.append(f"Identified, no URDF field (not written): {', '.join(skipped)}.")
     if drive is not None:
-        twice = (
-            "; loaded with the same drive file, its motor friction would be counted "
-            "twice in the a-priori values (dynid params, compare-urdf)."
+        read_back = (
+            "; loaded with a drive file again, drake_dynid reads them as they are "
+            "(the drive file's motor friction is not added again)."
             if motor_friction(drive)
             else "."
         )
         inertia = (
             " The rotor inertia of a joint with a motor of its own is written for "
             "that motor's gear ratio N (drake:gear_ratio N, drake:rotor_inertia "
-            "IAj/N²): Drake and the same drive file reflect it to IAj (a "
-            "rotor_inertia the drive file gives replaces it); a joint driven only "
+            "IAj/N²): Drake and the same drive file reflect it to IAj (the "
+            "drive file's own rotor_inertia does not replace it); a joint driven only "
             "by coupled motors keeps its actuator's ratio."
             if robot.rotor_inertia
             else ""
@@ -442,7 +459,7 @@ def _header(
         totals = "friction and rotor inertia" if robot.rotor_inertia else "friction"
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            f"{totals} {DRIVE_TOTALS}{twice}{inertia}"
+            f"{totals} {DRIVE_TOTALS}{read_back}{inertia}"
         )
     return lines
 

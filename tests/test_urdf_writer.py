@@ -451,10 +451,13 @@ def test_the_same_drive_file_reads_the_written_rotor_inertia_back(tmp_path):
         )
 
 
-def test_counted_twice_is_said_only_of_a_drive_file_with_motor_friction(tmp_path):
-    # The TIAGo's drive file gives no motor friction: nothing is counted twice
-    # when the written file is loaded with it again, and nothing says so. The
-    # wrist4 drive file gives its motors' viscous and Coulomb friction: said.
+def test_the_totals_read_back_are_said_only_of_a_drive_file_with_motor_friction(
+    tmp_path,
+):
+    # The TIAGo's drive file gives no motor friction: nothing would be added
+    # again when the written file is loaded with it, and nothing says so. The
+    # wrist4 drive file gives its motors' viscous and Coulomb friction: the
+    # header and a note say that the file's totals are read as they are.
     joints = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
     cases = [
         (model_path("tiago_no_hand"), joints, "tiago.toml", False),
@@ -466,11 +469,11 @@ def test_counted_twice_is_said_only_of_a_drive_file_with_motor_friction(tmp_path
         values = _consistent_values(robot, np.random.default_rng(10))
         out = tmp_path / f"{drive_name}.urdf"
         write_identified_urdf(robot, values, out)
-        assert ("counted twice" in out.read_text()) is twice
+        assert ("reads them as they are" in out.read_text()) is twice
         # Without rotor inertia columns none is written, and none is described.
         assert "drake:gear_ratio N" not in out.read_text()
         again = RobotModel.from_urdf(out, joints=names, drive=drive)
-        assert any("added again" in note for note in again.notes) is twice
+        assert any("read as they are" in note for note in again.notes) is twice
 
 
 def test_the_drive_header_names_rotor_inertia_only_when_written(tmp_path):
@@ -493,7 +496,7 @@ def test_the_drive_header_names_rotor_inertia_only_when_written(tmp_path):
         again = RobotModel.from_urdf(
             out, drive="tests/data/wrist4.toml", rotor_inertia=rotor_inertia
         )
-        assert any("added again" in note for note in again.notes)
+        assert any("read as they are" in note for note in again.notes)
 
 
 def test_a_moving_mimic_joints_rotor_inertia_is_written_as_zero(tmp_path):
@@ -621,3 +624,29 @@ def test_a_link_ten_times_heavier_than_the_urdfs_is_named():
     for k in range(len(values)):
         scaled[k] = values[k] * (9.0 if robot.standard_names[k].endswith("1") else 1)
     assert doubtful_links(robot, scaled) == ()  # 9 times: within the bounds
+
+
+def test_the_same_drive_file_reads_the_written_totals_back_exactly(tmp_path):
+    # The wrist4 fit with its drive file (motor viscous and Coulomb friction,
+    # rotor inertia of m1-m3) and rotor inertia columns: the written file holds
+    # the joint-side totals. Loaded with the same drive file, the motors'
+    # friction was added to them again (FV1 +0.72, FC1 +0.6: 60² and 60 times
+    # m1's) and their rotor inertia replaced the written one, so the a-priori
+    # torques of the round trip were not the fit's (a review). Now the file's
+    # totals are read as they are and a note says so.
+    drive = "tests/data/wrist4.toml"
+    robot = RobotModel.from_urdf(
+        "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(16))
+    out = tmp_path / "w.urdf"
+    write_identified_urdf(robot, values, out)
+    again = RobotModel.from_urdf(out, drive=drive, rotor_inertia=True)
+    assert again.standard_names == robot.standard_names
+    np.testing.assert_allclose(again.standard_values, values, rtol=1e-12, atol=1e-15)
+    rng = np.random.default_rng(17)
+    q, v, vdot = (rng.normal(size=(20, 4)) for _ in range(3))
+    before = robot.idim_rows(q, v, vdot, columns="standard") @ values
+    after = again.idim_rows(q, v, vdot, columns="standard") @ again.standard_values
+    np.testing.assert_allclose(after, before, rtol=1e-12, atol=1e-12)
+    assert any("read as they are" in note for note in again.notes)
