@@ -14,11 +14,16 @@ server; ``Replay.html`` is a standalone copy (``Meshcat.StaticHtml``: scene and
 animation in one file, no server needed). A URDF without ``<visual>`` elements
 (the shipped iiwa7, UR5, 2R) is shown by its links' equivalent inertia
 ellipsoids (Drake's inertia layer, made visible); a URDF whose meshes cannot be
-found is loaded without geometry, with a note.
+found is loaded without geometry, with a note. A server it starts itself starts
+quietly: Drake's INFO line "Meshcat listening for connections at URL" (its
+``drake`` logger) is held back, the URL being ``Replay.url``, which the commands
+print in their own words.
 """
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import math
 import os
 import re
@@ -35,6 +40,23 @@ __all__ = ["Replay", "replay_in_meshcat"]
 #: Most animation frames of one replay (an hour at 32 frames per second, both
 #: ends included).
 MAX_FRAMES = 115_201
+
+
+@contextlib.contextmanager
+def _drake_quiet() -> Any:
+    """Drake's ``drake`` logger at WARNING at least (its INFO lines held back).
+
+    pydrake routes Drake's C++ log into Python's ``logging`` and keeps the C++
+    level in step with this logger's level; the previous level is restored.
+    """
+    logger = logging.getLogger("drake")
+    saved = logger.level
+    if logger.getEffectiveLevel() < logging.WARNING:
+        logger.setLevel(logging.WARNING)
+    try:
+        yield
+    finally:
+        logger.setLevel(saved)
 
 
 @dataclass(frozen=True)
@@ -96,7 +118,8 @@ def replay_in_meshcat(
         html: write the standalone page here (None: do not).
         frames_per_second: animation frames per second of motion [Hz].
         meshcat: a ``Meshcat`` to use (default: ``StartMeshcat()``, a new server
-            on the first free port from 7000).
+            on the first free port from 7000, started without Drake's INFO line:
+            its URL is ``Replay.url``).
         locked: ``{joint: position [rad or m]}`` of joints outside ``joint_names``
             (``RobotModel.locked``); a URDF mimic joint follows its leader.
 
@@ -147,7 +170,9 @@ def replay_in_meshcat(
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
     if not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
         notes.append("no <visual> geometry: the links are shown by their inertia")
-    meshcat = StartMeshcat() if meshcat is None else meshcat
+    if meshcat is None:
+        with _drake_quiet():  # the URL is Replay.url (module docstring)
+            meshcat = StartMeshcat()
     config = VisualizationConfig(
         publish_contacts=False, publish_proximity=False, enable_alpha_sliders=False
     )

@@ -609,3 +609,23 @@ def test_hint_quotes_paths_with_spaces(experiment, tmp_path, capsys, monkeypatch
     hint = re.search(r"score it with: (.*)", capsys.readouterr().out).group(1)
     words = shlex.split(hint)
     assert words[:5] == ["dynid", "offline", "my log.csv", "--urdf", str(urdf)], hint
+
+
+def test_replay_gives_the_meshcat_url_in_its_own_words_only(
+    experiment, tmp_path, capsys, caplog
+):
+    """Found by a review: Drake's own INFO line 'Meshcat listening for
+    connections at http://localhost:7000' (its spdlog, through Python's logging)
+    came on stderr before the command's 'Meshcat: URL' line. Drake's logger is
+    held at WARNING while the server starts; the URL is the command's line."""
+    import logging
+
+    caplog.set_level(logging.INFO, logger="drake")
+    page = tmp_path / "traj.html"
+    argv = ["replay", experiment["urdf"], experiment["traj"], "--html", str(page)]
+    assert cli.main([*argv, "--quiet"]) == 0
+    captured = capsys.readouterr()
+    assert re.fullmatch(r"Meshcat: http://localhost:\d+\n", captured.out)
+    assert "listening" not in captured.err
+    assert not [r for r in caplog.records if "listening" in r.getMessage()]
+    assert logging.getLogger("drake").level == logging.INFO  # restored
