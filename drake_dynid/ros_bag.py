@@ -1094,7 +1094,8 @@ class _Ros1Chunks:
     rosbags' typestore deserializes the messages from the connections'
     definitions (as its ``AnyReader``). :meth:`open` returns None where
     rosbags' reader is to decide (its errors: no index, encryption, a record
-    it would refuse, a definition that does not match its md5), or where more
+    it would refuse, as a chunk-info record that is not of version 1, a
+    definition that does not match its md5), or where more
     than :data:`ROS1_OVERLAP` chunks overlap at one instant.
     """
 
@@ -1151,6 +1152,9 @@ class _Ros1Chunks:
             infos, events = [], []
             for _ in range(chunks):
                 fields, _ = _read_record(stream)
+                # CHUNK_INFO (op 0x06) version 1, the only one the format has.
+                if fields.get("op") != b"\x06" or fields.get("ver") != _U32.pack(1):
+                    raise ValueError("not a CHUNK_INFO record of version 1")
                 (position,) = struct.unpack("<Q", fields["chunk_pos"])
                 start, end = _time(fields["start_time"]), _time(fields["end_time"])
                 infos.append((start, position))

@@ -925,3 +925,29 @@ def test_a_missing_bag_is_named_not_the_output(tmp_path, capsys):
     assert error_line(capsys) == (
         f"dynid offline: error: ROS bag {bag}: no such file or folder."
     )
+
+
+def test_a_ros1_chunk_info_of_another_version_is_left_to_rosbags(arm, tmp_path, capsys):
+    """The ROS bag 2.0 format's CHUNK_INFO records are version 1. Found by a
+    review: the chunk-at-a-time reader (ros_bag._Ros1Chunks) read one of any
+    version as if it were 1. Another version now leaves the bag to rosbags'
+    reader, which refuses it by name (exit 2, the bag named)."""
+    import struct
+
+    from drake_dynid import ros_bag
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 300)))
+    data = bytearray(bag.read_bytes())
+    (index,) = struct.unpack_from("<Q", data, data.index(b"index_pos=") + 10)
+    field = b"ver=" + struct.pack("<I", 1)
+    at = data.index(field, index)  # the first CHUNK_INFO record's version
+    data[at + 4 : at + 8] = struct.pack("<I", 2)
+    bag.write_bytes(bytes(data))
+    assert ros_bag._Ros1Chunks.open(str(bag)) is None
+    assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "x.csv")]) == 2
+    line = error_line(capsys)
+    assert line.startswith(f"dynid bag2csv: error: ROS bag {bag}: cannot be read ("), (
+        line
+    )
+    assert "CHUNK_INFO version 2 is not supported" in line, line
