@@ -70,13 +70,23 @@ from drake_dynid.core import _validate as check
 from drake_dynid.drive_urdf import DRAKE_NAMESPACE, parse_urdf_xml
 from drake_dynid.files import write_text_whole
 
-__all__ = ["UrdfExport", "doubtful_links", "drive_totals", "write_identified_urdf"]
+__all__ = [
+    "UrdfExport",
+    "doubtful_links",
+    "drive_totals",
+    "implausible_links",
+    "implausible_note",
+    "write_identified_urdf",
+]
 
 #: Written in the header comment of a file identified with a drive file (the
 #: joint friction and rotor inertia are joint-side totals); ``RobotModel``
 #: reads them as they are when such a file is loaded with a drive file again
 #: (:func:`drive_totals`).
 DRIVE_TOTALS = "are joint-side totals, its motors' reflected values included"
+#: Opens the header line naming the links :func:`doubtful_links` found
+#: (:func:`implausible_note`; read back by :func:`implausible_links`).
+IMPLAUSIBLE = "Consistent but implausible, check before use"
 _OWNER = "write_identified_urdf"
 _INERTIAL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 _TOLERANCE = 1e-9  # relative: smallest accepted pseudo-inertia eigenvalue
@@ -509,6 +519,40 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
                 f"{float(np.linalg.norm(first0)) / mass0:.3g})"
             )
     return tuple(out)
+
+
+def implausible_note(doubtful: Sequence[str]) -> str:
+    """The header line naming the links of :func:`doubtful_links` (``notes=``)."""
+    return (
+        f"{IMPLAUSIBLE} (the base parameters share a link's mass and first moment "
+        "with its neighbours, or the data contradict the URDF; a larger "
+        "regularization λ pulls towards the URDF's, --regularizer entropic keeps "
+        "masses off 0): " + "; ".join(doubtful) + "."
+    )
+
+
+_DOUBTFUL_ENTRY = re.compile(
+    r"([^\s;:]+): mass (\S+) kg \(URDF (\S+)\), centre of mass (\S+) m from its "
+    r"origin \(URDF (\S+)\)"
+)
+
+
+def implausible_links(text: str) -> tuple[tuple[str, float, float], ...]:
+    """The links a written file's header names as implausible.
+
+    ``text``: the file. Returns ``(link, mass [kg], centre-of-mass distance from
+    the link origin [m])`` per link of its :func:`implausible_note` line (none
+    for a file without one).
+    """
+    start = text.find(IMPLAUSIBLE)
+    if start < 0:
+        return ()
+    end = text.find("\n", start)
+    line = text[start : end if end >= 0 else len(text)]
+    return tuple(
+        (m.group(1), float(m.group(2)), float(m.group(4)))
+        for m in _DOUBTFUL_ENTRY.finditer(line)
+    )
 
 
 def write_identified_urdf(

@@ -240,3 +240,53 @@ def test_the_readme_held_out_table_shows_what_dynid_offline_prints(
     columns += (errors(exact, "idim-ls"),)
     for name, row in table.items():
         assert list(row) == [shown(column[name]) for column in columns], name
+
+
+def test_simulating_the_physical_export_names_its_implausible_links(tmp_path, capsys):
+    """Found by a review: `dynid simulate` on the TIAGo's `offline --split 0.6
+    --physical --urdf-out` file stopped (exit 2) on arm_4_joint commanded -179
+    N·m, more than 10× its 17.86 N·m limit, without a word on why: the file's
+    links are nearly empty with their centres of mass 5-9 m away (its header
+    and the export's warning say so). The message now names them and the
+    largest inertia they make, and what to do instead."""
+    from drake_dynid.urdf_writer import implausible_links
+
+    out = tmp_path / "tiago_physical.urdf"
+    argv = ["offline", *map(str, FILES), "--urdf", str(URDF), "--drive", str(DRIVE)]
+    argv += ["--joints", ",".join(JOINTS), "--split", "0.6", "--physical"]
+    assert cli.main([*argv, "--urdf-out", str(out), "--quiet"]) == 0
+    links = implausible_links(out.read_text())
+    assert [link for link, _, _ in links] == [
+        "torso_lift_link",
+        *(f"arm_{k}_link" for k in range(1, 8)),
+    ]
+    # 3 s of slow sines about mid-range, 20 % of each joint's range.
+    limits = RobotModel.from_urdf(URDF, joints=JOINTS).plant
+    t = np.arange(0.0, 3.0 + 1e-9, 0.01)
+    columns, q, v = ["t"], [t], []
+    for k, name in enumerate(JOINTS):
+        joint = limits.GetJointByName(name)
+        low, high = joint.position_lower_limits()[0], joint.position_upper_limits()[0]
+        amplitude, w = 0.1 * (high - low), 2 * np.pi * 0.3 * (1 + 0.1 * k)
+        q.append(0.5 * (low + high) + amplitude * np.sin(w * t))
+        v.append(amplitude * w * np.cos(w * t))
+    columns += [f"q_{n}" for n in JOINTS] + [f"v_{n}" for n in JOINTS]
+    trajectory = tmp_path / "traj.csv"
+    np.savetxt(trajectory, np.column_stack(q + v), delimiter=",", comments="",
+               header=",".join(columns))  # fmt: skip
+    argv = ["simulate", str(out), "--joints", ",".join(JOINTS), "--trajectory"]
+    argv += [str(trajectory), "--duration", "2", "--out", str(tmp_path / "s.csv")]
+    assert cli.main([*argv, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    line = err.strip().splitlines()[-1]
+    assert line.startswith("dynid simulate: error: the simulation diverged"), line
+    assert (
+        "tiago_physical.urdf was written by dynid --urdf-out with 8 implausible "
+        "link(s) (its header: torso_lift_link, arm_1_link," in line
+    ), line
+    # arm_3_link: 0.153 kg at 8.79 m from its origin, 11.8 kg·m² (this run).
+    assert re.search(r"\(arm_3_link: 0\.1\d* kg at 8\.\d+ m from its origin, 1\d", line)
+    assert "larger --regularization" in line and "Traceback" not in err
+    # The URDF it was identified from runs the same trajectory.
+    argv[1] = str(URDF)
+    assert cli.main([*argv, "--quiet"]) == 0

@@ -343,7 +343,11 @@ def _write_urdf(
     once the other outputs are written.
     """
     from drake_dynid.commands._report import not_identified
-    from drake_dynid.urdf_writer import doubtful_links, write_identified_urdf
+    from drake_dynid.urdf_writer import (
+        doubtful_links,
+        implausible_note,
+        write_identified_urdf,
+    )
 
     flagged = not_identified(fit.names, fit.theta, fit.std)
     notes = list(notes)
@@ -365,12 +369,7 @@ def _write_urdf(
     entry["urdf_not_identified"] = flagged
     doubtful = doubtful_links(robot, physical.standard_values)
     if doubtful:
-        notes.append(
-            "Consistent but implausible, check before use (the base parameters "
-            "share a link's mass and first moment with its neighbours, or the data "
-            "contradict the URDF; a larger regularization λ pulls towards the URDF's, "
-            "--regularizer entropic keeps masses off 0): " + "; ".join(doubtful) + "."
-        )
+        notes.append(implausible_note(doubtful))
         print(
             f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
             f"--urdf-out: {len(doubtful)} link(s) written with a mass outside 1 % - "

@@ -173,6 +173,54 @@ def _in_option_names():
         raise ValueError(option_message(str(error), OPTION_NAMES, owners)) from None
 
 
+#: How a simulation that ran and then failed begins its message (experiment.py).
+_RUN_FAILURES = (
+    "the simulation diverged",
+    "the tracking error of joint",
+    "the motion left the position limits",
+)
+
+
+@contextlib.contextmanager
+def _implausible_links_named(urdf: str):
+    """A failed run of a file --urdf-out wrote with implausible links says so.
+
+    Such a file's header names the links written nearly empty or with their
+    centre of mass far off (``urdf_writer.implausible_links``): a small mass
+    metres from its joint is a large inertia and gravity torque no controller
+    tuned for the robot drives, which a run stopping on its effort, tracking or
+    limits then shows without naming the cause.
+    """
+    from drake_dynid.core._validate import listed
+    from drake_dynid.urdf_writer import implausible_links
+
+    try:
+        yield
+    except ValueError as error:
+        message = str(error)
+        if not any(failure in message for failure in _RUN_FAILURES):
+            raise
+        try:
+            links = implausible_links(
+                Path(urdf).read_text(encoding="utf-8", errors="replace")
+            )
+        except OSError:
+            links = ()
+        if not links:
+            raise
+        name, mass, distance = max(links, key=lambda e: e[1] * e[2] ** 2)
+        raise ValueError(
+            f"{message.rstrip('.')}. {Path(urdf).name} was written by dynid "
+            f"--urdf-out with {len(links)} implausible link(s) (its header: "
+            f"{listed(e[0] for e in links)}): a nearly empty link whose centre of "
+            f"mass is metres away is a large inertia, unlike the robot's ({name}: "
+            f"{mass:.3g} kg at {distance:.3g} m from its origin, "
+            f"{mass * distance**2:.3g} kg·m² about it). Simulate the URDF it was "
+            "identified from, or identify it again with a larger --regularization "
+            "(which pulls the links towards that URDF's)."
+        ) from None
+
+
 def truth_path(out: str, suffix: str = ".truth.json") -> Path:
     """``LOG.csv`` -> ``LOG.truth.json`` (or another ``suffix``)."""
     path = Path(out)
@@ -319,7 +367,7 @@ def run(args: argparse.Namespace) -> int:
         say(f"note: no position limits for {', '.join(unchecked)}: not checked")
     drive = simulated_drive_of(robot, settings.coulomb_smoothing)
     start = time.perf_counter()
-    with _in_option_names():
+    with _in_option_names(), _implausible_links_named(args.urdf):
         log = simulate_experiment(
             args.urdf,
             reference,
