@@ -36,6 +36,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, NoReturn
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.drive import DriveChain, read_drive
 
 __all__ = ["UrdfDrive", "load_drive", "read_urdf_drive"]
@@ -158,7 +159,7 @@ class _Reader:
                         "log give log.position_offset in the drive file)."
                     )
         if short not in _KINDS:
-            names = ", ".join(j.attrib.get("name", "") for j in joints)
+            names = listed(j.attrib.get("name", "") for j in joints)
             self.warnings.append(
                 f"{where}: type {kind!r} is not supported (only {', '.join(_KINDS)}); "
                 f"ignored: joint(s) {names} "
@@ -283,7 +284,7 @@ def load_drive(
     unknown = [name for name in joint_names if name not in urdf.joint_types]
     if unknown:
         raise ValueError(
-            f"load_drive: joint(s) {', '.join(unknown)} are not joints of "
+            f"load_drive: joint(s) {listed(unknown)} are not joints of "
             f"{os.fspath(urdf_path)}."
         )
     prismatic = [name for name in joint_names if name in urdf.prismatic_joints]

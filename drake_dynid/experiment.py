@@ -239,7 +239,7 @@ def simulate_experiment(
         check.fail(
             owner,
             f"the simulated joints must be the reference's {n} joints "
-            f"({', '.join(names)}), each actuated; the plant's actuated joints are "
+            f"({check.listed(names)}), each actuated; the plant's actuated joints are "
             f"{check.listed(simulated) or 'none'}"
             + (
                 f" and {check.listed(passive)} move unactuated (a mimic joint, which "
@@ -249,7 +249,8 @@ def simulate_experiment(
                 else ""
             )
             + (
-                f"; {', '.join(mimic)}: a <mimic> joint with a <transmission>, which "
+                f"; {check.listed(mimic)}: a <mimic> joint with a <transmission>, "
+                "which "
                 "the simulator does not couple to its leader: lock the leader "
                 "(--lock), or remove the <mimic> from the URDF"
                 if mimic

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from drake_dynid.core._validate import listed
+from drake_dynid.core._validate import LISTED_NAMES, listed
 from drake_dynid.core.blocks import is_stored
 from drake_dynid.log_store import RowSink
 
@@ -223,13 +223,16 @@ def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     joints = [name[2:] for name in wanted if name.startswith("q_")]
     present = [j for j in joints if f"q_{j}" in header and f"tau_{j}" in header]
     if present and len(present) < len(joints):
-        return (
-            f"; the log holds {', '.join(present)} only: --joints "
-            f"{','.join(present)} identifies those alone"
+        # The --joints value to copy, while it is one (the listed names are not).
+        option = (
+            f": --joints {','.join(present)} identifies those alone"
+            if len(present) <= LISTED_NAMES
+            else ": --joints with those names identifies them alone"
         )
+        return f"; the log holds {listed(present)} only{option}"
     logged = [n[2:] for n in header if n.startswith("q_") and f"tau_{n[2:]}" in header]
     if logged and not present:
-        shown = ", ".join(logged[:4]) + (", ..." if len(logged) > 4 else "")
+        shown = listed(logged)
         return (
             f"; the log holds the joints {shown}, not the ones asked for (check "
             "--urdf and --joints)"
@@ -486,12 +489,12 @@ def read_table(
     header, body, body_line, last = _header_block(path, texts)
     duplicated = sorted({name for name in header if header.count(name) > 1})
     if duplicated:
-        names = ", ".join(f"'{name}'" for name in duplicated)
+        names = listed(f"'{name}'" for name in duplicated)
         raise ValueError(f"log {path}: duplicated column(s) {names}.")
     missing = [name for name in wanted if name not in header]
     if missing:
         raise ValueError(
-            f"log {path}: missing column(s) {', '.join(missing)}; the header must hold "
+            f"log {path}: missing column(s) {listed(missing)}; the header must hold "
             "t, q_<joint> and tau_<joint> for every joint "
             f"(found: {listed(header)}){_format_hint(header, wanted)}."
         )

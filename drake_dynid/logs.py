@@ -45,6 +45,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from drake_dynid.core._threads import release_heap
+from drake_dynid.core._validate import listed
 from drake_dynid.core.blocks import blocks, segment
 from drake_dynid.core.drive_log import TIME_UNITS
 from drake_dynid.files import write_whole
@@ -404,5 +405,5 @@ def _joint_names(owner: str, joint_names: Any) -> tuple[str, ...]:
         )
     duplicated = sorted({name for name in names if names.count(name) > 1})
     if duplicated:
-        raise ValueError(f"{owner}: joint_names repeats {', '.join(duplicated)}.")
+        raise ValueError(f"{owner}: joint_names repeats {listed(duplicated)}.")
     return names

@@ -214,8 +214,8 @@ def _check_log(owner: str, log: Any, robot: Any, rows: Any) -> float:
     if tuple(log.joint_names) != robot_joints:
         check.fail(
             owner,
-            f"log joints must be the robot's {', '.join(robot_joints)} in that "
-            f"order; got {', '.join(log.joint_names)}.",
+            f"log joints must be the robot's {check.listed(robot_joints)} in that "
+            f"order; got {check.listed(log.joint_names)}.",
         )
     return check.positive(owner, "time_step", log.time_step, "s")
 

@@ -189,13 +189,13 @@ class PhysicalCheck:
         parts = []
         if self.negative:
             parts.append(
-                f"negative friction or rotor inertia: {', '.join(self.negative)}"
+                f"negative friction or rotor inertia: {check.listed(self.negative)}"
             )
         if not self.feasible:
             parts.append(
                 "no positive-semidefinite pseudo-inertia for link(s) "
-                f"{', '.join(self.infeasible_links)} (base parameters involved: "
-                f"{', '.join(self.involved)})"
+                f"{check.listed(self.infeasible_links)} (base parameters involved: "
+                f"{check.listed(self.involved)})"
             )
         return "physically impossible: " + "; ".join(parts) + "."
 

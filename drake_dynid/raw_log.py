@@ -256,7 +256,7 @@ def _header(path: str) -> list[str]:
         header = read_header(path, stream)
     duplicated = sorted({h for h in header if header.count(h) > 1})
     if duplicated:
-        raise ValueError(f"log {path}: duplicated column(s) {', '.join(duplicated)}.")
+        raise ValueError(f"log {path}: duplicated column(s) {listed(duplicated)}.")
     return header
 
 
@@ -332,14 +332,14 @@ def _owners(
         holders = [path for path in files if name in headers[path]]
         if name != time and len(holders) > 1:
             raise ValueError(
-                f"log: column '{name}' is in several files ({', '.join(holders)}); "
+                f"log: column '{name}' is in several files ({listed(holders)}); "
                 "keep it in one."
             )
         if holders:
             owner[name] = holders[0]
     missing = [name for name in wanted if name not in owner]
     if missing:
-        found = "; ".join(f"{p}: {listed(headers[p])}" for p in files)
+        found = listed((f"{p}: {listed(headers[p])}" for p in files), sep="; ")
         # A header of one cell holding ; tab or |: another separator (the plain
         # reader's hint, log_table._format_hint).
         other = [
@@ -348,13 +348,13 @@ def _owners(
             if len(headers[p]) == 1 and any(sep in headers[p][0] for sep in ";\t|")
         ]
         hint = (
-            f"; the header of {', '.join(other)} looks separated by another "
+            f"; the header of {listed(other)} looks separated by another "
             "character than a comma: the log must be comma-separated (CSV)"
             if other
             else ""
         )
         raise ValueError(
-            f"log {', '.join(files)}: no column(s) {', '.join(map(repr, missing))} "
+            f"log {listed(files)}: no column(s) {listed(map(repr, missing))} "
             f"(found: {found}){hint}."
         )
     return owner
@@ -389,7 +389,7 @@ def read_raw_table(
     if not files:
         raise ValueError("log: no file given.")
     Options.checked(
-        f"log {' + '.join(files)}", JITTER_TOLERANCE, False, fill_gaps, None
+        f"log {listed(files, sep=' + ')}", JITTER_TOLERANCE, False, fill_gaps, None
     )
     wanted = [name for name in dict.fromkeys([time, *columns])]
     headers, owner = _checked_headers(files, wanted, time)
@@ -415,7 +415,7 @@ def read_raw_table(
         keep &= (t >= other[0]) & (t <= other[-1])
     if not keep.any():
         raise ValueError(
-            f"log {', '.join(files)}: the files have no common time span "
+            f"log {listed(files)}: the files have no common time span "
             f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
     out = {time: t[keep]}
@@ -545,7 +545,7 @@ def _read_streamed(
 
     log = chain.log
     time = log.time
-    label = " + ".join(files)
+    label = listed(files, sep=" + ")
     options = Options.checked(
         f"log {label}", jitter_tolerance, resample, fill_gaps, None
     )
@@ -589,7 +589,7 @@ def _read_streamed(
             high = min(high, int(np.searchsorted(t, other[-1], side="right")))
     if high <= low:
         raise ValueError(
-            f"log {', '.join(files)}: the files have no common time span "
+            f"log {listed(files)}: the files have no common time span "
             f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
         )
     for path, (names, _, _, _) in tables.items():

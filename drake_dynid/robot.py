@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.base_parameters import BaseParameters, base_parameters
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.core.drive_columns import MotorColumns
@@ -107,7 +108,7 @@ def _rotor_note(plant: Any, joints: Sequence[str]) -> str:
     if not reflected:
         return ""
     return (
-        f"the URDF's rotor inertia of {', '.join(reflected)} is not modelled "
+        f"the URDF's rotor inertia of {listed(reflected)} is not modelled "
         "without rotor inertia columns (--rotor-inertia)"
     )
 

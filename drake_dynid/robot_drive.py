@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.base_parameters import BaseParameters
 from drake_dynid.core.drive import DriveChain
 from drake_dynid.core.drive_columns import MotorColumns, motor_columns
@@ -91,8 +92,8 @@ def resolve_drive(
         if drive.joint_names != names:
             raise ValueError(
                 f"RobotModel: drive: the drive chain's joints "
-                f"({', '.join(drive.joint_names)}) must be the identified joints in "
-                f"the model's order ({', '.join(names)})."
+                f"({listed(drive.joint_names)}) must be the identified joints in "
+                f"the model's order ({listed(names)})."
             )
         if tuple(drive.prismatic) != tuple(bool(p) for p in prismatic):
             wrong = [
@@ -102,7 +103,7 @@ def resolve_drive(
             ]
             raise ValueError(
                 f"RobotModel: drive: the drive chain's prismatic joints differ from "
-                f"the model's for {', '.join(wrong)}."
+                f"the model's for {listed(wrong)}."
             )
         return drive
     if isinstance(drive, (str, os.PathLike)):
@@ -164,7 +165,7 @@ def drive_table(
         given = [mo.name for mo in chain.motors if mo.rotor_inertia is not None]
         if given:
             notes.append(
-                f"the drive's rotor inertia of {', '.join(given)} is not modelled "
+                f"the drive's rotor inertia of {listed(given)} is not modelled "
                 "without rotor inertia columns (--rotor-inertia)"
             )
     extra = chain.reflected_friction()
@@ -174,11 +175,11 @@ def drive_table(
     columns = None
     if chain.coupled_motors:
         columns = motor_columns(chain, inertia=rotor_inertia, friction=friction)
-        coupled = ", ".join(chain.motor_names[k] for k in chain.coupled_motors)
+        coupled = listed(chain.motor_names[k] for k in chain.coupled_motors)
         if not rotor_inertia:
             notes.append(
                 f"coupled motor(s) {coupled}: friction columns "
-                f"{', '.join(columns.friction_names) or 'none'}; their rotor inertia "
+                f"{listed(columns.friction_names) or 'none'}; their rotor inertia "
                 "(IAm columns) needs --rotor-inertia"
             )
     scales = np.ones(len(names))

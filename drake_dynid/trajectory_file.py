@@ -116,7 +116,7 @@ def read_trajectory(
         if tuple(names) != tuple(joint_names):
             raise ValueError(
                 f"trajectory {file}: its joints {listed(names)} are not the "
-                f"robot's {', '.join(joint_names)}."
+                f"robot's {listed(joint_names)}."
             )
         sampled = SampledTrajectory.from_fourier(trajectory, names, duration, 100.0)
         return _within_bounds(file, sampled)
@@ -127,9 +127,9 @@ def read_trajectory(
     missing = [name for name in wanted if name not in header]
     if missing:
         raise ValueError(
-            f"trajectory {file}: missing column(s) {', '.join(missing)}; the header "
+            f"trajectory {file}: missing column(s) {listed(missing)}; the header "
             f"must hold t, q_<joint> and v_<joint> for the joints "
-            f"{', '.join(joint_names)} (a_<joint> optional)."
+            f"{listed(joint_names)} (a_<joint> optional)."
         )
     try:
         with warnings.catch_warnings():  # "input contained no data": said below

@@ -437,7 +437,7 @@ def _drop_placeholder_limits(plant: Any) -> str | None:
         return None
     return (
         f"{len(found)} joint(s) whose <limit> gives a range or velocity of 0, a "
-        f"placeholder (the joint moves), read as no limit: {', '.join(found)}"
+        f"placeholder (the joint moves), read as no limit: {_validate.listed(found)}"
     )
 
 
@@ -765,9 +765,7 @@ def untransmitted_note(added: Sequence[str], limited: Collection[str]) -> str | 
     """
     if not added:
         return None
-    shown = ", ".join(added[:8])
-    if len(added) > 8:
-        shown += f", … ({len(added)} in all)"
+    shown = _validate.listed(added)
     count = sum(name in limited for name in added)
     which = (
         "effort limit from the URDF's <limit>"
@@ -885,7 +883,8 @@ def load_urdf(
     if len(roots) > 1:
         raise ValueError(
             f"{owner}: {file} has {len(roots)} root links "
-            f"({', '.join(b.name() for b in roots)}); a fixed-base robot has one."
+            f"({_validate.listed(b.name() for b in roots)}); a fixed-base robot has "
+            "one."
         )
     for body in roots:
         plant.WeldFrames(plant.world_frame(), body.body_frame())

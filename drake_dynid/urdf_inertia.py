@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
+
 __all__ = ["inertia_note", "nonphysical_inertias", "substituted_inertias"]
 
 _RELATIVE = 1e-9  # tolerance of the checks, relative to the largest moment
@@ -158,7 +160,7 @@ def inertia_note(root: Any, plant: Any, file_name: str) -> str | None:
     bad = substituted_inertias(root, plant)
     if not bad:
         return None
-    links = "; ".join(f"link {name!r}: {what}" for name, what in bad)
+    links = listed((f"link {name!r}: {what}" for name, what in bad), sep="; ")
     return (
         f"non-physical <inertial> in {file_name} ({links}): Drake's parser replaced "
         "these inertias (by a solid sphere of the mass, of 1 kg when the mass is "

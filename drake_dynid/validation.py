@@ -401,8 +401,8 @@ def _validate(
     if tuple(log.joint_names) != joints:
         check.fail(
             owner,
-            f"log joints must be the robot's {', '.join(joints)} in that order; got "
-            f"{', '.join(log.joint_names)}.",
+            f"log joints must be the robot's {check.listed(joints)} in that order; "
+            f"got {check.listed(log.joint_names)}.",
         )
     p = len(rows.names)
     if not estimates:

@@ -9,6 +9,8 @@ import sys
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from drake_dynid.core._validate import listed
+
 
 class LogFiles(argparse.Action):
     """``LOG [LOG ...]``: stores the list in ``<dest>_files`` and a label in ``dest``.
@@ -378,7 +380,6 @@ def check_topic(args: argparse.Namespace, logs: Sequence[str] | None = None) -> 
     Raises:
         ValueError: naming the option and the logs.
     """
-    from drake_dynid.core._validate import listed
     from drake_dynid.ros_bag import is_bag
 
     topic = getattr(args, "topic", None)
@@ -388,7 +389,7 @@ def check_topic(args: argparse.Namespace, logs: Sequence[str] | None = None) -> 
         logs = [*log_files(args), *log_files(args, "validate")]
     if not any(is_bag(path) for path in logs):
         raise ValueError(
-            f"--topic {topic}: no log is a ROS bag ({listed(logs, 4)}); a CSV log "
+            f"--topic {topic}: no log is a ROS bag ({listed(logs)}); a CSV log "
             "has no topic: leave the option out, or give the bag."
         )
 
@@ -1012,16 +1013,18 @@ def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:
     ]
     parts = []
     if moving:
-        held = ", ".join(f"{name} = {locked[name]:g}" for name in off if name in locked)
+        held = listed(f"{name} = {locked[name]:g}" for name in off if name in locked)
         parts.append(
-            f"joint(s) not identified move in the log ({'; '.join(moving)}) while "
+            f"joint(s) not identified move in the log ({listed(moving, sep='; ')}) "
+            "while "
             f"the model holds them fixed ({held}): add them to --joints, or --lock "
             "them at the position they keep"
         )
     if astray:
         parts.append(
             f"mimic joint(s) do not follow their URDF relation in the log "
-            f"({'; '.join(astray)}): fix the URDF's <mimic>, or identify the joint "
+            f"({listed(astray, sep='; ')}): fix the URDF's <mimic>, or identify the "
+            "joint "
             "on its own"
         )
     if not parts:
@@ -1065,12 +1068,12 @@ def constant_channels(log: Any, *, torques: bool = True) -> str | None:
     reasons = []
     if found["q"]:
         reasons.append(
-            f"{', '.join(found['q'])} never change: a joint that does not move (a "
+            f"{listed(found['q'])} never change: a joint that does not move (a "
             "frozen encoder? --lock it at that position)"
         )
     if found["tau"]:
         reasons.append(
-            f"{', '.join(found['tau'])} never change: a torque that was not recorded"
+            f"{listed(found['tau'])} never change: a torque that was not recorded"
         )
     if not reasons:
         return None
@@ -1126,7 +1129,7 @@ def outside_limits(log: Any, robot: Any) -> str | None:
     if not found:
         return None
     return (
-        f"position(s) beyond the URDF's joint limits: {'; '.join(found)}. "
+        f"position(s) beyond the URDF's joint limits: {listed(found, sep='; ')}. "
         "Positions in another unit (degrees read as radians, millimetres as "
         "metres: a drive file's angle_unit, length_unit) or a wrong zero offset "
         "(position_offset)? The model is evaluated at the positions as read."
@@ -1283,7 +1286,7 @@ def dead_zone_cover(robot: Any, log: Any) -> str:
         return ""
     return (
         " The Coulomb dead zone is wider than every speed of "
-        + ", ".join(covered)
+        + listed(covered)
         + ": their Coulomb columns are all zero; give a smaller --dead-zone, "
         "or none."
     )

@@ -22,6 +22,7 @@ from drake_dynid.commands.validate import (
     run_validations,
     write_torque_plot,
 )
+from drake_dynid.core._validate import listed
 
 
 def add_physical_arguments(
@@ -361,9 +362,8 @@ def _write_urdf(
         print(
             f"dynid {getattr(args, 'command', None) or 'offline'}: warning: "
             f"--urdf-out: {len(flagged)} of {len(fit.names)} base "
-            f"parameters were not identified (%σ > 30): {', '.join(flagged[:8])}"
-            + (" …" if len(flagged) > 8 else "")
-            + "; the file's header lists them",
+            f"parameters were not identified (%σ > 30): {listed(flagged)}"
+            "; the file's header lists them",
             file=sys.stderr,
         )
     entry["urdf_not_identified"] = flagged
@@ -397,11 +397,11 @@ def _write_urdf(
     if not args.quiet:
         parts = [f"wrote {export.path}"]
         if export.locked:
-            parts.append(f"locked joints written as fixed: {', '.join(export.locked)}")
+            parts.append(f"locked joints written as fixed: {listed(export.locked)}")
         if export.lumped:
-            parts.append(f"welded links set to mass 0: {', '.join(export.lumped)}")
+            parts.append(f"welded links set to mass 0: {listed(export.lumped)}")
         if export.skipped:
-            parts.append(f"not written, no URDF field: {', '.join(export.skipped)}")
+            parts.append(f"not written, no URDF field: {listed(export.skipped)}")
         print("; ".join(parts))
 
 

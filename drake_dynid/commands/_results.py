@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from drake_dynid.commands._arguments import parse_dead_zone, parse_friction
+from drake_dynid.core._validate import listed
 from drake_dynid.core.friction import FRICTION_KINDS
 
 
@@ -212,7 +213,8 @@ def drive_mismatch(document: Mapping[str, Any], robot: Any) -> str | None:
         return None
     return (
         f"the {chain.source}'s motors differ from those the parameters were "
-        f"fitted with (settings.drive_chain): {'; '.join(changed)}. The log is "
+        f"fitted with (settings.drive_chain): {listed(changed, sep='; ')}. The log "
+        "is "
         "converted with the drive file given, the parameters are the fit's"
     )
 
@@ -249,7 +251,7 @@ def results_sign(
     if missing:
         raise ValueError(
             f"results file {args.params}: settings.coulomb_dead_zone has no width "
-            f"for {', '.join(missing)}; give --dead-zone."
+            f"for {listed(missing)}; give --dead-zone."
         )
     field = "coulomb_dead_zone"
     return robot.with_sign(

@@ -22,6 +22,7 @@ from drake_dynid.commands._arguments import (
 )
 from drake_dynid.commands._options import option_message
 from drake_dynid.commands._paths import check_output_paths
+from drake_dynid.core._validate import listed
 
 HELP = "design an exciting trajectory (optimal Fourier series within the limits)"
 DESCRIPTION = (
@@ -221,7 +222,7 @@ def _limits(robot: Any, args: argparse.Namespace) -> Any:
             {name: {"lower": low, "upper": high} for name in free}
         )
         print(
-            f"dynid excite: note: {', '.join(free)} ha{'s' if len(free) == 1 else 've'}"
+            f"dynid excite: note: {listed(free)} ha{'s' if len(free) == 1 else 've'}"
             f" no position limits (continuous): the design keeps "
             f"{'it' if len(free) == 1 else 'them'} within [{low:.4g}, {high:.4g}] rad "
             "(give lower/upper in --limits FILE for another range).",
@@ -231,7 +232,8 @@ def _limits(robot: Any, args: argparse.Namespace) -> Any:
     if missing:
         source = f"{args.urdf} and {args.limits}" if args.limits else args.urdf
         raise ValueError(
-            f"{source} lack(s) limits that the design needs: {'; '.join(missing)}. "
+            f"{source} lack(s) limits that the design needs: "
+            f"{listed(missing, sep='; ')}. "
             'Give them in a limits file, --limits FILE (JSON: {"<joint>": '
             '{"lower": -2.9, "upper": 2.9, "velocity": 1.5, "effort": 100}}).'
         )
@@ -379,11 +381,11 @@ def run(args: argparse.Namespace) -> int:
     if collision is None:
         say(f"self-collision: not checked ({unchecked})")
     else:
-        ignored = f"; ignored (in contact at mid-range): {', '.join(collision.ignored)}"
+        ignored = f"; ignored (in contact at mid-range): {listed(collision.ignored)}"
         held = (
             f"; closer than the margin at mid-range, held no closer than half "
             f"that: "
-            f"{', '.join(collision.held)}"
+            f"{listed(collision.held)}"
         )
         say(
             f"self-collision: {collision.num_geometries} collision geometries"

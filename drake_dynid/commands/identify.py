@@ -35,6 +35,7 @@ from drake_dynid.commands._report import (
     write_estimates_csv,
     write_trace_outputs,
 )
+from drake_dynid.core._validate import listed
 from drake_dynid.core.bootstrap import (
     DEFAULT_REPLICATES,
     MAX_REPLICATES,
@@ -957,7 +958,7 @@ def no_valid_window_message(trace: Any, settings: Any, robot: Any, log: Any) -> 
     )
     quiet = near_silent_joints(settings, robot.num_joints)
     if quiet:
-        names = ", ".join(robot.joint_names[j] for j in quiet)
+        names = listed(robot.joint_names[j] for j in quiet)
         return (
             f"{head}: with --weighting covariance, {names} have --position-noise "
             f"and --torque-noise near 0 (at most {NEAR_SILENT:g} of the other "
@@ -1008,7 +1009,7 @@ def _invalid_reason(trace: Any) -> str:
     final = trace.final()
     settings = trace.settings
     condition = float(final["condition_number"])
-    unexcited = ", ".join(final["unidentified"]) or "some parameters"
+    unexcited = listed(final["unidentified"]) or "some parameters"
     if final["status"] == 1:
         return (
             "the last window is not ready: it contains bad (NaN) samples or starts "

@@ -35,6 +35,7 @@ from drake_dynid.commands.validate import (
     log_line,
     validation_split,
 )
+from drake_dynid.core._validate import listed
 
 HELP = "off-line IDIM-LS/WLS (zero-phase filtering, parallel decimation) on a log"
 DESCRIPTION = (
@@ -272,7 +273,7 @@ def _shaky_weights(robot: Any, rank: Any, result: Any) -> str:
     names, left, fitted = zip(*few, strict=True)
     return (
         "IDIM-WLS weights each joint by its σ_j, fitted on that joint's equations "
-        f"alone; {', '.join(names)} leave fewer residual degrees of freedom than "
+        f"alone; {listed(names)} leave fewer residual degrees of freedom than "
         f"parameters ({', '.join(map(str, left))} for "
         f"{', '.join(map(str, fitted))}), so their σ_j come out low and their "
         "weights too high: a longer log (more equations per joint) or IDIM-LS may "

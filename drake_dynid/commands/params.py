@@ -16,6 +16,7 @@ from drake_dynid.commands._arguments import (
     urdf_argument,
 )
 from drake_dynid.commands._report import write_json
+from drake_dynid.core._validate import listed
 
 HELP = "standard and base parameters of a URDF robot"
 DESCRIPTION = (
@@ -177,9 +178,9 @@ def run(args: argparse.Namespace) -> int:
     values = model.base_values
     friction = ", ".join(model.friction) or "none"
     say(f"robot: {args.urdf}")
-    say(f"joints ({model.num_joints}): {', '.join(model.joint_names)}")
+    say(f"joints ({model.num_joints}): {listed(model.joint_names)}")
     if model.locked:
-        locked = ", ".join(f"{k}={v:g}" for k, v in model.locked.items())
+        locked = listed(f"{k}={v:g}" for k, v in model.locked.items())
         say(f"locked ({len(model.locked)}): {locked}")
     for k, (name, (leader, a, b)) in enumerate(model.mimic.items()):
         link = model.num_joints + k + 1

@@ -26,6 +26,7 @@ from drake_dynid.commands._arguments import (
     urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
+from drake_dynid.core._validate import listed
 from drake_dynid.files import json_text, write_text_whole
 
 HELP = "simulate a robot log (the URDF arm tracking a trajectory, with noise)"
@@ -191,7 +192,6 @@ def _implausible_links_named(urdf: str):
     tuned for the robot drives, which a run stopping on its effort, tracking or
     limits then shows without naming the cause.
     """
-    from drake_dynid.core._validate import listed
     from drake_dynid.urdf_writer import implausible_links
 
     try:
@@ -364,7 +364,7 @@ def run(args: argparse.Namespace) -> int:
         if not (np.isfinite(limits.lower[j]) and np.isfinite(limits.upper[j]))
     ]
     if unchecked:
-        say(f"note: no position limits for {', '.join(unchecked)}: not checked")
+        say(f"note: no position limits for {listed(unchecked)}: not checked")
     drive = simulated_drive_of(robot, settings.coulomb_smoothing)
     start = time.perf_counter()
     with _in_option_names(), _implausible_links_named(args.urdf):
@@ -458,7 +458,7 @@ def _simulation_entry(args, settings, log, robot) -> dict:
 
 def _drive_line(robot, drive) -> str:
     chain = robot.drive
-    coupled = ", ".join(chain.motor_names[k] for k in chain.coupled_motors)
+    coupled = listed(chain.motor_names[k] for k in chain.coupled_motors)
     inertia = (
         "none"
         if drive.rotor_inertia is None

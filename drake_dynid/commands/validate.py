@@ -31,6 +31,7 @@ from drake_dynid.commands._arguments import (
     urdf_argument,
 )
 from drake_dynid.commands._paths import check_output_paths
+from drake_dynid.core._validate import listed
 
 __all__ = [
     "add_validation_arguments",
@@ -483,7 +484,7 @@ def physical_worse(
         if physical.relative_rms_percent[j]
         > PHYSICAL_WORSE * fit.relative_rms_percent[j] + PHYSICAL_WORSE_POINTS
     ]
-    where = f" ({'; '.join(joints)})" if joints else ""
+    where = f" ({listed(joints, sep='; ')})" if joints else ""
     return (
         f"the physical estimate predicts {what} worse than the fit: "
         f"{total:.3g} % against {reference:.3g} % over all joints{where}. The "

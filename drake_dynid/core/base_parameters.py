@@ -274,7 +274,7 @@ class BaseParameters:
         """Returns the definition of base parameter ``name``, e.g. ``ZZ1 + 1.0 M2``."""
         if name not in self.names:
             raise ValueError(
-                f"BaseParameters: name must be one of {', '.join(self.names)}; "
+                f"BaseParameters: name must be one of {_validate.listed(self.names)}; "
                 f"got {name!r}."
             )
         return format_definition(self.definitions[self.names.index(name)])

@@ -35,6 +35,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from drake_dynid.core import _validate
+from drake_dynid.core._validate import listed
 from drake_dynid.core.drive_log import LogFormat, check_table, parse_log
 from drake_dynid.core.drive_motors import Motor, resolve_motors
 
@@ -119,11 +120,14 @@ class DriveChain:
         if not names or not all(isinstance(x, str) for x in names):
             raise TypeError(f"{source}: joint_names must be a non-empty list of names.")
         if len(set(names)) != len(names):
-            raise ValueError(f"{source}: joint_names has duplicates: {names!r}.")
+            duplicated = sorted({n for n in names if names.count(n) > 1})
+            raise ValueError(
+                f"{source}: joint_names has duplicates: {listed(duplicated)}."
+            )
         unknown = sorted(set(prismatic_joints) - set(names))
         if unknown:
             raise ValueError(
-                f"{source}: prismatic_joints: unknown joint(s) {', '.join(unknown)}."
+                f"{source}: prismatic_joints: unknown joint(s) {listed(unknown)}."
             )
         check_table(source, "the drive file", data, _TOP_KEYS)
         prismatic = tuple(name in set(prismatic_joints) for name in names)
@@ -141,7 +145,7 @@ class DriveChain:
                 implicit = [mo.name for mo in self.motors if mo.source == "implicit"]
                 urdf = [mo.name for mo in self.motors if mo.source == "URDF"]
                 hint = (
-                    f" ({', '.join(implicit)}: implicit direct drive(s) of joints "
+                    f" ({listed(implicit)}: implicit direct drive(s) of joints "
                     "without a motor; add a [motors.NAME] table)"
                     if implicit
                     else ""
@@ -156,19 +160,17 @@ class DriveChain:
                         }
                     )
                     which = (
-                        "these are"
-                        if len(urdf) == len(missing)
-                        else f"{', '.join(urdf)}:"
+                        "these are" if len(urdf) == len(missing) else f"{listed(urdf)}:"
                     )
                     hint += (
                         f" ({which} the URDF's transmissions, which the drive file "
                         "does not describe: give them a torque_constant, or "
-                        f"identify without {', '.join(joints)} (dynid --joints))"
+                        f"identify without {listed(joints)} (dynid --joints))"
                     )
                 raise ValueError(
                     f"{owner}: log.torque_unit = {log.torque_unit!r} (motor "
                     "currents) needs torque_constant [N·m/A] for every motor; "
-                    f"missing for {', '.join(missing)}{hint}."
+                    f"missing for {listed(missing)}{hint}."
                 )
 
     # -------------------------------------------------------------- properties
@@ -331,7 +333,7 @@ class DriveChain:
         missing = [name for name in self.required_columns() if name not in columns]
         if missing:
             raise ValueError(
-                f"{owner}: the log has no column(s) {', '.join(map(repr, missing))}; "
+                f"{owner}: the log has no column(s) {listed(map(repr, missing))}; "
                 "fix the log or the [log] table of the drive file."
             )
         data = {}

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core import _validate
+from drake_dynid.core._validate import listed
 
 __all__ = [
     "ANGLE_UNITS",
@@ -106,13 +107,13 @@ def check_table(
     where = "" if field == "the drive file" else f" in {field}"
     if unknown:
         raise ValueError(
-            f"{owner}: unknown key(s) {', '.join(unknown)}{where}; allowed: "
+            f"{owner}: unknown key(s) {listed(unknown)}{where}; allowed: "
             f"{', '.join(allowed)}."
         )
     if required:
         missing = [key for key in allowed if key not in table]
         if missing:
-            raise ValueError(f"{owner}: missing key(s) {', '.join(missing)}{where}.")
+            raise ValueError(f"{owner}: missing key(s) {listed(missing)}{where}.")
 
 
 @dataclass(frozen=True, eq=False)
@@ -189,8 +190,8 @@ def _columns(
         if unknown or missing:
             raise ValueError(
                 f"{owner}: {field} must name a column for every {side} "
-                f"({', '.join(names)}); unknown: {', '.join(unknown) or 'none'}; "
-                f"missing: {', '.join(missing) or 'none'}."
+                f"({listed(names)}); unknown: {listed(unknown) or 'none'}; "
+                f"missing: {listed(missing) or 'none'}."
             )
         for name in names:
             if not isinstance(spec[name], str) or not spec[name]:
@@ -242,7 +243,7 @@ def _offsets(owner, table, side, entities, scales_unit, outside) -> np.ndarray:
         if key not in names:
             raise ValueError(
                 f"{owner}: log.position_offset.{key}: unknown {side} (position_side "
-                f"is {side!r}); expected one of {', '.join(names)}."
+                f"is {side!r}); expected one of {listed(names)}."
             )
         k = names.index(key)
         out[k] = real(owner, f"log.position_offset.{key}", value, scales_unit[k])
@@ -344,7 +345,7 @@ def parse_log(
     duplicated = sorted({name for name in every if every.count(name) > 1})
     if duplicated:
         raise ValueError(
-            f"{owner}: the [log] table names column(s) {', '.join(duplicated)} more "
+            f"{owner}: the [log] table names column(s) {listed(duplicated)} more "
             "than once (time, position and torque columns must differ)."
         )
     for array in (scale, offset):

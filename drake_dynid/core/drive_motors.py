@@ -20,6 +20,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.drive_log import check_table, real
 
 __all__ = ["Motor", "resolve_motors"]
@@ -133,11 +134,11 @@ class _Builder:
                     f"{field}: joint {name!r} is not identified (--joints) but this "
                     "motor also drives identified joints; identify it too, or "
                     f"describe the motor without it. Identified: "
-                    f"{', '.join(self.joint_names)}."
+                    f"{listed(self.joint_names)}."
                 )
             self.fail(
                 f"{field}: unknown joint {name!r}; the identified joints are "
-                f"{', '.join(self.joint_names)}."
+                f"{listed(self.joint_names)}."
             )
         return self.index[name]
 
@@ -208,7 +209,7 @@ class _Builder:
             outside = [j for j in row if j not in self.index]
             if len(outside) == len(row):  # as a [motors] table's (not_identified)
                 self.notes.append(
-                    f"coupling.motors[{k}] ({motor!r}) drives {', '.join(outside)}, "
+                    f"coupling.motors[{k}] ({motor!r}) drives {listed(outside)}, "
                     "not identified (--joints): skipped."
                 )
                 self.skipped.append(str(motor))
@@ -268,14 +269,14 @@ class _Builder:
                 outside = sorted(set(row) - set(inside))
                 self.notes.append(
                     f"URDF actuator {name} {_row_text(row)} (it also drives "
-                    f"{', '.join(outside)}, not identified) gets the drive file's row."
+                    f"{listed(outside)}, not identified) gets the drive file's row."
                 )
                 continue  # the drive file's own row replaces it
             if len(inside) != len(row):
                 outside = sorted(set(row) - set(inside))
                 self.fail(
-                    f"{field} drives identified joints {', '.join(inside)} and "
-                    f"non-identified ones {', '.join(outside)}; identify all of them "
+                    f"{field} drives identified joints {listed(inside)} and "
+                    f"non-identified ones {listed(outside)}; identify all of them "
                     "or describe this motor in the drive file."
                 )
             entry: dict[str, Any] = {"row": row, "source": "URDF"}
@@ -341,7 +342,7 @@ class _Builder:
             outside = self.not_identified(table, urdf)
             if outside is not None:
                 self.notes.append(
-                    f"{field} drives {', '.join(outside)}, not identified (--joints): "
+                    f"{field} drives {listed(outside)}, not identified (--joints): "
                     "skipped."
                 )
                 self.skipped.append(str(name))
@@ -398,7 +399,7 @@ class _Builder:
                 self.notes.append(
                     f"URDF actuator {name} {_row_text(entry['row'])} is replaced by "
                     f"the drive file, which describes joint(s) "
-                    f"{', '.join(sorted(taken & set(entry['row'])))}."
+                    f"{listed(sorted(taken & set(entry['row'])))}."
                 )
         sequence += [
             (name, {**entry, "source": "drive"}) for name, entry in drive.items()
@@ -411,7 +412,7 @@ class _Builder:
         duplicated = sorted({name for name in names if names.count(name) > 1})
         if duplicated:
             self.fail(
-                f"motor name(s) {', '.join(duplicated)} also name an implicit direct "
+                f"motor name(s) {listed(duplicated)} also name an implicit direct "
                 "drive of a joint without a motor; rename the motor(s)."
             )
         driven = [sorted(self.index[j] for j in entry["row"]) for _, entry in sequence]
@@ -436,7 +437,7 @@ def _check_rank(builder: _Builder, coupling: np.ndarray, motors: list[Motor]) ->
             f"the coupling matrix R ({coupling.shape[0]} × {n}) must have rank {n} "
             f"(τ = Rᵀ τ_m must reach every joint); got rank {rank}, a singular "
             f"coupling. Coupled rows: {rows or 'none'}; joints without a motor of "
-            f"their own: {', '.join(shared) or 'none'} (describe their motors)."
+            f"their own: {listed(shared) or 'none'} (describe their motors)."
         )
 
 

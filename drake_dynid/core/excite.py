@@ -497,7 +497,7 @@ def design_excitation(
         v.fail(
             owner,
             f"position and velocity limits are needed for every joint; missing for "
-            f"{'; '.join(missing)}.",
+            f"{v.listed(missing, sep='; ')}.",
         )
     problem = ExcitationProblem(rows_fn, theta, limits, settings, margins, clearance_fn)
     tight = np.flatnonzero(problem.half <= 0.0)

@@ -132,7 +132,7 @@ class JointLimits:
                 v.fail(
                     owner,
                     f"unknown joint {joint!r}; the joints are "
-                    f"{', '.join(self.joint_names)}.",
+                    f"{v.listed(self.joint_names)}.",
                 )
             if not isinstance(entries, Mapping):
                 v.fail(owner, f"the limits of joint {joint} must be a table/object.")

@@ -214,7 +214,7 @@ def joint_map(
                 )
         duplicates = sorted({name for name in chosen if chosen.count(name) > 1})
         if duplicates:
-            _fail(owner, f"joints lists {', '.join(duplicates)} more than once.")
+            _fail(owner, f"joints lists {listed(duplicates)} more than once.")
     if not chosen:
         _fail(
             owner,

@@ -110,7 +110,7 @@ class LeastSquaresResult:
 
 
 def _describe(names: Sequence[str], indices: Iterable[int]) -> str:
-    return ", ".join(f"{names[i]} (column {i})" for i in indices)
+    return v.listed(f"{names[i]} (column {i})" for i in indices)
 
 
 _BLOCK_ENTRIES = 1 << 19

@@ -271,7 +271,7 @@ def noise_compensated_rows(
                 _validate.fail(
                     _OWNER,
                     f"rows must name the friction column of joint {joint + 1} "
-                    f"{kind!r} {name!r}; its names are {', '.join(rows.names)}.",
+                    f"{kind!r} {name!r}; its names are {_validate.listed(rows.names)}.",
                 )
             columns.append((joint, _KINDS[kind], names[name]))
     return NoiseCompensatedRows(rows, stds[0], stds[1], tuple(columns))

@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from drake_dynid.core._validate import listed
 from drake_dynid.core.ell_rule import model_band
 from drake_dynid.core.fourier_bank import MAX_FUNCTIONS, MAX_ORDER, MIN_FUNCTIONS
 from drake_dynid.core.jacobi_design import MAX_EXPONENT, MAX_Q, MAX_TAPS
@@ -332,7 +333,7 @@ def _own_noise(prefix: str, say: Say, position: Any, torque: Any) -> None:
         return  # the per-joint length check names it (check_log)
     silent = np.flatnonzero((position == 0) & (torque == 0))
     if silent.size:
-        joints = ", ".join(str(j + 1) for j in silent)
+        joints = listed(str(j + 1) for j in silent)
         _fail(
             prefix,
             f"{say('weighting')} 'covariance' of the lagrangian model needs a "
@@ -380,7 +381,7 @@ def _noise_use(
             # Joint j's rows then carry no noise at all: their covariance is
             # singular, and the whitened solve trusts them without limit (the
             # 4R wrist with σ_τ on joint 1 only: FC1 1.31 ± 2.8e4 for 1.50).
-            joints = ", ".join(str(j + 1) for j in silent)
+            joints = listed(str(j + 1) for j in silent)
             _fail(
                 prefix,
                 f"{say('weighting')} 'covariance' needs a noise in every joint's "

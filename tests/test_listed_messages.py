@@ -1,0 +1,106 @@
+"""Lists of names in messages: the first 20, then "and N more" (core._validate.listed).
+
+Found by a review: after the ROS bag's lists were capped, other messages still
+joined every name they had (the `dynid params` joint line, the drive file's
+joint and key lists, a multi-file log's file list) or capped in their own way
+(the log reader's hint: 4 joints then ", ...", the URDF's untransmitted joints:
+8 then ", … (N in all)"). Each is checked on a fake of 2000 names where one
+is cheap (a 25-joint chain for the commands that build a model).
+"""
+
+import pytest
+
+from drake_dynid import cli
+from drake_dynid.core.drive import DriveChain
+from drake_dynid.logs import read_log
+from drake_dynid.raw_log import read_raw_table
+from drake_dynid.urdf import untransmitted_note
+
+WIDE = [f"j{k}" for k in range(2000)]
+FIRST = ", ".join(WIDE[:20])
+
+
+def _chain_urdf(path, n):
+    """A serial chain of n revolute joints j0..j(n-1), no transmissions."""
+    parts = ['<robot name="chain">', '<link name="base"/>']
+    parent = "base"
+    for i in range(n):
+        parts.append(
+            f'<link name="l{i}"><inertial><mass value="1"/><origin xyz="0.05 0 0"/>'
+            '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>'
+            "</inertial></link>"
+        )
+        axis = "0 0 1" if i % 2 == 0 else "0 1 0"
+        parts.append(
+            f'<joint name="j{i}" type="revolute"><parent link="{parent}"/>'
+            f'<child link="l{i}"/><origin xyz="0.1 0 0"/><axis xyz="{axis}"/>'
+            '<limit lower="-1" upper="1" effort="10" velocity="1"/></joint>'
+        )
+        parent = f"l{i}"
+    path.write_text("\n".join([*parts, "</robot>"]))
+    return path
+
+
+def test_params_lists_the_first_20_joints(tmp_path, capsys):
+    # Before: 'joints (25): j0, ..., j24' and the untransmitted note's own cap
+    # '..., j7, … (25 in all)'.
+    urdf = _chain_urdf(tmp_path / "chain.urdf", 25)
+    assert cli.main(["params", str(urdf)]) == 0
+    captured = capsys.readouterr()
+    first = ", ".join(f"j{k}" for k in range(20))
+    assert f"joints (25): {first} and 5 more\n" in captured.out
+    note = f"treated as actuated (effort limit from the URDF's <limit>): {first} and 5"
+    assert note in captured.err
+
+
+def test_the_untransmitted_note_lists_the_first_20_joints():
+    note = untransmitted_note(WIDE, ())
+    assert note.endswith(f"(no effort limit): {FIRST} and 1980 more"), note
+
+
+def test_a_drive_files_joint_and_key_lists_are_capped():
+    motors = {"motors": {"m1": {"joint": "nope", "gear_ratio": 2.0}}}
+    with pytest.raises(ValueError, match="unknown joint 'nope'") as raised:
+        DriveChain.from_dict(motors, WIDE, source="d.toml")
+    assert str(raised.value).endswith(f"are {FIRST} and 1980 more."), raised.value
+    keys = {name: 1 for name in WIDE}
+    with pytest.raises(ValueError, match="unknown key") as raised:
+        DriveChain.from_dict(keys, ["a"], source="d.toml")
+    assert f"unknown key(s) {FIRST} and 1980 more; allowed" in str(raised.value)
+    # 300 joints: 2000 take 2.7 s (the rank check's SVD of a 2000 × 2000 R).
+    names = WIDE[:300]
+    columns = {"log": {"position": {name: f"p_{name}" for name in names[:-1]}}}
+    with pytest.raises(ValueError, match="must name a column") as raised:
+        DriveChain.from_dict(columns, names, source="d.toml")
+    assert f"every joint ({FIRST} and 280 more); unknown: none; missing: j299." in (
+        str(raised.value)
+    ), raised.value
+
+
+def test_a_multi_file_logs_file_list_is_capped(tmp_path):
+    files = []
+    for k in range(25):
+        path = tmp_path / f"f{k}.csv"
+        path.write_text(f"stamp,a{k}\n0,1\n1,2\n")
+        files.append(str(path))
+    with pytest.raises(ValueError, match="no column") as raised:
+        read_raw_table(files, ["stamp", "absent"], "stamp")
+    text = str(raised.value)
+    assert text.startswith(f"log {', '.join(files[:20])} and 5 more: no column(s) ")
+    assert text.count("stamp, a") == 20 and "a19; " not in text, text
+
+
+def test_the_log_readers_hint_lists_the_first_20_joints(tmp_path):
+    header = ["t", *(f"q_{n}" for n in WIDE), *(f"tau_{n}" for n in WIDE)]
+    path = tmp_path / "wide.csv"
+    path.write_text(",".join(header) + "\n" + ",".join(["0"] * len(header)) + "\n")
+    # None of the robot's joints: was 'j0, j1, j2, j3, ...'.
+    with pytest.raises(ValueError, match="missing column") as raised:
+        read_log(path, ("shoulder", "elbow"))
+    assert f"holds the joints {FIRST} and 1980 more, not the ones" in str(raised.value)
+    # Some of them: was every name, twice (the --joints value to copy).
+    with pytest.raises(ValueError, match="missing column") as raised:
+        read_log(path, (*WIDE, "elbow"))
+    text = str(raised.value)
+    assert f"holds {FIRST} and 1980 more only: --joints with those" in text, text
+    assert len(text) < 1500, len(text)
