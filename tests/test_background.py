@@ -266,17 +266,28 @@ def test_a_slow_child_gets_as_long_again_as_it_ran(forking, monkeypatch):
 
 
 def test_a_child_sending_a_large_value_is_not_cut_off(forking, monkeypatch):
-    """The wait is renewed while the answer arrives: 100 MB through the pipe take
-    longer than PATIENCE, and the value still comes from the child."""
+    """The wait is renewed while the answer arrives: 2 MB read 64 KB at a time,
+    each read slowed to 0.05 s, take 1.6 s, three times the first wait (0.5 s:
+    the time the child has already had, more than PATIENCE), and the value still
+    comes from the child. The child is given that 0.5 s to start sending, so that
+    the machine's load cannot make it miss the first wait (a fixed allowance of
+    PATIENCE = 0.3 s for 100 MB did on a busy machine)."""
     monkeypatch.setattr(_background, "PATIENCE", 0.3)
+    read = os.read
+
+    def slow_read(fd: int, size: int) -> bytes:
+        time.sleep(0.05)
+        return read(fd, size)
 
     def large() -> tuple[int, bytes]:
-        return os.getpid(), bytes(100 << 20)
+        return os.getpid(), bytes(2 << 20)
 
     parent = os.getpid()
     with Background(large) as background:
+        time.sleep(0.5)
+        monkeypatch.setattr(_background.os, "read", slow_read)
         pid, value = background.result()
-    assert pid != parent and len(value) == 100 << 20
+    assert pid != parent and len(value) == 2 << 20
 
 
 def test_it_waits_on_a_descriptor_above_1024(forking):
