@@ -180,7 +180,7 @@ def write_whole(
             return
         try:
             with os.fdopen(
-                descriptor, "w", encoding="utf-8", newline=newline
+                descriptor, "w+", encoding="utf-8", newline=newline
             ) as stream:
                 write(stream)
             if mode is not None:
@@ -241,7 +241,8 @@ def _open_temporary(target: Path, *, new: bool) -> tuple[int, str]:
     most 40 characters of ``target``'s, so that a name near the file system's
     limit (255 bytes) still has a temporary file.
     """
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
+    # Read and write: a writer may read back what it wrote (ros_bag's merge).
+    flags = os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
     for _ in range(100):
         temporary = target.parent / f".{target.name[:40]}.{secrets.token_hex(4)}.tmp"
         try:

@@ -304,10 +304,15 @@ def export_bag(
     """Streams a bag's JointState messages into a CSV log at ``out``.
 
     The rows of :func:`write_export` on :func:`read_joint_states`'s arrays, bit
-    for bit, in bounded memory: the messages are decoded and written
-    :data:`EXPORT_ROWS` at a time, nothing else grows with the bag (a ROS 1
-    bag is read a chunk at a time, :class:`_Ros1Chunks`; where rosbags' reader
-    reads it, its index of every message, about 350 bytes each).
+    for bit (for a bag in header-stamp order without repeats: the export puts
+    the messages in stamp order, :data:`REORDER_ROWS` held back, later ones
+    merged in at the end, :class:`_Late`, and drops a message repeated; those
+    arrays keep the bag's order), in bounded memory: the messages are decoded
+    and written :data:`EXPORT_ROWS` at a time, nothing else grows with the bag
+    (a ROS 1 bag is read a chunk at a time, :class:`_Ros1Chunks`; where rosbags'
+    reader reads it, its index of every message, about 350 bytes each). A
+    message to merge in is refused on an output that cannot be read back
+    (standard output, a pipe; ValueError naming their count and lateness).
 
     What the header and the time column need of the whole bag (the joints when
     ``joints`` is None: the most frequent set of names; whether every stamp is
@@ -340,17 +345,28 @@ def export_bag(
     holder: list[BagExport] = []
 
     def write(stream: Any) -> None:
+        rewinds = not is_stdout(out) and _rewinds(stream)
+        readable = rewinds and _readable(stream)
         sink = _Export(stream, columns, time, time_unit, held_out, held_column)
+        sink.rereads, sink.label = readable, f"ROS bag {os.fspath(path)}"
         try:
             plan = None
-            if is_stdout(out) or not _rewinds(stream):
+            if not rewinds:
                 plan = _scan(path, joints, topic, optional, None)[1]
             done = _scan(path, joints, topic, optional, sink, plan)[0]
             notes = []
             if sink.reordered:
+                merged = ""
+                if sink.late.count:
+                    merged = (
+                        f" ({sink.late.count} of them more than {REORDER_ROWS} "
+                        f"messages late, up to {sink.late.lateness * 1e-9:.6g} s: "
+                        "placed by a merge of the export at its end)"
+                    )
                 notes.append(
                     f"{sink.reordered} message(s) on {done.topic} were recorded "
-                    "after one with a later header.stamp: written in stamp order."
+                    "after one with a later header.stamp: written in stamp order"
+                    f"{merged}."
                 )
             if sink.repeated:
                 notes.append(
@@ -369,6 +385,14 @@ def export_bag(
 
     write_whole(out, write)
     return holder[0]
+
+
+def _readable(stream: Any) -> bool:
+    """Whether ``stream`` can be read back (``files.write_whole``'s new file)."""
+    try:
+        return bool(stream.readable())
+    except (AttributeError, ValueError, OSError):
+        return False
 
 
 def _rewinds(stream: Any) -> bool:
@@ -494,6 +518,10 @@ class _Export:
         self.carry: _Block | None = None  # held back for the order (REORDER_ROWS)
         self.reordered = 0  # messages recorded after a later-stamped one
         self.repeated = 0  # messages recorded twice, dropped
+        self.rereads, self.label = True, "ROS bag"  # set by export_bag
+        self.last: int | None = None  # the newest stamp written
+        self.late = _Late()  # messages older than it, merged at the end
+        self.start = self.held_start = 0  # where the files' rows begin
 
     def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
         import csv
@@ -507,6 +535,9 @@ class _Export:
                 os.remove(self.held_out)
         self.started = True
         self.carry, self.reordered, self.repeated = None, 0, 0
+        self.last = None
+        self.late.close()
+        self.late = _Late()
         self.plan, self.held = plan, held
         self.names = list(self.columns(plan.wanted, plan.efforts))
         at = {name: k for k, name in enumerate(plan.wanted)}
@@ -517,14 +548,16 @@ class _Export:
                 raise ValueError(f"no column {column!r}.")
             self.picks.append((meant[1] == "effort", at[meant[0]]))
         csv.writer(self.stream, lineterminator="\n").writerow([self.time, *self.names])
+        self.start = self.stream.tell() if self.rereads else 0
         self.scale = _scale(plan.epoch, self.unit)
         if self.held_out is not None and plan.held:
-            self.held_stream = open(self.held_out, "w", encoding="utf-8", newline="")
+            self.held_stream = open(self.held_out, "w+", encoding="utf-8", newline="")
             header = [*plan.held, *(n for n in plan.wanted if n not in plan.held)]
             self.held_at = [held.index(name) for name in plan.held]
             self.held_scale = _scale(plan.epoch, None)
             names = [self.held_column.format(joint=name) for name in header]
             csv.writer(self.held_stream, lineterminator="\n").writerow(["t", *names])
+            self.held_start = self.held_stream.tell()
 
     def rows(self, block: _Block) -> None:
         """Writes ``block`` in stamp order, holding back its newest messages.
@@ -549,34 +582,154 @@ class _Export:
         if repeated.any():
             self.repeated += int(np.count_nonzero(repeated))
             block = _taken(block, np.flatnonzero(np.concatenate([[True], ~repeated])))
+            stamps = block.received if self.plan.received else block.stamps
+        if self.last is not None and stamps.size and stamps[0] <= self.last:
+            # Older than a message written: more than REORDER_ROWS late, or a
+            # repeat of a message written; kept aside, merged in at the end.
+            older = int(np.searchsorted(stamps, self.last, side="right"))
+            self.late.add(*self._text(_taken(block, np.arange(older))))
+            self.late.lateness = max(self.late.lateness, int(self.last - stamps[0]))
+            block = _taken(block, np.arange(older, stamps.size))
         keep = max(0, block.stamps.size - REORDER_ROWS)
         self.carry = _taken(block, np.arange(keep, block.stamps.size))
         self._write(_taken(block, np.arange(keep)))
 
     def end(self) -> None:
-        """Writes the messages held back (the pass is complete)."""
+        """Writes the messages held back (the pass is complete).
+
+        Then merges in the messages older than one written (:class:`_Late`).
+        """
         if self.carry is not None:
             self._write(self.carry)
             self.carry = None
-
-    def _write(self, block: _Block) -> None:
-        if not block.stamps.size:
+        if not self.late.count:
             return
+        if not self.rereads:
+            raise ValueError(
+                f"{self.label}: {self.late.count} message(s) were recorded more "
+                f"than {REORDER_ROWS} messages after a later-stamped one (up to "
+                f"{self.late.lateness * 1e-9:.6g} s late) or repeat one that many "
+                "messages before: placing them rewrites the export, which "
+                "standard output or a pipe cannot; write it to a file (--out FILE)."
+            )
+        repeats = self.late.merge(self.stream, self.start, 0)
+        self.repeated += repeats  # not late: counted as reordered and late
+        self.reordered = max(0, self.reordered - repeats)
+        self.late.count -= repeats
+        if self.held_stream is not None:
+            self.late.merge(self.held_stream, self.held_start, 1)
+
+    def _text(self, block: _Block) -> tuple[str, str]:
+        """The export's rows of ``block`` and those of the held joints' file."""
+        main, held = io.StringIO(), io.StringIO()
         stamps = block.received if self.plan.received else block.stamps
         data = None
         if self.picks:
             data = np.column_stack(
                 [(block.effort if e else block.position)[:, k] for e, k in self.picks]
             )
-        _write_block(self.stream, time_text(stamps, self.scale), data)
+        _write_block(main, time_text(stamps, self.scale), data)
         if self.held_stream is not None:
             data = np.column_stack([block.held[:, self.held_at], block.position])
-            _write_block(self.held_stream, time_text(stamps, self.held_scale), data)
+            _write_block(held, time_text(stamps, self.held_scale), data)
+        return main.getvalue(), held.getvalue()
+
+    def _write(self, block: _Block) -> None:
+        if not block.stamps.size:
+            return
+        stamps = block.received if self.plan.received else block.stamps
+        self.last = int(stamps[-1])
+        main, held = self._text(block)
+        self.stream.write(main)
+        if self.held_stream is not None:
+            self.held_stream.write(held)
 
     def close(self) -> None:
+        self.late.close()
         if self.held_stream is not None:
             self.held_stream.close()
             self.held_stream = None
+
+
+class _Late:
+    """Messages older than one already written, merged into the export at its end.
+
+    A message recorded more than :data:`REORDER_ROWS` messages after one with a
+    later stamp (or a repeat of a message written) cannot be put in place as
+    the blocks are written: its rows (the export's and the held joints' file's)
+    are kept aside, :data:`LATE_RUN` at a time in memory, sorted by stamp into
+    a temporary file (a run) when that many; :meth:`merge` then copies the
+    written rows aside and writes them back merged with the runs in stamp order
+    (``heapq.merge``: one row of each run in memory), dropping a row equal to
+    the one before it (a repeat: the same stamp and values). Memory: LATE_RUN
+    rows; disk (``TMPDIR``): the late rows and a copy of the export.
+    """
+
+    def __init__(self) -> None:
+        self.count = 0  # messages kept aside
+        self.lateness = 0  # the largest: newest stamp written - theirs [ns]
+        self.rows: tuple[list[str], list[str]] = ([], [])
+        self.runs: tuple[list[Any], list[Any]] = ([], [])
+
+    def add(self, main: str, held: str) -> None:
+        """Keeps the rows of some late messages (text, one line each)."""
+        lines = main.splitlines(keepends=True)
+        self.count += len(lines)
+        self.rows[0].extend(lines)
+        self.rows[1].extend(held.splitlines(keepends=True))
+        if len(self.rows[0]) >= LATE_RUN:
+            self._spill()
+
+    def _spill(self) -> None:
+        import tempfile
+
+        for rows, runs in zip(self.rows, self.runs, strict=True):
+            if not rows:
+                continue
+            run = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
+            runs.append(run)
+            run.writelines(sorted(rows, key=_stamp_key))
+            rows.clear()
+
+    def merge(self, stream: Any, start: int, which: int) -> int:
+        """Rewrites ``stream``'s rows from ``start`` merged with the late ones.
+
+        ``which``: 0 the export, 1 the held joints' file. Returns the repeats
+        dropped.
+        """
+        import heapq
+        import shutil
+        import tempfile
+
+        self._spill()
+        repeats = 0
+        with tempfile.TemporaryFile("w+", encoding="utf-8", newline="") as body:
+            stream.seek(start)
+            shutil.copyfileobj(stream, body)
+            body.seek(0)
+            stream.seek(start)
+            stream.truncate()
+            runs = self.runs[which]
+            for run in runs:
+                run.seek(0)
+            previous, out = None, []
+            for line in heapq.merge(body, *runs, key=_stamp_key):
+                if line == previous:
+                    repeats += 1
+                    continue
+                out.append(line)
+                previous = line
+                if len(out) >= LATE_RUN:
+                    stream.write("".join(out))
+                    out.clear()
+            stream.write("".join(out))
+        return repeats
+
+    def close(self) -> None:
+        for runs in self.runs:
+            for run in runs:
+                run.close()
+            runs.clear()
 
 
 def _scan(
@@ -970,9 +1123,25 @@ EXPORT_ROWS = 1 << 14
 
 #: Messages held back by :func:`export_bag` to put messages recorded out of
 #: header-stamp order back in order (a transport's reordering spans a few
-#: messages); one later than this many is left where it is (the log reader then
-#: names the two rows).
+#: messages); one later than this many is merged in at the end (:class:`_Late`).
 REORDER_ROWS = 1 << 12
+
+#: Rows of messages later than that kept in memory before they are sorted
+#: into a temporary file (:class:`_Late`).
+LATE_RUN = 1 << 14
+
+
+def _stamp_key(row: str) -> int | float:
+    """The sort key of an export row: its time cell, as a number.
+
+    An integer (nanoseconds, exact) or a float (:func:`time_scale`); Python
+    compares the two exactly.
+    """
+    cell = row.split(",", 1)[0]
+    try:
+        return int(cell)
+    except ValueError:
+        return float(cell)
 
 
 def write_export(

@@ -657,17 +657,12 @@ def test_bag2csv_of_a_file_that_is_no_bag_says_so(tmp_path, capsys):
 
 
 def test_messages_recorded_out_of_stamp_order_are_written_in_stamp_order(
-    arm, tmp_path, capsys, monkeypatch
+    arm, tmp_path, capsys
 ):
     """header.stamp is when q and τ were measured; the receive order is the
     transport's. Twelve pairs of messages swapped in the bag: the estimate is the
     clean log's (before: 'time stamps are not increasing at row 103 ... sort the
-    log by time', which a bag's user cannot do; helper-79's review). The export
-    holds back REORDER_ROWS messages (bounded memory): a message later than that
-    stays where it is, and the reader treats it as a CSV's stamp going back
-    (dropped as an outlier, with a warning naming its row)."""
-    from drake_dynid import ros_bag
-
+    log by time', which a bag's user cannot do; helper-79's review)."""
     messages = arm_messages(arm)
     for k in range(100, 7900, 700):  # received in order, stamps swapped
         early, late = messages[k], messages[k + 1]
@@ -679,16 +674,71 @@ def test_messages_recorded_out_of_stamp_order_are_written_in_stamp_order(
         f"log {bag}: 12 message(s) on /joint_states were recorded after one with a "
         "later header.stamp: written in stamp order." in err
     )
-    late = messages.pop(1000)  # received 2000 messages late (the bag's order)
-    messages.insert(3000, (0, late[1], messages[2999][2] + 1, *late[3:]))
-    bag = tmp_path / "late.bag"
-    write_bag(bag, "ros1", messages)
+
+
+def test_a_message_later_than_the_hold_back_is_placed_and_a_late_repeat_dropped(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: the export holds back REORDER_ROWS messages to put them
+    in stamp order (bounded memory); a message recorded later than that stayed
+    where it was, and the CSV reader dropped it as a stamp going back ('dropped
+    row 2718 (t = 1.700000001e+18): time stamp(s) off the grid'), its sample
+    then made up by the gap filling; a message repeated that late was written
+    twice and dropped so too. Such messages are now kept aside (LATE_RUN rows in
+    memory, then sorted temporary files) and merged into the export at its end,
+    a repeat (the same stamp and values) dropped there: four messages 900 to
+    4500 messages late and a repeat 3000 messages after its first give the
+    export of the bag in order, byte for byte, and the clean CSV's estimate.
+    Written to standard output, which cannot be rewritten, they are refused
+    with their count and lateness."""
+    from drake_dynid import ros_bag
+
     monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
     monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
-    argv = ["offline", str(bag), "--urdf", "planar_2r", "--quiet"]
-    assert cli.main(argv) == 0  # as a CSV's single stamp going back: dropped
-    err = capsys.readouterr().err
-    assert "dropped row 2718 (t = 1.700000001e+18): time stamp(s) off the grid" in err
+    monkeypatch.setattr(ros_bag, "LATE_RUN", 3)  # sorted runs in temporary files
+    ordered = arm_messages(arm)
+    messages = list(ordered)
+    moves = ((7000, 7900), (1000, 3000), (1500, 6000), (1501, 6000))
+    for k, after in moves:  # received just after message `after`
+        late = ordered[k]
+        messages.remove(late)
+        at = messages.index(ordered[after]) + 1
+        while messages[at][1] < late[1]:  # after the ones moved there before
+            at += 1
+        messages.insert(at, (0, late[1], messages[at - 1][2] + 1, *late[3:]))
+    at = messages.index(ordered[5000]) + 1
+    repeat = ordered[2000]
+    messages.insert(at, (0, repeat[1], messages[at - 1][2] + 1, *repeat[3:]))
+    bag = tmp_path / "late.bag"
+    _, err = bag_fit_is_the_csv_fit(capsys, tmp_path, arm, bag, "ros1", messages)
+    said = [line for line in err.splitlines() if "stamp order" in line]
+    assert len(said) == 1, err
+    assert (
+        f"log {bag}: 4 message(s) on /joint_states were recorded after one with a "
+        "later header.stamp: written in stamp order (4 of them more than 100 "
+        "messages late, up to 4." in said[0]
+    ), said
+    assert said[0].endswith(" s: placed by a merge of the export at its end).")
+    assert (
+        f"log {bag}: dropped 1 message(s) on /joint_states repeating the one before "
+        "(the same header.stamp and values)." in err
+    )
+    assert "off the grid" not in err and "filled" not in err, err
+    in_order = tmp_path / "ordered.bag"
+    write_bag(in_order, "ros1", ordered)
+    exports = []
+    for source in (bag, in_order):
+        out = tmp_path / f"{source.stem}.csv"
+        assert cli.main(["bag2csv", str(source), "--out", str(out), "--quiet"]) == 0
+        exports.append(out.read_bytes())
+    assert exports[0] == exports[1]
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 2
+    line = error_line(capsys)
+    assert (
+        f"ROS bag {bag}: 5 message(s) were recorded more than 100 messages after "
+        "a later-stamped one (up to 4." in line
+    ), line
+    assert "write it to a file (--out FILE)" in line, line
 
 
 def test_messages_without_one_value_per_name_are_named_not_joints_missing(
