@@ -180,14 +180,17 @@ def _missing(stamps: np.ndarray) -> np.ndarray:
         b = min(missing.size, a + _SLOT_CHUNK * SLOT_BLOCK)
         missing[a:b] = np.diff(slots[a : b + 1]) - 1
     del slots
+    nearest = [0] + [d * s for d in range(1, SLOT_CONTEXT + 1) for s in (-1, 1)]
     for i in np.flatnonzero(missing < 0).tolist():  # two stamps in one slot
         excess = int(-missing[i])
         missing[i] = 0
-        low, high = max(0, i - SLOT_CONTEXT), min(missing.size, i + SLOT_CONTEXT + 1)
-        for j in sorted(range(low, high), key=lambda j: abs(j - i)):
-            taken = min(excess, max(int(missing[j]), 0))
-            missing[j] -= taken
-            excess -= taken
+        for j in (i + d for d in nearest):
+            if excess <= 0:
+                break
+            if 0 <= j < missing.size and missing[j] > 0:
+                taken = min(excess, int(missing[j]))
+                missing[j] -= taken
+                excess -= taken
     return missing
 
 
