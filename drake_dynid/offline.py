@@ -50,8 +50,9 @@ of v̇ (which grows like f² times the position noise): on the paper's 2R at SNR
 0.9 / 4.1 % (60 seeds; benchmarks/bench_accuracy.py).
 
 The automatic settings (``cutoff_hz``, ``decimation_cutoff_hz``, ``decimation``
-None) are those of :mod:`drake_dynid.core.idim_auto`: f_c where the position
-spectrum meets its noise floor, f_d = min(f_c, 1.5·B), D = floor(0.25·fs/f_d)
+None) are those of :mod:`drake_dynid.core.idim_auto`: f_c minimising the expected
+error of v̇ (the filter's droop on the measured motion against the noise it
+passes), f_d = min(f_c, 1.5·B), D = floor(0.25·fs/f_d)
 rounded down to a multiple of D1.
 
 The work runs with one BLAS thread (:func:`drake_dynid.core._threads.thread_limit`;

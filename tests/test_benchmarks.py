@@ -35,6 +35,7 @@ def load_benchmark(name, monkeypatch):
     [
         "bench_bank",
         "bench_bootstrap",
+        "bench_cutoff",
         "bench_jacobi",
         "bench_long_logs",
         "bench_physical",

@@ -9,23 +9,35 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
 
 * its noise floor N_j: the median of S_j over [fs/4, fs/2] (white measurement
   noise is flat; a rigid robot's motion has no power there);
-* its noise crossover f_x: the highest frequency where some S_j > 100·N_j (20 dB
-  above the floor): beyond it the filter would only pass noise, whose second
-  difference grows like f⁵ and biases W (errors in variables);
-* its excitation bandwidth f_99: the frequency below which 99 % of the power
-  of (S_j - N_j)⁺ up to f_x lies (largest over the joints; above f_x the noise's
-  fluctuations would add up);
+* its noise crossover f_x,j: the highest frequency where S_j > 100·N_j (20 dB
+  above the floor); the motion's spectrum is M_j = (S_j - N_j)⁺ up to f_x,j (0
+  above: there the noise's fluctuations would add up).
 
-and ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)``. The factor 2 keeps the
-zero-phase Butterworth (|H|² = 1/(1+(f/f_c)^(2·order))) above 0.996 in the
-excitation band; on a low-noise log that 0.4 % droop of the band edge is a bias
-σ does not show (an xArm7 excite design, 2 Hz: XX3R 13.7 % high noise-free, 1-6σ
-on 7 seeds; 3·f_99 gave errors of either sign but costs the paper's 2R arm at
-SNR 30 dB: README, "Real robot descriptions"). 40 Hz is ten times a typical 4 Hz
-position closed-loop bandwidth (Gautier's ω_c ≥ 10·ω_dyn), the cap for clean
-logs. On the paper's 2R arm at 1 kHz (its trajectory, 21 s in closed loop) this
-gives 1.5 Hz at SNR 30 dB and 35.5 Hz without noise (34.5 Hz on 30 s: the
-crossover f_x of the round-off floor, below the cap).
+The zero-phase Butterworth of order N passes G(f) = 1/(1 + (f/f_c)^(2N)) (N = 4,
+the off-line default), and the accelerations, the positions' second derivative
+(weight (2πf)⁴), are the most sensitive to it. Joint j's filtered acceleration
+misses (1 - G)·a of the motion (a bias, which survives the parallel decimation:
+it is in the band) and carries G·n of the noise, independent of it, so its
+expected squared error is
+
+    E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]
+
+(the Welch bins up to fs/2), and ``f_c = min(max_j argmin E_j, 40 Hz, fs/5)``
+over a 1 % geometric grid from the Welch resolution (the joint that needs the
+widest band decides, as the crossover did). The noise term counts all the
+noise of v̇ the filter passes, though the decimation low-pass (at 1.5 times the
+velocity band) later removes most of it from the linear columns: it errs
+towards a lower cutoff, which the noisy paper 2R prefers. As the droop falls
+like (f/f_c)^16 and the noise grows like f_c⁵, the optimum moves slowly with
+the noise (a factor 10 in N_j: 1.12 in f_c). A joint without noise floor (N_j =
+0) takes the cap. Measured (benchmarks/bench_cutoff.py; README, "Real robot
+descriptions"): the paper's 2R arm at SNR 30 dB (21 s, 1 kHz) gets 1.61 Hz
+(the former rule, max(f_x, 2·f_99) with f_99 holding 99 % of the motion's
+power, gave 1.5 Hz), and 40 Hz without noise (35.5 Hz); an xArm7 excite design
+(top harmonic 1 Hz, default simulate noise) 3.6 Hz instead of 2 Hz, where the
+droop put XX3R 13.7 % high even without noise. 40 Hz is ten times a typical
+4 Hz position closed-loop bandwidth (Gautier's ω_c ≥ 10·ω_dyn), the cap for
+clean logs.
 
 Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
 so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
@@ -74,7 +86,7 @@ MAX_AUTO_CUTOFF_HZ = 40.0
 """Cap of the automatic cutoff [Hz] (ten times a 4 Hz position loop bandwidth)."""
 
 _FLOOR_MARGIN = 100.0  # 20 dB above the noise floor
-_POWER_SHARE = 0.99  # excitation bandwidth: 99 % of the noise-corrected power
+_CUTOFF_FILTER_ORDER = 4  # the off-line position filter's default order
 _SPECTRUM_SEGMENT = 4.0  # Welch segment length [s]
 DECIMATION_BAND_FACTOR = 1.5
 """Automatic decimation low-pass f_d = min(f_c, 1.5·B), B the velocity bandwidth."""
@@ -105,12 +117,17 @@ def _position_spectra(
 
 
 def auto_cutoff(q: Any, time_step: float) -> float:
-    """Automatic Butterworth cutoff f_c [Hz] from the spectrum of the positions.
+    """Automatic Butterworth cutoff f_c [Hz]: the least expected acceleration error.
 
-    ``f_c = min(max(f_x, 2·f_99), 40 Hz, fs/5)`` with f_x the highest frequency
-    where a joint's Welch spectrum is 20 dB above its noise floor (median over
-    [fs/4, fs/2]) and f_99 the frequency holding 99 % of the floor-corrected power
-    (see the module docstring). Both are the largest over the joints.
+    For each joint j, with its Welch spectrum S_j, noise floor N_j (median over
+    [fs/4, fs/2]) and motion M_j = (S_j - N_j)⁺ up to its crossover (20 dB above
+    the floor), and G(f) = 1/(1 + (f/f_c)⁸) the zero-phase order-4 Butterworth::
+
+        E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]     [(unit/s²)²/Hz]
+
+    the filter's bias on the measured motion's acceleration plus the noise it
+    passes; ``f_c = min(max_j argmin E_j, 40 Hz, fs/5)`` on a 1 % geometric grid
+    (see the module docstring).
 
     Args:
         q: (N, n) finite positions sampled every ``time_step`` [rad or m].
@@ -120,27 +137,35 @@ def auto_cutoff(q: Any, time_step: float) -> float:
         The cutoff [Hz], at least the Welch resolution fs/N_seg.
     """
     fs, f, power = _position_spectra("auto_cutoff", q, time_step)
-    resolution = f[1]
+    resolution = float(f[1])
+    cap = min(MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
+    steps = math.floor(math.log(max(cap / resolution, 1.0)) / math.log(1.01))
+    grid = resolution * 1.01 ** np.arange(steps + 1)
     high = f >= 0.25 * fs
-    crossover = resolution
-    bandwidth = resolution
+    weight = (2.0 * np.pi * f) ** 4
+    floors = np.median(power[high], axis=0)
+    motion = np.zeros_like(power)
+    moving = np.zeros(power.shape[1], dtype=bool)
     for j in range(power.shape[1]):
-        spectrum = power[:, j]
-        floor = float(np.median(spectrum[high]))
-        above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
-        if above.size == 0:
-            continue
-        top = int(above[-1])
-        crossover = max(crossover, float(f[top]))
-        # Excitation bandwidth: only below the crossover, where the spectrum is
-        # signal (above it, the noise's fluctuations would add up).
-        excess = np.clip(spectrum[: top + 1] - floor, 0.0, None)
-        total = float(excess.sum())
-        if total > 0.0:
-            share = np.cumsum(excess) / total
-            bandwidth = max(bandwidth, float(f[np.argmax(share >= _POWER_SHARE)]))
-    cutoff = min(max(crossover, 2.0 * bandwidth), MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
-    return float(max(cutoff, resolution))
+        above = np.flatnonzero(power[:, j] > _FLOOR_MARGIN * floors[j])
+        if above.size:
+            top = int(above[-1]) + 1
+            motion[:top, j] = np.clip(power[:top, j] - floors[j], 0.0, None)
+            moving[j] = bool(motion[:, j].any())
+    if not moving.any():  # nothing measured: twice the resolution, as before
+        return float(max(min(2.0 * resolution, cap), resolution))
+    if np.any(floors[moving] <= 0.0):  # a noise-free joint: nothing to trade
+        return float(max(cap, resolution))
+    errors = np.empty((grid.size, power.shape[1]))
+    for k, cutoff in enumerate(grid):  # one candidate at a time: memory O(F·n)
+        gain = 1.0 / (1.0 + (f / cutoff) ** (2 * _CUTOFF_FILTER_ORDER))
+        errors[k] = ((1.0 - gain) ** 2 * weight) @ motion + float(
+            np.sum(gain**2 * weight)
+        ) * floors
+    best = max(
+        float(grid[int(np.argmin(errors[:, j]))]) for j in np.flatnonzero(moving)
+    )
+    return float(max(min(best, cap), resolution))
 
 
 def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarray]:
