@@ -244,7 +244,7 @@ class RobotModel(RobotRows):
             _LOGGER.info("RobotModel: %s.", note)
         # A file dynid --urdf-out wrote with a drive file holds the joint-side
         # totals: read as they are, the same drive file adds nothing again.
-        totals = (False, False)
+        totals: frozenset[str] = frozenset()
         if drive is not None:
             totals = drive_totals(
                 Path(path).read_text(encoding="utf-8", errors="replace")
@@ -266,7 +266,8 @@ class RobotModel(RobotRows):
             untransmitted=untransmitted,
             totals=totals,
         )
-        if model.drive is not None and any(totals):
+        if model.drive is not None and totals:
+            frictions = [k for k in ("viscous", "coulomb") if k in totals]
             given = rotor_inertia and any(
                 not motor.coupled and motor.rotor_inertia is not None
                 for motor in model.drive.motors
@@ -274,20 +275,31 @@ class RobotModel(RobotRows):
             kept = [
                 *(
                     ["the drive file's motor friction is not added to them again"]
-                    if motor_friction(model.drive)
+                    if frictions and motor_friction(model.drive, frictions)
                     else []
                 ),
                 *(
                     ["its rotor inertia does not replace them"]
-                    if totals[1] and given
+                    if "inertia" in totals and given
                     else []
                 ),
             ]
             if kept:
-                what = "friction and rotor inertia" if totals[1] else "friction"
+                words = [
+                    word
+                    for word, kind in (
+                        ("damping", "viscous"),
+                        ("friction", "coulomb"),
+                        ("rotor inertia", "inertia"),
+                    )
+                    if kind in totals
+                ]
+                what = " and ".join(
+                    [", ".join(words[:-1]), words[-1]] if len(words) > 1 else words
+                )
                 note = (
                     f"{Path(path).name} was written by dynid --urdf-out with a drive "
-                    f"file: its joint damping, {what} are joint-side totals, the "
+                    f"file: its joint {what} are joint-side totals, the "
                     f"motors' reflected values included, read as they are "
                     f"({'; '.join(kept)})"
                 )
@@ -313,7 +325,7 @@ class RobotModel(RobotRows):
         drive: Any = None,
         coulomb_width: float = 0.0,
         untransmitted: tuple[Sequence[str], Collection[str]] = ((), ()),
-        totals: tuple[bool, bool] = (False, False),
+        totals: Collection[str] = (),
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -325,9 +337,9 @@ class RobotModel(RobotRows):
         ``untransmitted``: (joints without a ``<transmission>``, those of them with
         an effort limit) whose note (``urdf.untransmitted_note``) the caller left to
         this method: with a drive chain it names the joints the chain does not
-        drive. ``totals``: whether the plant's joint friction and rotor inertia
-        already hold a drive chain's reflected values
-        (``urdf_writer.drive_totals``; ``robot_drive.drive_table``).
+        drive. ``totals``: the kinds among ``"viscous"``, ``"coulomb"``,
+        ``"inertia"`` whose plant values already hold a drive chain's reflected
+        values (``urdf_writer.drive_totals``; ``robot_drive.drive_table``).
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)

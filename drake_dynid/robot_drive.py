@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -129,7 +129,7 @@ def drive_table(
     num_joints: int,
     rotor_inertia: bool,
     friction: tuple[str, ...],
-    totals: tuple[bool, bool] = (False, False),
+    totals: Collection[str] = (),
 ) -> DriveTable:
     """Inserts the motor columns into a standard table (module docstring).
 
@@ -141,11 +141,13 @@ def drive_table(
         num_joints: n.
         rotor_inertia: whether the ``IAj`` (and ``IAmk``) columns are modelled.
         friction: the friction kinds.
-        totals: whether ``values`` already hold the joint-side totals of (the
-            joint friction, the rotor inertia IAj), as in a file that
-            ``dynid --urdf-out`` wrote with a drive file: the simple motors'
-            friction is then not added to them, their rotor inertia does not
-            replace them.
+        totals: the kinds among ``"viscous"``, ``"coulomb"``, ``"inertia"``
+            (IAj) whose ``values`` already hold the joint-side totals, as in a
+            file that ``dynid --urdf-out`` wrote with a drive file
+            (``urdf_writer.drive_totals``): the simple motors' friction of those
+            kinds is then not added to them, their rotor inertia does not
+            replace the IAj; the other kinds (``offset`` always) get the
+            motors' values as for any URDF.
     """
     names = list(names)
     values = np.array(values, dtype=float)
@@ -157,8 +159,7 @@ def drive_table(
     for motor in chain.motors:
         if not motor.coupled and motor.rotor_inertia is not None:
             known[motor.joints[0]] = True
-    friction_total, inertia_total = totals
-    if rotor_inertia and not inertia_total:
+    if rotor_inertia and "inertia" not in totals:
         for j in np.flatnonzero(known):
             values[names.index(f"IA{j + 1}")] = reflected[j]
     elif not rotor_inertia:
@@ -169,7 +170,9 @@ def drive_table(
                 "without rotor inertia columns (--rotor-inertia)"
             )
     extra = chain.reflected_friction()
-    for index, kind in enumerate(friction if not friction_total else ()):
+    for index, kind in enumerate(friction):
+        if kind in totals:
+            continue
         for joint in range(n):
             values[start + joint * len(friction) + index] += extra[kind][joint]
     columns = None

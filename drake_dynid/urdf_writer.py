@@ -84,6 +84,19 @@ __all__ = [
 #: reads them as they are when such a file is loaded with a drive file again
 #: (:func:`drive_totals`).
 DRIVE_TOTALS = "are joint-side totals, its motors' reflected values included"
+#: Opens the header comment of a written file; :func:`drive_totals` and
+#: :func:`implausible_links` read that comment only (not a stale copy of it, nor
+#: the same words elsewhere in the file).
+HEADER = "Identified by drake_dynid from"
+#: The header's words for the joint fields that hold a drive's totals, and the
+#: kinds ``drive_totals`` returns for them.
+_HEADER = re.compile(r"\s+".join(HEADER.split()))
+_TOTAL_KINDS = {"damping": "viscous", "friction": "coulomb", "rotor inertia": "inertia"}
+_WORD = r"(?:damping|friction|rotor\s+inertia)"
+_TOTALS = re.compile(
+    rf"the\s+joint\s+({_WORD}(?:(?:,\s*|\s+and\s+){_WORD})*)\s+"
+    + r"\s+".join(map(re.escape, DRIVE_TOTALS.split()))
+)
 #: Opens the header line naming the links :func:`doubtful_links` found
 #: (:func:`implausible_note`; read back by :func:`implausible_links`).
 IMPLAUSIBLE = "Consistent but implausible, check before use"
@@ -220,31 +233,59 @@ def _absolute_filenames(root: Any, source: Path, output: Path) -> None:
             element.set("filename", str((source.parent / name).resolve()))
 
 
-def motor_friction(drive: Any) -> bool:
+def motor_friction(
+    drive: Any, kinds: Sequence[str] = ("viscous", "coulomb", "offset")
+) -> bool:
     """Whether a drive chain adds motor friction to the joints' a-priori values.
 
     ``DriveChain.reflected_friction`` (its simple motors' ``viscous``,
-    ``coulomb``, ``offset``) not all 0: a file written with it holds that
-    friction in its joint friction already (:func:`drive_totals`).
+    ``coulomb``, ``offset``; ``kinds``: those looked at) not all 0: a file
+    written with it holds that friction in its joint friction already
+    (:func:`drive_totals`).
     """
-    return any(np.any(values != 0.0) for values in drive.reflected_friction().values())
+    extra = drive.reflected_friction()
+    return any(np.any(extra[kind] != 0.0) for kind in kinds)
 
 
-def drive_totals(text: str) -> tuple[bool, bool]:
-    """Whether a URDF's joint (friction, rotor inertia) are a drive's totals.
+def _header_comment(text: str) -> str:
+    """The text of a written file's header comment (:data:`HEADER`), or ""."""
+    found = _HEADER.search(text)
+    if found is None:
+        return ""
+    start = found.start()
+    end = text.find("-->", start)
+    return text[start : end if end >= 0 else len(text)]
+
+
+def _joined(words: Sequence[str]) -> str:
+    return " and ".join(
+        [", ".join(words[:-1]), words[-1]] if len(words) > 1 else list(words)
+    )
+
+
+def drive_totals(text: str) -> frozenset[str]:
+    """Which of a URDF's joint fields hold a drive's joint-side totals.
 
     ``text``: the file. A file this module wrote with a drive file says so in
-    its header (:data:`DRIVE_TOTALS`): its ``<dynamics damping friction>`` are
-    FVj, FCj with the motors' reflected friction included, and with rotor
-    inertia columns its ``drake:rotor_inertia`` reflects to IAj, the motors'
-    included. Loaded with a drive file again, ``RobotModel`` reads them as they
-    are (``robot_drive.drive_table``): the round trip gives the fit's standard
-    values (the motor-side ``IAmk``, ``FVmk``, ``FCmk`` and ``OFFj`` have no
-    URDF field: the drive file's a-priori values).
+    its header comment (:data:`HEADER`, :data:`DRIVE_TOTALS`), naming the
+    fields the fit identified: ``damping`` (FVj, kind ``"viscous"``),
+    ``friction`` (FCj, ``"coulomb"``), ``rotor inertia`` (the
+    ``drake:rotor_inertia`` that reflects to IAj, ``"inertia"``), the motors'
+    reflected values included. Loaded with a drive file again, ``RobotModel``
+    reads those as they are (``robot_drive.drive_table``): the round trip gives
+    the fit's standard values. A field the fit did not identify (written as 0)
+    and the ones no URDF field holds (``OFFj``, the motor-side ``IAmk``,
+    ``FVmk``, ``FCmk``) get the drive file's a-priori values as for any URDF.
+
+    Returns:
+        The kinds among ``"viscous"``, ``"coulomb"``, ``"inertia"`` (none for a
+        file without such a header).
     """
-    if DRIVE_TOTALS not in text:
-        return (False, False)
-    return (True, f"rotor inertia {DRIVE_TOTALS}" in text)
+    found = _TOTALS.search(_header_comment(text))
+    if found is None:
+        return frozenset()
+    words = re.split(r",\s*|\s+and\s+", found.group(1))
+    return frozenset(_TOTAL_KINDS[" ".join(word.split())] for word in words)
 
 
 def _dynamics(joint: Any) -> Any:
@@ -430,7 +471,7 @@ def _header(
     """The lines of the comment at the top: what the file holds and what not."""
     drive = getattr(robot, "drive", None)
     lines = [
-        f"Identified by drake_dynid from {source.name}: <inertial> of "
+        f"{HEADER} {source.name}: <inertial> of "
         f"{', '.join(written)}; joint damping/friction"
         + ("; drake:rotor_inertia" if robot.rotor_inertia else "")
         + ".",
@@ -449,11 +490,18 @@ def _header(
         lines.append(f"Not identified, written as 0: {', '.join(zeroed)}.")
     if skipped:
         lines.append(f"Identified, no URDF field (not written): {', '.join(skipped)}.")
-    if drive is not None:
+    kinds = tuple(getattr(robot, "friction", ()))
+    words = [
+        word
+        for word, kind in (("damping", "viscous"), ("friction", "coulomb"))
+        if kind in kinds
+    ] + (["rotor inertia"] if robot.rotor_inertia else [])
+    if drive is not None and words:
+        frictions = [kind for kind in ("viscous", "coulomb") if kind in kinds]
         read_back = (
             "; loaded with a drive file again, drake_dynid reads them as they are "
             "(the drive file's motor friction is not added again)."
-            if motor_friction(drive)
+            if frictions and motor_friction(drive, frictions)
             else "."
         )
         inertia = (
@@ -465,11 +513,11 @@ def _header(
             if robot.rotor_inertia
             else ""
         )
-        # Without rotor inertia columns none is written (0): only the friction.
-        totals = "friction and rotor inertia" if robot.rotor_inertia else "friction"
+        # Only what the fit identified: a field written as 0 (no rotor inertia
+        # columns, no viscous or Coulomb friction in the fit) is no total.
         lines.append(
-            f"With the {getattr(drive, 'source', 'drive file')}: the joint damping, "
-            f"{totals} {DRIVE_TOTALS}{read_back}{inertia}"
+            f"With the {getattr(drive, 'source', 'drive file')}: the joint "
+            f"{_joined(words)} {DRIVE_TOTALS}{read_back}{inertia}"
         )
     return lines
 
@@ -544,11 +592,12 @@ def implausible_links(text: str) -> tuple[tuple[str, float, float], ...]:
     the link origin [m])`` per link of its :func:`implausible_note` line (none
     for a file without one).
     """
-    start = text.find(IMPLAUSIBLE)
+    header = _header_comment(text)
+    start = header.find(IMPLAUSIBLE)
     if start < 0:
         return ()
-    end = text.find("\n", start)
-    line = text[start : end if end >= 0 else len(text)]
+    end = header.find("\n", start)
+    line = header[start : end if end >= 0 else len(header)]
     return tuple(
         (m.group(1), float(m.group(2)), float(m.group(4)))
         for m in _DOUBTFUL_ENTRY.finditer(line)
@@ -614,6 +663,13 @@ def write_identified_urdf(
     except ElementTree.ParseError as error:
         check.fail(_OWNER, f"{source} is not well-formed XML: {error}.")
     tree = ElementTree.ElementTree(root)
+    # The header of a file written before (re-identified from it) described
+    # that file's values: the one written here replaces it.
+    for element in list(root):
+        if element.tag is ElementTree.Comment and (
+            element.text or ""
+        ).strip().startswith(HEADER):
+            root.remove(element)
     links_by_name = {link.attrib.get("name"): link for link in root.findall("link")}
     joints_by_name = {j.attrib.get("name"): j for j in root.findall("joint")}
     moving = tuple(getattr(robot, "links", ()) or robot.joint_names)

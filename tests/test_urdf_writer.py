@@ -13,7 +13,14 @@ import pytest
 
 from drake_dynid.physical import pseudo_inertia
 from drake_dynid.plants import RobotModel, model_path, read_urdf_friction
-from drake_dynid.urdf_writer import write_identified_urdf
+from drake_dynid.urdf_writer import (
+    DRIVE_TOTALS,
+    HEADER,
+    drive_totals,
+    implausible_links,
+    implausible_note,
+    write_identified_urdf,
+)
 
 
 def _consistent_values(robot, rng):
@@ -650,3 +657,87 @@ def test_the_same_drive_file_reads_the_written_totals_back_exactly(tmp_path):
     after = again.idim_rows(q, v, vdot, columns="standard") @ again.standard_values
     np.testing.assert_allclose(after, before, rtol=1e-12, atol=1e-12)
     assert any("read as they are" in note for note in again.notes)
+
+
+def test_the_drive_totals_are_only_the_fields_the_fit_identified(tmp_path):
+    # A review: a file written with a drive file was read back as holding the
+    # joint-side totals of every friction kind, so the drive file's motor
+    # offset (OFFj, no URDF field) and its Coulomb friction of a fit without
+    # Coulomb columns (written as 0) were dropped: OFF1 0.18 -> 0, FC1 0.6 -> 0.
+    # Only the damping, friction, rotor inertia the fit identified are totals.
+    drive = tmp_path / "wrist4.toml"
+    text = Path("tests/data/wrist4.toml").read_text()
+    drive.write_text(
+        text.replace("coulomb = 0.01\n", "coulomb = 0.01\noffset = 0.003\n")
+    )
+    full = ("viscous", "coulomb", "offset")
+    for friction in (full, ("viscous",)):
+        robot = RobotModel.from_urdf(
+            "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True, friction=friction
+        )
+        values = _consistent_values(robot, np.random.default_rng(16))
+        out = tmp_path / f"w{len(friction)}.urdf"
+        write_identified_urdf(robot, values, out)
+        kinds = {"viscous", "inertia"} | (
+            {"coulomb"} if "coulomb" in friction else set()
+        )
+        again = RobotModel.from_urdf(
+            out, drive=drive, rotor_inertia=True, friction=full
+        )
+        read = dict(zip(again.standard_names, again.standard_values, strict=True))
+        fit = dict(zip(robot.standard_names, values, strict=True))
+        assert read["OFF1"] == pytest.approx(60 * 0.003)  # the drive file's
+        assert read["FV1"] == pytest.approx(fit["FV1"], rel=1e-12)  # the total
+        if "coulomb" in friction:
+            assert read["FC1"] == pytest.approx(fit["FC1"], rel=1e-12)
+        else:  # written as 0 (not identified): the drive file's motor adds its own
+            assert read["FC1"] == pytest.approx(60 * 0.01)
+        assert drive_totals(out.read_text()) == kinds
+
+
+def test_only_the_files_own_header_says_what_it_holds(tmp_path):
+    # A review: the words were looked for anywhere in the file, so a file
+    # identified again from a written one (whose header it keeps as a comment)
+    # was read with the old file's totals and implausible links.
+    drive = "tests/data/wrist4.toml"
+    robot = RobotModel.from_urdf(
+        "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(16))
+    first = tmp_path / "first.urdf"
+    write_identified_urdf(
+        robot,
+        values,
+        first,
+        notes=[
+            implausible_note(
+                [
+                    "l1: mass 0.01 kg (URDF 1), "
+                    "centre of mass 9 m from its origin (URDF 0.1)"
+                ]
+            )
+        ],
+    )
+    assert implausible_links(first.read_text()) == (("l1", 0.01, 9.0),)
+    plain = RobotModel.from_urdf(first)  # no drive file, no rotor inertia
+    second = tmp_path / "second.urdf"
+    write_identified_urdf(plain, plain.standard_values, second)
+    text = second.read_text()
+    assert implausible_links(text) == ()
+    assert text.count(HEADER) == 1
+    assert drive_totals(text) == frozenset()
+    assert drive_totals(first.read_text()) == {"viscous", "coulomb", "inertia"}
+    # The words in another comment (a user's) are not the header.
+    other = (
+        Path("tests/data/wrist4.urdf")
+        .read_text()
+        .replace(
+            "<link", f"<!-- the joint damping, friction {DRIVE_TOTALS} -->\n<link", 1
+        )
+    )
+    assert drive_totals(other) == frozenset()
+    # A header re-wrapped by an editor still is.
+    wrapped = first.read_text().replace(
+        " are joint-side totals,", "\n   are joint-side\n totals,"
+    )
+    assert drive_totals(wrapped) == {"viscous", "coulomb", "inertia"}
