@@ -216,7 +216,8 @@ def _check_log(owner: str, log: Any, robot: Any, rows: Any) -> float:
         check.fail(
             owner,
             f"log joints must be the robot's {check.listed(robot_joints)} in that "
-            f"order; got {check.listed(log.joint_names)}.",
+            f"order; got {check.listed(log.joint_names)}"
+            f"{check.first_difference(robot_joints, log.joint_names)}.",
         )
     return check.positive(owner, "time_step", log.time_step, "s")
 

@@ -402,7 +402,8 @@ def _validate(
         check.fail(
             owner,
             f"log joints must be the robot's {check.listed(joints)} in that order; "
-            f"got {check.listed(log.joint_names)}.",
+            f"got {check.listed(log.joint_names)}"
+            f"{check.first_difference(joints, log.joint_names)}.",
         )
     p = len(rows.names)
     if not estimates:

@@ -104,3 +104,29 @@ def test_the_log_readers_hint_lists_the_first_20_joints(tmp_path):
     text = str(raised.value)
     assert f"holds {FIRST} and 1980 more only: --joints with those" in text, text
     assert len(text) < 1500, len(text)
+
+
+def test_a_log_in_another_joint_order_says_where_beyond_the_listed_names():
+    """Found by a review: with both lists cut at 20 names, a log whose joints
+    21 and 22 are swapped was refused with the same list twice ('must be the
+    robot's j0, ..., j19 and 5 more in that order; got j0, ..., j19 and 5
+    more'). The message now names the first difference."""
+    from types import SimpleNamespace
+
+    from drake_dynid import offline, validation
+
+    robot = SimpleNamespace(joint_names=tuple(f"j{k}" for k in range(25)))
+    names = list(robot.joint_names)
+    names[20], names[21] = names[21], names[20]
+    log = SimpleNamespace(t=0, q=0, tau=0, time_step=0.01, joint_names=tuple(names))
+    with pytest.raises(ValueError) as offline_error:
+        offline._check_log("OfflineIdentifier", log, robot, None)
+    with pytest.raises(ValueError) as validation_error:
+        validation._validate("validate", log, robot, {}, None, None, 4)
+    for error in (offline_error, validation_error):
+        message = str(error.value)
+        assert f"in that order; got {FIRST} and 5 more" in message, message
+        assert "(name 21 of 25: 'j20' expected, 'j21' given)." in message, message
+    short = SimpleNamespace(**{**vars(log), "joint_names": robot.joint_names[:24]})
+    with pytest.raises(ValueError, match=r"name 25 of 25: 'j24' expected, none given"):
+        offline._check_log("OfflineIdentifier", short, robot, None)

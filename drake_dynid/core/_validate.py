@@ -49,6 +49,25 @@ def listed(names: Iterable[str], limit: int = LISTED_NAMES, sep: str = ", ") -> 
     return f"{shown} and {left} more" if left > 0 else shown
 
 
+def first_difference(expected: Sequence[str], got: Sequence[str]) -> str:
+    """Where two lists of names first differ, in words ("" where they do not).
+
+    For a message that lists both (:func:`listed`): beyond the first
+    :data:`LISTED_NAMES` names the two shown lists can be the same words.
+    """
+    expected, got = list(expected), list(got)
+    for k in range(max(len(expected), len(got))):
+        want = expected[k] if k < len(expected) else None
+        have = got[k] if k < len(got) else None
+        if want != have:
+            return (
+                f" (name {k + 1} of {len(expected)}: "
+                f"{'none' if want is None else repr(want)} expected, "
+                f"{'none' if have is None else repr(have)} given)"
+            )
+    return ""
+
+
 def _unit(unit: str | None) -> str:
     return f" [{unit}]" if unit else ""
 
