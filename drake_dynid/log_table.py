@@ -213,6 +213,11 @@ def _split_header(path: str, text: str, first_line: int) -> tuple[list[str], str
     return [cell.strip() for cell in header], text[end + 1 :], header_line + 1
 
 
+#: The most joints whose ``--joints`` value the reader's hint prints to copy
+#: (a 100-joint value is a line of about 1.5 kB; a ROS bag's 2000 made 16 kB).
+COPIED_JOINTS = 100
+
+
 def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     """What the header suggests when wanted columns are missing ('' if nothing)."""
     if len(header) == 1 and any(sep in header[0] for sep in ";\t|"):
@@ -223,13 +228,23 @@ def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     joints = [name[2:] for name in wanted if name.startswith("q_")]
     present = [j for j in joints if f"q_{j}" in header and f"tau_{j}" in header]
     if present and len(present) < len(joints):
-        # The --joints value to copy, while it is one (the listed names are not).
-        option = (
-            f": --joints {','.join(present)} identifies those alone"
-            if len(present) <= LISTED_NAMES
-            else ": --joints with those names identifies them alone"
+        # The --joints value to copy, while it is one (the listed names are not):
+        # beyond LISTED_NAMES, only that value names them (one list, not two).
+        value = ",".join(present)
+        if len(present) <= LISTED_NAMES:
+            return (
+                f"; the log holds {listed(present)} only: --joints {value} "
+                "identifies those alone"
+            )
+        if len(present) <= COPIED_JOINTS:
+            return (
+                f"; the log holds {len(present)} of the {len(joints)} joints only: "
+                f"--joints {value} identifies those alone"
+            )
+        return (
+            f"; the log holds {listed(present)} only: --joints with those names "
+            "identifies them alone"
         )
-        return f"; the log holds {listed(present)} only{option}"
     logged = [n[2:] for n in header if n.startswith("q_") and f"tau_{n[2:]}" in header]
     if logged and not present:
         shown = listed(logged)

@@ -104,6 +104,13 @@ def test_the_log_readers_hint_lists_the_first_20_joints(tmp_path):
     text = str(raised.value)
     assert f"holds {FIRST} and 1980 more only: --joints with those" in text, text
     assert len(text) < 1500, len(text)
+    # A review: 30 of 31 joints gave no value to copy ('--joints with those
+    # names'), where the 20 listed were not all of them. Up to 100, the value.
+    with pytest.raises(ValueError, match="missing column") as raised:
+        read_log(path, (*WIDE[:30], "elbow"))
+    text = str(raised.value)
+    value = ",".join(WIDE[:30])
+    assert f"holds 30 of the 31 joints only: --joints {value} identifies" in text
 
 
 def test_a_log_in_another_joint_order_says_where_beyond_the_listed_names():
