@@ -585,12 +585,14 @@ _DOUBTFUL_ENTRY = re.compile(
 )
 
 
-def implausible_links(text: str) -> tuple[tuple[str, float, float], ...]:
+def implausible_links(
+    text: str,
+) -> tuple[tuple[str, float, float, float, float], ...]:
     """The links a written file's header names as implausible.
 
     ``text``: the file. Returns ``(link, mass [kg], centre-of-mass distance from
-    the link origin [m])`` per link of its :func:`implausible_note` line (none
-    for a file without one).
+    the link origin [m], the URDF's mass [kg], the URDF's distance [m])`` per
+    link of its :func:`implausible_note` line (none for a file without one).
     """
     header = _header_comment(text)
     start = header.find(IMPLAUSIBLE)
@@ -599,7 +601,13 @@ def implausible_links(text: str) -> tuple[tuple[str, float, float], ...]:
     end = header.find("\n", start)
     line = header[start : end if end >= 0 else len(header)]
     return tuple(
-        (m.group(1), float(m.group(2)), float(m.group(4)))
+        (
+            m.group(1),
+            float(m.group(2)),
+            float(m.group(4)),
+            float(m.group(3)),
+            float(m.group(5)),
+        )
         for m in _DOUBTFUL_ENTRY.finditer(line)
     )
 

@@ -629,3 +629,29 @@ def test_replay_gives_the_meshcat_url_in_its_own_words_only(
     assert "listening" not in captured.err
     assert not [r for r in caplog.records if "listening" in r.getMessage()]
     assert logging.getLogger("drake").level == logging.INFO  # restored
+
+
+def test_a_heavy_implausible_link_is_not_called_nearly_empty(tmp_path):
+    """Found by a review: a failed run of a file whose header names implausible
+    links explained them all as 'a nearly empty link whose centre of mass is
+    metres away', also for a link named for its mass 10 times the URDF's (the
+    README's UR5 export: shoulder_link at 52.3 kg for 3.7, its centre of mass
+    near its origin). The message now gives the facts, the URDF's with them."""
+    from drake_dynid.commands.simulate import _implausible_links_named
+    from drake_dynid.urdf_writer import implausible_note
+
+    urdf = tmp_path / "ur5_identified.urdf"
+    note = implausible_note(
+        ["shoulder_link: mass 52.3 kg (URDF 3.7), centre of mass 0.05 m from its "
+         "origin (URDF 0)"]
+    )  # fmt: skip
+    urdf.write_text(f"<robot><!-- Identified by drake_dynid from ur5.urdf.\n {note} -->"
+                    "</robot>")  # fmt: skip
+    with pytest.raises(ValueError) as raised, _implausible_links_named(str(urdf)):
+        raise ValueError("the tracking error of joint shoulder_pan_joint is 1 rad.")
+    message = str(raised.value)
+    assert "nearly empty" not in message, message
+    assert (
+        "(shoulder_link: 52.3 kg at 0.05 m from its origin, 0.131 kg·m² about it; "
+        "the URDF's 3.7 kg at 0 m)" in message
+    ), message

@@ -259,7 +259,7 @@ def test_simulating_the_physical_export_names_its_implausible_links(tmp_path, ca
     argv += ["--joints", ",".join(JOINTS), "--split", "0.6", "--physical"]
     assert cli.main([*argv, "--urdf-out", str(out), "--quiet"]) == 0
     links = implausible_links(out.read_text())
-    assert [link for link, _, _ in links] == [
+    assert [link for link, *_ in links] == [
         "torso_lift_link",
         *(f"arm_{k}_link" for k in range(1, 8)),
     ]

@@ -718,7 +718,7 @@ def test_only_the_files_own_header_says_what_it_holds(tmp_path):
             )
         ],
     )
-    assert implausible_links(first.read_text()) == (("l1", 0.01, 9.0),)
+    assert implausible_links(first.read_text()) == (("l1", 0.01, 9.0, 1.0, 0.1),)
     plain = RobotModel.from_urdf(first)  # no drive file, no rotor inertia
     second = tmp_path / "second.urdf"
     write_identified_urdf(plain, plain.standard_values, second)

@@ -208,14 +208,21 @@ def _implausible_links_named(urdf: str):
             links = ()
         if not links:
             raise
-        name, mass, distance = max(links, key=lambda e: e[1] * e[2] ** 2)
+        name, mass, distance, mass0, distance0 = max(
+            links, key=lambda e: e[1] * e[2] ** 2
+        )
+        # Facts, both ways: a link is named for a mass far below or above the
+        # URDF's, or a centre of mass far out (urdf_writer.doubtful_links).
         raise ValueError(
             f"{message.rstrip('.')}. {Path(urdf).name} was written by dynid "
             f"--urdf-out with {len(links)} implausible link(s) (its header: "
-            f"{listed(e[0] for e in links)}): a nearly empty link whose centre of "
-            f"mass is metres away is a large inertia, unlike the robot's ({name}: "
+            f"{listed(e[0] for e in links)}): a mass or centre of mass far from "
+            "the URDF's changes the inertia and gravity torques that a controller "
+            "tuned for the robot drives; the largest inertia about its origin "
+            f"({name}: "
             f"{mass:.3g} kg at {distance:.3g} m from its origin, "
-            f"{mass * distance**2:.3g} kg·m² about it). Simulate the URDF it was "
+            f"{mass * distance**2:.3g} kg·m² about it; the URDF's {mass0:.3g} kg at "
+            f"{distance0:.3g} m). Simulate the URDF it was "
             "identified from, or identify it again with a larger --regularization "
             "(which pulls the links towards that URDF's)."
         ) from None
