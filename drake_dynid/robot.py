@@ -82,7 +82,7 @@ from drake_dynid.urdf import (
     read_urdf_mimic,
     untransmitted_note,
 )
-from drake_dynid.urdf_writer import drive_totals, motor_friction
+from drake_dynid.urdf_writer import drive_totals, motor_friction, unwritten
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
@@ -245,10 +245,10 @@ class RobotModel(RobotRows):
         # A file dynid --urdf-out wrote with a drive file holds the joint-side
         # totals: read as they are, the same drive file adds nothing again.
         totals: frozenset[str] = frozenset()
+        missing: frozenset[str] = frozenset()
         if drive is not None:
-            totals = drive_totals(
-                Path(path).read_text(encoding="utf-8", errors="replace")
-            )
+            text = Path(path).read_text(encoding="utf-8", errors="replace")
+            totals, missing = drive_totals(text), unwritten(text)
         model = cls.from_plant(
             loaded.plant,
             friction=friction,
@@ -265,6 +265,7 @@ class RobotModel(RobotRows):
             coulomb_width=coulomb_width,
             untransmitted=untransmitted,
             totals=totals,
+            unwritten=missing,
         )
         if model.drive is not None and totals:
             frictions = [k for k in ("viscous", "coulomb") if k in totals]
@@ -326,6 +327,7 @@ class RobotModel(RobotRows):
         coulomb_width: float = 0.0,
         untransmitted: tuple[Sequence[str], Collection[str]] = ((), ()),
         totals: Collection[str] = (),
+        unwritten: Collection[str] = (),
     ) -> RobotModel:
         """Builds the description of a finalized fixed-base plant.
 
@@ -339,7 +341,9 @@ class RobotModel(RobotRows):
         this method: with a drive chain it names the joints the chain does not
         drive. ``totals``: the kinds among ``"viscous"``, ``"coulomb"``,
         ``"inertia"`` whose plant values already hold a drive chain's reflected
-        values (``urdf_writer.drive_totals``; ``robot_drive.drive_table``).
+        values (``urdf_writer.drive_totals``; ``robot_drive.drive_table``);
+        ``unwritten``: the standard names such a file does not hold
+        (``urdf_writer.unwritten``).
         """
         owner = "RobotModel"
         friction = check_friction(owner, friction)
@@ -380,6 +384,7 @@ class RobotModel(RobotRows):
                 rotor_inertia=bool(rotor_inertia),
                 friction=friction,
                 totals=totals,
+                unwritten=unwritten,
             )
             names, values, scales = table.names, table.values, table.scales
             motors = table.columns

@@ -130,6 +130,7 @@ def drive_table(
     rotor_inertia: bool,
     friction: tuple[str, ...],
     totals: Collection[str] = (),
+    unwritten: Collection[str] = (),
 ) -> DriveTable:
     """Inserts the motor columns into a standard table (module docstring).
 
@@ -148,6 +149,9 @@ def drive_table(
             kinds is then not added to them, their rotor inertia does not
             replace the IAj; the other kinds (``offset`` always) get the
             motors' values as for any URDF.
+        unwritten: the standard names such a file does not hold
+            (``urdf_writer.unwritten``): an ``IAj`` among them is no total, the
+            motor's rotor inertia replaces it.
     """
     names = list(names)
     values = np.array(values, dtype=float)
@@ -159,10 +163,11 @@ def drive_table(
     for motor in chain.motors:
         if not motor.coupled and motor.rotor_inertia is not None:
             known[motor.joints[0]] = True
-    if rotor_inertia and "inertia" not in totals:
+    if rotor_inertia:
         for j in np.flatnonzero(known):
-            values[names.index(f"IA{j + 1}")] = reflected[j]
-    elif not rotor_inertia:
+            if "inertia" not in totals or f"IA{j + 1}" in unwritten:
+                values[names.index(f"IA{j + 1}")] = reflected[j]
+    else:
         given = [mo.name for mo in chain.motors if mo.rotor_inertia is not None]
         if given:
             notes.append(

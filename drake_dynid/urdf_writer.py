@@ -76,6 +76,7 @@ __all__ = [
     "drive_totals",
     "implausible_links",
     "implausible_note",
+    "unwritten",
     "write_identified_urdf",
 ]
 
@@ -91,6 +92,9 @@ HEADER = "Identified by drake_dynid from"
 #: The header's words for the joint fields that hold a drive's totals, and the
 #: kinds ``drive_totals`` returns for them.
 _HEADER = re.compile(r"\s+".join(HEADER.split()))
+_UNWRITTEN = re.compile(
+    r"Identified,\s+no\s+URDF\s+field\s+\(not\s+written\):\s*([^.]*)\."
+)
 _TOTAL_KINDS = {"damping": "viscous", "friction": "coulomb", "rotor inertia": "inertia"}
 _WORD = r"(?:damping|friction|rotor\s+inertia)"
 _TOTALS = re.compile(
@@ -286,6 +290,21 @@ def drive_totals(text: str) -> frozenset[str]:
         return frozenset()
     words = re.split(r",\s*|\s+and\s+", found.group(1))
     return frozenset(_TOTAL_KINDS[" ".join(word.split())] for word in words)
+
+
+def unwritten(text: str) -> frozenset[str]:
+    """The identified parameters a written file's header says it does not hold.
+
+    ``text``: the file. Its header's "Identified, no URDF field (not written)"
+    line (``OFFj``, the coupled motors' ``IAmk``..., the ``IAj`` of a joint in
+    a transmission of several joints): such an ``IAj`` is no total of
+    :func:`drive_totals` (the drive file's rotor inertia gives it, as for any
+    URDF). None for a file without a header.
+    """
+    found = _UNWRITTEN.search(_header_comment(text))
+    if found is None:
+        return frozenset()
+    return frozenset(name.strip() for name in found.group(1).split(","))
 
 
 def _dynamics(joint: Any) -> Any:

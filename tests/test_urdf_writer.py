@@ -741,3 +741,28 @@ def test_only_the_files_own_header_says_what_it_holds(tmp_path):
         " are joint-side totals,", "\n   are joint-side\n totals,"
     )
     assert drive_totals(wrapped) == {"viscous", "coulomb", "inertia"}
+
+
+def test_a_rotor_inertia_the_file_could_not_hold_is_the_drive_files(tmp_path):
+    # A review: the TIAGo's arm_6 and arm_7 joints sit in the URDF's differential
+    # transmission, which has no rotor inertia field: IA7, IA8 are not written
+    # (the header says so). Read back with a drive file giving arm_6_motor's
+    # rotor inertia, IA7 was taken as a written total, 0, not the drive file's
+    # 336² · 2e-6 = 0.2258 kg·m² it is for any URDF.
+    joints = ("torso_lift_joint", *(f"arm_{i}_joint" for i in range(1, 8)))
+    drive = tmp_path / "tiago.toml"
+    text = Path(model_path("tiago_no_hand")).with_name("tiago.toml").read_text()
+    anchor = "[motors.arm_6_motor]"
+    drive.write_text(text.replace(anchor, f"{anchor}\nrotor_inertia = 2e-6", 1))
+    robot = RobotModel.from_urdf(
+        model_path("tiago_no_hand"), joints=joints, drive=drive, rotor_inertia=True
+    )
+    values = _consistent_values(robot, np.random.default_rng(3))
+    out = tmp_path / "t.urdf"
+    write_identified_urdf(robot, values, out)
+    again = RobotModel.from_urdf(out, joints=joints, drive=drive, rotor_inertia=True)
+    read = dict(zip(again.standard_names, again.standard_values, strict=True))
+    assert read["IA7"] == pytest.approx(336.0**2 * 2e-6)
+    assert read["IA8"] == 0.0  # arm_7_motor gives none
+    fit = dict(zip(robot.standard_names, values, strict=True))
+    assert read["IA6"] == pytest.approx(fit["IA6"], rel=1e-12)  # written: the total
