@@ -32,7 +32,7 @@ def _frame(robot: Any, name: str) -> Any:
     plant = robot.plant
     if plant.HasFrameNamed(name):
         return plant.GetFrameByName(name)
-    bodies = check.listed(body.name() for body in robot._link_bodies)
+    bodies = check.choices((body.name() for body in robot._link_bodies), name)
     check.fail(
         "payload_model",
         f"frame must be a body or frame of the URDF; got {name!r} (the identified "

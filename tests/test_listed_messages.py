@@ -137,3 +137,41 @@ def test_a_log_in_another_joint_order_says_where_beyond_the_listed_names():
     short = SimpleNamespace(**{**vars(log), "joint_names": robot.joint_names[:24]})
     with pytest.raises(ValueError, match=r"name 25 of 25: 'j24' expected, none given"):
         offline._check_log("OfflineIdentifier", short, robot, None)
+
+
+def test_a_refused_name_is_followed_by_the_closest_valid_ones():
+    """Found by a review: a list cut at 20 could leave out the very name meant
+    (a humanoid's flange among its 40 links, a friction parameter behind 40
+    inertial ones); the closest valid names now follow the cut list."""
+    from drake_dynid.core._validate import choices
+
+    names = [f"link_{k}" for k in range(40)] + ["tool_flange"]
+    text = choices(names, "tool_flang")
+    assert text.endswith("and 21 more; the closest to 'tool_flang': tool_flange"), text
+    assert choices(["a", "b"], "tool") == "a, b"  # short lists: all of them
+
+
+def test_a_base_parameter_name_error_names_the_closest(tmp_path):
+    from drake_dynid.robot import RobotModel
+
+    robot = RobotModel.from_urdf(_chain_urdf(tmp_path / "chain.urdf", 6))
+    base = robot.base
+    assert len(base.names) > 20
+    with pytest.raises(ValueError, match=r"and \d+ more; the closest to 'FV06': FV6"):
+        base.definition_text("FV06")
+
+
+def test_a_payload_frame_error_names_the_closest_body(tmp_path):
+    from drake_dynid.payload import payload_model
+    from drake_dynid.robot import RobotModel
+
+    robot = RobotModel.from_urdf(_chain_urdf(tmp_path / "chain.urdf", 21))
+    with pytest.raises(ValueError, match=r"and 1 more; the closest to 'l_20': l20"):
+        payload_model(robot, "l_20")
+
+
+def test_noise_bias_names_the_friction_columns_it_has():
+    from drake_dynid.core.noise_bias import _friction_names
+
+    names = [f"XX{k}" for k in range(30)] + ["FV1", "FC1", "OFF1", "FCm4", "FV12"]
+    assert _friction_names(names) == ["FV1", "FC1", "OFF1", "FV12"]

@@ -49,6 +49,23 @@ def listed(names: Iterable[str], limit: int = LISTED_NAMES, sep: str = ", ") -> 
     return f"{shown} and {left} more" if left > 0 else shown
 
 
+def choices(names: Iterable[str], given: str, limit: int = LISTED_NAMES) -> str:
+    """:func:`listed` ``names`` for a message refusing ``given``, with its closest.
+
+    Of more than ``limit`` names the list is cut; the valid names closest to
+    the one given (``difflib``, up to 5) are then named after it, wherever they
+    stand in the list: a mistyped flange name among a humanoid's 40 links.
+    """
+    import difflib
+
+    names = list(names)
+    shown = listed(names, limit)
+    if len(names) <= limit:
+        return shown
+    close = difflib.get_close_matches(str(given), names, n=5, cutoff=0.5)
+    return f"{shown}; the closest to {given!r}: {', '.join(close)}" if close else shown
+
+
 def first_difference(expected: Sequence[str], got: Sequence[str]) -> str:
     """Where two lists of names first differ, in words ("" where they do not).
 

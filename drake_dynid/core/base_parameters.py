@@ -273,9 +273,9 @@ class BaseParameters:
     def definition_text(self, name: str) -> str:
         """Returns the definition of base parameter ``name``, e.g. ``ZZ1 + 1.0 M2``."""
         if name not in self.names:
+            choices = _validate.choices(self.names, name)
             raise ValueError(
-                f"BaseParameters: name must be one of {_validate.listed(self.names)}; "
-                f"got {name!r}."
+                f"BaseParameters: name must be one of {choices}; got {name!r}."
             )
         return format_definition(self.definitions[self.names.index(name)])
 

@@ -271,10 +271,21 @@ def noise_compensated_rows(
                 _validate.fail(
                     _OWNER,
                     f"rows must name the friction column of joint {joint + 1} "
-                    f"{kind!r} {name!r}; its names are {_validate.listed(rows.names)}.",
+                    f"{kind!r} {name!r}; its friction names are "
+                    f"{_validate.listed(_friction_names(rows.names)) or 'none'}.",
                 )
             columns.append((joint, _KINDS[kind], names[name]))
     return NoiseCompensatedRows(rows, stds[0], stds[1], tuple(columns))
+
+
+def _friction_names(names: Any) -> list[str]:
+    """The names of ``names`` that are a joint's friction column (FVj, FCj, OFFj)."""
+    prefixes = tuple(FRICTION_PREFIX.values())
+    return [
+        name
+        for name in names
+        if name.startswith(prefixes) and name.lstrip("FVCO").isdigit()
+    ]
 
 
 def rows_for_settings(settings: Any, rows: Any, time_step: float) -> Any:
