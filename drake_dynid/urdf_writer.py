@@ -111,6 +111,7 @@ _ROUND_OFF = 1e-12  # relative: smaller centre-of-mass or inertia entries are 0
 _ROUND_OFF_FRICTION = 1e-9  # relative to the largest friction (or 1): smaller is 0
 _DOUBTFUL_MASS = (1e-2, 10.0)  # a written mass outside these multiples of the URDF's
 _DOUBTFUL_REACH = 10.0  # a centre of mass farther than this many L_j from the origin
+_REACH_FLOOR = 0.01  # [m] the least L_j: a URDF's placeholder inertia (1e-6 kg·m²)
 _PROLOG = re.compile(r"\A\s*(?:<\?xml[^>]*\?>\s*)?((?:<!--.*?-->\s*)*)", re.S)
 
 
@@ -551,8 +552,10 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
     README's UR5 log: shoulder_link at 52.3 kg for 3.7). A link is named when its
     mass is below 1 % or above 10 times the URDF's (``robot.standard_values``), or
     its centre of mass is more than 10 L_j from the link origin, L_j =
-    √(tr Σ_j / m_j) the URDF's radius of gyration about that origin [m] (Σ_j the
-    second moment of the pseudo-inertia).
+    max(√(tr Σ_j / m_j), 1 cm) the URDF's radius of gyration about that origin
+    [m] (Σ_j the second moment of the pseudo-inertia; the 1 cm floor for URDFs
+    whose links hold placeholder inertias, 1e-6 kg·m² on 1 kg: L_j 1.2 mm would
+    name a centre of mass 13 mm out).
 
     Returns:
         One ``"link: mass m kg (URDF m0), centre of mass d m from its origin
@@ -574,11 +577,11 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
         first = np.array([values[f"M{a}{j}"] for a in "XYZ"])
         first0 = np.array([prior[f"M{a}{j}"] for a in "XYZ"])
         trace0 = sum(prior[f"{a}{j}"] for a in ("XX", "YY", "ZZ"))  # tr Σ = tr Ī / 2
-        reach = math.sqrt(max(0.5 * trace0, 0.0) / mass0)
+        reach = max(math.sqrt(max(0.5 * trace0, 0.0) / mass0), _REACH_FLOOR)
         distance = float(np.linalg.norm(first) / mass) if mass > 0.0 else math.inf
         low, high = _DOUBTFUL_MASS
         if not low * mass0 <= mass <= high * mass0 or (
-            reach > 0.0 and distance > _DOUBTFUL_REACH * reach
+            distance > _DOUBTFUL_REACH * reach
         ):
             out.append(
                 f"{link}: mass {mass:.3g} kg (URDF {mass0:.3g}), centre of mass "

@@ -766,3 +766,32 @@ def test_a_rotor_inertia_the_file_could_not_hold_is_the_drive_files(tmp_path):
     assert read["IA8"] == 0.0  # arm_7_motor gives none
     fit = dict(zip(robot.standard_names, values, strict=True))
     assert read["IA6"] == pytest.approx(fit["IA6"], rel=1e-12)  # written: the total
+
+
+def test_a_placeholder_inertia_does_not_make_a_near_centre_of_mass_implausible(
+    tmp_path,
+):
+    """Found by a review: a link whose URDF holds a placeholder inertia (1e-6
+    kg·m² on 1 kg, centre of mass at its origin) has a radius of gyration of
+    1.2 mm, and a fitted centre of mass 20 mm out was named implausible; the
+    radius now counts at least 1 cm (a centre of mass 0.2 m out is named)."""
+    from drake_dynid.urdf_writer import doubtful_links
+
+    urdf = tmp_path / "placeholder.urdf"
+    urdf.write_text(
+        '<robot name="p"><link name="base"/>'
+        '<link name="l1"><inertial><mass value="1"/><origin xyz="0 0 0"/>'
+        '<inertia ixx="1e-6" iyy="1e-6" izz="1e-6" ixy="0" ixz="0" iyz="0"/>'
+        "</inertial></link>"
+        '<joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>'
+        '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="10" velocity="1"/>'
+        "</joint></robot>"
+    )
+    robot = RobotModel.from_urdf(urdf)
+    names = list(robot.standard_names)
+    for offset, named in ((0.02, False), (0.2, True)):
+        values = np.array(robot.standard_values, dtype=float)
+        values[names.index("MX1")] = offset  # m·c with m = 1 kg
+        for p in ("XX", "YY", "ZZ"):  # the inertia about the origin holds m·c²
+            values[names.index(f"{p}1")] += offset**2 * (p != "XX")
+        assert bool(doubtful_links(robot, values)) is named, offset
