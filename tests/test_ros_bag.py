@@ -1001,3 +1001,21 @@ def test_a_ros1_chunk_info_of_another_version_is_left_to_rosbags(arm, tmp_path, 
         line
     )
     assert "CHUNK_INFO version 2 is not supported" in line, line
+
+
+def test_a_bag_of_non_uniform_stamps_is_refused_by_name(arm, tmp_path, capsys):
+    """Found by a review: the CSV reader's refusal of non-uniform stamps
+    (NonUniformSampling, which also carries the rows kept and the step) was
+    raised again with the bag's name as ``type(error)(message)``, a TypeError:
+    'internal error (a bug in drake_dynid ...)', exit 1, with a traceback. A
+    bag whose steps range from 0.4 to 1.6 ms (a publisher without a timer) is
+    now refused as its CSV export is, naming the bag, exit 2."""
+    names, stamps, q, tau = arm
+    steps = np.random.default_rng(0).uniform(0.4e6, 1.6e6, stamps.size - 1)
+    uneven = stamps[0] + np.concatenate([[0], np.cumsum(steps)]).astype(np.int64)
+    bag = tmp_path / "uneven.bag"
+    write_bag(bag, "ros1", arm_messages((names, uneven, q, tau)))
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    line = error_line(capsys)
+    assert f"log {bag}: non-uniform sampling: " in line, line
+    assert "--resample" in line and "dynid-bag-" not in line, line

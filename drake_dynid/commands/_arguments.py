@@ -813,7 +813,7 @@ def _read_bag_log(
                 [export], robot, resample, fill_gaps, None, torques_optional
             )
         except (ValueError, OSError) as error:
-            raise type(error)(named(str(error))) from None
+            raise _renamed(error, named(str(error))) from None
         # A bag's stamps are nanoseconds: the CSV reader's note that it read
         # integers as such says nothing here.
         said = tuple(w for w in log.warnings if not w.startswith(EPOCH_NOTE))
@@ -824,6 +824,19 @@ def _read_bag_log(
             log, [done.held_path or export], command, robot, torques=read, label=bag
         )
     return log
+
+
+def _renamed(error: Exception, text: str) -> Exception:
+    """``error`` with the message ``text``, of its own type where that can be.
+
+    Where its type takes more than the message (``NonUniformSampling``: the
+    rows kept and the step; a TypeError was raised instead), a ValueError (an
+    OSError).
+    """
+    try:
+        return type(error)(text)
+    except TypeError:
+        return (OSError if isinstance(error, OSError) else ValueError)(text)
 
 
 def _has_torque_columns(files: Sequence[str], chain: Any, robot: Any) -> bool:
