@@ -40,12 +40,13 @@ that the packaged ``tiago.toml`` names).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import io
 import os
 import re
 import struct
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -683,13 +684,35 @@ class _Late:
     def _spill(self) -> None:
         import tempfile
 
-        for rows, runs in zip(self.rows, self.runs, strict=True):
-            if not rows:
-                continue
-            run = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
-            runs.append(run)
-            run.writelines(sorted(rows, key=_stamp_key))
-            rows.clear()
+        with self._temporary():
+            for rows, runs in zip(self.rows, self.runs, strict=True):
+                if not rows:
+                    continue
+                run = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
+                runs.append(run)
+                run.writelines(sorted(rows, key=_stamp_key))
+                rows.clear()
+
+    @contextlib.contextmanager
+    def _temporary(self) -> Iterator[None]:
+        """An error of the temporary files named as theirs (``TMPDIR``).
+
+        ``files.write_whole`` names its own file in an error with an errno (a
+        full ``TMPDIR`` was said as the export's ``No space left on device``):
+        raised without one, naming the folder.
+        """
+        try:
+            yield
+        except OSError as error:
+            if error.errno is None:
+                raise
+            import tempfile
+
+            raise OSError(
+                f"temporary files in {tempfile.gettempdir()} (the {self.count} "
+                f"message(s) recorded late, merged into the export at its end): "
+                f"{error.strerror or error}; set TMPDIR to a folder with room."
+            ) from None
 
     def merge(self, stream: Any, start: int, which: int) -> int:
         """Rewrites ``stream``'s rows from ``start`` merged with the late ones.
@@ -703,15 +726,18 @@ class _Late:
 
         self._spill()
         repeats = 0
-        with tempfile.TemporaryFile("w+", encoding="utf-8", newline="") as body:
+        with self._temporary():
+            body = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
+        with body:
             stream.seek(start)
-            shutil.copyfileobj(stream, body)
-            body.seek(0)
+            with self._temporary():
+                shutil.copyfileobj(stream, body)
+                body.seek(0)
+                runs = self.runs[which]
+                for run in runs:
+                    run.seek(0)
             stream.seek(start)
             stream.truncate()
-            runs = self.runs[which]
-            for run in runs:
-                run.seek(0)
             previous, out = None, []
             for line in heapq.merge(body, *runs, key=_stamp_key):
                 if line == previous:

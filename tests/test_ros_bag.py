@@ -9,6 +9,7 @@ the estimates on the bag are the CSV's bit for bit (the same numbers reach the
 same reader).
 """
 
+import io
 import json
 import pathlib
 import sys
@@ -1019,3 +1020,42 @@ def test_a_bag_of_non_uniform_stamps_is_refused_by_name(arm, tmp_path, capsys):
     line = error_line(capsys)
     assert f"log {bag}: non-uniform sampling: " in line, line
     assert "--resample" in line and "dynid-bag-" not in line, line
+
+
+def test_a_full_tmpdir_is_named_not_the_export(arm, tmp_path, capsys, monkeypatch):
+    """Found by a review: the messages recorded late are kept in temporary
+    files (TMPDIR) and merged into the export at its end; a full TMPDIR (a
+    small tmpfs) was said as the export's own error, '[Errno 28] No space left
+    on device: OUT.csv', though OUT's disk had room. It now names the
+    temporary folder and TMPDIR, exit 2, and OUT is not written."""
+    import errno
+    import tempfile
+
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    monkeypatch.setattr(ros_bag, "LATE_RUN", 3)
+    messages = arm_messages(arm, slice(0, 2000))
+    late = messages.pop(300)  # received 1000 messages late
+    messages.insert(1300, (0, late[1], messages[1299][2] + 1, *late[3:]))
+    bag = tmp_path / "late.bag"
+    write_bag(bag, "ros1", messages)
+
+    class Full(io.StringIO):
+        def write(self, text):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+        def writelines(self, lines):
+            self.write("")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", lambda *a, **k: Full())
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out)]) == 2
+    line = error_line(capsys)
+    assert (
+        f"temporary files in {tempfile.gettempdir()} (the 1 message(s) recorded "
+        "late, merged into the export at its end): No space left on device; set "
+        "TMPDIR to a folder with room." in line
+    ), line
+    assert str(out) not in line and not out.exists(), line
