@@ -134,9 +134,12 @@ def write_whole(
     file keeps its permissions (a new one gets the umask's). Anything else
     (``/dev/null``, a named pipe), a file in a folder where no other file can
     be made, or a file that cannot be replaced (a bind mount of one file:
-    ``EBUSY``), is written in place. ``path`` :data:`STDOUT` (``-``): written
-    to ``sys.stdout`` in UTF-8 (as the file, whatever the locale's encoding),
-    then flushed (as a pipe, not whole or not at all).
+    ``EBUSY``), is written in place. ``stream`` is open read-write on a
+    regular file (the temporary one, or one written in place), so that
+    ``write`` may read back what it wrote (``ros_bag``'s merge of messages
+    recorded late); write-only on anything else. ``path`` :data:`STDOUT`
+    (``-``): written to ``sys.stdout`` in UTF-8 (as the file, whatever the
+    locale's encoding), then flushed (as a pipe, not whole or not at all).
 
     Raises:
         OSError: naming ``path`` (a full disk's error names no file; an
@@ -145,8 +148,16 @@ def write_whole(
             ``write`` likewise leaves ``path`` unchanged and is raised as it is.
     """
 
-    def in_place(name: str | os.PathLike) -> None:
-        with open(name, "w", encoding="utf-8", newline=newline) as stream:
+    def in_place(name: str | os.PathLike, *, regular: bool = True) -> None:
+        # A regular file read-write, as the temporary file (a writer may read
+        # back what it wrote); a pipe or a device write-only.
+        stream = None
+        if regular:
+            with contextlib.suppress(PermissionError):  # a write-only file: "w"
+                stream = open(name, "w+", encoding="utf-8", newline=newline)
+        if stream is None:
+            stream = open(name, "w", encoding="utf-8", newline=newline)
+        with stream:
             write(stream)
 
     if is_stdout(path):
@@ -168,7 +179,7 @@ def write_whole(
             mode = None
         target = Path(os.path.realpath(path))
         if mode is not None and not stat.S_ISREG(mode):
-            in_place(path)
+            in_place(path, regular=False)
             return
         try:
             descriptor, temporary = _open_temporary(target, new=mode is None)

@@ -1059,3 +1059,42 @@ def test_a_full_tmpdir_is_named_not_the_export(arm, tmp_path, capsys, monkeypatc
         "TMPDIR to a folder with room." in line
     ), line
     assert str(out) not in line and not out.exists(), line
+
+
+def test_late_messages_are_placed_in_a_file_written_in_place(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: the merge of the messages recorded late reads the
+    export back; files.write_whole opened its temporary file read-write for
+    that, but a file it writes in place (a container's bind mount of one file:
+    the rename fails with EBUSY; a folder where no other file can be made) was
+    opened write-only, and such a bag was refused as if written to standard
+    output ('... which standard output or a pipe cannot; write it to a file
+    (--out FILE)'), exit 2, though --out named a file. Now written as the
+    temporary file is: the export of the bag in order."""
+    import errno
+
+    from drake_dynid import files, ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    ordered = arm_messages(arm, slice(0, 2000))
+    messages = list(ordered)
+    late = messages.pop(300)  # received 1000 messages late
+    messages.insert(1300, (0, late[1], messages[1299][2] + 1, *late[3:]))
+    exports = []
+    for name, source in (("late", messages), ("ordered", ordered)):
+        bag = tmp_path / f"{name}.bag"
+        write_bag(bag, "ros1", source)
+        out = tmp_path / f"{name}.csv"
+        out.write_text("previous")
+        with monkeypatch.context() as patch:
+
+            def busy(*args, **kwargs):
+                raise OSError(errno.EBUSY, "Device or resource busy")
+
+            patch.setattr(files.os, "replace", busy)
+            assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+        exports.append(out.read_bytes())
+    assert exports[0] == exports[1]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
