@@ -738,3 +738,30 @@ def test_an_empty_or_nan_stamp_is_dropped_in_either_file(
     others = np.arange(200) != 49
     np.testing.assert_array_equal(np.asarray(log.q)[others], reference.q[others])
     np.testing.assert_allclose(np.asarray(log.q)[49], reference.q[49], atol=1e-6)
+
+
+def test_stamps_sharing_slots_cancel_as_the_nearest_first_loop():
+    """raw_log._cancel_shared skips, without a Python loop, the intervals of two
+    stamps in one slot that have no sample missing within SLOT_CONTEXT (a rate
+    halving mid-file: 900 000 of 3.6 M stamps; 16.3 -> 11.2 s CPU, peak 186 ->
+    159 MB): the counts of the loop over all of them, on random counts."""
+    from drake_dynid.raw_log import SLOT_CONTEXT, _cancel_shared
+
+    def reference(missing):
+        nearest = [0] + [d * s for d in range(1, SLOT_CONTEXT + 1) for s in (-1, 1)]
+        for i in np.flatnonzero(missing < 0).tolist():
+            excess, missing[i] = int(-missing[i]), 0
+            for j in (i + d for d in nearest):
+                if excess > 0 and 0 <= j < missing.size and missing[j] > 0:
+                    taken = min(excess, int(missing[j]))
+                    missing[j] -= taken
+                    excess -= taken
+
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        counts = rng.choice([-2, -1, 0, 0, 0, 0, 0, 1, 2, 5], int(rng.integers(1, 200)))
+        counts[rng.random(counts.size) < rng.random()] = 0  # sparse and dense
+        got, expected = counts.copy(), counts.copy()
+        _cancel_shared(got)
+        reference(expected)
+        np.testing.assert_array_equal(got, expected, str(counts.tolist()))
