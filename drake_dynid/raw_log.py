@@ -375,8 +375,8 @@ class _Gaps:
         return (
             f"file {path}: {len(where)} gap(s) of its time stamps ("
             f"{int(missing[where].sum())} of its samples missing; the longest: "
-            f"{int(missing[longest])} between {stamps[longest]:.9g} and "
-            f"{stamps[longest + 1]:.9g}), counted in its own samples: "
+            f"{int(missing[longest])} between {stamps[longest]:.16g} and "
+            f"{stamps[longest + 1]:.16g}), counted in its own samples: "
             f"{self.filled} time stamp(s) of the first file in gaps of up to "
             f"{fill_gaps} samples (--fill-gaps) interpolated linearly (filled), "
             f"{self.bad} in longer gaps without a value (bad samples, not a line "

@@ -765,3 +765,15 @@ def test_stamps_sharing_slots_cancel_as_the_nearest_first_loop():
         _cancel_shared(got)
         reference(expected)
         np.testing.assert_array_equal(got, expected, str(counts.tolist()))
+
+
+def test_a_gap_of_epoch_stamps_is_named_by_stamps_that_differ(tmp_path, plain_chain):
+    """Found by a review: the gap warning gave the stamps around the longest gap
+    to 9 digits: Unix-epoch seconds (a ROS export read in seconds) 1.7e9 + ...
+    were both '1.70000001e+09' ('between 1.70000001e+09 and 1.70000001e+09').
+    Now to 16 digits, as the reader's other notes on stamps."""
+    t = 1.7e9 + 0.001 * np.arange(4000)
+    k = np.delete(np.arange(400), 250)  # 2.5 s in: one effort dropped
+    log = read_raw_log(_rate_files(tmp_path, t, 1.7e9 + 0.0003 + 0.01 * k), plain_chain)
+    (said,) = [w for w in log.warnings if "gap(s) of its time stamps" in w]
+    assert "between 1700000002.4903 and 1700000002.5103)" in said, said
