@@ -521,6 +521,7 @@ class _Export:
         self.repeated = 0  # messages recorded twice, dropped
         self.rereads, self.label = True, "ROS bag"  # set by export_bag
         self.last: int | None = None  # the newest stamp written
+        self.newest = np.iinfo(np.int64).min  # the newest stamp recorded
         self.late = _Late()  # messages older than it, merged at the end
         self.start = self.held_start = 0  # where the files' rows begin
 
@@ -536,7 +537,7 @@ class _Export:
                 os.remove(self.held_out)
         self.started = True
         self.carry, self.reordered, self.repeated = None, 0, 0
-        self.last = None
+        self.last, self.newest = None, np.iinfo(np.int64).min
         self.late.close()
         self.late = _Late()
         self.plan, self.held = plan, held
@@ -567,6 +568,13 @@ class _Export:
         :data:`REORDER_ROWS` wait for the next block (:meth:`end`: the last).
         """
         held = 0 if self.carry is None else self.carry.stamps.size
+        fresh = block.received if self.plan.received else block.stamps
+        if fresh.size:  # lateness: the newest stamp recorded before it - its own
+            ahead = np.maximum.accumulate(np.concatenate([[self.newest], fresh]))
+            if self.last is not None and np.any(fresh <= self.last):
+                behind = (ahead[:-1] - fresh)[fresh <= self.last]
+                self.late.lateness = max(self.late.lateness, int(behind.max()))
+            self.newest = int(ahead[-1])
         if self.carry is not None:
             block = _joined(self.carry, block)
         stamps = block.received if self.plan.received else block.stamps
@@ -589,7 +597,6 @@ class _Export:
             # repeat of a message written; kept aside, merged in at the end.
             older = int(np.searchsorted(stamps, self.last, side="right"))
             self.late.add(*self._text(_taken(block, np.arange(older))))
-            self.late.lateness = max(self.late.lateness, int(self.last - stamps[0]))
             block = _taken(block, np.arange(older, stamps.size))
         keep = max(0, block.stamps.size - REORDER_ROWS)
         self.carry = _taken(block, np.arange(keep, block.stamps.size))
@@ -668,7 +675,7 @@ class _Late:
 
     def __init__(self) -> None:
         self.count = 0  # messages kept aside
-        self.lateness = 0  # the largest: newest stamp written - theirs [ns]
+        self.lateness = 0  # the largest: newest stamp recorded before - theirs [ns]
         self.rows: tuple[list[str], list[str]] = ([], [])
         self.runs: tuple[list[Any], list[Any]] = ([], [])
 

@@ -1098,3 +1098,26 @@ def test_late_messages_are_placed_in_a_file_written_in_place(
         exports.append(out.read_bytes())
     assert exports[0] == exports[1]
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == []
+
+
+def test_the_lateness_said_is_from_the_newest_message_recorded(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: the note gave a late message's lateness from the
+    newest message written, which lags the newest recorded by the messages held
+    back and the block being read (up to 20 480 messages: 20 s at 1 kHz): a
+    message recorded 0.999 s after its time was said 'up to 0.88 s' late."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    messages = arm_messages(arm, slice(0, 2000))
+    late = messages.pop(300)  # stamp 0.300 s, received after the one of 1.299 s
+    messages.insert(1299, (0, late[1], messages[1298][2] + 1, *late[3:]))
+    bag = tmp_path / "late.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / "out.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out)]) == 0
+    assert "(1 of them more than 100 messages late, up to 0.999 s: placed" in (
+        capsys.readouterr().err
+    )
