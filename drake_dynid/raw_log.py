@@ -574,7 +574,7 @@ def read_raw_table(
     if not keep.any():
         raise ValueError(
             f"log {listed(files)}: the files have no common time span "
-            f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
+            f"('{time}' of {base}: {t[0]:.16g} .. {t[-1]:.16g})."
         )
     out = {time: t[keep]}
     gap_filled = np.zeros(int(keep.sum()), bool)
@@ -595,7 +595,7 @@ def read_raw_table(
             warnings.append(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
-                f"{t[keep][0]:.9g} .. {t[keep][-1]:.9g} ('{time}')."
+                f"{t[keep][0]:.16g} .. {t[keep][-1]:.16g} ('{time}')."
             )
             gaps = _Gaps()
             gaps.add(filled, bad, interval)
@@ -748,14 +748,14 @@ def _read_streamed(
     if high <= low:
         raise ValueError(
             f"log {listed(files)}: the files have no common time span "
-            f"('{time}' of {base}: {t[0]:.9g} .. {t[-1]:.9g})."
+            f"('{time}' of {base}: {t[0]:.16g} .. {t[-1]:.16g})."
         )
     for path, (names, _, _, _) in tables.items():
         if not same[path] and names:
             warnings.append(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
-                f"{t[low]:.9g} .. {t[high - 1]:.9g} ('{time}')."
+                f"{t[low]:.16g} .. {t[high - 1]:.16g} ('{time}')."
             )
     if t.size - (high - low):
         warnings.append(

@@ -777,3 +777,6 @@ def test_a_gap_of_epoch_stamps_is_named_by_stamps_that_differ(tmp_path, plain_ch
     log = read_raw_log(_rate_files(tmp_path, t, 1.7e9 + 0.0003 + 0.01 * k), plain_chain)
     (said,) = [w for w in log.warnings if "gap(s) of its time stamps" in w]
     assert "between 1700000002.4903 and 1700000002.5103)" in said, said
+    # The interpolation note's common span too (it read '1.7e+09 .. 1.7e+09').
+    spans = [w for w in log.warnings if "column(s) interpolated linearly" in w]
+    assert spans and all("span 1700000000.001 .. 1700000003.99 (" in w for w in spans)
