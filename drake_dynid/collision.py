@@ -174,6 +174,19 @@ class SelfCollision:
                 best, name = distance, self._describe(pair.id_A, pair.id_B)
         return float(best), name
 
+    def below(self, q: Any, margin: float) -> list[tuple[float, str]]:
+        """Every checked pair closer than ``margin`` [m] at one q, closest first.
+
+        [(distance [m], "bodyA-bodyB")], the distances as :meth:`closest`'s.
+        """
+        out = []
+        for pair in self._pairs(np.asarray(q, dtype=float)):
+            key = self._key(pair)
+            distance = pair.distance + self._offset.get(key, 0.0)
+            if distance < margin and key not in self._ignored:
+                out.append((float(distance), self._describe(pair.id_A, pair.id_B)))
+        return sorted(out)
+
 
 def _embedding(plant: Any, robot: Any) -> JointEmbedding:
     """The identified joints' q placed in ``plant``'s position vector.

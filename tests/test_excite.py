@@ -608,3 +608,32 @@ def test_a_pair_held_at_mid_range_leaves_room_to_move_about_it(tmp_path):
     assert check(mid)[0] > 0.15  # 0.15 before
     steps = 0.01 * np.vstack([np.eye(3), -np.eye(3)])
     assert np.all(check(mid + steps) >= 0.15)  # j2 folding towards the base too
+
+
+def test_a_refusal_lists_every_broken_limit_most_violated_first(tmp_path, capsys):
+    """Found by the example-robot-data sweep: a refusal named only the constraint
+    broken most in relative terms; the PR2's left arm was refused on a clearance
+    of -0.1853 m (19.5 times the 0.01 m margin), while its shoulder lift needed
+    39.7 N·m standing at mid-range against 24 N·m allowed, which nothing said.
+    Every broken limit is listed now (each pair of links below the margin, each
+    joint's effort), most violated first, each with what to change; an effort
+    that mid-range alone passes says what the URDF's torques need."""
+    urdf = folding_urdf(tmp_path)
+    limits = tmp_path / "limits.json"
+    limits.write_text(json.dumps({"j2": {"effort": 5.0}}))  # 8.34 N·m at mid-range
+    argv = [
+        "excite", urdf, "--limits", str(limits), "--duration", "5", "--harmonics",
+        "2", "--iterations", "3", "--out", str(tmp_path / "t.csv"),
+    ]  # fmt: skip
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    assert "breaks 3 limits, most violated first: (1) self-collision" in line
+    first = line.index("between links base-l2")
+    second = line.index("(2) self-collision clearance")
+    assert first < second < line.index("between links base-l3 at t")
+    assert line.index("margin: as (1); (3)") > second
+    effort = line[line.index("(3) joint j2: effort") :]
+    assert "exceeds the limit 4 N·m" in effort
+    assert "standing still at mid-range it already needs 8.34 N·m" in effort
+    assert "effort limit above 10.4 N·m (--limits FILE, effort)" in effort
+    assert "--lock" in effort

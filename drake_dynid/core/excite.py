@@ -63,6 +63,7 @@ from drake_dynid.core.excite_problem import (
 from drake_dynid.core.joint_limits import (
     JointLimits,
     Margins,
+    Violation,
     limit_violations,
 )
 from drake_dynid.core.trajectory import FourierTrajectory, random_fourier_trajectory
@@ -397,11 +398,64 @@ def _dense_holds(problem: ExcitationProblem, x: np.ndarray) -> bool:
     return bool(np.all(ratio <= 1.0 + _FEASIBLE)) and not shortfall > _FEASIBLE
 
 
-def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
-    """The constraint x breaks most, and what a user can do about it.
+_COLLISION_ADVICE = (
+    "if the links cannot meet in the real robot (a convex hull of a coarse "
+    "collision mesh covers more than the part), simplify their collision "
+    "geometry; otherwise narrow the ranges of the joints that bring them together "
+    "(--limits lower/upper), lock one (--lock), or lower the collision margin "
+    "(--margin collision=M)"
+)
 
-    A clearance shortfall names the pair of links when ``clearance_fn`` has a
-    ``closest(q) -> (d [m], "A-B")`` method (``collision.SelfCollision``).
+
+def _advice(problem: ExcitationProblem, found: Violation, resting: np.ndarray) -> str:
+    """What a user can change about one broken limit (``found``).
+
+    ``resting`` (n,): |τ| [N·m or N] standing still at mid-range; an effort limit
+    it already passes is said with the effort limit the model needs.
+    """
+    kind = found.kind
+    if kind == "collision":
+        return _COLLISION_ADVICE
+    j = problem.limits.joint_names.index(found.joint)
+    if kind == "position":
+        margin = "prismatic=M" if problem.limits.prismatic[j] else "position=RAD"
+        return (
+            f"widen its range (--limits FILE, lower/upper) or lower the margin "
+            f"(--margin {margin})"
+        )
+    if kind in ("velocity", "acceleration"):
+        return (
+            f"raise its {kind} limit (--limits FILE, {kind}), lower the margin "
+            f"(--margin {kind}=FRAC), or lower f0/harmonics"
+        )
+    allowed = 1.0 - problem.margins.effort
+    if resting[j] > found.limit * (1.0 + _FEASIBLE):
+        need = resting[j] / allowed
+        return (
+            f"standing still at mid-range it already needs {resting[j]:.3g} "
+            f"{found.unit} (the URDF's gravity), more than the {found.limit:.3g} "
+            f"{found.unit} allowed ({problem.limits.effort[j]:.4g} less the "
+            f"{problem.margins.effort:.0%} effort margin), so no motion about "
+            f"mid-range keeps it. If the real joint has help the URDF does not "
+            f"model (a counterbalance spring), give it an effort limit above "
+            f"{need:.3g} {found.unit} (--limits FILE, effort) so that the URDF's "
+            "torques fit; otherwise lock the joint (--lock) or narrow its range to "
+            "where gravity needs less (--limits lower/upper)"
+        )
+    return (
+        "raise its effort limit (--limits FILE, effort), lower the margin "
+        "(--margin effort=FRAC), or lower f0/harmonics"
+    )
+
+
+def _refusal(problem: ExcitationProblem, x: np.ndarray) -> str:
+    """Every constraint x breaks, most violated first, each with what to change.
+
+    Most violated: the largest excess relative to the bound, |value - bound| /
+    |bound|. A clearance shortfall names each pair of links below the margin
+    when ``clearance_fn`` has a ``below(q, margin) -> [(d [m], "A-B"), ...]``
+    method (``collision.SelfCollision``), else the closest pair at the worst
+    sample with a ``closest(q) -> (d [m], "A-B")`` method.
     """
     trajectory = problem.trajectory(x)
     q, qd, qdd = trajectory.evaluate(problem.t)
@@ -423,28 +477,58 @@ def _most_violated(problem: ExcitationProblem, x: np.ndarray) -> str:
             "the constraints could not be met together. Raise the limits, lower the "
             "margins (--margin), or lower f0/harmonics"
         )
-    worst = max(
-        found,
-        key=lambda f: abs(f.value - f.limit) / max(abs(f.limit), 1e-9),
+    collisions = [f for f in found if f.kind == "collision"]
+    if collisions and clearance is not None:
+        found = [f for f in found if f.kind != "collision"]
+        found += _pairs(problem, q, clearance, collisions[0])
+    found.sort(key=lambda f: -abs(f.value - f.limit) / max(abs(f.limit), 1e-9))
+    zero = np.zeros((1, problem.n))
+    resting = np.abs(
+        batched_rows(problem.rows_fn, problem.mid[None, :], zero, zero)[0]
+        @ problem.theta
     )
-    closest = getattr(problem.clearance_fn, "closest", None)
-    if worst.kind != "collision":
-        return (
-            f"{worst}. Raise the limits, lower the margins (--margin), or lower "
-            "f0/harmonics"
+    items: list[str] = []
+    said: dict[str, int] = {}  # advice -> the item that gave it
+    for i, f in enumerate(found, 1):
+        advice = _advice(problem, f, resting)
+        items.append(
+            f"({i}) {f}: " + (f"as ({said[advice]})" if advice in said else advice)
         )
-    if callable(closest) and clearance is not None:
-        pair = str(closest(q[int(np.argmin(clearance))])[1])
-        worst = replace(worst, joint=pair)
-    links = f"links {worst.joint}" if worst.joint else "the links"
+        said.setdefault(advice, i)
     return (
-        f"{worst} (at the optimiser's last iterate; none it tried met every "
-        f"constraint). If {links} cannot meet in the real robot (a convex hull of a "
-        "coarse collision mesh covers more than the part), simplify their "
-        "collision geometry; otherwise narrow the ranges of the joints that bring "
-        "them together (--limits lower/upper), lock one (--lock), or lower the "
-        "collision margin (--margin collision=M)"
+        f"the optimiser's last iterate (none it tried met every constraint) breaks "
+        f"{len(found)} limit{'s' if len(found) > 1 else ''}, most violated first: "
+        + "; ".join(items)
     )
+
+
+def _pairs(
+    problem: ExcitationProblem,
+    q: np.ndarray,
+    clearance: np.ndarray,
+    worst: Violation,
+) -> list[Violation]:
+    """One collision :class:`Violation` per pair of links below the margin.
+
+    Each pair at its own smallest distance over the grid's samples; ``worst``
+    (the smallest clearance, no pair named) when ``clearance_fn`` names none.
+    """
+    margin = problem.margins.collision
+    below = getattr(problem.clearance_fn, "below", None)
+    closest = getattr(problem.clearance_fn, "closest", None)
+    if callable(below):
+        pairs: dict[str, Violation] = {}
+        for k in np.flatnonzero(clearance < margin - 1e-3):
+            for distance, pair in below(q[k], margin - 1e-3):
+                if pair not in pairs or distance < pairs[pair].value:
+                    pairs[pair] = replace(
+                        worst, joint=pair, time=float(problem.t[k]), value=distance
+                    )
+        if pairs:
+            return list(pairs.values())
+    if callable(closest):
+        return [replace(worst, joint=str(closest(q[int(np.argmin(clearance))])[1]))]
+    return [worst]
 
 
 def design_excitation(
@@ -472,8 +556,9 @@ def design_excitation(
         margins: margins kept from the limits (default ``Margins()``).
         clearance_fn: optional (M, n) q -> (M,) smallest signed distance between
             collision geometries [m] (self-collision constraint); with a
-            ``closest(q) -> (d, "A-B")`` method, a refusal on the clearance names
-            the pair of links.
+            ``below(q, margin) -> [(d, "A-B"), ...]`` method (or a
+            ``closest(q) -> (d, "A-B")`` one), a refusal on the clearance names
+            the pairs of links (or the closest pair).
         max_condition: a result above this condition number is an error (no
             trajectory within the limits excites every base parameter).
 
@@ -482,7 +567,8 @@ def design_excitation(
 
     Raises:
         ValueError: missing limits, margins that leave no room, or no feasible
-            trajectory (the message names the limiting constraint).
+            trajectory (the message lists every limit the optimiser's last
+            iterate breaks, most violated first, each with what to change).
     """
     owner = "design_excitation"
     if not callable(rows_fn):
@@ -582,7 +668,7 @@ def design_excitation(
         v.fail(
             owner,
             f"no trajectory meets the limits (after the margins): "
-            f"{_most_violated(problem, best['last'])}.",
+            f"{_refusal(problem, best['last'])}.",
         )
     x = best["x"]
     condition = float(best["cost"])
