@@ -689,3 +689,41 @@ def test_a_refusal_lists_every_broken_limit_most_violated_first(tmp_path, capsys
     assert "standing still at mid-range it already needs 8.34 N·m" in effort
     assert "effort limit above 10.4 N·m (--limits FILE, effort)" in effort
     assert "--lock" in effort
+
+
+def test_the_clearance_keys_only_the_pairs_closer_than_the_best_so_far(
+    tmp_path, monkeypatch
+):
+    """Found profiling the SO-101's excite: the clearance computed the sorted key
+    of every pair Drake returned (85 a configuration, two get_value calls each) to
+    look up its offset and whether it is ignored: a fifth of the clearance's time
+    (0.73 s for 560 configurations against 0.57 s for Drake's queries alone). The
+    offsets are positive, so a pair no closer than the best so far cannot be the
+    minimum: its key is skipped. The distances are the same."""
+    from drake_dynid.collision import SelfCollision
+
+    urdf = folding_urdf(tmp_path)
+    robot = RobotModel.from_urdf(urdf)
+    limits = joint_limits(robot)
+    mid = 0.5 * (limits.lower + limits.upper)
+    check = SelfCollision.from_urdf(urdf, mid, margin=0.15)  # base-l2 held
+    q = mid + np.random.default_rng(0).uniform(-1.0, 1.0, (200, 3))
+    pairs = [check._pairs(row) for row in q]
+    expected = [
+        min(
+            [1.0]
+            + [
+                p.distance + check._offset.get(check._key(p), 0.0)
+                for p in found
+                if check._key(p) not in check._ignored
+            ]
+        )
+        for found in pairs
+    ]
+    keys = []
+    key = SelfCollision._key
+    monkeypatch.setattr(
+        SelfCollision, "_key", staticmethod(lambda p: keys.append(1) or key(p))
+    )
+    np.testing.assert_array_equal(check(q), expected)
+    assert len(keys) < 0.8 * sum(len(found) for found in pairs)
