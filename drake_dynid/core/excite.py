@@ -438,12 +438,12 @@ def _advice(problem: ExcitationProblem, found: Violation, resting: np.ndarray) -
             f"standing still at mid-range it already needs {resting[j]:.3g} "
             f"{found.unit} (the URDF's gravity), more than the {found.limit:.3g} "
             f"{found.unit} allowed ({problem.limits.effort[j]:.4g} less the "
-            f"{problem.margins.effort:.0%} effort margin), so no motion about "
-            f"mid-range keeps it. If the real joint has help the URDF does not "
-            f"model (a counterbalance spring), give it an effort limit above "
-            f"{need:.3g} {found.unit} (--limits FILE, effort) so that the URDF's "
-            "torques fit; otherwise lock the joint (--lock) or narrow its range to "
-            "where gravity needs less (--limits lower/upper)"
+            f"{problem.margins.effort:.0%} effort margin): a design can only move "
+            "about a posture where gravity needs less. If the real joint has help "
+            "the URDF does not model (a counterbalance spring), give it an effort "
+            f"limit above {need:.3g} {found.unit} (--limits FILE, effort) so that "
+            "the URDF's torques fit; otherwise lock the joint (--lock) or narrow its "
+            "range to where gravity needs less (--limits lower/upper)"
         )
     return (
         "raise its effort limit (--limits FILE, effort), lower the margin "
