@@ -610,58 +610,6 @@ def test_a_pair_held_at_mid_range_leaves_room_to_move_about_it(tmp_path):
     assert np.all(check(mid + steps) >= 0.15)  # j2 folding towards the base too
 
 
-def test_the_second_clearance_solve_runs_only_when_the_first_finds_nothing(
-    tmp_path, monkeypatch
-):
-    """Found by the example-robot-data sweep: a design that collided without the
-    clearance constraint was always solved again with it twice, from a start
-    shrunk out of collision and from the collision-free design, each solve
-    evaluating the clearance and its gradient at every iteration (the SO-101: 112
-    of its 132 s CPU; the solve from the collision-free design found no feasible
-    iterate on the SO-101 nor on the G1). The shrunk start's solve now runs first,
-    and the other only when it finds no design. The folding 3R, seed 0: the shrunk
-    start's design (6.33; 7.20 from the collision-free design) is kept without the
-    second solve (5 SLSQP solves before, 4 now with 2 dense rounds), the design
-    both solves gave before; with j2 too weak to hold the arm at mid-range no
-    solve finds a design, and both run, as before."""
-    from drake_dynid.collision import SelfCollision
-    from drake_dynid.core import excite
-
-    calls = []
-    minimize = excite.optimize.minimize
-
-    def counted(*args, **kwargs):
-        calls.append(len(kwargs["constraints"]))  # 3: with the clearance
-        return minimize(*args, **kwargs)
-
-    monkeypatch.setattr(excite.optimize, "minimize", counted)
-    urdf = folding_urdf(tmp_path)
-    robot = RobotModel.from_urdf(urdf)
-    limits = joint_limits(robot)
-    settings = ExcitationSettings(
-        duration=5.0, harmonics=2, base_frequency=0.2, iterations=15
-    )
-    clearance = SelfCollision.from_urdf(urdf, 0.5 * (limits.lower + limits.upper))
-    design = design_excitation(
-        robot.idim_rows, robot.base_values, limits, settings, clearance_fn=clearance
-    )
-    assert calls == [2, 3, 3, 3]  # without the clearance, with it, 2 dense rounds
-    assert design.condition_number == pytest.approx(6.091251254017408, rel=1e-6)
-    calls.clear()
-    weak = JointLimits(
-        limits.joint_names,
-        limits.lower,
-        limits.upper,
-        limits.velocity,
-        [100.0, 5.0, 100.0],  # j2 needs 8.34 N·m at mid-range
-    )
-    with pytest.raises(ValueError, match="no trajectory meets the limits"):
-        design_excitation(
-            robot.idim_rows, robot.base_values, weak, settings, clearance_fn=clearance
-        )
-    assert calls == [2, 3, 3]
-
-
 def test_a_refusal_lists_every_broken_limit_most_violated_first(tmp_path, capsys):
     """Found by the example-robot-data sweep: a refusal named only the constraint
     broken most in relative terms; the PR2's left arm was refused on a clearance

@@ -40,10 +40,7 @@ for every sample at once; the chain rule through the (linear) Fourier basis and 
 derivative of log cond with respect to W (singular vectors of the column-scaled
 matrix) give the exact gradient of the cost and the Jacobian of the torques.
 Optimiser: SLSQP (``scipy.optimize.minimize``) from the random trajectory of the
-seed, keeping the best feasible iterate. With a clearance: first without it; if
-that design collides, with it from the seed's start scaled down out of collision,
-and only when that finds no design (none feasible, or none within
-``max_condition``), also from the collision-free design (the better one is kept).
+seed, keeping the best feasible iterate.
 """
 
 from __future__ import annotations
@@ -652,26 +649,19 @@ def design_excitation(
         best.update(last=result.x, nit=int(result.nit), message=str(result.message))
         return best
 
-    # Without self-collision first; if that motion collides, solve with the
-    # clearance constraint from a start shrunk out of collision, and only if that
-    # finds no design (none feasible, or none within max_condition), also from the
-    # collision-free design (each solve evaluates the clearance and its gradient at
-    # every iteration: the SO-101's two took 112 of its 132 s, and the second, from
-    # the collision-free design, found no feasible iterate on the SO-101 nor the G1).
+    # Without self-collision first; if that motion collides, continue from it with
+    # the clearance constraint, and from a start shrunk out of collision.
     best = solve(_shrink(problem, x0, lambda x: feasible(x, constraints)), constraints)
     iterations = best["nit"]
     if collision is not None:
         everything = [*constraints, collision]
         if best["x"] is None or not feasible(best["x"], everything):
-            free = best
-            runs = [
+            runs = [solve(best["x"] if best["x"] is not None else x0, everything)]
+            runs.append(
                 solve(
                     _shrink(problem, x0, lambda x: feasible(x, everything)), everything
                 )
-            ]
-            if runs[0]["x"] is None or not runs[0]["cost"] <= max_condition:
-                warm = free["x"] if free["x"] is not None else x0
-                runs.append(solve(warm, everything))
+            )
             iterations += sum(run["nit"] for run in runs)
             best = min(runs, key=lambda run: run["cost"])
     if best["x"] is None:
