@@ -82,6 +82,7 @@ from drake_dynid.core.idim_auto import (
     DECIMATION_BAND_FACTOR,
     MAX_AUTO_CUTOFF_HZ,
     auto_cutoff,
+    auto_cutoff_rule,
     auto_decimation,
     auto_decimation_cutoff,
     decimated_noise_factor,
@@ -274,7 +275,7 @@ def offline_rows(
                 f"the longest finite segment has {longest[1] - longest[0]} samples; "
                 "at least 16 are needed to choose the cutoff.",
             )
-        cutoff_hz = log.on_longest_run(auto_cutoff)
+        cutoff_hz = log.on_longest_run(auto_cutoff_rule(filter_order, auto_cutoff))
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     decimation_rule = "given" if decimation is not None else "auto"
     if decimation is not None:
@@ -533,7 +534,7 @@ def identify_offline(
             whose columns other than ``FVj``/``FCj``/``OFFj`` are smooth in
             (q, v, v̇).
         cutoff_hz: Butterworth cutoff f_c [Hz]; None: :func:`auto_cutoff` on the
-            longest finite segment.
+            longest finite segment, for ``filter_order``.
         decimation: parallel decimation factor D (>= 1); None:
             :func:`auto_decimation` of f_d, rounded down to a multiple of D1.
         decimation_cutoff_hz: low-pass f_d of the parallel decimation [Hz]; None:

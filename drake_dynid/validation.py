@@ -71,7 +71,7 @@ from drake_dynid.core import idim_stream
 from drake_dynid.core.blocks import is_stored, segment
 from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign
 from drake_dynid.core.idim import default_padding, default_trim
-from drake_dynid.core.idim_auto import auto_cutoff
+from drake_dynid.core.idim_auto import auto_cutoff, auto_cutoff_rule
 from drake_dynid.core.idim_checks import check_filter_frequency
 from drake_dynid.core.idim_friction import FrictionLayout, friction_layout
 from drake_dynid.log_store import RowSink
@@ -290,7 +290,7 @@ def validate_torques(
             ``names``, ``joint_names`` and ``idim_rows(q, v, vdot)``).
         theta: (p,) base parameter values in ``robot.names`` order.
         cutoff_hz: position low-pass f_c [Hz]; None: ``auto_cutoff`` on the
-            longest finite segment of this log.
+            longest finite segment of this log, for ``filter_order``.
         decimation_cutoff_hz: comparison low-pass f_d [Hz]; None:
             ``auto_decimation_cutoff`` (min(f_c, 1.5·B)) on this log.
         filter_order: Butterworth order of the position filter.
@@ -445,7 +445,7 @@ def _validate(
                 f"the longest finite segment has {q_longest.shape[0]} samples; at "
                 "least 16 are needed to choose the cutoff.",
             )
-        cutoff_hz = log.on_longest_run(auto_cutoff)
+        cutoff_hz = log.on_longest_run(auto_cutoff_rule(filter_order, auto_cutoff))
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"
     if decimation_cutoff_hz is None:

@@ -270,6 +270,25 @@ def test_auto_cutoff_leaves_a_low_noise_band_limited_log_unbiased():
     assert cutoffs == sorted(cutoffs, reverse=True)  # more noise, lower cutoff
 
 
+def test_the_automatic_cutoff_is_chosen_for_the_filters_order(robot, noisy_log):
+    """``auto_cutoff`` weighs the zero-phase Butterworth's droop, G = 1/(1 +
+    (f/f_c)^(2N)): identify_offline and the validation chose it for N = 4 whatever
+    their ``filter_order`` (a gentler order-2 filter needs a higher cutoff for the
+    same droop: 1.62 Hz for N = 4, 2.04 Hz for N = 2 on this SNR 30 dB log)."""
+    from drake_dynid.validation import validate_torques
+
+    q, h = np.asarray(noisy_log.q), noisy_log.time_step
+    fourth, second = auto_cutoff(q, h), auto_cutoff(q, h, order=2)
+    assert second > 1.2 * fourth
+    fit = identify_offline(noisy_log, robot, filter_order=2)
+    assert fit.settings["cutoff_hz"] == second
+    assert identify_offline(noisy_log, robot).settings["cutoff_hz"] == fourth
+    check = validate_torques(noisy_log, robot, fit.theta, filter_order=2)
+    assert check.settings["cutoff_hz"] == second
+    with pytest.raises(ValueError, match="order"):
+        auto_cutoff(q, h, order=0)
+
+
 def test_auto_decimation_and_its_cutoff(clean_log):
     assert auto_decimation(H, 1.0) == 250  # decimated Nyquist 2 Hz = 2·f_d
     assert auto_decimation(H, 40.0) == 6

@@ -14,7 +14,9 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
   above: there the noise's fluctuations would add up).
 
 The zero-phase Butterworth of order N passes G(f) = 1/(1 + (f/f_c)^(2N)) (N = 4,
-the off-line default), and the accelerations, the positions' second derivative
+the off-line default; ``identify_offline``'s and the validations'
+``filter_order`` otherwise: on the paper's 2R at SNR 30 dB, 1.62 Hz for N = 4,
+2.04 Hz for N = 2), and the accelerations, the positions' second derivative
 (weight (2πf)⁴), are the most sensitive to it. Joint j's filtered acceleration
 misses (1 - G)·a of the motion (a bias, which survives the parallel decimation:
 it is in the band) and carries G·n of the noise, independent of it, so its
@@ -53,7 +55,9 @@ samples, averaged (on shorter ones, the periodogram of the whole segment).
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -72,6 +76,7 @@ __all__ = [
     "MAX_AUTO_CUTOFF_HZ",
     "MAX_VELOCITY_NOISE_SHARE",
     "auto_cutoff",
+    "auto_cutoff_rule",
     "auto_decimation",
     "auto_decimation_cutoff",
     "decimated_noise_factor",
@@ -116,12 +121,13 @@ def _position_spectra(
     return fs, f, power
 
 
-def auto_cutoff(q: Any, time_step: float) -> float:
+def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> float:
     """Automatic Butterworth cutoff f_c [Hz]: the least expected acceleration error.
 
     For each joint j, with its Welch spectrum S_j, noise floor N_j (median over
     [fs/4, fs/2]) and motion M_j = (S_j - N_j)⁺ up to its crossover (20 dB above
-    the floor), and G(f) = 1/(1 + (f/f_c)⁸) the zero-phase order-4 Butterworth::
+    the floor), and G(f) = 1/(1 + (f/f_c)^(2N)) the zero-phase Butterworth of
+    order N (``order``; 4, the off-line default: (f/f_c)⁸)::
 
         E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]     [(unit/s²)²/Hz]
 
@@ -132,10 +138,13 @@ def auto_cutoff(q: Any, time_step: float) -> float:
     Args:
         q: (N, n) finite positions sampled every ``time_step`` [rad or m].
         time_step: sample period h [s].
+        order: N, the order of the Butterworth applied forwards and backwards
+            (the position filter's ``filter_order``, >= 1).
 
     Returns:
         The cutoff [Hz], at least the Welch resolution fs/N_seg.
     """
+    order = check.integer("auto_cutoff", "order", order, minimum=1)
     fs, f, power = _position_spectra("auto_cutoff", q, time_step)
     resolution = float(f[1])
     cap = min(MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
@@ -158,7 +167,7 @@ def auto_cutoff(q: Any, time_step: float) -> float:
         return float(max(cap, resolution))
     errors = np.empty((grid.size, power.shape[1]))
     for k, cutoff in enumerate(grid):  # one candidate at a time: memory O(F·n)
-        gain = 1.0 / (1.0 + (f / cutoff) ** (2 * _CUTOFF_FILTER_ORDER))
+        gain = 1.0 / (1.0 + (f / cutoff) ** (2 * order))
         errors[k] = ((1.0 - gain) ** 2 * weight) @ motion + float(
             np.sum(gain**2 * weight)
         ) * floors
@@ -166,6 +175,27 @@ def auto_cutoff(q: Any, time_step: float) -> float:
         float(grid[int(np.argmin(errors[:, j]))]) for j in np.flatnonzero(moving)
     )
     return float(max(min(best, cap), resolution))
+
+
+@functools.cache
+def _auto_cutoff_of_order(order: int) -> Callable[[Any, float], float]:
+    return functools.partial(auto_cutoff, order=order)
+
+
+def auto_cutoff_rule(
+    order: int, default: Callable[[Any, float], float] = auto_cutoff
+) -> Callable[[Any, float], float]:
+    """``f(q, time_step)``: :func:`auto_cutoff` for a position filter of ``order``.
+
+    The same function object for the same order, a key of ``RobotLog.on_longest_run``
+    (a log's measure is computed once per function): ``default`` (the module's
+    :func:`auto_cutoff`, as the caller names it) for the default order 4, which the
+    dead zone's widths and the validations share.
+    """
+    order = check.integer("auto_cutoff", "order", order, minimum=1)
+    if order == _CUTOFF_FILTER_ORDER:
+        return default
+    return _auto_cutoff_of_order(order)
 
 
 def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarray]:
