@@ -251,9 +251,9 @@ def decimated_noise_factor(
     30 dB, D = 268). Monte-Carlo spread over Gautier's σ (torque noise, IDIM-WLS,
     40 seeds on logs of Pinocchio's inverse dynamics, a review): 1.34 (UR5), 1.43
     (Panda) at D = 320, 2.71 at D = 80; benchmarks/bench_sigma_offline.py measures
-    it side by side (20 seeds, Drake's inverse dynamics, torque noise 1 %): 1.49
-    (iiwa7), 1.51 (UR5) with IDIM-WLS at D = 320; 2.16, 2.41 with IDIM-LS at
-    D = 80 (factor 2.92), but 0.97, 1.12 with IDIM-LS at D = 320, whose reported
+    it side by side (20 seeds, Drake's inverse dynamics, torque noise 1 %): 1.48
+    (iiwa7), 1.50 (UR5) with IDIM-WLS at D = 322; 2.16, 2.42 with IDIM-LS at
+    D = 80 (factor 2.92), but 0.96, 1.11 with IDIM-LS at D = 322, whose reported
     σ is then 1.2-1.6 times the spread.
 
     Args:
