@@ -46,8 +46,9 @@ cut into the band without bias: it is set just above the band, ``f_d = min(f_c,
 (:func:`drake_dynid.core.excitation.estimate_bandwidth`, 99 % of the velocity
 power). Between B and f_c the log holds almost no motion but most of the noise
 of v̇ (which grows like f² times the position noise): on the paper's 2R at SNR
-30 dB, f_d = f_c gave 1.1 / 7.5 % mean inertial / friction error, f_d = 1.5·B
-0.9 / 4.1 % (60 seeds; benchmarks/bench_accuracy.py).
+30 dB (automatic f_c 1.61 Hz), f_d = f_c gave 1.28 / 6.73 % mean inertial /
+friction error with IDIM-LS, f_d = 1.5·B (0.93 Hz) 0.83 / 4.50 % (40 seeds, the
+main scenario of benchmarks/bench_accuracy.py).
 
 The automatic settings (``cutoff_hz``, ``decimation_cutoff_hz``, ``decimation``
 None) are those of :mod:`drake_dynid.core.idim_auto`: f_c minimising the expected
