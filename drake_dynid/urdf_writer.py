@@ -549,7 +549,7 @@ def doubtful_links(robot: Any, standard_values: Any) -> tuple[str, ...]:
     mass metres away (m·c small, m·|c|² within the inertia): the data see only the
     base parameters, and a regrouped link's mass and first moment are shared with
     its neighbours, and with λ = 0 nothing holds what the data do not see (the
-    README's UR5 log: shoulder_link at 52.3 kg for 3.7). A link is named when its
+    README's UR5 log: shoulder_link at 78.8 kg for 3.7). A link is named when its
     mass is below 1 % or above 10 times the URDF's (``robot.standard_values``), or
     its centre of mass is more than 10 L_j from the link origin, L_j =
     max(√(tr Σ_j / m_j), 1 cm) the URDF's radius of gyration about that origin

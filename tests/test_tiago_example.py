@@ -287,7 +287,7 @@ def test_simulating_the_physical_export_names_its_implausible_links(tmp_path, ca
         "tiago_physical.urdf was written by dynid --urdf-out with 8 implausible "
         "link(s) (its header: torso_lift_link, arm_1_link," in line
     ), line
-    # arm_3_link: 0.153 kg at 8.79 m from its origin, 11.8 kg·m² (this run).
+    # arm_3_link: 0.154 kg at 8.78 m from its origin, 11.9 kg·m² (this run).
     assert re.search(r"\(arm_3_link: 0\.1\d* kg at 8\.\d+ m from its origin, 1\d", line)
     assert "larger --regularization" in line and "Traceback" not in err
     # The URDF it was identified from runs the same trajectory.

@@ -617,7 +617,7 @@ def test_a_link_ten_times_heavier_than_the_urdfs_is_named():
     """Found in review: with --regularization 0 nothing holds the directions
     the data do not see; on a noisy Drake log of the UR5 `--urdf-out` wrote
     shoulder_link (its mass regrouped away) at 85.7 kg for the URDF's 3.7 (the
-    README's UR5 log, --regularization 0: 52.3 kg)."""
+    README's UR5 log, --regularization 0: 78.8 kg)."""
     from drake_dynid.urdf_writer import doubtful_links
 
     robot = RobotModel.from_urdf(model_path("ur5"))
