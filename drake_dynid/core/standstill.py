@@ -405,7 +405,7 @@ def reversal_signs(v: Any, width: Any, longest: int) -> np.ndarray:
     The zone is for joints at rest, where sign(v̂) is noise; at a moving joint's
     reversal the sign is known from the motion on either side, and a 0 there is a
     model error of FC_j per sample that σ does not hold (docs/MATH.md §2: up to
-    5.5 σ of bias on the UR5 at 125 Hz, ``benchmarks/bench_dead_zone.py``). A
+    4.5 σ of bias on the UR5 at 125 Hz, ``benchmarks/bench_dead_zone.py``). A
     dither spike at rest is not a reversal (too short an excursion), nor is a run
     cut by the series' ends. Each sample's value depends on the 2L + 1 samples on
     either side only (L = ``longest``): a block of a longer series with that much
