@@ -633,6 +633,14 @@ def test_a_link_ten_times_heavier_than_the_urdfs_is_named():
     assert doubtful_links(robot, scaled) == ()  # 9 times: within the bounds
 
 
+def _wrist4_fit(drive, **options):
+    """The wrist4 robot with ``drive`` and rotor inertia, and consistent values."""
+    robot = RobotModel.from_urdf(
+        "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True, **options
+    )
+    return robot, _consistent_values(robot, np.random.default_rng(16))
+
+
 def test_the_same_drive_file_reads_the_written_totals_back_exactly(tmp_path):
     # The wrist4 fit with its drive file (motor viscous and Coulomb friction,
     # rotor inertia of m1-m3) and rotor inertia columns: the written file holds
@@ -642,10 +650,7 @@ def test_the_same_drive_file_reads_the_written_totals_back_exactly(tmp_path):
     # torques of the round trip were not the fit's (a review). Now the file's
     # totals are read as they are and a note says so.
     drive = "tests/data/wrist4.toml"
-    robot = RobotModel.from_urdf(
-        "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True
-    )
-    values = _consistent_values(robot, np.random.default_rng(16))
+    robot, values = _wrist4_fit(drive)
     out = tmp_path / "w.urdf"
     write_identified_urdf(robot, values, out)
     again = RobotModel.from_urdf(out, drive=drive, rotor_inertia=True)
@@ -672,10 +677,7 @@ def test_the_drive_totals_are_only_the_fields_the_fit_identified(tmp_path):
     )
     full = ("viscous", "coulomb", "offset")
     for friction in (full, ("viscous",)):
-        robot = RobotModel.from_urdf(
-            "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True, friction=friction
-        )
-        values = _consistent_values(robot, np.random.default_rng(16))
+        robot, values = _wrist4_fit(drive, friction=friction)
         out = tmp_path / f"w{len(friction)}.urdf"
         write_identified_urdf(robot, values, out)
         kinds = {"viscous", "inertia"} | (
@@ -700,10 +702,7 @@ def test_only_the_files_own_header_says_what_it_holds(tmp_path):
     # identified again from a written one (whose header it keeps as a comment)
     # was read with the old file's totals and implausible links.
     drive = "tests/data/wrist4.toml"
-    robot = RobotModel.from_urdf(
-        "tests/data/wrist4.urdf", drive=drive, rotor_inertia=True
-    )
-    values = _consistent_values(robot, np.random.default_rng(16))
+    robot, values = _wrist4_fit(drive)
     first = tmp_path / "first.urdf"
     write_identified_urdf(
         robot,
