@@ -780,3 +780,25 @@ def test_a_gap_of_epoch_stamps_is_named_by_stamps_that_differ(tmp_path, plain_ch
     # The interpolation note's common span too (it read '1.7e+09 .. 1.7e+09').
     spans = [w for w in log.warnings if "column(s) interpolated linearly" in w]
     assert spans and all("span 1700000000.001 .. 1700000003.99 (" in w for w in spans)
+
+
+def test_stamps_beyond_the_gap_counting_bound_are_named(tmp_path, plain_chain):
+    """Found by two reviews: beyond the bound of `_missing` (bursts of 4 stamps
+    then a 4-step hole, as a buffered publisher sends) a dropped sample can go
+    unseen, without a word; the joined file is now named with how many of its
+    stamps share a slot of its grid (0 within the bound: no note there)."""
+    t = 0.001 * np.arange(4000)
+    base = 0.01 * np.arange(400)
+    bursts = base - 0.01 * (np.arange(400) % 4) + 0.0002 * (np.arange(400) % 4)
+    jitter = base + 0.004 * np.random.default_rng(3).uniform(-1, 1, 400)
+    for efforts, named in ((np.sort(bursts) + 0.03, True), (jitter + 0.0003, False)):
+        files = _rate_files(tmp_path, t, efforts)
+        columns = plain_chain.required_columns()
+        for notes in (
+            read_raw_log(files, plain_chain).warnings,
+            read_raw_table(files, columns, plain_chain.log.time).warnings,
+        ):
+            said = [w for w in notes if "fall in the slot of the stamp before" in w]
+            assert bool(said) is named, notes
+            if named:
+                assert "eff.csv: 200 of its 400 time stamps" in said[0], said
