@@ -270,6 +270,26 @@ def test_auto_cutoff_leaves_a_low_noise_band_limited_log_unbiased():
     assert cutoffs == sorted(cutoffs, reverse=True)  # more noise, lower cutoff
 
 
+@pytest.mark.parametrize("value", [0.3, 0.1, 1.2345678, 2 * np.pi / 4096 * 195])
+def test_a_joint_held_still_does_not_move_the_automatic_cutoff(value):
+    """Found reviewing the new automatic cutoff: a joint held still in the log (a
+    locked torso, a gripper; an encoder at one count) read 0.3 rad in every
+    sample, and the segments' linear detrending left a rounding residue (~1e-17
+    rad) whose smooth spectrum stood 100 times above its own floor (~1e-45): a
+    joint moving without noise, so the max over joints took its 35.8-40 Hz
+    instead of the moving joints' 2.37 Hz (100 Hz log: 4.09 instead of 2.12).
+    Each joint is now measured from its first sample: a still joint is exactly
+    0 and does not count (the noise-limited cutoff likewise)."""
+    from drake_dynid.core.idim_auto import noise_limited_cutoff
+
+    q = _band_limited(1e-3)
+    still = np.column_stack([q, np.full(q.shape[0], value)])
+    assert auto_cutoff(still, H) == auto_cutoff(q, H)
+    assert auto_cutoff(still[::10], 10 * H) == auto_cutoff(q[::10], 10 * H)
+    assert noise_limited_cutoff(still, H) == noise_limited_cutoff(q, H)
+    assert auto_cutoff(still[:, 2:], H) == auto_cutoff(np.zeros((q.shape[0], 1)), H)
+
+
 def test_the_automatic_cutoff_is_chosen_for_the_filters_order(robot, noisy_log):
     """``auto_cutoff`` weighs the zero-phase Butterworth's droop, G = 1/(1 +
     (f/f_c)^(2N)): identify_offline and the validation chose it for N = 4 whatever

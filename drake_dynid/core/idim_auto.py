@@ -32,14 +32,15 @@ velocity band) later removes most of it from the linear columns: it errs
 towards a lower cutoff, which the noisy paper 2R prefers. As the droop falls
 like (f/f_c)^16 and the noise grows like f_c⁵, the optimum moves slowly with
 the noise (a factor 10 in N_j: 1.12 in f_c). A joint without noise floor (N_j =
-0) takes the cap. Measured (benchmarks/bench_cutoff.py; README, "Real robot
-descriptions"): the paper's 2R arm at SNR 30 dB (21 s, 1 kHz) gets 1.61 Hz
-(the former rule, max(f_x, 2·f_99) with f_99 holding 99 % of the motion's
-power, gave 1.5 Hz), and 40 Hz without noise (35.5 Hz); an xArm7 excite design
-(top harmonic 1 Hz, default simulate noise) 3.6 Hz instead of 2 Hz, where the
-droop put XX3R 13.7 % high even without noise. 40 Hz is ten times a typical
-4 Hz position closed-loop bandwidth (Gautier's ω_c ≥ 10·ω_dyn), the cap for
-clean logs.
+0) takes the cap; a joint held still (the same value in every sample) does not
+count (each joint's spectrum is of q_j - q_j[0], exactly 0). Measured
+(benchmarks/bench_cutoff.py; README, "Real robot descriptions"): the paper's 2R
+arm at SNR 30 dB (21 s, 1 kHz) gets 1.61 Hz (the former rule, max(f_x, 2·f_99)
+with f_99 holding 99 % of the motion's power, gave 1.5 Hz), and 40 Hz without
+noise (35.5 Hz); an xArm7 excite design (top harmonic 1 Hz, default simulate
+noise) 3.6 Hz instead of 2 Hz, where the droop put XX3R 13.7 % high even
+without noise. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
+(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs.
 
 Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
 so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
@@ -209,11 +210,17 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
     from drake_dynid.core.iir import welch  # numpy: no scipy.signal at start-up
 
+    # Each joint from its first sample: a joint held still (a locked torso, a
+    # gripper) is then exactly 0, where the segments' detrending left rounding
+    # residue ~1e-17 rad of its value (0.3 rad) whose smooth spectrum stood
+    # above its own floor of ~1e-45 as motion with no noise, and the
+    # automatic cutoff went to 35.8 Hz instead of the moving joints' 2.37 Hz.
+    origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
     f, power = np.empty(0), np.empty(0)
     for first in range(0, total, per_piece):
         count = min(per_piece, total - first)
         piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
-        piece = piece.reshape(piece.shape[0], -1)
+        piece = piece.reshape(piece.shape[0], -1) - origin
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
             f, part = welch(piece[:, j], fs, segment)
             part = part[:, 0]
