@@ -675,3 +675,114 @@ def test_the_clearance_keys_only_the_pairs_closer_than_the_best_so_far(
     )
     np.testing.assert_array_equal(check(q), expected)
     assert len(keys) < 0.8 * sum(len(found) for found in pairs)
+
+
+def _brute_clearance(check, q):
+    """The clearance over every pair Drake returns: the offsets of the held pairs
+    added, the ignored ones left out, capped at MAX_DISTANCE."""
+    from drake_dynid.collision import MAX_DISTANCE
+
+    out = []
+    for row in np.atleast_2d(q):
+        best = MAX_DISTANCE
+        for pair in check._pairs(row):
+            key = check._key(pair)
+            if key not in check._ignored:
+                best = min(best, pair.distance + check._offset.get(key, 0.0))
+        out.append(best)
+    return np.array(out)
+
+
+@pytest.mark.parametrize(
+    ("reference", "margin"),
+    [
+        ((0.0, 1.55, 0.0), 0.3),  # base-l2, base-l3 held; l1-l3 not
+        ((0.0, 1.55, 0.0), 0.6),  # all three held
+        ((0.0, 2.7, 0.0), 0.3),  # base-l2, base-l3 ignored
+        ((0.4, 2.3, -1.0), 0.25),  # a mix
+    ],
+)
+def test_the_clearance_and_its_jacobian_are_the_brute_force_minimum(
+    tmp_path, reference, margin
+):
+    """Review of the pair loop that skips a pair no closer than the best so far
+    (050e141): with held pairs (offset margin - d_ref/2 > 0 added), ignored pairs
+    and the minimum moving between them, the clearance equals the minimum over
+    every pair Drake returns, bit for bit, and so does the design's Jacobian
+    (ExcitationProblem.clearance: finite differences of the clearance)."""
+    from drake_dynid.collision import SelfCollision
+
+    urdf = folding_urdf(tmp_path)
+    robot = RobotModel.from_urdf(urdf)
+    limits = joint_limits(robot)
+    check = SelfCollision.from_urdf(urdf, np.array(reference), margin=margin)
+    rng = np.random.default_rng(11)
+    q = rng.uniform(limits.lower, limits.upper, (150, 3))
+    q[::10] = q[1::10]  # repeated rows
+    values = check(q)
+    np.testing.assert_array_equal(values, _brute_clearance(check, q))
+    assert values.min() < values.max() < 1.0  # not a constant cap
+    settings = ExcitationSettings(duration=5.0, harmonics=2, base_frequency=0.2)
+
+    class Brute:
+        def __call__(self, q):
+            return _brute_clearance(check, q)
+
+    problems = [
+        ExcitationProblem(
+            robot.idim_rows, robot.base_values, limits, settings, Margins(), fn
+        )
+        for fn in (check, Brute())
+    ]
+    for seed in range(2):
+        x = problems[0].pack(_baseline(problems[0]))
+        x = x + np.random.default_rng(seed).normal(0.0, 0.3, x.shape)
+        (d, jacobian), (d_brute, jacobian_brute) = (p.clearance(x) for p in problems)
+        np.testing.assert_array_equal(d, d_brute)
+        np.testing.assert_array_equal(jacobian, jacobian_brute)
+        assert np.any(jacobian != 0.0)
+
+
+def test_the_pair_loop_keeps_the_minimum_with_ties_offsets_and_ignored_pairs():
+    """The pair loop's skip (a pair no closer than the best so far) on made-up
+    pairs with many ties: each distance a multiple of 0.05 m, a third of the pairs
+    held (offset > 0), a fifth ignored, in every order; the result is the brute
+    minimum."""
+    from types import SimpleNamespace
+
+    from drake_dynid.collision import MAX_DISTANCE, SelfCollision
+
+    class Id:
+        def __init__(self, value):
+            self.value = value
+
+        def get_value(self):
+            return self.value
+
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        count = int(rng.integers(0, 8))
+        ids = [(Id(2 * k), Id(2 * k + 1)) for k in range(count)]
+        pairs = [
+            SimpleNamespace(
+                id_A=b if rng.random() < 0.5 else a,
+                id_B=a if rng.random() < 0.5 else b,
+                distance=0.05 * int(rng.integers(-4, 24)),
+            )
+            for a, b in ids
+        ]
+        check = object.__new__(SelfCollision)
+        keys = [SelfCollision._key(p) for p in pairs]
+        check._ignored = {k for k in keys if rng.random() < 0.2}
+        check._offset = {k: 0.05 * int(rng.integers(1, 5)) for k in keys}
+        check._offset = {k: v for k, v in check._offset.items() if rng.random() < 0.35}
+        check._pairs = lambda q, pairs=pairs: pairs
+        expected = min(
+            [MAX_DISTANCE]
+            + [
+                p.distance + check._offset.get(k, 0.0)
+                for p, k in zip(pairs, keys, strict=True)
+                if k not in check._ignored
+            ]
+        )
+        assert check(np.zeros((1, 1)))[0] == expected
