@@ -786,3 +786,31 @@ def test_the_pair_loop_keeps_the_minimum_with_ties_offsets_and_ignored_pairs():
             ]
         )
         assert check(np.zeros((1, 1)))[0] == expected
+
+
+def test_a_refusal_orders_a_position_by_its_range_not_its_bound(tmp_path):
+    """Review of the refusal's order (4ad061f): a position's excess was divided by
+    the bound's own value, so 0.01 rad past a margined bound at 0 rad (j3 limited
+    to [-0.1, 2.8] with the 0.1 rad margin) counted 1e7 times over and came
+    before j2's effort at 2.25 times its limit. A position's excess is now
+    relative to the joint's margined half range (0.01 / 1.35)."""
+    from drake_dynid.core.excite import _refusal
+
+    urdf = folding_urdf(tmp_path)
+    robot = RobotModel.from_urdf(urdf)
+    path = tmp_path / "limits.json"
+    path.write_text(
+        json.dumps({"j3": {"lower": -0.1, "upper": 2.8}, "j2": {"effort": 5.0}})
+    )
+    limits = joint_limits(robot, path)
+    settings = ExcitationSettings(duration=5.0, harmonics=2, base_frequency=0.2)
+    problem = ExcitationProblem(
+        robot.idim_rows, robot.base_values, limits, settings, Margins(), None
+    )
+    x = problem.pack(_baseline(problem))
+    q = problem.trajectory(x).evaluate(problem.t)[0]
+    x[2] -= q[:, 2].min() + 0.01  # j3 0.01 rad below its margined bound, 0 rad
+    message = _refusal(problem, x)
+    assert "breaks 2 limits" in message
+    assert "(1) joint j2: effort" in message
+    assert "(2) joint j3: position -0.01 rad" in message

@@ -452,7 +452,8 @@ def _refusal(problem: ExcitationProblem, x: np.ndarray) -> str:
     """Every constraint x breaks, most violated first, each with what to change.
 
     Most violated: the largest excess relative to the bound, |value - bound| /
-    |bound|. A clearance shortfall names each pair of links below the margin
+    |bound| (a position's relative to its margined half range, :func:`_excess`).
+    A clearance shortfall names each pair of links below the margin
     when ``clearance_fn`` has a ``below(q, margin) -> [(d [m], "A-B"), ...]``
     method (``collision.SelfCollision``), else the closest pair at the worst
     sample with a ``closest(q) -> (d [m], "A-B")`` method.
@@ -481,7 +482,7 @@ def _refusal(problem: ExcitationProblem, x: np.ndarray) -> str:
     if collisions and clearance is not None:
         found = [f for f in found if f.kind != "collision"]
         found += _pairs(problem, q, clearance, collisions[0])
-    found.sort(key=lambda f: -abs(f.value - f.limit) / max(abs(f.limit), 1e-9))
+    found.sort(key=lambda f: -_excess(problem, f))
     zero = np.zeros((1, problem.n))
     resting = np.abs(
         batched_rows(problem.rows_fn, problem.mid[None, :], zero, zero)[0]
@@ -500,6 +501,21 @@ def _refusal(problem: ExcitationProblem, x: np.ndarray) -> str:
         f"{len(found)} limit{'s' if len(found) > 1 else ''}, most violated first: "
         + "; ".join(items)
     )
+
+
+def _excess(problem: ExcitationProblem, found: Violation) -> float:
+    """How much ``found`` breaks its bound, relative to it (the refusal's order).
+
+    |value - bound| / |bound| (a fraction over a velocity, acceleration or effort
+    limit; margins short of the collision margin), but a position's excess
+    relative to the joint's margined half range [rad or m]: a bound's own value
+    says nothing of how far (0.01 rad past a bound at 0 rad came before an
+    effort 2.25 times its limit).
+    """
+    scale = abs(found.limit)
+    if found.kind == "position":
+        scale = float(problem.half[problem.limits.joint_names.index(found.joint)])
+    return abs(found.value - found.limit) / max(scale, 1e-9)
 
 
 def _pairs(
