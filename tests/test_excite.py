@@ -636,7 +636,8 @@ def test_a_refusal_lists_every_broken_limit_most_violated_first(tmp_path, capsys
     assert "exceeds the limit 4 N·m" in effort
     assert "standing still at mid-range it already needs 8.34 N·m" in effort
     assert "effort limit above 10.4 N·m (--limits FILE, effort)" in effort
-    assert "--lock" in effort
+    assert "(--lock j2=VALUE)" in effort  # the option's syntax (review)
+    assert "lock one (--lock NAME=VALUE)" in line
 
 
 def test_the_clearance_keys_only_the_pairs_closer_than_the_best_so_far(

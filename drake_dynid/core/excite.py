@@ -402,8 +402,8 @@ _COLLISION_ADVICE = (
     "if the links cannot meet in the real robot (a convex hull of a coarse "
     "collision mesh covers more than the part), simplify their collision "
     "geometry; otherwise narrow the ranges of the joints that bring them together "
-    "(--limits lower/upper), lock one (--lock), or lower the collision margin "
-    "(--margin collision=M)"
+    "(--limits lower/upper), lock one (--lock NAME=VALUE), or lower the collision "
+    "margin (--margin collision=M)"
 )
 
 
@@ -439,8 +439,9 @@ def _advice(problem: ExcitationProblem, found: Violation, resting: np.ndarray) -
             "about a posture where gravity needs less. If the real joint has help "
             "the URDF does not model (a counterbalance spring), give it an effort "
             f"limit above {need:.3g} {found.unit} (--limits FILE, effort) so that "
-            "the URDF's torques fit; otherwise lock the joint (--lock) or narrow its "
-            "range to where gravity needs less (--limits lower/upper)"
+            "the URDF's torques fit; otherwise lock the joint (--lock "
+            f"{found.joint}=VALUE) or narrow its range to where gravity needs less "
+            "(--limits lower/upper)"
         )
     return (
         "raise its effort limit (--limits FILE, effort), lower the margin "
