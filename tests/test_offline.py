@@ -290,6 +290,26 @@ def test_a_joint_held_still_does_not_move_the_automatic_cutoff(value):
     assert auto_cutoff(still[:, 2:], H) == auto_cutoff(np.zeros((q.shape[0], 1)), H)
 
 
+@pytest.mark.parametrize("scale", [2 * np.pi / 4096, 1.0])
+def test_an_encoder_joint_moving_over_few_counts_does_not_move_the_cutoff(scale):
+    """Found reviewing the new automatic cutoff: a joint of a 12-bit encoder
+    (2π/4096 rad a count, or the counts themselves) moving slowly over 3-130
+    counts at 1 kHz changes count far less often than 1000 times a second, so its
+    quantization error is a staircase with little power in [fs/4, fs/2]: read
+    there alone, the floor left the steps as noise-free motion up to tens of Hz
+    and the max over joints took 35.8-40 Hz instead of the other joints' 2.37
+    Hz. The floor is now at least the quantization noise's, Δ²/(6·fs)."""
+    q = _band_limited(1e-4)
+    reference = auto_cutoff(q, H)
+    t = np.arange(q.shape[0]) * H
+    for amplitude in (0.002, 0.1):  # 2.6 and 130 counts peak to peak
+        counts = np.round((0.3 + amplitude * q[:, 0] / 1.2) / (2 * np.pi / 4096))
+        slow = np.round((0.3 + amplitude * np.sin(0.1 * np.pi * t)) * 2048 / np.pi)
+        for joint in (counts, slow):
+            both = np.column_stack([q, joint * scale])
+            assert auto_cutoff(both, H) <= 1.3 * reference
+
+
 def test_the_automatic_cutoff_is_chosen_for_the_filters_order(robot, noisy_log):
     """``auto_cutoff`` weighs the zero-phase Butterworth's droop, G = 1/(1 +
     (f/f_c)^(2N)): identify_offline and the validation chose it for N = 4 whatever

@@ -8,7 +8,8 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
 4 s segments) gives
 
 * its noise floor N_j: the median of S_j over [fs/4, fs/2] (white measurement
-  noise is flat; a rigid robot's motion has no power there);
+  noise is flat; a rigid robot's motion has no power there), at least Δ_j²/(6·fs)
+  for a joint quantized by Δ_j (encoder counts, :func:`_spectra_and_floors`);
 * its noise crossover f_x,j: the highest frequency where S_j > 100·N_j (20 dB
   above the floor); the motion's spectrum is M_j = (S_j - N_j)⁺ up to f_x,j (0
   above: there the noise's fluctuations would add up).
@@ -104,12 +105,30 @@ reported σ), the limit is 17 Hz (errors within 1.5σ); 0.30 (25 Hz) still gave
 errors within 2σ, 2.3 (50 Hz) 3σ and 19 (100 Hz) 16σ: the errors-in-variables
 bias of v² and sign(v) terms, which σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
+_QUANTUM_TOLERANCE = 1e-3  # a change within this many steps of whole ones
 
 
 def _position_spectra(
     owner: str, q: Any, time_step: float
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """``(fs, f, S)``: the checked positions' Welch spectra (4 s segments)."""
+    fs, f, power, _ = _spectra_and_floors(owner, q, time_step)
+    return fs, f, power
+
+
+def _spectra_and_floors(
+    owner: str, q: Any, time_step: float
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    """``(fs, f, S, N)``: :func:`_position_spectra` and each joint's noise floor.
+
+    N_j = max(median of S_j over [fs/4, fs/2], Δ_j²/(6·fs)) [unit²/Hz], Δ_j the
+    step of a quantized joint (every change of q_j a whole number of Δ_j: encoder
+    counts; 0 otherwise): white quantization noise of variance Δ²/12 has that
+    one-sided density. A joint moving slowly over few counts changes count far
+    less often than fs, so its quantization error is no white noise: its
+    staircase has little power at [fs/4, fs/2] and read there alone, the steps
+    stood as noise-free motion up to tens of Hz.
+    """
     time_step = check.positive(owner, "time_step", time_step, "s")
     q = checked_rows(owner, "q", q)  # a stored log: checked a block at a time
     if q.ndim == 1:
@@ -118,17 +137,37 @@ def _position_spectra(
         check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
     fs = 1.0 / time_step
     segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power = _welch(q, fs, segment)
-    return fs, f, power
+    f, power, quanta = _welch(q, fs, segment)
+    floors = np.median(power[f >= 0.25 * fs], axis=0)
+    floors = np.maximum(floors, quanta**2 / (6.0 * fs))
+    return fs, f, power, floors
+
+
+def _quantum(step: float, changes: np.ndarray) -> float:
+    """The quantization step of a joint after more of its changes, or NaN.
+
+    ``step``: the step so far (0: no change seen yet; NaN: not quantized);
+    ``changes``: nonzero |Δq| of consecutive samples. The step is the smallest
+    change, every change a whole number of it (within 1e-3 of one): encoder
+    counts, scaled to radians or not.
+    """
+    if math.isnan(step) or changes.size == 0:
+        return step
+    new = float(changes.min()) if step == 0.0 else min(step, float(changes.min()))
+    ratios = np.append(changes, step) / new if step else changes / new
+    if np.any(np.abs(ratios - np.round(ratios)) > _QUANTUM_TOLERANCE):
+        return math.nan
+    return new
 
 
 def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> float:
     """Automatic Butterworth cutoff f_c [Hz]: the least expected acceleration error.
 
     For each joint j, with its Welch spectrum S_j, noise floor N_j (median over
-    [fs/4, fs/2]) and motion M_j = (S_j - N_j)⁺ up to its crossover (20 dB above
-    the floor), and G(f) = 1/(1 + (f/f_c)^(2N)) the zero-phase Butterworth of
-    order N (``order``; 4, the off-line default: (f/f_c)⁸)::
+    [fs/4, fs/2], at least Δ_j²/(6·fs) for a joint quantized by Δ_j) and motion
+    M_j = (S_j - N_j)⁺ up to its crossover (20 dB above the floor), and G(f) =
+    1/(1 + (f/f_c)^(2N)) the zero-phase Butterworth of order N (``order``; 4, the
+    off-line default: (f/f_c)⁸)::
 
         E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]     [(unit/s²)²/Hz]
 
@@ -146,14 +185,12 @@ def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> 
         The cutoff [Hz], at least the Welch resolution fs/N_seg.
     """
     order = check.integer("auto_cutoff", "order", order, minimum=1)
-    fs, f, power = _position_spectra("auto_cutoff", q, time_step)
+    fs, f, power, floors = _spectra_and_floors("auto_cutoff", q, time_step)
     resolution = float(f[1])
     cap = min(MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
     steps = math.floor(math.log(max(cap / resolution, 1.0)) / math.log(1.01))
     grid = resolution * 1.01 ** np.arange(steps + 1)
-    high = f >= 0.25 * fs
     weight = (2.0 * np.pi * f) ** 4
-    floors = np.median(power[high], axis=0)
     motion = np.zeros_like(power)
     moving = np.zeros(power.shape[1], dtype=bool)
     for j in range(power.shape[1]):
@@ -199,11 +236,15 @@ def auto_cutoff_rule(
     return _auto_cutoff_of_order(order)
 
 
-def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarray]:
+def _welch(
+    q: np.ndarray, fs: float, segment: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
 
     The average over all segments, computed over consecutive runs of whole
     segments, one joint at a time, so that the memory stays bounded on long logs.
+    Also each joint's quantization step over the samples read (:func:`_quantum`;
+    0 when not quantized or never changing).
     """
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
@@ -217,17 +258,20 @@ def _welch(q: np.ndarray, fs: float, segment: int) -> tuple[np.ndarray, np.ndarr
     # automatic cutoff went to 35.8 Hz instead of the moving joints' 2.37 Hz.
     origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
     f, power = np.empty(0), np.empty(0)
+    quanta = np.zeros(origin.shape[1])
     for first in range(0, total, per_piece):
         count = min(per_piece, total - first)
         piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
         piece = piece.reshape(piece.shape[0], -1) - origin
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
+            changes = np.abs(np.diff(piece[:, j]))
+            quanta[j] = _quantum(float(quanta[j]), changes[changes > 0.0])
             f, part = welch(piece[:, j], fs, segment)
             part = part[:, 0]
             if power.size == 0:
                 power = np.zeros((f.size, piece.shape[1]))
             power[:, j] = power[:, j] + part * (count / total)
-    return f, power
+    return f, power, np.nan_to_num(quanta, nan=0.0)
 
 
 def noise_bandwidth(order: int) -> float:
