@@ -180,17 +180,21 @@ class SelfCollision:
                 best, name = distance, self._describe(pair.id_A, pair.id_B)
         return float(best), name
 
-    def below(self, q: Any, margin: float) -> list[tuple[float, str]]:
+    def below(self, q: Any, margin: float) -> list[tuple[float, str, float]]:
         """Every checked pair closer than ``margin`` [m] at one q, closest first.
 
-        [(distance [m], "bodyA-bodyB")], the distances as :meth:`closest`'s.
+        [(distance [m], "bodyA-bodyB", geometric distance [m])], the distances as
+        :meth:`closest`'s (a held pair's with its offset), then the pair's own
+        signed distance (a held pair breaks the margin when it is closer than half
+        its reference distance).
         """
         out = []
         for pair in self._pairs(np.asarray(q, dtype=float)):
             key = self._key(pair)
             distance = pair.distance + self._offset.get(key, 0.0)
             if distance < margin and key not in self._ignored:
-                out.append((float(distance), self._describe(pair.id_A, pair.id_B)))
+                name = self._describe(pair.id_A, pair.id_B)
+                out.append((float(distance), name, float(pair.distance)))
         return sorted(out)
 
 

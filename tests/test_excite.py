@@ -815,3 +815,32 @@ def test_a_refusal_orders_a_position_by_its_range_not_its_bound(tmp_path):
     assert "breaks 2 limits" in message
     assert "(1) joint j2: effort" in message
     assert "(2) joint j3: position -0.01 rad" in message
+
+
+def test_a_refusal_gives_a_held_pair_its_geometric_distance(tmp_path, capsys):
+    """Review of the refusal's pairs (4ad061f): a pair held no closer than half its
+    mid-range distance (base-l2, 0.111 m at mid-range under a 0.15 m margin) was
+    said at the offset clearance the optimiser sees, distance + 0.15 - 0.111/2:
+    'clearance -0.1064 m ... below the 0.15 m margin' for links 0.2009 m deep
+    (and a positive clearance for links that already touch). It is now said at
+    its geometric distance against the half distance it is held at."""
+    from drake_dynid.collision import SelfCollision
+
+    urdf = folding_urdf(tmp_path)
+    limits = tmp_path / "limits.json"
+    limits.write_text(json.dumps({"j2": {"effort": 5.0}}))
+    argv = [
+        "excite", urdf, "--limits", str(limits), "--duration", "5", "--harmonics",
+        "2", "--iterations", "3", "--margin", "collision=0.15", "--out",
+        str(tmp_path / "t.csv"),
+    ]  # fmt: skip
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    said = line[line.index("(1) self-collision clearance ") :]
+    value = float(said.split()[3])
+    check = SelfCollision.from_urdf(urdf, np.array([0.0, 1.55, 0.0]), margin=0.15)
+    (held,) = check.held
+    assert held.startswith("base-l2 (0.11 m)")
+    assert "between links base-l2 (held at half its mid-range distance)" in said
+    assert said.index("below the 0.0555") < said.index("(2)")
+    assert value < -0.15  # the links' own depth, not the offset clearance

@@ -455,7 +455,8 @@ def _refusal(problem: ExcitationProblem, x: np.ndarray) -> str:
     Most violated: the largest excess relative to the bound, |value - bound| /
     |bound| (a position's relative to its margined half range, :func:`_excess`).
     A clearance shortfall names each pair of links below the margin
-    when ``clearance_fn`` has a ``below(q, margin) -> [(d [m], "A-B"), ...]``
+    when ``clearance_fn`` has a ``below(q, margin) -> [(d [m], "A-B"[, geometric
+    d]), ...]``
     method (``collision.SelfCollision``), else the closest pair at the worst
     sample with a ``closest(q) -> (d [m], "A-B")`` method.
     """
@@ -529,6 +530,10 @@ def _pairs(
 
     Each pair at its own smallest distance over the grid's samples; ``worst``
     (the smallest clearance, no pair named) when ``clearance_fn`` names none.
+    A ``below`` item ``(d, "A-B", geometric d)`` (a pair held no closer than half
+    its mid-range distance, ``collision.SelfCollision``) is said at its geometric
+    distance against the distance it is held at, not at the offset clearance
+    the optimiser sees (base-l2 0.062 m deep read 'clearance 0.0325 m').
     """
     margin = problem.margins.collision
     below = getattr(problem.clearance_fn, "below", None)
@@ -536,10 +541,16 @@ def _pairs(
     if callable(below):
         pairs: dict[str, Violation] = {}
         for k in np.flatnonzero(clearance < margin - 1e-3):
-            for distance, pair in below(q[k], margin - 1e-3):
-                if pair not in pairs or distance < pairs[pair].value:
+            for distance, pair, *geometric in below(q[k], margin - 1e-3):
+                real = float(geometric[0]) if geometric else float(distance)
+                if pair not in pairs or real < pairs[pair].value:
+                    held = " (held at half its mid-range distance)"
                     pairs[pair] = replace(
-                        worst, joint=pair, time=float(problem.t[k]), value=distance
+                        worst,
+                        joint=pair + (held if real != distance else ""),
+                        time=float(problem.t[k]),
+                        value=real,
+                        limit=margin - (float(distance) - real),
                     )
         if pairs:
             return list(pairs.values())
