@@ -95,6 +95,7 @@ MAX_AUTO_CUTOFF_HZ = 40.0
 _FLOOR_MARGIN = 100.0  # 20 dB above the noise floor
 _CUTOFF_FILTER_ORDER = 4  # the off-line position filter's default order
 _SPECTRUM_SEGMENT = 4.0  # Welch segment length [s]
+_CUTOFF_BLOCK = 1 << 18  # candidate gains evaluated at a time (2 MB of float64)
 DECIMATION_BAND_FACTOR = 1.5
 """Automatic decimation low-pass f_d = min(f_c, 1.5·B), B the velocity bandwidth."""
 MAX_VELOCITY_NOISE_SHARE = 0.1
@@ -204,11 +205,12 @@ def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> 
     if np.any(floors[moving] <= 0.0):  # a noise-free joint: nothing to trade
         return float(max(cap, resolution))
     errors = np.empty((grid.size, power.shape[1]))
-    for k, cutoff in enumerate(grid):  # one candidate at a time: memory O(F·n)
-        gain = 1.0 / (1.0 + (f / cutoff) ** (2 * order))
-        errors[k] = ((1.0 - gain) ** 2 * weight) @ motion + float(
-            np.sum(gain**2 * weight)
-        ) * floors
+    rows = max(1, _CUTOFF_BLOCK // f.size)  # candidates at a time: memory bounded
+    for a in range(0, grid.size, rows):
+        gain = 1.0 / (1.0 + (f / grid[a : a + rows, None]) ** (2 * order))
+        errors[a : a + rows] = ((1.0 - gain) ** 2 * weight) @ motion + (
+            (gain**2) @ weight
+        )[:, None] * floors
     best = max(
         float(grid[int(np.argmin(errors[:, j]))]) for j in np.flatnonzero(moving)
     )
