@@ -204,6 +204,34 @@ def _counted_missing(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     return missing, int(chosen[0])
 
 
+#: A joined file sampled this many times more slowly than the first is named.
+DENSER_RATIO = 2.0
+
+
+def _denser_note(path: str, stamps: Any, base: str, t: Any, positions: set[str]) -> str:
+    """The clause on a joined file's positions interpolated onto denser stamps, or "".
+
+    ``positions``: the position columns read from that file (none: ""). They
+    then hold nothing above the file's own Nyquist frequency, and the
+    interpolation's images, not its noise, fill the log's band above fs/4, where
+    the automatic off-line cutoff reads the noise floor
+    (``core.idim_auto.auto_cutoff``): 100 Hz positions with noise interpolated
+    onto 1 kHz stamps gave 40 Hz (the cap) instead of 1.67 Hz (a review).
+    """
+    if not positions:
+        return ""
+    own, first = _file_step(np.asarray(stamps)), _file_step(np.asarray(t))
+    if not (own > 0.0 and first > 0.0 and own >= DENSER_RATIO * first):
+        return ""
+    return (
+        f" Its samples ({1.0 / own:.4g} Hz) are {own / first:.3g}× sparser than "
+        f"{base}'s ({1.0 / first:.4g} Hz): above {0.5 / own:.4g} Hz its positions "
+        "hold only the interpolation, and the automatic off-line position cutoff "
+        "(read from the noise above a quarter of the sampling rate) comes out too "
+        f"high: list {path} first, or give --cutoff."
+    )
+
+
 def _beyond_note(path: str, shared: int, count: int) -> str:
     """The note on a joined file whose stamps lie beyond :func:`_missing`'s bound."""
     return (
@@ -739,6 +767,7 @@ def _read_streamed(
         f"log {label}", jitter_tolerance, resample, fill_gaps, None
     )
     wanted = list(dict.fromkeys([time, *chain.required_columns()]))
+    positions = set(chain.log.position_columns)
     headers, owner = _checked_headers(files, wanted, time)
     warnings: list[str] = []
     notes: list[str] = []
@@ -787,6 +816,7 @@ def _read_streamed(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
                 f"{t[low]:.16g} .. {t[high - 1]:.16g} ('{time}')."
+                + _denser_note(path, tables[path][1], base, t, positions & set(names))
             )
     if t.size - (high - low):
         warnings.append(
