@@ -213,14 +213,8 @@ def _check_log(owner: str, log: Any, robot: Any, rows: Any) -> float:
             raise TypeError(
                 f"{owner}: log must be a RobotLog; got {type(log).__name__}."
             )
-    robot_joints = tuple(getattr(robot, "joint_names", log.joint_names))
-    if tuple(log.joint_names) != robot_joints:
-        check.fail(
-            owner,
-            f"log joints must be the robot's {check.listed(robot_joints)} in that "
-            f"order; got {check.listed(log.joint_names)}"
-            f"{check.first_difference(robot_joints, log.joint_names)}.",
-        )
+    expected = getattr(robot, "joint_names", log.joint_names)
+    check.log_joints(owner, expected, log.joint_names)
     return check.positive(owner, "time_step", log.time_step, "s")
 
 

@@ -397,14 +397,8 @@ def _validate(
                 f"{owner}: log must be a RobotLog; got {type(log).__name__}."
             )
     rows = _rows(robot)
-    joints = tuple(getattr(robot, "joint_names", log.joint_names))
-    if tuple(log.joint_names) != joints:
-        check.fail(
-            owner,
-            f"log joints must be the robot's {check.listed(joints)} in that order; "
-            f"got {check.listed(log.joint_names)}"
-            f"{check.first_difference(joints, log.joint_names)}.",
-        )
+    expected = getattr(robot, "joint_names", log.joint_names)
+    check.log_joints(owner, expected, log.joint_names)
     p = len(rows.names)
     if not estimates:
         check.fail(owner, "estimates must hold at least one θ.")

@@ -85,6 +85,21 @@ def first_difference(expected: Sequence[str], got: Sequence[str]) -> str:
     return ""
 
 
+def log_joints(owner: str, expected: Sequence[str], got: Sequence[str]) -> None:
+    """Checks a log's joints are the robot's ``expected`` joints, in that order.
+
+    Raises:
+        ValueError: naming both lists (:func:`listed`) and where they first
+            differ (:func:`first_difference`).
+    """
+    if tuple(got) != tuple(expected):
+        fail(
+            owner,
+            f"log joints must be the robot's {listed(expected)} in that order; "
+            f"got {listed(got)}{first_difference(expected, got)}.",
+        )
+
+
 def _unit(unit: str | None) -> str:
     return f" [{unit}]" if unit else ""
 
