@@ -112,15 +112,7 @@ def _file_step(stamps: np.ndarray, span: int = 8) -> float:
     return float(np.median((stamps[span:] - stamps[:-span]) / span))
 
 
-def _missing(stamps: np.ndarray) -> np.ndarray:
-    """(len(stamps) - 1,) int: the samples of a file missing in each interval.
-
-    :func:`_counted_missing` without the count of stamps beyond the bound.
-    """
-    return _counted_missing(stamps)[0]
-
-
-def _counted_missing(stamps: np.ndarray) -> tuple[np.ndarray, int]:
+def _missing(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     """(missing, shared): the samples of a file missing in each interval.
 
     ``missing``: (len(stamps) - 1,) int; ``shared``: how many stamps share a
@@ -395,8 +387,8 @@ def _gap_marks(
 
     ``filled``/``bad``: (len(target),) True where a target stamp lies strictly
     inside an interval of ``stamps`` missing 1 .. ``fill_gaps`` samples, or more
-    (``missing``: :func:`_missing`); ``interval``: the interval of each target.
-    ``stamps`` cover ``target``.
+    (``missing``: the first of :func:`_missing`); ``interval``: the interval of
+    each target. ``stamps`` cover ``target``.
     """
     if stamps.size < 2:
         none = np.zeros(target.shape, dtype=bool)
@@ -643,7 +635,7 @@ def read_raw_table(
             for name in names:
                 out[name] = data[name][keep]
             continue
-        missing, shared = _counted_missing(other)
+        missing, shared = _missing(other)
         filled, bad, interval = _gap_marks(t[keep], other, missing, fill_gaps)
         for name in names:
             out[name] = np.interp(t[keep], other, data[name])
@@ -832,7 +824,7 @@ def _read_streamed(
     sinks = RowSink(1), RowSink(n), RowSink(n)
     first = float(t[low])
     counted = {
-        path: _counted_missing(other)
+        path: _missing(other)
         for path, (names, other, _, _) in tables.items()
         if names and not same[path]
     }
