@@ -1029,16 +1029,14 @@ def locked_motion(files: str | Sequence[str], robot: Any) -> str | None:
         held = listed(f"{name} = {locked[name]:g}" for name in off if name in locked)
         parts.append(
             f"joint(s) not identified move in the log ({listed(moving, sep='; ')}) "
-            "while "
-            f"the model holds them fixed ({held}): add them to --joints, or --lock "
-            "them at the position they keep"
+            f"while the model holds them fixed ({held}): add them to --joints, or "
+            "--lock them at the position they keep"
         )
     if astray:
         parts.append(
             f"mimic joint(s) do not follow their URDF relation in the log "
             f"({listed(astray, sep='; ')}): fix the URDF's <mimic>, or identify the "
-            "joint "
-            "on its own"
+            "joint on its own"
         )
     if not parts:
         return None
