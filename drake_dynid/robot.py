@@ -82,7 +82,12 @@ from drake_dynid.urdf import (
     read_urdf_mimic,
     untransmitted_note,
 )
-from drake_dynid.urdf_writer import drive_totals, motor_friction, unwritten
+from drake_dynid.urdf_writer import (
+    drive_totals,
+    motor_friction,
+    totals_words,
+    unwritten,
+)
 
 __all__ = ["INERTIAL_NAMES", "RobotModel"]
 
@@ -286,22 +291,10 @@ class RobotModel(RobotRows):
                 ),
             ]
             if kept:
-                words = [
-                    word
-                    for word, kind in (
-                        ("damping", "viscous"),
-                        ("friction", "coulomb"),
-                        ("rotor inertia", "inertia"),
-                    )
-                    if kind in totals
-                ]
-                what = " and ".join(
-                    [", ".join(words[:-1]), words[-1]] if len(words) > 1 else words
-                )
                 note = (
                     f"{Path(path).name} was written by dynid --urdf-out with a drive "
-                    f"file: its joint {what} are joint-side totals, the "
-                    f"motors' reflected values included, read as they are "
+                    f"file: its joint {totals_words(totals)} are joint-side "
+                    f"totals, the motors' reflected values included, read as they are "
                     f"({'; '.join(kept)})"
                 )
                 _LOGGER.info("RobotModel: %s.", note)

@@ -59,7 +59,7 @@ import math
 import os
 import re
 import xml.etree.ElementTree as ElementTree
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -76,6 +76,7 @@ __all__ = [
     "drive_totals",
     "implausible_links",
     "implausible_note",
+    "totals_words",
     "unwritten",
     "write_identified_urdf",
 ]
@@ -89,12 +90,12 @@ DRIVE_TOTALS = "are joint-side totals, its motors' reflected values included"
 #: :func:`implausible_links` read that comment only (not a stale copy of it, nor
 #: the same words elsewhere in the file).
 HEADER = "Identified by drake_dynid from"
-#: The header's words for the joint fields that hold a drive's totals, and the
-#: kinds ``drive_totals`` returns for them.
 _HEADER = re.compile(r"\s+".join(HEADER.split()))
 _UNWRITTEN = re.compile(
     r"Identified,\s+no\s+URDF\s+field\s+\(not\s+written\):\s*([^.]*)\."
 )
+#: The header's words for the joint fields that hold a drive's totals, and the
+#: kinds ``drive_totals`` returns for them.
 _TOTAL_KINDS = {"damping": "viscous", "friction": "coulomb", "rotor inertia": "inertia"}
 _WORD = r"(?:damping|friction|rotor\s+inertia)"
 _TOTALS = re.compile(
@@ -262,10 +263,13 @@ def _header_comment(text: str) -> str:
     return text[start : end if end >= 0 else len(text)]
 
 
-def _joined(words: Sequence[str]) -> str:
-    return " and ".join(
-        [", ".join(words[:-1]), words[-1]] if len(words) > 1 else list(words)
-    )
+def totals_words(kinds: Collection[str]) -> str:
+    """The header's words for ``kinds`` of :func:`drive_totals`, in its order.
+
+    ``{"viscous", "inertia"}`` -> ``"damping and rotor inertia"``.
+    """
+    words = [word for word, kind in _TOTAL_KINDS.items() if kind in kinds]
+    return " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1 else words)
 
 
 def drive_totals(text: str) -> frozenset[str]:
@@ -511,11 +515,8 @@ def _header(
     if skipped:
         lines.append(f"Identified, no URDF field (not written): {', '.join(skipped)}.")
     kinds = tuple(getattr(robot, "friction", ()))
-    words = [
-        word
-        for word, kind in (("damping", "viscous"), ("friction", "coulomb"))
-        if kind in kinds
-    ] + (["rotor inertia"] if robot.rotor_inertia else [])
+    totals = {*kinds, *(["inertia"] if robot.rotor_inertia else [])}
+    words = totals_words(totals)
     if drive is not None and words:
         frictions = [kind for kind in ("viscous", "coulomb") if kind in kinds]
         read_back = (
@@ -537,7 +538,7 @@ def _header(
         # columns, no viscous or Coulomb friction in the fit) is no total.
         lines.append(
             f"With the {getattr(drive, 'source', 'drive file')}: the joint "
-            f"{_joined(words)} {DRIVE_TOTALS}{read_back}{inertia}"
+            f"{words} {DRIVE_TOTALS}{read_back}{inertia}"
         )
     return lines
 
