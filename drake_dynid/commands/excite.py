@@ -383,9 +383,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         ignored = f"; ignored (in contact at mid-range): {listed(collision.ignored)}"
         held = (
-            f"; closer than the margin at mid-range, held no closer than half "
-            f"that: "
-            f"{listed(collision.held)}"
+            "; closer than the margin at mid-range, held no closer than half "
+            f"that: {listed(collision.held)}"
         )
         say(
             f"self-collision: {collision.num_geometries} collision geometries"
