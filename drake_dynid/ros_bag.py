@@ -666,11 +666,15 @@ class _Late:
     later stamp (or a repeat of a message written) cannot be put in place as
     the blocks are written: its rows (the export's and the held joints' file's)
     are kept aside, :data:`LATE_RUN` at a time in memory, sorted by stamp into
-    a temporary file (a run) when that many; :meth:`merge` then copies the
+    a temporary file (a run) when that many, :data:`LATE_FAN_IN` runs of a
+    level merged into one of the next (a run of LATE_RUN rows: level 0), so
+    that the open files stay few (one a run reached the open-file limit, 1024,
+    at some 8 M late messages); :meth:`merge` then copies the
     written rows aside and writes them back merged with the runs in stamp order
-    (``heapq.merge``: one row of each run in memory), dropping a row equal to
-    the one before it (a repeat: the same stamp and values). Memory: LATE_RUN
-    rows; disk (``TMPDIR``): the late rows and a copy of the export.
+    (``heapq.merge``: one row of each run in memory, stable: the runs in the
+    order recorded, as the merges of a level keep them), dropping a row equal
+    to the one before it (a repeat: the same stamp and values). Memory:
+    LATE_RUN rows; disk (``TMPDIR``): the late rows and a copy of the export.
     """
 
     def __init__(self) -> None:
@@ -678,6 +682,7 @@ class _Late:
         self.lateness = 0  # the largest: newest stamp recorded before - theirs [ns]
         self.rows: tuple[list[str], list[str]] = ([], [])
         self.runs: tuple[list[Any], list[Any]] = ([], [])
+        self.levels: tuple[list[int], list[int]] = ([], [])  # each run's
 
     def add(self, main: str, held: str) -> None:
         """Keeps the rows of some late messages (text, one line each)."""
@@ -689,16 +694,36 @@ class _Late:
             self._spill()
 
     def _spill(self) -> None:
+        import heapq
         import tempfile
 
         with self._temporary():
-            for rows, runs in zip(self.rows, self.runs, strict=True):
+            for rows, runs, levels in zip(
+                self.rows, self.runs, self.levels, strict=True
+            ):
                 if not rows:
                     continue
                 run = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
                 runs.append(run)
+                levels.append(0)
                 run.writelines(sorted(rows, key=_stamp_key))
                 rows.clear()
+                # The last LATE_FAN_IN runs of one level: merged into one of the
+                # next (the levels never increase along the list).
+                while len(levels) >= LATE_FAN_IN and (
+                    len(set(levels[-LATE_FAN_IN:])) == 1
+                ):
+                    merged = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
+                    tail = runs[-LATE_FAN_IN:]
+                    for each in tail:
+                        each.seek(0)
+                    merged.writelines(heapq.merge(*tail, key=_stamp_key))
+                    for each in tail:
+                        each.close()
+                    level = levels[-1] + 1
+                    del runs[-LATE_FAN_IN:], levels[-LATE_FAN_IN:]
+                    runs.append(merged)
+                    levels.append(level)
 
     @contextlib.contextmanager
     def _temporary(self) -> Iterator[None]:
@@ -759,10 +784,11 @@ class _Late:
         return repeats
 
     def close(self) -> None:
-        for runs in self.runs:
+        for runs, levels in zip(self.runs, self.levels, strict=True):
             for run in runs:
                 run.close()
             runs.clear()
+            levels.clear()
 
 
 def _scan(
@@ -1162,6 +1188,14 @@ REORDER_ROWS = 1 << 12
 #: Rows of messages later than that kept in memory before they are sorted
 #: into a temporary file (:class:`_Late`).
 LATE_RUN = 1 << 14
+
+#: Sorted runs of one level merged into one run of the next (:class:`_Late`):
+#: at most ``LATE_FAN_IN - 1`` temporary files a level, each level's runs
+#: ``LATE_FAN_IN`` times longer (10^9 late messages: 61 036 runs of LATE_RUN,
+#: 4 levels, at most 60 files, as many again for the held joints' file; one a
+#: run before, the open-file limit, 1024, at some 8 M), each row copied once a
+#: level.
+LATE_FAN_IN = 16
 
 
 def _stamp_key(row: str) -> int | float:

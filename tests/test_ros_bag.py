@@ -1121,3 +1121,53 @@ def test_the_lateness_said_is_from_the_newest_message_recorded(
     assert "(1 of them more than 100 messages late, up to 0.999 s: placed" in (
         capsys.readouterr().err
     )
+
+
+def test_late_messages_keep_few_temporary_files_open(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: the messages recorded late were sorted into one
+    temporary file per LATE_RUN (16 384) of them, all open until the merge at
+    the end: the open-file limit (1024) was reached at some 8 M late messages.
+    Now LATE_FAN_IN runs of a level are merged into one of the next: with runs
+    of 3 rows or more and a fan-in of 3, 60 late messages (15 runs: 16 files
+    open at once before, the runs and the export's copy) keep at most 7 open
+    (6 measured: 2 a level and the merge's new run), and the export is the
+    bag in order, byte for byte."""
+    import tempfile
+
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 12)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    monkeypatch.setattr(ros_bag, "LATE_RUN", 3)
+    monkeypatch.setattr(ros_bag, "LATE_FAN_IN", 3, raising=False)
+    ordered = arm_messages(arm, slice(0, 1200))
+    messages = list(ordered)
+    for j in range(60):  # one message in five of 200-499, each 400 messages late
+        late = ordered[200 + 5 * j]
+        messages.remove(late)
+        at = messages.index(ordered[600 + 5 * j]) + 1
+        messages.insert(at, (0, late[1], messages[at - 1][2] + 1, *late[3:]))
+    opened = []
+    temporary = tempfile.TemporaryFile
+
+    def counted(*args, **kwargs):
+        stream = temporary(*args, **kwargs)
+        opened.append(stream)
+        most[0] = max(most[0], sum(not s.closed for s in opened))
+        return stream
+
+    most = [0]
+    monkeypatch.setattr(tempfile, "TemporaryFile", counted)
+    exports = []
+    for name, source in (("late", messages), ("ordered", ordered)):
+        bag = tmp_path / f"{name}.bag"
+        write_bag(bag, "ros1", source)
+        out = tmp_path / f"{name}.csv"
+        assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+        exports.append(out.read_bytes())
+    assert "(60 of them more than 100 messages late" in capsys.readouterr().err
+    assert exports[0] == exports[1]
+    assert 0 < most[0] <= 7, most
+    assert all(s.closed for s in opened)
