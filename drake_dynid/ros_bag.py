@@ -313,7 +313,11 @@ def export_bag(
     (a ROS 1 bag is read a chunk at a time, :class:`_Ros1Chunks`; where rosbags'
     reader reads it, its index of every message, about 350 bytes each). A
     message to merge in is refused on an output that cannot be read back
-    (standard output, a pipe; ValueError naming their count and lateness).
+    (standard output, a pipe; ValueError naming their count and lateness),
+    found by the pass that only reads before such an output is written (no
+    row written); should the export to it stop on an error once written, its
+    last line is :data:`_INCOMPLETE` and the error, a row the CSV readers
+    refuse, so that the rows written are never read as the whole bag.
 
     What the header and the time column need of the whole bag (the joints when
     ``joints`` is None: the most frequent set of names; whether every stamp is
@@ -321,8 +325,9 @@ def export_bag(
     message has efforts; which optional joints occur) is judged from the first
     block and checked at the end: where the bag proves it wrong, the file is
     written again in a second pass over the bag (time, not memory). An output
-    that cannot be rewound (a pipe; ``out`` ``-``, standard output, always) is
-    written after a pass that only reads.
+    that cannot be read back (a pipe; ``out`` ``-``, standard output, always)
+    is written after a pass that only reads (the plan, the messages to merge
+    in counted: a dry run of :class:`_Export`).
 
     Args:
         path: the bag (:func:`read_joint_states`).
@@ -352,9 +357,27 @@ def export_bag(
         sink.rereads, sink.label = readable, f"ROS bag {os.fspath(path)}"
         try:
             plan = None
-            if not rewinds:
-                plan = _scan(path, joints, topic, optional, None)[1]
-            done = _scan(path, joints, topic, optional, sink, plan)[0]
+            if not readable:
+                # A pass that only reads: the plan, and the messages to merge
+                # in, refused before a row is written (_Export's dry run).
+                dry = _Export(None, columns, time, time_unit, None, held_column)
+                try:
+                    plan = _scan(path, joints, topic, optional, dry)[1]
+                finally:
+                    dry.close()
+                if dry.late.count:
+                    raise ValueError(_unmerged(sink.label, dry.late))
+            try:
+                done = _scan(path, joints, topic, optional, sink, plan)[0]
+            except Exception as error:
+                if sink.started and not rewinds:
+                    # Rows written that cannot be taken back: a last line that
+                    # the CSV readers refuse, so a cut export is never read
+                    # as a whole one.
+                    with contextlib.suppress(Exception):
+                        said = " ".join(str(error).replace(",", ";").split())
+                        sink.stream.write(f"{_INCOMPLETE}{said}\n")
+                raise
             notes = []
             if sink.reordered:
                 merged = ""
@@ -496,7 +519,12 @@ class _Collect:
 
 
 class _Export:
-    """A sink that writes each block as CSV rows (:func:`export_bag`)."""
+    """A sink that writes each block as CSV rows (:func:`export_bag`).
+
+    ``stream`` None: a dry run that writes nothing and keeps no late row, only
+    counts the messages to merge in (``late.count``, ``late.lateness``): the
+    pass before an output that cannot be read back.
+    """
 
     def __init__(
         self,
@@ -528,7 +556,7 @@ class _Export:
     def begin(self, plan: _Plan, held: tuple[str, ...]) -> None:
         import csv
 
-        if self.started:  # a second pass: the files again
+        if self.started and self.stream is not None:  # a second pass: again
             self.stream.seek(0)
             self.stream.truncate()
             if self.held_stream is not None:
@@ -542,6 +570,8 @@ class _Export:
         self.late = _Late()
         self.plan, self.held = plan, held
         self.names = list(self.columns(plan.wanted, plan.efforts))
+        if self.stream is None:  # a dry run (class docstring)
+            return
         at = {name: k for k, name in enumerate(plan.wanted)}
         self.picks = []
         for column in self.names:
@@ -596,7 +626,10 @@ class _Export:
             # Older than a message written: more than REORDER_ROWS late, or a
             # repeat of a message written; kept aside, merged in at the end.
             older = int(np.searchsorted(stamps, self.last, side="right"))
-            self.late.add(*self._text(_taken(block, np.arange(older))))
+            if self.stream is None:
+                self.late.count += older
+            else:
+                self.late.add(*self._text(_taken(block, np.arange(older))))
             block = _taken(block, np.arange(older, stamps.size))
         keep = max(0, block.stamps.size - REORDER_ROWS)
         self.carry = _taken(block, np.arange(keep, block.stamps.size))
@@ -610,16 +643,10 @@ class _Export:
         if self.carry is not None:
             self._write(self.carry)
             self.carry = None
-        if not self.late.count:
+        if not self.late.count or self.stream is None:
             return
         if not self.rereads:
-            raise ValueError(
-                f"{self.label}: {self.late.count} message(s) were recorded more "
-                f"than {REORDER_ROWS} messages after a later-stamped one (up to "
-                f"{self.late.lateness * 1e-9:.6g} s late) or repeat one that many "
-                "messages before: placing them rewrites the export, which "
-                "standard output or a pipe cannot; write it to a file (--out FILE)."
-            )
+            raise ValueError(_unmerged(self.label, self.late))
         repeats = self.late.merge(self.stream, self.start, 0)
         self.repeated += repeats  # not late: counted as reordered and late
         self.reordered = max(0, self.reordered - repeats)
@@ -647,6 +674,8 @@ class _Export:
             return
         stamps = block.received if self.plan.received else block.stamps
         self.last = int(stamps[-1])
+        if self.stream is None:
+            return
         main, held = self._text(block)
         self.stream.write(main)
         if self.held_stream is not None:
@@ -657,6 +686,24 @@ class _Export:
         if self.held_stream is not None:
             self.held_stream.close()
             self.held_stream = None
+
+
+#: The last line of an export to an output that cannot be taken back (standard
+#: output, a pipe) when it stops on an error, followed by the error (its commas
+#: as semicolons): one cell, a row that the CSV readers refuse ("row N has 1
+#: cells; the header has ...": the export has 2 columns at least).
+_INCOMPLETE = "# dynid: this export is incomplete; it stopped on an error: "
+
+
+def _unmerged(label: str, late: _Late) -> str:
+    """The error of messages to merge in on an output that cannot be read back."""
+    return (
+        f"{label}: {late.count} message(s) were recorded more than "
+        f"{REORDER_ROWS} messages after a later-stamped one (up to "
+        f"{late.lateness * 1e-9:.6g} s late) or repeat one that many messages "
+        "before: placing them rewrites the export, which standard output or a "
+        "pipe cannot; write it to a file (--out FILE)."
+    )
 
 
 class _Late:

@@ -1171,3 +1171,69 @@ def test_late_messages_keep_few_temporary_files_open(
     assert exports[0] == exports[1]
     assert 0 < most[0] <= 7, most
     assert all(s.closed for s in opened)
+
+
+def test_late_messages_are_refused_on_standard_output_before_a_row_is_written(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: ``bag2csv --out -`` refused a bag whose messages are
+    to be merged in (standard output cannot be rewritten) only at the end of
+    the export, after streaming its rows (1301 lines here) to the pipe, exit 2
+    after them. The pass that reads the bag before writing to standard output
+    now counts those messages (the export's own rules, writing nothing): the
+    same error, and nothing written."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    messages = arm_messages(arm, slice(0, 2000))
+    late = messages.pop(300)  # received 1000 messages late
+    messages.insert(1300, (0, late[1], messages[1299][2] + 1, *late[3:]))
+    bag = tmp_path / "late.bag"
+    write_bag(bag, "ros1", messages)
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "", captured.out[:200]
+    assert (
+        f"ROS bag {bag}: 1 message(s) were recorded more than 100 messages after "
+        "a later-stamped one (up to 1 s late)" in captured.err
+    ), captured.err
+
+
+def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """An export to standard output that stops on an error (here made to stop
+    after its second block) cannot be taken back: its rows ended on a whole
+    line, and a log saved from the pipe was read as the whole bag (500 of
+    2000 messages, exit 0). Its last line now says it is incomplete, a row
+    that the CSV readers refuse (exit 2)."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 300)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 2000)))
+    written = ros_bag._write_block
+    calls = [0]
+
+    def failing(stream, cells, data):
+        calls[0] += 1
+        if calls[0] > 2:
+            raise ValueError("made to fail")
+        written(stream, cells, data)
+
+    monkeypatch.setattr(ros_bag, "_write_block", failing)
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 2
+    captured = capsys.readouterr()
+    assert "made to fail" in captured.err
+    lines = captured.out.splitlines()
+    assert len(lines) == 1 + 200 + 300 + 1, len(lines)  # the header, 2 blocks
+    assert lines[-1] == (
+        "# dynid: this export is incomplete; it stopped on an error: made to fail"
+    )
+    saved = tmp_path / "saved.csv"
+    saved.write_text(captured.out)
+    monkeypatch.setattr(ros_bag, "_write_block", written)
+    assert cli.main(["offline", str(saved), "--urdf", "planar_2r"]) == 2
+    assert "row 502 has 1 cells; the header has 5." in error_line(capsys)
