@@ -12,7 +12,10 @@ What is read (README "Logs from ROS bags"):
 * the topic: ``topic``, else the bag's one topic of type ``sensor_msgs/msg/JointState``
   (several or none: an error listing them);
 * the time of message k: ``header.stamp`` [ns]; when every stamp is 0 (a publisher
-  that leaves the header empty), the bag's receive time, with a note;
+  that leaves the header empty), the bag's receive time, with a note (or when
+  asked: ``stamps="receive"``); messages recorded out of stamp order are put in
+  it, but :data:`CLOCK_STEP_RUN` late in a row are a clock set back, an error
+  (:class:`_Steps`);
 * the needed joints by name, in each message's own order (it may differ between
   messages); a message without one of them (another publisher on the topic, e.g. a
   gripper's) is skipped and counted in a note; none with all of them is an error
@@ -72,6 +75,9 @@ JOINT_STATE = "sensor_msgs/msg/JointState"
 
 #: The error without the optional dependency.
 MISSING = "reading a ROS bag needs the rosbags package: pip install 'drake_dynid[ros]'"
+
+#: The times a message can be read at (:func:`read_joint_states`' ``stamps``).
+STAMPS = ("header", "receive")
 
 #: File name endings of a bag: ROS 1, and a ROS 2 bag's storage files.
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
@@ -210,6 +216,7 @@ def read_joint_states(
     *,
     topic: str | None = None,
     optional: Sequence[str] = (),
+    stamps: str = "header",
 ) -> JointStates:
     """Reads a bag's JointState messages into arrays (module docstring).
 
@@ -224,14 +231,18 @@ def read_joint_states(
         optional: joints whose positions are read where a kept message holds
             them (``JointStates.optional``; the locked and mimic joints, whose
             motion ``commands._arguments.locked_motion`` checks).
+        stamps: ``"header"``, the time of a message is its header.stamp (the
+            receive time when every one is 0); ``"receive"``: the bag's receive
+            time (a header clock set back, :class:`_Steps`).
 
     Raises:
         ValueError: rosbags missing, a bag that cannot be read (named), no or
-            several JointState topics, no message with every needed joint.
+            several JointState topics, no message with every needed joint, a
+            clock set back (:class:`_Steps`; when and by how much).
         FileNotFoundError: no such file.
     """
     sink = _Collect()
-    done, _ = _scan(path, joints, topic, optional, sink)
+    done, _ = _scan(path, joints, topic, optional, sink, stamps=stamps)
     blocks = sink.blocks
     n, m = len(done.joint_names), len(sink.held)
 
@@ -241,12 +252,12 @@ def read_joint_states(
             return np.empty((0, width) if width >= 0 else 0, dtype=dtype)
         return np.concatenate(parts)
 
-    stamps = joined("received" if sink.plan.received else "stamps", -1, np.int64)
+    times = joined("received" if sink.plan.received else "stamps", -1, np.int64)
     held = joined("held", m)
     return JointStates(
         done.path,
         done.topic,
-        stamps,
+        times,
         done.joint_names,
         joined("position", n),
         joined("effort", n) if done.efforts else None,
@@ -301,6 +312,7 @@ def export_bag(
     time_unit: str | None = None,
     held_out: str | os.PathLike | None = None,
     held_column: str = "q_{joint}",
+    stamps: str = "header",
 ) -> BagExport:
     """Streams a bag's JointState messages into a CSV log at ``out``.
 
@@ -344,6 +356,7 @@ def export_bag(
             held joints, then the joints read; :func:`time_scale`'s plain
             format), when a kept message holds one.
         held_column: their column names (``{joint}``).
+        stamps: the messages' time (:func:`read_joint_states`).
 
     Raises:
         ValueError, FileNotFoundError: as :func:`read_joint_states`.
@@ -362,13 +375,15 @@ def export_bag(
                 # in, refused before a row is written (_Export's dry run).
                 dry = _Export(None, columns, time, time_unit, None, held_column)
                 try:
-                    plan = _scan(path, joints, topic, optional, dry)[1]
+                    plan = _scan(path, joints, topic, optional, dry, stamps=stamps)[1]
                 finally:
                     dry.close()
                 if dry.late.count:
                     raise ValueError(_unmerged(sink.label, dry.late))
             try:
-                done = _scan(path, joints, topic, optional, sink, plan)[0]
+                done = _scan(path, joints, topic, optional, sink, plan, stamps=stamps)[
+                    0
+                ]
             except Exception as error:
                 if sink.started and not rewinds:
                     # Rows written that cannot be taken back: a last line that
@@ -464,6 +479,8 @@ class _Tally:
     low_stamp: bool = False  # a header stamp < 1e17
     low_received: bool = False  # a receive time < 1e17
     present: set[str] = field(default_factory=set)
+    steps: _Steps = field(default_factory=lambda: _Steps())
+    receive: bool = False  # the receive times asked for (stamps "receive")
 
     def add(self, block: _Block, held: tuple[str, ...]) -> None:
         """Counts a block of kept messages."""
@@ -485,7 +502,7 @@ class _Tally:
         optional: tuple[str, ...],
     ) -> _Plan:
         """The plan these counts imply, for the joints ``wanted``."""
-        received = not self.stamped
+        received = self.receive or not self.stamped
         low = self.low_received if received else self.low_stamp
         return _Plan(
             wanted,
@@ -495,6 +512,119 @@ class _Tally:
             self.kept > self.empty_effort,
             tuple(name for name in optional if name in self.present),
         )
+
+
+#: Kept messages in a row, in the bag's order, each older than the newest one
+#: recorded before them, that are named a clock set back (:class:`_Steps`). A
+#: transport's reordering delays a message past a few newer ones: it is late
+#: alone (those after it are newer than the newest before it), and a message
+#: recorded twice by two paths alternates with newer ones. A clock set back by
+#: d makes every message late until its stamps pass the newest: d / h in a
+#: row (ntpd steps a clock off by more than 0.128 s and slews a smaller
+#: offset: 12 messages at 100 Hz, 128 at 1 kHz).
+CLOCK_STEP_RUN = 10
+
+
+class _Steps:
+    """A clock set back: a run of :data:`CLOCK_STEP_RUN` late messages or more.
+
+    Fed each block's times in the bag's order (the header stamps, or the
+    receive times when those are read); a message is late when older than
+    the newest recorded before it. ``step``: the first such run's first
+    message ``(index among the kept messages, its time, its receive time,
+    the newest time before it)`` [ns], ``length``: its messages, or None.
+    Put in stamp order, the messages after such a step interleave with
+    those before it: two stretches of a recording on one time line, which
+    the readers then refuse for another cause (the samples would be
+    interpolated, or duplicated time stamps).
+    """
+
+    def __init__(self) -> None:
+        self.newest: int | None = None  # the newest time recorded
+        self.seen = 0  # messages fed
+        self.first_received: int | None = None
+        self.run = 0  # late messages in a row at the end of what was fed
+        self.start: tuple[int, int, int, int] | None = None  # that run's first
+        self.step: tuple[int, int, int, int] | None = None
+        self.length = 0  # the step's run's messages (so far)
+        self.open = False  # the step's run goes on at the end of what was fed
+
+    def add(self, times: np.ndarray, block: _Block) -> None:
+        """Feeds a block's times [ns] (``block``: its receive times)."""
+        n = times.size
+        if not n:
+            return
+        if self.first_received is None:
+            self.first_received = int(block.received[0])
+        floor = np.iinfo(np.int64).min if self.newest is None else self.newest
+        before = np.maximum.accumulate(np.concatenate([[floor], times]))[:-1]
+        late = times < before
+        index = np.arange(n)
+        fresh = np.maximum.accumulate(np.where(late, -1, index))
+        # The run of late messages ending at each message (0: not late).
+        length = np.where(fresh >= 0, index - fresh, index + 1 + self.run)
+        if self.open:  # the step's run going on from the block before
+            stop = np.flatnonzero(~late)
+            self.length += int(stop[0]) if stop.size else n
+            self.open = not stop.size
+        if self.step is None:
+            hits = np.flatnonzero(length >= CLOCK_STEP_RUN)
+            if hits.size:
+                k = int(hits[0])
+                first = k - int(length[k]) + 1
+                if first >= 0:
+                    self.step = self._first(first, times, block, before)
+                else:
+                    self.step = self.start
+                stop = np.flatnonzero(~late[k:])
+                self.length = int(length[k + stop[0] - 1 if stop.size else n - 1])
+                self.open = not stop.size
+        if late[-1]:
+            first = n - int(length[-1])
+            if first >= 0:
+                self.start = self._first(first, times, block, before)
+        else:
+            self.start = None
+        self.run = int(length[-1])
+        self.newest = int(max(before[-1], times[-1]))
+        self.seen += n
+
+    def _first(
+        self, k: int, times: np.ndarray, block: _Block, before: np.ndarray
+    ) -> tuple[int, int, int, int]:
+        return self.seen + k, int(times[k]), int(block.received[k]), int(before[k])
+
+
+def _seconds(ns: int) -> str:
+    """``ns`` nanoseconds as seconds, every digit (an epoch time's too)."""
+    sign = "-" if ns < 0 else ""
+    whole, part = divmod(abs(ns), 10**9)
+    return f"{sign}{whole}.{part:09d}".rstrip("0").rstrip(".")
+
+
+def _clock_step(path: str, topic: str, steps: _Steps, plan: _Plan) -> str:
+    """The error of a clock set back (:class:`_Steps`), what to do."""
+    assert steps.step is not None and steps.first_received is not None
+    k, time, received, newest = steps.step
+    clock = "the bag's receive times" if plan.received else "header.stamp"
+    into = _seconds(received - steps.first_received)
+    advice = "Cut the bag at that bag time and read one side."
+    if not plan.received:
+        advice = (
+            "Export the bag with its receive times, 'dynid bag2csv BAG --out "
+            "LOG.csv --stamps receive' (with the command's --drive, --urdf, "
+            "--joints and --lock when it has them), and give LOG.csv; or cut the "
+            "bag at that bag time and read one side."
+        )
+    return (
+        f"ROS bag {path}: {clock} on {topic} steps back {_seconds(newest - time)} s "
+        f"at message {k + 1} (bag time {_seconds(received)} s, {into} s after the "
+        f"first message): from {_seconds(newest)} s to {_seconds(time)} s, "
+        f"{steps.length} message(s) in a row older than one recorded before them, "
+        "a clock set back (a robot's clock re-synchronised, e.g. by NTP), not a "
+        "transport's reordering; put in stamp order they would interleave the "
+        f"recording before and after the step. {advice}"
+    )
 
 
 class _Collect:
@@ -845,12 +975,16 @@ def _scan(
     optional: Sequence[str],
     sink: Any,
     plan: _Plan | None = None,
+    *,
+    stamps: str = "header",
 ) -> tuple[BagExport, _Plan]:
     """Passes over the bag until the plan holds (:func:`export_bag`).
 
-    ``sink`` None: read only. Returns what the final pass wrote, and the bag's
-    plan.
+    ``sink`` None: read only; ``stamps``: :func:`read_joint_states`'. Returns
+    what the final pass wrote, and the bag's plan.
     """
+    if stamps not in STAMPS:
+        raise ValueError(f"stamps {stamps!r}: one of {listed(STAMPS)}.")
     path = os.fspath(path)
     storage = _storage(path)
     highlevel = _rosbags()
@@ -865,7 +999,13 @@ def _scan(
             while True:
                 passes += 1
                 tally, used, chosen = _pass(
-                    reader, connections, given, tuple(optional), plan, sink
+                    reader,
+                    connections,
+                    given,
+                    tuple(optional),
+                    plan,
+                    sink,
+                    receive=stamps == "receive",
                 )
                 final = _final_plan(path, topic, tally, given, tuple(optional))
                 if not tally.kept and chosen == (final.wanted, final.exact):
@@ -891,6 +1031,8 @@ def _scan(
                         f"needed ({needed}); its messages name: {held}."
                     )
                 if used == final:
+                    if tally.steps.step is not None:
+                        raise ValueError(_clock_step(path, topic, tally.steps, final))
                     break
                 if passes >= 4:  # cannot happen: the plan is the bag's by then
                     raise RuntimeError(f"no consistent plan after {passes} passes")
@@ -935,14 +1077,17 @@ def _pass(
     optional: tuple[str, ...],
     plan: _Plan | None,
     sink: Any,
+    *,
+    receive: bool = False,
 ) -> tuple[_Tally, _Plan | None, tuple[Any, Any]]:
     """One pass over the topic's messages, a block at a time into ``sink``.
 
     ``plan`` None: judged from the first block (the joints, when not
     ``given``, from the first message). Returns the counts, the plan used
     (None: no message kept) and the joints kept ``(wanted, exact)``.
+    ``receive``: the receive times, whatever the header stamps.
     """
-    tally = _Tally()
+    tally = _Tally(receive=receive)
     wanted, exact = (plan.wanted, plan.exact) if plan else (given, None)
     held: tuple[str, ...] = ()
     if wanted is not None:
@@ -963,6 +1108,7 @@ def _pass(
         tally.add(block, held)
         if plan is None:
             plan = tally.plan(wanted, exact, optional)
+        tally.steps.add(block.received if plan.received else block.stamps, block)
         if sink is not None:
             if tally.kept == block.stamps.size:
                 sink.begin(plan, held)
@@ -1135,7 +1281,7 @@ def _notes(topic: str, tally: _Tally, plan: _Plan) -> tuple[str, ...]:
             f"skipped {tally.malformed} message(s) on {topic} whose position[] or "
             "effort[] does not have one value per name[]."
         )
-    if plan.received:
+    if plan.received and not tally.receive:
         notes.append(
             f"every header.stamp on {topic} is 0: the bag's receive times are used."
         )

@@ -1237,3 +1237,116 @@ def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
     monkeypatch.setattr(ros_bag, "_write_block", written)
     assert cli.main(["offline", str(saved), "--urdf", "planar_2r"]) == 2
     assert "row 502 has 1 cells; the header has 5." in error_line(capsys)
+
+
+def stepped_back(messages, at, step):
+    """``messages`` whose header clock is set back by ``step`` ns from ``at`` on
+    (the receive times unchanged)."""
+    return [
+        (w, s - step if k >= at else s, *rest)
+        for k, (w, s, *rest) in enumerate(messages)
+    ]
+
+
+def test_a_header_clock_set_back_is_named_with_when_and_how_much(arm, tmp_path, capsys):
+    """Found by a review: a robot's clock set back (re-synchronised by NTP) 5 s
+    into a recording made every later message older than the ones before it;
+    they were put in stamp order, interleaving two stretches of the recording,
+    and the reader refused the log for another cause: '1999 of 10000 samples
+    (20 %) would be interpolated'. The messages late in a row (4001, to the
+    end) are now named a clock set back: where (message, bag time), from and
+    to which stamp, and what to do; 'bag2csv --stamps receive' exports the
+    receive times, which the commands read (8001 rows, the clean 1 kHz grid)."""
+    stamps = arm[1]
+    messages = stepped_back(arm_messages(arm), 4000, 5 * 10**9 + 500_000)
+    bag = tmp_path / "step.bag"
+    write_bag(bag, "ros1", messages)
+    assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+    line = error_line(capsys)
+    assert line == (
+        f"dynid offline: error: ROS bag {bag}: header.stamp on /joint_states steps "
+        "back 4.9995 s at message 4001 (bag time 1700000004.00035 s, 4 s after "
+        "the first message): from 1700000003.999 s to 1699999998.9995 s, 4001 "
+        "message(s) in a row older than one recorded before them, a clock set "
+        "back (a robot's clock re-synchronised, e.g. by NTP), not a transport's "
+        "reordering; put in stamp order they would interleave the recording "
+        "before and after the step. Export the bag with its receive times, "
+        "'dynid bag2csv BAG --out LOG.csv --stamps receive' (with the command's "
+        "--drive, --urdf, --joints and --lock when it has them), and give "
+        "LOG.csv; or cut the bag at that bag time and read one side."
+    )
+    with pytest.raises(ValueError, match=r"steps back 4\.9995 s at message 4001"):
+        read_joint_states(bag)
+    out = tmp_path / "received.csv"
+    argv = ["bag2csv", str(bag), "--out", str(out), "--stamps", "receive"]
+    assert cli.main([*argv, "--quiet"]) == 0
+    assert "header.stamp" not in capsys.readouterr().err
+    rows = out.read_text().splitlines()
+    assert len(rows) == 8002 and rows[1].startswith(f"{stamps[0] + 350_000},")
+    assert cli.main(["offline", str(out), "--urdf", "planar_2r", "--quiet"]) == 0
+
+
+def test_a_clock_set_back_is_refused_on_standard_output_before_a_row(
+    arm, tmp_path, capsys
+):
+    """A clock set back 0.2005 s, which the stamps pass again 200 messages
+    later: named with those 200 messages, on standard output before a row is
+    written (the pass that reads the bag first), and by read_joint_states."""
+    messages = stepped_back(arm_messages(arm, slice(0, 3000)), 2000, 200_500_000)
+    bag = tmp_path / "step"
+    write_bag(bag, "mcap", messages)
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert (
+        "steps back 0.1995 s at message 2001 (bag time 1700000002.00035 s, 2 s "
+        "after the first message): from 1700000001.999 s to 1700000001.7995 s, "
+        "200 message(s) in a row" in captured.err
+    ), captured.err
+
+
+@pytest.mark.parametrize("run", [9, 10])
+def test_late_messages_in_a_row_are_a_clock_step_from_ten(arm, tmp_path, capsys, run):
+    """A transport's reordering makes a message late alone; CLOCK_STEP_RUN (10)
+    in a row are a clock set back: 9 messages received 500 messages late, in a
+    row, are placed (the export of the bag in order), 10 are refused."""
+    ordered = arm_messages(arm, slice(0, 2000))
+    messages = list(ordered)
+    moved = messages[1000 : 1000 + run]
+    del messages[1000 : 1000 + run]
+    at = messages.index(ordered[1500]) + 1
+    received = messages[at - 1][2]
+    messages[at:at] = [(0, m[1], received + 1 + j, *m[3:]) for j, m in enumerate(moved)]
+    exports = []
+    for name, source in (("late", messages), ("ordered", ordered)):
+        bag = tmp_path / f"{name}.bag"
+        write_bag(bag, "ros1", source)
+        out = tmp_path / f"{name}.csv"
+        code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
+        if run >= 10 and name == "late":
+            assert code == 2
+            line = error_line(capsys)
+            assert "steps back 0.5 s at message 1492 (bag time" in line, line
+            assert f"{run} message(s) in a row" in line, line
+            return
+        assert code == 0
+        exports.append(out.read_bytes())
+    assert exports[0] == exports[1]
+
+
+def test_a_clock_step_is_found_across_blocks():
+    """The run of late messages is counted across the blocks fed (any split:
+    the same step and length)."""
+    from drake_dynid import ros_bag
+
+    times = np.concatenate([np.arange(100), np.arange(50, 200)]) * 1000
+    received = np.arange(times.size) + 7
+    found = set()
+    for size in (1, 3, 9, 10, 11, 64, 250):
+        steps = ros_bag._Steps()
+        for start in range(0, times.size, size):
+            part = slice(start, start + size)
+            block = ros_bag._Block(times[part], received[part], *[None] * 3, 0)
+            steps.add(times[part], block)
+        found.add((steps.step, steps.length))
+    assert found == {((100, 50_000, 107, 99_000), 49)}  # 50 to 98: older than 99

@@ -20,9 +20,10 @@ DESCRIPTION = (
     "Writes the sensor_msgs/JointState messages of a ROS bag (a ROS 1 .bag; a ROS 2 "
     "bag folder, or its .db3/.mcap file) as a log in the plain CSV format: t (the "
     "header stamps: integer nanoseconds since the epoch; the receive times when "
-    "every stamp is 0), q_<joint> (position[]) and tau_<joint> (effort[], when the "
-    "messages have efforts), one row per message, row 2 the first. It is the file "
-    "the other commands read when given the bag (their messages name its rows); "
+    "every stamp is 0, or with --stamps receive), q_<joint> (position[]) and "
+    "tau_<joint> (effort[], when the messages have efforts), one row per message, "
+    "row 2 the first. It is the file the other commands read when given the bag "
+    "(their messages name its rows); "
     "with a drive file they read the drive file's [log] columns instead, in its "
     "time unit: give --drive with the command's --urdf (and --joints, --lock) to "
     "write those, the file the command then reads as it reads the bag. Messages "
@@ -73,6 +74,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE,...",
         help="with --drive: the command's --lock (locked joints' positions)",
     )
+    parser.add_argument(
+        "--stamps",
+        choices=("header", "receive"),
+        default="header",
+        help="the time t of a message: its header.stamp (default; the receive "
+        "time when every stamp is 0), or the bag's receive time (for a bag "
+        "whose header clock was set back, e.g. re-synchronised by NTP)",
+    )
     parser.add_argument("--quiet", action="store_true", help="print nothing on stdout")
 
 
@@ -113,7 +122,14 @@ def run(args: argparse.Namespace) -> int:
             return [*layout.positions, *layout.torques * efforts]
 
     done = export_bag(
-        args.bag, args.out, joints, columns, topic=args.topic, time=time, time_unit=unit
+        args.bag,
+        args.out,
+        joints,
+        columns,
+        topic=args.topic,
+        time=time,
+        time_unit=unit,
+        stamps=args.stamps,
     )
     names = done.joint_names
     for note in done.notes:
