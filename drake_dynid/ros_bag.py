@@ -30,8 +30,9 @@ What is read (README "Logs from ROS bags"):
 The messages then become the rows of a CSV log (:func:`export_bag`, which streams
 them into it a block at a time in bounded memory; ``dynid bag2csv`` writes that
 file; :func:`read_joint_states` with :func:`write_export` write the same bytes from
-arrays of every message): one row per message kept, in the bag's order, row 2 the
-first one. The commands read that export with the
+arrays of every message): one row per message kept, in stamp order (the bag's
+order for a recording in order; a message recorded twice, the same stamp and
+values, once), row 2 the first one. The commands read that export with the
 CSV readers (``drake_dynid.logs``, ``drake_dynid.raw_log``), so a bag's time stamps,
 gaps and NaN cells are repaired exactly as a CSV log's, and its messages name the
 export's rows. Column names (:func:`column_field`): ``t``, ``q_<joint>``,
@@ -124,7 +125,7 @@ class JointStates:
         path: the bag as given.
         topic: the topic read.
         stamps: (N,) int64 time of each message [ns] (header.stamp, or the receive
-            time when every header stamp is 0).
+            time when every header stamp is 0), nondecreasing (stamp order).
         joint_names: the n joints read.
         position: (N, n) position[] of those joints [rad or m].
         effort: (N, n) effort[] (NaN where a message's effort[] is empty), or None
@@ -221,7 +222,10 @@ def read_joint_states(
     """Reads a bag's JointState messages into arrays (module docstring).
 
     The commands stream the messages into their CSV export instead
-    (:func:`export_bag`, same rows); this holds them all.
+    (:func:`export_bag`, same rows); this holds them all, and puts them in
+    stamp order as the export does (a stable sort), a message repeating the
+    one before it (the same stamp, positions and efforts) dropped, with the
+    export's notes (without its merge's count: nothing is merged here).
 
     Args:
         path: a ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
@@ -253,15 +257,30 @@ def read_joint_states(
         return np.concatenate(parts)
 
     times = joined("received" if sink.plan.received else "stamps", -1, np.int64)
-    held = joined("held", m)
+    position, effort, held = (
+        joined("position", n),
+        joined("effort", n),
+        joined("held", m),
+    )
+    # The export's order (export_bag): by stamp (stable), a message repeating
+    # the one before it (the same stamp and values) dropped.
+    late = np.zeros(times.size, dtype=bool)  # recorded after a later-stamped one
+    late[1:] = times[1:] < np.maximum.accumulate(times)[:-1]
+    order = np.argsort(times, kind="stable")
+    times, position, effort, held = (a[order] for a in (times, position, effort, held))
+    repeated = (times[1:] == times[:-1]) & _same_rows(position) & _same_rows(effort)
+    kept = np.concatenate([[True], ~repeated])
+    reordered = int(np.count_nonzero(late[order[kept]]))
+    times, position, effort, held = (a[kept] for a in (times, position, effort, held))
+    notes = _order_notes(done.topic, reordered, int(np.count_nonzero(repeated)))
     return JointStates(
         done.path,
         done.topic,
         times,
         done.joint_names,
-        joined("position", n),
-        joined("effort", n) if done.efforts else None,
-        done.notes,
+        position,
+        effort if done.efforts else None,
+        (*done.notes, *notes),
         {
             name: held[:, j].copy()
             for j, name in enumerate(sink.held)
@@ -317,10 +336,9 @@ def export_bag(
     """Streams a bag's JointState messages into a CSV log at ``out``.
 
     The rows of :func:`write_export` on :func:`read_joint_states`'s arrays, bit
-    for bit (for a bag in header-stamp order without repeats: the export puts
-    the messages in stamp order, :data:`REORDER_ROWS` held back, later ones
-    merged in at the end, :class:`_Late`, and drops a message repeated; those
-    arrays keep the bag's order), in bounded memory: the messages are decoded
+    for bit (both in stamp order, a message repeating the one before dropped;
+    the export holds back :data:`REORDER_ROWS` messages for that, later ones
+    merged in at the end, :class:`_Late`), in bounded memory: the messages are decoded
     and written :data:`EXPORT_ROWS` at a time, nothing else grows with the bag
     (a ROS 1 bag is read a chunk at a time, :class:`_Ros1Chunks`; where rosbags'
     reader reads it, its index of every message, about 350 bytes each). A
@@ -393,25 +411,14 @@ def export_bag(
                         said = " ".join(str(error).replace(",", ";").split())
                         sink.stream.write(f"{_INCOMPLETE}{said}\n")
                 raise
-            notes = []
-            if sink.reordered:
-                merged = ""
-                if sink.late.count:
-                    merged = (
-                        f" ({sink.late.count} of them more than {REORDER_ROWS} "
-                        f"messages late, up to {sink.late.lateness * 1e-9:.6g} s: "
-                        "placed by a merge of the export at its end)"
-                    )
-                notes.append(
-                    f"{sink.reordered} message(s) on {done.topic} were recorded "
-                    "after one with a later header.stamp: written in stamp order"
-                    f"{merged}."
+            merged = ""
+            if sink.late.count:
+                merged = (
+                    f" ({sink.late.count} of them more than {REORDER_ROWS} "
+                    f"messages late, up to {sink.late.lateness * 1e-9:.6g} s: "
+                    "placed by a merge of the export at its end)"
                 )
-            if sink.repeated:
-                notes.append(
-                    f"dropped {sink.repeated} message(s) on {done.topic} repeating "
-                    "the one before (the same header.stamp and values)."
-                )
+            notes = _order_notes(done.topic, sink.reordered, sink.repeated, merged)
             if notes:
                 done = dataclasses.replace(
                     done,
@@ -424,6 +431,24 @@ def export_bag(
 
     write_whole(out, write)
     return holder[0]
+
+
+def _order_notes(
+    topic: str, reordered: int, repeated: int, merged: str = ""
+) -> list[str]:
+    """The notes of messages put in stamp order and of repeats dropped."""
+    notes = []
+    if reordered:
+        notes.append(
+            f"{reordered} message(s) on {topic} were recorded after one with a "
+            f"later header.stamp: written in stamp order{merged}."
+        )
+    if repeated:
+        notes.append(
+            f"dropped {repeated} message(s) on {topic} repeating the one before "
+            "(the same header.stamp and values)."
+        )
+    return notes
 
 
 def _readable(stream: Any) -> bool:

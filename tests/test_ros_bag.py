@@ -1303,6 +1303,8 @@ def test_a_clock_set_back_is_refused_on_standard_output_before_a_row(
         "after the first message): from 1700000001.999 s to 1700000001.7995 s, "
         "200 message(s) in a row" in captured.err
     ), captured.err
+    with pytest.raises(ValueError, match=r"steps back 0\.1995 s at message 2001"):
+        read_joint_states(bag)
 
 
 @pytest.mark.parametrize("run", [9, 10])
@@ -1350,3 +1352,51 @@ def test_a_clock_step_is_found_across_blocks():
             steps.add(times[part], block)
         found.add((steps.step, steps.length))
     assert found == {((100, 50_000, 107, 99_000), 49)}  # 50 to 98: older than 99
+
+
+def test_read_joint_states_is_the_export_in_stamp_order_without_repeats(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: read_joint_states (the in-memory API) kept the bag's
+    order and its repeats, while the export puts the messages in stamp order
+    and drops a message repeating the one before: the two disagreed on any
+    bag out of order (write_export of its arrays gave rows going back in
+    time, twice the repeated ones). Now the arrays are the export's rows, byte
+    for byte, with the same notes: 12 pairs swapped, a message 1000 late, 2
+    messages recorded twice."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    messages = arm_messages(arm, slice(0, 2000))
+    for k in range(100, 1300, 100):  # received in order, stamps swapped
+        early, late = messages[k], messages[k + 1]
+        messages[k] = (0, late[1], early[2], *late[3:])
+        messages[k + 1] = (0, early[1], late[2], *early[3:])
+    late = messages.pop(1450)  # received 400 messages late
+    messages.insert(1850, (0, late[1], messages[1849][2] + 1, *late[3:]))
+    for k in (500, 1600):
+        messages.insert(k + 1, messages[k])
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / "export.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    states = read_joint_states(bag)
+    names = states.joint_names
+    columns = [*(f"q_{j}" for j in names), *(f"tau_{j}" for j in names)]
+    again = tmp_path / "again.csv"
+    ros_bag.write_export(again, states, columns)
+    assert again.read_bytes() == out.read_bytes()
+    assert states.stamps.size == 2000 and np.all(np.diff(states.stamps) > 0)
+    assert states.notes == (
+        "13 message(s) on /joint_states were recorded after one with a later "
+        "header.stamp: written in stamp order.",
+        "dropped 2 message(s) on /joint_states repeating the one before (the same "
+        "header.stamp and values).",
+    )
+    assert (
+        "13 message(s) on /joint_states were recorded after one with a later "
+        "header.stamp: written in stamp order (1 of them more than 100" in err
+    ), err
+    assert "dropped 2 message(s) on /joint_states repeating" in err, err
