@@ -399,9 +399,9 @@ def export_bag(
                 if dry.late.count:
                     raise ValueError(_unmerged(sink.label, dry.late))
             try:
-                done = _scan(path, joints, topic, optional, sink, plan, stamps=stamps)[
-                    0
-                ]
+                done, _ = _scan(
+                    path, joints, topic, optional, sink, plan, stamps=stamps
+                )
             except Exception as error:
                 if sink.started and not rewinds:
                     # Rows written that cannot be taken back: a last line that
@@ -557,7 +557,8 @@ class _Steps:
     receive times when those are read); a message is late when older than
     the newest recorded before it. ``step``: the first such run's first
     message ``(index among the kept messages, its time, its receive time,
-    the newest time before it)`` [ns], ``length``: its messages, or None.
+    the newest time before it)`` [ns], or None; ``length``: the messages of
+    that run.
     Put in stamp order, the messages after such a step interleave with
     those before it: two stretches of a recording on one time line, which
     the readers then refuse for another cause (the samples would be
