@@ -86,6 +86,7 @@ from drake_dynid.core.idim_auto import (
     auto_cutoff_rule,
     auto_decimation,
     auto_decimation_cutoff,
+    check_cutoff_run,
     decimated_noise_factor,
     decimation_cutoff,
     measured_velocity_band,
@@ -264,12 +265,9 @@ def offline_rows(
     longest = max(segments, key=lambda s: s[1] - s[0])
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
-        if longest[1] - longest[0] < 16:
-            check.fail(
-                owner,
-                f"the longest finite segment has {longest[1] - longest[0]} samples; "
-                "at least 16 are needed to choose the cutoff.",
-            )
+        check_cutoff_run(
+            owner, longest[1] - longest[0], "the longest finite segment has"
+        )
         cutoff_hz = log.on_longest_run(auto_cutoff_rule(filter_order, auto_cutoff))
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     decimation_rule = "given" if decimation is not None else "auto"

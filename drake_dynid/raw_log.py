@@ -206,9 +206,12 @@ def _denser_note(path: str, stamps: Any, base: str, t: Any, positions: set[str])
     ``positions``: the position columns read from that file (none: ""). They
     then hold nothing above the file's own Nyquist frequency, and the
     interpolation's images, not its noise, fill the log's band above fs/4, where
-    the automatic off-line cutoff reads the noise floor
-    (``core.idim_auto.auto_cutoff``): 100 Hz positions with noise interpolated
-    onto 1 kHz stamps gave 40 Hz (the cap) instead of 1.67 Hz (a review).
+    the automatic off-line cutoff read the noise floor: 100 Hz positions with
+    noise interpolated onto 1 kHz stamps gave 40 Hz (the cap) instead of 1.67 Hz
+    (a review). It now recognizes linearly interpolated positions and reads
+    their noise below their own Nyquist frequency (1.69 Hz,
+    ``core.idim_auto.auto_cutoff``); the other measures of the log still see the
+    interpolation.
     """
     if not positions:
         return ""
@@ -218,9 +221,8 @@ def _denser_note(path: str, stamps: Any, base: str, t: Any, positions: set[str])
     return (
         f" Its samples ({1.0 / own:.4g} Hz) are {own / first:.3g}× sparser than "
         f"{base}'s ({1.0 / first:.4g} Hz): above {0.5 / own:.4g} Hz its positions "
-        "hold only the interpolation, and the automatic off-line position cutoff "
-        "(read from the noise above a quarter of the sampling rate) comes out too "
-        f"high: list {path} first, or give --cutoff."
+        "hold only the interpolation (the automatic off-line position cutoff reads "
+        f"their noise below it): list {path} first to keep them as measured."
     )
 
 

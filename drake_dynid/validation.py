@@ -71,7 +71,7 @@ from drake_dynid.core import idim_stream
 from drake_dynid.core.blocks import is_stored, segment
 from drake_dynid.core.friction import EXACT_SIGN, DeadZoneSign
 from drake_dynid.core.idim import default_padding, default_trim
-from drake_dynid.core.idim_auto import auto_cutoff, auto_cutoff_rule
+from drake_dynid.core.idim_auto import auto_cutoff, auto_cutoff_rule, check_cutoff_run
 from drake_dynid.core.idim_checks import check_filter_frequency
 from drake_dynid.core.idim_friction import FrictionLayout, friction_layout
 from drake_dynid.log_store import RowSink
@@ -365,11 +365,7 @@ def check_validation_length(log: Any, cutoff_hz: float | None = None) -> None:
         raise ValueError("the log has no finite sample (every row has a NaN).")
     start, stop = max(segments, key=lambda s: s[1] - s[0])
     if cutoff_hz is None:
-        if stop - start < 16:
-            raise ValueError(
-                f"the longest finite segment has {stop - start} samples; at least "
-                "16 are needed to choose the cutoff."
-            )
+        check_cutoff_run(None, stop - start, "the longest finite segment has")
         cutoff_hz = float(log.on_longest_run(auto_cutoff))
     if not 0.0 < cutoff_hz < 0.5 / log.time_step:
         return  # the validation names a cutoff beyond Nyquist itself
@@ -433,12 +429,7 @@ def _validate(
 
     cutoff_rule = "given" if cutoff_hz is not None else "auto"
     if cutoff_hz is None:
-        if q_longest.shape[0] < 16:
-            check.fail(
-                owner,
-                f"the longest finite segment has {q_longest.shape[0]} samples; at "
-                "least 16 are needed to choose the cutoff.",
-            )
+        check_cutoff_run(owner, q_longest.shape[0], "the longest finite segment has")
         cutoff_hz = log.on_longest_run(auto_cutoff_rule(filter_order, auto_cutoff))
     cutoff_hz = check.below_nyquist(owner, "cutoff_hz", cutoff_hz, h)
     band_rule = "given" if decimation_cutoff_hz is not None else "auto"

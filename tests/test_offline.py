@@ -310,6 +310,131 @@ def test_an_encoder_joint_moving_over_few_counts_does_not_move_the_cutoff(scale)
             assert auto_cutoff(both, H) <= 1.3 * reference
 
 
+def _design(fs, duration, noise_std, seed=3, t=None):
+    """``_band_limited``'s design at ``fs`` [Hz] for ``duration`` [s] (or at the
+    times ``t`` [s]): (q + noise, the noise-free acceleration)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(round(duration * fs)) / fs if t is None else t
+    q, acceleration = np.zeros((t.size, 2)), np.zeros((t.size, 2))
+    for j in range(2):
+        for k in range(1, 6):
+            phase, w = rng.uniform(0.0, 2 * np.pi), 0.4 * np.pi * k
+            line = rng.uniform(0.2, 1.0) / k**2 * np.sin(w * t + phase)
+            q[:, j] += line
+            acceleration[:, j] -= w**2 * line
+    noise = np.random.default_rng(7).normal(0.0, noise_std, q.shape)
+    return q + noise, acceleration
+
+
+def _best_cutoff(q, acceleration, h):
+    """The truth: the cutoff whose filtered acceleration (``offline_derivatives``,
+    order 4, default trim) is nearest the noise-free one (a 2 % grid)."""
+    from drake_dynid.core.idim import offline_derivatives
+
+    errors = []
+    for cutoff in np.geomspace(0.2, min(40.0, 0.2 / h), 220):
+        trim = default_trim(h, cutoff)
+        if q.shape[0] >= 2 * trim + 1:
+            *_, vdot = offline_derivatives(q, h, cutoff_hz=cutoff)
+            error = np.mean((vdot - acceleration[trim : q.shape[0] - trim]) ** 2)
+            errors.append((error, cutoff))
+    return min(errors)[1]
+
+
+def test_resampled_positions_keep_their_own_cutoff():
+    """Found by a review: 100 Hz positions interpolated linearly onto 1 kHz (a
+    multi-file join with the 1 kHz file first; a CSV resampled upstream) hold
+    only the interpolation's faded images of their noise above 50 Hz, where the
+    floor was read (above fs/4): 39.98 Hz instead of 1.67 Hz, the acceleration
+    error 5e2 times its least. The joint's own rate is now recognized (second
+    differences zero between knots every L samples; repeats for a hold) and its
+    noise, of shape sinc(f/f_e)^(2k), read below its own Nyquist frequency:
+    1.69 Hz (held: 1.71 Hz; the 100 Hz log itself 1.71 Hz, the truth 1.39 Hz).
+    The noise-limited cutoff (the bound on a given one) read it alike."""
+    from drake_dynid.core.idim_auto import (
+        noise_limited_cutoff,
+        resampled_joints,
+        resampled_note,
+    )
+
+    q, _ = _design(100.0, 20.0, 1e-2)
+    native = auto_cutoff(q, 0.01)
+    t = np.arange(q.shape[0]) * 0.01
+    for offset in (0.0, 3.7e-4):  # knots on the 1 kHz stamps, or between them
+        fine = np.arange(offset, t[-1], H)
+        linear = np.column_stack([np.interp(fine, t, q[:, j]) for j in range(2)])
+        assert auto_cutoff(linear, H) == pytest.approx(native, rel=0.05)
+        # The limit of a given cutoff likewise: 10.25 Hz (10.5 Hz at 100 Hz),
+        # not the Nyquist frequency's 500 Hz.
+        limit = noise_limited_cutoff(linear, H)
+        assert limit == pytest.approx(noise_limited_cutoff(q, 0.01), rel=0.1)
+    held = np.repeat(q, 10, axis=0)
+    assert auto_cutoff(held, H) == pytest.approx(native, rel=0.05)
+    truth = _best_cutoff(linear, _design(0.0, 0.0, 0.0, t=fine)[1], H)
+    assert truth <= auto_cutoff(linear, H) <= 1.5 * truth  # 1.69 Hz for 1.39 Hz
+    # 30 Hz onto 1 kHz: 33.3 samples a knot.
+    slow = np.arange(0.0, 20.0, 1 / 30)
+    q30 = _design(30.0, 20.0, 1e-3)[0][: slow.size]
+    fine = np.arange(0.0, slow[-1], H)
+    onto = np.column_stack([np.interp(fine, slow, q30[:, j]) for j in range(2)])
+    assert auto_cutoff(onto, H) == pytest.approx(auto_cutoff(q30, 1 / 30), rel=0.1)
+    # One joint resampled, one measured at 1 kHz: each its own.
+    both = np.column_stack([linear[:, 0], _design(1000.0, 19.99, 1e-2)[0][:, 1]])
+    found = resampled_joints(both, H)
+    assert [(j, kind) for j, _, kind in found] == [(0, 2)]
+    assert found[0][1] == pytest.approx(100.0, rel=1e-3)
+    note = resampled_note(found, ("arm", "torso"), H)
+    assert "arm (linearly interpolated from about 100 Hz) look" in note, note
+    assert "torso" not in note
+    assert resampled_joints(q, 0.01) == [] and resampled_note([], ("a",), H) == ""
+
+
+def test_a_short_run_gets_the_lowest_cutoff_it_can_take():
+    """Found by a review: a run shorter than one 4 s Welch segment is one
+    segment; its least-error cutoff (1.56 Hz on 1 s at 100 Hz) fell below the
+    lowest whose trimmed ends leave a sample (4.17 Hz), and the off-line
+    identification failed, while the truth is that lowest one (4.34 Hz on the
+    truth's 2 % grid); 16 samples (9 bins 6.25 Hz apart) gave 12.5 Hz, the
+    resolution's, not the log's. At least 64 samples are now needed."""
+    from drake_dynid.core.idim_auto import lowest_cutoff
+
+    q, acceleration = _design(100.0, 20.0, 1e-2)
+    for samples in (64, 100, 200):
+        cutoff = auto_cutoff(q[:samples], 0.01)
+        assert cutoff >= lowest_cutoff(samples, 0.01)
+        assert 2 * default_trim(0.01, cutoff) + 1 <= samples
+        truth = _best_cutoff(q[:samples], acceleration[:samples], 0.01)
+        assert cutoff == pytest.approx(truth, rel=0.05), (samples, truth)
+    assert lowest_cutoff(100, 0.01) == pytest.approx(2.0 / 0.48)
+    # Never above the 40 Hz cap (the identification then names the length).
+    assert auto_cutoff(_design(1000.0, 0.064, 1e-4)[0], H) == MAX_AUTO_CUTOFF_HZ
+    with pytest.raises(ValueError, match="q has 63 samples; at least 64 are needed"):
+        auto_cutoff(q[:63], 0.01)
+
+
+def test_a_slow_encoder_joint_does_not_raise_the_cutoff():
+    """Found by a review: a 12-bit joint (2π/4096 rad a count) on a sine of 6.5
+    counts at 0.1 Hz changes count 2.6 times a second; its rounding error is a
+    staircase whose harmonics fall like 1/f², far above the white Δ²/(6·fs) at
+    a few Hz, and stood as motion there: the joint alone gave 5.05 Hz (its
+    truth, the least acceleration error, 0.24 Hz) and raised the log's cutoff
+    from 3.13 Hz to 5.05 Hz (5.20 and 8.14 Hz on the other two). Its noise is
+    now at least the staircase's, Δ²·r/(24·max(f, r)²)."""
+    q, _ = _design(1000.0, 20.0, 1e-4)
+    reference = auto_cutoff(q, H)
+    t = np.arange(q.shape[0]) * H
+    count = 2 * np.pi / 4096
+    for amplitude, frequency in ((0.01, 0.1), (0.1, 0.01), (0.003, 0.5)):
+        w = 2 * np.pi * frequency
+        true = 0.3 + amplitude * np.sin(w * t)
+        joint = np.round(true / count) * count
+        assert auto_cutoff(np.column_stack([q, joint]), H) <= 1.05 * reference
+        truth = _best_cutoff(joint[:, None], -(w**2) * (true - 0.3)[:, None], H)
+        # 0.38, 0.5 and 1.04 Hz (truth 0.24, 0.23, 0.90 Hz; 0.25 Hz: the 4 s
+        # segments' resolution, whose leakage of a 0.1 Hz line reaches 0.75 Hz)
+        assert auto_cutoff(joint, H) <= 2.5 * max(truth, 0.25)
+
+
 def test_the_automatic_cutoff_is_chosen_for_the_filters_order(robot, noisy_log):
     """``auto_cutoff`` weighs the zero-phase Butterworth's droop, G = 1/(1 +
     (f/f_c)^(2N)): identify_offline and the validation chose it for N = 4 whatever
@@ -402,3 +527,33 @@ def test_a_dead_zone_keeps_the_sign_of_a_moving_joints_reversals(monkeypatch):
     np.testing.assert_allclose(
         identify_offline(log, zoned, cutoff_hz=28.25).theta, exact.theta, rtol=1e-8
     )  # the position filter's block margins: 1e-9
+
+
+def test_dynid_offline_notes_resampled_positions(tmp_path, capsys):
+    """The reviewer's case end to end: a 2R log whose positions (noise 1e-3 rad)
+    were sampled at 100 Hz and interpolated linearly onto its 1 kHz stamps.
+    ``dynid offline`` says which joints look resampled and from what rate; its
+    automatic cutoff is the 100 Hz positions' (2.10 Hz; it was 39.98 Hz)."""
+    import json
+
+    from _drake_dynamics import exact_paper_2r
+
+    from drake_dynid import cli
+    from drake_dynid.logs import write_log
+
+    robot = RobotModel.from_urdf(model_path("planar_2r"))
+    t, q, tau = exact_paper_2r(robot)
+    noisy = q[::10] + np.random.default_rng(2).normal(0.0, 1e-3, q[::10].shape)
+    native = auto_cutoff(noisy, 10 * (t[1] - t[0]))
+    linear = np.column_stack([np.interp(t, t[::10], noisy[:, j]) for j in range(2)])
+    for name, positions, said in (("resampled", linear, True), ("raw", q, False)):
+        path, out = tmp_path / f"{name}.csv", tmp_path / f"{name}.json"
+        write_log(path, t, positions, tau, robot.joint_names)
+        argv = ["offline", str(path), "--urdf", "planar_2r", "--quiet"]
+        assert cli.main([*argv, "--json", str(out)]) == 0
+        err = capsys.readouterr().err
+        assert ("look resampled" in err) is said, err
+        cutoff = json.loads(out.read_text())["settings"]["cutoff_hz"]
+        if said:
+            assert "joint1 (linearly interpolated from about 100 Hz)" in err, err
+            assert "joint2 (linearly" in err and cutoff == pytest.approx(native, 0.1)

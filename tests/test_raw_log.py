@@ -808,15 +808,17 @@ def test_positions_interpolated_onto_denser_stamps_are_named(tmp_path, plain_cha
     """Found by a review: 100 Hz positions joined onto a 1 kHz effort file (the
     efforts listed first) are interpolated onto the 1 kHz stamps; above 50 Hz
     they hold only the interpolation, whose images, not the noise, fill the band
-    above fs/4 where the automatic off-line cutoff reads its noise floor (40 Hz,
+    above fs/4 where the automatic off-line cutoff read its noise floor (40 Hz,
     the cap, instead of 1.67 Hz). The join's note now says so and what to do;
-    the usual order (positions first, sparser efforts) has no such clause."""
+    the usual order (positions first, sparser efforts) has no such clause. (The
+    cutoff now reads such positions' noise below their own Nyquist frequency:
+    tests/test_offline.py.)"""
     fast = 0.001 * np.arange(4000)
     slow = 0.01 * np.arange(400) + 0.0003
     positions, efforts = _rate_files(tmp_path, slow, fast)  # q at 100 Hz
     log = read_raw_log([efforts, positions], plain_chain)
     (said,) = [w for w in log.warnings if "column(s) interpolated linearly" in w]
     assert "Its samples (100 Hz) are 10× sparser than" in said, said
-    assert f"list {positions} first, or give --cutoff." in said, said
+    assert f"list {positions} first to keep them as measured." in said, said
     usual = read_raw_log(_rate_files(tmp_path, fast, slow), plain_chain)
     assert not any("sparser" in w for w in usual.warnings), usual.warnings

@@ -164,6 +164,14 @@ def run(args: argparse.Namespace) -> int:
     shaky = _shaky_weights(robot, joint_rank, result)
     if shaky:
         print(f"dynid offline: note: {shaky}", file=sys.stderr)
+    if settings["cutoff_rule"] == "auto":
+        from drake_dynid.core.idim_auto import resampled_joints, resampled_note
+
+        resampled = resampled_note(
+            log.on_longest_run(resampled_joints), log.joint_names, log.time_step
+        )
+        if resampled:
+            print(f"dynid offline: note: {resampled}", file=sys.stderr)
     extra = finish_offline(args, robot, log, held, held_description, result)
     if args.json:
         document = {

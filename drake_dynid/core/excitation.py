@@ -15,7 +15,10 @@ Bandwidth estimate (noise-robust, no tuning):
    :func:`periodogram`, equal to ``scipy.signal.periodogram``);
 2. the white-noise floor N_j = median of S_j over the upper half of the spectrum
    (f > f_s/4, where a robot's motion carries no power at kHz sampling) divided by ln 2
-   (the median of an exponential variable is ln 2 times its mean);
+   (the median of an exponential variable is ln 2 times its mean); for a channel
+   resampled from a rate f_e below f_s (:func:`resampling`: held or linearly
+   interpolated), over (f_e/4, f_e/2] of S_j/K_j, times K_j(f) = sinc(f/f_e)^(2k)
+   (above f_e/2 lie only images of its noise);
 3. only the bins with S_j > ``threshold``·N_j are kept (false-alarm probability
    e^{-threshold} per bin for Gaussian noise), minus the floor;
 4. velocity power P_j(f) = (2πf)² (S_j - N_j) on those bins; the bandwidth of joint j is
@@ -50,7 +53,10 @@ __all__ = [
     "motion_and_noise",
     "periodogram",
     "position_noise_std",
+    "quantum",
     "record_pieces",
+    "resampling",
+    "resampling_kernel",
     "torque_noise_std",
     "velocity_rms",
     "velocity_spectrum",
@@ -119,26 +125,73 @@ def _record(
     return h, x
 
 
-def _periodogram(q: Any, time_step: float) -> tuple[np.ndarray, np.ndarray, Any]:
-    """``(f, S, x)``: the Hann periodogram of the detrended channels, (F, n)."""
+def _periodogram(
+    q: Any, time_step: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """``(f, S, x, h)``: the Hann periodogram of the detrended channels, (F, n).
+
+    Of each channel from its first sample: a constant one is then exactly 0 (its
+    detrending left a rounding residue of its value, σ ~ 1e-18 rad for 0.3 rad).
+    """
     h, x = _record(_OWNER, "q", q, time_step)
-    f, s = periodogram(x, 1.0 / h)
-    return f, s, x
+    f, s = periodogram(x - x[:1], 1.0 / h)
+    return f, s, x, h
 
 
-def _noise_floor(f: np.ndarray, s: np.ndarray, time_step: float) -> np.ndarray:
-    """N_j: median of S_j above f_s/4 over ln 2 (module docstring) [unit²/Hz]."""
-    return np.median(s[f > 0.25 / time_step], axis=0) / math.log(2.0)
+def _noise_floor(f: np.ndarray, s: np.ndarray, x: np.ndarray, h: float) -> np.ndarray:
+    """N_j(f), (F, n): each channel's white-noise density [unit²/Hz] (module docstring).
+
+    N_0,j·K_j(f), N_0,j the median of S_j/K_j over [f_e/4, f_e/2] over ln 2, at the
+    channel's own rate f_e = f_s/L_j: K_j = 1 and L_j = 1, or for a channel
+    resampled from a rate L_j times lower (:func:`resampling`: held or linearly
+    interpolated) its noise's shape K_j = sinc(f/f_e)^(2k); above f_e/2 lie only
+    images (100 Hz positions interpolated onto 1 kHz read 1.5 % of their noise's
+    σ above f_s/4), where the floor is infinite: no motion is seen there (the
+    images of the motion's lines near the kernel's zeros at multiples of f_e
+    stood 20 times above its floor, and the velocity band of such positions
+    came out at 252-454 Hz instead of 0.95 Hz).
+    """
+    fs = 1.0 / h
+    floor = np.zeros_like(s)
+    for j in range(s.shape[1]):
+        ratio, order = resampling(x[:, j])
+        kernel = resampling_kernel(f, fs, ratio, order)
+        band = (f > 0.25 * fs / ratio) & (f <= 0.5 * fs / ratio)
+        white = float(np.median(s[band, j] / kernel[band])) if band.any() else 0.0
+        floor[:, j] = white / math.log(2.0) * kernel
+        floor[f > 0.5 * fs / ratio, j] = math.inf  # images: no motion is seen there
+    return floor
+
+
+def _noise_std(f: np.ndarray, floor: np.ndarray, x: np.ndarray, h: float) -> np.ndarray:
+    """σ_j = √(N_0,j·f_e/2) [unit], at least Δ_j/√12 for a quantized channel.
+
+    N_0,j = N_j(0) (:func:`_noise_floor`), f_e the channel's own rate. A channel
+    quantized by Δ_j (every change a whole number of the smallest: encoder
+    counts) carries its rounding error, uniform of variance Δ²/12, whatever its
+    spectrum: a slow or periodic staircase puts it on few lines at low
+    frequency, and the floor above f_s/4 read 0.09-0.27 Δ/√12 (1e-11 rad for
+    a 12-bit joint on a 1 rad sine of 0.5 Hz, ten whole periods). A constant
+    channel gives 0.
+    """
+    sigma = np.empty(x.shape[1])
+    for j in range(x.shape[1]):
+        ratio, _ = resampling(x[:, j])
+        sigma[j] = math.sqrt(max(float(floor[0, j]), 0.0) * 0.5 / (h * ratio))
+        sigma[j] = max(sigma[j], quantum(x[:, j]) / math.sqrt(12.0))
+    return sigma
 
 
 def position_noise_std(q: Any, time_step: float) -> np.ndarray:
     """Std of the white measurement noise of each position channel [rad or m].
 
-    ``σ_j = √(N_j·f_s/2)``, N_j the white-noise floor of the one-sided periodogram
+    ``σ_j = √(N_j·f_e/2)``, N_j the white-noise floor of the one-sided periodogram
     (module docstring, step 2): the flat part of the spectrum above f_s/4, where a
-    robot's motion carries no power at kHz sampling. A noise-free (simulated)
-    record gives the leakage of its motion there, orders of magnitude below any
-    sensor's noise.
+    robot's motion carries no power at kHz sampling; for a channel resampled from
+    a rate f_e below f_s, below f_e/2 (:func:`_noise_floor`). At least Δ/√12 for
+    a channel quantized by Δ, 0 for a constant one (:func:`_noise_std`). A
+    noise-free (simulated) record gives the leakage of its motion there, orders
+    of magnitude below any sensor's noise.
 
     Args:
         q: (N,) or (N, n) measured positions [rad or m], N >= 64.
@@ -150,8 +203,88 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
     """
     if len(np.shape(q)) == 2 and np.shape(q)[0] > SPECTRUM_PIECE:
         return motion_and_noise(q, time_step)[1]
-    f, s, _ = _periodogram(q, time_step)
-    return np.sqrt(_noise_floor(f, s, time_step) * 0.5 / time_step)
+    f, s, x, h = _periodogram(q, time_step)
+    return _noise_std(f, _noise_floor(f, s, x, h), x, h)
+
+
+#: Fewest knots, largest share of irregular gaps, and the widest ratio
+#: :func:`resampling` calls a resampled channel.
+_MIN_KNOTS = 8
+_REGULAR_SHARE = 0.9
+_MAX_RESAMPLING = 100.0
+_QUANTUM_TOLERANCE = 1e-3  # a change within this many steps of whole ones
+
+
+def quantum(x: Any) -> float:
+    """A channel's quantization step Δ, or 0 [unit].
+
+    The smallest change between consecutive samples when every change is a whole
+    number of it (within 1e-3): encoder counts, scaled or not; 0 when the channel
+    never changes or its changes are not so.
+    """
+    changes = np.abs(np.diff(np.asarray(x, dtype=float).ravel()))
+    changes = changes[changes > 0.0]
+    if changes.size == 0:
+        return 0.0
+    step = float(changes.min())
+    ratios = changes / step
+    if np.all(np.abs(ratios - np.round(ratios)) <= _QUANTUM_TOLERANCE):
+        return step
+    return 0.0
+
+
+def resampling(x: Any) -> tuple[float, int]:
+    """``(L, k)``: a channel resampled from a rate L times lower, or ``(1.0, 0)``.
+
+    k = 1: held between its own samples (zero-order hold: repeats); k = 2:
+    linearly interpolated between them (what a multi-file join or an upstream
+    resampling does). The k-th differences of such a channel vanish (within
+    1e-9 of their largest: round-off) except at its knots, which come every L
+    samples, L the mean gap between knots (a consecutive run of nonzero
+    differences one knot): at least 8 knots, 2 <= L <= 100, and 90 % of the
+    gaps between knots within 1.5 samples of L (a non-integer ratio, unaligned
+    stamps, jitter).
+    Below the true Nyquist frequency f_s/(2L) such a channel's white noise of
+    one-sided density N_0 reads N_0·sinc(f·L/f_s)^(2k) (the hold's or the
+    triangle's kernel); above it, only images. A quantized channel (every change
+    a whole number of the smallest: encoder counts) is not judged (its steps
+    repeat whatever the rate), nor a constant or exactly linear one.
+
+    Args:
+        x: (N,) one channel's samples.
+
+    Returns:
+        ``(L, k)``; ``(1.0, 0)`` when the channel does not look resampled.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    if quantum(x) > 0.0 or np.all(x == x[0]):
+        return 1.0, 0  # encoder counts repeat at any rate; constant
+    for order in (1, 2):
+        difference = np.abs(np.diff(x, order))
+        top = float(difference.max()) if difference.size else 0.0
+        if not top > 0.0:
+            return 1.0, 0
+        moving = np.flatnonzero(difference > 1e-9 * top)
+        starts = moving[np.r_[True, np.diff(moving) > 1]]
+        if starts.size < _MIN_KNOTS:
+            continue
+        ratio = float(starts[-1] - starts[0]) / (starts.size - 1)  # mean gap
+        if not 2.0 <= ratio <= _MAX_RESAMPLING:
+            continue
+        gaps = np.diff(starts)
+        if np.mean(np.abs(gaps - ratio) < 1.5) >= _REGULAR_SHARE:
+            return float(ratio), order
+    return 1.0, 0
+
+
+def resampling_kernel(f: np.ndarray, fs: float, ratio: float, order: int) -> np.ndarray:
+    """``sinc(f·L/f_s)^(2k)``: a resampled channel's noise shape (:func:`resampling`).
+
+    1 for k = 0 (not resampled); f [Hz], f_s [Hz] the log's rate.
+    """
+    if order == 0:
+        return np.ones_like(f)
+    return np.sinc(f * ratio / fs) ** (2 * order)
 
 
 #: Order of the half-band low-pass whose complement holds :func:`torque_noise_std`.
@@ -279,9 +412,9 @@ def motion_and_noise(
         rms, noise = np.sqrt(squares / count)
         return rms, noise
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
-    f, s, x = _periodogram(q, time_step)
-    floor = _noise_floor(f, s, time_step)
-    noise = np.sqrt(floor * 0.5 / time_step)
+    f, s, x, h = _periodogram(q, time_step)
+    floor = _noise_floor(f, s, x, h)
+    noise = _noise_std(f, floor, x, h)
     power = _velocity_power(f, s, x, floor, threshold)
     return np.sqrt(power.sum(axis=0) * (f[1] - f[0])), noise
 
@@ -305,8 +438,8 @@ def velocity_spectrum(
         [(unit/s)²/Hz].
     """
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
-    f, s, x = _periodogram(q, time_step)
-    floor = _noise_floor(f, s, time_step)
+    f, s, x, h = _periodogram(q, time_step)
+    floor = _noise_floor(f, s, x, h)
     return f, _velocity_power(f, s, x, floor, threshold)
 
 

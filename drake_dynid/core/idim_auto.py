@@ -7,12 +7,17 @@ Automatic cutoff (:func:`auto_cutoff`, used when ``cutoff_hz`` is None). The
 Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
 4 s segments) gives
 
-* its noise floor N_j: the median of S_j over [fs/4, fs/2] (white measurement
-  noise is flat; a rigid robot's motion has no power there), at least Δ_j²/(6·fs)
-  for a joint quantized by Δ_j (encoder counts, :func:`_spectra_and_floors`);
-* its noise crossover f_x,j: the highest frequency where S_j > 100·N_j (20 dB
-  above the floor); the motion's spectrum is M_j = (S_j - N_j)⁺ up to f_x,j (0
-  above: there the noise's fluctuations would add up).
+* its noise density N_j(f): the median of S_j over [fs/4, fs/2] (white
+  measurement noise is flat; a rigid robot's motion has no power there); for
+  positions resampled from a rate f_e below fs (held or linearly interpolated:
+  a multi-file join, an upstream resampling), the median of S_j/K_j over
+  [f_e/4, f_e/2] times K_j(f) = sinc(f/f_e)^(2k), their noise's shape; for a
+  joint quantized by Δ_j (encoder counts) at least Δ_j²/(6·fs) and the
+  staircase's Δ_j²·r_j/(24·max(f, r_j)²), r_j its count changes a second
+  (:func:`_spectra_and_floors`);
+* its noise crossover f_x,j: the highest frequency (up to f_e/2) where S_j >
+  100·N_j (20 dB above the floor); the motion's spectrum is M_j = (S_j - N_j)⁺
+  up to f_x,j (0 above: there the noise's fluctuations would add up).
 
 The zero-phase Butterworth of order N passes G(f) = 1/(1 + (f/f_c)^(2N)) (N = 4,
 the off-line default; ``identify_offline``'s and the validations'
@@ -23,13 +28,16 @@ misses (1 - G)·a of the motion (a bias, which survives the parallel decimation:
 it is in the band) and carries G·n of the noise, independent of it, so its
 expected squared error is
 
-    E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]
+    E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j(f) ]
 
-(the Welch bins up to fs/2), and ``f_c = min(max_j argmin E_j, 40 Hz, fs/5)``
-over a 1 % geometric grid from the Welch resolution (the joint that needs the
-widest band decides, as the crossover did). The noise term counts all the
-noise of v̇ the filter passes, though the decimation low-pass (at 1.5 times the
-velocity band) later removes most of it from the linear columns: it errs
+(the Welch bins up to fs/2), and ``f_c = min(max_j min(argmin E_j, f_e,j/5),
+40 Hz, fs/5)`` over a 1 % geometric grid from the Welch resolution (the joint
+that needs the widest band decides, as the crossover did), at least the lowest
+cutoff whose trimmed ends leave a sample of the run (:func:`lowest_cutoff`,
+within the caps); a run of fewer than 64 samples is refused. The noise term
+counts all the noise of v̇ the filter passes, though the decimation low-pass (at
+1.5 times the velocity band) later removes most of it from the linear columns:
+it errs
 towards a lower cutoff, which the noisy paper 2R prefers. As the droop falls
 like (f/f_c)^16 and the noise grows like f_c⁵, the optimum moves slowly with
 the noise (a factor 10 in N_j: 1.12 in f_c). A joint without noise floor (N_j =
@@ -41,7 +49,12 @@ with f_99 holding 99 % of the motion's power, gave 1.5 Hz), and 40 Hz without
 noise (35.5 Hz); an xArm7 excite design (top harmonic 1 Hz, default simulate
 noise) 3.6 Hz instead of 2 Hz, where the droop put XX3R 13.7 % high even
 without noise. 40 Hz is ten times a typical 4 Hz position closed-loop bandwidth
-(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs.
+(Gautier's ω_c ≥ 10·ω_dyn), the cap for clean logs. Against the cutoff of least
+acceleration error on logs with a known motion (tests/test_offline.py): 100 Hz
+positions interpolated onto 1 kHz 1.69 Hz for 1.39 Hz (39.98 Hz when their
+floor was read above fs/4); a 12-bit joint on a 0.1 Hz sine of 6.5 counts 0.38
+Hz for 0.24 Hz (5.05 Hz with the white floor alone); 100 samples at 100 Hz
+4.17 Hz, the lowest they take (1.56 Hz: no rows).
 
 Automatic decimation (``decimation`` None): ``D_0 = max(1, floor(0.25·fs/f_d))``,
 so that the decimated Nyquist frequency is at least twice f_d (the zero-phase
@@ -81,11 +94,15 @@ __all__ = [
     "auto_cutoff_rule",
     "auto_decimation",
     "auto_decimation_cutoff",
+    "check_cutoff_run",
     "decimated_noise_factor",
     "decimation_cutoff",
+    "lowest_cutoff",
     "measured_velocity_band",
     "noise_bandwidth",
     "noise_limited_cutoff",
+    "resampled_joints",
+    "resampled_note",
     "velocity_bandwidth",
 ]
 
@@ -113,22 +130,34 @@ def _position_spectra(
     owner: str, q: Any, time_step: float
 ) -> tuple[float, np.ndarray, np.ndarray]:
     """``(fs, f, S)``: the checked positions' Welch spectra (4 s segments)."""
-    fs, f, power, _ = _spectra_and_floors(owner, q, time_step)
+    fs, f, power, _, _ = _spectra_and_floors(owner, q, time_step)
     return fs, f, power
 
 
 def _spectra_and_floors(
-    owner: str, q: Any, time_step: float
-) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
-    """``(fs, f, S, N)``: :func:`_position_spectra` and each joint's noise floor.
+    owner: str, q: Any, time_step: float, quantized: bool = True
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(fs, f, S, N, f_e)``: :func:`_position_spectra`, each joint's noise density.
 
-    N_j = max(median of S_j over [fs/4, fs/2], Δ_j²/(6·fs)) [unit²/Hz], Δ_j the
-    step of a quantized joint (every change of q_j a whole number of Δ_j: encoder
-    counts; 0 otherwise): white quantization noise of variance Δ²/12 has that
-    one-sided density. A joint moving slowly over few counts changes count far
-    less often than fs, so its quantization error is no white noise: its
-    staircase has little power at [fs/4, fs/2] and read there alone, the steps
-    stood as noise-free motion up to tens of Hz.
+    N_j(f) [unit²/Hz], (F, n): the white floor N_0,j·K_j(f), and for a joint
+    quantized by Δ_j (every change of q_j a whole number of Δ_j: encoder counts)
+    at least the quantization's, max(Δ_j²/(6·fs), Δ_j²·r_j/(24·max(f, r_j)²)):
+
+    * N_0,j = median of S_j/K_j over [f_e/4, f_e/2], f_e = fs/L_j the joint's own
+      rate: L_j = 1 and K_j = 1, or for positions resampled from a rate L_j times
+      lower (:func:`~drake_dynid.core.excitation.resampling` of its first 2^17
+      samples: held, k = 1, or linearly interpolated, k = 2) K_j =
+      sinc(f/f_e)^(2k), their noise's shape;
+      above f_e/2 lie only its images (100 Hz positions interpolated onto 1 kHz:
+      their floor read above fs/4 was 1e-3 of their noise's, and the cutoff 40 Hz
+      instead of 1.7 Hz);
+    * Δ²/(6·fs): white quantization noise (variance Δ²/12) when counts change
+      at every sample; a joint changing count r_j times a second (its count
+      changes over the log's duration) carries a staircase instead, a sawtooth
+      of fundamental ~r_j whose harmonics fall like 1/f² (Δ²/12 in all): read as
+      a white floor alone, the staircase stood as motion up to 5 Hz where its
+      acceleration error is least at 0.24 Hz (12-bit joint, 6.5 counts at 0.1 Hz;
+      ``quantized`` False: the white floor alone).
     """
     time_step = check.positive(owner, "time_step", time_step, "s")
     q = checked_rows(owner, "q", q)  # a stored log: checked a block at a time
@@ -138,10 +167,60 @@ def _spectra_and_floors(
         check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
     fs = 1.0 / time_step
     segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power, quanta = _welch(q, fs, segment)
-    floors = np.median(power[f >= 0.25 * fs], axis=0)
-    floors = np.maximum(floors, quanta**2 / (6.0 * fs))
-    return fs, f, power, floors
+    f, power, quanta, rates, resampled = _welch(q, fs, segment)
+    noise = np.zeros_like(power)
+    for j in range(power.shape[1]):
+        ratio, kind = resampled[j]
+        kernel = excitation.resampling_kernel(f, fs, ratio, int(kind))
+        band = (f >= 0.25 * fs / ratio) & (f <= 0.5 * fs / ratio)
+        white = float(np.median(power[band, j] / kernel[band])) if band.any() else 0.0
+        noise[:, j] = white * kernel
+        if quantized and quanta[j] > 0.0:
+            stairs = quanta[j] ** 2 * rates[j] / (24.0 * np.maximum(f, rates[j]) ** 2)
+            noise[:, j] = np.maximum(noise[:, j], quanta[j] ** 2 / (6.0 * fs))
+            noise[:, j] = np.maximum(noise[:, j], stairs)
+    return fs, f, power, noise, fs / resampled[:, 0]
+
+
+def resampled_note(
+    resampled: list[tuple[int, float, int]], names: Any, time_step: float
+) -> str:
+    """The note on positions that look resampled (:func:`resampled_joints`), or "".
+
+    Names the joints, their own rate and how they were resampled: above half
+    that rate their positions hold no measurement, and the automatic cutoff read
+    their noise below it.
+    """
+    if not resampled:
+        return ""
+    kinds = {1: "held", 2: "linearly interpolated"}
+    parts = [
+        f"{names[j]} ({kinds[kind]} from about {rate:.4g} Hz)"
+        for j, rate, kind in resampled
+    ]
+    return (
+        f"the positions of {check.listed(parts)} look resampled onto the log's "
+        f"{1.0 / time_step:.4g} Hz: above half their own rate they hold no "
+        "measurement, and the automatic cutoff read their noise below it."
+    )
+
+
+def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
+    """``[(j, f_e, k)]``: the joints whose positions look resampled, their rate [Hz].
+
+    :func:`~drake_dynid.core.excitation.resampling` of each joint's first
+    2^17 samples: k = 1 held, k = 2 linearly interpolated from samples at f_e.
+    """
+    time_step = check.positive("resampled_joints", "time_step", time_step, "s")
+    q = checked_rows("resampled_joints", "q", q)
+    head = np.asarray(q[:_WELCH_PIECE], dtype=float)
+    head = head.reshape(head.shape[0], -1)
+    found = []
+    for j in range(head.shape[1]):
+        ratio, kind = excitation.resampling(head[:, j])
+        if kind:
+            found.append((j, 1.0 / (ratio * time_step), kind))
+    return found
 
 
 def _quantum(step: float, changes: np.ndarray) -> float:
@@ -164,17 +243,20 @@ def _quantum(step: float, changes: np.ndarray) -> float:
 def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> float:
     """Automatic Butterworth cutoff f_c [Hz]: the least expected acceleration error.
 
-    For each joint j, with its Welch spectrum S_j, noise floor N_j (median over
-    [fs/4, fs/2], at least Δ_j²/(6·fs) for a joint quantized by Δ_j) and motion
-    M_j = (S_j - N_j)⁺ up to its crossover (20 dB above the floor), and G(f) =
+    For each joint j, with its Welch spectrum S_j, noise density N_j(f) (median
+    over [fs/4, fs/2]; below its own Nyquist frequency for resampled positions;
+    at least the quantization's for a joint quantized by Δ_j:
+    :func:`_spectra_and_floors`) and motion M_j = (S_j - N_j)⁺ up to its
+    crossover (20 dB above the floor), and G(f) =
     1/(1 + (f/f_c)^(2N)) the zero-phase Butterworth of order N (``order``; 4, the
     off-line default: (f/f_c)⁸)::
 
-        E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j ]     [(unit/s²)²/Hz]
+        E_j(f_c) = Σ_f (2πf)⁴ [ (1 - G(f))² M_j(f) + G(f)² N_j(f) ]  [(unit/s²)²/Hz]
 
     the filter's bias on the measured motion's acceleration plus the noise it
-    passes; ``f_c = min(max_j argmin E_j, 40 Hz, fs/5)`` on a 1 % geometric grid
-    (see the module docstring).
+    passes; ``f_c = min(max_j min(argmin E_j, f_e,j/5), 40 Hz, fs/5)`` on a 1 %
+    geometric grid, f_e,j a resampled joint's own rate (fs otherwise), and at
+    least :func:`lowest_cutoff` (within the caps; see the module docstring).
 
     Args:
         q: (N, n) finite positions sampled every ``time_step`` [rad or m].
@@ -183,10 +265,66 @@ def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> 
             (the position filter's ``filter_order``, >= 1).
 
     Returns:
-        The cutoff [Hz], at least the Welch resolution fs/N_seg.
+        The cutoff [Hz], at least the Welch resolution fs/N_seg and the lowest
+        cutoff the run's trimmed ends allow (:func:`lowest_cutoff`).
+
+    Raises:
+        ValueError: fewer than 64 samples (no spectrum to measure), or bad input.
     """
     order = check.integer("auto_cutoff", "order", order, minimum=1)
-    fs, f, power, floors = _spectra_and_floors("auto_cutoff", q, time_step)
+    shape = q.shape if hasattr(q, "shape") else np.shape(q)  # a store: on disk
+    samples = int(shape[0]) if len(shape) else 0
+    check_cutoff_run("auto_cutoff", samples, "q has")
+    fs, f, power, noise, own_rates = _spectra_and_floors("auto_cutoff", q, time_step)
+    cap = min(MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
+    lowest = min(lowest_cutoff(samples, 1.0 / fs), cap)
+    return max(_least_error_cutoff(f, fs, power, noise, own_rates, order), lowest)
+
+
+def check_cutoff_run(owner: str | None, samples: int, subject: str) -> None:
+    """Raises ValueError when a run of ``samples`` is too short for :func:`auto_cutoff`.
+
+    At least 64 samples (``core.excitation.MIN_SPECTRUM_SAMPLES``): fewer hold no
+    spectrum to read a noise floor from (16 samples at 100 Hz: 9 bins, 6.25 Hz
+    apart, and the former cutoff of 12.5 Hz was the resolution's, not the log's).
+    ``subject``: the message's start ("the longest finite segment has");
+    ``owner``: its prefix (None: none).
+    """
+    if samples < excitation.MIN_SPECTRUM_SAMPLES:
+        message = (
+            f"{subject} {samples} samples; at least "
+            f"{excitation.MIN_SPECTRUM_SAMPLES} are needed to measure its spectrum "
+            "and choose the cutoff: record a longer log or give the cutoff."
+        )
+        raise ValueError(message if owner is None else f"{owner}: {message}")
+
+
+def lowest_cutoff(samples: int, time_step: float) -> float:
+    """The lowest cutoff [Hz] whose trimmed ends leave one of ``samples`` samples.
+
+    ``2 / (m·h)``, m = floor((N - 1)/2) - 1: :func:`~drake_dynid.core.idim.default_trim`
+    drops 1 + ceil(2/(f_c·h)) samples at each end, so a run of N samples gives rows
+    only at f_c >= 2/(m·h) (a 1 s run at 100 Hz: 4.17 Hz). On runs of 64 to a few
+    hundred samples the least-error cutoff fell below it (1.56 Hz on 1 s at 100
+    Hz), and the off-line identification failed; their acceleration error is
+    then least at the lowest cutoff they can take (the rule's own value minimises
+    it on longer runs).
+    """
+    m = (int(samples) - 1) // 2 - 1
+    if m < 1:
+        return math.inf
+    return 2.0 / (m * float(time_step)) * (1.0 + 1e-12)  # ceil(2/(f_c·h)) = m
+
+
+def _least_error_cutoff(
+    f: np.ndarray,
+    fs: float,
+    power: np.ndarray,
+    noise: np.ndarray,
+    own_rates: np.ndarray,
+    order: int,
+) -> float:
+    """:func:`auto_cutoff`'s argmin over the joints, before the short runs' bound."""
     resolution = float(f[1])
     cap = min(MAX_AUTO_CUTOFF_HZ, 0.2 * fs)
     steps = math.floor(math.log(max(cap / resolution, 1.0)) / math.log(1.01))
@@ -195,24 +333,27 @@ def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> 
     motion = np.zeros_like(power)
     moving = np.zeros(power.shape[1], dtype=bool)
     for j in range(power.shape[1]):
-        above = np.flatnonzero(power[:, j] > _FLOOR_MARGIN * floors[j])
+        # Up to the joint's own Nyquist frequency: above, images only.
+        own = f <= 0.5 * own_rates[j]
+        above = np.flatnonzero(own & (power[:, j] > _FLOOR_MARGIN * noise[:, j]))
         if above.size:
             top = int(above[-1]) + 1
-            motion[:top, j] = np.clip(power[:top, j] - floors[j], 0.0, None)
+            motion[:top, j] = np.clip(power[:top, j] - noise[:top, j], 0.0, None)
             moving[j] = bool(motion[:, j].any())
     if not moving.any():  # nothing measured: twice the resolution, as before
         return float(max(min(2.0 * resolution, cap), resolution))
-    if np.any(floors[moving] <= 0.0):  # a noise-free joint: nothing to trade
-        return float(max(cap, resolution))
+    if np.any(noise[:, moving].max(axis=0) <= 0.0):  # noise-free: nothing to trade
+        return float(max(min(cap, 0.2 * float(own_rates[moving].min())), resolution))
     errors = np.empty((grid.size, power.shape[1]))
     rows = max(1, _CUTOFF_BLOCK // f.size)  # candidates at a time: memory bounded
     for a in range(0, grid.size, rows):
         gain = 1.0 / (1.0 + (f / grid[a : a + rows, None]) ** (2 * order))
         errors[a : a + rows] = ((1.0 - gain) ** 2 * weight) @ motion + (
-            (gain**2) @ weight
-        )[:, None] * floors
+            (gain**2 * weight) @ noise
+        )
     best = max(
-        float(grid[int(np.argmin(errors[:, j]))]) for j in np.flatnonzero(moving)
+        min(float(grid[int(np.argmin(errors[:, j]))]), 0.2 * float(own_rates[j]))
+        for j in np.flatnonzero(moving)
     )
     return float(max(min(best, cap), resolution))
 
@@ -240,13 +381,15 @@ def auto_cutoff_rule(
 
 def _welch(
     q: np.ndarray, fs: float, segment: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
 
     The average over all segments, computed over consecutive runs of whole
     segments, one joint at a time, so that the memory stays bounded on long logs.
     Also each joint's quantization step over the samples read (:func:`_quantum`;
-    0 when not quantized or never changing).
+    0 when not quantized or never changing), its changes per second [1/s], and
+    (n, 2) its resampling ``(L, k)`` on the first piece
+    (:func:`~drake_dynid.core.excitation.resampling`; (1, 0): not resampled).
     """
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
@@ -261,19 +404,27 @@ def _welch(
     origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
     f, power = np.empty(0), np.empty(0)
     quanta = np.zeros(origin.shape[1])
+    changed = np.zeros(origin.shape[1])
+    resampled = np.tile([1.0, 0.0], (origin.shape[1], 1))
+    read = 0
     for first in range(0, total, per_piece):
         count = min(per_piece, total - first)
         piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
         piece = piece.reshape(piece.shape[0], -1) - origin
+        read += piece.shape[0] - 1
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
             changes = np.abs(np.diff(piece[:, j]))
             quanta[j] = _quantum(float(quanta[j]), changes[changes > 0.0])
+            changed[j] += np.count_nonzero(changes)
+            if first == 0:
+                resampled[j] = excitation.resampling(piece[:, j])
             f, part = welch(piece[:, j], fs, segment)
             part = part[:, 0]
             if power.size == 0:
                 power = np.zeros((f.size, piece.shape[1]))
             power[:, j] = power[:, j] + part * (count / total)
-    return f, power, np.nan_to_num(quanta, nan=0.0)
+    rates = changed * fs / max(read, 1)
+    return f, power, np.nan_to_num(quanta, nan=0.0), rates, resampled
 
 
 def noise_bandwidth(order: int) -> float:
@@ -422,28 +573,34 @@ def noise_limited_cutoff(q: Any, time_step: float) -> float:
     """Highest cutoff [Hz] that keeps position noise out of the velocity.
 
     With the Welch spectrum S_j of each position (as :func:`auto_cutoff`), its
-    noise floor N_j and its crossover f_x,j, the velocity's motion power is
-    ``Σ_{f <= f_x} (S_j - N_j)⁺ (2πf)²`` and the noise a cutoff f_c lets through
-    ``Σ_{f <= f_c} N_j (2πf)²``; this returns the highest f_c whose ratio stays
-    within :data:`MAX_VELOCITY_NOISE_SHARE` on every joint that moves (the
-    Nyquist frequency when none is limited). Above it the noise of v biases the
+    white noise density N_j(f) (:func:`auto_cutoff`'s, read below a resampled
+    joint's own Nyquist frequency, without the quantization's) and its crossover
+    f_x,j, the velocity's motion power is ``Σ_{f <= f_x} (S_j - N_j)⁺ (2πf)²``
+    and the noise a cutoff f_c lets through ``Σ_{f <= f_c} N_j (2πf)²``; this
+    returns the highest f_c whose ratio stays within
+    :data:`MAX_VELOCITY_NOISE_SHARE` on every joint that moves (the Nyquist
+    frequency when none is limited). Above it the noise of v biases the
     v² and sign(v) columns (errors in variables) by more than σ shows.
 
     Args:
         q: (N >= 16, n) finite positions [rad or m].
         time_step: sample period h [s].
     """
-    fs, f, power = _position_spectra("noise_limited_cutoff", q, time_step)
+    # The white floor alone: a slow encoder joint's staircase would refuse every
+    # cutoff above ~1 Hz for the whole log (0.75 Hz for 6.5 counts at 0.1 Hz).
+    fs, f, power, noise, own_rates = _spectra_and_floors(
+        "noise_limited_cutoff", q, time_step, quantized=False
+    )
     weight = (2.0 * np.pi * f) ** 2
     limit = 0.5 * fs
     for j in range(power.shape[1]):
-        spectrum = power[:, j]
-        floor = float(np.median(spectrum[f >= 0.25 * fs]))
-        above = np.flatnonzero(spectrum > _FLOOR_MARGIN * floor)
-        if above.size == 0 or floor <= 0.0:
+        spectrum, floor = power[:, j], noise[:, j]
+        own = f <= 0.5 * own_rates[j]  # above: a resampled joint's images only
+        above = np.flatnonzero(own & (spectrum > _FLOOR_MARGIN * floor))
+        if above.size == 0 or not np.any(floor > 0.0):
             continue
         top = int(above[-1])
-        excess = np.clip(spectrum[: top + 1] - floor, 0.0, None)
+        excess = np.clip(spectrum[: top + 1] - floor[: top + 1], 0.0, None)
         motion = float(np.sum(excess * weight[: top + 1]))
         if motion <= 0.0:
             continue

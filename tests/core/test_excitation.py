@@ -143,3 +143,77 @@ def test_an_exactly_constant_torque_has_no_noise():
     np.testing.assert_array_equal(torque_noise_std(tau, 1e-3), [0.0, 0.0, 0.0])
     noisy = tau + 0.01 * np.random.default_rng(3).standard_normal(tau.shape)
     np.testing.assert_allclose(torque_noise_std(noisy, 1e-3), 0.01, rtol=0.15)
+
+
+def _lines(fs, duration, noise_std, seed=3):
+    """Five lines of 0.2 Hz (top 1 Hz) per joint at ``fs`` [Hz], plus white noise."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(round(duration * fs)) / fs
+    q = np.zeros((t.size, 2))
+    for j in range(2):
+        for k in range(1, 6):
+            phase = rng.uniform(0.0, 2 * np.pi)
+            q[:, j] += (
+                rng.uniform(0.2, 1.0) / k**2 * np.sin(0.4 * np.pi * k * t + phase)
+            )
+    return t, q + np.random.default_rng(7).normal(0.0, noise_std, q.shape)
+
+
+def test_position_noise_of_resampled_quantized_and_held_channels():
+    """Found by a review: the position noise (the dead zone's σ_q) was read
+    from the periodogram above f_s/4 alone. 100 Hz positions (σ = 0.01 rad)
+    interpolated linearly onto 1 kHz hold only faded images there: 1.5e-4 rad
+    (held: 2.1e-3 rad); a 12-bit joint's rounding error (Δ/√12 = 4.4e-4 rad)
+    read 3.8e-5 rad on a slow sine and 1.4e-11 rad on ten whole periods of a
+    1 rad one (its error a few lines); a joint held at 0.3 rad read the
+    detrending's round-off, 2.4e-18 rad. Now: the floor below the channel's own
+    Nyquist frequency (its noise's shape sinc^(2k) divided out), at least Δ/√12
+    for a quantized channel, and 0 for a constant one. The velocity band, from
+    the same floor, came out at 252 Hz (interpolated) and 500 Hz (held) instead
+    of 0.95 Hz: the images of the lines near the kernel's zeros stood above it;
+    nothing above the channel's own Nyquist frequency counts now."""
+    from drake_dynid.core.excitation import (
+        motion_and_noise,
+        position_noise_std,
+        quantum,
+        resampling,
+    )
+
+    t, q = _lines(100.0, 20.0, 1e-2)
+    native = position_noise_std(q, 0.01)
+    np.testing.assert_allclose(native, 0.01, rtol=0.08)  # 500 bins: 0.97, 1.05
+    for offset in (0.0, 3.7e-4):
+        fine = np.arange(offset, t[-1], H)
+        linear = np.column_stack([np.interp(fine, t, q[:, j]) for j in range(2)])
+        assert resampling(linear[:, 0]) == (pytest.approx(10.0, rel=1e-3), 2)
+        np.testing.assert_allclose(position_noise_std(linear, H), native, rtol=0.03)
+        np.testing.assert_allclose(motion_and_noise(linear, H)[1], native, rtol=0.03)
+    held = np.repeat(q, 10, axis=0)
+    assert resampling(held[:, 1]) == (10.0, 1)
+    np.testing.assert_allclose(position_noise_std(held, H), native, rtol=0.03)
+    # The velocity band sees no motion among the images (it was 252 Hz, 500 Hz).
+    band = estimate_bandwidth(q, 0.01)  # 0.95 Hz
+    for resampled in (linear, held):
+        assert estimate_bandwidth(resampled, H) == pytest.approx(band, abs=0.01)
+    slow = np.arange(0.0, 20.0, 1 / 30)
+    q30 = _lines(30.0, 20.0, 1e-3)[1][: slow.size]
+    fine = np.arange(0.0, slow[-1], H)
+    onto = np.column_stack([np.interp(fine, slow, q30[:, j]) for j in range(2)])
+    np.testing.assert_allclose(
+        position_noise_std(onto, H), position_noise_std(q30, 1 / 30), rtol=0.05
+    )
+    # Not resampled: 1 kHz noise, a smooth noise-free motion, encoder counts.
+    assert resampling(_lines(1000.0, 5.0, 1e-4)[1][:, 0]) == (1.0, 0)
+    assert resampling(_lines(1000.0, 5.0, 0.0)[1][:, 0]) == (1.0, 0)
+    count = 2 * np.pi / 4096
+    t = np.arange(20000) * H
+    for amplitude, frequency in ((0.01, 0.1), (1.0, 0.5)):
+        true = 0.3 + amplitude * np.sin(2 * np.pi * frequency * t)
+        joint = np.round(true / count) * count
+        assert quantum(joint) == pytest.approx(count) and resampling(joint) == (1, 0)
+        sigma = position_noise_std(joint, H)[0]
+        assert sigma == pytest.approx(count / np.sqrt(12.0))
+        assert sigma == pytest.approx(np.std(joint - true), rel=0.06)
+    for value in (0.3, 1.2345678, 195 * count):
+        assert position_noise_std(np.full(1000, value), H)[0] == 0.0
+    assert quantum(q[:, 0]) == 0.0 and quantum(np.full(9, 0.3)) == 0.0
