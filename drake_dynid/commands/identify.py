@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from types import SimpleNamespace
 from typing import Any
 
@@ -564,15 +565,22 @@ def _beside_replay(
 
     ``{"bootstrap": window_bootstrap(...) or None (K = 0), "covariance": (end,
     window_covariance_at(...)) or None (not wanted)}``: neither needs the trace.
+    The covariance takes the bootstrap's raw rows of the window (its unperturbed
+    channels) instead of evaluating them again; they are then dropped (not
+    carried back from a forked child).
     """
+    bootstrap: dict[str, Any] | None = None
+    channels = None
+    if replicates > 0:
+        bootstrap = window_bootstrap(replicates, log, robot, settings, end)
+        result = bootstrap["result"]
+        if result is not None and result.channels is not None:
+            channels = result.channels
+            bootstrap["result"] = replace(result, channels=None)
     return {
-        "bootstrap": (
-            window_bootstrap(replicates, log, robot, settings, end)
-            if replicates > 0
-            else None
-        ),
+        "bootstrap": bootstrap,
         "covariance": (
-            (end, window_covariance_at(log, robot, settings, end))
+            (end, window_covariance_at(log, robot, settings, end, channels))
             if covariance
             else None
         ),
@@ -799,14 +807,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 COVARIANCE_METHODS = ("sandwich", "gls", "gautier", "diagonal")
 
 
-def window_covariance_at(log: Any, robot: Any, settings: Any, end: int) -> Any:
+def window_covariance_at(
+    log: Any, robot: Any, settings: Any, end: int, channels: Any = None
+) -> Any:
     """``core.replay.window_estimate_covariance`` of the window ending at ``end``.
 
     The final window's direct-quadrature solve with its full covariance; needs no
     trace, so ``dynid identify`` computes it beside the replay (with the
     bootstrap, ``commands._background``). The ``ValueError`` or ``LinAlgError``
     of a window whose equations cannot be formed is returned, not raised (a
-    forked child's result crosses as a value).
+    forked child's result crosses as a value). ``channels``: the window's raw
+    bank channels when computed already (the bootstrap's,
+    ``core.bootstrap.BootstrapStd.channels``), or None.
     """
     from drake_dynid.core.bootstrap import window_start
     from drake_dynid.core.replay import window_estimate_covariance
@@ -822,6 +834,7 @@ def window_covariance_at(log: Any, robot: Any, settings: Any, end: int) -> Any:
             np.asarray(log.tau[start : end + 1], dtype=float),
             end - start,
             h,
+            channels=channels,
         )
     except (ValueError, np.linalg.LinAlgError) as error:
         return error

@@ -63,12 +63,17 @@ class BootstrapStd:
         method: ``"linearized"`` (the raw rows' replicates to first order,
             ``core.raw_rows.linearized_channels``) or ``"exact"`` (each
             replicate's window solved again from its signals).
+        channels: the unperturbed window's (N_bank + 1, c) bank channels
+            (``core.raw_rows.raw_channels_batch``'s, computed by the linearised
+            method; None for ``"exact"``): ``core.replay.window_estimate_covariance``
+            of the same window takes them instead of evaluating its rows again.
     """
 
     std: np.ndarray
     nominal: np.ndarray
     replicates: int
     method: str = "exact"
+    channels: np.ndarray | None = None
 
 
 def window_start(settings: Any, time_step: float, end: int) -> int:
@@ -172,14 +177,17 @@ def bootstrap_std(
         )
         for _ in range(replicates)
     )
-    solve = (
+    linear = (
         _linearized_solver(rows, s, q_window, tau_window, last, h)
         if linearized
         else None
     )
-    method = "exact" if solve is None else "linearized"
-    if solve is None:
+    method = "exact" if linear is None else "linearized"
+    channels = None
+    if linear is None:
         solve = _exact_solver(rows, s, q_window, tau_window, last, h)
+    else:
+        solve, channels = linear
     nominal = solve(None, None)
     draws = [theta for dq, dtau in noise if (theta := solve(dq, dtau)) is not None]
     std = np.full(p, np.nan)
@@ -190,6 +198,7 @@ def bootstrap_std(
         nominal=np.full(p, np.nan) if nominal is None else nominal,
         replicates=len(draws),
         method=method,
+        channels=channels,
     )
 
 
@@ -217,13 +226,13 @@ def _exact_solver(
 
 def _linearized_solver(
     rows: Any, s: Any, q: np.ndarray, tau: np.ndarray, end: int, h: float
-) -> Solver | None:
+) -> tuple[Solver, np.ndarray] | None:
     """(δq, δτ) -> θ̂ of the window ending at ``end`` with linearised raw rows.
 
     ``core.raw_rows.linearized_channels`` (None for the unperturbed window, the
-    exact channels); None when it does not apply: rows not raw, a covariance
-    weighting (its Σ would need the perturbed signals), or no
-    ``core.raw_rows.raw_linearization``.
+    exact channels), with those exact channels; None when it does not apply:
+    rows not raw, a covariance weighting (its Σ would need the perturbed
+    signals), or no ``core.raw_rows.raw_linearization``.
     """
     from drake_dynid.core.raw_rows import linearized_channels, raw_linearization
     from drake_dynid.core.replay import (
@@ -251,4 +260,4 @@ def _linearized_solver(
         result = solve_equations(provider, s, *channel_equations(provider, s, channels))
         return np.asarray(result.theta) if result.valid else None
 
-    return solve
+    return solve, lin.channels

@@ -699,15 +699,24 @@ def window_estimate_covariance(
     tau: np.ndarray,
     end: int,
     time_step: float,
+    *,
+    channels: np.ndarray | None = None,
 ) -> Any:
     """:func:`window_estimate` with the estimator's full (p, p) covariance.
 
     ``core.weighted_lsq.window_covariance`` of the window's equations (direct
     quadrature) with the identifier's settings: its ``result`` is
-    :func:`window_estimate`'s. Arguments as :func:`window_equations`.
+    :func:`window_estimate`'s. Arguments as :func:`window_equations`;
+    ``channels``: the window's (N_bank + 1, c) bank channels when already
+    computed (raw rows: ``core.bootstrap.BootstrapStd.channels``, the same
+    numbers as ``core.raw_rows.raw_channels_batch`` here), used instead of
+    evaluating the rows again (:func:`channel_equations`).
     """
     s = settings.for_robot(time_step, int(rows.num_joints), int(rows.num_parameters))
-    a, b = window_equations(rows, s, q, tau, end, time_step)
+    if channels is not None and s.rows_from == "raw":
+        a, b = channel_equations(s.row_provider(rows, time_step), s, channels)
+    else:
+        a, b = window_equations(rows, s, q, tau, end, time_step)
     covariance = window_covariance_at(rows, s, q, tau, end, time_step)
     return solve_equations(rows, s, a, b, covariance, full=True)
 
