@@ -31,20 +31,20 @@ import contextlib
 import importlib
 import io
 import json
-import multiprocessing
 import os
 import sys
 import threading
 import time
 import traceback
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drake_dynid.core._threads import available_cpus, configure_process
 from drake_dynid.files import repeated_file
+
+if TYPE_CHECKING:  # imported where a pool runs: every `dynid` parser imports this
+    from concurrent.futures import ProcessPoolExecutor
 
 __all__ = [
     "FLEET_COMMANDS",
@@ -475,6 +475,10 @@ def _run_local(
     (:func:`_died`). An interrupt (or any exception) stops the workers at once:
     the queued logs are not run.
     """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
+
     context = multiprocessing.get_context("spawn")
     left = dict(enumerate(tasks))
     with _stopped_on_exit(ProcessPoolExecutor(workers, mp_context=context)) as pool:

@@ -46,3 +46,20 @@ def test_console_script_installed():
 def test_every_public_name_resolves():
     for name in drake_dynid.__all__:
         assert getattr(drake_dynid, name) is not None
+
+
+def test_the_parser_imports_no_process_pool():
+    """Every dynid command builds the whole parser (each subcommand's options):
+    `dynid fleet`'s must not import its process pool's modules (multiprocessing,
+    concurrent.futures: 13 ms of every command's start-up), only a fleet run does."""
+    code = (
+        "import sys\n"
+        "from drake_dynid import cli\n"
+        "cli.build_parser()\n"
+        "print(sorted(k for k in sys.modules if k.split('.')[0] in "
+        "('multiprocessing', 'concurrent')))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "[]"
