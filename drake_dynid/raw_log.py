@@ -97,6 +97,12 @@ SPAN_SLACK = 0.05
 #: A file of up to this many stamps also tries steps within ±3 % of its first
 #: guess, 0.1 % apart (a drop beside late stamps moves a short file's fit).
 SHORT_FILE = 256
+#: A grid from which the stamps lie this share of its step or less (RMS),
+#: without two in one slot and its step at least 3/4 of the mean step, is
+#: chosen over the others (of such, the fewest slots inserted): stamps without
+#: jitter (a simulated log) with 3 drops in 400 were counted on a grid 3 steps
+#: coarser, whose phase drift hid the drops.
+TIGHT = 0.15
 #: Blocks of :data:`SLOT_BLOCK` stamps handled at a time (bounded temporaries).
 _SLOT_CHUNK = 1 << 10
 
@@ -135,9 +141,11 @@ def _missing(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     sharing a slot and slots inserted number at most :data:`SPAN_SLACK` more
     than the fewest (a finer grid inserts a slot every few stamps), the one
     closest to the stamps (RMS, :func:`_misfit`: a slightly coarser grid can
-    hide a drop in a drift of its phase). Two stamps left in one slot (stamps off
-    beyond the bound below) cancel samples counted missing up to
-    :data:`SLOT_CONTEXT` intervals away.
+    hide a drop in a drift of its phase), unless a grid fits them within
+    :data:`TIGHT` of its step without two in one slot (not finer than 3/4 of
+    the mean step): of those the one inserting the fewest slots. Two stamps
+    left in one slot (stamps off beyond the bound below) cancel samples counted
+    missing up to :data:`SLOT_CONTEXT` intervals away.
 
     Bound: every drop is counted once, in its interval, and a log without one
     has none, when the stamps' offsets e_j from the grid span less than one
@@ -187,6 +195,13 @@ def _missing(stamps: np.ndarray) -> tuple[np.ndarray, int]:
     least = min(_cost(f, stamps.size) for f in found)
     near = [f for f in found if _cost(f, stamps.size) <= least * (1 + SPAN_SLACK) + 2]
     chosen = min(near, key=lambda f: f[2])
+    # A grid the stamps fit closely, without two in one slot, and not finer than
+    # the mean step: its slots inserted are drops (a coarser grid's phase drift
+    # would hide them).
+    typical = 0.75 * _file_step(stamps, STEP_SPANS[-1])
+    tight = [f for f in found if not f[0] and f[2] <= TIGHT * f[3] and f[3] >= typical]
+    if tight:
+        chosen = min(tight, key=lambda f: (_cost(f, stamps.size), f[2]))
     slots = _slots(stamps, chosen[3])
     for a in range(0, missing.size, _SLOT_CHUNK * SLOT_BLOCK):
         b = min(missing.size, a + _SLOT_CHUNK * SLOT_BLOCK)
