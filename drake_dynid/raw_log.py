@@ -205,7 +205,7 @@ def _grid_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float]:
     # A grid the stamps fit closely, without two in one slot, and not finer than
     # the mean step: its slots inserted are drops (a coarser grid's phase drift
     # would hide them).
-    typical = 0.75 * _file_step(stamps, STEP_SPANS[-1])
+    typical = 0.75 * (stamps[-1] - stamps[0]) / (stamps.size - 1)
     tight = [f for f in found if not f[0] and f[2] <= TIGHT * f[3] and f[3] >= typical]
     if tight:
         chosen = min(tight, key=lambda f: (_cost(f, stamps.size), f[2]))
@@ -350,9 +350,14 @@ def _bursts(stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
     mean = _file_step(stamps, STEP_SPANS[-1])
     if not mean > 0.0:
         return None
-    joined = np.diff(stamps) < BURST_GAP * mean
-    if np.count_nonzero(joined) < BURSTY * joined.size:
+    rows = _SLOT_CHUNK * SLOT_BLOCK  # counted a chunk at a time (bounded temporaries)
+    short = sum(
+        int(np.count_nonzero(np.diff(stamps[a : a + rows + 1]) < BURST_GAP * mean))
+        for a in range(0, stamps.size - 1, rows)
+    )
+    if short < BURSTY * (stamps.size - 1):
         return None
+    joined = np.diff(stamps) < BURST_GAP * mean
     first = np.flatnonzero(np.concatenate([[True], ~joined]))
     count = np.diff(np.append(first, stamps.size))
     last = first + count - 1
