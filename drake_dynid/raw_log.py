@@ -171,28 +171,28 @@ def _grid_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float]:
     are handled before, :func:`_missing`). There stamps share a slot of the
     chosen grid (none within the bound), and the reader names the file in a
     note (:func:`_beyond_note`). Memory: the slots (8 bytes a stamp) and a
-    chunk's windows (a 3.6 M-stamp file: 88 MB peak, as before; 1.5-2.3 s CPU,
-    0.1 s before phases were read, :func:`_cancel_shared`).
+    chunk's windows (a 3.6 M-stamp file: 88 MB peak, as before; 1.0-1.3 s CPU,
+    1.5-2.3 s when the chosen grid's slots were read again, 0.1 s before
+    phases were read, :func:`_cancel_shared`).
     """
     missing = np.zeros(max(stamps.size - 1, 0), np.int64)
     if stamps.size < 2:
         return missing, 0, 0.0
     found: list[tuple[int, int, float, float]] = []  # shared, span, misfit, h
+    first: np.ndarray | None = None  # the first grid's slots (reused if chosen)
     for step in _step_guesses(stamps):
         if not step > 0.0 or any(abs(step - f[3]) < 1e-4 * f[3] for f in found):
             continue  # refits to a step already tried
         slots = _slots(stamps, step)
         for _ in range(REFITS):  # the step refitted on its slots
             fitted = _fitted_step(stamps, slots)
-            if not fitted > 0.0:
-                break
-            done = abs(fitted - step) < 1e-9 * step
+            if not fitted > 0.0 or abs(fitted - step) < 1e-9 * step:
+                break  # converged: the slots are this step's
             step = fitted
-            if done:
-                break
             slots = _slots(stamps, step)
         span = int(slots[-1] - slots[0])
         found.append((_shared(slots), span, _misfit(stamps, slots, step), step))
+        first = slots if len(found) == 1 else None
         del slots
     if not found:
         return missing, 0, 0.0
@@ -209,7 +209,8 @@ def _grid_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float]:
     tight = [f for f in found if not f[0] and f[2] <= TIGHT * f[3] and f[3] >= typical]
     if tight:
         chosen = min(tight, key=lambda f: (_cost(f, stamps.size), f[2]))
-    slots = _slots(stamps, chosen[3])
+    slots = first if first is not None else _slots(stamps, chosen[3])
+    del first
     for a in range(0, missing.size, _SLOT_CHUNK * SLOT_BLOCK):
         b = min(missing.size, a + _SLOT_CHUNK * SLOT_BLOCK)
         missing[a:b] = np.diff(slots[a : b + 1]) - 1
@@ -261,7 +262,7 @@ def _missing(stamps: np.ndarray) -> tuple[np.ndarray, int, list[str]]:
     in 0-1, of 2 jittered in 0-14 (complete ones: up to 21 false samples),
     now in 30 (10 drops: 27-30, the misses at 40 % jitter, as without
     bursts); a 3.6 M-stamp file at 1 then 0.5 kHz: 715 127 false samples
-    missing, 9.7 s CPU, now 0 and 1.3 s; in bursts of 4: 7.6 s, now 1.6 s
+    missing, 9.7 s CPU, now 0 and 0.7 s; in bursts of 4: 7.6 s, now 1.0 s
     (peak 241 -> 257 MB: the stamps spread over their bursts); a file at one
     rate: as before.
     """
