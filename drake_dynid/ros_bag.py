@@ -555,7 +555,10 @@ class _Steps:
 
     Fed each block's times in the bag's order (the header stamps, or the
     receive times when those are read); a message is late when older than
-    the newest recorded before it. ``step``: the first such run's first
+    the newest recorded before it, unless it repeats one of the
+    :data:`REORDER_ROWS` recorded before it (the same time and values: a
+    message re-sent, which the export drops, not a clock's new stamp; a
+    burst of them was named a clock step). ``step``: the first such run's first
     message ``(index among the kept messages, its time, its receive time,
     the newest time before it)`` [ns], or None; ``length``: the messages of
     that run.
@@ -574,6 +577,7 @@ class _Steps:
         self.step: tuple[int, int, int, int] | None = None
         self.length = 0  # the step's run's messages (so far)
         self.open = False  # the step's run goes on at the end of what was fed
+        self.recent: tuple[np.ndarray, np.ndarray] | None = None  # times, values
 
     def add(self, times: np.ndarray, block: _Block) -> None:
         """Feeds a block's times [ns] (``block``: its receive times)."""
@@ -585,6 +589,7 @@ class _Steps:
         floor = np.iinfo(np.int64).min if self.newest is None else self.newest
         before = np.maximum.accumulate(np.concatenate([[floor], times]))[:-1]
         late = times < before
+        self._repeats(times, block, late)
         index = np.arange(n)
         fresh = np.maximum.accumulate(np.where(late, -1, index))
         # The run of late messages ending at each message (0: not late).
@@ -614,6 +619,34 @@ class _Steps:
         self.run = int(length[-1])
         self.newest = int(max(before[-1], times[-1]))
         self.seen += n
+
+    def _repeats(self, times: np.ndarray, block: _Block, late: np.ndarray) -> None:
+        """Clears ``late`` of a message repeating one of the recent ones.
+
+        The same time and positions and efforts (NaN equal to NaN) as one of
+        the :data:`REORDER_ROWS` messages fed before it.
+        """
+        values = np.hstack([block.position, block.effort])
+        if self.recent is None:
+            self.recent = (times[:0], values[:0])
+        pool = np.concatenate([self.recent[0], times])
+        rows = np.concatenate([self.recent[1], values])
+        offset = self.recent[0].size
+        self.recent = (pool[-REORDER_ROWS:], rows[-REORDER_ROWS:])
+        candidates = np.flatnonzero(late)
+        if not candidates.size:
+            return
+        order = np.argsort(pool, kind="stable")
+        ordered = pool[order]
+        low = np.searchsorted(ordered, times[candidates], side="left")
+        high = np.searchsorted(ordered, times[candidates], side="right")
+        shared = high - low > 1  # another message of that time (else itself)
+        for k, a, b in zip(candidates[shared], low[shared], high[shared], strict=True):
+            own = offset + k
+            for j in order[a:b]:
+                if j < own and _same_rows(rows[[j, own]])[0]:
+                    late[k] = False
+                    break
 
     def _first(
         self, k: int, times: np.ndarray, block: _Block, before: np.ndarray
