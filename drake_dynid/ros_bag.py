@@ -402,13 +402,14 @@ def export_bag(
                 done, _ = _scan(
                     path, joints, topic, optional, sink, plan, stamps=stamps
                 )
-            except Exception as error:
+            except BaseException as error:  # Ctrl-C too
                 if sink.started and not rewinds:
                     # Rows written that cannot be taken back: a last line that
                     # the CSV readers refuse, so a cut export is never read
                     # as a whole one.
                     with contextlib.suppress(Exception):
-                        said = " ".join(str(error).replace(",", ";").split())
+                        said = str(error) or type(error).__name__
+                        said = " ".join(said.replace(",", ";").split())
                         sink.stream.write(f"{_INCOMPLETE}{said}\n")
                 raise
             merged = ""

@@ -1239,6 +1239,39 @@ def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
     assert "row 502 has 1 cells; the header has 5." in error_line(capsys)
 
 
+def test_an_export_to_standard_output_interrupted_says_it_is_incomplete(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: the incomplete-export line was written on an
+    Exception only; Ctrl-C (KeyboardInterrupt) after the second block left
+    501 whole lines on the pipe, read as the whole bag. Now it ends with the
+    line too."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 300)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 2000)))
+    written = ros_bag._write_block
+    calls = [0]
+
+    def interrupted(stream, cells, data):
+        calls[0] += 1
+        if calls[0] > 2:
+            raise KeyboardInterrupt
+        written(stream, cells, data)
+
+    monkeypatch.setattr(ros_bag, "_write_block", interrupted)
+    assert cli.main(["bag2csv", str(bag), "--out", "-"]) != 0
+    captured = capsys.readouterr()
+    assert "dynid bag2csv: interrupted" in captured.err
+    lines = captured.out.splitlines()
+    assert len(lines) == 1 + 200 + 300 + 1, len(lines)
+    assert lines[-1] == (
+        "# dynid: this export is incomplete; it stopped on an error: KeyboardInterrupt"
+    )
+
+
 def stepped_back(messages, at, step):
     """``messages`` whose header clock is set back by ``step`` ns from ``at`` on
     (the receive times unchanged)."""
