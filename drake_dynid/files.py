@@ -37,6 +37,44 @@ __all__ = [
 ]
 
 
+#: The first words of the last line of a ROS bag's export to an output that
+#: cannot be taken back when it stops on an error (``ros_bag.export_bag``):
+#: the CSV readers refuse a row that begins so (:func:`incomplete_export`).
+INCOMPLETE = "# dynid: this export is incomplete; "
+
+
+def incomplete_export(path: str, row: int | None, cell: str) -> str | None:
+    """The error of a row of a CSV log that is :data:`INCOMPLETE`'s line.
+
+    ``row``: its number (None: the last line); ``cell``: its first cell.
+    None when it is another row.
+    """
+    if not cell.startswith(INCOMPLETE):
+        return None
+    said = cell[len("# dynid: ") :].strip()
+    where = "its last line" if row is None else f"row {row}"
+    return (
+        f"log {path}: {where} says '{said}': the ROS bag's export to a pipe was "
+        "cut short there, its rows are not the whole bag; export it again to a "
+        "file (dynid bag2csv BAG --out LOG.csv)."
+    )
+
+
+def refuse_incomplete(path: str | os.PathLike) -> None:
+    """Raises ValueError when the last line of ``path`` is :data:`INCOMPLETE`'s.
+
+    For a reader that skips ``#`` lines (``np.loadtxt``); reads the last 64 KB.
+    """
+    with open(path, "rb") as stream:
+        size = stream.seek(0, os.SEEK_END)
+        stream.seek(max(0, size - (1 << 16)))
+        tail = stream.read().decode("utf-8", errors="replace")
+    lines = [line for line in tail.splitlines() if line.strip()]
+    said = lines and incomplete_export(os.fspath(path), None, lines[-1])
+    if said:
+        raise ValueError(said)
+
+
 #: The output path that means standard output (the commands' JSON and CSV
 #: outputs: ``--json -``, ``--out -``; README "Bad options and outputs").
 STDOUT = "-"

@@ -28,6 +28,7 @@ import numpy as np
 
 from drake_dynid.core._validate import LISTED_NAMES, listed
 from drake_dynid.core.blocks import is_stored
+from drake_dynid.files import incomplete_export
 from drake_dynid.log_store import RowSink
 
 BLOCK_BYTES = 1 << 21
@@ -385,6 +386,9 @@ def _slow(path, records, header, index, wanted):
         ):
             record = record[: len(header)]  # trailing commas: empty extra cells
         if len(record) != len(header):
+            cut = record and incomplete_export(path, row, record[0])
+            if cut:
+                raise ValueError(cut)
             raise ValueError(
                 f"log {path}: row {row} has {len(record)} cells; the header has "
                 f"{len(header)}."

@@ -65,7 +65,12 @@ import numpy as np
 from drake_dynid.core import blocks as _blocks
 from drake_dynid.core._validate import listed
 from drake_dynid.core.drive import DriveChain
-from drake_dynid.files import repeated_file, write_whole
+from drake_dynid.files import (
+    incomplete_export,
+    refuse_incomplete,
+    repeated_file,
+    write_whole,
+)
 from drake_dynid.log_repair import (
     FILL_GAPS,
     JITTER_TOLERANCE,
@@ -724,6 +729,7 @@ def _header(path: str) -> list[str]:
 def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:
     """(N, len(names)) numbers of the named columns; fast path, then cell by cell."""
     index = [header.index(name) for name in names]
+    refuse_incomplete(path)  # np.loadtxt skips a '#' line
     try:
         with warnings_module.catch_warnings():
             warnings_module.simplefilter("error")  # "input contained no data"
@@ -749,6 +755,9 @@ def _read_columns(path: str, header: list[str], names: list[str]) -> np.ndarray:
     for r, row in enumerate(body):
         line = r + 2  # 1-based, after the header
         if len(row) != len(header):
+            cut = row and incomplete_export(path, line, row[0])
+            if cut:
+                raise ValueError(cut)
             raise ValueError(
                 f"log {path}: row {line} has {len(row)} cells; the header has "
                 f"{len(header)}."

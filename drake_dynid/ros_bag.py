@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 
 from drake_dynid.core._validate import listed
-from drake_dynid.files import is_stdout, write_whole
+from drake_dynid.files import INCOMPLETE, is_stdout, write_whole
 
 __all__ = [
     "JOINT_STATE",
@@ -882,7 +882,7 @@ class _Export:
 #: output, a pipe) when it stops on an error, followed by the error (its commas
 #: as semicolons): one cell, a row that the CSV readers refuse ("row N has 1
 #: cells; the header has ...": the export has 2 columns at least).
-_INCOMPLETE = "# dynid: this export is incomplete; it stopped on an error: "
+_INCOMPLETE = f"{INCOMPLETE}it stopped on an error: "
 
 
 def _unmerged(label: str, late: _Late) -> str:

@@ -1236,7 +1236,27 @@ def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
     saved.write_text(captured.out)
     monkeypatch.setattr(ros_bag, "_write_block", written)
     assert cli.main(["offline", str(saved), "--urdf", "planar_2r"]) == 2
-    assert "row 502 has 1 cells; the header has 5." in error_line(capsys)
+    # Named as such (a review: "row 502 has 1 cells; the header has 5." said
+    # nothing of a cut export), by the plain reader, a joined file's, and
+    # raw_log.read_raw_table, whose np.loadtxt skipped the '#' line: it read
+    # the 500 rows as the whole log.
+    said = (
+        "row 502 says 'this export is incomplete; it stopped on an error: made "
+        "to fail': the ROS bag's export to a pipe was cut short there, its rows "
+        "are not the whole bag; export it again to a file (dynid bag2csv BAG "
+        "--out LOG.csv)."
+    )
+    assert error_line(capsys).endswith(f"log {saved}: {said}")
+    lines = saved.read_text().splitlines()
+    times = tmp_path / "times.csv"
+    times.write_text("".join(f"{line.split(',')[0]},0\n" for line in lines[:-1]))
+    argv = ["offline", str(times), str(saved), "--urdf", "planar_2r"]
+    assert cli.main(argv) == 2
+    assert error_line(capsys).endswith(f"log {saved}: {said}")
+    from drake_dynid.raw_log import read_raw_table
+
+    with pytest.raises(ValueError, match=r"its last line says 'this export is"):
+        read_raw_table(saved, ["q_joint1"], "t")
 
 
 def test_an_export_to_standard_output_interrupted_says_it_is_incomplete(
