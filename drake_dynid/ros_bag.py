@@ -801,17 +801,23 @@ class _Export:
         # A message is late when an earlier one has a later stamp (the held-back
         # messages hold the newest stamps written so far).
         late = stamps[1:] < np.maximum.accumulate(stamps)[:-1]
+        # Those not held back (counted before), counted once a repeat is
+        # dropped (a late repeat is dropped, not written in stamp order).
+        counted = np.concatenate([[False], late])
+        counted[:held] = False
         if late.any():
-            self.reordered += int(np.count_nonzero(late[max(0, held - 1) :]))
-            block = _taken(block, np.argsort(stamps, kind="stable"))
+            order = np.argsort(stamps, kind="stable")
+            block, counted = _taken(block, order), counted[order]
             stamps = block.received if self.plan.received else block.stamps
         # A message recorded twice (the same stamp and values) is written once.
         repeated = (stamps[1:] == stamps[:-1]) & _same_rows(block.position)
         repeated &= _same_rows(block.effort)
         if repeated.any():
             self.repeated += int(np.count_nonzero(repeated))
-            block = _taken(block, np.flatnonzero(np.concatenate([[True], ~repeated])))
+            kept = np.flatnonzero(np.concatenate([[True], ~repeated]))
+            block, counted = _taken(block, kept), counted[kept]
             stamps = block.received if self.plan.received else block.stamps
+        self.reordered += int(np.count_nonzero(counted))
         if self.last is not None and stamps.size and stamps[0] <= self.last:
             # Older than a message written: more than REORDER_ROWS late, or a
             # repeat of a message written; kept aside, merged in at the end.

@@ -1437,6 +1437,37 @@ def test_a_burst_of_messages_sent_again_is_no_clock_step(arm, tmp_path, capsys):
     assert states.stamps.size == 2000
 
 
+def test_a_late_repeat_is_noted_dropped_not_written_in_stamp_order(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: a message recorded again 50 messages later (inside
+    the hold-back) was noted twice by the export, '1 message(s) ... written in
+    stamp order' and 'dropped 1 message(s) ... repeating', while it was only
+    dropped (read_joint_states and a repeat merged at the end said so). Now
+    the export counts a late message once its repeats are dropped: the
+    notes of read_joint_states."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 256)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    messages = arm_messages(arm, slice(0, 1000))
+    again = messages[250]
+    messages.insert(301, (0, again[1], messages[300][2] + 1, *again[3:]))
+    bag = tmp_path / "again.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / "again.csv"
+    assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
+    notes = [
+        line.removeprefix("dynid bag2csv: note: ")
+        for line in capsys.readouterr().err.splitlines()
+    ]
+    assert notes == [
+        "dropped 1 message(s) on /joint_states repeating the one before (the "
+        "same header.stamp and values)."
+    ]
+    assert list(read_joint_states(bag).notes) == notes
+
+
 def test_read_joint_states_is_the_export_in_stamp_order_without_repeats(
     arm, tmp_path, capsys, monkeypatch
 ):
