@@ -972,3 +972,22 @@ def test_the_chosen_grid_is_read_once(monkeypatch):
     np.testing.assert_array_equal(np.flatnonzero(missing), [699, 1498])
     np.testing.assert_array_equal(missing[[699, 1498]], [1, 2])
     assert len(calls) == 1
+
+
+def test_a_pause_is_a_gap_not_a_rate_change():
+    """Found by a review: a 1 kHz file whose recording paused for a minute and
+    resumed at the same rate was split as a rate change (steps 0.001 then
+    0.5047 then 0.001: the block holding the pause had a 0.5 ms mean step), the
+    part holding it counted on that grid: 86 samples missing for 60 000, 127 of
+    its stamps sharing a slot, two drops beside it lost. A block's step now
+    leaves out its intervals over 4 times its 4th longest."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(0)
+    t = 0.001 * (np.arange(3000) + rng.uniform(-0.1, 0.1, 3000))
+    t[1500:] += 60.0
+    missing, shared, found = _missing(np.delete(t, [1490, 1510]))
+    assert not shared and not found, found
+    np.testing.assert_array_equal(np.flatnonzero(missing), [1489, 1498, 1508])
+    assert missing[1489] == missing[1508] == 1
+    assert abs(missing[1498] - 60000) <= 3, missing[1498]
