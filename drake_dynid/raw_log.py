@@ -470,10 +470,15 @@ def _refined_cut(stamps: np.ndarray, near: int, before: float, after: float) -> 
 DENSER_RATIO = 2.0
 
 
-def _denser_note(path: str, stamps: Any, base: str, t: Any, positions: set[str]) -> str:
+def _denser_note(
+    path: str, stamps: Any, base: str, t: Any, positions: set[str], scale: float
+) -> str:
     """The clause on a joined file's positions interpolated onto denser stamps, or "".
 
-    ``positions``: the position columns read from that file (none: ""). They
+    ``stamps``/``t``: the file's and the time base's stamps in the log's time
+    unit, ``scale`` [s] a unit (the rates named in Hz: a drive file's ms or ns
+    stamps named rates 1e3 or 1e9 times too low before); ``positions``: the
+    position columns read from that file (none: ""). They
     then hold nothing above the file's own Nyquist frequency, and the
     interpolation's images, not its noise, fill the log's band above fs/4, where
     the automatic off-line cutoff read the noise floor: 100 Hz positions with
@@ -485,7 +490,8 @@ def _denser_note(path: str, stamps: Any, base: str, t: Any, positions: set[str])
     """
     if not positions:
         return ""
-    own, first = _file_step(np.asarray(stamps)), _file_step(np.asarray(t))
+    own = scale * _file_step(np.asarray(stamps))
+    first = scale * _file_step(np.asarray(t))
     if not (own > 0.0 and first > 0.0 and own >= DENSER_RATIO * first):
         return ""
     return (
@@ -1105,7 +1111,14 @@ def _read_streamed(
                 f"file {path}: {len(names)} column(s) interpolated linearly onto "
                 f"the time stamps of {base} over the common span "
                 f"{t[low]:.16g} .. {t[high - 1]:.16g} ('{time}')."
-                + _denser_note(path, tables[path][1], base, t, positions & set(names))
+                + _denser_note(
+                    path,
+                    tables[path][1],
+                    base,
+                    t,
+                    positions & set(names),
+                    log.time_scale,
+                )
             )
     if t.size - (high - low):
         warnings.append(

@@ -956,6 +956,22 @@ def test_positions_interpolated_onto_denser_stamps_are_named(tmp_path, plain_cha
     assert not any("sparser" in w for w in usual.warnings), usual.warnings
 
 
+def test_the_sparser_positions_note_names_rates_in_hz_with_ms_stamps(tmp_path, chain):
+    """Found by a review: the note on sparser positions named rates computed
+    from the raw stamps: with a drive file's ``[log] time_unit = "ms"``, 100 Hz
+    positions under 1 kHz efforts were "0.1 Hz ... 1 Hz", "above 0.05 Hz" (1e3
+    too low; 1e9 with ns). The rates are now read in seconds."""
+    fast = 0.001 * np.arange(4000)
+    slow = 0.01 * np.arange(400) + 0.0003
+    q, _ = _signals(slow)
+    _, tau = _signals(fast)
+    positions, efforts = _two_files(tmp_path, slow, q, fast, tau)
+    log = read_raw_log([efforts, positions], chain)
+    (said,) = [w for w in log.warnings if "column(s) interpolated linearly" in w]
+    assert "Its samples (100 Hz) are 10× sparser than" in said, said
+    assert "'s (1000 Hz): above 50 Hz its positions" in said, said
+
+
 def test_the_chosen_grid_is_read_once(monkeypatch):
     """Found by a review: `_missing` read the chosen grid's slots (a `_cuts`
     pass over every block) once more after the search. When every guess
