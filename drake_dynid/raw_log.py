@@ -237,16 +237,21 @@ BURST_GAP = 0.05
 #: (bursts of 2 stamps: a half; a late stamp every 4th: none below BURST_GAP).
 BURSTY = 0.4
 #: A joined file's local steps are read over blocks of this many intervals
-#: (:func:`_rate_cuts`); a part at one rate spans at least 2 of them.
+#: (:func:`_rate_cuts`); a part at one rate spans at least 2 of them (of
+#: a quarter as many intervals in a short file: :data:`SHORT_RATE`).
 RATE_BLOCK = 64
-#: A block's interval over this many times its :data:`PAUSE_RANK`-th shortest
-#: is left out of its step (:func:`_rate_cuts`): a pause (a minute in a 1 kHz
-#: file was a rate change to a 0.5 s step, the part holding it counted on that
-#: grid: 86 samples missing for 60 000, its drops lost), not its rate; the rank
-#: leaves out 3 such a block. A buffered publisher's holes (bursts of up to 16:
-#: 4 or more a block) are within it.
+#: A block's interval over this many times its 4th longest is left out of its
+#: step (:func:`_rate_cuts`): a pause (a minute in a 1 kHz file was a rate
+#: change to a 0.5 s step, the part holding it counted on that grid: 86
+#: samples missing for 60 000, its drops lost), not its rate; up to 3 such a
+#: block. A buffered publisher's holes (bursts of up to 16 in a block of 64:
+#: 4 or more holes) are within it.
 PAUSE = 4.0
-PAUSE_RANK = RATE_BLOCK - 4
+#: A file of fewer intervals than this, not bursty, is read in blocks of a
+#: quarter of :data:`RATE_BLOCK` (:func:`_rate_cuts`): the last 10 % of 500
+#: stamps at 100 Hz recorded at 50 Hz (under 2 blocks of 64) was no rate
+#: change, its 50 intervals counted a sample missing each.
+SHORT_RATE = RATE_BLOCK * RATE_BLOCK
 #: Parts whose steps differ by more than this factor are counted on their own
 #: grids (a rate change mid-file); closer ones on the whole file's.
 RATE_CHANGE = 1.05
@@ -391,29 +396,40 @@ def _bursts(stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
 def _rate_cuts(stamps: np.ndarray) -> list[int]:
     """[0, c_1, ..., n - 1]: the stamps where a joined file's rate changes.
 
-    The mean step of each block of :data:`RATE_BLOCK` intervals (bursts and
+    The mean step of each block of :data:`RATE_BLOCK` intervals (a quarter as
+    many in a file of fewer than :data:`SHORT_RATE` intervals, not bursty; the
+    blocks' ends spread over the file, the last interval in one; bursts and
     late stamps average out) without its intervals over :data:`PAUSE` times its
-    :data:`PAUSE_RANK`-th shortest (from 0: a pause or a run of drops, not its rate),
-    on a log scale, split where the split leaves the
-    least squared spread about each side's mean, recursively while the two
-    sides' means differ by more than :data:`RATE_CHANGE` and each side spans 2
-    blocks or more; each cut then moved to the stamp of the 2 blocks either
-    side that leaves the fewest intervals off one step of its side
-    (:func:`_refined_cut`).
+    4th longest (a pause or a run of drops, not its rate), on a log scale,
+    split where the split leaves the least squared spread about each side's
+    mean, recursively while the two sides' means differ by more than
+    :data:`RATE_CHANGE` and each side spans 2 blocks or more; each cut then
+    moved to the stamp of the 2 blocks either side that leaves the fewest
+    intervals off one step of its side (:func:`_refined_cut`), and kept if
+    the sides' median steps over 8 intervals (:func:`_file_step`) differ by
+    more than :data:`RATE_CHANGE` too (3 drops in a row in a block of 16
+    moved its mean by 19 %).
     """
     n = stamps.size
-    blocks = (n - 1) // RATE_BLOCK
+    block = RATE_BLOCK  # intervals a block (a short file's: fewer, unless bursty)
+    if n - 1 < SHORT_RATE and _bursts(stamps) is None:
+        block = RATE_BLOCK // 4
+    blocks = (n - 1) // block
     if blocks < 4:
         return [0, n - 1]
-    ends = np.arange(blocks + 1) * RATE_BLOCK
+    ends = np.arange(blocks + 1) * (n - 1) // blocks  # block .. 2·block - 1 each
+    rank = block - 4
     steps = np.empty(blocks)
     rows = _SLOT_CHUNK * 16  # blocks a chunk (bounded temporaries)
     for a in range(0, blocks, rows):
         b = min(blocks, a + rows)
-        d = np.diff(stamps[a * RATE_BLOCK : b * RATE_BLOCK + 1]).reshape(b - a, -1)
-        high = np.partition(d, PAUSE_RANK, axis=1)[:, PAUSE_RANK : PAUSE_RANK + 1]
-        kept = d <= PAUSE * high  # a pause or a run of drops: not the block's rate
-        steps[a:b] = np.where(kept, d, 0.0).sum(axis=1) / kept.sum(axis=1)
+        d = np.diff(stamps[ends[a] : ends[b] + 1])
+        starts = ends[a:b] - ends[a]
+        high = np.partition(d[starts[:, None] + np.arange(block)], rank, axis=1)
+        limit = np.repeat(PAUSE * high[:, rank], np.diff(ends[a : b + 1]))
+        kept = d <= limit  # a pause or a run of drops: not the block's rate
+        total = np.add.reduceat(np.where(kept, d, 0.0), starts)
+        steps[a:b] = total / np.add.reduceat(kept.astype(np.float64), starts)
     if not (steps > 0.0).all():
         return [0, n - 1]
     level = np.log(steps)
@@ -436,27 +452,34 @@ def _rate_cuts(stamps: np.ndarray) -> list[int]:
         if abs(before - after) <= math.log(RATE_CHANGE):
             return
         steps = math.exp(before), math.exp(after)
-        found.append(_refined_cut(stamps, int(ends[a + m]), *steps))
+        cut = _refined_cut(stamps, int(ends[a + m]), *steps, block)
+        h1 = _file_step(stamps[ends[a] : cut + 1])
+        h2 = _file_step(stamps[cut : ends[b] + 1])
+        if not (min(h1, h2) > 0.0 and max(h1, h2) > RATE_CHANGE * min(h1, h2)):
+            return  # a block of drops (the sides' median 8-interval steps agree)
+        found.append(cut)
         split(a, a + m)
         split(a + m, b)
 
     split(0, blocks)
     cuts = [0, n - 1]
     for c in found:  # the wider splits' first (a nested one may find it again)
-        if all(abs(c - other) >= RATE_BLOCK for other in cuts):
+        if all(abs(c - other) >= block for other in cuts):
             cuts.append(c)
     return sorted(cuts)
 
 
-def _refined_cut(stamps: np.ndarray, near: int, before: float, after: float) -> int:
-    """The stamp within 2 blocks of ``near`` where the rate changes.
+def _refined_cut(
+    stamps: np.ndarray, near: int, before: float, after: float, block: int
+) -> int:
+    """The stamp within 2 blocks of ``block`` intervals of ``near``: a rate change.
 
     ``before``/``after``: the steps either side [s]; the cut c leaves the
     least sum of min(|Δt_i/h - 1|, 1) (a drop or a burst costs 1) with h =
     ``before`` for the intervals i < c, ``after`` from c on (ties: the first).
     """
-    a = max(0, near - 2 * RATE_BLOCK)
-    b = min(stamps.size - 1, near + 2 * RATE_BLOCK)
+    a = max(0, near - 2 * block)
+    b = min(stamps.size - 1, near + 2 * block)
     d = np.diff(stamps[a : b + 1])
     off_before = np.minimum(np.abs(d / before - 1.0), 1.0)
     off_after = np.minimum(np.abs(d / after - 1.0), 1.0)

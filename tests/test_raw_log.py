@@ -1028,13 +1028,33 @@ def test_a_pause_in_a_short_file_is_counted_on_its_own_grid():
     assert abs(missing[148] - 60000) <= 150, missing[148]
 
 
+def test_a_short_file_whose_last_tenth_is_at_half_the_rate():
+    """Found by a review: 500 stamps at 100 Hz whose last 50 were recorded at
+    50 Hz: the slower end spans under 2 blocks of 64 intervals (and the last
+    (n - 1) % 64 intervals were in none), no rate change: 50 false samples
+    missing, 1 each interval. A file under 4096 intervals, not bursty, is now
+    read in blocks of 16 (a cut kept if the sides' median steps differ too)."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(0)
+    step = np.where(np.arange(499) < 449, 0.01, 0.02)
+    t = np.concatenate([[0.0], np.cumsum(step)]) + 0.001 * rng.uniform(-1, 1, 500)
+    missing, shared, found = _missing(t)
+    assert not missing.any() and not shared
+    assert found[0].startswith("its rate changes (steps 0.01 then 0.02 in its "), found
+    missing, shared, found = _missing(np.delete(t, [100, 480]))
+    np.testing.assert_array_equal(np.flatnonzero(missing), [99, 478])
+
+
 def _random_file(rng, shape):
-    """(stamps, missing): a random complete joined file of a shape, with 0-5
-    drops (none in the first or last 10 stamps: a first or last burst short of
-    stamps is read as cut by the log)."""
+    """(stamps, missing, change): a random complete joined file of a shape,
+    with 0-5 drops (none in the first or last 10 stamps: a first or last
+    burst short of stamps is read as cut by the log); ``change``: the stamp
+    where its rate changes (shape "rates"; else -1)."""
     n = int(rng.integers(300, 3000))
     h = float(rng.choice([1e-3, 2e-3, 5e-3, 1e-2]))
     k = np.arange(n).astype(float)
+    change = -1
     if shape == "jitter":  # ROS stamps: up to ±20 %
         t = k + rng.uniform(-1, 1, n) * rng.uniform(0.0, 0.2)
     elif shape == "bursts":  # a driver batching 2-8 messages
@@ -1045,6 +1065,15 @@ def _random_file(rng, shape):
         t = k + rng.uniform(-0.05, 0.05, n)
         g, c = int(rng.integers(20, n - 20)), int(rng.integers(2, 4))
         t[g : g + c] = t[g] + 0.01 * np.arange(c)
+    elif shape == "rates":  # its first or last 10 % at half or twice the rate
+        step = np.ones(n)
+        change = n // 10 if rng.random() < 0.5 else n - n // 10
+        if change < n // 2:
+            step[:change] = float(rng.choice([0.5, 2.0]))
+        else:
+            step[change:] = float(rng.choice([0.5, 2.0]))
+        t = np.concatenate([[0.0], np.cumsum(step[:-1])])
+        t += rng.uniform(-1, 1, n) * rng.uniform(0.0, 0.2) * step
     else:  # a pause of a minute, resumed at the same rate
         t = k + rng.uniform(-0.1, 0.1, n)
         k[int(rng.integers(n // 4, 3 * n // 4)) :] += round(60.0 / h)
@@ -1056,10 +1085,16 @@ def _random_file(rng, shape):
         expected[:] = 0
         before = np.searchsorted(k[kept] // b, k[~kept] // b) - 1
         np.add.at(expected, before, 1)
-    return t[kept] * h * float(rng.choice([1.0, 1e3, 1e9])), expected  # s, ms, ns
+    if change >= 0:
+        change = int(np.searchsorted(np.flatnonzero(kept), change))
+    scale = float(rng.choice([1.0, 1e3, 1e9]))  # s, ms, ns
+    return t[kept] * h * scale, expected, change
 
 
-@pytest.mark.parametrize("shape", ["jitter", "bursts", "glitch", "pause"])
+SHAPES = ["jitter", "bursts", "glitch", "pause", "rates"]
+
+
+@pytest.mark.parametrize("shape", SHAPES)
 def test_random_files_count_their_drops_exactly(shape):
     """A property of the count (a review; 1000 files a shape, seeded, gave
     the same): a file without drops counts 0 missing and one with k drops
@@ -1069,21 +1104,30 @@ def test_random_files_count_their_drops_exactly(shape):
     near-coincident once (they share a slot: a note says so, and a drop beside
     them may be placed up to 2 intervals off: 9 files in 1000); a pause of a
     minute (its count within 0.25 % of its length, the step across it read
-    from the stamps: 132 of 60 000 off at worst). Before the pause's two fixes
-    a file of 300-600 stamps counted such a pause on a 0.5 s grid (82 samples
-    missing for 60 000, its drops lost: 19 files in 1000)."""
+    from the stamps: 132 of 60 000 off at worst); its first or last 10 % at
+    half or twice the rate (a drop beside the change may read as the other
+    rate's step: 15 files in 1000 one sample off there, none complete). Before
+    the pause's two fixes a file of 300-600 stamps counted such a pause on a
+    0.5 s grid (82 samples missing for 60 000, its drops lost: 19 files in
+    1000); before short files' blocks of 16, a 10 % end at half the rate under
+    128 intervals was no rate change (its intervals a sample missing each: 21
+    of 200 files of 300-3000 stamps)."""
     from drake_dynid.raw_log import _missing
 
-    rng = np.random.default_rng(["jitter", "bursts", "glitch", "pause"].index(shape))
-    for _ in range(100):
-        stamps, expected = _random_file(rng, shape)
+    rng = np.random.default_rng(SHAPES.index(shape))
+    for _ in range(50 if shape == "rates" else 100):  # rates: 2 parts each
+        stamps, expected, change = _random_file(rng, shape)
         missing, shared, _ = _missing(stamps)
         pause = expected > 1000
         off = np.abs(missing[pause] - expected[pause])
         assert (off <= 2.5e-3 * expected[pause]).all(), (missing, expected)
         missing, expected = missing[~pause], expected[~pause]
-        assert missing.sum() == expected.sum()
         wrong = np.flatnonzero(missing != expected)
+        if shape == "rates" and expected.any():  # beside the change: ±1
+            assert abs(missing.sum() - expected.sum()) <= 2
+            assert (np.abs(wrong - change) <= 2).all(), (wrong, change)
+            continue
+        assert missing.sum() == expected.sum()
         if shape in ("glitch", "bursts") and wrong.size == 2:  # placed near it
             assert wrong[1] - wrong[0] <= (2 if shape == "glitch" else 8), wrong
         else:
