@@ -1046,6 +1046,30 @@ def test_a_short_file_whose_last_tenth_is_at_half_the_rate():
     np.testing.assert_array_equal(np.flatnonzero(missing), [99, 478])
 
 
+@pytest.mark.parametrize("b", [2, 4, 8])
+def test_a_rate_change_in_a_bursty_file_is_cut_between_bursts(b):
+    """Found by a review: a file in bursts of b at 1 kHz then 0.5 or 0.1 kHz
+    was cut where the stamps' intervals (0 or a hole: each costing 1 at either
+    step) told nothing, up to 2 blocks off: bursts of 4 at 0.5 kHz 127 false
+    samples missing, of 8 6, of 2 64-67 stamps sharing a slot (a beyond-bound
+    note); bursts of 4 or 8 at 0.1 kHz a ValueError (min() of an empty
+    sequence: the spread stamps went back). The cut now compares the bursts'
+    steps (the interval between their last stamps over the later one's
+    stamps), at a burst's last stamp: none missing, the drops counted."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(b)
+    k = np.arange(4000.0)
+    t = (k // b) * b + b - 1 + (k % b) * 0.01
+    for ratio in (2.0, 10.0):
+        slow = np.where(k < 2000, t, 2000 + ratio * (t - 2000)) * 1e-3
+        missing, shared, found = _missing(slow)
+        assert not missing.any() and not shared, (missing.sum(), shared)
+        assert found[0].startswith("its rate changes"), found
+        dropped = rng.choice(np.arange(50, 3950), 3, replace=False)
+        assert _missing(np.delete(slow, dropped))[0].sum() == 3
+
+
 def _random_file(rng, shape):
     """(stamps, missing, change): a random complete joined file of a shape,
     with 0-5 drops (none in the first or last 10 stamps: a first or last
