@@ -210,7 +210,8 @@ def _grid_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float]:
     # slot every few stamps); of the grids about as good, the one closest to the
     # stamps (a slightly coarser one hides a drop in a drift of its phase).
     least = min(_cost(f, stamps.size) for f in found)
-    near = [f for f in found if _cost(f, stamps.size) <= least * (1 + SPAN_SLACK) + 2]
+    slack = SPAN_SLACK * abs(least) + 2  # least < 0: spread stamps going back
+    near = [f for f in found if _cost(f, stamps.size) <= least + slack]
     chosen = min(near, key=lambda f: f[2])
     # A grid the stamps fit closely, without two in one slot, and not finer than
     # the mean step: its slots inserted are drops (a coarser grid's phase drift
