@@ -100,10 +100,10 @@ def tiago():
 def test_the_dead_zone_width_follows_the_velocity_noise(tiago):
     _, _, log, widths = tiago
     # 3 x the measured noise: millimetres or milliradians per second, far below
-    # the moving speeds (order 0.1 rad/s). Measured: 1.6 mm/s, 2.3-9.6 mrad/s,
-    # from the velocity above the band (arm_1..arm_4: 4-10 times what their white
-    # floor predicts; the wrist: its white floor, to round-off, at the 6.4 Hz
-    # cutoff; 1.07-1.10 times at the former rule's 5 Hz).
+    # the moving speeds (order 0.1 rad/s). Measured: 1.8 mm/s, 3.0-12.1 mrad/s,
+    # from the velocity above the band (arm_1..arm_4: 3.9-7.6 times what their
+    # white floor predicts; the wrist: its white floor, to round-off, at this
+    # resampled read's 5.977 Hz cutoff; 1.07-1.10 times at the former rule's 5 Hz).
     assert 1e-3 < widths[0] < 1e-2  # torso [m/s]
     assert np.all((widths[1:] > 1.5e-3) & (widths[1:] < 2e-2))
     # The white floor's part alone, G·σ_q: under the widths of arm_1..arm_4.
@@ -141,7 +141,8 @@ def _coulomb_gap(robot, log):
     """max |FC_online - FC_offline| / σ_offline over the identified FCj.
 
     σ_offline: Gautier's (the reported σ over its decimated rows' correlation
-    factor, 1.52 on this resampled read, 1.59 as dynid offline reads it), the σ
+    factor, 1.500 on this resampled read, 1.527 as the README's dynid offline
+    --split 0.6 reads it), the σ
     the README's numbers are in.
     """
     offline = identify_offline(log, robot)
@@ -160,7 +161,8 @@ def _coulomb_gap(robot, log):
 
 def test_online_and_offline_coulomb_agree_with_the_dead_zone(tiago):
     robot, zoned, log, _ = tiago
-    # Measured: 1.13 σ with the exact sign, 0.44 σ with the dead zone.
+    # Measured: 2.54 σ with the exact sign, 0.33 σ with the dead zone (1.13 and
+    # 0.44 before the noise-aware automatic cutoff, docs/MATH.md §5).
     assert _coulomb_gap(robot, log) > 0.8
     assert _coulomb_gap(zoned, log) < 0.5
 
