@@ -241,9 +241,11 @@ def resampling(x: Any) -> tuple[float, int]:
     resampling does). The k-th differences of such a channel vanish (within
     1e-9 of their largest: round-off) except at its knots, which come every L
     samples, L the mean gap between knots (a consecutive run of nonzero
-    differences one knot): at least 8 knots, 2 <= L <= 100, and 90 % of the
+    differences one knot): at least 8 knots, 2 <= L <= 100, 90 % of the
     gaps between knots within 1.5 samples of L (a non-integer ratio, unaligned
-    stamps, jitter).
+    stamps, jitter), and 90 % of the knots at most k samples long (a sensor 2 %
+    slower than the log's clock repeats one sample in 50 and moves on the 49
+    others: not held).
     Below the true Nyquist frequency f_s/(2L) such a channel's white noise of
     one-sided density N_0 reads N_0·sinc(f·L/f_s)^(2k) (the hold's or the
     triangle's kernel); above it, only images. A quantized channel (every change
@@ -265,8 +267,15 @@ def resampling(x: Any) -> tuple[float, int]:
         if not top > 0.0:
             return 1.0, 0
         moving = np.flatnonzero(difference > 1e-9 * top)
-        starts = moving[np.r_[True, np.diff(moving) > 1]]
+        first = np.r_[True, np.diff(moving) > 1]
+        starts = moving[first]
         if starts.size < _MIN_KNOTS:
+            continue
+        # A knot moves the k-th differences on at most k samples (held: one;
+        # interpolated: the kink's two when it falls between samples); a sensor
+        # slower than the log's clock repeats one sample in L and moves on L - 1.
+        runs = np.diff(np.r_[np.flatnonzero(first), moving.size])
+        if np.mean(runs <= order) < _REGULAR_SHARE:
             continue
         ratio = float(starts[-1] - starts[0]) / (starts.size - 1)  # mean gap
         if not 2.0 <= ratio <= _MAX_RESAMPLING:

@@ -217,3 +217,26 @@ def test_position_noise_of_resampled_quantized_and_held_channels():
     for value in (0.3, 1.2345678, 195 * count):
         assert position_noise_std(np.full(1000, value), H)[0] == 0.0
     assert quantum(q[:, 0]) == 0.0 and quantum(np.full(9, 0.3)) == 0.0
+
+
+def test_a_sensor_slower_than_the_log_clock_is_not_resampled():
+    """Found by a review: a 1 kHz sensor read by a log clock 2 % faster (980
+    Hz, σ = 1e-4 rad) repeats one sample in 50; ``resampling`` called each
+    run of moving samples between repeats a knot and judged the channel held
+    from 20 Hz (50, 1): position_noise_std 2.1e-5 rad instead of 1.1e-4, and
+    ``dynid offline`` would name it held. A held channel moves at one sample
+    per knot (k-th differences nonzero on runs of at most k); here it moves
+    on 49 of 50."""
+    from drake_dynid.core.excitation import position_noise_std, resampling
+
+    n = 20000
+    for every in (20, 50):
+        sensor = np.arange(n) * H * every / (every - 1)  # its own sample times
+        t, q = _lines(1.0 / H, n * H, 0.0)
+        y = np.column_stack([np.interp(sensor, t, q[:, j]) for j in range(2)])
+        y += np.random.default_rng(5).normal(0.0, 1e-4, y.shape)
+        # The log's clock holds the last sensor sample: a repeat every `every`.
+        logged = y[np.searchsorted(sensor, t, side="right") - 1]
+        assert resampling(logged[:, 0]) == (1.0, 0)
+        assert resampling(logged[:, 1]) == (1.0, 0)
+        assert np.all(position_noise_std(logged, H) > 0.9e-4)
