@@ -424,7 +424,7 @@ def motion_and_noise(
     f, s, x, h = _periodogram(q, time_step)
     floor = _noise_floor(f, s, x, h)
     noise = _noise_std(f, floor, x, h)
-    power = _velocity_power(f, s, x, floor, threshold)
+    power = _velocity_power(f, s, x, floor, threshold, h)
     return np.sqrt(power.sum(axis=0) * (f[1] - f[0])), noise
 
 
@@ -449,13 +449,57 @@ def velocity_spectrum(
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     f, s, x, h = _periodogram(q, time_step)
     floor = _noise_floor(f, s, x, h)
-    return f, _velocity_power(f, s, x, floor, threshold)
+    return f, _velocity_power(f, s, x, floor, threshold, h)
+
+
+def _staircase_floor(
+    f: np.ndarray, floor: np.ndarray, x: np.ndarray, h: float
+) -> np.ndarray:
+    """The floor raised to a quantized channel's rounding error [unit²/Hz].
+
+    For a channel quantized by Δ_j (:func:`quantum`) changing count r_j times a
+    second, at least ``Δ²/(6 f_s)`` (white, variance Δ²/12) and
+    ``Δ²·r/(24·max(f, r)²)`` (a staircase, a sawtooth of fundamental ~r whose
+    harmonics fall like 1/f², Δ²/12 in all; the automatic cutoff's floor,
+    ``core.idim_auto``), and Δ²·T/18, all of Δ²/12 on one line (a periodic
+    motion's staircase is periodic; T the record's duration); not when the
+    white floor is at least Δ²/(8 f_s) (noise of σ >= Δ/4 dithers the
+    rounding: the TIAGo's joints, σ 0.39 Δ to 29 Δ, keep their band). Read
+    against the white floor above f_s/4 alone, a 12-bit joint's staircase put
+    the velocity band at 482 Hz for a 1 rad sine of 0.5 Hz (a review). Not for
+    the noise's σ (:func:`_noise_std`: Δ/√12).
+    """
+    raised = floor.copy()
+    fs = 1.0 / h
+    for j in range(x.shape[1]):
+        step = quantum(x[:, j])
+        # Noise of σ >= Δ/4 (floor >= Δ²/(8 f_s)) dithers the rounding: white.
+        if step > 0.0 and floor[0, j] < step**2 / (8.0 * fs):
+            rate = np.count_nonzero(np.diff(x[:, j])) * fs / x.shape[0]
+            stairs = step**2 * rate / (24.0 * np.maximum(f, rate) ** 2)
+            raised[:, j] = np.maximum(raised[:, j], step**2 / (6.0 * fs))
+            raised[:, j] = np.maximum(raised[:, j], stairs)
+            # All of Δ²/12 on one line (a periodic motion's staircase is
+            # periodic): a line of power P reads P·T/1.5 on the Hann periodogram.
+            line = step**2 / 12.0 * x.shape[0] * h / 1.5
+            raised[:, j] = np.maximum(raised[:, j], line)
+    return raised
 
 
 def _velocity_power(
-    f: np.ndarray, s: np.ndarray, x: np.ndarray, floor: np.ndarray, threshold: float
+    f: np.ndarray,
+    s: np.ndarray,
+    x: np.ndarray,
+    floor: np.ndarray,
+    threshold: float,
+    h: float,
 ) -> np.ndarray:
-    """P_j(f) of :func:`velocity_spectrum` from the periodogram and its floor."""
+    """P_j(f) of :func:`velocity_spectrum` from the periodogram and its floor.
+
+    ``floor`` the white one (:func:`_noise_floor`), raised here for a quantized
+    channel (:func:`_staircase_floor`).
+    """
+    floor = _staircase_floor(f, floor, x, h)
     keep = s > threshold * floor
     # A constant (or exactly linear) channel only leaves round-off: no motion.
     residual = detrend_linear(x)

@@ -240,3 +240,29 @@ def test_a_sensor_slower_than_the_log_clock_is_not_resampled():
         assert resampling(logged[:, 0]) == (1.0, 0)
         assert resampling(logged[:, 1]) == (1.0, 0)
         assert np.all(position_noise_std(logged, H) > 0.9e-4)
+
+
+def test_velocity_band_of_a_quantized_joint_sees_its_staircase_as_noise():
+    """Found by a review: the velocity band read a 12-bit joint's staircase
+    (Δ = 2π/4096) against the white floor above f_s/4, and its harmonics, 1/f²
+    down to a few hundred Hz, as motion: 482 Hz for a 1 rad sine of 0.5 Hz, 497
+    Hz for 0.01 rad at 0.1 Hz, a log's band 497 Hz instead of the other joint's
+    0.62 Hz (the off-line decimation cutoff min(f_c, 1.5 B) then f_c, 2.98 Hz,
+    instead of 0.93). The staircase floor of the automatic cutoff
+    (Δ²·r/(24·max(f, r)²), r the count changes a second) now applies to the
+    velocity band too; position_noise_std keeps Δ/√12."""
+    from drake_dynid.core.excitation import position_noise_std
+
+    t = np.arange(60000) * H
+    count = 2 * np.pi / 4096
+    moving = 0.5 * np.sin(2 * np.pi * 0.2 * t) + 0.3 * np.sin(2 * np.pi * 0.6 * t + 1)
+    moving += np.random.default_rng(2).normal(0.0, 1e-4, t.size)
+    alone = estimate_bandwidth(moving, H)  # 0.62 Hz
+    for amplitude, frequency in ((1.0, 0.5), (0.01, 0.1)):
+        joint = np.round((0.3 + amplitude * np.sin(2 * np.pi * frequency * t)) / count)
+        joint *= count
+        assert estimate_bandwidth(joint, H) < 5.0 * frequency
+        both = np.column_stack([moving, joint])
+        assert estimate_bandwidth(both, H) == pytest.approx(alone, abs=0.05)
+        sigma = position_noise_std(joint, H)[0]
+        assert sigma == pytest.approx(count / np.sqrt(12.0), rel=0.02)
