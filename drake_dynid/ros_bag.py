@@ -15,7 +15,8 @@ What is read (README "Logs from ROS bags"):
   that leaves the header empty), the bag's receive time, with a note (or when
   asked: ``stamps="receive"``); messages recorded out of stamp order are put in
   it, but :data:`CLOCK_STEP_RUN` late in a row are a clock set back, an error
-  (:class:`_Steps`);
+  (:class:`_Steps`) giving the ``dynid bag2csv --from / --to`` commands that
+  export each side of it (``span``: a bag time range, the only messages read);
 * the needed joints by name, in each message's own order (it may differ between
   messages); a message without one of them (another publisher on the topic, e.g. a
   gripper's) is skipped and counted in a note; none with all of them is an error
@@ -218,6 +219,7 @@ def read_joint_states(
     topic: str | None = None,
     optional: Sequence[str] = (),
     stamps: str = "header",
+    span: tuple[float | None, float | None] = (None, None),
 ) -> JointStates:
     """Reads a bag's JointState messages into arrays (module docstring).
 
@@ -238,6 +240,11 @@ def read_joint_states(
         stamps: ``"header"``, the time of a message is its header.stamp (the
             receive time when every one is 0); ``"receive"``: the bag's receive
             time (a header clock set back, :class:`_Steps`).
+        span: ``(from, to)`` [s] after the bag's first message (any topic), in
+            bag (receive) time: only the messages received at or after
+            ``from`` and before ``to`` are read (None: the bag's start, end);
+            the others are not read at all (a clock step outside the range is
+            not seen). ``0 <= from < to``, both within the bag (:func:`_window`).
 
     Raises:
         ValueError: rosbags missing, a bag that cannot be read (named), no or
@@ -246,7 +253,7 @@ def read_joint_states(
         FileNotFoundError: no such file.
     """
     sink = _Collect()
-    done, _ = _scan(path, joints, topic, optional, sink, stamps=stamps)
+    done, _ = _scan(path, joints, topic, optional, sink, stamps=stamps, span=span)
     blocks = sink.blocks
     n, m = len(done.joint_names), len(sink.held)
 
@@ -332,6 +339,7 @@ def export_bag(
     held_out: str | os.PathLike | None = None,
     held_column: str = "q_{joint}",
     stamps: str = "header",
+    span: tuple[float | None, float | None] = (None, None),
 ) -> BagExport:
     """Streams a bag's JointState messages into a CSV log at ``out``.
 
@@ -375,6 +383,7 @@ def export_bag(
             format), when a kept message holds one.
         held_column: their column names (``{joint}``).
         stamps: the messages' time (:func:`read_joint_states`).
+        span: the bag time range read (:func:`read_joint_states`).
 
     Raises:
         ValueError, FileNotFoundError: as :func:`read_joint_states`.
@@ -393,14 +402,16 @@ def export_bag(
                 # in, refused before a row is written (_Export's dry run).
                 dry = _Export(None, columns, time, time_unit, None, held_column)
                 try:
-                    plan = _scan(path, joints, topic, optional, dry, stamps=stamps)[1]
+                    plan = _scan(
+                        path, joints, topic, optional, dry, stamps=stamps, span=span
+                    )[1]
                 finally:
                     dry.close()
                 if dry.late.count:
                     raise ValueError(_unmerged(sink.label, dry.late))
             try:
                 done, _ = _scan(
-                    path, joints, topic, optional, sink, plan, stamps=stamps
+                    path, joints, topic, optional, sink, plan, stamps=stamps, span=span
                 )
             except BaseException as error:  # Ctrl-C too
                 if sink.started and not rewinds:
@@ -662,29 +673,136 @@ def _seconds(ns: int) -> str:
     return f"{sign}{whole}.{part:09d}".rstrip("0").rstrip(".")
 
 
-def _clock_step(path: str, topic: str, steps: _Steps, plan: _Plan) -> str:
-    """The error of a clock set back (:class:`_Steps`), what to do."""
-    assert steps.step is not None and steps.first_received is not None
+def _clock_step(
+    path: str,
+    topic: str,
+    steps: _Steps,
+    plan: _Plan,
+    window: _Window,
+    asked: str | None = None,
+    receive: bool = False,
+) -> str:
+    """The error of a clock set back (:class:`_Steps`), what to do.
+
+    The commands that export each side of the step, with their values (the
+    step's bag time, :class:`_Window`'s origin), and ``--stamps receive``
+    when the header stamps were read. ``asked``: the ``--topic`` given;
+    ``receive``: ``--stamps receive`` given (the sides are read so too).
+    """
+    import shlex
+
+    assert steps.step is not None
     k, time, received, newest = steps.step
     clock = "the bag's receive times" if plan.received else "header.stamp"
-    into = _seconds(received - steps.first_received)
-    advice = "Cut the bag at that bag time and read one side."
+    into = _seconds(received - window.origin)
+    command = f"dynid bag2csv {shlex.quote(path)}"
+    if asked is not None:
+        command += f" --topic {shlex.quote(asked)}"
+    since = "" if window.start is None else f" --from {window.seconds(window.start)}"
+    until = "" if window.stop is None else f" --to {window.seconds(window.stop)}"
+    stamps = " --stamps receive" if receive else ""
+    sides = (
+        f"'{command} --out before.csv{since} --to {into}{stamps}' and "
+        f"'{command} --out after.csv --from {into}{until}{stamps}'"
+    )
+    advice = (
+        f"Export each side of the step: {sides} (the messages received before and "
+        f"from bag time {into} s; with the command's --drive, --urdf, --joints and "
+        "--lock when it has them), and give one."
+    )
     if not plan.received:
         advice = (
-            "Export the bag with its receive times, 'dynid bag2csv BAG --out "
-            "LOG.csv --stamps receive' (with the command's --drive, --urdf, "
-            "--joints and --lock when it has them), and give LOG.csv; or cut the "
-            "bag at that bag time and read one side."
+            "Export the bag with its receive times, "
+            f"'{command} --out LOG.csv{since}{until} --stamps receive' (with the "
+            "command's --drive, --urdf, --joints and --lock when it has them), and "
+            f"give LOG.csv; or export each side of the step: {sides} (the "
+            f"messages received before and from bag time {into} s; the same "
+            "options), and give one."
         )
     return (
         f"ROS bag {path}: {clock} on {topic} steps back {_seconds(newest - time)} s "
-        f"at message {k + 1} (bag time {_seconds(received)} s, {into} s after the "
-        f"first message): from {_seconds(newest)} s to {_seconds(time)} s, "
+        f"at message {k + 1}{window.label} (bag time {_seconds(received)} s, {into} "
+        f"s after the bag's first message): from {_seconds(newest)} s to "
+        f"{_seconds(time)} s, "
         f"{steps.length} message(s) in a row older than one recorded before them, "
         "a clock set back (a robot's clock re-synchronised, e.g. by NTP), not a "
         "transport's reordering; put in stamp order they would interleave the "
         f"recording before and after the step. {advice}"
     )
+
+
+@dataclass(frozen=True)
+class _Window:
+    """The bag time range read (:func:`read_joint_states`' ``span``).
+
+    ``origin``: the bag's first message's receive time [ns] (any topic: the
+    reader's start time); ``start``, ``stop``: the receive times read, at or
+    after ``start`` and before ``stop`` [ns] (None: no bound), the readers'
+    own filter (rosbags' ``messages(start=, stop=)``, :class:`_Ros1Chunks`).
+    """
+
+    origin: int
+    start: int | None = None
+    stop: int | None = None
+
+    def seconds(self, ns: int) -> str:
+        """A receive time [ns] as seconds after the origin (every digit)."""
+        return _seconds(ns - self.origin)
+
+    @property
+    def label(self) -> str:
+        """`` in the bag time range read (A s to B s)``, or ``""`` (no range)."""
+        if self.start is None and self.stop is None:
+            return ""
+        since = "the start" if self.start is None else f"{self.seconds(self.start)} s"
+        until = "the end" if self.stop is None else f"{self.seconds(self.stop)} s"
+        return f" in the bag time range read ({since} to {until})"
+
+
+def _window(
+    path: str,
+    span: tuple[float | None, float | None],
+    origin: int,
+    end: int,
+) -> _Window:
+    """The :class:`_Window` of ``span`` = (from, to) [s] after ``origin`` [ns].
+
+    ``origin``, ``end``: the bag's first and last receive times [ns]
+    (rosbags' ``start_time``, ``end_time``).
+
+    Raises:
+        ValueError: a bound not finite, negative, beyond the bag's length, or
+            ``from >= to`` (named as the options ``--from`` and ``--to``).
+    """
+    first, last = span
+    if first is None and last is None:
+        return _Window(origin)
+    length = max(0, end - origin)
+    bounds: list[int | None] = []
+    for option, value in (("--from", first), ("--to", last)):
+        if value is None:
+            bounds.append(None)
+            continue
+        value = float(value)
+        if not np.isfinite(value) or value < 0:
+            raise ValueError(
+                f"ROS bag {path}: {option} {value}: the bag time range is in "
+                "seconds after the bag's first message, a finite number >= 0."
+            )
+        ns = round(value * 1e9)
+        if ns > length:
+            raise ValueError(
+                f"ROS bag {path}: {option} {value}: beyond the bag, whose messages "
+                f"span {_seconds(length)} s of bag time (from its first message)."
+            )
+        bounds.append(origin + ns)
+    start, stop = bounds
+    if start is not None and stop is not None and start >= stop:
+        raise ValueError(
+            f"ROS bag {path}: --from {first} is not before --to {last}: the range "
+            "is the messages received at or after --from and before --to."
+        )
+    return _Window(origin, start, stop)
 
 
 class _Collect:
@@ -1043,11 +1161,12 @@ def _scan(
     plan: _Plan | None = None,
     *,
     stamps: str = "header",
+    span: tuple[float | None, float | None] = (None, None),
 ) -> tuple[BagExport, _Plan]:
     """Passes over the bag until the plan holds (:func:`export_bag`).
 
-    ``sink`` None: read only; ``stamps``: :func:`read_joint_states`'. Returns
-    what the final pass wrote, and the bag's plan.
+    ``sink`` None: read only; ``stamps``, ``span``: :func:`read_joint_states`'.
+    Returns what the final pass wrote, and the bag's plan.
     """
     if stamps not in STAMPS:
         raise ValueError(f"stamps {stamps!r}: one of {listed(STAMPS)}.")
@@ -1060,7 +1179,9 @@ def _scan(
         if path.lower().endswith(".bag"):
             chunks = _Ros1Chunks.open(path)  # None: rosbags' reader
         with chunks or highlevel.AnyReader([storage]) as reader:
+            asked = topic
             topic, connections = _topic(path, reader, topic)
+            window = _window(path, span, reader.start_time, reader.end_time)
             passes = 0
             while True:
                 passes += 1
@@ -1072,8 +1193,11 @@ def _scan(
                     plan,
                     sink,
                     receive=stamps == "receive",
+                    window=window,
                 )
-                final = _final_plan(path, topic, tally, given, tuple(optional))
+                final = _final_plan(
+                    path, topic, tally, given, tuple(optional), window.label
+                )
                 if not tally.kept and chosen == (final.wanted, final.exact):
                     needed = listed(final.wanted)
                     if tally.malformed:
@@ -1098,7 +1222,17 @@ def _scan(
                     )
                 if used == final:
                     if tally.steps.step is not None:
-                        raise ValueError(_clock_step(path, topic, tally.steps, final))
+                        raise ValueError(
+                            _clock_step(
+                                path,
+                                topic,
+                                tally.steps,
+                                final,
+                                window,
+                                asked,
+                                receive=stamps == "receive",
+                            )
+                        )
                     break
                 if passes >= 4:  # cannot happen: the plan is the bag's by then
                     raise RuntimeError(f"no consistent plan after {passes} passes")
@@ -1145,13 +1279,15 @@ def _pass(
     sink: Any,
     *,
     receive: bool = False,
+    window: _Window | None = None,
 ) -> tuple[_Tally, _Plan | None, tuple[Any, Any]]:
     """One pass over the topic's messages, a block at a time into ``sink``.
 
     ``plan`` None: judged from the first block (the joints, when not
     ``given``, from the first message). Returns the counts, the plan used
     (None: no message kept) and the joints kept ``(wanted, exact)``.
-    ``receive``: the receive times, whatever the header stamps.
+    ``receive``: the receive times, whatever the header stamps; ``window``:
+    only the messages received in it are read (the reader's own filter).
     """
     tally = _Tally(receive=receive)
     wanted, exact = (plan.wanted, plan.exact) if plan else (given, None)
@@ -1182,7 +1318,10 @@ def _pass(
         for buffer in (stamps, received, entries, positions, efforts):
             buffer.clear()
 
-    for c, time, data in reader.messages(connections=connections):
+    start, stop = (None, None) if window is None else (window.start, window.stop)
+    for c, time, data in reader.messages(
+        connections=connections, start=start, stop=stop
+    ):
         message = reader.deserialize(data, c.msgtype)
         tally.total += 1
         names = tuple(message.name)
@@ -1312,10 +1451,14 @@ def _final_plan(
     tally: _Tally,
     given: tuple[str, ...] | None,
     optional: tuple[str, ...],
+    label: str = "",
 ) -> _Plan:
-    """The bag's plan from a pass's counts; the errors of an unusable topic."""
+    """The bag's plan from a pass's counts; the errors of an unusable topic.
+
+    ``label``: the bag time range read (:class:`_Window`), named in the error.
+    """
     if not tally.total:
-        raise ValueError(f"ROS bag {path}: topic {topic} holds no message.")
+        raise ValueError(f"ROS bag {path}: topic {topic} holds no message{label}.")
     if given is None:
         # The most frequent set of well-formed messages (then of any).
         chosen = max(
@@ -1598,12 +1741,12 @@ class _Ros1Chunks:
         self,
         stream: Any,
         connections: list[_Connection],
-        chunks: list[tuple[int, int, int]],
+        chunks: list[tuple[int, int, int, int]],
     ) -> None:
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
         self.stream, self.connections = stream, connections
-        self.chunks = chunks  # (start time [ns], position, place in the file)
+        self.chunks = chunks  # (start time [ns], position, place in the file, end)
         self.typestore = get_typestore(Stores.EMPTY)
         states = [c for c in connections if c.msgtype == JOINT_STATE]
         for c in states:
@@ -1652,7 +1795,7 @@ class _Ros1Chunks:
                     raise ValueError("not a CHUNK_INFO record of version 1")
                 (position,) = struct.unpack("<Q", fields["chunk_pos"])
                 start, end = _time(fields["start_time"]), _time(fields["end_time"])
-                infos.append((start, position))
+                infos.append((start, position, end))
                 events += [(start, 0), (end, 1)]  # at one time: starts first
             depth = held = 0
             for _, kind_ in sorted(events):
@@ -1660,8 +1803,8 @@ class _Ros1Chunks:
                 depth = max(depth, held)
             if depth > ROS1_OVERLAP:
                 raise ValueError("too many chunks overlap in time")
-            places = {p: k for k, p in enumerate(sorted(p for _, p in infos))}
-            ordered = sorted((start, p, places[p]) for start, p in infos)
+            places = {p: k for k, p in enumerate(sorted(p for _, p, _ in infos))}
+            ordered = sorted((start, p, places[p], end) for start, p, end in infos)
             return cls(stream, connections, ordered)
         except Exception:  # rosbags' reader reads it, or names the problem
             with contextlib.suppress(OSError):
@@ -1674,23 +1817,50 @@ class _Ros1Chunks:
     def __exit__(self, *args: object) -> None:
         self.stream.close()
 
-    def messages(self, connections: Sequence[_Connection]) -> Any:
-        """``(connection, receive time [ns], data)`` in rosbags' order."""
+    @property
+    def start_time(self) -> int:
+        """The first message's receive time [ns] (rosbags' ``start_time``)."""
+        return min((c[0] for c in self.chunks), default=2**63 - 1)
+
+    @property
+    def end_time(self) -> int:
+        """The last message's receive time [ns] (rosbags' ``end_time``)."""
+        return max((c[3] for c in self.chunks), default=0)
+
+    def messages(
+        self,
+        connections: Sequence[_Connection],
+        start: int | None = None,
+        stop: int | None = None,
+    ) -> Any:
+        """``(connection, receive time [ns], data)`` in rosbags' order.
+
+        Only those received at or after ``start`` and before ``stop`` [ns]
+        (rosbags' ``messages``): a chunk that ends before ``start`` or begins
+        at or after ``stop`` is not read.
+        """
         import heapq
 
         rank = {c.id: (k, c) for k, c in enumerate(connections)}
         heap: list[tuple[int, int, int, int, Any, bytes, int]] = []
-        chunks = iter(self.chunks)
+        chunks = iter(
+            c
+            for c in self.chunks
+            if (start is None or c[3] >= start) and (stop is None or c[0] < stop)
+        )
         waiting = next(chunks, None)
         while heap or waiting is not None:
             # Every chunk starting at or before the earliest message held.
             while waiting is not None and (not heap or waiting[0] <= heap[0][0]):
                 for item in self._chunk(waiting[1], waiting[2], rank):
-                    heapq.heappush(heap, item)
+                    if start is None or item[0] >= start:
+                        heapq.heappush(heap, item)
                 waiting = next(chunks, None)
             if heap:
-                time, _, _, stop, c, data, start = heapq.heappop(heap)
-                yield c, time, data[start:stop]  # the chunk's bytes: held till then
+                time, _, _, end, c, data, begin = heapq.heappop(heap)
+                if stop is not None and time >= stop:
+                    return  # the rest are later still
+                yield c, time, data[begin:end]  # the chunk's bytes: held till then
 
     def _chunk(self, position: int, place: int, rank: dict[int, Any]) -> Any:
         """The messages of the chunk at ``position``, as ``messages``' heap keys."""

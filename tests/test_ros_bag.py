@@ -1319,14 +1319,17 @@ def test_a_header_clock_set_back_is_named_with_when_and_how_much(arm, tmp_path, 
     assert line == (
         f"dynid offline: error: ROS bag {bag}: header.stamp on /joint_states steps "
         "back 4.9995 s at message 4001 (bag time 1700000004.00035 s, 4 s after "
-        "the first message): from 1700000003.999 s to 1699999998.9995 s, 4001 "
-        "message(s) in a row older than one recorded before them, a clock set "
-        "back (a robot's clock re-synchronised, e.g. by NTP), not a transport's "
-        "reordering; put in stamp order they would interleave the recording "
-        "before and after the step. Export the bag with its receive times, "
-        "'dynid bag2csv BAG --out LOG.csv --stamps receive' (with the command's "
-        "--drive, --urdf, --joints and --lock when it has them), and give "
-        "LOG.csv; or cut the bag at that bag time and read one side."
+        "the bag's first message): from 1700000003.999 s to 1699999998.9995 s, "
+        "4001 message(s) in a row older than one recorded before them, a clock "
+        "set back (a robot's clock re-synchronised, e.g. by NTP), not a "
+        "transport's reordering; put in stamp order they would interleave the "
+        "recording before and after the step. Export the bag with its receive "
+        f"times, 'dynid bag2csv {bag} --out LOG.csv --stamps receive' (with the "
+        "command's --drive, --urdf, --joints and --lock when it has them), and "
+        "give LOG.csv; or export each side of the step: 'dynid bag2csv "
+        f"{bag} --out before.csv --to 4' and 'dynid bag2csv {bag} --out "
+        "after.csv --from 4' (the messages received before and from bag time 4 "
+        "s; the same options), and give one."
     )
     with pytest.raises(ValueError, match=r"steps back 4\.9995 s at message 4001"):
         read_joint_states(bag)
@@ -1353,7 +1356,7 @@ def test_a_clock_set_back_is_refused_on_standard_output_before_a_row(
     assert captured.out == ""
     assert (
         "steps back 0.1995 s at message 2001 (bag time 1700000002.00035 s, 2 s "
-        "after the first message): from 1700000001.999 s to 1700000001.7995 s, "
+        "after the bag's first message): from 1700000001.999 s to 1700000001.7995 s, "
         "200 message(s) in a row" in captured.err
     ), captured.err
     with pytest.raises(ValueError, match=r"steps back 0\.1995 s at message 2001"):
@@ -1514,3 +1517,133 @@ def test_read_joint_states_is_the_export_in_stamp_order_without_repeats(
         "header.stamp: written in stamp order (1 of them more than 100" in err
     ), err
     assert "dropped 2 message(s) on /joint_states repeating" in err, err
+
+
+def advised(line):
+    """The commands an error advises, quoted '...' (argv lists, 'dynid' dropped)."""
+    import re
+    import shlex
+
+    return [shlex.split(c)[1:] for c in re.findall(r"'(dynid bag2csv [^']*)'", line)]
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "mcap"])
+def test_a_clock_step_error_gives_the_commands_that_export_each_side(
+    arm, tmp_path, capsys, monkeypatch, kind
+):
+    """Found by a review: a header clock set back was refused with the advice
+    'cut the bag at that bag time and read one side', but no dynid option cut
+    a bag. bag2csv now reads a bag time range (--from, --to: seconds after
+    the bag's first message, received at or after --from and before --to),
+    and the error gives the commands with the step's bag time: run as
+    printed, they export the two sides (2000 and 1000 rows, the stamps in
+    order), and the receive-time export, without error."""
+    messages = stepped_back(arm_messages(arm, slice(0, 3000)), 2000, 3 * 10**9)
+    bag = tmp_path / ("step.bag" if kind == "ros1" else "step")
+    write_bag(bag, kind, messages)
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["bag2csv", str(bag), "--out", "log.csv"]) == 2
+    commands = advised(error_line(capsys))
+    assert [c[3:] for c in commands] == [
+        ["LOG.csv", "--stamps", "receive"],
+        ["before.csv", "--to", "2"],
+        ["after.csv", "--from", "2"],
+    ], commands
+    stamps = arm[1]
+    for argv, rows in zip(commands, (3000, 2000, 1000), strict=True):
+        assert cli.main([*argv, "--quiet"]) == 0, capsys.readouterr().err
+        assert read_log(argv[3], arm[0]).t.size == rows
+    before = np.loadtxt(tmp_path / "before.csv", delimiter=",", skiprows=1)
+    after = np.loadtxt(tmp_path / "after.csv", delimiter=",", skiprows=1)
+    assert before[0, 0] == stamps[0] and before[-1, 0] == stamps[1999]
+    assert after[0, 0] == stamps[2000] - 3 * 10**9
+    assert after[-1, 0] == stamps[2999] - 3 * 10**9
+    # Within a range given, the advice keeps its other bound.
+    argv = ["bag2csv", str(bag), "--out", "log.csv", "--from", "0.5", "--to", "2.5"]
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    assert "at message 1501 in the bag time range read (0.5 s to 2.5 s)" in line
+    assert [c[3:] for c in advised(line)][1:] == [
+        ["before.csv", "--from", "0.5", "--to", "2"],
+        ["after.csv", "--from", "2", "--to", "2.5"],
+    ]
+
+
+def test_a_bag_time_range_reads_only_its_messages(arm, tmp_path, capsys, monkeypatch):
+    """--from and --to: the messages received in the range only, not read
+    outside it (a clock step outside it is not seen: the export of 1.0 s to
+    1.5 s of a bag whose clock steps back at 2 s is rows 1000 to 1499 of the
+    CSV log, byte for byte), by the ROS 1 chunk reader (small chunks: those
+    outside the range skipped), rosbags' ROS 1 reader and the ROS 2 one."""
+    from drake_dynid import ros_bag
+
+    messages = stepped_back(arm_messages(arm, slice(0, 3000)), 2000, 3 * 10**9)
+    expected = csv_log(tmp_path / "expected.csv", arm, slice(1000, 1500)).read_bytes()
+    opened = ros_bag._Ros1Chunks.open
+    for kind, chunks in (("ros1", True), ("ros1", False), ("mcap", False)):
+        bag = tmp_path / (f"{chunks}.bag" if kind == "ros1" else "b")
+        write_bag(bag, kind, messages, setup=small_chunks if kind == "ros1" else None)
+        monkeypatch.setattr(
+            ros_bag._Ros1Chunks, "open", opened if chunks else lambda path: None
+        )
+        out = tmp_path / "range.csv"
+        argv = ["bag2csv", str(bag), "--out", str(out), "--quiet"]
+        code = cli.main([*argv, "--from", "1", "--to", "1.5"])
+        assert code == 0, capsys.readouterr().err
+        assert out.read_bytes() == expected, (kind, chunks)
+        states = read_joint_states(bag, span=(1.0, 1.5))
+        assert states.stamps.size == 500
+    monkeypatch.setattr(ros_bag._Ros1Chunks, "open", opened)
+    with opened(str(tmp_path / "True.bag")) as reader:
+        assert len(reader.chunks) > 10
+        origin = reader.start_time
+        assert origin == EPOCH + 350_000
+        second = reader.messages(reader.connections, origin + 10**9, origin + 2 * 10**9)
+        read = [t - origin for _, t, _ in second]
+        assert read == [k * 10**6 for k in range(1000, 2000)]
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        (["--from", "2", "--to", "1"], "--from 2.0 is not before --to 1.0"),
+        (["--from", "1", "--to", "1"], "--from 1.0 is not before --to 1.0"),
+        (["--from", "5"], "--from 5.0: beyond the bag, whose messages span 2.999 s"),
+        (["--to", "3.5"], "--to 3.5: beyond the bag"),
+    ],
+)
+def test_a_bag_time_range_outside_the_bag_is_refused(
+    arm, tmp_path, capsys, options, said
+):
+    bag = tmp_path / "b.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 3000)))
+    argv = ["bag2csv", str(bag), "--out", str(tmp_path / "o.csv"), *options]
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    assert said in line, line
+
+
+@pytest.mark.parametrize("value", ["-1", "nan", "inf", "x"])
+def test_a_bag_time_that_is_no_number_of_seconds_is_refused(tmp_path, capsys, value):
+    argv = ["bag2csv", str(tmp_path / "b.bag"), "--out", "o.csv", "--from", value]
+    with pytest.raises(SystemExit) as exit_:
+        cli.main(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert "seconds of bag time after the bag's first message" in err, err
+    assert "Traceback" not in err
+
+
+def test_a_bag_time_range_without_a_message_says_so(arm, tmp_path, capsys):
+    """A range between two stretches of a recording holds no message: named
+    with the range read."""
+    messages = arm_messages(arm, slice(0, 3000))
+    bag = tmp_path / "gap.bag"
+    write_bag(bag, "ros1", messages[:1000] + messages[2000:])
+    argv = ["bag2csv", str(bag), "--out", str(tmp_path / "o.csv")]
+    assert cli.main([*argv, "--from", "1.2", "--to", "1.8"]) == 2
+    line = error_line(capsys)
+    assert line.endswith(
+        "topic /joint_states holds no message in the bag time range read (1.2 s "
+        "to 1.8 s)."
+    ), line

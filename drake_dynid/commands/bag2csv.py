@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from drake_dynid.commands._arguments import (
@@ -28,8 +29,26 @@ DESCRIPTION = (
     "time unit: give --drive with the command's --urdf (and --joints, --lock) to "
     "write those, the file the command then reads as it reads the bag. Messages "
     "without every joint (another publisher on the topic) are skipped, with a "
-    "note. Needs the rosbags package (pip install 'drake_dynid[ros]')."
+    "note. --from and --to read a bag time range only (seconds after the bag's "
+    "first message, in receive time): the other messages are not read, so that "
+    "each side of a header clock set back, which the error names with the "
+    "commands to run, can be exported. Needs the rosbags package (pip install "
+    "'drake_dynid[ros]')."
 )
+
+
+def seconds_argument(text: str) -> float:
+    """A bag time of ``--from`` / ``--to`` [s]: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: seconds of bag time after the bag's first message, a "
+            "finite number >= 0"
+        )
+    return value
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -82,6 +101,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "time when every stamp is 0), or the bag's receive time (for a bag "
         "whose header clock was set back, e.g. re-synchronised by NTP)",
     )
+    parser.add_argument(
+        "--from",
+        dest="start",
+        type=seconds_argument,
+        metavar="S",
+        help="read only the messages received at or after S seconds of bag time "
+        "(the receive time after the bag's first message, any topic; as 'ros2 bag "
+        "info' and 'rosbag info' count it): the others are not read at all (one "
+        "side of a header clock set back, which the error names with these "
+        "values)",
+    )
+    parser.add_argument(
+        "--to",
+        dest="stop",
+        type=seconds_argument,
+        metavar="S",
+        help="read only the messages received before S seconds of bag time "
+        "(--from's; 0 <= --from < --to, both within the bag)",
+    )
     parser.add_argument("--quiet", action="store_true", help="print nothing on stdout")
 
 
@@ -130,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
         time=time,
         time_unit=unit,
         stamps=args.stamps,
+        span=(args.start, args.stop),
     )
     names = done.joint_names
     for note in done.notes:
