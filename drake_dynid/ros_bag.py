@@ -1076,9 +1076,14 @@ class _Late:
                 ):
                     merged = tempfile.TemporaryFile("w+", encoding="utf-8", newline="")
                     tail = runs[-LATE_FAN_IN:]
-                    for each in tail:
-                        each.seek(0)
-                    merged.writelines(heapq.merge(*tail, key=_stamp_key))
+                    try:
+                        for each in tail:
+                            each.seek(0)
+                        merged.writelines(heapq.merge(*tail, key=_stamp_key))
+                    except BaseException:  # a full TMPDIR: closed (deleted) now
+                        with contextlib.suppress(OSError):
+                            merged.close()
+                        raise
                     for each in tail:
                         each.close()
                     level = levels[-1] + 1

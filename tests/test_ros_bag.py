@@ -1647,3 +1647,49 @@ def test_a_bag_time_range_without_a_message_says_so(arm, tmp_path, capsys):
         "topic /joint_states holds no message in the bag time range read (1.2 s "
         "to 1.8 s)."
     ), line
+
+
+def test_a_failed_merge_of_late_runs_closes_its_new_file(monkeypatch):
+    """Found by a review: when the merge of LATE_FAN_IN runs into one of the
+    next level failed (a full TMPDIR), the new temporary file was left open
+    (deleted only when collected). It is now closed on the error, which
+    names TMPDIR."""
+    import errno
+    import tempfile
+
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "LATE_RUN", 2)
+    monkeypatch.setattr(ros_bag, "LATE_FAN_IN", 2)
+    made = []
+    opened = tempfile.TemporaryFile
+
+    class Full:
+        """A temporary file whose writelines fails as on a full disk."""
+
+        def __init__(self, file):
+            self.file = file
+
+        def __getattr__(self, name):
+            return getattr(self.file, name)
+
+        def __iter__(self):
+            return iter(self.file)
+
+        def writelines(self, lines):
+            list(lines)
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    def temporary(*args, **kwargs):
+        file = opened(*args, **kwargs)
+        made.append(file)
+        return Full(file) if len(made) == 3 else file  # the first merged run
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", temporary)
+    late = ros_bag._Late()
+    late.add("1,0\n2,0\n", "")
+    with pytest.raises(OSError, match="No space left on device; set TMPDIR"):
+        late.add("3,0\n4,0\n", "")
+    assert len(made) == 3 and made[2].closed
+    late.close()
+    assert all(file.closed for file in made)
