@@ -561,9 +561,24 @@ class _Tally:
 #: offset: 12 messages at 100 Hz, 128 at 1 kHz).
 CLOCK_STEP_RUN = 10
 
+#: Late messages in a row, each stamped where no message was missing among
+#: those recorded before it, that are named a clock set back although fewer
+#: than :data:`CLOCK_STEP_RUN` (:meth:`_Steps._interleaving`): a transport's
+#: reordering fills a gap that the late message left; a clock set back by a
+#: few periods (5.5 ms at 1 kHz: 5 late) stamps its messages between, or on,
+#: the stamps of messages recorded before.
+SHORT_STEP_RUN = 3
+
+#: A gap between two stamps up to this many times the median step of the
+#: on-time messages recorded before it is no gap (no message missing there).
+_NO_GAP = 1.5
+
 
 class _Steps:
     """A clock set back: a run of :data:`CLOCK_STEP_RUN` late messages or more.
+
+    Or of :data:`SHORT_STEP_RUN` late messages or more, each stamped where no
+    message was missing (:meth:`_interleaving`).
 
     Fed each block's times in the bag's order (the header stamps, or the
     receive times when those are read); a message is late when older than
@@ -590,6 +605,8 @@ class _Steps:
         self.length = 0  # the step's run's messages (so far)
         self.open = False  # the step's run goes on at the end of what was fed
         self.recent: tuple[np.ndarray, np.ndarray] | None = None  # times, values
+        self.ontime = np.empty(0, dtype=np.int64)  # the recent times not late
+        self.odd = 0  # late messages in a row on no gap (_interleaving), at the end
 
     def add(self, times: np.ndarray, block: _Block) -> None:
         """Feeds a block's times [ns] (``block``: its receive times)."""
@@ -606,12 +623,19 @@ class _Steps:
         fresh = np.maximum.accumulate(np.where(late, -1, index))
         # The run of late messages ending at each message (0: not late).
         length = np.where(fresh >= 0, index - fresh, index + 1 + self.run)
+        odd = self._interleaving(times, late, length)
+        fresh = np.maximum.accumulate(np.where(odd, -1, index))
+        # The run of late messages on no gap ending at each (a short step).
+        short = np.where(fresh >= 0, index - fresh, index + 1 + self.odd)
+        self.odd = int(short[-1])
         if self.open:  # the step's run going on from the block before
             stop = np.flatnonzero(~late)
             self.length += int(stop[0]) if stop.size else n
             self.open = not stop.size
         if self.step is None:
-            hits = np.flatnonzero(length >= CLOCK_STEP_RUN)
+            hits = np.flatnonzero(
+                (length >= CLOCK_STEP_RUN) | (short >= SHORT_STEP_RUN)
+            )
             if hits.size:
                 k = int(hits[0])
                 first = k - int(length[k]) + 1
@@ -660,6 +684,48 @@ class _Steps:
                     late[k] = False
                     break
 
+    def _interleaving(
+        self, times: np.ndarray, late: np.ndarray, length: np.ndarray
+    ) -> np.ndarray:
+        """(n,) whether each late message is stamped where no message was missing.
+
+        Among the on-time messages (not late) of the :data:`REORDER_ROWS`
+        recorded before it: its stamp t lies between two, lo <= t < hi, no
+        more than :data:`_NO_GAP` median steps apart (no gap: a transport's
+        reordering puts a message back in the gap it left, two steps or
+        more), and nearer to one of them than their smallest step (a spacing
+        they never have; on lo: another message of that stamp, with other
+        values: a repeat is not late). A clock set back by d stamps its
+        next d / h messages so (between, or on, stamps h apart); two
+        publishers interleaved make spacings the recording has. Only the
+        first :data:`CLOCK_STEP_RUN` of a run of :data:`SHORT_STEP_RUN` late
+        messages or more are looked at (a message or two late: a reordering).
+        """
+        n = times.size
+        odd = np.zeros(n, dtype=bool)
+        ontime = np.concatenate([self.ontime, times[~late]])
+        before = np.concatenate([[0], np.cumsum(~late)])  # on-time ones before k
+        if late.any():
+            runs = np.cumsum(~late)  # the run of each late message
+            total = np.bincount(runs, weights=late).astype(int)[runs]
+            total[runs == 0] += self.run  # the run going on from before
+            looked = late & (total >= SHORT_STEP_RUN) & (length <= CLOCK_STEP_RUN)
+            for k in np.flatnonzero(looked):
+                end = self.ontime.size + int(before[k])
+                pool = np.sort(ontime[max(0, end - REORDER_ROWS) : end])
+                steps = np.diff(pool)
+                steps = steps[steps > 0]
+                t = int(times[k])
+                at = int(np.searchsorted(pool, t, side="right"))
+                if steps.size < 8 or at == 0 or at == pool.size:
+                    continue
+                lo, hi = int(pool[at - 1]), int(pool[at])
+                odd[k] = hi - lo <= _NO_GAP * float(np.median(steps)) and min(
+                    t - lo, hi - t
+                ) < int(steps.min())
+        self.ontime = ontime[-REORDER_ROWS:]
+        return odd
+
     def _first(
         self, k: int, times: np.ndarray, block: _Block, before: np.ndarray
     ) -> tuple[int, int, int, int]:
@@ -696,6 +762,13 @@ def _clock_step(
     clock = "the bag's receive times" if plan.received else "header.stamp"
     into = _seconds(received - window.origin)
     command = f"dynid bag2csv {shlex.quote(path)}"
+    short = ""
+    if steps.length < CLOCK_STEP_RUN:
+        short = (
+            f" (fewer than {CLOCK_STEP_RUN}, but each stamped between or on the "
+            "stamps of messages recorded before it where none was missing: no gap "
+            "that a transport's reordering left)"
+        )
     if asked is not None:
         command += f" --topic {shlex.quote(asked)}"
     since = "" if window.start is None else f" --from {window.seconds(window.start)}"
@@ -724,10 +797,10 @@ def _clock_step(
         f"at message {k + 1}{window.label} (bag time {_seconds(received)} s, {into} "
         f"s after the bag's first message): from {_seconds(newest)} s to "
         f"{_seconds(time)} s, "
-        f"{steps.length} message(s) in a row older than one recorded before them, "
-        "a clock set back (a robot's clock re-synchronised, e.g. by NTP), not a "
-        "transport's reordering; put in stamp order they would interleave the "
-        f"recording before and after the step. {advice}"
+        f"{steps.length} message(s) in a row older than one recorded before them"
+        f"{short}, a clock set back (a robot's clock re-synchronised, e.g. by "
+        "NTP), not a transport's reordering; put in stamp order they would "
+        f"interleave the recording before and after the step. {advice}"
     )
 
 

@@ -1693,3 +1693,83 @@ def test_a_failed_merge_of_late_runs_closes_its_new_file(monkeypatch):
     assert len(made) == 3 and made[2].closed
     late.close()
     assert all(file.closed for file in made)
+
+
+def test_a_clock_set_back_by_a_few_periods_is_named_a_clock_step(arm, tmp_path, capsys):
+    """Found by a review: a header clock set back by fewer than CLOCK_STEP_RUN
+    periods was refused downstream for another cause: 5.5 ms at 1 kHz (5
+    messages late) as 'non-uniform sampling: 7031 of 8001 stamps ...', back
+    0.2 s for 8 messages then forward as 'duplicated time stamp at row 3803'.
+    Late messages stamped between, or on, the stamps of on-time messages
+    recorded before them where none was missing (no gap a reordering left),
+    SHORT_STEP_RUN (3) or more in a row, are now named a clock set back."""
+    messages = arm_messages(arm)
+    cases = (
+        (
+            stepped_back(messages, 4000, 5_500_000),
+            "steps back 0.0045 s at message 4001 (bag time 1700000004.00035 s, 4 s "
+            "after the bag's first message): from 1700000003.999 s to "
+            "1700000003.9945 s, 5 message(s) in a row older than one recorded "
+            "before them (fewer than 10, but each stamped between or on the stamps "
+            "of messages recorded before it where none was missing: no gap that a "
+            "transport's reordering left), a clock set back",
+        ),
+        (
+            [
+                (w, s - 200_000_000 if 3900 <= k < 3908 else s, *rest)
+                for k, (w, s, *rest) in enumerate(messages)
+            ],
+            "steps back 0.199 s at message 3901 (bag time 1700000003.90035 s, 3.9 s "
+            "after the bag's first message): from 1700000003.899 s to 1700000003.7 "
+            "s, 8 message(s) in a row older than one recorded before them (fewer "
+            "than 10",
+        ),
+    )
+    for k, (source, said) in enumerate(cases):
+        bag = tmp_path / f"step{k}.bag"
+        write_bag(bag, "ros1", source)
+        assert cli.main(["offline", str(bag), "--urdf", "planar_2r"]) == 2
+        line = error_line(capsys)
+        assert said in line, line
+
+
+def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path, capsys):
+    """No false alarm: two publishers interleaved (even and odd milliseconds),
+    the odd one's messages received in bursts of 3 to 6 after the even one's
+    later ones; and stamps with a 20 % jitter, bursts of 3 to 6 messages
+    received 20 messages late: each late message fills the gap it left, the
+    export is the bag in order's, byte for byte."""
+    names, stamps, q, tau = arm
+    rng = np.random.default_rng(1)
+    jitter = (rng.uniform(-0.2, 0.2, 3000) * 1e6).astype(np.int64)
+    jittered = (names, stamps[:3000] + jitter, q[:3000], tau[:3000])
+    publishers = arm_messages(arm, slice(0, 3000))  # one connection: the stamps'
+    for name, ordered in (
+        ("publishers", publishers),
+        ("jitter", arm_messages(jittered)),
+    ):
+        messages = list(ordered)
+        for start, size in ((500, 3), (1200, 4), (2000, 6)):
+            if name == "publishers":  # the odd ones after the even ones
+                window = messages[start : start + 2 * size + 1]
+                moved, rest = window[1::2], window[0::2]
+                received = [m[2] for m in window]
+                block = rest + moved
+            else:  # received after the 20 next
+                moved = messages[start : start + size]
+                rest = messages[start + size : start + size + 20]
+                received = [m[2] for m in moved + rest]
+                block = rest + moved
+            block = [
+                (m[0], m[1], r, *m[3:]) for m, r in zip(block, received, strict=True)
+            ]
+            messages[start : start + len(block)] = block
+        exports = []
+        for label, source in (("late", messages), ("ordered", ordered)):
+            bag = tmp_path / f"{name}-{label}.bag"
+            write_bag(bag, "ros1", source)
+            out = tmp_path / f"{name}-{label}.csv"
+            code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
+            assert code == 0, capsys.readouterr().err
+            exports.append(out.read_bytes())
+        assert exports[0] == exports[1], name
