@@ -606,6 +606,7 @@ class _Steps:
         self.open = False  # the step's run goes on at the end of what was fed
         self.recent: tuple[np.ndarray, np.ndarray] | None = None  # times, values
         self.ontime = np.empty(0, dtype=np.int64)  # the recent times not late
+        self.every = np.empty(0, dtype=np.int64)  # the recent times, late ones too
         self.odd = 0  # late messages in a row on no gap (_interleaving), at the end
 
     def add(self, times: np.ndarray, block: _Block) -> None:
@@ -693,17 +694,20 @@ class _Steps:
         recorded before it: its stamp t lies between two, lo <= t < hi, no
         more than :data:`_NO_GAP` median steps apart (no gap: a transport's
         reordering puts a message back in the gap it left, two steps or
-        more), and nearer to one of them than their smallest step (a spacing
-        they never have; on lo: another message of that stamp, with other
-        values: a repeat is not late). A clock set back by d stamps its
-        next d / h messages so (between, or on, stamps h apart); two
-        publishers interleaved make spacings the recording has. Only the
+        more), and nearer to one of them than the smallest step of every time
+        recorded before the run, late ones too (a spacing the recording never
+        has: a second publisher always received late has its own there; on
+        lo: another message of that stamp, with other values: a repeat is not
+        late). A clock set back by d stamps its next d / h messages so
+        (between, or on, stamps h apart); two publishers interleaved make
+        spacings the recording has. Only the
         first :data:`CLOCK_STEP_RUN` of a run of :data:`SHORT_STEP_RUN` late
         messages or more are looked at (a message or two late: a reordering).
         """
         n = times.size
         odd = np.zeros(n, dtype=bool)
         ontime = np.concatenate([self.ontime, times[~late]])
+        every = np.concatenate([self.every, times])
         before = np.concatenate([[0], np.cumsum(~late)])  # on-time ones before k
         if late.any():
             runs = np.cumsum(~late)  # the run of each late message
@@ -720,10 +724,19 @@ class _Steps:
                 if steps.size < 8 or at == 0 or at == pool.size:
                     continue
                 lo, hi = int(pool[at - 1]), int(pool[at])
-                odd[k] = hi - lo <= _NO_GAP * float(np.median(steps)) and min(
-                    t - lo, hi - t
-                ) < int(steps.min())
+                # The smallest step of every time recorded before the run, late
+                # ones too: a second publisher always received late (in bursts)
+                # has its spacing there, not among the on-time ones.
+                first = self.every.size + k - int(length[k]) + 1
+                seen = np.diff(np.sort(every[max(0, first - REORDER_ROWS) : first]))
+                seen = seen[seen > 0]
+                smallest = int(min(steps.min(), seen.min(initial=steps.min())))
+                odd[k] = (
+                    hi - lo <= _NO_GAP * float(np.median(steps))
+                    and min(t - lo, hi - t) < smallest
+                )
         self.ontime = ontime[-REORDER_ROWS:]
+        self.every = every[-REORDER_ROWS:]
         return odd
 
     def _first(

@@ -1773,3 +1773,34 @@ def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path, capsys)
             assert code == 0, capsys.readouterr().err
             exports.append(out.read_bytes())
         assert exports[0] == exports[1], name
+
+
+def test_a_second_publisher_always_received_in_bursts_is_no_short_clock_step(
+    arm, tmp_path, capsys
+):
+    """Found by a review: two publishers on one topic (even and odd
+    milliseconds), the odd one's messages always received late, 4 at a time
+    every 8 ms (a batching transport): the pool of on-time stamps held only
+    the even one's 2 ms spacing, so each burst's stamps, 1 ms from an on-time
+    one, were 'nearer than their smallest step' and the good bag was refused
+    as a clock set back ('steps back 0.007 s at message 14 ... 4 message(s)
+    in a row'). The smallest step is now that of every stamp recorded before
+    the run, late ones too (the odd one's earlier bursts): exported as the
+    bag in order, byte for byte."""
+    ordered = arm_messages(arm, slice(0, 2000))
+    arrival = [
+        (k // 8 + 1) * 8 + 0.5 if k % 2 else k for k in range(len(ordered))
+    ]  # [ms]: the odd ones after the even ones, in bursts of 4
+    messages = [ordered[k] for k in np.argsort(arrival, kind="stable")]
+    messages = [
+        (m[0], m[1], o[2], *m[3:]) for m, o in zip(messages, ordered, strict=True)
+    ]  # received in that order
+    exports = []
+    for label, source in (("late", messages), ("ordered", ordered)):
+        bag = tmp_path / f"{label}.bag"
+        write_bag(bag, "ros1", source)
+        out = tmp_path / f"{label}.csv"
+        code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
+        assert code == 0, capsys.readouterr().err
+        exports.append(out.read_bytes())
+    assert exports[0] == exports[1]
