@@ -854,7 +854,7 @@ def _window(
     """The :class:`_Window` of ``span`` = (from, to) [s] after ``origin`` [ns].
 
     ``origin``, ``end``: the bag's first and last receive times [ns]
-    (rosbags' ``start_time``, ``end_time``).
+    (rosbags' ``start_time``; ``end_time``, less 1 ns in a ROS 2 bag).
 
     Raises:
         ValueError: a bound not finite, negative, beyond the bag's length, or
@@ -1272,7 +1272,10 @@ def _scan(
         with chunks or highlevel.AnyReader([storage]) as reader:
             asked = topic
             topic, connections = _topic(path, reader, topic)
-            window = _window(path, span, reader.start_time, reader.end_time)
+            # rosbags' ROS 2 end_time is the last message's receive time + 1 ns
+            # (its ROS 1 one and _Ros1Chunks' the last message's own).
+            last = reader.end_time - bool(getattr(reader, "is2", False))
+            window = _window(path, span, reader.start_time, last)
             passes = 0
             while True:
                 passes += 1

@@ -1804,3 +1804,29 @@ def test_a_second_publisher_always_received_in_bursts_is_no_short_clock_step(
         assert code == 0, capsys.readouterr().err
         exports.append(out.read_bytes())
     assert exports[0] == exports[1]
+
+
+@pytest.mark.parametrize("kind", ["ros1", "sqlite3", "mcap"])
+def test_a_bag_time_range_ends_at_the_last_message_in_every_format(
+    arm, tmp_path, capsys, kind
+):
+    """Found by a review: rosbags' ROS 2 end_time is the last message's
+    receive time + 1 ns (its ROS 1 one the last message's), so a ROS 2 bag of
+    3000 messages 1 ms apart was said to span 2.999000001 s, and --to
+    2.999000001 read all 3000 where a ROS 1 bag refused it. Every format now
+    spans 2.999 s: --to 2.999 reads 2999 messages, --from 2.999 the last one,
+    --to 2.999000001 is beyond the bag."""
+    bag = tmp_path / ("b.bag" if kind == "ros1" else "b")
+    write_bag(bag, kind, arm_messages(arm, slice(0, 3000)))
+    out = tmp_path / "o.csv"
+    argv = ["bag2csv", str(bag), "--out", str(out), "--quiet"]
+    for options, rows in ((["--to", "2.999"], 2999), (["--from", "2.999"], 1)):
+        assert cli.main([*argv, *options]) == 0, capsys.readouterr().err
+        assert len(out.read_text().splitlines()) == rows + 1
+        out.unlink()
+    assert cli.main([*argv, "--to", "2.999000001"]) == 2
+    line = error_line(capsys)
+    assert line.endswith(
+        "--to 2.999000001: beyond the bag, whose messages span 2.999 s of bag time "
+        "(from its first message)."
+    ), line
