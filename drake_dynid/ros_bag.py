@@ -340,6 +340,7 @@ def export_bag(
     held_column: str = "q_{joint}",
     stamps: str = "header",
     span: tuple[float | None, float | None] = (None, None),
+    options: Sequence[str] | None = None,
 ) -> BagExport:
     """Streams a bag's JointState messages into a CSV log at ``out``.
 
@@ -384,6 +385,9 @@ def export_bag(
         held_column: their column names (``{joint}``).
         stamps: the messages' time (:func:`read_joint_states`).
         span: the bag time range read (:func:`read_joint_states`).
+        options: the command's options that the error of a clock set back
+            repeats in the ``dynid bag2csv`` commands it gives (``dynid
+            bag2csv``'s --joints, --drive, --urdf, --lock; None: not known).
 
     Raises:
         ValueError, FileNotFoundError: as :func:`read_joint_states`.
@@ -403,7 +407,14 @@ def export_bag(
                 dry = _Export(None, columns, time, time_unit, None, held_column)
                 try:
                     plan = _scan(
-                        path, joints, topic, optional, dry, stamps=stamps, span=span
+                        path,
+                        joints,
+                        topic,
+                        optional,
+                        dry,
+                        stamps=stamps,
+                        span=span,
+                        options=options,
                     )[1]
                 finally:
                     dry.close()
@@ -411,7 +422,15 @@ def export_bag(
                     raise ValueError(_unmerged(sink.label, dry.late))
             try:
                 done, _ = _scan(
-                    path, joints, topic, optional, sink, plan, stamps=stamps, span=span
+                    path,
+                    joints,
+                    topic,
+                    optional,
+                    sink,
+                    plan,
+                    stamps=stamps,
+                    span=span,
+                    options=options,
                 )
             except BaseException as error:  # Ctrl-C too
                 if sink.started and not rewinds:
@@ -760,13 +779,17 @@ def _clock_step(
     window: _Window,
     asked: str | None = None,
     receive: bool = False,
+    options: Sequence[str] | None = None,
 ) -> str:
     """The error of a clock set back (:class:`_Steps`), what to do.
 
     The commands that export each side of the step, with their values (the
     step's bag time, :class:`_Window`'s origin), and ``--stamps receive``
     when the header stamps were read. ``asked``: the ``--topic`` given;
-    ``receive``: ``--stamps receive`` given (the sides are read so too).
+    ``receive``: ``--stamps receive`` given (the sides are read so too);
+    ``options``: the command's other options, repeated in the commands (None:
+    not known, the advice asks for the command's --drive, --urdf, --joints
+    and --lock).
     """
     import shlex
 
@@ -784,6 +807,13 @@ def _clock_step(
         )
     if asked is not None:
         command += f" --topic {shlex.quote(asked)}"
+    same, with_ = (
+        "; the same options",
+        ("; with the command's --drive, --urdf, --joints and --lock when it has them"),
+    )
+    if options is not None:
+        command += "".join(f" {shlex.quote(o)}" for o in options)
+        same = with_ = ""
     since = "" if window.start is None else f" --from {window.seconds(window.start)}"
     until = "" if window.stop is None else f" --to {window.seconds(window.stop)}"
     stamps = " --stamps receive" if receive else ""
@@ -793,17 +823,16 @@ def _clock_step(
     )
     advice = (
         f"Export each side of the step: {sides} (the messages received before and "
-        f"from bag time {into} s; with the command's --drive, --urdf, --joints and "
-        "--lock when it has them), and give one."
+        f"from bag time {into} s{with_}), and give one."
     )
     if not plan.received:
         advice = (
             "Export the bag with its receive times, "
-            f"'{command} --out LOG.csv{since}{until} --stamps receive' (with the "
-            "command's --drive, --urdf, --joints and --lock when it has them), and "
-            f"give LOG.csv; or export each side of the step: {sides} (the "
-            f"messages received before and from bag time {into} s; the same "
-            "options), and give one."
+            f"'{command} --out LOG.csv{since}{until} --stamps receive'"
+            + (f" ({with_[2:]})" if with_ else "")
+            + f", and give LOG.csv; or export each side of the step: {sides} (the "
+            f"messages received before and from bag time {into} s{same}), and give "
+            "one."
         )
     return (
         f"ROS bag {path}: {clock} on {topic} steps back {_seconds(newest - time)} s "
@@ -1253,10 +1282,12 @@ def _scan(
     *,
     stamps: str = "header",
     span: tuple[float | None, float | None] = (None, None),
+    options: Sequence[str] | None = None,
 ) -> tuple[BagExport, _Plan]:
     """Passes over the bag until the plan holds (:func:`export_bag`).
 
-    ``sink`` None: read only; ``stamps``, ``span``: :func:`read_joint_states`'.
+    ``sink`` None: read only; ``stamps``, ``span``: :func:`read_joint_states`';
+    ``options``: :func:`export_bag`'s.
     Returns what the final pass wrote, and the bag's plan.
     """
     if stamps not in STAMPS:
@@ -1325,6 +1356,7 @@ def _scan(
                                 window,
                                 asked,
                                 receive=stamps == "receive",
+                                options=options,
                             )
                         )
                     break

@@ -1830,3 +1830,42 @@ def test_a_bag_time_range_ends_at_the_last_message_in_every_format(
         "--to 2.999000001: beyond the bag, whose messages span 2.999 s of bag time "
         "(from its first message)."
     ), line
+
+
+def test_a_clock_step_error_repeats_the_options_that_choose_the_columns(
+    arm, tmp_path, capsys, monkeypatch
+):
+    """Found by a review: bag2csv --joints j2,j1 on a bag whose header clock
+    is set back printed commands without --joints: run as printed, they
+    exported the joints in the message's order (q_j1 first), not the export
+    asked for. The commands now repeat --joints (and --drive, --urdf, --lock),
+    quoted for a shell (a folder with a space and a quote in its name): run as
+    printed, the three exports have the columns asked for (3000, 2000 and
+    1000 rows)."""
+    import re
+    import shlex
+
+    names = arm[0]
+    messages = stepped_back(arm_messages(arm, slice(0, 3000)), 2000, 3 * 10**9)
+    folder = tmp_path / "a robot's bags"
+    folder.mkdir()
+    bag = folder / "step.bag"
+    write_bag(bag, "ros1", messages)
+    monkeypatch.chdir(tmp_path)
+    joints = f"{names[1]},{names[0]}"
+    argv = ["bag2csv", str(bag), "--out", "log.csv", "--joints", joints]
+    assert cli.main(argv) == 2
+    line = error_line(capsys)
+    commands = [
+        shlex.split(c)[1:]
+        for c in re.findall(r"'(dynid bag2csv .*?)'(?=,| and| \()", line)
+    ]
+    assert len(commands) == 3, line
+    assert "the command's --drive" not in line, line
+    header = f"t,q_{names[1]},q_{names[0]},tau_{names[1]},tau_{names[0]}"
+    for argv, rows in zip(commands, (3000, 2000, 1000), strict=True):
+        assert argv[1] == str(bag) and "--joints" in argv, argv
+        assert cli.main([*argv, "--quiet"]) == 0, capsys.readouterr().err
+        text = (tmp_path / argv[argv.index("--out") + 1]).read_text()
+        assert text.splitlines()[0] == header
+        assert len(text.splitlines()) == rows + 1
