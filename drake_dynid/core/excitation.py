@@ -47,9 +47,11 @@ from drake_dynid.core.fourier_bank import band_frequencies
 __all__ = [
     "MIN_SPECTRUM_SAMPLES",
     "SPECTRUM_PIECE",
+    "decimal_step",
     "detrend_linear",
     "estimate_bandwidth",
     "frequencies_for",
+    "merged_quantum",
     "motion_and_noise",
     "periodogram",
     "position_noise_std",
@@ -213,24 +215,88 @@ _MIN_KNOTS = 8
 _REGULAR_SHARE = 0.9
 _MAX_RESAMPLING = 100.0
 _QUANTUM_TOLERANCE = 1e-3  # a change within this many steps of whole ones
+#: Coarsest decimal rounding of a log's values (a CSV's ``%.6f``) a quantum allows
+#: for, in steps: a 16-bit joint (Δ 9.6e-5 rad) written to 1e-6 rad is 0.0104.
+_MAX_DECIMAL_SHARE = 0.05
+_COUNT_REFINE = 8  # counts of the first least-squares refinement of Δ
+
+
+def decimal_step(x: Any) -> float:
+    """The coarsest 10^-k (k = 0, ..., 9) every value is a multiple of, or 0 [unit].
+
+    To round-off (64 ulp of the largest value, at least 1): values written with
+    ``%.6f`` give 1e-6, integer counts 1, full-precision floats 0.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    if x.size == 0 or not np.all(np.isfinite(x)):
+        return 0.0
+    slack = 64.0 * np.finfo(float).eps * max(1.0, float(np.abs(x).max()))
+    for k in range(10):
+        d = 10.0**-k
+        if d <= 16.0 * slack:
+            break
+        # The first 256 values first: most channels fail there at once.
+        if all(np.all(np.abs(y - d * np.round(y / d)) <= slack) for y in (x[:256], x)):
+            return d
+    return 0.0
+
+
+def _quantum(x: np.ndarray) -> float:
+    """Δ of :func:`quantum`; 0 for a channel that never changes, NaN if not counts."""
+    signed = np.diff(x)
+    changes = np.abs(signed)
+    moves = changes[changes > 0.0]
+    if moves.size == 0:
+        return 0.0
+    if not np.all(np.isfinite(moves)):
+        return math.nan
+    step = float(moves.min())
+    # Least squares over the whole counts, the small ones first: the smallest
+    # change alone is off by up to the decimal rounding (1 % of a 16-bit count).
+    for limit in (_COUNT_REFINE, math.inf):
+        counts = np.round(moves / step)
+        use = counts <= limit
+        step = float(counts[use] @ moves[use] / (counts[use] @ counts[use]))
+    decimal = decimal_step(x)
+    slack = _QUANTUM_TOLERANCE * step
+    if decimal <= _MAX_DECIMAL_SHARE * step:
+        slack += decimal  # each change is off by up to one decimal step
+    counts = np.round(moves / step)
+    if np.any(counts < 1.0) or np.any(np.abs(moves - counts * step) > slack):
+        return math.nan
+    signed_counts = np.round(signed / step)
+    if np.all(signed_counts == signed_counts[0]):
+        return math.nan  # the same change at every sample: exactly linear, a ramp
+    return step
 
 
 def quantum(x: Any) -> float:
     """A channel's quantization step Δ, or 0 [unit].
 
-    The smallest change between consecutive samples when every change is a whole
-    number of it (within 1e-3): encoder counts, scaled or not; 0 when the channel
-    never changes or its changes are not so.
+    Δ such that every change between consecutive samples is a whole number of it
+    (within 1e-3 Δ, plus the values' decimal rounding :func:`decimal_step` when it
+    is at most 0.05 Δ: encoder counts written to a CSV with ``%.6f``), fitted by
+    least squares over the changes' counts; encoder counts, scaled or not. 0 when
+    the channel never changes or its changes are not so, or are all the same
+    count of the same sign (an exact ramp, v·h at every sample: no rounding).
     """
-    changes = np.abs(np.diff(np.asarray(x, dtype=float).ravel()))
-    changes = changes[changes > 0.0]
-    if changes.size == 0:
-        return 0.0
-    step = float(changes.min())
-    ratios = changes / step
-    if np.all(np.abs(ratios - np.round(ratios)) <= _QUANTUM_TOLERANCE):
-        return step
-    return 0.0
+    step = _quantum(np.asarray(x, dtype=float).ravel())
+    return 0.0 if math.isnan(step) else step
+
+
+def merged_quantum(step: float, x: Any) -> float:
+    """The quantum after one more piece of a channel, or NaN [unit].
+
+    ``step``: :func:`quantum`'s Δ over the pieces so far (0: no change yet; NaN:
+    not quantized); ``x``: the next piece's samples. The smaller of the two
+    steps when the larger is a whole number of it (within 1 %), else NaN.
+    """
+    new = _quantum(np.asarray(x, dtype=float).ravel())
+    if math.isnan(step) or math.isnan(new) or new == 0.0 or step == 0.0:
+        return step + new  # NaN stays NaN; 0 gives way to the other
+    small, large = min(step, new), max(step, new)
+    ratio = large / small
+    return small if abs(ratio - round(ratio)) <= 0.01 else math.nan
 
 
 def resampling(x: Any) -> tuple[float, int]:

@@ -12,7 +12,8 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
   positions resampled from a rate f_e below fs (held or linearly interpolated:
   a multi-file join, an upstream resampling), the median of S_j/K_j over
   [f_e/4, f_e/2] times K_j(f) = sinc(f/f_e)^(2k), their noise's shape; for a
-  joint quantized by Δ_j (encoder counts) at least Δ_j²/(6·fs) and the
+  joint quantized by Δ_j (encoder counts, :func:`~drake_dynid.core.excitation.quantum`)
+  at least Δ_j²/(6·fs) and the
   staircase's Δ_j²·r_j/(24·max(f, r_j)²), r_j its count changes a second
   (:func:`_spectra_and_floors`);
 * its noise crossover f_x,j: the highest frequency (up to f_e/2) where S_j >
@@ -123,7 +124,6 @@ reported σ), the limit is 17 Hz (errors within 1.5σ); 0.30 (25 Hz) still gave
 errors within 2σ, 2.3 (50 Hz) 3σ and 19 (100 Hz) 16σ: the errors-in-variables
 bias of v² and sign(v) terms, which σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
-_QUANTUM_TOLERANCE = 1e-3  # a change within this many steps of whole ones
 
 
 def _position_spectra(
@@ -221,23 +221,6 @@ def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
         if kind:
             found.append((j, 1.0 / (ratio * time_step), kind))
     return found
-
-
-def _quantum(step: float, changes: np.ndarray) -> float:
-    """The quantization step of a joint after more of its changes, or NaN.
-
-    ``step``: the step so far (0: no change seen yet; NaN: not quantized);
-    ``changes``: nonzero |Δq| of consecutive samples. The step is the smallest
-    change, every change a whole number of it (within 1e-3 of one): encoder
-    counts, scaled to radians or not.
-    """
-    if math.isnan(step) or changes.size == 0:
-        return step
-    new = float(changes.min()) if step == 0.0 else min(step, float(changes.min()))
-    ratios = np.append(changes, step) / new if step else changes / new
-    if np.any(np.abs(ratios - np.round(ratios)) > _QUANTUM_TOLERANCE):
-        return math.nan
-    return new
 
 
 def auto_cutoff(q: Any, time_step: float, order: int = _CUTOFF_FILTER_ORDER) -> float:
@@ -386,7 +369,8 @@ def _welch(
 
     The average over all segments, computed over consecutive runs of whole
     segments, one joint at a time, so that the memory stays bounded on long logs.
-    Also each joint's quantization step over the samples read (:func:`_quantum`;
+    Also each joint's quantization step over the samples read
+    (:func:`~drake_dynid.core.excitation.merged_quantum` of the pieces;
     0 when not quantized or never changing), its changes per second [1/s], and
     (n, 2) its resampling ``(L, k)`` on the first piece
     (:func:`~drake_dynid.core.excitation.resampling`; (1, 0): not resampled).
@@ -413,9 +397,8 @@ def _welch(
         piece = piece.reshape(piece.shape[0], -1) - origin
         read += piece.shape[0] - 1
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
-            changes = np.abs(np.diff(piece[:, j]))
-            quanta[j] = _quantum(float(quanta[j]), changes[changes > 0.0])
-            changed[j] += np.count_nonzero(changes)
+            quanta[j] = excitation.merged_quantum(float(quanta[j]), piece[:, j])
+            changed[j] += np.count_nonzero(np.diff(piece[:, j]))
             if first == 0:
                 resampled[j] = excitation.resampling(piece[:, j])
             f, part = welch(piece[:, j], fs, segment)

@@ -266,3 +266,59 @@ def test_velocity_band_of_a_quantized_joint_sees_its_staircase_as_noise():
         assert estimate_bandwidth(both, H) == pytest.approx(alone, abs=0.05)
         sigma = position_noise_std(joint, H)[0]
         assert sigma == pytest.approx(count / np.sqrt(12.0), rel=0.02)
+
+
+def test_encoder_counts_written_with_six_decimals_are_still_counts():
+    """Found by a review: ``quantum`` asked every change to be a whole number of
+    the smallest within 1e-3 of a step, and a CSV's ``%.6f`` rounds each value by
+    up to 5e-7 rad, 0.5 % of a 16-bit count (9.6e-5 rad): a noise-free 16-bit
+    joint moving 0.05 rad at 0.05 Hz was not quantized, σ 1.46e-5 rad instead
+    of its rounding's 2.78e-5, its automatic cutoff 40 Hz instead of the exact
+    counts' 1.33 Hz. The values' decimal step (1e-6) is allowed for
+    now (up to 0.05 Δ), and Δ fitted over the changes' counts."""
+    from drake_dynid.core.excitation import (
+        decimal_step,
+        merged_quantum,
+        position_noise_std,
+        quantum,
+    )
+    from drake_dynid.core.idim_auto import auto_cutoff
+
+    t = np.arange(40000) * H
+    true = 0.3 + 0.05 * np.sin(2 * np.pi * 0.05 * t)
+    for bits in (12, 16, 20):
+        count = 2 * np.pi / 2**bits
+        exact = np.round(true / count) * count
+        written = np.round(exact, 6)  # what "%.6f" then float() gives
+        assert decimal_step(written) == 1e-6 and decimal_step(exact) == 0.0
+        sigma = position_noise_std(written, H)[0]
+        truth = np.std(written - true)  # 4.31e-4, 2.78e-5, 1.75e-6 rad
+        # 0.70, 1.33 (was 40) and 1.85 Hz; 1.83 Hz from the exact counts.
+        assert auto_cutoff(written, H) == pytest.approx(auto_cutoff(exact, H), 0.02)
+        if bits == 20:  # 1e-6 is 0.17 Δ: the rounding dithers, the floor is white
+            assert quantum(written) == 0.0 and sigma == pytest.approx(truth, 0.2)
+            continue
+        assert quantum(written) == pytest.approx(count, rel=1e-4)
+        assert sigma == pytest.approx(truth, rel=0.06)  # was 1.46e-5 for 16 bits
+        halves = merged_quantum(merged_quantum(0.0, written[:20000]), written[20000:])
+        assert halves == pytest.approx(count, rel=1e-4)
+    assert decimal_step(np.arange(5.0)) == 1.0
+    # Noise written with 6 decimals is no 16-bit count (the 0.05 Δ limit).
+    noisy = np.round(true + np.random.default_rng(1).normal(0.0, 1e-4, t.size), 6)
+    assert position_noise_std(noisy, H)[0] == pytest.approx(1e-4, rel=0.05)
+
+
+def test_an_exact_ramp_is_not_quantized():
+    """Found by a review: an exactly linear channel changes by v·h at every
+    sample, which ``quantum`` took for a count (Δ = v·h): a noise-free ramp of
+    0.1 rad/s at 1 kHz got σ = Δ/√12 = 2.9e-5 rad. A quantum needs changes of
+    different counts (or repeats): a ramp is exactly linear, σ 0 (2e-17)."""
+    from drake_dynid.core.excitation import position_noise_std, quantum
+
+    t = np.arange(20000) * H
+    for ramp in (0.2 + 0.1 * t, 0.2 - 0.1 * t, np.round(0.2 + 0.1 * t, 6)):
+        assert quantum(ramp) == 0.0
+        assert position_noise_std(ramp, H)[0] < 1e-12
+    count = 2 * np.pi / 4096  # a slow encoder ramp: counts 0 and 1, quantized
+    slow = np.round((0.2 + 0.1 * t) / count) * count
+    assert quantum(slow) == pytest.approx(count)
