@@ -557,3 +557,36 @@ def test_dynid_offline_notes_resampled_positions(tmp_path, capsys):
         if said:
             assert "joint1 (linearly interpolated from about 100 Hz)" in err, err
             assert "joint2 (linearly" in err and cutoff == pytest.approx(native, 0.1)
+
+
+def test_a_sensor_slower_than_the_log_clock_keeps_its_cutoff():
+    """Found by a review: a 980 Hz sensor read by a 1 kHz log (σ 1e-4 rad)
+    repeats one sample in 50; each repeat is a position error of v·h, whose
+    lines every 20 Hz stood 20 dB above the white floor up to 40 Hz, and the
+    automatic cutoff went to the 40 Hz cap (the least acceleration error: 2.54
+    Hz; 3.13 Hz for the same motion read without repeats). The joint's distinct
+    samples are now read at the sensor's rate: 3.13 Hz; ``dynid offline`` names
+    the joint, its repeat and the sensor's rate."""
+    from drake_dynid.core.idim_auto import resampled_joints, resampled_note
+
+    sensor = np.arange(19602) / 980.0
+    direct, _ = _design(1000.0, 20.0, 1e-4)
+    clean, _ = _design(980.0, 0.0, 0.0, t=sensor)
+    read = clean + np.random.default_rng(7).normal(0.0, 1e-4, clean.shape)
+    logged = read[np.floor(np.arange(20000) * 0.98 + 1e-9).astype(int)]
+    assert auto_cutoff(logged, H) == pytest.approx(auto_cutoff(direct, H), rel=0.05)
+    from drake_dynid.core.excitation import repeats
+
+    assert repeats(logged[:, 0]).size == 399
+    found = resampled_joints(logged, H)
+    assert [(j, kind) for j, _, kind in found] == [(0, 0), (1, 0)]
+    assert found[0][1] == pytest.approx(980.0, abs=0.5)
+    note = resampled_note(found, ("arm", "torso"), H)
+    assert "arm (one in about 50: a sensor at 980 Hz)" in note, note
+    assert "look resampled" not in note
+    # No repeats read in noise written with 6 decimals, counts, a held channel.
+    noisy = np.round(direct[:, 0] + 0.3, 6)
+    assert repeats(noisy).size == 0 and repeats(direct[:, 0]).size == 0
+    count = 2 * np.pi / 4096
+    assert repeats(np.round(direct[:, 0] / count) * count).size == 0
+    assert repeats(np.repeat(direct[::10, 0], 10)).size == 0

@@ -57,6 +57,7 @@ __all__ = [
     "position_noise_std",
     "quantum",
     "record_pieces",
+    "repeats",
     "resampling",
     "resampling_kernel",
     "torque_noise_std",
@@ -350,6 +351,45 @@ def resampling(x: Any) -> tuple[float, int]:
         if np.mean(np.abs(gaps - ratio) < 1.5) >= _REGULAR_SHARE:
             return float(ratio), order
     return 1.0, 0
+
+
+_MIN_REPEATS = 8  # fewest isolated repeats :func:`repeats` reads as a sensor's
+
+
+def repeats(x: Any) -> np.ndarray:
+    """Indices i of a moving channel's isolated repeats x_i = x_(i-1), or none.
+
+    A sensor slower than the log's clock (980 Hz read at 1 kHz) repeats one
+    sample in L (50) and moves on the others: each repeat is a position error of
+    v·h whose lines (every f_s/L) stood 20 dB above the white floor up to f_s/2,
+    and the automatic cutoff went to 40 Hz instead of 2.54 Hz (the least
+    acceleration error; 2.81 Hz without repeats). Noise never repeats a sample
+    exactly, so such repeats are the sensor's: at least 8, 90 % of all repeats
+    isolated (the samples either side differ), in a channel neither quantized
+    (:func:`quantum`: counts repeat at any rate) nor resampled
+    (:func:`resampling`: held runs); of values rounded to a decimal step d
+    (:func:`decimal_step`), more than twice the changes of 0 < |Δx| <= 1.5 d
+    (what the rounding alone gives, about twice its zeros). The first and last
+    two samples are not judged.
+    """
+    x = np.asarray(x, dtype=float).ravel()
+    none = np.empty(0, dtype=int)
+    if x.size < 4 or not np.all(np.isfinite(x)):
+        return none
+    change = np.diff(x)
+    same = np.flatnonzero(change == 0.0) + 1  # x[i] == x[i - 1]
+    if same.size < _MIN_REPEATS or quantum(x) > 0.0 or resampling(x)[1]:
+        return none
+    inner = same[(same >= 2) & (same <= x.size - 2)]
+    isolated = inner[(x[inner + 1] != x[inner]) & (x[inner - 1] != x[inner - 2])]
+    if isolated.size < max(_MIN_REPEATS, _REGULAR_SHARE * same.size):
+        return none
+    decimal = decimal_step(x)
+    if decimal > 0.0:
+        near = np.count_nonzero((change != 0.0) & (np.abs(change) <= 1.5 * decimal))
+        if same.size <= 2 * near:
+            return none  # as many zeros as the rounding gives
+    return isolated
 
 
 def resampling_kernel(f: np.ndarray, fs: float, ratio: float, order: int) -> np.ndarray:

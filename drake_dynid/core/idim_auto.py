@@ -12,6 +12,8 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
   positions resampled from a rate f_e below fs (held or linearly interpolated:
   a multi-file join, an upstream resampling), the median of S_j/K_j over
   [f_e/4, f_e/2] times K_j(f) = sinc(f/f_e)^(2k), their noise's shape; for a
+  sensor slower than the log's clock (isolated repeats), its distinct samples'
+  spectrum at its own rate (:func:`_joint_welch`); for a
   joint quantized by Δ_j (encoder counts, :func:`~drake_dynid.core.excitation.quantum`)
   at least Δ_j²/(6·fs) and the
   staircase's Δ_j²·r_j/(24·max(f, r_j)²), r_j its count changes a second
@@ -189,27 +191,45 @@ def resampled_note(
 
     Names the joints, their own rate and how they were resampled: above half
     that rate their positions hold no measurement, and the automatic cutoff read
-    their noise below it.
+    their noise below it; and the joints whose sensor is slower than the log's
+    clock (k = 0: isolated repeats), their repeat and the sensor's rate.
     """
-    if not resampled:
-        return ""
+    fs = 1.0 / time_step
     kinds = {1: "held", 2: "linearly interpolated"}
-    parts = [
+    held = [
         f"{names[j]} ({kinds[kind]} from about {rate:.4g} Hz)"
         for j, rate, kind in resampled
+        if kind
     ]
-    return (
-        f"the positions of {check.listed(parts)} look resampled onto the log's "
-        f"{1.0 / time_step:.4g} Hz: above half their own rate they hold no "
-        "measurement, and the automatic cutoff read their noise below it."
-    )
+    slow = [
+        f"{names[j]} (one in about {fs / (fs - rate):.0f}: a sensor at {rate:.4g} Hz)"
+        for j, rate, kind in resampled
+        if not kind
+    ]
+    notes = []
+    if held:
+        notes.append(
+            f"the positions of {check.listed(held)} look resampled onto the log's "
+            f"{fs:.4g} Hz: above half their own rate they hold no measurement, and "
+            "the automatic cutoff read their noise below it."
+        )
+    if slow:
+        notes.append(
+            f"the positions of {check.listed(slow)} repeat isolated samples at the "
+            f"log's {fs:.4g} Hz: a sensor slower than the log's clock, whose "
+            "repeats are errors of v·h; the automatic cutoff read their spectrum "
+            "at the sensor's rate, without them."
+        )
+    return " ".join(notes)
 
 
 def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
     """``[(j, f_e, k)]``: the joints whose positions look resampled, their rate [Hz].
 
     :func:`~drake_dynid.core.excitation.resampling` of each joint's first
-    2^17 samples: k = 1 held, k = 2 linearly interpolated from samples at f_e.
+    2^17 samples: k = 1 held, k = 2 linearly interpolated from samples at f_e;
+    k = 0: isolated repeats (:func:`~drake_dynid.core.excitation.repeats`), a
+    sensor at f_e = fs·(N - R)/N, R repeats in N samples, slower than the log.
     """
     time_step = check.positive("resampled_joints", "time_step", time_step, "s")
     q = checked_rows("resampled_joints", "q", q)
@@ -220,6 +240,11 @@ def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
         ratio, kind = excitation.resampling(head[:, j])
         if kind:
             found.append((j, 1.0 / (ratio * time_step), kind))
+            continue
+        repeated = excitation.repeats(head[:, j]).size
+        if repeated:
+            share = 1.0 - repeated / head.shape[0]
+            found.append((j, share / time_step, 0))
     return found
 
 
@@ -378,7 +403,6 @@ def _welch(
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
-    from drake_dynid.core.iir import welch  # numpy: no scipy.signal at start-up
 
     # Each joint from its first sample: a joint held still (a locked torso, a
     # gripper) is then exactly 0, where the segments' detrending left rounding
@@ -401,13 +425,38 @@ def _welch(
             changed[j] += np.count_nonzero(np.diff(piece[:, j]))
             if first == 0:
                 resampled[j] = excitation.resampling(piece[:, j])
-            f, part = welch(piece[:, j], fs, segment)
-            part = part[:, 0]
+            f, part = _joint_welch(piece[:, j], fs, segment)
             if power.size == 0:
                 power = np.zeros((f.size, piece.shape[1]))
             power[:, j] = power[:, j] + part * (count / total)
     rates = changed * fs / max(read, 1)
     return f, power, np.nan_to_num(quanta, nan=0.0), rates, resampled
+
+
+def _joint_welch(
+    x: np.ndarray, fs: float, segment: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(f, S)``: one joint's Welch spectrum at the log's rate, (F,) each.
+
+    A joint whose sensor is slower than the log's clock (isolated repeats,
+    :func:`~drake_dynid.core.excitation.repeats`: 980 Hz read at 1 kHz) is read
+    at its own rate: its M distinct samples are the sensor's, evenly spaced at
+    f_e = fs·M/N, and their spectrum, interpolated onto the log's bins (held
+    above f_e/2, its white floor), replaces the log's, where each repeat put a
+    v·h error and their lines every fs/L stood 20 dB above the floor up to 40
+    Hz (the cutoff 40 Hz instead of 2.54 Hz, the least acceleration error).
+    """
+    from drake_dynid.core.iir import welch  # numpy: no scipy.signal at start-up
+
+    found = excitation.repeats(x)
+    if found.size == 0:
+        f, part = welch(x, fs, segment)
+        return f, part[:, 0]
+    f, _ = welch(x[:segment], fs, segment)  # the log's bins
+    kept = np.delete(x, found)
+    own = fs * kept.size / x.size
+    f_own, part = welch(kept, own, min(segment, kept.size))
+    return f, np.interp(f, f_own, part[:, 0])
 
 
 def noise_bandwidth(order: int) -> float:
