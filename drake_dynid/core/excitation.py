@@ -141,7 +141,22 @@ def _periodogram(
     return f, s, x, h
 
 
-def _noise_floor(f: np.ndarray, s: np.ndarray, x: np.ndarray, h: float) -> np.ndarray:
+def _traits(x: np.ndarray) -> list[tuple[float, int, float]]:
+    """``(L, k, Δ)`` of each channel of x (N, n): :func:`resampling`, :func:`quantum`.
+
+    Computed once per periodogram for the floor, the σ and the staircase (each
+    had its own, three or four passes of :func:`quantum` per channel).
+    """
+    out = []
+    for j in range(x.shape[1]):
+        step = quantum(x[:, j])
+        out.append((*_resampling(x[:, j], step), step))
+    return out
+
+
+def _noise_floor(
+    f: np.ndarray, s: np.ndarray, h: float, traits: list[tuple[float, int, float]]
+) -> np.ndarray:
     """N_j(f), (F, n): each channel's white-noise density [unit²/Hz] (module docstring).
 
     N_0,j·K_j(f), N_0,j the median of S_j/K_j over [f_e/4, f_e/2] over ln 2, at the
@@ -152,12 +167,12 @@ def _noise_floor(f: np.ndarray, s: np.ndarray, x: np.ndarray, h: float) -> np.nd
     σ above f_s/4), where the floor is infinite: no motion is seen there (the
     images of the motion's lines near the kernel's zeros at multiples of f_e
     stood 20 times above its floor, and the velocity band of such positions
-    came out at 252-454 Hz instead of 0.95 Hz).
+    came out at 252-454 Hz instead of 0.95 Hz). ``traits``: :func:`_traits`.
     """
     fs = 1.0 / h
     floor = np.zeros_like(s)
     for j in range(s.shape[1]):
-        ratio, order = resampling(x[:, j])
+        ratio, order, _ = traits[j]
         kernel = resampling_kernel(f, fs, ratio, order)
         band = (f > 0.25 * fs / ratio) & (f <= 0.5 * fs / ratio)
         white = float(np.median(s[band, j] / kernel[band])) if band.any() else 0.0
@@ -166,7 +181,9 @@ def _noise_floor(f: np.ndarray, s: np.ndarray, x: np.ndarray, h: float) -> np.nd
     return floor
 
 
-def _noise_std(f: np.ndarray, floor: np.ndarray, x: np.ndarray, h: float) -> np.ndarray:
+def _noise_std(
+    floor: np.ndarray, h: float, traits: list[tuple[float, int, float]]
+) -> np.ndarray:
     """σ_j = √(N_0,j·f_e/2) [unit], at least Δ_j/√12 for a quantized channel.
 
     N_0,j = N_j(0) (:func:`_noise_floor`), f_e the channel's own rate. A channel
@@ -175,13 +192,12 @@ def _noise_std(f: np.ndarray, floor: np.ndarray, x: np.ndarray, h: float) -> np.
     spectrum: a slow or periodic staircase puts it on few lines at low
     frequency, and the floor above f_s/4 read 0.09-0.27 Δ/√12 (1e-11 rad for
     a 12-bit joint on a 1 rad sine of 0.5 Hz, ten whole periods). A constant
-    channel gives 0.
+    channel gives 0. ``traits``: :func:`_traits`.
     """
-    sigma = np.empty(x.shape[1])
-    for j in range(x.shape[1]):
-        ratio, _ = resampling(x[:, j])
+    sigma = np.empty(len(traits))
+    for j, (ratio, _, step) in enumerate(traits):
         sigma[j] = math.sqrt(max(float(floor[0, j]), 0.0) * 0.5 / (h * ratio))
-        sigma[j] = max(sigma[j], quantum(x[:, j]) / math.sqrt(12.0))
+        sigma[j] = max(sigma[j], step / math.sqrt(12.0))
     return sigma
 
 
@@ -207,7 +223,8 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
     if len(np.shape(q)) == 2 and np.shape(q)[0] > SPECTRUM_PIECE:
         return motion_and_noise(q, time_step)[1]
     f, s, x, h = _periodogram(q, time_step)
-    return _noise_std(f, _noise_floor(f, s, x, h), x, h)
+    traits = _traits(x)
+    return _noise_std(_noise_floor(f, s, h, traits), h, traits)
 
 
 #: Fewest knots, largest share of irregular gaps, and the widest ratio
@@ -326,7 +343,12 @@ def resampling(x: Any) -> tuple[float, int]:
         ``(L, k)``; ``(1.0, 0)`` when the channel does not look resampled.
     """
     x = np.asarray(x, dtype=float).ravel()
-    if quantum(x) > 0.0 or np.all(x == x[0]):
+    return _resampling(x, quantum(x))
+
+
+def _resampling(x: np.ndarray, step: float) -> tuple[float, int]:
+    """:func:`resampling` of x (N,) whose :func:`quantum` is ``step``."""
+    if step > 0.0 or np.all(x == x[0]):
         return 1.0, 0  # encoder counts repeat at any rate; constant
     for order in (1, 2):
         difference = np.abs(np.diff(x, order))
@@ -528,9 +550,10 @@ def motion_and_noise(
         return rms, noise
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     f, s, x, h = _periodogram(q, time_step)
-    floor = _noise_floor(f, s, x, h)
-    noise = _noise_std(f, floor, x, h)
-    power = _velocity_power(f, s, x, floor, threshold, h)
+    traits = _traits(x)
+    floor = _noise_floor(f, s, h, traits)
+    noise = _noise_std(floor, h, traits)
+    power = _velocity_power(f, s, x, floor, threshold, h, traits)
     return np.sqrt(power.sum(axis=0) * (f[1] - f[0])), noise
 
 
@@ -554,12 +577,17 @@ def velocity_spectrum(
     """
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     f, s, x, h = _periodogram(q, time_step)
-    floor = _noise_floor(f, s, x, h)
-    return f, _velocity_power(f, s, x, floor, threshold, h)
+    traits = _traits(x)
+    floor = _noise_floor(f, s, h, traits)
+    return f, _velocity_power(f, s, x, floor, threshold, h, traits)
 
 
 def _staircase_floor(
-    f: np.ndarray, floor: np.ndarray, x: np.ndarray, h: float
+    f: np.ndarray,
+    floor: np.ndarray,
+    x: np.ndarray,
+    h: float,
+    traits: list[tuple[float, int, float]],
 ) -> np.ndarray:
     """The floor raised to a quantized channel's rounding error [unit²/Hz].
 
@@ -578,7 +606,7 @@ def _staircase_floor(
     raised = floor.copy()
     fs = 1.0 / h
     for j in range(x.shape[1]):
-        step = quantum(x[:, j])
+        step = traits[j][2]
         # Noise of σ >= Δ/4 (floor >= Δ²/(8 f_s)) dithers the rounding: white.
         if step > 0.0 and floor[0, j] < step**2 / (8.0 * fs):
             rate = np.count_nonzero(np.diff(x[:, j])) * fs / x.shape[0]
@@ -599,13 +627,14 @@ def _velocity_power(
     floor: np.ndarray,
     threshold: float,
     h: float,
+    traits: list[tuple[float, int, float]],
 ) -> np.ndarray:
     """P_j(f) of :func:`velocity_spectrum` from the periodogram and its floor.
 
     ``floor`` the white one (:func:`_noise_floor`), raised here for a quantized
     channel (:func:`_staircase_floor`).
     """
-    floor = _staircase_floor(f, floor, x, h)
+    floor = _staircase_floor(f, floor, x, h, traits)
     keep = s > threshold * floor
     # A constant (or exactly linear) channel only leaves round-off: no motion.
     residual = detrend_linear(x)
