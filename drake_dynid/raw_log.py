@@ -317,7 +317,7 @@ def _missing(
             part, common, said = _missing(stamps[a : b + 1], stretches=False)
             missing[a:b] = part
             shared += common
-            found += [c for c in said if c not in found]
+            found += [f"from {stamps[a]:.16g} on, {c}" for c in said]
         where = listed(f"{stamps[a]:.16g} to {stamps[b]:.16g}" for a, b in regions)
         found.insert(0, f"its stamps come in bursts from {where} only")
         return missing, shared, found
@@ -344,7 +344,7 @@ def _missing(
     ):
         missing[a:b] = part
         shared += common
-        found += said
+        found += [f"from {stamps[a]:.16g} on, {c}" for c in said]  # which part
     steps = listed((f"{p[2]:.4g}" for p in parts), sep=" then ")
     changes = listed(f"{stamps[c]:.16g}" for c in cuts[1:-1])
     found.insert(

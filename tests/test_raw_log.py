@@ -1066,6 +1066,10 @@ def test_a_rate_change_in_a_bursty_file_is_cut_between_bursts(b):
         missing, shared, found = _missing(slow)
         assert not missing.any() and not shared, (missing.sum(), shared)
         assert found[0].startswith("its rate changes"), found
+        # each part's burst clause says which part (a review: one note
+        # repeated it for each part without saying which)
+        assert found[1].startswith(f"from {slow[0]:.16g} on, its stamps come in")
+        assert found[2].startswith("from ") and found[2] != found[1], found
         dropped = rng.choice(np.arange(50, 3950), 3, replace=False)
         assert _missing(np.delete(slow, dropped))[0].sum() == 3
 
