@@ -1259,3 +1259,25 @@ def test_a_stretch_of_bursts_is_counted_by_burst():
     kept[450] = False  # in the burst of 448-451: the hole before it, 447
     missing = _missing(t[kept])[0]
     assert np.flatnonzero(missing).tolist() == [447], np.flatnonzero(missing)
+
+
+def test_receive_stamps_with_latency_bursts_are_counted_by_burst():
+    """Found by a review: receive stamps (1 in 8 messages 2-8 steps late, the
+    ones behind it held until it arrives, the rest on time) under the 40 % of
+    short intervals of a bursty file: counted in their stretches of bursts
+    and the grid between them, 11 of these 20 files of 300-3000 stamps were
+    counted wrong (230 false samples missing). A file with 4 stretches of bursts or
+    more is counted by burst as a whole: the drops' count exact, none false."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        n = int(rng.integers(300, 3000))
+        lat = rng.uniform(0, 0.02, n)
+        late = rng.random(n) < 0.12
+        lat[late] = rng.uniform(2, 8, late.sum())
+        t = np.maximum.accumulate(np.arange(n) + lat) + 1e-4 * np.arange(n)
+        kept = np.ones(n, bool)
+        kept[rng.choice(np.arange(10, n - 30), int(rng.integers(0, 4)), False)] = False
+        missing = _missing(t[kept] * 0.01)[0]
+        assert missing.sum() == n - kept.sum(), (n, missing.sum(), n - kept.sum())
