@@ -1200,6 +1200,29 @@ def test_late_messages_are_refused_on_standard_output_before_a_row_is_written(
     ), captured.err
 
 
+def _export_stopped(arm, tmp_path, capsys, monkeypatch, error):
+    """``(exit code, captured)`` of ``bag2csv --out -`` on a 2000-message bag
+    whose third block's write raises ``error`` (blocks of 300, hold-back 100)."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 300)
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 2000)))
+    written = ros_bag._write_block
+    calls = [0]
+
+    def stopping(stream, cells, data):
+        calls[0] += 1
+        if calls[0] > 2:
+            raise error
+        written(stream, cells, data)
+
+    monkeypatch.setattr(ros_bag, "_write_block", stopping)
+    code = cli.main(["bag2csv", str(bag), "--out", "-"])
+    return code, capsys.readouterr()
+
+
 def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
     arm, tmp_path, capsys, monkeypatch
 ):
@@ -1210,22 +1233,11 @@ def test_an_export_to_standard_output_cut_by_an_error_is_never_read_whole(
     that the CSV readers refuse (exit 2)."""
     from drake_dynid import ros_bag
 
-    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 300)
-    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
-    bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm, slice(0, 2000)))
     written = ros_bag._write_block
-    calls = [0]
-
-    def failing(stream, cells, data):
-        calls[0] += 1
-        if calls[0] > 2:
-            raise ValueError("made to fail")
-        written(stream, cells, data)
-
-    monkeypatch.setattr(ros_bag, "_write_block", failing)
-    assert cli.main(["bag2csv", str(bag), "--out", "-"]) == 2
-    captured = capsys.readouterr()
+    code, captured = _export_stopped(
+        arm, tmp_path, capsys, monkeypatch, ValueError("made to fail")
+    )
+    assert code == 2
     assert "made to fail" in captured.err
     lines = captured.out.splitlines()
     assert len(lines) == 1 + 200 + 300 + 1, len(lines)  # the header, 2 blocks
@@ -1266,24 +1278,10 @@ def test_an_export_to_standard_output_interrupted_says_it_is_incomplete(
     Exception only; Ctrl-C (KeyboardInterrupt) after the second block left
     501 whole lines on the pipe, read as the whole bag. Now it ends with the
     line too."""
-    from drake_dynid import ros_bag
-
-    monkeypatch.setattr(ros_bag, "EXPORT_ROWS", 300)
-    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 100)
-    bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm, slice(0, 2000)))
-    written = ros_bag._write_block
-    calls = [0]
-
-    def interrupted(stream, cells, data):
-        calls[0] += 1
-        if calls[0] > 2:
-            raise KeyboardInterrupt
-        written(stream, cells, data)
-
-    monkeypatch.setattr(ros_bag, "_write_block", interrupted)
-    assert cli.main(["bag2csv", str(bag), "--out", "-"]) != 0
-    captured = capsys.readouterr()
+    code, captured = _export_stopped(
+        arm, tmp_path, capsys, monkeypatch, KeyboardInterrupt()
+    )
+    assert code != 0
     assert "dynid bag2csv: interrupted" in captured.err
     lines = captured.out.splitlines()
     assert len(lines) == 1 + 200 + 300 + 1, len(lines)
