@@ -1074,6 +1074,34 @@ def test_a_rate_change_in_a_bursty_file_is_cut_between_bursts(b):
         assert _missing(np.delete(slow, dropped))[0].sum() == 3
 
 
+@pytest.mark.parametrize("b", [2, 4])
+def test_a_short_bursty_file_changing_rate_has_no_false_drops(b):
+    """Found by a review: a file of 160-240 stamps in bursts of b, flushed at
+    each burst's last sample (stamps 1 us apart, 0-0.2 ms late), at 1 then
+    0.5 kHz, was read in blocks of 64 intervals (a short file's 16 only when
+    not bursty): under 4 blocks, no rate change, 20-33 false samples missing
+    on a complete file (0-6 before the bursts were counted by deficit). A
+    short bursty file's blocks now hold 8 of its longest bursts (at least
+    16 intervals): none; the drops counted."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(b)
+    for n in (160, 200, 240):
+        half = n // 2
+        slow = half - 1 + 2.0 * np.arange(1, n - half + 1)
+        g = np.concatenate([np.arange(half), slow])
+        t = g.copy()
+        for a in range(0, n, b):
+            z = min(a + b, n)
+            t[a:z] = g[z - 1] + 1e-3 * np.arange(z - a) + rng.uniform(0.0, 0.2)
+        t *= 1e-3
+        missing, shared, found = _missing(t)
+        assert not missing.any() and not shared, (n, missing.sum(), shared)
+        assert found[0].startswith("its rate changes"), found
+        dropped = [40 + b // 2, n - 40 - b // 2]  # inside bursts, not the first/last
+        assert _missing(np.delete(t, dropped))[0].sum() == 2, n
+
+
 def test_stamps_going_back_have_a_grid():
     """Found by a review: the grids about as good as the best were those
     within least·(1 + 5 %) + 2 of its cost, none when that cost fell under
