@@ -55,6 +55,7 @@ __all__ = [
     "motion_and_noise",
     "periodogram",
     "position_noise_std",
+    "quantization_density",
     "quantum",
     "record_pieces",
     "repeats",
@@ -582,6 +583,22 @@ def velocity_spectrum(
     return f, _velocity_power(f, s, x, floor, threshold, h, traits)
 
 
+def quantization_density(
+    f: np.ndarray, fs: float, step: float, rate: float
+) -> np.ndarray:
+    """A channel quantized by Δ = ``step``: its rounding error's density [unit²/Hz].
+
+    ``max(Δ²/(6·fs), Δ²·r/(24·max(f, r)²))`` at the frequencies f [Hz]: white
+    (variance Δ²/12 over [0, fs/2]) when the count changes at every sample, and
+    a staircase changing count r times a second [1/s], a sawtooth of
+    fundamental ~r whose harmonics fall like 1/f² (Δ²/12 in all). The one
+    formula of the automatic cutoff's floor (``core.idim_auto``) and the
+    velocity band's (:func:`_staircase_floor`).
+    """
+    stairs = step**2 * rate / (24.0 * np.maximum(f, rate) ** 2)
+    return np.maximum(step**2 / (6.0 * fs), stairs)
+
+
 def _staircase_floor(
     f: np.ndarray,
     floor: np.ndarray,
@@ -610,9 +627,9 @@ def _staircase_floor(
         # Noise of σ >= Δ/4 (floor >= Δ²/(8 f_s)) dithers the rounding: white.
         if step > 0.0 and floor[0, j] < step**2 / (8.0 * fs):
             rate = np.count_nonzero(np.diff(x[:, j])) * fs / x.shape[0]
-            stairs = step**2 * rate / (24.0 * np.maximum(f, rate) ** 2)
-            raised[:, j] = np.maximum(raised[:, j], step**2 / (6.0 * fs))
-            raised[:, j] = np.maximum(raised[:, j], stairs)
+            raised[:, j] = np.maximum(
+                raised[:, j], quantization_density(f, fs, step, rate)
+            )
             # All of Δ²/12 on one line (a periodic motion's staircase is
             # periodic): a line of power P reads P·T/1.5 on the Hann periodogram.
             line = step**2 / 12.0 * x.shape[0] * h / 1.5

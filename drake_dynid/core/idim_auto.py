@@ -178,9 +178,10 @@ def _spectra_and_floors(
         white = float(np.median(power[band, j] / kernel[band])) if band.any() else 0.0
         noise[:, j] = white * kernel
         if quantized and quanta[j] > 0.0:
-            stairs = quanta[j] ** 2 * rates[j] / (24.0 * np.maximum(f, rates[j]) ** 2)
-            noise[:, j] = np.maximum(noise[:, j], quanta[j] ** 2 / (6.0 * fs))
-            noise[:, j] = np.maximum(noise[:, j], stairs)
+            noise[:, j] = np.maximum(
+                noise[:, j],
+                excitation.quantization_density(f, fs, quanta[j], rates[j]),
+            )
     return fs, f, power, noise, fs / resampled[:, 0]
 
 
