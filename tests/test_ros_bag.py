@@ -1160,13 +1160,10 @@ def test_late_messages_keep_few_temporary_files_open(
 
     most = [0]
     monkeypatch.setattr(tempfile, "TemporaryFile", counted)
-    exports = []
-    for name, source in (("late", messages), ("ordered", ordered)):
-        bag = tmp_path / f"{name}.bag"
-        write_bag(bag, "ros1", source)
-        out = tmp_path / f"{name}.csv"
-        assert cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"]) == 0
-        exports.append(out.read_bytes())
+    exports = [
+        _exported(tmp_path, name, source, "--quiet")
+        for name, source in (("late", messages), ("ordered", ordered))
+    ]
     assert "(60 of them more than 100 messages late" in capsys.readouterr().err
     assert exports[0] == exports[1]
     assert 0 < most[0] <= 7, most
@@ -1198,6 +1195,16 @@ def test_late_messages_are_refused_on_standard_output_before_a_row_is_written(
         f"ROS bag {bag}: 1 message(s) were recorded more than 100 messages after "
         "a later-stamped one (up to 1 s late)" in captured.err
     ), captured.err
+
+
+def _exported(tmp_path, name, messages, *options):
+    """The bytes ``bag2csv`` writes (exit 0) for ``messages`` as a ROS 1 bag."""
+    bag = tmp_path / f"{name}.bag"
+    write_bag(bag, "ros1", messages)
+    out = tmp_path / f"{name}.csv"
+    code = cli.main(["bag2csv", str(bag), "--out", str(out), *options])
+    assert code == 0, code
+    return out.read_bytes()
 
 
 def _export_stopped(arm, tmp_path, capsys, monkeypatch, error):
@@ -1421,16 +1428,13 @@ def test_a_burst_of_messages_sent_again_is_no_clock_step(arm, tmp_path, capsys):
     burst = [
         (0, m[1], received + 1 + j, *m[3:]) for j, m in enumerate(ordered[1480:1500])
     ]
-    exports = []
-    for name, source in (
-        ("burst", [*ordered[:1500], *burst, *ordered[1500:]]),
-        ("ordered", ordered),
-    ):
-        bag = tmp_path / f"{name}.bag"
-        write_bag(bag, "ros1", source)
-        out = tmp_path / f"{name}.csv"
-        assert cli.main(["bag2csv", str(bag), "--out", str(out)]) == 0
-        exports.append(out.read_bytes())
+    exports = [
+        _exported(tmp_path, name, source)
+        for name, source in (
+            ("burst", [*ordered[:1500], *burst, *ordered[1500:]]),
+            ("ordered", ordered),
+        )
+    ]
     assert exports[0] == exports[1]
     err = capsys.readouterr().err
     assert "dropped 20 message(s) on /joint_states repeating" in err, err
@@ -1762,14 +1766,10 @@ def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path, capsys)
                 (m[0], m[1], r, *m[3:]) for m, r in zip(block, received, strict=True)
             ]
             messages[start : start + len(block)] = block
-        exports = []
-        for label, source in (("late", messages), ("ordered", ordered)):
-            bag = tmp_path / f"{name}-{label}.bag"
-            write_bag(bag, "ros1", source)
-            out = tmp_path / f"{name}-{label}.csv"
-            code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
-            assert code == 0, capsys.readouterr().err
-            exports.append(out.read_bytes())
+        exports = [
+            _exported(tmp_path, f"{name}-{label}", source, "--quiet")
+            for label, source in (("late", messages), ("ordered", ordered))
+        ]
         assert exports[0] == exports[1], name
 
 
@@ -1793,14 +1793,10 @@ def test_a_second_publisher_always_received_in_bursts_is_no_short_clock_step(
     messages = [
         (m[0], m[1], o[2], *m[3:]) for m, o in zip(messages, ordered, strict=True)
     ]  # received in that order
-    exports = []
-    for label, source in (("late", messages), ("ordered", ordered)):
-        bag = tmp_path / f"{label}.bag"
-        write_bag(bag, "ros1", source)
-        out = tmp_path / f"{label}.csv"
-        code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
-        assert code == 0, capsys.readouterr().err
-        exports.append(out.read_bytes())
+    exports = [
+        _exported(tmp_path, label, source, "--quiet")
+        for label, source in (("late", messages), ("ordered", ordered))
+    ]
     assert exports[0] == exports[1]
 
 
