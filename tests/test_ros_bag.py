@@ -1735,7 +1735,7 @@ def test_a_clock_set_back_by_a_few_periods_is_named_a_clock_step(arm, tmp_path, 
         assert said in line, line
 
 
-def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path, capsys):
+def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path):
     """No false alarm: two publishers interleaved (even and odd milliseconds),
     the odd one's messages received in bursts of 3 to 6 after the even one's
     later ones; and stamps with a 20 % jitter, bursts of 3 to 6 messages
@@ -1774,7 +1774,7 @@ def test_late_bursts_filling_gaps_are_no_short_clock_step(arm, tmp_path, capsys)
 
 
 def test_a_second_publisher_always_received_in_bursts_is_no_short_clock_step(
-    arm, tmp_path, capsys
+    arm, tmp_path
 ):
     """Found by a review: two publishers on one topic (even and odd
     milliseconds), the odd one's messages always received late, 4 at a time
