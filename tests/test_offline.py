@@ -239,18 +239,11 @@ def test_auto_cutoff_follows_the_noise_floor():
 
 
 def _band_limited(noise_std):
-    """A 20 s excite-like design at 1 kHz: 5 harmonics of 0.2 Hz (top 1 Hz), plus
-    white noise of ``noise_std`` [rad]."""
-    rng = np.random.default_rng(3)
-    t = np.arange(20000) * H
-    q = np.zeros((t.size, 2))
-    for j in range(2):
-        for k in range(1, 6):
-            phase = rng.uniform(0.0, 2 * np.pi)
-            q[:, j] += (
-                rng.uniform(0.2, 1.0) / k**2 * np.sin(0.4 * np.pi * k * t + phase)
-            )
-    return q + np.random.default_rng(7).normal(0.0, noise_std, q.shape)
+    """A 20 s excite-like design at 1 kHz (``_motions.band_limited``: 5 harmonics
+    of 0.2 Hz, top 1 Hz), plus white noise of ``noise_std`` [rad]."""
+    from _motions import band_limited
+
+    return band_limited(1.0 / H, 0.0, noise_std, t=np.arange(20000) * H)[1]
 
 
 def test_auto_cutoff_leaves_a_low_noise_band_limited_log_unbiased():
@@ -313,17 +306,9 @@ def test_an_encoder_joint_moving_over_few_counts_does_not_move_the_cutoff(scale)
 def _design(fs, duration, noise_std, seed=3, t=None):
     """``_band_limited``'s design at ``fs`` [Hz] for ``duration`` [s] (or at the
     times ``t`` [s]): (q + noise, the noise-free acceleration)."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(round(duration * fs)) / fs if t is None else t
-    q, acceleration = np.zeros((t.size, 2)), np.zeros((t.size, 2))
-    for j in range(2):
-        for k in range(1, 6):
-            phase, w = rng.uniform(0.0, 2 * np.pi), 0.4 * np.pi * k
-            line = rng.uniform(0.2, 1.0) / k**2 * np.sin(w * t + phase)
-            q[:, j] += line
-            acceleration[:, j] -= w**2 * line
-    noise = np.random.default_rng(7).normal(0.0, noise_std, q.shape)
-    return q + noise, acceleration
+    from _motions import band_limited
+
+    return band_limited(fs, duration, noise_std, seed, t)[1:]
 
 
 def _best_cutoff(q, acceleration, h):

@@ -146,17 +146,11 @@ def test_an_exactly_constant_torque_has_no_noise():
 
 
 def _lines(fs, duration, noise_std, seed=3):
-    """Five lines of 0.2 Hz (top 1 Hz) per joint at ``fs`` [Hz], plus white noise."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(round(duration * fs)) / fs
-    q = np.zeros((t.size, 2))
-    for j in range(2):
-        for k in range(1, 6):
-            phase = rng.uniform(0.0, 2 * np.pi)
-            q[:, j] += (
-                rng.uniform(0.2, 1.0) / k**2 * np.sin(0.4 * np.pi * k * t + phase)
-            )
-    return t, q + np.random.default_rng(7).normal(0.0, noise_std, q.shape)
+    """(t, q): five lines of 0.2 Hz (top 1 Hz) per joint at ``fs`` [Hz], plus
+    white noise (``_motions.band_limited``)."""
+    from _motions import band_limited
+
+    return band_limited(fs, duration, noise_std, seed)[:2]
 
 
 def test_position_noise_of_resampled_quantized_and_held_channels():
