@@ -275,7 +275,7 @@ def read_joint_states(
     late[1:] = times[1:] < np.maximum.accumulate(times)[:-1]
     order = np.argsort(times, kind="stable")
     times, position, effort, held = (a[order] for a in (times, position, effort, held))
-    repeated = (times[1:] == times[:-1]) & _same_rows(position) & _same_rows(effort)
+    repeated = _repeating(times, position, effort)
     kept = np.concatenate([[True], ~repeated])
     reordered = int(np.count_nonzero(late[order[kept]]))
     times, position, effort, held = (a[kept] for a in (times, position, effort, held))
@@ -1043,8 +1043,7 @@ class _Export:
             block, counted = _taken(block, order), counted[order]
             stamps = block.received if self.plan.received else block.stamps
         # A message recorded twice (the same stamp and values) is written once.
-        repeated = (stamps[1:] == stamps[:-1]) & _same_rows(block.position)
-        repeated &= _same_rows(block.effort)
+        repeated = _repeating(stamps, block.position, block.effort)
         if repeated.any():
             self.repeated += int(np.count_nonzero(repeated))
             kept = np.flatnonzero(np.concatenate([[True], ~repeated]))
@@ -1539,6 +1538,17 @@ def _decoded(
         values,
         empty,
     )
+
+
+def _repeating(
+    stamps: np.ndarray, position: np.ndarray, effort: np.ndarray
+) -> np.ndarray:
+    """(n - 1,): each message after the first repeats the one before it.
+
+    The same time, positions and efforts (:func:`_same_rows`): the message
+    recorded twice, which the export (and ``read_joint_states``) writes once.
+    """
+    return (stamps[1:] == stamps[:-1]) & _same_rows(position) & _same_rows(effort)
 
 
 def _same_rows(values: np.ndarray) -> np.ndarray:
