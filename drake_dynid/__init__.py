@@ -68,6 +68,7 @@ _LAZY: dict[str, str] = {
     "jackknife_std": "drake_dynid.core.jackknife",
     "bootstrap_std": "drake_dynid.core.bootstrap",
     "motion_and_noise": "drake_dynid.core.excitation",
+    "motion_noise_band": "drake_dynid.core.excitation",
     "FourierTrajectory": "drake_dynid.core.trajectory",
     "random_fourier_trajectory": "drake_dynid.core.trajectory",
     "optimize_fourier_trajectory": "drake_dynid.core.trajectory",

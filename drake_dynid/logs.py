@@ -221,7 +221,8 @@ class RobotLog:
 
         Computed once per log and function. The automatic filter rules measure a log's
         longest finite run (its position spectrum: ``core.idim_auto.auto_cutoff``; its
-        velocity band: ``measured_velocity_band``). The dead zone, the off-line chain,
+        velocity band and position noise, one periodogram:
+        ``core.excitation.motion_noise_band``). The dead zone, the off-line chain,
         the validation and ``dynid identify`` ask the same log for the same measure; it
         is computed for the first (a 7-DOF 60 s log: 0.035 s per velocity band).
         ``function`` must be a pure function of its arguments, and the log's arrays are

@@ -89,7 +89,6 @@ from drake_dynid.core.idim_auto import (
     check_cutoff_run,
     decimated_noise_factor,
     decimation_cutoff,
-    measured_velocity_band,
 )
 from drake_dynid.core.idim_checks import check_offline_settings
 from drake_dynid.core.lsq import DEFAULT_MAX_CONDITION
@@ -104,6 +103,7 @@ __all__ = [
     "auto_decimation_cutoff",
     "identify_offline",
     "log_decimation_cutoff",
+    "log_velocity_band",
     "offline_rows",
     "standstill_widths",
 ]
@@ -412,7 +412,29 @@ def log_decimation_cutoff(log: Any, cutoff_hz: float) -> float:
     (``RobotLog.on_longest_run``): the dead zone, the off-line chain and the
     validation of one log share it.
     """
-    return decimation_cutoff(log.on_longest_run(measured_velocity_band), cutoff_hz)
+    return decimation_cutoff(log_velocity_band(log), cutoff_hz)
+
+
+def log_velocity_band(log: Any) -> float | None:
+    """``measured_velocity_band`` of the log's longest run of good samples [Hz].
+
+    Its value, from the periodogram that the position noise and RMS velocity
+    share (``core.excitation.motion_noise_band``, computed once per log:
+    ``RobotLog.on_longest_run``; the dead zone, the rows' choice and the
+    excitation band each took it apart). None when it cannot be measured (no
+    joint moves above the noise, fewer than 64 samples).
+
+    Raises:
+        ValueError: the log has no good sample.
+    """
+    from drake_dynid.core.excitation import motion_noise_band
+
+    if not log.good_segments():
+        log.on_longest_run(motion_noise_band)  # raises: no good sample
+    try:
+        return log.on_longest_run(motion_noise_band)[2]  # type: ignore[no-any-return]
+    except ValueError:  # as measured_velocity_band: too few samples
+        return None
 
 
 def standstill_widths(
@@ -426,7 +448,7 @@ def standstill_widths(
     ``w_j = 3 max(σ_r,j, G σ_q,j)`` (``drake_dynid.core.standstill``, docs/MATH.md
     §2): σ_r,j the MAD of the part of the off-line velocity above twice the
     parallel decimation's band, σ_q,j the white position noise (the floor of the
-    spectrum above f_s/4, ``core.excitation.motion_and_noise``, on the longest
+    spectrum above f_s/4, ``core.excitation.motion_noise_band``, on the longest
     run of good samples) and G its gain through the off-line velocity. The
     cutoffs default to the automatic rules (``drake_dynid.core.idim_auto``) on the
     longest finite segment.
@@ -445,7 +467,7 @@ def standstill_widths(
     Raises:
         ValueError: a cutoff that is not in (0, Nyquist).
     """
-    from drake_dynid.core.excitation import MIN_SPECTRUM_SAMPLES, motion_and_noise
+    from drake_dynid.core.excitation import MIN_SPECTRUM_SAMPLES, motion_noise_band
     from drake_dynid.core.standstill import (
         MIN_RUN,
         NOISE_BAND_FACTOR,
@@ -487,7 +509,7 @@ def standstill_widths(
         h,
         cutoff_hz=fc,
         band_cutoff_hz=band,
-        position_noise=log.on_longest_run(motion_and_noise)[1],
+        position_noise=log.on_longest_run(motion_noise_band)[1],
     )
     release_heap()  # the residuals: not under the next phase's peak
     return widths

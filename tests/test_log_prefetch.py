@@ -251,17 +251,18 @@ def test_a_log_measures_its_longest_run_once(tmp_path):
 
 @pytest.mark.parametrize("command", ["identify", "offline"])
 def test_the_commands_measure_the_velocity_band_once(tmp_path, monkeypatch, command):
-    """The dead zone, the off-line chain and identify's band share the measure."""
-    from drake_dynid.core import idim_auto
+    """The dead zone, the off-line chain and identify's band share the measure
+    (with the position noise: ``core.excitation.motion_noise_band``)."""
+    from drake_dynid.core import excitation
 
     calls = []
-    original = idim_auto.velocity_bandwidth
+    original = excitation.motion_noise_band
 
     def counted(q, h):
         calls.append(q.shape)
         return original(q, h)
 
-    monkeypatch.setattr(idim_auto, "velocity_bandwidth", counted)
+    monkeypatch.setattr(excitation, "motion_noise_band", counted)
     path = _messy_log(tmp_path / "messy.csv", n=6000)
     argv = [command, path, "--urdf", URDF, "--quiet", "--parallel", "off"]
     if command == "identify":

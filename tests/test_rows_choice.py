@@ -119,3 +119,35 @@ def test_motion_and_noise_by_pieces_on_long_logs(monkeypatch):
     np.testing.assert_allclose(position_noise_std(noisy, H), pieces_noise, rtol=0)
     np.testing.assert_allclose(pieces_rms, rms, rtol=0.02)
     assert not np.array_equal(pieces_rms, rms)  # the pieces were taken
+
+
+def test_motion_noise_band_is_the_two_measures_from_one_periodogram(monkeypatch):
+    """``motion_noise_band``: ``motion_and_noise`` and ``estimate_bandwidth``'s
+    band (None without motion), bit for bit; past ``SPECTRUM_PIECE`` samples the
+    band of the pieces' summed velocity spectra (``velocity_bandwidth``'s rule)."""
+    from drake_dynid.core import excitation
+    from drake_dynid.core.idim_auto import measured_velocity_band
+
+    noisy = Q + 1e-3 * np.random.default_rng(0).standard_normal(Q.shape)
+    rms, noise, band = excitation.motion_noise_band(noisy, H)
+    np.testing.assert_array_equal(rms, velocity_rms(noisy, H))
+    np.testing.assert_array_equal(noise, position_noise_std(noisy, H))
+    assert band == excitation.estimate_bandwidth(noisy, H)
+    assert band == measured_velocity_band(noisy, H)
+    still = np.full((200, 2), 0.3)
+    assert excitation.motion_noise_band(still, H)[2] is None
+    assert measured_velocity_band(still, H) is None
+    monkeypatch.setattr(excitation, "SPECTRUM_PIECE", 12000)  # 2 pieces of 10 s
+    power = 0.0
+    for piece in excitation.record_pieces(noisy):
+        spectra = [excitation.velocity_spectrum(piece[:, j], H) for j in range(2)]
+        f = spectra[0][0]
+        power = power + np.hstack([p for _, p in spectra])
+    cumulative = np.cumsum(power, axis=0) / power.sum(axis=0)
+    expected = max(f[np.searchsorted(c, 0.99 - 1e-12)] for c in cumulative.T)
+    pieces = excitation.motion_noise_band(noisy, H)
+    assert pieces[2] == expected
+    assert measured_velocity_band(noisy, H) == expected
+    rms, noise = excitation.motion_and_noise(noisy, H)
+    np.testing.assert_array_equal(pieces[0], rms)
+    np.testing.assert_array_equal(pieces[1], noise)

@@ -58,13 +58,13 @@ def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
     """σ per joint of the log's positions or torques, for ``auto``.
 
     On the longest run of finite samples [rad or m; N·m or N]: positions,
-    ``core.excitation.motion_and_noise`` (the white floor of the spectrum above
+    ``core.excitation.motion_noise_band`` (the white floor of the spectrum above
     f_s/4; measured once per log, ``RobotLog.on_longest_run``: the dead zone reads
     it too); torques, ``core.excitation.torque_noise_std`` (the MAD of the part
     above f_s/4: Coulomb steps do not inflate it).
     """
     from drake_dynid.core.blocks import segment
-    from drake_dynid.core.excitation import motion_and_noise, torque_noise_std
+    from drake_dynid.core.excitation import motion_noise_band, torque_noise_std
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     if stop - start < 64:
@@ -73,7 +73,7 @@ def measured_noise(log: Any, signal: str = "position") -> np.ndarray:
             f"log; give --{signal}-noise none or S."
         )
     if signal == "position":
-        return np.asarray(log.on_longest_run(motion_and_noise)[1])
+        return np.asarray(log.on_longest_run(motion_noise_band)[1])
     # A lazy view of a stored (long) log: measured a piece at a time.
     return torque_noise_std(segment(log.tau, start, stop), log.time_step)
 

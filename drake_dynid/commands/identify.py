@@ -314,15 +314,16 @@ def _longest_run(log: Any, minimum: int, what: str, override: str) -> Any:
 def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
     """The excitation band of the log's positions [Hz] (99 % of the velocity power).
 
-    Measured on the longest run of finite samples with
-    ``core.excitation.estimate_bandwidth`` (in bounded memory on long logs:
-    ``core.idim_auto.velocity_bandwidth``); at least 2/window (the default ℓ set is
+    Measured on the longest run of finite samples:
+    ``core.excitation.estimate_bandwidth``'s value, from the periodogram the dead
+    zone's position noise reads (``drake_dynid.offline.log_velocity_band``; in
+    bounded memory on long logs); at least 2/window (the default ℓ set is
     never empty). With ``settings`` it is capped at what the identifier can use:
     the differentiator's pass band (``core.online_checks.pass_band``), the bank's
     Nyquist frequency and ``core.fourier_bank.MAX_FUNCTIONS`` functions; a noisy or
     unexcited log measures a wide band that only noise fills.
     """
-    from drake_dynid.core.idim_auto import measured_velocity_band
+    from drake_dynid.offline import log_velocity_band
 
     start, stop = max(log.good_segments(), key=lambda s: s[1] - s[0], default=(0, 0))
     run = stop - start
@@ -333,7 +334,7 @@ def measured_bandwidth(log: Any, window: float, settings: Any = None) -> float:
             "--bandwidth or --frequencies."
         )
     # The dead zone measured it on this log already (RobotLog.on_longest_run).
-    measured = log.on_longest_run(measured_velocity_band)
+    measured = log_velocity_band(log)
     if measured is None:
         bad = int(np.count_nonzero(log.bad_samples))
         where = (
@@ -629,7 +630,7 @@ def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
     position noise gives their velocity estimate a noise (relative to the RMS
     velocity) below the filtered rows' expected bias, else the filtered rows.
     """
-    from drake_dynid.core.excitation import motion_and_noise
+    from drake_dynid.core.excitation import motion_noise_band
     from drake_dynid.core.raw_rows import rows_from_noise
 
     q = _longest_run(log, 64, "the position noise", "--rows-from filtered or raw")
@@ -640,7 +641,7 @@ def measured_rows_from(log: Any, settings: Any) -> tuple[str, float, float]:
         jacobi_window=settings.jacobi_window,
         bandwidth=settings.bandwidth,
         # The same run as on_longest_run's: the dead zone's measure, reused.
-        measures=log.on_longest_run(motion_and_noise),
+        measures=log.on_longest_run(motion_noise_band)[:2],
     )
 
 

@@ -53,6 +53,7 @@ __all__ = [
     "frequencies_for",
     "merged_quantum",
     "motion_and_noise",
+    "motion_noise_band",
     "periodogram",
     "position_noise_std",
     "quantization_density",
@@ -528,7 +529,8 @@ def motion_and_noise(
     Up to :data:`SPECTRUM_PIECE` samples, exactly those two functions' values.
     Beyond, the mean squares over equal pieces of at most that many samples, one
     joint at a time (``v_rms² = mean of the pieces' v_rms²``, the same for σ²):
-    bounded memory on hour-long logs.
+    bounded memory on hour-long logs. The first two values of
+    :func:`motion_noise_band`.
 
     Args:
         q: (N,) or (N, n) positions [rad or m], N >= 64.
@@ -538,24 +540,83 @@ def motion_and_noise(
     Returns:
         (n,) RMS velocities [rad/s or m/s] and (n,) position noise std [rad or m].
     """
+    rms, noise, _ = motion_noise_band(q, time_step, threshold=threshold)
+    return rms, noise
+
+
+def motion_noise_band(
+    q: Any, time_step: float, *, threshold: float = 20.0
+) -> tuple[np.ndarray, np.ndarray, float | None]:
+    """``(v_rms, σ_q, B)``: :func:`motion_and_noise` and the band, one periodogram.
+
+    B [Hz] is :func:`estimate_bandwidth` at its default energy (99 % of the
+    velocity power), None when no joint moves above the noise (where
+    :func:`estimate_bandwidth` raises). Up to :data:`SPECTRUM_PIECE` samples one
+    periodogram of all channels; beyond, one per piece and joint
+    (:func:`record_pieces`): v_rms and σ_q by mean squares over the pieces
+    (:func:`motion_and_noise`), B from the sum of the pieces' velocity spectra
+    (``core.idim_auto.velocity_bandwidth``). A log's dead zone, rows' choice
+    and excitation band share it (``RobotLog.on_longest_run``: each computed the
+    same periodogram for its own measure).
+
+    Args:
+        q: (N,) or (N, n) positions [rad or m], N >= 64 (may be a stored log).
+        time_step: h [s].
+        threshold: the motion's detection threshold (:func:`velocity_spectrum`).
+
+    Returns:
+        (n,) RMS velocities [rad/s or m/s], (n,) position noise std [rad or m]
+        and the band [Hz] or None.
+    """
     shape = np.shape(q)  # q may be a stored log (read a piece at a time)
     if len(shape) == 2 and shape[0] > SPECTRUM_PIECE:
         squares = np.zeros((2, shape[1]))
+        power = np.empty(0)
+        f = np.empty(0)
         count = 0
-        for piece in record_pieces(q):
+        for k, piece in enumerate(record_pieces(q)):
             count += 1
             for j in range(shape[1]):
-                one = motion_and_noise(piece[:, j], time_step, threshold=threshold)
-                squares[:, j] += (one[0][0] ** 2, one[1][0] ** 2)
+                f, part, noise = _motion_spectrum(piece[:, j], time_step, threshold)
+                if k == 0 and j == 0:
+                    power = np.zeros((len(f), shape[1]))
+                power[:, j] += part[:, 0]
+                rms = np.sqrt(part.sum(axis=0) * (f[1] - f[0]))
+                squares[:, j] += (rms[0] ** 2, noise[0] ** 2)
         rms, noise = np.sqrt(squares / count)
-        return rms, noise
+        return rms, noise, _power_band(f, power, 0.99)
+    f, power, noise = _motion_spectrum(q, time_step, threshold)
+    rms = np.sqrt(power.sum(axis=0) * (f[1] - f[0]))
+    return rms, noise, _power_band(f, power, 0.99)
+
+
+def _motion_spectrum(
+    q: Any, time_step: float, threshold: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(f, P, σ)``: :func:`velocity_spectrum`, :func:`position_noise_std` at once."""
     threshold = v.greater_than(_OWNER, "threshold", threshold, 1.0)
     f, s, x, h = _periodogram(q, time_step)
     traits = _traits(x)
     floor = _noise_floor(f, s, h, traits)
     noise = _noise_std(floor, h, traits)
-    power = _velocity_power(f, s, x, floor, threshold, h, traits)
-    return np.sqrt(power.sum(axis=0) * (f[1] - f[0])), noise
+    return f, _velocity_power(f, s, x, floor, threshold, h, traits), noise
+
+
+def _power_band(f: np.ndarray, power: np.ndarray, energy: float) -> float | None:
+    """``max_j min{f : Σ_{f' <= f} P_j(f') >= energy·Σ P_j}`` [Hz]; None: no P_j > 0.
+
+    Over the joints whose velocity power P (F, n) [(unit/s)²/Hz] is not 0.
+    """
+    total = power.sum(axis=0)
+    moving = np.flatnonzero(total > 0.0)
+    if moving.size == 0:
+        return None
+    return float(
+        max(
+            f[int(np.searchsorted(np.cumsum(power[:, j]) / total[j], energy - 1e-12))]
+            for j in moving
+        )
+    )
 
 
 def velocity_spectrum(
@@ -690,19 +751,14 @@ def estimate_bandwidth(
     energy = v.real(_OWNER, "energy", energy)
     if not 0.0 < energy <= 1.0:
         v.fail(_OWNER, f"energy must be in (0, 1]; got {energy}.")
-    f, power = velocity_spectrum(q, time_step, threshold=threshold)
-    total = power.sum(axis=0)
-    if not np.any(total > 0.0):
+    band = _power_band(*velocity_spectrum(q, time_step, threshold=threshold), energy)
+    if band is None:
         v.fail(
             _OWNER,
             "q shows no motion above the noise floor (constant or pure noise); "
             "an exciting trajectory is needed.",
         )
-    bands = []
-    for j in np.flatnonzero(total > 0.0):
-        cumulative = np.cumsum(power[:, j]) / total[j]
-        bands.append(f[int(np.searchsorted(cumulative, energy - 1e-12))])
-    return float(max(bands))
+    return float(band)  # type: ignore[arg-type]  # fail() raised when None
 
 
 #: The default ℓ set covering a band (the library's one rule, defined with the bank

@@ -83,11 +83,7 @@ import numpy as np
 from drake_dynid.core import _validate as check
 from drake_dynid.core import excitation
 from drake_dynid.core.blocks import checked_rows, is_stored
-from drake_dynid.core.excitation import (
-    estimate_bandwidth,
-    record_pieces,
-    velocity_spectrum,
-)
+from drake_dynid.core.excitation import estimate_bandwidth
 
 __all__ = [
     "DECIMATION_BAND_FACTOR",
@@ -580,26 +576,13 @@ def velocity_bandwidth(q: np.ndarray, time_step: float) -> float:
     """
     if q.shape[0] <= excitation.SPECTRUM_PIECE:
         return estimate_bandwidth(np.asarray(q, dtype=float), time_step)
-    power = np.empty(0)
-    f = np.empty(0)
+    if len(q.shape) == 1:
+        q = np.asarray(q, dtype=float)[:, None]
     # Summed piece by piece, joint by joint: bounded memory.
-    for k, piece in enumerate(record_pieces(q)):
-        piece = piece.reshape(piece.shape[0], -1)
-        for j in range(piece.shape[1]):
-            f, part = velocity_spectrum(piece[:, j], time_step)
-            if k == 0 and j == 0:
-                power = np.zeros((len(f), piece.shape[1]))
-            power[:, j] += part[:, 0]
-    total = power.sum(axis=0)
-    moving = np.flatnonzero(total > 0.0)
-    if moving.size == 0:
+    band = excitation.motion_noise_band(q, time_step)[2]
+    if band is None:
         check.fail("auto_decimation_cutoff", "q shows no motion above the noise.")
-    return float(
-        max(
-            f[int(np.searchsorted(np.cumsum(power[:, j]) / total[j], 0.99 - 1e-12))]
-            for j in moving
-        )
-    )
+    return float(band)  # type: ignore[arg-type]  # fail() raised when None
 
 
 def noise_limited_cutoff(q: Any, time_step: float) -> float:
