@@ -41,6 +41,7 @@ joint-torque regressor to 1e-12 (tests/test_idim_base_rows.py).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -426,26 +427,88 @@ def _lagrangian_block(
     )
     product = product.reshape(count, 2 * n, n, 14)
     product *= 1.0 / block
-    # Buffers in batch_idim_rows's layout: [links (i, b, k) | v | friction | 0].
-    links = n * n * 10
-    kinds = plan.friction_kinds
-    width = links + n + n * len(kinds) + 1
-    d_buffer = np.zeros((count, width))
-    g_buffer = np.zeros((count, width))
-    d_buffer[:, :links].reshape(count, n, n, 10)[...] = product[:, :n, :, :10]
-    g_links = g_buffer[:, :links].reshape(count, n, n, 10)
-    np.negative(product[:, n:, :, :10], out=g_links)
-    g_links[..., 6:] += product[:, :n, :, 10:]
-    d_buffer[:, links : links + n] = v.reshape(count, block, n).mean(axis=1)
-    at = links + n
-    for kind in kinds:
-        column = np.broadcast_to(friction_column(kind, v, sign), v.shape)
-        g_buffer[:, at : at + n] = column.reshape(count, block, n).mean(axis=1)
-        at += n
+    # W's columns gathered from the products (plan.index into batch_idim_rows's
+    # buffer [links (i, b, k) | v | friction | 0], without forming the buffers):
+    # D_i the S_i rows' K(V) part; G_i minus the ad(V) S_i rows' K(V) part, plus
+    # the S_i rows' gravity part on k = 6..9 (MX MY MZ M).
+    gather = _lagrangian_gather(plan)
+    flat = product.reshape(count, 2 * n * n * 14)
+    np.negative(product[:, n:], out=product[:, n:])
     p = plan.num_parameters
-    np.take(d_buffer, plan.index, axis=1, out=out[:, : n * p], mode="clip")
-    np.take(g_buffer, plan.index, axis=1, out=out[:, n * p : 2 * n * p], mode="clip")
+    d_out, g_out = out[:, : n * p], out[:, n * p : 2 * n * p]
+    np.take(flat, gather.d_source, axis=1, out=d_out, mode="clip")
+    np.take(flat, gather.g_source, axis=1, out=g_out, mode="clip")
+    g_out[:, gather.gravity_columns] += flat[:, gather.gravity_source]
+    d_out[:, gather.d_zero] = 0.0
+    g_out[:, gather.g_zero] = 0.0
+    if gather.rotor_columns.size:
+        means = v.reshape(count, block, n).mean(axis=1)
+        d_out[:, gather.rotor_columns] = means[:, gather.rotor_joints]
+    for kind, columns, joints in zip(
+        plan.friction_kinds,
+        gather.friction_columns,
+        gather.friction_joints,
+        strict=True,
+    ):
+        if columns.size:
+            column = np.broadcast_to(friction_column(kind, v, sign), v.shape)
+            means = column.reshape(count, block, n).mean(axis=1)
+            g_out[:, columns] = means[:, joints]
     out[:, 2 * n * p :] = tau.reshape(count, block, n).mean(axis=1)
+
+
+@dataclass(frozen=True)
+class _LagrangianGather:
+    """Where each column of :func:`_lagrangian_block`'s D and G comes from.
+
+    ``d_source``/``g_source``: (n·p,) positions in the block's products (C, 2n, n,
+    14) flattened (0 where another rule fills the column); ``gravity_columns``
+    (of G) add ``gravity_source``; ``d_zero``/``g_zero`` the columns that are 0;
+    rotor and friction columns the joints' block means.
+    """
+
+    d_source: np.ndarray
+    g_source: np.ndarray
+    gravity_columns: np.ndarray
+    gravity_source: np.ndarray
+    d_zero: np.ndarray
+    g_zero: np.ndarray
+    rotor_columns: np.ndarray
+    rotor_joints: np.ndarray
+    friction_columns: tuple[np.ndarray, ...]
+    friction_joints: tuple[np.ndarray, ...]
+
+
+@functools.lru_cache(maxsize=16)
+def _lagrangian_gather(plan: BatchRowsPlan) -> _LagrangianGather:
+    """:class:`_LagrangianGather` of a plan (its ``index``), once per plan."""
+    n = plan.tree.num_links
+    links = n * n * 10
+    index = plan.index
+    is_link = index < links
+    pair, k = np.divmod(np.where(is_link, index, 0), 10)  # pair = i·n + b
+    d_source = np.where(is_link, pair * 14 + k, 0)
+    g_source = np.where(is_link, (n * n + pair) * 14 + k, 0)
+    gravity = np.flatnonzero(is_link & (k >= 6))
+    rotor = (index >= links) & (index < links + n)
+    friction = index - links - n
+    kinds = len(plan.friction_kinds)
+    in_friction = (friction >= 0) & (friction < n * kinds)
+    friction_columns = tuple(
+        np.flatnonzero(in_friction & (friction // n == kind)) for kind in range(kinds)
+    )
+    return _LagrangianGather(
+        d_source=d_source,
+        g_source=g_source,
+        gravity_columns=gravity,
+        gravity_source=pair[gravity] * 14 + 10 + (k[gravity] - 6),
+        d_zero=np.flatnonzero(~is_link & ~rotor),
+        g_zero=np.flatnonzero(~is_link & ~in_friction),
+        rotor_columns=np.flatnonzero(rotor),
+        rotor_joints=index[rotor] - links,
+        friction_columns=friction_columns,
+        friction_joints=tuple(friction[c] % n for c in friction_columns),
+    )
 
 
 def batch_lagrangian_mean_rows(
