@@ -601,6 +601,42 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="print nothing")
 
 
+def fitted_log_note(
+    args: argparse.Namespace, document: Mapping[str, Any], log: Any
+) -> str | None:
+    """The note when a validated file is the log the results file was fitted on.
+
+    The results file records its log as given (``log.path``, one path or a list),
+    relative to the folder the fit ran in: it is looked for from here and from the
+    results file's folder. On that log the errors are in-sample (the fit saw those
+    samples, all of them or, after ``--split``, the first ones), not a prediction
+    of another recording; ``offline --validate`` refuses it, ``validate`` says so.
+    """
+    from drake_dynid.files import same_file
+
+    recorded = document.get("log")
+    paths = recorded.get("path") if isinstance(recorded, Mapping) else None
+    if isinstance(paths, str):
+        paths = [paths]
+    if not isinstance(paths, list):
+        return None
+    beside = Path(args.params).parent
+    candidates = []
+    for path in (Path(p) for p in paths if isinstance(p, str) and p):
+        candidates += [path] if path.is_absolute() else [path, beside / path]
+    for given in log_files(args):
+        if any(c.is_file() and same_file(c, given) for c in candidates):
+            fitted = recorded.get("samples") if isinstance(recorded, Mapping) else None
+            part = ""
+            if isinstance(fitted, int) and 0 < fitted < log.num_samples:
+                part = f" (its first {fitted} of {log.num_samples} samples)"
+            return (
+                f"{given} is the log these parameters were fitted on{part}: the "
+                "errors are in-sample there, not a prediction of another recording."
+            )
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._model import APRIORI_LABEL
@@ -640,6 +676,9 @@ def run(args: argparse.Namespace) -> int:
         topic=getattr(args, "topic", None),
     )
     robot = results_sign(args, document, robot, log)
+    in_sample = fitted_log_note(args, document, log)
+    if in_sample:
+        print(f"dynid validate: note: {in_sample}", file=sys.stderr)
     if not args.quiet:
         print(
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "
