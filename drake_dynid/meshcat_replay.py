@@ -92,8 +92,11 @@ def _load(urdf: str) -> tuple[Any, Any, list[str]]:
         plant = load_urdf(urdf, 0.0, builder=builder, geometry=False).plant
         text = str(error).splitlines()[0]
         match = re.search(r"error: (.+?)\. Fix the URDF", text)
-        reason = match.group(1) if match else text
-        return builder, plant, [f"shown without its geometry ({reason})"]
+        reason = (match.group(1) if match else text).rstrip(".")
+        # The URDF may well have <visual> elements: none is loaded (its
+        # collision meshes failed, e.g. .dae ones, which Drake cannot hull).
+        note = f"shown without its geometry ({reason}): the links are shown by "
+        return builder, plant, [note + "their inertia"]
 
 
 def replay_in_meshcat(
@@ -168,7 +171,7 @@ def replay_in_meshcat(
         if plant.HasJointNamed(name) and plant.HasJointNamed(relation[0])
     }
     bodies = [plant.get_body(BodyIndex(i)) for i in range(plant.num_bodies())]
-    if not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
+    if not notes and not any(plant.GetVisualGeometriesForBody(body) for body in bodies):
         notes.append("no <visual> geometry: the links are shown by their inertia")
     if meshcat is None:
         with _drake_quiet():  # the URL is Replay.url (module docstring)

@@ -315,3 +315,31 @@ def test_files_in_other_column_names_are_pointed_to_a_drive_file(tmp_path, capsy
         assert cli.main(["offline", *logs, "--urdf", "planar_2r"]) == 2
         line = error_line(capsys)
         assert "column(s)" in line and "described in a drive file" in line, line
+
+
+def test_replay_without_the_urdfs_geometry_does_not_say_it_has_no_visual(
+    tmp_path, capsys
+):
+    """Found by a new user's walk-through: `dynid replay` of example-robot-data's
+    Kinova (.dae collision meshes, which Drake cannot hull) said "shown without its
+    geometry (...)" and then "no <visual> geometry", though the URDF has visuals."""
+    from _motions import fourier_2r
+
+    from drake_dynid.logs import write_log
+
+    text = Path(model_path("planar_2r")).read_text()
+    link = text.index("<inertial>")
+    box = "<geometry><box size='0.1 0.1 0.1'/></geometry>"
+    mesh = "<geometry><mesh filename='arm.dae'/></geometry>"
+    shapes = f"<visual>{box}</visual><collision>{mesh}</collision>"
+    urdf = tmp_path / "robot.urdf"
+    urdf.write_text(text[:link] + shapes + text[link:])
+    (tmp_path / "arm.dae").write_text("")
+    robot, t, q, tau = fourier_2r(201)
+    write_log(tmp_path / "log.csv", t, q, tau, robot.joint_names)
+    argv = ["replay", str(urdf), str(tmp_path / "log.csv"), "--fps", "4"]
+    assert cli.main([*argv, "--html", str(tmp_path / "r.html")]) == 0
+    err = capsys.readouterr().err
+    assert "shown without its geometry" in err and ".dae" in err
+    assert "the links are shown by their inertia" in err
+    assert "no <visual> geometry" not in err
