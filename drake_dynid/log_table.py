@@ -231,20 +231,23 @@ def _format_hint(header: Sequence[str], wanted: Sequence[str]) -> str:
     if present and len(present) < len(joints):
         # The --joints value to copy, while it is one (the listed names are not):
         # beyond LISTED_NAMES, only that value names them (one list, not two).
+        # The other joints' positions are not in the log: where they were held
+        # must be said (a log of `dynid simulate --joints J --lock L`).
+        locks = " (the others locked at 0 or where --lock NAME=VALUE,... held them)"
         value = ",".join(present)
         if len(present) <= LISTED_NAMES:
             return (
                 f"; the log holds {listed(present)} only: --joints {value} "
-                "identifies those alone"
+                f"identifies those alone{locks}"
             )
         if len(present) <= COPIED_JOINTS:
             return (
                 f"; the log holds {len(present)} of the {len(joints)} joints only: "
-                f"--joints {value} identifies those alone"
+                f"--joints {value} identifies those alone{locks}"
             )
         return (
             f"; the log holds {listed(present)} only: --joints with those names "
-            "identifies them alone"
+            f"identifies them alone{locks}"
         )
     logged = [n[2:] for n in header if n.startswith("q_") and f"tau_{n[2:]}" in header]
     if logged and not present:

@@ -403,3 +403,18 @@ def test_a_header_of_many_columns_is_listed_in_one_short_line(tmp_path):
         read_log(path, JOINTS)
     text = str(raised.value)
     assert "q_other_18 and 1981 more" in text and len(text) < 800, len(text)
+
+
+def test_the_joints_hint_of_a_partial_log_names_the_locks(tmp_path):
+    """Found by a new user's walk-through: `dynid simulate --joints J --lock L`
+    logs J only; scoring it without the options, the hint '--joints J identifies
+    those alone' said no word of --lock, and the model then holds the others at 0:
+    the fit is the same (the lumped link's parameters), but not the URDF's values
+    that --compare-urdf, --physical's prior and the truth give (the Kinova's three
+    first joints, the wrist at 0.3, 3.0, 0.2 rad: XX3R 0.331, at 0 0.091)."""
+    path = write_text(tmp_path / "part.csv", "t,q_shoulder,tau_shoulder\n0,1,2\n")
+    with pytest.raises(ValueError, match="missing column") as raised:
+        read_log(path, JOINTS)
+    text = str(raised.value)
+    assert "--joints shoulder identifies those alone" in text, text
+    assert "the others locked at 0 or where --lock NAME=VALUE,... held them" in text
