@@ -21,6 +21,33 @@ def test_help_lists_exit_codes(capsys):
     assert "Exit codes" in capsys.readouterr().out
 
 
+def test_every_option_with_a_default_says_it_in_its_help():
+    """Found by a new user's walk-through: `dynid simulate --help` gave '--rate HZ
+    log rate [Hz]' and '--seed S noise seed', not their defaults (1000 Hz, 0),
+    where every other option with one states it."""
+    import argparse
+
+    silent = []
+
+    def walk(parser, command):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(sub, f"{command} {name}")
+            elif (
+                action.option_strings
+                and not any(action.default is v for v in (None, False))
+                and action.default != argparse.SUPPRESS
+                and action.help not in (None, argparse.SUPPRESS)
+                and action.nargs != 0
+                and "default" not in action.help
+            ):
+                silent.append(f"{command} {action.option_strings[-1]}")
+
+    walk(cli.build_parser(), "dynid")
+    assert silent == []
+
+
 def test_no_command_prints_help(capsys):
     assert cli.main([]) == 0
     assert "usage: dynid" in capsys.readouterr().out

@@ -98,9 +98,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(default 0.01: SNR 40 dB)",
     )
     parser.add_argument(
-        "--rate", type=float, default=1000.0, metavar="HZ", help="log rate [Hz]"
+        "--rate",
+        type=float,
+        default=1000.0,
+        metavar="HZ",
+        help="log rate [Hz] (default 1000)",
     )
-    parser.add_argument("--seed", type=int, default=0, metavar="S", help="noise seed")
+    parser.add_argument(
+        "--seed", type=int, default=0, metavar="S", help="noise seed (default 0)"
+    )
     parser.add_argument(
         "--duration",
         type=float,
