@@ -109,12 +109,17 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     print("| true | " + " | ".join(f"{x:.4g}" for x in truth) + " |")
     for trace in result.traces:
         final = trace.final()
-        first_valid = trace.t[np.argmax(trace.valid > 0)] if trace.valid.any() else None
+        first_valid = (
+            f"{trace.t[np.argmax(trace.valid > 0)]:.4g} s"
+            if trace.valid.any()
+            else "never"
+        )
+        errors = ", ".join(f"{e:.4g}" for e in 100 * (final["theta"] - truth) / truth)
         print(
             f"| {trace.settings.model} | "
             + " | ".join(f"{x:.4g}" for x in final["theta"])
-            + f" |  (error % {np.round(100 * (final['theta'] - truth) / truth, 2)}, "
-            f"first valid at t = {first_valid} s, cond {final['condition_number']:.3g})"
+            + f" |  (error % {errors}; first valid at t = {first_valid}, "
+            f"cond {final['condition_number']:.3g})"
         )
     path = os.path.join(args.out, "fig3_estimates.png")
     _plot(result, truth, robot.names, path, f"Fig. 3: T = {window:g} s, SNR 30 dB")

@@ -46,6 +46,13 @@ def test_paper_fig3_quick(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert (tmp_path / "fig3_estimates.png").stat().st_size > 10_000
     assert "| lagrangian |" in printed and "| power |" in printed
+    # Found by a new user's walk-through: numpy's repr of the errors broke a
+    # row over two lines ('(error % [-6.69600e+01  9.70200e+01 ...\n  9.7...]')
+    # and the time printed as 3.3000000000000003 s.
+    rows = [line for line in printed.splitlines() if line.startswith("| power |")]
+    assert len(rows) == 1 and rows[0].endswith(")"), printed
+    assert re.search(r"error % -?\d[\d.e+-]*(, -?\d[\d.e+-]*){7}; first", rows[0])
+    assert re.search(r"first valid at t = \d+(\.\d{1,3})? s", rows[0]), rows[0]
 
 
 def test_paper_fig4_quick(tmp_path, capsys):
