@@ -63,6 +63,10 @@ def test_paper_fig4_quick(tmp_path, capsys):
     # SNR 30 dB, T = 3 s, jump at 4 s: the Lagrangian estimate ends near 4.5.
     final = float(re.search(r"lagrangian: .* at the end ([0-9.]+);", printed).group(1))
     assert abs(final - 4.5) < 0.05 * 4.5
+    # Found by a new user's walk-through: the power model, outside the band at
+    # the end of the quick run, was "within 2 % of 4.5 from inf s after the jump".
+    assert "inf" not in printed, printed
+    assert re.search(r"^power: .*; not within 2 % of 4\.5 at the end ", printed, re.M)
 
 
 def test_fig4_settling_time_helper():
