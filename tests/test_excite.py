@@ -241,6 +241,13 @@ def test_cli_excite_writes_the_trajectory_and_report(tmp_path, capsys):
         (["--duration", "7", "--f0", "0.2"], "whole number of periods"),
         (["--margin", "position=2.5"], "leaves no room"),
         (["--margin", "speed=0.1"], "--margin: expected KIND=VALUE"),
+        # Found by a new user's walk-through: excite prints 'velocity 20%', and
+        # '--margin velocity=20%' was "velocity must be a number; got '20%'".
+        (
+            ["--margin", "velocity=20%"],
+            "velocity must be a number, a fraction of the limit (0.2 for 20 %)",
+        ),
+        (["--margin", "position=5deg"], "position must be a number [rad]"),
     ],
 )
 def test_cli_excite_infeasible_requests_exit_2(tmp_path, capsys, extra, message):

@@ -186,8 +186,16 @@ def parse_margins(text: str) -> Any:
         try:
             values[kind] = float(value)
         except ValueError:
+            # excite prints the fractions as percentages ('velocity 20%').
+            unit = (
+                " [rad]"
+                if kind == "position"
+                else " [m]"
+                if kind in ("prismatic", "collision")
+                else ", a fraction of the limit (0.2 for 20 %)"
+            )
             raise ValueError(
-                f"--margin: {kind} must be a number; got {value!r}."
+                f"--margin: {kind} must be a number{unit}; got {value!r}."
             ) from None
     return Margins(**values)
 
