@@ -678,7 +678,8 @@ def read_results(path: str | os.PathLike) -> dict[str, Any]:
     ):
         raise ValueError(
             f"results file {path}: expected a JSON object with a 'parameters' list "
-            "(written by dynid offline/identify --json)."
+            "(written by dynid offline, identify or params --json; dynid excite's "
+            "--json is a trajectory)."
         )
     return document
 
@@ -729,9 +730,14 @@ def check_parameters(robot: Any, parameters: Any, source: str) -> np.ndarray:
         )
         got = names[first] if first < len(names) else "(none)"
         want = expected[first] if first < len(expected) else "(none)"
+        counts = (
+            f"{source}'s {len(names)} base parameters are not those of {where}"
+            if len(names) == len(expected)
+            else f"{source} holds {len(names)} base parameters but {where} has "
+            f"{len(expected)}"
+        )
         raise ValueError(
-            f"{source} holds {len(names)} base parameters but {where} has "
-            f"{len(expected)}; they differ at position {first + 1}: {got!r} in the "
+            f"{counts}; they differ at position {first + 1}: {got!r} in the "
             f"file, {want!r} expected. Were they identified on another robot, on other "
             "joints (--joints, --lock) or with other --friction?"
         )

@@ -182,9 +182,23 @@ def test_results_files_of_another_model_are_refused(robot, tmp_path):
     # Found by a review: other joints (--joints, --lock) were not among the causes.
     with pytest.raises(ValueError, match=r"on other joints \(--joints, --lock\)"):
         read_estimates(document, iiwa, "r.json")
+    # Found by a new user's walk-through (a Kinova fit validated on the UR5, 48
+    # base parameters each): "holds 48 base parameters but ... has 48".
+    swapped = document["parameters"][:4] + document["parameters"][5:4:-1]
+    swapped += document["parameters"][4:5] + document["parameters"][6:]
+    with pytest.raises(ValueError) as raised:
+        check_parameters(robot, swapped, "r.json")
+    text = str(raised.value)
+    assert "holds" not in text, text
+    assert text.startswith("r.json's 8 base parameters are not those of ")
+    assert "they differ at position 5: 'FC1' in the file, 'FV1' expected" in text
     path = tmp_path / "broken.json"
     path.write_text("{not json")
     with pytest.raises(ValueError, match="not valid JSON"):
+        read_results(path)
+    # Found by the same walk-through: excite's traj.json given as --params.
+    path.write_text('{"joints": ["joint1"], "a": [], "b": []}')
+    with pytest.raises(ValueError, match=r"written by dynid offline, identify or "):
         read_results(path)
     with pytest.raises(FileNotFoundError, match="no such file"):
         read_results(tmp_path / "missing.json")
