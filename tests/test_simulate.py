@@ -655,3 +655,28 @@ def test_a_heavy_implausible_link_is_not_called_nearly_empty(tmp_path):
         "(shoulder_link: 52.3 kg at 0.05 m from its origin, 0.131 kg·m² about it; "
         "the URDF's 3.7 kg at 0 m)" in message
     ), message
+
+
+def test_friction_the_model_holds_at_zero_is_said(experiment, tmp_path, capsys):
+    """Found by a new user's walk-through: example-robot-data's Kinova (damping
+    and friction 0 on every joint) was 'simulated ...; friction: viscous,
+    coulomb', as if its log had friction."""
+    text = Path(experiment["urdf"]).read_text()
+    cases = {
+        "viscous, coulomb (coulomb all 0 in the model)": re.sub(
+            r' friction="[^"]*"', "", text
+        ),
+        "viscous, coulomb (all 0 in the model)": re.sub(r"<dynamics [^>]*>", "", text),
+        "viscous, coulomb\n": text,
+    }
+    for k, (said, urdf_text) in enumerate(cases.items()):
+        urdf = tmp_path / f"robot_{k}.urdf"
+        urdf.write_text(urdf_text)
+        argv = [
+            "simulate", str(urdf), "--trajectory", experiment["traj"],
+            "--limits", experiment["limits"], "--duration", "0.2",
+            "--out", str(tmp_path / f"log_{k}.csv"),
+        ]  # fmt: skip
+        assert cli.main(argv) == 0
+        out = capsys.readouterr().out
+        assert f"× real time); friction: {said}" in out, out

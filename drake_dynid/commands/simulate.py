@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import re
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -319,6 +321,34 @@ def _identify_hint(
     return shlex.join(parts)  # a path with a space quoted as a shell reads it
 
 
+#: The standard parameters of each friction kind: a joint's (FV2) or a coupled
+#: motor's (FVm6).
+_FRICTION_NAMES = {"viscous": "FV", "coulomb": "FC", "offset": "OFF"}
+
+
+def _zero_friction(robot: Any, friction: Sequence[str]) -> str:
+    """`` (... all 0 in the model)`` for the simulated kinds that are 0 throughout.
+
+    A URDF without ``<dynamics damping/friction>`` (example-robot-data's Kinova)
+    simulates no friction whatever ``--friction`` lists: the line says so.
+    """
+    values = dict(zip(robot.standard_names, robot.standard_values, strict=True))
+    zero = [
+        kind
+        for kind in friction
+        if all(
+            value == 0.0
+            for name, value in values.items()
+            if re.fullmatch(rf"{_FRICTION_NAMES[kind]}m?\d+", name)
+        )
+    ]
+    if not zero:
+        return ""
+    if len(zero) == len(friction):
+        return " (all 0 in the model)"
+    return f" ({', '.join(zero)} all 0 in the model)"
+
+
 def run(args: argparse.Namespace) -> int:
     """Simulates, writes the log and its truth. Returns 0."""
     from drake_dynid.commands.params import params_document
@@ -401,7 +431,7 @@ def run(args: argparse.Namespace) -> int:
     say(
         f"simulated {log.t[-1]:g} s at {1.0 / args.time_step:g} Hz in {elapsed:.1f} s "
         f"({_speed(log.t[-1] / elapsed)}× real time); friction: "
-        f"{', '.join(friction) or 'none'}"
+        f"{', '.join(friction) or 'none'}{_zero_friction(robot, friction)}"
     )
     if robot.drive is not None:
         say(_drive_line(robot, drive))
