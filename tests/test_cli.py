@@ -90,3 +90,15 @@ def test_the_parser_imports_no_process_pool():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     )
     assert out.stdout.strip() == "[]"
+
+
+def test_replay_s_help_does_not_say_it_identifies(capsys):
+    """Found by a new user's walk-through: `dynid replay --help` described
+    --joints as 'comma-separated joints to identify', a command that only shows
+    a motion."""
+    with pytest.raises(SystemExit):
+        cli.main(["replay", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "identif" not in out, out
+    assert "comma-separated joints to replay from the log" in out
+    assert "without --joints, the joints not locked are replayed" in out

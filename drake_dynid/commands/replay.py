@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="drive file (docs/DRIVE.md; or a packaged one's name: tiago) of a raw "
         "log: its columns and units",
     )
-    add_joint_arguments(parser)
+    add_joint_arguments(parser, "replay from the log", "replayed")
     add_time_unit_argument(parser)
     parser.add_argument(
         "--fps",
