@@ -615,20 +615,35 @@ def fitted_log_note(
     from drake_dynid.files import same_file
 
     recorded = document.get("log")
-    paths = recorded.get("path") if isinstance(recorded, Mapping) else None
+    if not isinstance(recorded, Mapping):
+        return None
+    paths = recorded.get("path")
     if isinstance(paths, str):
         paths = [paths]
     if not isinstance(paths, list):
         return None
     beside = Path(args.params).parent
-    candidates = []
+    found = []
     for path in (Path(p) for p in paths if isinstance(p, str) and p):
-        candidates += [path] if path.is_absolute() else [path, beside / path]
+        options = [path] if path.is_absolute() else [path, beside / path]
+        existing = [c for c in options if c.is_file()]
+        if len(existing) == 2 and not same_file(*existing):
+            # Two files of that name, from here and beside the results file:
+            # which folder the fit ran in is not known, so nothing is claimed.
+            return None
+        found += existing[:1]
+    # The fitted samples of that log: all of them, or the first ones (--split).
+    fitted, step = recorded.get("samples"), recorded.get("time_step")
+    if not (isinstance(fitted, int) and 0 < fitted <= log.num_samples):
+        return None
+    if isinstance(step, int | float) and not math.isclose(
+        step, log.time_step, rel_tol=1e-6
+    ):
+        return None
     for given in log_files(args):
-        if any(c.is_file() and same_file(c, given) for c in candidates):
-            fitted = recorded.get("samples") if isinstance(recorded, Mapping) else None
+        if any(same_file(c, given) for c in found):
             part = ""
-            if isinstance(fitted, int) and 0 < fitted < log.num_samples:
+            if fitted < log.num_samples:
                 part = f" (its first {fitted} of {log.num_samples} samples)"
             return (
                 f"{given} is the log these parameters were fitted on{part}: the "
