@@ -623,7 +623,10 @@ def design_excitation(
             owner,
             f"joint {limits.joint_names[j]}: the position margin "
             f"{getattr(margins, kind):g} {unit} (margin {kind}) leaves no room within "
-            f"[{limits.lower[j]:g}, {limits.upper[j]:g}] {unit}.",
+            f"[{limits.lower[j]:g}, {limits.upper[j]:g}] {unit}: give a margin below "
+            f"half the range (--margin {kind}=V, V < "
+            f"{(limits.upper[j] - limits.lower[j]) / 2:g}), or lock the joint "
+            "(--lock NAME=VALUE) if it is not to be identified.",
         )
     x0 = _start(problem)
     baseline = _baseline(problem)
