@@ -216,6 +216,10 @@ def test_cli_excite_writes_the_trajectory_and_report(tmp_path, capsys):
     assert "self-collision: not checked" in printed
     assert "condition number:" in printed and "default random trajectory" in printed
     assert "on-line window 4 s" in printed
+    # The predicted %σ is the weighted fit's (core/excite_report): a new user's
+    # walk-through read it as the default fit's (Kinova ZZ6: 0.0069 % predicted,
+    # 6.2 % with the default IDIM-LS, 0.0078 % with --weighted).
+    assert "predicted %σ of offline --weighted (" in printed
     robot = RobotModel.from_urdf(model_path("ur5"))
     sampled = read_trajectory(out, robot.joint_names)
     assert sampled.t[0] == 0.0 and sampled.t[-1] == pytest.approx(8.0)

@@ -533,7 +533,8 @@ def _print_report(say, robot, design, report, args) -> None:
     finite = relative[np.isfinite(relative)]
     well = int(np.count_nonzero(relative <= WELL_EXCITED_PERCENT))
     say(
-        f"predicted %σ (τ noise {args.noise_tau:g} × each joint's torque std, "
+        f"predicted %σ of offline --weighted (τ noise {args.noise_tau:g} × each "
+        "joint's torque std, "
         f"{args.log_rate:g} Hz, {report.num_samples} samples): median "
         f"{_percent(float(np.median(finite)))}, "
         f"well excited (%σ <= {WELL_EXCITED_PERCENT:g}): {well} of {len(names)}"
