@@ -447,7 +447,9 @@ def _burst_missing(
     above it holds samples back) and counted in the hole before the burst
     where it rises (where the join reads the file between bursts). Near the
     end F_m reads few bursts: in the last ``tail`` bursts (2, or those of the
-    last :data:`BURST_RUN` stamps) a rise counts only beyond the band's width
+    last :data:`BURST_RUN` stamps, or one more than the longest run of bursts
+    above the floor before them, :func:`_burst_tail`) a rise counts only
+    beyond the band's width
     max_m (r_m - F_m) before them, not at all in the last (a burst cut by the
     log's end; nor can the first burst's drops be seen: the note says so).
 
@@ -492,6 +494,7 @@ def _burst_missing(
         if not fitted > 0.0:
             break
         step = fitted
+    tail = _burst_tail(ends, received, step, tail)
     # A drop unseen (or one too many) tilts the fit to hide it: of the steps
     # that put 2 fewer to BURST_MORE more samples in the file, those whose floor
     # bursts lie within BURST_SPREAD of a step as close to their line as the
@@ -521,6 +524,25 @@ def _burst_missing(
     where = np.flatnonzero(rise)
     missing[first[where + 1] - 1] = rise[where]
     return missing, chosen, tail
+
+
+def _burst_tail(ends: np.ndarray, received: np.ndarray, step: float, tail: int) -> int:
+    """The last bursts where a rise of the floor counts only beyond the spread.
+
+    (:func:`_burst_missing`): at least ``tail``, and one more than the longest
+    run of bursts above the floor (r_m - F_m >= 1/2) before them. The level
+    near the end is the least of the few bursts after: receive stamps with
+    network latency (0-2.5 steps late, a third of them more than a half) lie
+    above the floor up to 5-11 bursts in a row, and the last 3-4 all above it
+    read as a drop (1 false sample missing in 3 of 40 complete files of 1000
+    stamps, 500 Hz, 5 % stalls).
+    """
+    deficit = ends / step - received
+    level = np.minimum.accumulate(deficit[::-1])[::-1]
+    above = deficit[: ends.size - tail] - level[: ends.size - tail] >= 0.5
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], above.astype(np.int8), [0]])))
+    longest = int(np.max(edges[1::2] - edges[::2], initial=0))
+    return int(min(ends.size - 1, max(tail, longest + 1)))
 
 
 def _burst_floor(

@@ -1309,3 +1309,48 @@ def test_receive_stamps_with_latency_bursts_are_counted_by_burst():
         kept[rng.choice(np.arange(10, n - 30), int(rng.integers(0, 4)), False)] = False
         missing = _missing(t[kept] * 0.01)[0]
         assert missing.sum() == n - kept.sum(), (n, missing.sum(), n - kept.sum())
+
+
+def _received(n, h, rng, stall_p, lat=1e-3, most=5e-3, stall=(0.02, 0.05)):
+    """Receive stamps of a topic published every ``h`` s (a review's shape):
+    each message late by an exponential latency (mean ``lat``, at most
+    ``most``), the subscriber stalled with probability ``stall_p`` a message
+    (for 20-50 ms: the messages published meanwhile received at its end, 2 us
+    apart); the stamps up to the ``n``-th message's."""
+    m = n + 100
+    sent = h * np.arange(m)
+    t = sent + np.minimum(rng.exponential(lat, m), most)
+    i = 0
+    while i < m:
+        if rng.random() < stall_p:
+            end = sent[i] + rng.uniform(*stall)
+            j = i
+            while j < m and sent[j] < end:
+                t[j] = max(t[j], end)
+                j += 1
+            i = j
+        else:
+            i += 1
+    for k in range(1, m):
+        t[k] = max(t[k], t[k - 1] + 2e-6)
+    return t[t <= t[n - 1] + 0.3 * h]
+
+
+@pytest.mark.parametrize("seed", [5, 7, 32])
+def test_latency_in_the_last_bursts_is_no_drop(seed):
+    """Found by a review: receive stamps of a 500 Hz topic (latency up to 2.5
+    steps, 5 % stalls: bursts of 1 at the median, counted by burst) lie above
+    the deficit's floor up to 5-11 bursts in a row; in 3 of 40 complete files
+    of 1000 stamps (these seeds) the last 3-4 bursts all did, read as the
+    floor rising: 1 false sample missing, the note naming only the last 2
+    bursts. The last bursts now span one more than the longest such run
+    before them: none missing, the note names them; a drop before them is
+    counted."""
+    from drake_dynid.raw_log import _missing
+
+    t = _received(1000, 0.002, np.random.default_rng(seed), 0.05)
+    missing, shared, found = _missing(t)
+    assert missing.sum() == 0 and not shared, (np.flatnonzero(missing), shared)
+    before = int(found[0].split("one in the ")[1].split()[0])
+    assert 5 <= before <= 12, found
+    assert _missing(np.delete(t, [300, 600]))[0].sum() == 2
