@@ -626,7 +626,7 @@ def _rate_cuts(stamps: np.ndarray) -> list[int]:
     with bursts of 2 or more at the median, 8 times its 90th-percentile burst
     if more: bursts of 2-4, 160-240 stamps at 1 then 0.5 kHz, under 4 blocks
     of 64, had no cut, 20-33 false samples missing; a latency's bursts of 1
-    keep 64); the
+    keep 64; still under 4 blocks, whole bursts: :func:`_burst_blocks`); the
     blocks' ends spread over the file, the last interval in one; bursts and
     late stamps average out) without its intervals over :data:`PAUSE` times its
     4th longest (a pause or a run of drops, not its rate), on a log scale,
@@ -654,21 +654,15 @@ def _rate_cuts(stamps: np.ndarray) -> list[int]:
         if found_bursts is None or np.median(found_bursts[1]) >= 2:
             block = min(RATE_BLOCK, max(RATE_BLOCK // 4, 8 * math.ceil(size)))
     blocks = (n - 1) // block
-    if blocks < 4:
+    by_burst = _burst_blocks(stamps, bursts()) if blocks < 4 else None
+    if by_burst is not None:  # a short file of long bursts: blocks of whole bursts
+        ends, steps, block = by_burst
+        blocks = steps.size
+    elif blocks < 4:
         return [0, n - 1]
-    ends = np.arange(blocks + 1) * (n - 1) // blocks  # block .. 2·block - 1 each
-    rank = block - 4
-    steps = np.empty(blocks)
-    rows = _SLOT_CHUNK * 16  # blocks a chunk (bounded temporaries)
-    for a in range(0, blocks, rows):
-        b = min(blocks, a + rows)
-        d = np.diff(stamps[ends[a] : ends[b] + 1])
-        starts = ends[a:b] - ends[a]
-        high = np.partition(d[starts[:, None] + np.arange(block)], rank, axis=1)
-        limit = np.repeat(PAUSE * high[:, rank], np.diff(ends[a : b + 1]))
-        kept = d <= limit  # a pause or a run of drops: not the block's rate
-        total = np.add.reduceat(np.where(kept, d, 0.0), starts)
-        steps[a:b] = total / np.add.reduceat(kept.astype(np.float64), starts)
+    else:
+        ends = np.arange(blocks + 1) * (n - 1) // blocks  # block .. 2·block - 1
+        steps = _block_steps(stamps, ends, block)
     if not (steps > 0.0).all():
         return [0, n - 1]
     level = np.log(steps)
@@ -706,6 +700,60 @@ def _rate_cuts(stamps: np.ndarray) -> list[int]:
         if all(abs(c - other) >= block for other in cuts):
             cuts.append(c)
     return sorted(cuts)
+
+
+def _block_steps(stamps: np.ndarray, ends: np.ndarray, block: int) -> np.ndarray:
+    """Each block's mean step [s] without its pauses (:func:`_rate_cuts`).
+
+    Block j: the intervals from stamp ``ends[j]`` to ``ends[j + 1]`` (at least
+    ``block``), those over :data:`PAUSE` times its 4th longest left out.
+    """
+    blocks = ends.size - 1
+    rank = block - 4
+    steps = np.empty(blocks)
+    rows = _SLOT_CHUNK * 16  # blocks a chunk (bounded temporaries)
+    for a in range(0, blocks, rows):
+        b = min(blocks, a + rows)
+        d = np.diff(stamps[ends[a] : ends[b] + 1])
+        starts = ends[a:b] - ends[a]
+        high = np.partition(d[starts[:, None] + np.arange(block)], rank, axis=1)
+        limit = np.repeat(PAUSE * high[:, rank], np.diff(ends[a : b + 1]))
+        kept = d <= limit  # a pause or a run of drops: not the block's rate
+        total = np.add.reduceat(np.where(kept, d, 0.0), starts)
+        steps[a:b] = total / np.add.reduceat(kept.astype(np.float64), starts)
+    return steps
+
+
+def _burst_blocks(
+    stamps: np.ndarray, bursts: tuple[np.ndarray, np.ndarray, float] | None
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """(ends, steps, block) of a short file of long bursts read by whole bursts.
+
+    (:func:`_rate_cuts`): a file in bursts of 2 or more at the median too
+    short for 4 blocks of :data:`RATE_BLOCK` intervals (120-240 stamps in
+    bursts of 8 at 1 then 0.5 kHz: no rate change, 15-33 false samples
+    missing) is read in blocks of whole bursts, at least 2 and a quarter of
+    :data:`RATE_BLOCK` stamps each, between their last stamps (``ends``;
+    ``steps`` [s]: each block's mean step, exact whatever where a block
+    starts in a burst; ``block``: the stamps of a block at the median). None
+    if it has no such bursts or fewer than 4 such blocks. A pause is not left
+    out here: its block's step differs, but the sides' median 8-interval
+    steps do not (no cut).
+    """
+    if bursts is None:
+        return None
+    first, count, _ = bursts
+    size = float(np.median(count))
+    if size < 2:
+        return None  # a latency's bursts of 1
+    group = max(2, math.ceil(RATE_BLOCK / 4 / size))  # bursts a block
+    last = first + count - 1
+    blocks = (last.size - 1) // group
+    if blocks < 4:
+        return None
+    ends = last[np.arange(blocks + 1) * (last.size - 1) // blocks]
+    steps = np.diff(stamps[ends]) / np.diff(ends)
+    return ends, steps, int(group * size)
 
 
 def _refined_cut(
