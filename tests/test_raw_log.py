@@ -1356,3 +1356,28 @@ def test_latency_in_the_last_bursts_is_no_drop(seed):
     before = int(found[0].split("one in the ")[1].split()[0])
     assert 5 <= before <= 12, found
     assert _missing(np.delete(t, [300, 600]))[0].sum() == 2
+
+
+def test_a_lone_stall_is_named_and_counted_by_the_time_elapsed():
+    """Found by a review: an EtherCAT master stalled for 10 ms once a second
+    (1 kHz, stamps within 2 us of their slots; the messages of the stall
+    received at its end, 1 us apart) was named 'its stamps come in bursts'
+    and each stall counted on a grid of its own, 9 stamps sharing a slot (a
+    beyond-bound note on a complete file; a drop in it counted 0). A stretch
+    that is one burst is now named a stall with its catch-up, its samples
+    counted against the time elapsed to the next stamp: none missing, a drop
+    in a stall or beside it counted once."""
+    from drake_dynid.raw_log import _missing
+
+    rng = np.random.default_rng(0)
+    slots = np.arange(3000)
+    t = slots * 1e-3 + rng.uniform(-2e-6, 2e-6, slots.size)
+    for s in (13, 1013, 2013):  # stalled from slot s to s + 10
+        held = (slots >= s) & (slots < s + 10)
+        t[held] = (s + 10) * 1e-3 + 1e-6 * np.arange(10) - 0.33e-3
+    missing, shared, found = _missing(t)
+    assert missing.sum() == 0 and shared == 0, (np.flatnonzero(missing), shared)
+    assert found[0].startswith("it stalls, then catches up in one burst, from "), found
+    assert "(10 stamps)" in found[0] and "bursts" not in found[0], found
+    missing = _missing(np.delete(t, [17, 1023, 1500]))[0]
+    assert missing.sum() == 3, np.flatnonzero(missing)
