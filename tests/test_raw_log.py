@@ -1399,3 +1399,20 @@ def test_stalls_caught_up_are_no_rate_change(seed):
     assert missing.sum() == 0 and not shared, (np.flatnonzero(missing), shared)
     assert not any("rate changes" in c for c in found), found
     assert _missing(np.delete(t, [300, 600]))[0].sum() == 2
+
+
+@pytest.mark.parametrize(("n", "stall_p", "seed"), [(100, 0.05, 22), (1000, 0.1, 38)])
+def test_a_count_blurred_by_latency_says_it_is_uncertain(n, stall_p, seed):
+    """Found by a review: receive stamps with latency (0-2.5 steps) and stalls
+    blur the bursts' floor; of the steps about as close to it the one fitted
+    was 0.75-1.5 % short, 1 and 7 false samples missing on these complete
+    files with no word of doubt. Taking the fewest of the steps within twice
+    the least spread would hide most drops (34 of 40 files with 1-5 counted
+    wrong), so the count stays, and the note says a step nearly as close
+    counts fewer: uncertain."""
+    from drake_dynid.raw_log import _missing
+
+    t = _received(n, 0.002, np.random.default_rng(seed), stall_p)
+    missing, shared, found = _missing(t)
+    assert missing.sum() > 0 and not shared
+    assert "counts" in found[-1] and "the count is uncertain" in found[-1], found
