@@ -14,7 +14,8 @@ What is read (README "Logs from ROS bags"):
 * the time of message k: ``header.stamp`` [ns]; when every stamp is 0 (a publisher
   that leaves the header empty), the bag's receive time, with a note (or when
   asked: ``stamps="receive"``); messages recorded out of stamp order are put in
-  it, but :data:`CLOCK_STEP_RUN` late in a row are a clock set back, an error
+  it, but :data:`CLOCK_STEP_RUN` late in a row that the recording goes on from
+  are a clock set back, an error
   (:class:`_Steps`) giving the ``dynid bag2csv --from / --to`` commands that
   export each side of it (``span``: a bag time range, the only messages read);
 * the needed joints by name, in each message's own order (it may differ between
@@ -571,7 +572,8 @@ class _Tally:
 
 
 #: Kept messages in a row, in the bag's order, each older than the newest one
-#: recorded before them, that are named a clock set back (:class:`_Steps`). A
+#: recorded before them, that may be a clock set back (:class:`_Steps`, which
+#: looks at the messages after them, :class:`_Candidate`). A
 #: transport's reordering delays a message past a few newer ones: it is late
 #: alone (those after it are newer than the newest before it), and a message
 #: recorded twice by two paths alternates with newer ones. A clock set back by
@@ -581,7 +583,7 @@ class _Tally:
 CLOCK_STEP_RUN = 10
 
 #: Late messages in a row, each stamped where no message was missing among
-#: those recorded before it, that are named a clock set back although fewer
+#: those recorded before it, that may be a clock set back although fewer
 #: than :data:`CLOCK_STEP_RUN` (:meth:`_Steps._interleaving`): a transport's
 #: reordering fills a gap that the late message left; a clock set back by a
 #: few periods (5.5 ms at 1 kHz: 5 late) stamps its messages between, or on,
@@ -593,21 +595,96 @@ SHORT_STEP_RUN = 3
 _NO_GAP = 1.5
 
 
+#: A late run names a clock set back only if, after the newest time recorded
+#: before it, the messages come less densely than in the stretch of time the
+#: run's messages fill, by this factor (:class:`_Candidate`): that stretch
+#: holds the recording before a clock set back and after it (twice one
+#: recording's density), the time after the newest one the recording after it
+#: alone; a second publisher's late batch fills its stretch as both
+#: publishers fill the time after (the same density). sqrt(1/2): halfway, in
+#: ratio, between the two.
+_STEP_DENSITY = 0.5**0.5
+
+#: The time after the newest one recorded before a late run in which the
+#: messages are counted (:class:`_Candidate`), in median steps of the times
+#: recorded before the run.
+_AFTER_STEPS = 32
+
+#: The times recorded last before a late run whose median step is that step.
+_SPACING_ROWS = 256
+
+
+@dataclass
+class _Candidate:
+    """A late run that may be a clock set back (:class:`_Steps`).
+
+    A clock set back by d makes every later message late by d: the recording
+    goes on from the run's times, and after ``newest`` (the newest time
+    recorded before the run) the messages come as densely as one recording,
+    half as densely as in the stretches of time that the recording before
+    and after the step both fill. A second publisher received in late
+    batches, or a burst received late after the messages following it (it
+    fills the gap it left), returns to the original sequence: the time after
+    ``newest`` is filled as densely as those stretches. ``stretches``: ``[low,
+    high, count]`` [ns, ns, messages]: the time from the run's first
+    message's to ``newest`` (a step's), and the span of the run's messages
+    up to the one that made it a candidate (a clock set back a few periods,
+    then forward); ``count``: the messages fed, before the run and after it,
+    whose time lies in ``[low, high]``, density ``(count - 1) / (high -
+    low)``. ``after``: those in ``(newest, newest + width]``. A step when
+    ``after / width < _STEP_DENSITY`` times the larger density, judged once a
+    time past ``newest + width + wait`` is fed (the messages late in a batch
+    counted), or at the bag's end.
+    """
+
+    first: tuple[int, int, int, int]  # the run's first message (_Steps.step)
+    length: int  # the run's messages so far
+    open: bool  # the run goes on at the end of what was fed
+    newest: int  # the newest time recorded before the run [ns]
+    stretches: list[list[int]]  # [low, high, count]: [ns, ns, messages]
+    width: int  # [ns]; 0: the stretch is older than the times kept (a step)
+    wait: int  # [ns]
+    after: int = 0
+
+    def count(self, times: np.ndarray) -> None:
+        """Counts the times [ns] fed in the stretches and after ``newest``."""
+        for stretch in self.stretches:
+            low, high, _ = stretch
+            stretch[2] += int(np.count_nonzero((times >= low) & (times <= high)))
+        top = self.newest + self.width
+        self.after += int(np.count_nonzero((times > self.newest) & (times <= top)))
+
+    def sparse(self, width: int) -> bool:
+        """Whether fewer came after ``newest`` over ``width`` [ns] than a step's.
+
+        Less densely than in the densest stretch by :data:`_STEP_DENSITY`.
+        """
+        density = max(
+            (count - 1) / (high - low)
+            for low, high, count in self.stretches
+            if high > low
+        )
+        return self.after < _STEP_DENSITY * density * width
+
+
 class _Steps:
     """A clock set back: a run of :data:`CLOCK_STEP_RUN` late messages or more.
 
     Or of :data:`SHORT_STEP_RUN` late messages or more, each stamped where no
-    message was missing (:meth:`_interleaving`).
+    message was missing (:meth:`_interleaving`); either only when the messages
+    after it show the recording going on from the run's stamps, alone
+    (:class:`_Candidate`: a second publisher's late batches and a delayed
+    burst return to the original sequence).
 
     Fed each block's times in the bag's order (the header stamps, or the
-    receive times when those are read); a message is late when older than
-    the newest recorded before it, unless it repeats one of the
-    :data:`REORDER_ROWS` recorded before it (the same time and values: a
-    message re-sent, which the export drops, not a clock's new stamp; a
-    burst of them was named a clock step). ``step``: the first such run's first
-    message ``(index among the kept messages, its time, its receive time,
-    the newest time before it)`` [ns], or None; ``length``: the messages of
-    that run.
+    receive times when those are read), then :meth:`finish`; a message is
+    late when older than the newest recorded before it, unless it repeats one
+    of the :data:`REORDER_ROWS` recorded before it (the same time and values
+    (:func:`_same_rows`): a message re-sent, which the export drops, not a
+    clock's new stamp; a burst of them was named a clock step). ``step``: the
+    first step's first message ``(index among the kept messages, its time,
+    its receive time, the newest time before it)`` [ns], or None; ``length``:
+    the messages of its run.
     Put in stamp order, the messages after such a step interleave with
     those before it: two stretches of a recording on one time line, which
     the readers then refuse for another cause (the samples would be
@@ -621,12 +698,15 @@ class _Steps:
         self.run = 0  # late messages in a row at the end of what was fed
         self.start: tuple[int, int, int, int] | None = None  # that run's first
         self.step: tuple[int, int, int, int] | None = None
-        self.length = 0  # the step's run's messages (so far)
-        self.open = False  # the step's run goes on at the end of what was fed
+        self.length = 0  # the step's run's messages
         self.recent: tuple[np.ndarray, np.ndarray] | None = None  # times, values
         self.ontime = np.empty(0, dtype=np.int64)  # the recent times not late
         self.every = np.empty(0, dtype=np.int64)  # the recent times, late ones too
         self.odd = 0  # late messages in a row on no gap (_interleaving), at the end
+        self.pending: list[_Candidate] = []  # runs not judged yet
+        self.steps: list[_Candidate] = []  # runs judged a step
+        self.judged = -1  # the last run made a candidate (its first index)
+        self.batches = False  # a run judged not a step by the messages after it
 
     def add(self, times: np.ndarray, block: _Block) -> None:
         """Feeds a block's times [ns] (``block``: its receive times)."""
@@ -643,38 +723,51 @@ class _Steps:
         fresh = np.maximum.accumulate(np.where(late, -1, index))
         # The run of late messages ending at each message (0: not late).
         length = np.where(fresh >= 0, index - fresh, index + 1 + self.run)
+        recorded = self.every  # before this block (_interleaving moves it on)
         odd = self._interleaving(times, late, length)
         fresh = np.maximum.accumulate(np.where(odd, -1, index))
         # The run of late messages on no gap ending at each (a short step).
         short = np.where(fresh >= 0, index - fresh, index + 1 + self.odd)
         self.odd = int(short[-1])
-        if self.open:  # the step's run going on from the block before
-            stop = np.flatnonzero(~late)
-            self.length += int(stop[0]) if stop.size else n
-            self.open = not stop.size
-        if self.step is None:
-            hits = np.flatnonzero(
-                (length >= CLOCK_STEP_RUN) | (short >= SHORT_STEP_RUN)
+        for candidate in self.pending:  # the runs going on, and the stretch after
+            if candidate.open:
+                stop = np.flatnonzero(~late)
+                candidate.length += int(stop[0]) if stop.size else n
+                candidate.open = not stop.size
+            candidate.count(times)
+        hits = np.flatnonzero((length >= CLOCK_STEP_RUN) | (short >= SHORT_STEP_RUN))
+        pool = np.concatenate([recorded, times])  # in the bag's order
+        base = self.seen - recorded.size  # the index of pool[0]
+        for k in hits.tolist():
+            first = k - int(length[k]) + 1
+            if self.seen + first == self.judged:
+                continue  # that run's candidate is made
+            self.judged = self.seen + first
+            if self.steps and self.steps[0].first[0] < self.judged:
+                break  # a step before it: the first is known
+            start = (
+                self._first(first, times, block, before) if first >= 0 else self.start
             )
-            if hits.size:
-                k = int(hits[0])
-                first = k - int(length[k]) + 1
-                if first >= 0:
-                    self.step = self._first(first, times, block, before)
-                else:
-                    self.step = self.start
-                stop = np.flatnonzero(~late[k:])
-                self.length = int(length[k + stop[0] - 1 if stop.size else n - 1])
-                self.open = not stop.size
+            assert start is not None
+            stop = np.flatnonzero(~late[k:])
+            self._candidate(
+                start,
+                int(length[k + stop[0] - 1 if stop.size else n - 1]),
+                not stop.size,
+                pool[self.judged - base :],
+                pool[self.judged - base : self.seen + k + 1 - base],
+                pool[max(0, self.judged - base - REORDER_ROWS) : self.judged - base],
+            )
         if late[-1]:
-            first = n - int(length[-1])
-            if first >= 0:
-                self.start = self._first(first, times, block, before)
+            last = n - int(length[-1])
+            if last >= 0:
+                self.start = self._first(last, times, block, before)
         else:
             self.start = None
         self.run = int(length[-1])
         self.newest = int(max(before[-1], times[-1]))
         self.seen += n
+        self._judge(False)
 
     def _repeats(self, times: np.ndarray, block: _Block, late: np.ndarray) -> None:
         """Clears ``late`` of a message repeating one of the recent ones.
@@ -762,6 +855,70 @@ class _Steps:
         self, k: int, times: np.ndarray, block: _Block, before: np.ndarray
     ) -> tuple[int, int, int, int]:
         return self.seen + k, int(times[k]), int(block.received[k]), int(before[k])
+
+    def _candidate(
+        self,
+        first: tuple[int, int, int, int],
+        length: int,
+        going: bool,
+        since: np.ndarray,
+        run: np.ndarray,
+        recorded: np.ndarray,
+    ) -> None:
+        """Makes the :class:`_Candidate` of a late run.
+
+        ``since``: the times from the run's first message on (this block);
+        ``run``: the run's first ones, up to the message that made it one;
+        ``recorded``: the recent times before it (bag order).
+        """
+        newest = first[3]
+        low, high = int(run.min()), int(run.max())
+        stretches = [[first[1], newest, 0], [low, high, 0]]
+        spacing = np.diff(np.unique(recorded[-_SPACING_ROWS:]))
+        width = wait = 0
+        if spacing.size and recorded.min() <= low:
+            width = max(1, int(_AFTER_STEPS * float(np.median(spacing))))
+            wait = 2 * (newest - low) + width
+        candidate = _Candidate(first, length, going, newest, stretches, width, wait)
+        candidate.count(recorded)
+        candidate.count(since)
+        self.pending.append(candidate)
+
+    def _judge(self, end: bool) -> None:
+        """Judges the candidates whose time after is counted (``end``: all)."""
+        assert self.newest is not None
+        waiting = []
+        for c in self.pending:
+            if not c.width:
+                # Older than the times kept (or the bag's first): the stretch
+                # is not known; a run of that many late messages, a step.
+                self.steps.append(c)
+            elif self.newest > c.newest + c.width + c.wait:
+                if c.sparse(c.width):
+                    self.steps.append(c)
+                else:
+                    self.batches = True  # the original sequence goes on
+            elif end:
+                # The bag ends before the time after it is counted: judged on
+                # what there is (nothing after its newest: a step), unless a
+                # run before it was shown a second publisher's batch.
+                part = min(c.width, self.newest - c.newest)
+                if not self.batches and (part <= 0 or c.sparse(part)):
+                    self.steps.append(c)
+            else:
+                waiting.append(c)
+        self.pending = waiting
+        if self.steps:
+            self.steps.sort(key=lambda c: c.first[0])
+            # The first step is the one named: candidates after it not needed.
+            self.pending = [c for c in waiting if c.first[0] < self.steps[0].first[0]]
+
+    def finish(self) -> None:
+        """Judges the runs left (the bag's end): ``step`` and ``length``."""
+        if self.newest is not None:
+            self._judge(True)
+        if self.steps:
+            self.step, self.length = self.steps[0].first, self.steps[0].length
 
 
 def _seconds(ns: int) -> str:
@@ -1482,6 +1639,7 @@ def _pass(
         if len(stamps) >= EXPORT_ROWS:
             flush()
     flush()
+    tally.steps.finish()
     if sink is not None and tally.kept:
         sink.end()
     return tally, plan, (wanted, exact)

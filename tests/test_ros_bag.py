@@ -1368,11 +1368,16 @@ def test_a_clock_set_back_is_refused_on_standard_output_before_a_row(
         read_joint_states(bag)
 
 
-@pytest.mark.parametrize("run", [9, 10])
-def test_late_messages_in_a_row_are_a_clock_step_from_ten(arm, tmp_path, capsys, run):
+@pytest.mark.parametrize("run", [9, 10, 40])
+def test_late_messages_in_a_row_filling_the_gap_they_left_are_no_clock_step(
+    arm, tmp_path, capsys, run
+):
     """A transport's reordering makes a message late alone; CLOCK_STEP_RUN (10)
-    in a row are a clock set back: 9 messages received 500 messages late, in a
-    row, are placed (the export of the bag in order), 10 are refused."""
+    in a row were named a clock set back, 10 messages received 500 messages
+    late in a row refused. They fill the gap they left, and the messages
+    after them return to the original sequence (a clock set back makes every
+    later message late: _Candidate): 9, 10 or 40 are placed, the export of
+    the bag in order."""
     ordered = arm_messages(arm, slice(0, 2000))
     messages = list(ordered)
     moved = messages[1000 : 1000 + run]
@@ -1380,20 +1385,10 @@ def test_late_messages_in_a_row_are_a_clock_step_from_ten(arm, tmp_path, capsys,
     at = messages.index(ordered[1500]) + 1
     received = messages[at - 1][2]
     messages[at:at] = [(0, m[1], received + 1 + j, *m[3:]) for j, m in enumerate(moved)]
-    exports = []
-    for name, source in (("late", messages), ("ordered", ordered)):
-        bag = tmp_path / f"{name}.bag"
-        write_bag(bag, "ros1", source)
-        out = tmp_path / f"{name}.csv"
-        code = cli.main(["bag2csv", str(bag), "--out", str(out), "--quiet"])
-        if run >= 10 and name == "late":
-            assert code == 2
-            line = error_line(capsys)
-            assert "steps back 0.5 s at message 1492 (bag time" in line, line
-            assert f"{run} message(s) in a row" in line, line
-            return
-        assert code == 0
-        exports.append(out.read_bytes())
+    exports = [
+        _exported(tmp_path, name, source, "--quiet")
+        for name, source in (("late", messages), ("ordered", ordered))
+    ]
     assert exports[0] == exports[1]
 
 
@@ -1412,6 +1407,7 @@ def test_a_clock_step_is_found_across_blocks():
             values = received[part, None].astype(float)  # no two alike
             block = ros_bag._Block(times[part], received[part], values, values, None, 0)
             steps.add(times[part], block)
+        steps.finish()
         found.add((steps.step, steps.length))
     assert found == {((100, 50_000, 107, 99_000), 49)}  # 50 to 98: older than 99
 
@@ -1863,3 +1859,73 @@ def test_a_clock_step_error_repeats_the_options_that_choose_the_columns(
         text = (tmp_path / argv[argv.index("--out") + 1]).read_text()
         assert text.splitlines()[0] == header
         assert len(text.splitlines()) == rows + 1
+
+
+def _bursts(ordered, begin, every, sent=None):
+    """``ordered`` (the arm's messages) received so that those of odd
+    milliseconds from ``begin`` [ms] on (a second publisher) arrive late,
+    after the even ones, every ``every`` ms (the receive times kept in
+    order); ``sent``: the messages sent then (``ordered`` stepped back)."""
+    ms = [(m[1] - EPOCH) // 10**6 for m in ordered]
+    arrival = [
+        (t // every + 1) * every + 0.5 if t % 2 and t >= begin else t for t in ms
+    ]
+    sent = ordered if sent is None else sent
+    messages = [sent[k] for k in np.argsort(arrival, kind="stable")]
+    return [(m[0], m[1], o[2], *m[3:]) for m, o in zip(messages, ordered, strict=True)]
+
+
+@pytest.mark.parametrize(
+    ("begin", "every"),
+    [(1000, 8), (1000, 6), (1000, 20), (0, 20), (1000, 40)],
+)
+def test_a_second_publisher_received_in_batches_is_no_clock_step(
+    arm, tmp_path, begin, every
+):
+    """Found by a review: a second publisher on the topic (odd milliseconds)
+    that starts mid-bag, received in bursts of 3 or 4 after the first one's
+    messages (every 6 or 8 ms), was named a clock set back (the bursts'
+    stamps, 1 ms from the first publisher's, nearer than any spacing
+    recorded before it started); one batched every 20 or 40 ms (10 or 20
+    late in a row) too, from CLOCK_STEP_RUN. A clock set back makes every
+    later message late by the same amount (the recording goes on from the
+    late stamps: after the newest stamp the messages come as densely as
+    before the step); these late runs return to the original sequence, the
+    messages after them as dense as the late ones and the first
+    publisher's together. Exported as the bag in order, byte for byte."""
+    ordered = [
+        m
+        for k, m in enumerate(arm_messages(arm, slice(0, 3000)))
+        if k >= begin or k % 2 == 0
+    ]
+    messages = _bursts(ordered, begin, every)
+    exports = [
+        _exported(tmp_path, label, source, "--quiet")
+        for label, source in (("late", messages), ("ordered", ordered))
+    ]
+    assert exports[0] == exports[1]
+
+
+@pytest.mark.parametrize(
+    ("step", "said"),
+    [
+        (5_500_000, "0.0035 s at message 1991"),
+        (200_500_000, "0.1985 s at message 1991"),
+    ],
+)
+def test_a_clock_set_back_under_a_second_publishers_batches_is_named(
+    arm, tmp_path, capsys, step, said
+):
+    """The second publisher's batches (odd milliseconds, every 20 ms) are no
+    step; a header clock set back under them (both publishers' stamps, 5.5 ms
+    or 0.2005 s from 2 s on) still is: the messages after it come half as
+    densely as in the stretch of time the late ones fill."""
+    ordered = arm_messages(arm, slice(0, 3000))
+    messages = _bursts(ordered, 0, 20, stepped_back(ordered, 2000, step))
+    bag = tmp_path / "step.bag"
+    write_bag(bag, "ros1", messages)
+    assert cli.main(["bag2csv", str(bag), "--out", str(tmp_path / "o.csv")]) == 2
+    line = error_line(capsys)
+    # Message 2001, stamped 1.9945 s, is received before the batch of 1.981 s
+    # to 1.999 s: 1.998 s the newest before it.
+    assert f"steps back {said} (bag time 1700000001.99035 s" in line, line
