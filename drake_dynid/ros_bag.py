@@ -1409,7 +1409,7 @@ class _Late:
             stream.truncate()
             previous, out = None, []
             for line in heapq.merge(body, *runs, key=_stamp_key):
-                if line == previous:
+                if _same_line(line, previous):
                     repeats += 1
                     continue
                 out.append(line)
@@ -1709,10 +1709,48 @@ def _repeating(
     return (stamps[1:] == stamps[:-1]) & _same_rows(position) & _same_rows(effort)
 
 
+#: Values of two messages of one stamp within this relative difference are
+#: the same message sent again (:func:`_same_rows`): a driver that recomputes
+#: what it re-sends (a unit conversion) differs by a few ulps (1e-16 to 1e-15
+#: relative), two readings by a sensor's resolution at least (a 24-bit
+#: encoder's 2 pi / 2**24 = 3.7e-7 rad: 3.7e-7 relative to 1 rad, more for a
+#: smaller angle), 370 times this; a re-send within it was named a clock set
+#: back, or two rows of one stamp.
+REPEAT_RTOL = 1e-9
+
+
 def _same_rows(values: np.ndarray) -> np.ndarray:
-    """(B - 1,) whether each row equals the one before (NaN equal to NaN)."""
+    """(B - 1,) whether each row repeats the one before.
+
+    Each value equal to the one before, or within :data:`REPEAT_RTOL` of it
+    (``|a - b| <= REPEAT_RTOL * max(|a|, |b|)``), NaN equal to NaN.
+    """
     a, b = values[1:], values[:-1]
-    return np.all((a == b) | (np.isnan(a) & np.isnan(b)), axis=1)
+    with np.errstate(invalid="ignore"):
+        near = np.abs(a - b) <= REPEAT_RTOL * np.maximum(np.abs(a), np.abs(b))
+    return np.all((a == b) | near | (np.isnan(a) & np.isnan(b)), axis=1)
+
+
+def _same_line(line: str, previous: str | None) -> bool:
+    """Whether an export row repeats the one before (:func:`_same_rows`).
+
+    The same time cell and values; the values are read only when the time
+    cells are the same.
+    """
+    if line == previous:
+        return True
+    if previous is None:
+        return False
+    time, _, cells = line.partition(",")
+    time_before, _, cells_before = previous.partition(",")
+    if time != time_before or cells.count(",") != cells_before.count(","):
+        return False
+    if not cells.strip():
+        return not cells_before.strip()
+    rows = np.array(
+        [[float(c) for c in text.split(",")] for text in (cells_before, cells)]
+    )
+    return bool(_same_rows(rows)[0])
 
 
 def _taken(block: _Block, rows: np.ndarray) -> _Block:

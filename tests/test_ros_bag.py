@@ -1929,3 +1929,42 @@ def test_a_clock_set_back_under_a_second_publishers_batches_is_named(
     # Message 2001, stamped 1.9945 s, is received before the batch of 1.981 s
     # to 1.999 s: 1.998 s the newest before it.
     assert f"steps back {said} (bag time 1700000001.99035 s" in line, line
+
+
+@pytest.mark.parametrize(("count", "late"), [(20, 20), (2, 2000)])
+def test_a_burst_sent_again_within_round_off_is_dropped_as_repeats(
+    arm, tmp_path, capsys, monkeypatch, count, late
+):
+    """Found by a review: a driver re-sending its last 20 messages with their
+    stamps but values x (1 + 1e-15) (recomputed: round-off) was named a clock
+    set back ('20 message(s) in a row'), an exact re-send being dropped. Values
+    within REPEAT_RTOL (1e-9) of each other, far below any joint sensor's
+    resolution (a 24-bit encoder's 3.7e-7 rad), far above recomputing's
+    round-off (a few 1e-16), now repeat: the export is the bag in order's,
+    the re-sent ones dropped and noted, as exact repeats; also 2 received
+    2000 messages later, past the hold-back (here 1000: merged in at the
+    end), which were written as two rows of one stamp."""
+    from drake_dynid import ros_bag
+
+    monkeypatch.setattr(ros_bag, "REORDER_ROWS", 1000)
+    ordered = arm_messages(arm, slice(0, 4000))
+    at = 1500 + late
+    received = ordered[at - 1][2]
+    again = ordered[1500 - count : 1500]
+    burst = [
+        (0, m[1], received + 1 + j, m[3], np.asarray(m[4]) * (1 + 1e-15), m[5])
+        for j, m in enumerate(again)
+    ]
+    pairs = zip(burst, again, strict=True)
+    assert any(not np.array_equal(b[4], m[4]) for b, m in pairs)
+    exports = [
+        _exported(tmp_path, name, source)
+        for name, source in (
+            ("burst", [*ordered[:at], *burst, *ordered[at:]]),
+            ("ordered", ordered),
+        )
+    ]
+    assert exports[0] == exports[1]
+    err = capsys.readouterr().err
+    assert f"dropped {count} message(s) on /joint_states repeating" in err, err
+    assert read_joint_states(tmp_path / "burst.bag").stamps.size == 4000
