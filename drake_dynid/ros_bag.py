@@ -243,7 +243,8 @@ def read_joint_states(
             time (a header clock set back, :class:`_Steps`).
         span: ``(from, to)`` [s] after the bag's first message (any topic), in
             bag (receive) time: only the messages received at or after
-            ``from`` and before ``to`` are read (None: the bag's start, end);
+            ``from`` and before ``to`` are read (None: the bag's start, end;
+            ``to`` the bag's length: to its end, the last message too);
             the others are not read at all (a clock step outside the range is
             not seen). ``0 <= from < to``, both within the bag (:func:`_window`).
 
@@ -1010,12 +1011,20 @@ class _Window:
     ``origin``: the bag's first message's receive time [ns] (any topic: the
     reader's start time); ``start``, ``stop``: the receive times read, at or
     after ``start`` and before ``stop`` [ns] (None: no bound), the readers'
-    own filter (rosbags' ``messages(start=, stop=)``, :class:`_Ros1Chunks`).
+    own filter (rosbags' ``messages(start=, stop=)``, :class:`_Ros1Chunks`);
+    ``stop`` at the bag's last message (``--to`` its length) reads to its
+    end, that message too (:attr:`until`).
     """
 
     origin: int
     start: int | None = None
     stop: int | None = None
+    last: int | None = None  # the bag's last receive time [ns]
+
+    @property
+    def until(self) -> int | None:
+        """The readers' ``stop``: ``stop``, or past the last message at it."""
+        return None if self.stop is None or self.stop == self.last else self.stop
 
     def seconds(self, ns: int) -> str:
         """A receive time [ns] as seconds after the origin (every digit)."""
@@ -1041,6 +1050,9 @@ def _window(
 
     ``origin``, ``end``: the bag's first and last receive times [ns]
     (rosbags' ``start_time``; ``end_time``, less 1 ns in a ROS 2 bag).
+
+    ``--to`` the bag's length reads to its end (the last message received
+    at it too: it was left out).
 
     Raises:
         ValueError: a bound not finite, negative, beyond the bag's length, or
@@ -1074,7 +1086,7 @@ def _window(
             f"ROS bag {path}: --from {first} is not before --to {last}: the range "
             "is the messages received at or after --from and before --to."
         )
-    return _Window(origin, start, stop)
+    return _Window(origin, start, stop, origin + length)
 
 
 class _Collect:
@@ -1600,7 +1612,7 @@ def _pass(
         for buffer in (stamps, received, entries, positions, efforts):
             buffer.clear()
 
-    start, stop = (None, None) if window is None else (window.start, window.stop)
+    start, stop = (None, None) if window is None else (window.start, window.until)
     for c, time, data in reader.messages(
         connections=connections, start=start, stop=stop
     ):

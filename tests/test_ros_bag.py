@@ -1804,13 +1804,23 @@ def test_a_bag_time_range_ends_at_the_last_message_in_every_format(
     receive time + 1 ns (its ROS 1 one the last message's), so a ROS 2 bag of
     3000 messages 1 ms apart was said to span 2.999000001 s, and --to
     2.999000001 read all 3000 where a ROS 1 bag refused it. Every format now
-    spans 2.999 s: --to 2.999 reads 2999 messages, --from 2.999 the last one,
-    --to 2.999000001 is beyond the bag."""
+    spans 2.999 s, --to 2.999000001 is beyond the bag. Then found: --to the
+    bag's length (2.999) read 2999 messages, the last one left out (received
+    at --to, not before it); --to the bag's length now reads to its end (a
+    bound inside the bag still excludes what is received at it: --to 2.998,
+    2998 messages), --from 0 from its first message, --from 2.999 the last."""
     bag = tmp_path / ("b.bag" if kind == "ros1" else "b")
     write_bag(bag, kind, arm_messages(arm, slice(0, 3000)))
     out = tmp_path / "o.csv"
     argv = ["bag2csv", str(bag), "--out", str(out), "--quiet"]
-    for options, rows in ((["--to", "2.999"], 2999), (["--from", "2.999"], 1)):
+    for options, rows in (
+        (["--to", "2.999"], 3000),
+        (["--from", "0", "--to", "2.999"], 3000),
+        (["--to", "2.998"], 2998),
+        (["--from", "0"], 3000),
+        (["--from", "2.999"], 1),
+        (["--from", "2.998", "--to", "2.999"], 2),
+    ):
         assert cli.main([*argv, *options]) == 0, capsys.readouterr().err
         assert len(out.read_text().splitlines()) == rows + 1
         out.unlink()

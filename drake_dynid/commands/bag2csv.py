@@ -138,7 +138,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=seconds_argument,
         metavar="S",
         help="read only the messages received before S seconds of bag time "
-        "(--from's; 0 <= --from < --to, both within the bag)",
+        "(--from's; 0 <= --from < --to, both within the bag; the bag's length: "
+        "to its end, the last message too)",
     )
     parser.add_argument("--quiet", action="store_true", help="print nothing on stdout")
 
