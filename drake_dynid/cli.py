@@ -8,7 +8,8 @@ Exit codes: 0 success, 2 bad input (a one-line message on stderr, no traceback),
 1 internal error (a traceback: please report it). A closed standard output (``dynid
 ... | head``) is not an error: the rest of the printout is dropped, the command
 runs to its end and writes its files (:class:`_ClosableStream`; so for a
-closed standard error).
+closed standard error), but where standard output is the data written
+(``dynid bag2csv --out -``), which stops there (exit 2).
 
 Before anything else, :func:`main` sets the process up
 (``drake_dynid.core._threads.configure_process``): BLAS/OpenMP pools of one thread
@@ -75,6 +76,15 @@ class _ClosableStream:
             os.close(devnull)
         if self._stream is self._original:
             self._stream = open(os.devnull, "w", encoding="utf-8")
+
+    @property
+    def closed_pipe(self) -> bool:
+        """Whether the reader has gone away (the output now goes to os.devnull).
+
+        A command whose standard output is its data, not a printout (``dynid
+        bag2csv --out -``), stops there with an error (``ros_bag``).
+        """
+        return self._stream is not self._original
 
     def write(self, text: str) -> int:
         try:

@@ -442,7 +442,10 @@ def export_bag(
                     with contextlib.suppress(Exception):
                         said = str(error) or type(error).__name__
                         said = " ".join(said.replace(",", ";").split())
-                        sink.stream.write(f"{_INCOMPLETE}{said}\n")
+                        # A signal during a write may have cut a row: the
+                        # line on a line of its own.
+                        lead = "\n" if sink.writing else ""
+                        sink.stream.write(f"{lead}{_INCOMPLETE}{said}\n")
                 raise
             merged = ""
             if sink.late.count:
@@ -463,6 +466,10 @@ def export_bag(
             sink.close()
 
     write_whole(out, write)
+    if is_stdout(out):
+        import sys
+
+        _reader_gone(sys.stdout)  # gone while its last rows were flushed
     return holder[0]
 
 
@@ -1136,6 +1143,7 @@ class _Export:
         self.held_out, self.held_column = held_out, held_column
         self.held_stream: Any = None
         self.started = False
+        self.writing = False  # inside a write of rows (a signal may cut one)
         self.carry: _Block | None = None  # held back for the order (REORDER_ROWS)
         self.reordered = 0  # messages recorded after a later-stamped one
         self.repeated = 0  # messages recorded twice, dropped
@@ -1274,7 +1282,10 @@ class _Export:
         if self.stream is None:
             return
         main, held = self._text(block)
+        self.writing = True
         self.stream.write(main)
+        self.writing = False
+        _reader_gone(self.stream)
         if self.held_stream is not None:
             self.held_stream.write(held)
 
@@ -1290,6 +1301,27 @@ class _Export:
 #: as semicolons): one cell, a row that the CSV readers refuse ("row N has 1
 #: cells; the header has ...": the export has 2 columns at least).
 _INCOMPLETE = f"{INCOMPLETE}it stopped on an error: "
+
+
+def _reader_gone(stream: Any) -> None:
+    """Raises when ``stream``'s reader has gone away (a closed pipe).
+
+    The command line's standard output drops what is written once its pipe is
+    closed (``cli._ClosableStream.closed_pipe``: a printout's rule); the export
+    is the data, cut there: an error (the incomplete-export line cannot reach
+    the closed pipe). A stream of the standard library raises BrokenPipeError
+    itself.
+
+    Raises:
+        BrokenPipeError: saying so (no errno: named as it is).
+    """
+    if getattr(stream, "closed_pipe", False):
+        raise BrokenPipeError(
+            "standard output was closed before the export's end (its reader "
+            "stopped reading, e.g. head): what it read is not the whole bag, and "
+            "the line saying so cannot reach it; export to a file (--out LOG.csv) "
+            "for the whole log."
+        )
 
 
 def _unmerged(label: str, late: _Late) -> str:

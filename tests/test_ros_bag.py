@@ -1978,3 +1978,67 @@ def test_a_burst_sent_again_within_round_off_is_dropped_as_repeats(
     err = capsys.readouterr().err
     assert f"dropped {count} message(s) on /joint_states repeating" in err, err
     assert read_joint_states(tmp_path / "burst.bag").stamps.size == 4000
+
+
+def test_an_export_to_a_pipe_closed_by_its_reader_stops_with_an_error(arm, tmp_path):
+    """Found by a review: 'dynid bag2csv BAG --out - | head' exited 0, the
+    export written on to os.devnull to the bag's end once head had gone (the
+    printout rule of every command: a closed pipe is no error): a pipeline
+    with pipefail, or a script reading the export from a process that died,
+    was told the export was whole. It now stops at the closed pipe, exit 2,
+    one line on standard error (no traceback); the incomplete-export line
+    cannot reach a closed pipe (README)."""
+    import os
+    import subprocess
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "drake_dynid.cli", "bag2csv", str(bag), "--out", "-"]
+    with subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    ) as process:
+        head = process.stdout.read(20_000)  # then gone, as head
+        process.stdout.close()
+        err = process.stderr.read().decode()
+        code = process.wait()
+    assert head.startswith(b"t,q_joint1,q_joint2,tau_joint1,tau_joint2\n")
+    assert code == 2, err
+    assert "Traceback" not in err
+    assert err.splitlines() == [
+        "dynid bag2csv: error: standard output was closed before the export's end "
+        "(its reader stopped reading, e.g. head): what it read is not the whole "
+        "bag, and the line saying so cannot reach it; export to a file (--out "
+        "LOG.csv) for the whole log."
+    ], err
+
+
+def test_an_export_to_standard_output_terminated_says_it_is_incomplete(arm, tmp_path):
+    """Found by a review: SIGTERM (kill, timeout, a service stopped) ended
+    'dynid bag2csv BAG --out - > LOG.csv' at once, LOG.csv holding the whole
+    rows written so far and no incomplete-export line (28 673 of 50 000, exit
+    143): read as the whole bag. bag2csv now turns SIGTERM into the
+    interruption Ctrl-C is: the export ends with the line, on a line of its
+    own (the signal may cut a row), exit 1. (SIGKILL cannot be caught.)"""
+    import os
+    import signal
+    import subprocess
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "drake_dynid.cli", "bag2csv", str(bag), "--out", "-"]
+    with subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    ) as process:
+        head = process.stdout.read(100)  # writing: the pipe fills, not read
+        process.send_signal(signal.SIGTERM)
+        out, err = process.communicate()
+    lines = (head + out).decode().splitlines()
+    assert process.returncode == 1, err
+    assert err.decode() == "dynid bag2csv: interrupted\n", err
+    assert 1 < len(lines) < 8002
+    assert lines[-1] == (
+        "# dynid: this export is incomplete; it stopped on an error: terminated "
+        "(SIGTERM)"
+    )

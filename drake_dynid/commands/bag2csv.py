@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
+from collections.abc import Iterator
+from typing import Any
 
 from drake_dynid.commands._arguments import (
     DRIVE_METAVAR,
@@ -180,18 +183,19 @@ def run(args: argparse.Namespace) -> int:
         def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
             return [*layout.positions, *layout.torques * efforts]
 
-    done = export_bag(
-        args.bag,
-        args.out,
-        joints,
-        columns,
-        topic=args.topic,
-        time=time,
-        time_unit=unit,
-        stamps=args.stamps,
-        span=(args.start, args.stop),
-        options=repeated(args),
-    )
+    with _terminated_as_interrupted():
+        done = export_bag(
+            args.bag,
+            args.out,
+            joints,
+            columns,
+            topic=args.topic,
+            time=time,
+            time_unit=unit,
+            stamps=args.stamps,
+            span=(args.start, args.stop),
+            options=repeated(args),
+        )
     names = done.joint_names
     for note in done.notes:
         print(f"dynid bag2csv: note: {note}", file=sys.stderr)
@@ -209,3 +213,30 @@ def run(args: argparse.Namespace) -> int:
             f"joints {listed(names)}"
         )
     return 0
+
+
+@contextlib.contextmanager
+def _terminated_as_interrupted() -> Iterator[None]:
+    """SIGTERM raised as KeyboardInterrupt (Ctrl-C's) while the export runs.
+
+    Python's default SIGTERM ends the process at once: an export to standard
+    output kept its whole rows and no incomplete-export line (read as the
+    whole bag), a file's temporary copy was left beside it. Interrupted, the
+    export ends with that line, the temporary file is removed (exit 1). The
+    handler before is restored after; outside the main thread nothing is set.
+    SIGKILL cannot be caught.
+    """
+    import signal
+    import threading
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt("terminated (SIGTERM)")
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    before = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
