@@ -1329,12 +1329,11 @@ def test_a_header_clock_set_back_is_named_with_when_and_how_much(arm, tmp_path, 
         "set back (a robot's clock re-synchronised, e.g. by NTP), not a "
         "transport's reordering; put in stamp order they would interleave the "
         "recording before and after the step. Export the bag with its receive "
-        f"times, 'dynid bag2csv {bag} --out LOG.csv --stamps receive' (with the "
-        "command's --drive, --urdf, --joints and --lock when it has them), and "
-        "give LOG.csv; or export each side of the step: 'dynid bag2csv "
-        f"{bag} --out before.csv --to 4' and 'dynid bag2csv {bag} --out "
-        "after.csv --from 4' (the messages received before and from bag time 4 "
-        "s; the same options), and give one."
+        f"times, 'dynid bag2csv {bag} --joints joint1,joint2 --out LOG.csv "
+        "--stamps receive', and give LOG.csv; or export each side of the step: "
+        f"'dynid bag2csv {bag} --joints joint1,joint2 --out before.csv --to 4' "
+        f"and 'dynid bag2csv {bag} --joints joint1,joint2 --out after.csv --from "
+        "4' (the messages received before and from bag time 4 s), and give one."
     )
     with pytest.raises(ValueError, match=r"steps back 4\.9995 s at message 4001"):
         read_joint_states(bag)
@@ -2042,3 +2041,47 @@ def test_an_export_to_standard_output_terminated_says_it_is_incomplete(arm, tmp_
         "# dynid: this export is incomplete; it stopped on an error: terminated "
         "(SIGTERM)"
     )
+
+
+@pytest.mark.parametrize("drive", [False, True])
+def test_a_command_given_a_stepped_bag_prints_bag2csv_commands_that_run(
+    arm, tmp_path, capsys, monkeypatch, drive
+):
+    """Found by a review: offline (and identify, validate, payload, replay,
+    reading a bag) refused a clock set back with bag2csv commands to complete
+    'with the command's --drive, --urdf, --joints and --lock when it has
+    them', and 'the same options': without --drive, bag2csv refuses --urdf
+    ('--urdf is for --drive'). They now give whole commands: without --drive
+    the joints the command reads (--joints), with it the command's own
+    --urdf, --joints, --lock and --drive; run as printed, each writes the log
+    the command reads (3000, 2000 and 1000 rows)."""
+    names = arm[0]
+    messages = stepped_back(arm_messages(arm, slice(0, 3000)), 2000, 3 * 10**9)
+    bag = tmp_path / "step.bag"
+    write_bag(bag, "ros1", messages)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "drive.toml").write_text(
+        '[log]\nposition = "{joint}_position"\ntorque = "{joint}_effort"\n'
+    )
+    options = ["--urdf", "planar_2r", "--joints", f"{names[1]},{names[0]}"]
+    options += ["--drive", "drive.toml"] if drive else []
+    assert cli.main(["offline", str(bag), *options]) == 2
+    line = error_line(capsys)
+    assert "the command's --drive" not in line and "the same options" not in line
+    commands = advised(line)
+    assert len(commands) == 3, line
+    expected = ["--joints", f"{names[0]},{names[1]}"]  # the robot's order
+    if drive:
+        expected = ["--joints", f"{names[1]},{names[0]}", "--drive", "drive.toml"]
+        expected += ["--urdf", "planar_2r"]
+    for argv, rows in zip(commands, (3000, 2000, 1000), strict=True):
+        own = list(argv[2:])
+        for option in ("--out", "--from", "--to", "--stamps"):
+            if option in own:
+                del own[own.index(option) : own.index(option) + 2]
+        assert argv[:2] == ["bag2csv", str(bag)] and own == expected, argv
+        assert cli.main([*argv, "--quiet"]) == 0, capsys.readouterr().err
+        out = argv[argv.index("--out") + 1]
+        assert len((tmp_path / out).read_text().splitlines()) == rows + 1
+        code = cli.main(["offline", out, *options, "--quiet"])
+        assert code == 0, capsys.readouterr().err

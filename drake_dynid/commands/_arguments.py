@@ -565,6 +565,7 @@ def read_robot_log(
     time_unit: str | None = None,
     torques_optional: bool = False,
     topic: str | None = None,
+    options: Sequence[str] | None = None,
 ) -> Any:
     """Reads a log of ``robot``; prints the reader's warnings on stderr.
 
@@ -577,7 +578,8 @@ def read_robot_log(
     positions (τ = 0, not checked; ``dynid replay``). A ROS bag (alone) is read
     as its CSV export (:func:`_read_bag_log`); ``topic``: ``--topic`` (a bag's;
     not used with CSV files: the fitted log may be a bag and ``--validate``'s a
-    CSV file; :func:`check_topic` refuses it when no log is a bag).
+    CSV file; :func:`check_topic` refuses it when no log is a bag);
+    ``options``: the command's :func:`bag_options` (a bag's error repeats them).
     """
     from drake_dynid.ros_bag import is_bag
 
@@ -591,6 +593,7 @@ def read_robot_log(
             time_unit=time_unit,
             torques_optional=torques_optional,
             topic=topic,
+            options=options,
         )
     log, torques = _read_files(
         files, robot, resample, fill_gaps, time_unit, torques_optional
@@ -719,6 +722,27 @@ def bag_layout(robot: Any, bag: str) -> BagLayout:
     return BagLayout(time, unit, positions, torques, joints, held, template)
 
 
+def bag_options(args: argparse.Namespace) -> list[str]:
+    """The options that choose a bag export's columns, as a command line repeats them.
+
+    ``--joints``, ``--drive``, ``--urdf``, ``--lock`` as given (a packaged file
+    by its short name): in the ``dynid bag2csv`` commands that the error of a
+    header clock set back gives (``ros_bag.export_bag``'s ``options``), whose
+    exports are then the one asked for.
+    """
+    out: list[str] = []
+    for option, name, suffix in (
+        ("--joints", "joints", None),
+        ("--drive", "drive", ".toml"),
+        ("--urdf", "urdf", ".urdf"),
+        ("--lock", "lock", None),
+    ):
+        value = getattr(args, name, None)
+        if value is not None:
+            out += [option, value if suffix is None else short_packaged(value, suffix)]
+    return out
+
+
 def _read_bag_log(
     files: Sequence[str],
     robot: Any,
@@ -729,6 +753,7 @@ def _read_bag_log(
     time_unit: str | None,
     torques_optional: bool,
     topic: str | None,
+    options: Sequence[str] | None = None,
 ) -> Any:
     """A ROS bag's JointState messages read as a CSV log (``drake_dynid.ros_bag``).
 
@@ -738,7 +763,9 @@ def _read_bag_log(
     which the CSV readers read (:func:`_read_files`: the same repairs); the
     messages name the bag instead of that file (its rows are those of ``dynid
     bag2csv``'s export). The bag's notes (skipped messages, receive times) come
-    first among the log's warnings.
+    first among the log's warnings. ``options``: the command's
+    (:func:`bag_options`), which the ``dynid bag2csv`` commands of a clock
+    step's error repeat with a drive file (without one, the joints read).
     """
     import os
     import tempfile
@@ -780,6 +807,10 @@ def _read_bag_log(
                 time_unit=unit,
                 held_out=os.path.join(folder, "held.csv"),
                 held_column=template or "q_{joint}",
+                # The plain export of the joints read; with a drive file, its
+                # columns: the command's options (bag2csv refuses --urdf and
+                # --lock without --drive).
+                options=["--joints", ",".join(joints)] if chain is None else options,
             )
         except OSError as error:
             # A write to the temporary folder (a full disk): the files named
@@ -1462,6 +1493,7 @@ def load_robot_and_log(args: argparse.Namespace, command: str):
             fill_gaps=getattr(args, "fill_gaps", None),
             time_unit=getattr(args, "time_unit", None),
             topic=getattr(args, "topic", None),
+            options=bag_options(args),
         )
     else:
         check_log_magnitudes(log, files)

@@ -12,6 +12,7 @@ from typing import Any
 from drake_dynid.commands._arguments import (
     DRIVE_METAVAR,
     URDF_HELP,
+    bag_options,
     drive_argument,
     parse_joints,
     robot_from_args,
@@ -52,26 +53,6 @@ def seconds_argument(text: str) -> float:
             "finite number >= 0"
         )
     return value
-
-
-def repeated(args: argparse.Namespace) -> list[str]:
-    """The options that choose the columns, as a command line repeats them.
-
-    In the ``dynid bag2csv`` commands that the error of a header clock set
-    back gives (the export of each side is then the one asked for).
-    """
-    from drake_dynid.commands._arguments import short_packaged
-
-    out: list[str] = []
-    for option, value, suffix in (
-        ("--joints", args.joints, None),
-        ("--drive", args.drive, ".toml"),
-        ("--urdf", args.urdf, ".urdf"),
-        ("--lock", args.lock, None),
-    ):
-        if value is not None:
-            out += [option, value if suffix is None else short_packaged(value, suffix)]
-    return out
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -194,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
             time_unit=unit,
             stamps=args.stamps,
             span=(args.start, args.stop),
-            options=repeated(args),
+            options=bag_options(args),
         )
     names = done.joint_names
     for note in done.notes:

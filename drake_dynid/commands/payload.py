@@ -12,6 +12,7 @@ import numpy as np
 from drake_dynid.commands._arguments import (
     add_common_arguments,
     apply_dead_zone,
+    bag_options,
     check_topic,
     dead_zone_line,
     log_files,
@@ -302,6 +303,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
             fill_gaps=args.fill_gaps,
             time_unit=getattr(args, "time_unit", None),
             topic=getattr(args, "topic", None),
+            options=bag_options(args),
         )
         robot = results_sign(args, document, robot, log)
         return robot, log, arm, str(args.params), covariance
@@ -316,6 +318,7 @@ def _robot(args: argparse.Namespace) -> tuple[Any, Any, Any, str, Any]:
         fill_gaps=args.fill_gaps,
         time_unit=getattr(args, "time_unit", None),
         topic=getattr(args, "topic", None),
+        options=bag_options(args),
     )
     return apply_dead_zone(args, robot, log), log, robot.base_values, "urdf", None
 

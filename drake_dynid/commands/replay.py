@@ -15,6 +15,7 @@ from drake_dynid.commands._arguments import (
     add_joint_arguments,
     add_log_argument,
     add_time_unit_argument,
+    bag_options,
     check_topic,
     drive_argument,
     log_files,
@@ -190,6 +191,7 @@ def run(args: argparse.Namespace) -> int:
             time_unit=args.time_unit,
             torques_optional=True,  # only the positions are shown
             topic=args.topic,
+            options=bag_options(args),
         )
         kind = "log"
     q = _held_over_bad_samples(np.asarray(motion.q, dtype=float))

@@ -24,6 +24,7 @@ from drake_dynid.commands._arguments import (
     add_joint_arguments,
     add_log_argument,
     add_time_unit_argument,
+    bag_options,
     check_topic,
     dead_zone_line,
     log_files,
@@ -165,6 +166,7 @@ def validation_split(
             fill_gaps=getattr(args, "fill_gaps", None),
             time_unit=getattr(args, "time_unit", None),
             topic=getattr(args, "topic", None),
+            options=bag_options(args),
         )
         _check_held_out(args, held, str(other))
         return log, held, str(other)
@@ -689,6 +691,7 @@ def run(args: argparse.Namespace) -> int:
         fill_gaps=args.fill_gaps,
         time_unit=getattr(args, "time_unit", None),
         topic=getattr(args, "topic", None),
+        options=bag_options(args),
     )
     robot = results_sign(args, document, robot, log)
     in_sample = fitted_log_note(args, document, log)
