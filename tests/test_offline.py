@@ -517,7 +517,8 @@ def test_a_dead_zone_keeps_the_sign_of_a_moving_joints_reversals(monkeypatch):
 def test_dynid_offline_notes_resampled_positions(tmp_path, capsys):
     """The reviewer's case end to end: a 2R log whose positions (noise 1e-3 rad)
     were sampled at 100 Hz and interpolated linearly onto its 1 kHz stamps.
-    ``dynid offline`` says which joints look resampled and from what rate; its
+    ``dynid offline`` says which joints look resampled and from what rate (so do
+    ``dynid validate`` and ``dynid identify``, which said nothing); its
     automatic cutoff is the 100 Hz positions' (2.10 Hz; it was 39.98 Hz)."""
     import json
 
@@ -542,6 +543,17 @@ def test_dynid_offline_notes_resampled_positions(tmp_path, capsys):
         if said:
             assert "joint1 (linearly interpolated from about 100 Hz)" in err, err
             assert "joint2 (linearly" in err and cutoff == pytest.approx(native, 0.1)
+        # dynid validate and dynid identify read the same spectra: the same note.
+        argv = ["validate", str(path), "--urdf", "planar_2r", "--params", str(out)]
+        argv.append("--quiet")
+        assert cli.main(argv) == 0
+        err = capsys.readouterr().err
+        assert ("validate: note: the positions of joint1 (linearly" in err) is said
+        argv = ["identify", str(path), "--urdf", "planar_2r", "--quiet"]
+        assert cli.main([*argv, "--bootstrap", "0"]) == 0
+        err = capsys.readouterr().err
+        assert ("identify: note: the positions of joint1 (linearly" in err) is said
+        assert ("the measured position noise and excitation band" in err) is said
 
 
 def test_a_sensor_slower_than_the_log_clock_keeps_its_cutoff():

@@ -33,6 +33,7 @@ from drake_dynid.commands._report import (
     log_document,
     matplotlib_pyplot,
     parameters_document,
+    resampled_log_note,
     write_estimates_csv,
     write_trace_outputs,
 )
@@ -1144,6 +1145,8 @@ def run(args: argparse.Namespace) -> int:
         bootstrap, covariance_beside = _final_bootstrap(
             replicates, log, robot, settings, trace, valid, background, last_solve
         )
+    if band_measured or rows_measured or noise_measured:
+        resampled_log_note("identify", log, cutoff=False)
     if band_given is not None:
         print(
             f"dynid identify: note: --bandwidth {band_given:g} Hz is not used: the "

@@ -28,6 +28,7 @@ from drake_dynid.commands._report import (
     log_document,
     matplotlib_pyplot,
     parameters_document,
+    resampled_log_note,
     write_json,
 )
 from drake_dynid.commands.validate import (
@@ -165,13 +166,7 @@ def run(args: argparse.Namespace) -> int:
     if shaky:
         print(f"dynid offline: note: {shaky}", file=sys.stderr)
     if settings["cutoff_rule"] == "auto":
-        from drake_dynid.core.idim_auto import resampled_joints, resampled_note
-
-        resampled = resampled_note(
-            log.on_longest_run(resampled_joints), log.joint_names, log.time_step
-        )
-        if resampled:
-            print(f"dynid offline: note: {resampled}", file=sys.stderr)
+        resampled_log_note("offline", log)
     extra = finish_offline(args, robot, log, held, held_description, result)
     if args.json:
         document = {

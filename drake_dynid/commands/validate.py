@@ -657,7 +657,7 @@ def fitted_log_note(
 def run(args: argparse.Namespace) -> int:
     """Validates the results file's estimates on the log."""
     from drake_dynid.commands._model import APRIORI_LABEL
-    from drake_dynid.commands._report import write_json
+    from drake_dynid.commands._report import resampled_log_note, write_json
     from drake_dynid.commands._results import (
         drive_mismatch,
         results_robot,
@@ -697,6 +697,8 @@ def run(args: argparse.Namespace) -> int:
     in_sample = fitted_log_note(args, document, log)
     if in_sample:
         print(f"dynid validate: note: {in_sample}", file=sys.stderr)
+    if args.cutoff is None:  # the automatic cutoff's measure, as dynid offline's
+        resampled_log_note("validate", log)
     if not args.quiet:
         print(
             f"parameters: {args.params} ({model}, {robot.num_parameters} base "

@@ -182,14 +182,20 @@ def _spectra_and_floors(
 
 
 def resampled_note(
-    resampled: list[tuple[int, float, int]], names: Any, time_step: float
+    resampled: list[tuple[int, float, int]],
+    names: Any,
+    time_step: float,
+    cutoff: bool = True,
 ) -> str:
     """The note on positions that look resampled (:func:`resampled_joints`), or "".
 
     Names the joints, their own rate and how they were resampled: above half
-    that rate their positions hold no measurement, and the automatic cutoff read
-    their noise below it; and the joints whose sensor is slower than the log's
-    clock (k = 0: isolated repeats), their repeat and the sensor's rate.
+    that rate their positions hold no measurement, and the automatic cutoff
+    (``cutoff``; else the measured position noise and excitation band, ``dynid
+    identify``'s) read their noise below it; and the joints whose sensor is
+    slower than the log's clock (k = 0: isolated repeats), their repeat and the
+    sensor's rate (the automatic cutoff reads their spectrum at that rate,
+    without the repeats).
     """
     fs = 1.0 / time_step
     kinds = {1: "held", 2: "linearly interpolated"}
@@ -208,14 +214,24 @@ def resampled_note(
         notes.append(
             f"the positions of {check.listed(held)} look resampled onto the log's "
             f"{fs:.4g} Hz: above half their own rate they hold no measurement, and "
-            "the automatic cutoff read their noise below it."
+            + (
+                "the automatic cutoff"
+                if cutoff
+                else "the measured position noise and excitation band"
+            )
+            + " read their noise below it."
         )
     if slow:
         notes.append(
             f"the positions of {check.listed(slow)} repeat isolated samples at the "
             f"log's {fs:.4g} Hz: a sensor slower than the log's clock, whose "
-            "repeats are errors of v·h; the automatic cutoff read their spectrum "
-            "at the sensor's rate, without them."
+            "repeats are errors of v·h"
+            + (
+                "; the automatic cutoff read their spectrum at the sensor's rate, "
+                "without them."
+                if cutoff
+                else "."
+            )
         )
     return " ".join(notes)
 
