@@ -1,5 +1,7 @@
 """Off-line IDIM-LS/WLS on a RobotLog: accuracy, automatic cutoff, NaN segments."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -418,6 +420,60 @@ def test_a_slow_encoder_joint_does_not_raise_the_cutoff():
         # 0.38, 0.5 and 1.04 Hz (truth 0.24, 0.23, 0.90 Hz; 0.25 Hz: the 4 s
         # segments' resolution, whose leakage of a 0.1 Hz line reaches 0.75 Hz)
         assert auto_cutoff(joint, H) <= 2.5 * max(truth, 0.25)
+
+
+def test_one_odd_piece_does_not_lose_an_encoder_joints_quantum():
+    """Found by a review: the cutoff's Welch pieces (2^17 samples) merged their
+    quanta, and one piece not whole counts cost the whole joint its quantum: a
+    12-bit joint on a 0.1 Hz sine of 6.5 counts (393 s at 1 kHz) with one sample
+    0.3 count off in its second piece went from 0.376 Hz to the 40 Hz cap (65
+    counts: 1.157 -> 40 Hz), and a log joined from a 12-bit and a 5000-count
+    encoder (steps not whole numbers of each other) too. Each piece is now
+    judged alone, compatible steps merged: 0.383 and 1.181 Hz; the two encoders
+    0.387 and 1.204 Hz (each alone 0.376-0.387, 1.157-1.192 Hz)."""
+    samples = 3 * (1 << 17)
+    t = np.arange(samples) * H
+    fine, coarse = 2 * np.pi / 5000, 2 * np.pi / 4096
+    for amplitude in (0.01, 0.1):
+        true = 0.3 + amplitude * np.sin(2 * np.pi * 0.1 * t)
+        joint = np.round(true / coarse) * coarse
+        clean = auto_cutoff(joint, H)
+        joint[samples // 2] += 0.3 * coarse  # a glitch in the second piece
+        assert auto_cutoff(joint, H) == pytest.approx(clean, rel=0.05)
+        half = samples // 2
+        joined = np.r_[joint[:half], np.round(true[half:] / fine) * fine]
+        assert auto_cutoff(joined, H) <= 1.05 * max(
+            clean, auto_cutoff(np.round(true / fine) * fine, H)
+        )
+    from drake_dynid.core.excitation import piece_quanta
+
+    steps = piece_quanta([coarse, math.nan, 0.0, 2 * coarse, fine, 3 * fine])
+    np.testing.assert_allclose(steps, [coarse, math.nan, 0.0, coarse, fine, fine])
+
+
+def test_resampled_positions_are_read_where_their_spectrum_is():
+    """Found by a review: whether a joint's positions were resampled was read on
+    the first 2^17 samples alone: a joint at rest for 150 s, then moving with
+    100 Hz positions (noise 1e-3 rad) interpolated onto 1 kHz for 250 s, was
+    judged not resampled and its automatic cutoff went to 39.98 Hz (the 100 Hz
+    positions: 2.10 Hz); dynid offline's note said nothing. The Welch pieces
+    now vote by their segments (pieces at rest abstain): 2.12 Hz, and the note
+    names the joint."""
+    from _motions import band_limited
+
+    from drake_dynid.core.idim_auto import resampled_joints
+
+    moving = 250000
+    q = band_limited(1000.0, moving * H, 0.0, 3)[1][:moving, 0]
+    t = np.arange(moving) * H
+    native = q[::10] + np.random.default_rng(1).normal(0.0, 1e-3, t[::10].shape)
+    linear = np.interp(t, t[::10], native)
+    log = np.r_[np.full(150000, linear[0]), linear]
+    expected = auto_cutoff(native, 10 * H)  # 2.10 Hz
+    assert auto_cutoff(log, H) == pytest.approx(expected, rel=0.05)
+    found = resampled_joints(log, H)
+    assert [(j, kind) for j, _, kind in found] == [(0, 2)]
+    assert found[0][1] == pytest.approx(100.0, rel=1e-3)
 
 
 def test_the_automatic_cutoff_is_chosen_for_the_filters_order(robot, noisy_log):

@@ -143,8 +143,9 @@ def _spectra_and_floors(
 
     * N_0,j = median of S_j/K_j over [f_e/4, f_e/2], f_e = fs/L_j the joint's own
       rate: L_j = 1 and K_j = 1, or for positions resampled from a rate L_j times
-      lower (:func:`~drake_dynid.core.excitation.resampling` of its first 2^17
-      samples: held, k = 1, or linearly interpolated, k = 2) K_j =
+      lower (:func:`~drake_dynid.core.excitation.resampling`, the kind of most
+      of the moving Welch pieces' segments, :func:`_majority_resampling`: held,
+      k = 1, or linearly interpolated, k = 2) K_j =
       sinc(f/f_e)^(2k), their noise's shape;
       above f_e/2 lie only its images (100 Hz positions interpolated onto 1 kHz:
       their floor read above fs/4 was 1e-3 of their noise's, and the cutoff 40 Hz
@@ -155,7 +156,10 @@ def _spectra_and_floors(
       of fundamental ~r_j whose harmonics fall like 1/f² (Δ²/12 in all): read as
       a white floor alone, the staircase stood as motion up to 5 Hz where its
       acceleration error is least at 0.24 Hz (12-bit joint, 6.5 counts at 0.1 Hz;
-      ``quantized`` False: the white floor alone).
+      ``quantized`` False: the white floor alone). On a log of several Welch
+      pieces, the pieces' quantization densities weighted like their spectra,
+      each quantized piece with its own Δ and r
+      (:func:`~drake_dynid.core.excitation.piece_quanta`).
     """
     time_step = check.positive(owner, "time_step", time_step, "s")
     q = checked_rows(owner, "q", q)  # a stored log: checked a block at a time
@@ -164,8 +168,7 @@ def _spectra_and_floors(
     if q.ndim != 2 or q.shape[0] < 16:
         check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
     fs = 1.0 / time_step
-    segment = min(q.shape[0], max(16, round(_SPECTRUM_SEGMENT * fs)))
-    f, power, quanta, rates, resampled = _welch(q, fs, segment)
+    f, power, staircase, resampled = _welch(q, fs, _segment(q.shape[0], fs))
     noise = np.zeros_like(power)
     for j in range(power.shape[1]):
         ratio, kind = resampled[j]
@@ -173,11 +176,8 @@ def _spectra_and_floors(
         band = (f >= 0.25 * fs / ratio) & (f <= 0.5 * fs / ratio)
         white = float(np.median(power[band, j] / kernel[band])) if band.any() else 0.0
         noise[:, j] = white * kernel
-        if quantized and quanta[j] > 0.0:
-            noise[:, j] = np.maximum(
-                noise[:, j],
-                excitation.quantization_density(f, fs, quanta[j], rates[j]),
-            )
+        if quantized:
+            noise[:, j] = np.maximum(noise[:, j], staircase[:, j])
     return fs, f, power, noise, fs / resampled[:, 0]
 
 
@@ -239,25 +239,42 @@ def resampled_note(
 def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
     """``[(j, f_e, k)]``: the joints whose positions look resampled, their rate [Hz].
 
-    :func:`~drake_dynid.core.excitation.resampling` of each joint's first
-    2^17 samples: k = 1 held, k = 2 linearly interpolated from samples at f_e;
-    k = 0: isolated repeats (:func:`~drake_dynid.core.excitation.repeats`), a
-    sensor at f_e = fs·(N - R)/N, R repeats in N samples, slower than the log.
+    Read on the automatic cutoff's Welch pieces (:func:`_pieces`, 2^17 samples),
+    by the most segments (:func:`_majority_resampling`; it read the first
+    piece alone, which may be at rest or from another source):
+    :func:`~drake_dynid.core.excitation.resampling`, k = 1 held, k = 2 linearly
+    interpolated from samples at f_e; k = 0: isolated repeats
+    (:func:`~drake_dynid.core.excitation.repeats`) in most of the moving
+    pieces' segments, a sensor at f_e = fs·(N - R)/N, R repeats in their N
+    samples, slower than the log.
     """
     time_step = check.positive("resampled_joints", "time_step", time_step, "s")
     q = checked_rows("resampled_joints", "q", q)
-    head = np.asarray(q[:_WELCH_PIECE], dtype=float)
-    head = head.reshape(head.shape[0], -1)
+    if q.ndim == 1:
+        q = q[:, None]
+    fs = 1.0 / time_step
+    origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
+    traits: list[list[tuple[float, float, float, float, int]]] = [
+        [] for _ in range(origin.shape[1])
+    ]
+    repeated = np.zeros((origin.shape[1], 3))  # share, repeats, samples
+    for share, piece in _pieces(q, _segment(q.shape[0], fs)):
+        piece = piece - origin
+        for j in range(piece.shape[1]):
+            traits[j].append((share, *_piece_traits(piece[:, j], fs)))
+            if traits[j][-1][2] > 0.0:  # a moving piece
+                count = excitation.repeats(piece[:, j]).size
+                if count:
+                    repeated[j] += (share, count, piece.shape[0])
     found = []
-    for j in range(head.shape[1]):
-        ratio, kind = excitation.resampling(head[:, j])
+    for j, pieces in enumerate(traits):
+        ratio, kind = _majority_resampling(pieces)
         if kind:
             found.append((j, 1.0 / (ratio * time_step), kind))
             continue
-        repeated = excitation.repeats(head[:, j]).size
-        if repeated:
-            share = 1.0 - repeated / head.shape[0]
-            found.append((j, share / time_step, 0))
+        moving = sum(share for share, _, rate, *_ in pieces if rate > 0.0)
+        if repeated[j, 0] > 0.5 * moving:
+            found.append((j, (1.0 - repeated[j, 1] / repeated[j, 2]) * fs, 0))
     return found
 
 
@@ -400,23 +417,38 @@ def auto_cutoff_rule(
     return _auto_cutoff_of_order(order)
 
 
-def _welch(
-    q: np.ndarray, fs: float, segment: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
+def _segment(samples: int, fs: float) -> int:
+    """Samples of the cutoff's Welch segments: 4 s, at least 16, at most the run."""
+    return min(samples, max(16, round(_SPECTRUM_SEGMENT * fs)))
 
-    The average over all segments, computed over consecutive runs of whole
-    segments, one joint at a time, so that the memory stays bounded on long logs.
-    Also each joint's quantization step over the samples read
-    (:func:`~drake_dynid.core.excitation.merged_quantum` of the pieces;
-    0 when not quantized or never changing), its changes per second [1/s], and
-    (n, 2) its resampling ``(L, k)`` on the first piece
-    (:func:`~drake_dynid.core.excitation.resampling`; (1, 0): not resampled).
+
+def _pieces(q: Any, segment: int) -> Any:
+    """``(share, piece)``: Welch's consecutive runs of whole segments of q (N, n).
+
+    ``share`` [1]: the piece's segments over all of them (its weight in the
+    average); ``piece``: its rows as floats, (M, n), read one at a time (q may
+    be a stored log).
     """
     step = segment - segment // 2
     total = (q.shape[0] - segment) // step + 1
     per_piece = max(1, (_WELCH_PIECE - segment) // step + 1)
+    for first in range(0, total, per_piece):
+        count = min(per_piece, total - first)
+        piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
+        yield count / total, piece.reshape(piece.shape[0], -1).astype(float)
 
+
+def _welch(
+    q: np.ndarray, fs: float, segment: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``scipy.signal.welch`` (Blackman-Harris, half overlap), in pieces of segments.
+
+    The average over all segments, computed over consecutive runs of whole
+    segments (:func:`_pieces`, 2^17 samples), one joint at a time, so that the
+    memory stays bounded on long logs. Also each joint's quantization density
+    (F, n) [unit²/Hz] and its resampling (n, 2) ``(L, k)``, both decided piece by
+    piece (:func:`_piece_traits`).
+    """
     # Each joint from its first sample: a joint held still (a locked torso, a
     # gripper) is then exactly 0, where the segments' detrending left rounding
     # residue ~1e-17 rad of its value (0.3 rad) whose smooth spectrum stood
@@ -424,26 +456,65 @@ def _welch(
     # automatic cutoff went to 35.8 Hz instead of the moving joints' 2.37 Hz.
     origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
     f, power = np.empty(0), np.empty(0)
-    quanta = np.zeros(origin.shape[1])
-    changed = np.zeros(origin.shape[1])
-    resampled = np.tile([1.0, 0.0], (origin.shape[1], 1))
-    read = 0
-    for first in range(0, total, per_piece):
-        count = min(per_piece, total - first)
-        piece = np.asarray(q[first * step : (first + count - 1) * step + segment])
-        piece = piece.reshape(piece.shape[0], -1) - origin
-        read += piece.shape[0] - 1
+    traits: list[list[tuple[float, float, float, float, int]]] = [
+        [] for _ in range(origin.shape[1])
+    ]
+    for share, piece in _pieces(q, segment):
+        piece = piece - origin
         for j in range(piece.shape[1]):  # one joint at a time: memory / n
-            quanta[j] = excitation.merged_quantum(float(quanta[j]), piece[:, j])
-            changed[j] += np.count_nonzero(np.diff(piece[:, j]))
-            if first == 0:
-                resampled[j] = excitation.resampling(piece[:, j])
+            traits[j].append((share, *_piece_traits(piece[:, j], fs)))
             f, part = _joint_welch(piece[:, j], fs, segment)
             if power.size == 0:
                 power = np.zeros((f.size, piece.shape[1]))
-            power[:, j] = power[:, j] + part * (count / total)
-    rates = changed * fs / max(read, 1)
-    return f, power, np.nan_to_num(quanta, nan=0.0), rates, resampled
+            power[:, j] = power[:, j] + part * share
+    staircase = np.zeros_like(power)
+    resampled = np.tile([1.0, 0.0], (origin.shape[1], 1))
+    for j, pieces in enumerate(traits):
+        steps = excitation.piece_quanta([step for _, step, *_ in pieces])
+        for (share, _, rate, *_), step in zip(pieces, steps, strict=True):
+            if step > 0.0:  # a quantized piece: its rounding's staircase
+                staircase[:, j] += share * excitation.quantization_density(
+                    f, fs, step, rate
+                )
+        resampled[j] = _majority_resampling(pieces)
+    return f, power, staircase, resampled
+
+
+def _piece_traits(x: np.ndarray, fs: float) -> tuple[float, float, float, int]:
+    """``(Δ, r, L, k)`` of one piece of a joint.
+
+    Its quantum (NaN: not counts; 0: no change), its count changes a second
+    [1/s] and its resampling ``(L, k)`` (a quantized or constant piece: (1, 0)).
+    """
+    step = excitation.piece_quantum(x)
+    rate = np.count_nonzero(np.diff(x)) * fs / max(x.size - 1, 1)
+    ratio, kind = excitation.resampling_with(x, step if step > 0.0 else 0.0)
+    return step, float(rate), ratio, kind
+
+
+def _majority_resampling(
+    pieces: list[tuple[float, float, float, float, int]],
+) -> tuple[float, int]:
+    """``(L, k)`` of a joint from its pieces' ``(share, Δ, r, L, k)``.
+
+    The kind k (0: not resampled) of the most segments among the pieces that
+    change (a joint at rest, then resampled, is resampled), L the median of its
+    pieces' (weighted by segments); ``(1, 0)`` when none changes or k = 0 wins.
+    A log whose first 2^17 samples came from another source (or held still)
+    was judged by them alone.
+    """
+    votes: dict[int, list[tuple[float, float]]] = {}
+    for share, _, rate, ratio, kind in pieces:
+        if rate > 0.0:
+            votes.setdefault(kind, []).append((share, ratio))
+    if not votes:
+        return 1.0, 0
+    kind = max(votes, key=lambda k: (sum(w for w, _ in votes[k]), -k))
+    if kind == 0:
+        return 1.0, 0
+    shares, ratios = np.array(sorted(votes[kind], key=lambda v: v[1])).T
+    middle = int(np.searchsorted(np.cumsum(shares), 0.5 * shares.sum()))
+    return float(ratios[min(middle, ratios.size - 1)]), kind
 
 
 def _joint_welch(

@@ -272,7 +272,8 @@ def test_encoder_counts_written_with_six_decimals_are_still_counts():
     now (up to 0.05 Δ), and Δ fitted over the changes' counts."""
     from drake_dynid.core.excitation import (
         decimal_step,
-        merged_quantum,
+        piece_quanta,
+        piece_quantum,
         position_noise_std,
         quantum,
     )
@@ -294,8 +295,8 @@ def test_encoder_counts_written_with_six_decimals_are_still_counts():
             continue
         assert quantum(written) == pytest.approx(count, rel=1e-4)
         assert sigma == pytest.approx(truth, rel=0.06)  # was 1.46e-5 for 16 bits
-        halves = merged_quantum(merged_quantum(0.0, written[:20000]), written[20000:])
-        assert halves == pytest.approx(count, rel=1e-4)
+        halves = [piece_quantum(written[:20000]), piece_quantum(written[20000:])]
+        assert piece_quanta(halves) == pytest.approx([count, count], rel=1e-4)
     assert decimal_step(np.arange(5.0)) == 1.0
     # Noise written with 6 decimals is no 16-bit count (the 0.05 Δ limit).
     noisy = np.round(true + np.random.default_rng(1).normal(0.0, 1e-4, t.size), 6)
