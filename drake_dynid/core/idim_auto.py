@@ -8,7 +8,8 @@ Welch spectrum S_j(f) of every detrended position q_j (Blackman-Harris window,
 4 s segments) gives
 
 * its noise density N_j(f): the median of S_j over [fs/4, fs/2] (white
-  measurement noise is flat; a rigid robot's motion has no power there); for
+  measurement noise is flat; a rigid robot's motion has no power there), over
+  ln 2 for a run of one segment (a periodogram: exponential bins); for
   positions resampled from a rate f_e below fs (held or linearly interpolated:
   a multi-file join, an upstream resampling), the median of S_j/K_j over
   [f_e/4, f_e/2] times K_j(f) = sinc(f/f_e)^(2k), their noise's shape; for a
@@ -168,14 +169,19 @@ def _spectra_and_floors(
     if q.ndim != 2 or q.shape[0] < 16:
         check.fail(owner, f"q must have shape (N >= 16, n); got {q.shape}.")
     fs = 1.0 / time_step
-    f, power, staircase, resampled = _welch(q, fs, _segment(q.shape[0], fs))
+    segment = _segment(q.shape[0], fs)
+    f, power, staircase, resampled = _welch(q, fs, segment)
+    # One segment (a run of up to 6 s): a periodogram, whose bins of white noise
+    # are exponential, median ln 2 of their mean (an average of segments is
+    # near its mean: its median is kept, the paper's 9 segments unchanged).
+    single = math.log(2.0) if q.shape[0] < segment + segment - segment // 2 else 1.0
     noise = np.zeros_like(power)
     for j in range(power.shape[1]):
         ratio, kind = resampled[j]
         kernel = excitation.resampling_kernel(f, fs, ratio, int(kind))
         band = (f >= 0.25 * fs / ratio) & (f <= 0.5 * fs / ratio)
         white = float(np.median(power[band, j] / kernel[band])) if band.any() else 0.0
-        noise[:, j] = white * kernel
+        noise[:, j] = white / single * kernel
         if quantized:
             noise[:, j] = np.maximum(noise[:, j], staircase[:, j])
     return fs, f, power, noise, fs / resampled[:, 0]
