@@ -451,6 +451,26 @@ def test_one_odd_piece_does_not_lose_an_encoder_joints_quantum():
     np.testing.assert_allclose(steps, [coarse, math.nan, 0.0, coarse, fine, fine])
 
 
+def test_one_glitched_sample_does_not_lose_an_encoder_joints_quantum():
+    """Found by a review: one sample 0.3 count off in a 20 s 12-bit joint (6.5
+    and 65 counts at 0.1 Hz) made it "not counts" (every change had to be whole),
+    and its automatic cutoff went from 0.38 / 1.17 Hz to the 40 Hz cap. Up to
+    two changes off the counts (one odd sample) are now allowed, Δ fitted
+    without them: 0.38 / 1.17 Hz; two odd samples still are not counts."""
+    from drake_dynid.core.excitation import quantum
+
+    t = np.arange(20000) * H
+    count = 2 * np.pi / 4096
+    for amplitude in (0.01, 0.1):
+        joint = np.round((0.3 + amplitude * np.sin(0.2 * np.pi * t)) / count) * count
+        clean = auto_cutoff(joint, H)
+        joint[10000] += 0.3 * count
+        assert auto_cutoff(joint, H) == pytest.approx(clean, rel=1e-6)
+        assert quantum(joint) == pytest.approx(count, rel=1e-9)
+        joint[15000] += 0.4 * count
+        assert quantum(joint) == 0.0
+
+
 def test_resampled_positions_are_read_where_their_spectrum_is():
     """Found by a review: whether a joint's positions were resampled was read on
     the first 2^17 samples alone: a joint at rest for 150 s, then moving with
