@@ -169,7 +169,19 @@ def stamps_droppable(bad: int, count: int) -> bool:
 
 
 def repair(
-    owner, noun, t, exact, q, tau, labels, options, notes=(), bad=None, joined=None
+    owner,
+    noun,
+    t,
+    exact,
+    q,
+    tau,
+    labels,
+    options,
+    notes=(),
+    bad=None,
+    joined=None,
+    *,
+    unit_given=False,
 ):
     """Time stamps → uniform grid → filled or bad samples.
 
@@ -190,6 +202,9 @@ def repair(
             decided in that file's own samples: of up to ``fill_gaps`` of them
             (values interpolated by the join: counted as filled), or longer (NaN:
             kept bad, however short their run in these samples).
+        unit_given: the caller was told the time unit (``--time-unit``, a drive
+            file's ``[log] time_unit``, ``read_log``'s ``time_unit``; a ROS bag's
+            ns): a step >= ``SLOW_STEP`` is then a warning, else an error.
 
     Returns:
         The :class:`Repaired` log; its q and tau are stored arrays when larger
@@ -265,6 +280,8 @@ def repair(
             "unit that --time-unit (or a drive file's [log] time_unit, docs/DRIVE.md) "
             "gives; check that unit."
         )
+    if step >= SLOW_STEP and not unit_given:
+        raise ValueError(f"{owner}: {_slow_step_text(step, epoch=bool(note))}")
     if kept.sum() < kept.size:
         out = np.flatnonzero(~kept)
         times = ", ".join(f"{shown[i]:.16g}" for i in out[:3])
@@ -309,7 +326,7 @@ def repair(
         )
     samples = log.t.size
     duration = (samples - 1) * log.time_step
-    unit_hint = _unit_hint(log.time_step)
+    unit_hint = _unit_hint(log.time_step) if unit_given else ""
     if unit_hint:
         warnings.append(unit_hint)
     if options.min_duration is not None and duration < options.min_duration:
@@ -329,8 +346,9 @@ def repair(
     )
 
 
-#: A fitted step at or above this [s] is said to be suspect: robot logs are sampled
-#: at 10 Hz to 10 kHz; stamps in ms, µs or ns read as seconds give 1 s and more.
+#: A fitted step at or above this [s] is an error unless the time unit was given
+#: (then a warning): robot logs are sampled at 10 Hz to 10 kHz; stamps in ms, µs or
+#: ns read as seconds give 1 s and more.
 SLOW_STEP = 0.5
 #: A fitted step below this [s] is an error: no robot logger samples at 100 kHz, and
 #: 1/h (the cutoff choice's sampling frequency) overflows for subnormal steps;
@@ -338,14 +356,43 @@ SLOW_STEP = 0.5
 FAST_STEP = 1e-5
 
 
+def _likely_unit(step: float) -> str:
+    """The unit in which ``step`` [s] is a robot's step, with the rate it gives.
+
+    The first of ms, us, ns giving 1e-4 to 0.1 s, e.g. ``ms gives 1000 Hz`` for
+    1.0 ('' if none).
+    """
+    from drake_dynid.core.drive_log import TIME_UNITS
+
+    for unit in ("ms", "us", "ns"):
+        seconds = step * TIME_UNITS[unit]
+        if 1e-4 <= seconds <= 0.1:
+            return f"{unit} gives {1.0 / seconds:.4g} Hz"
+    return ""
+
+
+def _slow_step_text(step: float, epoch: bool = False) -> str:
+    """The error on a step >= ``SLOW_STEP`` [s] whose unit was not given."""
+    likely = "" if epoch else _likely_unit(step)
+    unit = likely.split(" ", 1)[0] if likely else "UNIT"
+    return (
+        f"the time step is {step:.6g} s ({1.0 / step:.4g} Hz), long for a robot log "
+        "(1e-4 to 0.1 s: 10 Hz to 10 kHz): the time column is likely not in seconds"
+        + (f" ({likely})" if likely else "")
+        + f"; say its unit with --time-unit {unit} (read_log's time_unit, or a "
+        "drive file's [log] time_unit, docs/DRIVE.md), or --time-unit s if the log "
+        f"is truly sampled at {1.0 / step:.4g} Hz."
+    )
+
+
 def _unit_hint(step: float) -> str:
     """A warning when the step suggests time stamps in another unit ('' if not)."""
     if step < SLOW_STEP:
         return ""
     return (
-        f"the time step is {step:.6g} s, long for a robot log (1e-4 to 0.1 s): if "
-        "the time column is in ms, us or ns, say so with --time-unit (or a drive "
-        "file's [log] time_unit, docs/DRIVE.md)."
+        f"the time step is {step:.6g} s, long for a robot log (1e-4 to 0.1 s), "
+        "with the time unit given: if the time column is in ms, us or ns, say so "
+        "with --time-unit (or a drive file's [log] time_unit, docs/DRIVE.md)."
     )
 
 

@@ -167,8 +167,17 @@ class RobotLog:
                 exact = raw_t.astype(np.int64)  # exact nanoseconds
         labels = np.arange(raw_t.size, dtype=np.int64)
         q_, tau_ = arrays
+        # t is [s] by this method's contract: a step >= 0.5 s is a warning.
         repaired = repair(
-            owner, "sample", raw_t.astype(float), exact, q_, tau_, labels, options
+            owner,
+            "sample",
+            raw_t.astype(float),
+            exact,
+            q_,
+            tau_,
+            labels,
+            options,
+            unit_given=True,
         )
         return cls._named(repaired, names)
 
@@ -296,7 +305,7 @@ def read_log(
     min_duration: float | None = None,
     torques: bool = True,
     parse_beside: Any = None,
-    time_unit: str = "s",
+    time_unit: str | None = None,
 ) -> RobotLog:
     """Reads and checks a robot log; see the module docstring for what is repaired.
 
@@ -319,12 +328,19 @@ def read_log(
             in another process; the same log).
         time_unit: the unit of the ``t`` column, ``s``, ``ms``, ``us`` or ``ns``
             (``core.drive_log.TIME_UNITS``); t is scaled to seconds before the
-            grid is fitted. Default s (integers >= 1e17 then read as epoch ns).
+            grid is fitted. None (the default): s, not said, and a fitted step
+            >= 0.5 s (``log_repair.SLOW_STEP``) is then an error (stamps in ms,
+            µs or ns: the error suggests the unit), as with ``dynid`` without
+            ``--time-unit``; a unit given (s too) makes it a warning. In s
+            (given or not), integers >= 1e17 are read as epoch ns.
 
     Returns:
         The uniformly sampled log, with the warnings of what was repaired.
     """
     names = _joint_names("read_log", joint_names)
+    unit_given = time_unit is not None
+    if time_unit is None:
+        time_unit = "s"
     if time_unit not in TIME_UNITS:
         raise ValueError(
             f"read_log: time_unit must be one of {', '.join(TIME_UNITS)}; got "
@@ -365,6 +381,7 @@ def read_log(
         options,
         notes + table.notes,
         table.bad,
+        unit_given=unit_given,
     )
     del table
     release_heap()  # the reader's temporaries: not under the next phase's peak

@@ -1625,6 +1625,7 @@ def _read_streamed(
         options,
         notes,
         joined=(gap_filled, gap_bad),
+        unit_given=log.time_unit_given,
     )
     release_heap()  # the reader's temporaries: not under the next phase's peak
     return RobotLog._named(repaired, tuple(chain.joint_names))

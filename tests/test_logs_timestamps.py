@@ -303,11 +303,16 @@ def test_stamps_in_another_unit_are_said_with_the_fix(tmp_path, scale, unit):
         np.zeros((k.size, 2)),
         JOINTS,
     )
-    log = read_log(tmp_path / "u.csv", JOINTS)
+    # Not said: an error naming the step and the likely unit (a new user's
+    # walk-through: the warning alone let ms stamps give confident nonsense).
+    with pytest.raises(ValueError, match=f"{unit} gives 1000 Hz.*--time-unit {unit}"):
+        read_log(tmp_path / "u.csv", JOINTS)
+    # Said (a log truly sampled this slowly): the warning.
+    log = read_log(tmp_path / "u.csv", JOINTS, time_unit="s")
     (note,) = log.warnings
     assert f"the time step is {1e-3 * scale:g} s" in note and "time_unit" in note
     with pytest.raises(ValueError, match="time_unit"):  # also in a length error
-        read_log(tmp_path / "u.csv", JOINTS, min_duration=1e12)
+        read_log(tmp_path / "u.csv", JOINTS, min_duration=1e12, time_unit="s")
     write_log(
         tmp_path / "s.csv",
         0.1 * k,

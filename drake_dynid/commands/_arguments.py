@@ -504,7 +504,9 @@ def add_time_unit_argument(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="unit of the log's time column (default s, and then integer stamps "
         ">= 1e17 are read as nanoseconds since the epoch); a drive file's [log] "
-        "time_unit, when it says one, must agree with this option",
+        "time_unit, when it says one, must agree with this option; given (s "
+        "included), a time step >= 0.5 s is read with a warning instead of refused "
+        "as stamps in ms, us or ns read as seconds",
     )
 
 
@@ -610,14 +612,24 @@ def _read_files(
     fill_gaps: int | None,
     time_unit: str | None,
     torques_optional: bool,
+    unit_known: bool = False,
 ) -> tuple[Any, bool]:
-    """The read of :func:`read_robot_log` (CSV files); whether τ was read."""
+    """The read of :func:`read_robot_log` (CSV files); whether τ was read.
+
+    ``unit_known``: the time column's unit is known without ``time_unit`` (a ROS
+    bag's export, from ns stamps): a step >= 0.5 s is then a warning, as with
+    ``--time-unit``, not the error on stamps in another unit (``log_repair``).
+    """
     from drake_dynid.log_repair import FILL_GAPS
 
     gaps = FILL_GAPS if fill_gaps is None else fill_gaps
     chain = robot.drive
     if time_unit is not None:
         chain = _with_time_unit(chain, robot.joint_names, time_unit)
+    elif unit_known and chain is not None:
+        chain = dataclasses.replace(
+            chain, log=dataclasses.replace(chain.log, time_unit_given=True)
+        )
     torques = not torques_optional or _has_torque_columns(files, chain, robot)
     if chain is None and len(files) == 1:
         from drake_dynid.logs import read_log
@@ -628,6 +640,7 @@ def _read_files(
             resample=resample,
             fill_gaps=gaps,
             torques=torques,
+            time_unit="s" if unit_known else None,
         )
     else:
         from drake_dynid.core.drive import DriveChain
@@ -841,7 +854,13 @@ def _read_bag_log(
 
         try:
             log, read = _read_files(
-                [export], robot, resample, fill_gaps, None, torques_optional
+                [export],
+                robot,
+                resample,
+                fill_gaps,
+                None,
+                torques_optional,
+                unit_known=True,
             )
         except (ValueError, OSError) as error:
             raise _renamed(error, named(str(error))) from None
@@ -929,7 +948,9 @@ def _with_time_unit(chain: Any, joint_names: Sequence[str], unit: str) -> Any:
             f"--time-unit {unit} contradicts the drive file's [log] time_unit = "
             f"{given!r}: give one of them."
         )
-    log = dataclasses.replace(chain.log, time_unit=unit, time_scale=TIME_UNITS[unit])
+    log = dataclasses.replace(
+        chain.log, time_unit=unit, time_scale=TIME_UNITS[unit], time_unit_given=True
+    )
     return dataclasses.replace(chain, log=log)
 
 

@@ -116,7 +116,7 @@ def _read_positions(path: str, robot: Any, time_unit: str | None) -> Any:
         robot.joint_names,
         resample=True,
         torques=False,
-        time_unit=time_unit or "s",
+        time_unit=time_unit,
     )
     for warning in log.warnings:  # not the constant-column check: τ is filled in
         print(f"dynid replay: warning: log {path}: {warning}", file=sys.stderr)

@@ -140,7 +140,9 @@ class LogFormat:
             template with ``{joint}`` (the column of any joint, identified or
             not: the check that a locked joint does not move reads it), else None.
         time_unit_given: the table says ``time_unit`` (False: the default s), so
-            that ``--time-unit`` can tell an explicit s from the default.
+            that ``--time-unit`` can tell an explicit s from the default; also
+            True with ``--time-unit`` or a ROS bag's export. A fitted step >= 0.5 s
+            is then read with a warning, else refused (``log_repair.SLOW_STEP``).
     """
 
     time: str
