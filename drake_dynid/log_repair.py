@@ -372,16 +372,30 @@ def _likely_unit(step: float) -> str:
 
 
 def _slow_step_text(step: float, epoch: bool = False) -> str:
-    """The error on a step >= ``SLOW_STEP`` [s] whose unit was not given."""
-    likely = "" if epoch else _likely_unit(step)
+    """The error on a step >= ``SLOW_STEP`` [s] whose unit was not given.
+
+    ``epoch``: the stamps were read as integer nanoseconds since the epoch, so no
+    other unit is likely; the message says how to confirm the rate.
+    """
+    rate = f"{1.0 / step:.4g} Hz"
+    head = (
+        f"the time step is {step:.6g} s ({rate}), long for a robot log "
+        "(1e-4 to 0.1 s: 10 Hz to 10 kHz)"
+    )
+    if epoch:
+        return (
+            f"{head}, the stamps read as integer nanoseconds since the epoch: if the "
+            f"log is truly sampled at {rate}, say so with --time-unit ns (read_log's "
+            "time_unit, or a drive file's [log] time_unit, docs/DRIVE.md)."
+        )
+    likely = _likely_unit(step)
     unit = likely.split(" ", 1)[0] if likely else "UNIT"
     return (
-        f"the time step is {step:.6g} s ({1.0 / step:.4g} Hz), long for a robot log "
-        "(1e-4 to 0.1 s: 10 Hz to 10 kHz): the time column is likely not in seconds"
+        f"{head}: the time column is likely not in seconds"
         + (f" ({likely})" if likely else "")
         + f"; say its unit with --time-unit {unit} (read_log's time_unit, or a "
         "drive file's [log] time_unit, docs/DRIVE.md), or --time-unit s if the log "
-        f"is truly sampled at {1.0 / step:.4g} Hz."
+        f"is truly sampled at {rate}."
     )
 
 

@@ -161,3 +161,22 @@ def test_a_slow_ros_bag_is_read_with_the_warning(logs, tmp_path, capsys, epoch):
     err = capsys.readouterr().err
     assert "the time step is 1 s, long for a robot log" in err, err
     assert "truly sampled at" not in err and "Traceback" not in err
+
+
+def test_integer_epoch_nanoseconds_at_1_hz_are_not_called_another_unit(tmp_path):
+    # Integer stamps >= 1e17 are read as ns since the epoch; a 1 Hz log of them
+    # was told 'the time column is likely not in seconds; ... --time-unit UNIT'.
+    _, t, q, tau = fourier_2r(301)
+    stamps = 1_700_000_000 * 10**9 + np.arange(t.size, dtype=np.int64) * 10**9
+    lines = ["t,q_joint1,q_joint2,tau_joint1,tau_joint2"]
+    lines += [
+        f"{s},{a:.9g},{b:.9g},{c:.9g},{d:.9g}"
+        for s, (a, b), (c, d) in zip(stamps, q, tau, strict=True)
+    ]
+    (tmp_path / "ns.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(ValueError) as error:
+        read_log(tmp_path / "ns.csv", ["joint1", "joint2"])
+    said = str(error.value)
+    assert "read as integer nanoseconds since the epoch" in said
+    assert "--time-unit ns" in said and "likely not in seconds" not in said
+    read_log(tmp_path / "ns.csv", ["joint1", "joint2"], time_unit="ns")  # accepted
