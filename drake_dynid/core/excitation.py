@@ -186,7 +186,10 @@ def _noise_floor(
 
 
 def _noise_std(
-    floor: np.ndarray, h: float, traits: list[tuple[float, int, float]]
+    floor: np.ndarray,
+    h: float,
+    traits: list[tuple[float, int, float]],
+    x: np.ndarray,
 ) -> np.ndarray:
     """σ_j = √(N_0,j·f_e/2) [unit], at least Δ_j/√12 for a quantized channel.
 
@@ -195,14 +198,50 @@ def _noise_std(
     counts) carries its rounding error, uniform of variance Δ²/12, whatever its
     spectrum: a slow or periodic staircase puts it on few lines at low
     frequency, and the floor above f_s/4 read 0.09-0.27 Δ/√12 (1e-11 rad for
-    a 12-bit joint on a 1 rad sine of 0.5 Hz, ten whole periods). A constant
-    channel gives 0. ``traits``: :func:`_traits`.
+    a 12-bit joint on a 1 rad sine of 0.5 Hz, ten whole periods); a channel
+    not quantized as a whole (x (N, n), its samples) at least its pieces'
+    (:func:`_pieces_rounding_std`). A constant channel gives 0. ``traits``:
+    :func:`_traits`.
     """
     sigma = np.empty(len(traits))
     for j, (ratio, _, step) in enumerate(traits):
         sigma[j] = math.sqrt(max(float(floor[0, j]), 0.0) * 0.5 / (h * ratio))
-        sigma[j] = max(sigma[j], step / math.sqrt(12.0))
+        rounding = (
+            step / math.sqrt(12.0) if step > 0.0 else _pieces_rounding_std(x[:, j])
+        )
+        sigma[j] = max(sigma[j], rounding)
     return sigma
+
+
+#: Samples of the pieces whose quanta bound the noise of a channel that is not
+#: quantized as a whole (:func:`_pieces_rounding_std`).
+_ROUNDING_PIECE = 1 << 13
+
+
+def _pieces_rounding_std(x: np.ndarray) -> float:
+    """√(Σ_k w_k Δ_k²/12) [unit] over the pieces of x (N,) that change, or 0.
+
+    Pieces of :data:`_ROUNDING_PIECE` samples, each with its own quantum Δ_k
+    (:func:`piece_quantum`, merged by :func:`piece_quanta`; 0 for a piece not
+    quantized), w_k its share of the changing pieces' samples: a log joined
+    from two encoders (a 12-bit and a 5000-count one, steps not whole numbers of
+    each other) was not counts as a whole, and its σ read its staircases' floor,
+    5.6e-5 rad where its counts' rounding is 4.2e-4 rad (now 4.17e-4). 0 for a
+    channel of one piece (:func:`quantum` judged it whole).
+    """
+    if x.shape[0] <= _ROUNDING_PIECE:
+        return 0.0
+    sizes, steps = [], []
+    for first in range(0, x.shape[0], _ROUNDING_PIECE):
+        piece = x[first : first + _ROUNDING_PIECE + 1]  # its changes, joined
+        step = piece_quantum(piece)
+        if step != 0.0:  # a piece that changes (NaN: not counts)
+            sizes.append(piece.shape[0] - 1)
+            steps.append(step)
+    if not sizes:
+        return 0.0
+    merged = np.nan_to_num(np.array(piece_quanta(steps)), nan=0.0)
+    return math.sqrt(float(np.dot(sizes, merged**2)) / (12.0 * sum(sizes)))
 
 
 def position_noise_std(q: Any, time_step: float) -> np.ndarray:
@@ -212,7 +251,8 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
     (module docstring, step 2): the flat part of the spectrum above f_s/4, where a
     robot's motion carries no power at kHz sampling; for a channel resampled from
     a rate f_e below f_s, below f_e/2 (:func:`_noise_floor`). At least Δ/√12 for
-    a channel quantized by Δ, 0 for a constant one (:func:`_noise_std`). A
+    a channel quantized by Δ (piece by piece for one that is not as a whole),
+    0 for a constant one (:func:`_noise_std`). A
     noise-free (simulated) record gives the leakage of its motion there, orders
     of magnitude below any sensor's noise.
 
@@ -228,7 +268,7 @@ def position_noise_std(q: Any, time_step: float) -> np.ndarray:
         return motion_and_noise(q, time_step)[1]
     f, s, x, h = _periodogram(q, time_step)
     traits = _traits(x)
-    return _noise_std(_noise_floor(f, s, h, traits), h, traits)
+    return _noise_std(_noise_floor(f, s, h, traits), h, traits, x)
 
 
 #: Fewest knots, largest share of irregular gaps, and the widest ratio
@@ -661,7 +701,7 @@ def _motion_spectrum(
     f, s, x, h = _periodogram(q, time_step)
     traits = _traits(x)
     floor = _noise_floor(f, s, h, traits)
-    noise = _noise_std(floor, h, traits)
+    noise = _noise_std(floor, h, traits, x)
     return f, _velocity_power(f, s, x, floor, threshold, h, traits), noise
 
 

@@ -317,3 +317,29 @@ def test_an_exact_ramp_is_not_quantized():
     count = 2 * np.pi / 4096  # a slow encoder ramp: counts 0 and 1, quantized
     slow = np.round((0.2 + 0.1 * t) / count) * count
     assert quantum(slow) == pytest.approx(count)
+
+
+def test_a_log_joined_from_two_encoders_keeps_their_rounding_noise():
+    """Found by a review: a joint joined from a 12-bit and a 5000-count encoder
+    (150 s then 50 s at 1 kHz, steps not whole numbers of each other) is not
+    counts as a whole, and its σ read its staircases' white floor: 5.6e-5 rad,
+    below either encoder's rounding (Δ/√12: 4.43e-4 and 3.63e-4 rad; their mean
+    square over the log 4.24e-4). Each 8192-sample piece now bounds it by its own
+    quantum: 4.17e-4 rad (the other order: 3.75e-4 for 3.84e-4). A noisy float
+    channel, a ramp and a constant channel keep theirs."""
+    from drake_dynid.core.excitation import position_noise_std
+
+    t = np.arange(200000) * H
+    true = 0.3 + 0.5 * np.sin(2 * np.pi * 0.3 * t) ** 2
+    coarse, fine = 2 * np.pi / 4096, 2 * np.pi / 5000
+    first, second = np.round(true / coarse) * coarse, np.round(true / fine) * fine
+    for a, b in ((coarse, fine), (fine, coarse)):
+        head, tail = (first, second) if a == coarse else (second, first)
+        joined = np.r_[head[:150000], tail[150000:]]
+        expected = np.sqrt((0.75 * a**2 + 0.25 * b**2) / 12.0)
+        sigma = position_noise_std(joined, H)[0]
+        assert 0.9 * expected < sigma <= 1.01 * expected, (sigma, expected)
+    noisy = true + np.random.default_rng(2).normal(0.0, 1e-4, t.size)
+    assert position_noise_std(noisy, H)[0] == pytest.approx(1e-4, rel=0.05)
+    assert position_noise_std(0.2 + 0.1 * t, H)[0] < 1e-12
+    assert position_noise_std(np.full(t.size, 0.3), H)[0] == 0.0
