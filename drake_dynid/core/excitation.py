@@ -223,7 +223,8 @@ def _pieces_rounding_std(x: np.ndarray) -> float:
 
     Pieces of :data:`_ROUNDING_PIECE` samples, each with its own quantum Δ_k
     (:func:`piece_quantum`, merged by :func:`piece_quanta`; 0 for a piece not
-    quantized), w_k its share of the changing pieces' samples: a log joined
+    quantized), w_k its share of the changing pieces' samples (16 changes or
+    more: a piece at rest but for a flicker shows no counts): a log joined
     from two encoders (a 12-bit and a 5000-count one, steps not whole numbers of
     each other) was not counts as a whole, and its σ read its staircases' floor,
     5.6e-5 rad where its counts' rounding is 4.2e-4 rad (now 4.17e-4). 0 for a
@@ -234,6 +235,8 @@ def _pieces_rounding_std(x: np.ndarray) -> float:
     sizes, steps = [], []
     for first in range(0, x.shape[0], _ROUNDING_PIECE):
         piece = x[first : first + _ROUNDING_PIECE + 1]  # its changes, joined
+        if np.count_nonzero(np.diff(piece)) < _MIN_COUNTED_MOVES:
+            continue  # at rest, or a few flickers: no evidence of counts
         step = piece_quantum(piece)
         if step != 0.0:  # a piece that changes (NaN: not counts)
             sizes.append(piece.shape[0] - 1)
@@ -282,6 +285,10 @@ _QUANTUM_TOLERANCE = 1e-3  # a change within this many steps of whole ones
 _MAX_DECIMAL_SHARE = 0.05
 _COUNT_REFINE = 8  # counts of the first least-squares refinement of Δ
 _QUANTUM_OUTLIERS = 2  # changes off the counts a quantized channel may have
+#: Fewest changes on the counts that let :data:`_QUANTUM_OUTLIERS` be off them: a
+#: float channel at rest but for 2 or 3 flickers of unrelated sizes (4-6 changes)
+#: was given the largest as its Δ, σ 3.75e-5 for 2e-6.
+_MIN_COUNTED_MOVES = 16
 
 
 def decimal_step(x: Any) -> float:
@@ -315,10 +322,11 @@ def _quantum(x: np.ndarray) -> float:
         return math.nan
     decimal = decimal_step(x)
     step, bad = _whole_counts(moves, float(moves.min()), decimal)
-    if bad.any() and moves.size > _QUANTUM_OUTLIERS + 1:
+    if bad.any() and moves.size >= _QUANTUM_OUTLIERS + _MIN_COUNTED_MOVES:
         # One odd sample (a glitch, a filled gap's end) moves off the counts
         # twice: tried without the smallest two moves, first on 256 changes
-        # (a noisy channel fails there at once).
+        # (a noisy channel fails there at once), when at least 16 others are
+        # left to show the counts (2 equal flickers are no encoder).
         k = _QUANTUM_OUTLIERS
         head = moves[:256]
         start = float(np.partition(head, min(k, head.size - 1))[min(k, head.size - 1)])
@@ -365,8 +373,9 @@ def quantum(x: Any) -> float:
     (within 1e-3 Δ, plus the values' decimal rounding :func:`decimal_step` when it
     is at most 0.05 Δ: encoder counts written to a CSV with ``%.6f``), fitted by
     least squares over the changes' counts; encoder counts, scaled or not. Up to
-    two changes may be off the counts (one odd sample: a glitch, a filled gap's
-    end; Δ fitted without them): one sample 0.3 count off a 12-bit joint made
+    two changes may be off the counts among 16 or more on them (one odd sample:
+    a glitch, a filled gap's end; Δ fitted without them; not a channel at rest
+    but for a few flickers): one sample 0.3 count off a 12-bit joint made
     it not counts, and its automatic cutoff 40 Hz instead of 0.38 Hz. 0 when
     the channel never changes or its changes are not so, or are all the same
     count of the same sign (an exact ramp, v·h at every sample: no rounding).

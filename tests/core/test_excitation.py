@@ -343,3 +343,22 @@ def test_a_log_joined_from_two_encoders_keeps_their_rounding_noise():
     assert position_noise_std(noisy, H)[0] == pytest.approx(1e-4, rel=0.05)
     assert position_noise_std(0.2 + 0.1 * t, H)[0] < 1e-12
     assert position_noise_std(np.full(t.size, 0.3), H)[0] == 0.0
+
+
+def test_a_joint_at_rest_with_a_few_flickers_is_not_counts():
+    """Found by a review: two changes may be off the counts (one glitched sample
+    of an encoder), but a float joint at rest for 20 s at 1 kHz but for two
+    flickers (1.3e-4 and 0.5e-4 rad: 4 changes) was then counts of 1.3e-4, σ
+    3.75e-5 rad where its deviation is 1e-6 (1.1e-6 before that rule, and
+    now); the odd changes need 16 on the counts beside them. Its 8192-sample
+    pieces, a flicker each, do not bound σ either."""
+    from drake_dynid.core.excitation import position_noise_std, quantum
+
+    joint = np.full(20000, 0.3)
+    joint[5000] += 1.3e-4
+    joint[12000] -= 0.5e-4
+    assert quantum(joint) == 0.0
+    assert position_noise_std(joint, H)[0] < 3e-6
+    joint[16000] += 2.6e-4  # a third one
+    assert quantum(joint) == 0.0
+    assert position_noise_std(joint, H)[0] < 3e-6
