@@ -648,7 +648,14 @@ def test_dynid_offline_notes_resampled_positions(tmp_path, capsys):
         assert cli.main([*argv, "--bootstrap", "0"]) == 0
         err = capsys.readouterr().err
         assert ("identify: note: the positions of joint1 (linearly" in err) is said
-        assert ("the measured position noise and excitation band" in err) is said
+        # The note names what identify measured (a review: it said 'the measured
+        # position noise and excitation band' when it measured only the rows).
+        assert ("the measured excitation band and the rows' choice read" in err) is said
+        assert cli.main([*argv, "--bootstrap", "0", "--bandwidth", "2"]) == 0
+        err = capsys.readouterr().err
+        assert ("identify: note: the positions of joint1 (linearly" in err) is said
+        assert ("the rows' choice read their noise" in err) is said
+        assert "excitation band" not in err.split("positions of")[-1]
 
 
 def test_a_sensor_slower_than_the_log_clock_keeps_its_cutoff():

@@ -458,20 +458,20 @@ def write_estimates_csv(
     write_whole(path, write)  # a full disk leaves no truncated file
 
 
-def resampled_log_note(command: str, log: Any, cutoff: bool = True) -> None:
+def resampled_log_note(command: str, log: Any, reader: str | None = None) -> None:
     """Prints ``dynid COMMAND: note:`` on the log's resampled or slow-sensor joints.
 
     ``core.idim_auto.resampled_note`` of the longest run's
     ``core.idim_auto.resampled_joints`` (nothing when there are none): ``dynid
     offline`` and ``dynid validate`` when their cutoff is automatic, ``dynid
     identify`` when it measures the position noise or the excitation band on the
-    log (``cutoff`` False: the note names those instead of the cutoff).
+    log (``reader``: what it measured, named instead of the cutoff).
     """
     import sys
 
     from drake_dynid.core.idim_auto import resampled_joints, resampled_note
 
     found = log.on_longest_run(resampled_joints)
-    note = resampled_note(found, log.joint_names, log.time_step, cutoff)
+    note = resampled_note(found, log.joint_names, log.time_step, reader)
     if note:
         print(f"dynid {command}: note: {note}", file=sys.stderr)

@@ -1145,8 +1145,20 @@ def run(args: argparse.Namespace) -> int:
         bootstrap, covariance_beside = _final_bootstrap(
             replicates, log, robot, settings, trace, valid, background, last_solve
         )
-    if band_measured or rows_measured or noise_measured:
-        resampled_log_note("identify", log, cutoff=False)
+    measured = [
+        text
+        for text, done in (
+            ("the measured position noise", noise_measured),
+            ("the measured excitation band", band_measured),
+            ("the rows' choice", rows_measured),
+        )
+        if done
+    ]
+    if measured:
+        reader = " and ".join(
+            [", ".join(measured[:-1]), measured[-1]] if measured[1:] else measured
+        )
+        resampled_log_note("identify", log, reader=reader)
     if band_given is not None:
         print(
             f"dynid identify: note: --bandwidth {band_given:g} Hz is not used: the "

@@ -191,14 +191,14 @@ def resampled_note(
     resampled: list[tuple[int, float, int]],
     names: Any,
     time_step: float,
-    cutoff: bool = True,
+    reader: str | None = None,
 ) -> str:
     """The note on positions that look resampled (:func:`resampled_joints`), or "".
 
     Names the joints, their own rate and how they were resampled: above half
     that rate their positions hold no measurement, and the automatic cutoff
-    (``cutoff``; else the measured position noise and excitation band, ``dynid
-    identify``'s) read their noise below it; and the joints whose sensor is
+    (``reader`` None; else what ``reader`` names, e.g. ``dynid identify``'s
+    measured position noise) read their noise below it; and the joints whose sensor is
     slower than the log's clock (k = 0: isolated repeats), their repeat and the
     sensor's rate (the automatic cutoff reads their spectrum at that rate,
     without the repeats).
@@ -220,11 +220,7 @@ def resampled_note(
         notes.append(
             f"the positions of {check.listed(held)} look resampled onto the log's "
             f"{fs:.4g} Hz: above half their own rate they hold no measurement, and "
-            + (
-                "the automatic cutoff"
-                if cutoff
-                else "the measured position noise and excitation band"
-            )
+            + ("the automatic cutoff" if reader is None else reader)
             + " read their noise below it."
         )
     if slow:
@@ -235,7 +231,7 @@ def resampled_note(
             + (
                 "; the automatic cutoff read their spectrum at the sensor's rate, "
                 "without them."
-                if cutoff
+                if reader is None
                 else "."
             )
         )
