@@ -314,19 +314,23 @@ def _missing(
         return missing, 0, found
     regions = _burst_regions(stamps) if stretches else []
     if regions:  # each bursty stretch counted by burst, the rest on its grid
-        ends = sorted({0, n - 1, *(c for r in regions for c in r)})
         mean = _file_step(stamps, STEP_SPANS[-1])
         stalls = [r for r in regions if _stall(stamps, *r, mean)]
+        # A stall counts up to the stamp after its burst, the next part from it
+        # (a catch-up's last interval on a part of 3 stamps read a short grid).
+        held = {a: min(b + 1, n - 1) for a, b in stalls}
+        cut = [(a, held.get(a, b)) for a, b in regions]
+        ends = sorted({0, n - 1, *(c for r in cut for c in r)})
         shared = 0
         for a, b in itertools.pairwise(ends):
-            if (a, b) in stalls:
-                continue  # counted below, the next part's first interval known
+            if a in held:
+                continue  # counted below, up to the stamp after its burst
             part, common, said = _missing(stamps[a : b + 1], stretches=False)
             missing[a:b] = part
             shared += common
             found += [f"from {stamps[a]:.16g} on, {c}" for c in said]
         for a, b in stalls:
-            missing[a] = _stall_missing(stamps, a, b, mean, missing)
+            missing[a] = _stall_missing(stamps, a, b, mean)
         found[:0] = _regions_said(stamps, regions, stalls)
         return missing, shared, found
     cuts = _rate_cuts(stamps)
@@ -390,24 +394,23 @@ def _stall(stamps: np.ndarray, a: int, b: int, mean: float) -> bool:
     return bool(np.all(np.diff(stamps[a + 1 : b + 1]) < BURST_GAP * mean))
 
 
-def _stall_missing(
-    stamps: np.ndarray, a: int, b: int, mean: float, missing: np.ndarray
-) -> int:
+def _stall_missing(stamps: np.ndarray, a: int, b: int, mean: float) -> int:
     """The samples missing in a stall (a, b) (:func:`_stall`), counted at ``a``.
 
     The samples due from stamp a to the next after the burst, b + 1, at the
     file's mean step h, round((t_(b+1) - t_a)/h), less the b + 1 - a received
-    and those ``missing[b]`` counted between b and b + 1 (the next part's
-    grid). The burst's last stamp is the stall's end, up to a step after its
-    last sample: a 10 ms EtherCAT stall caught up by 10 stamps 1 us apart was
-    counted on a grid of its own, 9 stamps sharing a slot (a beyond-bound
-    note on a complete file). A stall at the file's end: the whole samples
-    due up to t_b (a drop at its very end may go unseen).
+    (the next part counted from b + 1 on: its grid read from the catch-up's
+    end, 3 stamps after a stall counted 1 false sample missing). The burst's
+    last stamp is the stall's end, up to a step after its last sample: a 10
+    ms EtherCAT stall caught up by 10 stamps 1 us apart was counted on a
+    grid of its own, 9 stamps sharing a slot (a beyond-bound note on a
+    complete file). A stall at the file's end: the whole samples due up to
+    t_b (a drop at its very end may go unseen).
     """
     if not mean > 0.0:
         return 0
     if b + 1 < stamps.size:
-        due = round((stamps[b + 1] - stamps[a]) / mean) - (b + 1 - a) - missing[b]
+        due = round((stamps[b + 1] - stamps[a]) / mean) - (b + 1 - a)
     else:
         due = math.floor((stamps[b] - stamps[a]) / mean) - (b - a)
     return max(int(due), 0)
