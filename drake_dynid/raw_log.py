@@ -486,6 +486,9 @@ def _part_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float, list[str]
         missing, shared, step = _grid_missing(stamps)
         return missing, shared, step, []
     first, count, _ = bursts
+    after = _burst_pauses(stamps, first, count)
+    if after.size:  # each stretch between pauses counted on its own
+        return _paused_missing(stamps, first, count, after)
     missing, step, tail, fewer = _burst_missing(stamps, first, count)
     if not step > 0.0:  # no step read from the bursts: counted on a grid
         missing, shared, step = _grid_missing(stamps)
@@ -505,6 +508,72 @@ def _part_missing(stamps: np.ndarray) -> tuple[np.ndarray, int, float, list[str]
             "latency blurs the bursts' floor)"
         )
     return missing, 0, step, [said]
+
+
+#: A burst whose step (the time to its last stamp over its stamps) is over this
+#: many times the 90th percentile of its part's follows a pause
+#: (:func:`_burst_pauses`): receive stamps' latency (up to 8 steps late, 12 %
+#: of them) reads up to 8.8, stalls caught up and drops up to 2.4.
+BURST_PAUSE = 16.0
+
+
+def _burst_pauses(
+    stamps: np.ndarray, first: np.ndarray, count: np.ndarray
+) -> np.ndarray:
+    """The bursts after a pause in a bursty part (:func:`_part_missing`).
+
+    Burst m (its last stamp T_m, C_m stamps) follows a pause where its step
+    (T_m - T_(m-1))/max(C_m, the median C) (a last burst cut short by the
+    log's end is no pause) is over :data:`BURST_PAUSE` times the 90th
+    percentile of the part's: a minute's pause in 400 stamps of a 1 kHz
+    publisher flushing bursts of 4 read a step of 0.3 s, all its samples
+    missing and drops unseen (a 50 ms pause, 13.5 times the 90th percentile,
+    still is: 1.25 ms).
+    """
+    last = first + count - 1
+    if last.size < 3:
+        return np.zeros(0, np.int64)
+    step = np.diff(stamps[last]) / np.maximum(count[1:], np.median(count))
+    return np.flatnonzero(step > BURST_PAUSE * np.quantile(step, 0.9)) + 1
+
+
+def _paused_missing(
+    stamps: np.ndarray, first: np.ndarray, count: np.ndarray, after: np.ndarray
+) -> tuple[np.ndarray, int, float, list[str]]:
+    """(missing, shared, h, found) of a bursty part with pauses (:func:`_part_missing`).
+
+    The stretches between the pauses (before burst m of ``after``: the hole
+    from stamp first_m - 1 to first_m) each counted on their own; a pause's
+    samples missing at the longest stretch's step h: round((T_m - t_(first_m -
+    1))/h) - C_m, T_m burst m's last stamp, C_m its stamps.
+    """
+    missing = np.zeros(stamps.size - 1, np.int64)
+    holes = first[after] - 1
+    starts = np.concatenate([[0], holes + 1])
+    stops = np.concatenate([holes, [stamps.size - 1]])
+    shared, found, steps = 0, [], []
+    for a, b in zip(starts.tolist(), stops.tolist(), strict=True):
+        if b - a < 1:
+            steps.append((0, 0.0))
+            continue
+        part, common, step, said = _part_missing(stamps[a : b + 1])
+        missing[a:b] = part
+        shared += common
+        steps.append((b - a, step))
+        found += [f"from {stamps[a]:.16g} on, {c}" for c in said]
+    step = max(steps)[1]
+    if step > 0.0:
+        for m, hole in zip(after.tolist(), holes.tolist(), strict=True):
+            end = stamps[first[m] + count[m] - 1]
+            due = round((end - stamps[hole]) / step) - int(count[m])
+            missing[hole] = max(due, 0)
+    where = listed(f"{stamps[h]:.16g} to {stamps[h + 1]:.16g}" for h in holes)
+    found.insert(
+        0,
+        f"its bursts pause from {where}: each stretch between pauses is counted "
+        "on its own, a pause's samples against the time elapsed",
+    )
+    return missing, shared, step, found
 
 
 #: A bursty file's step is read over runs of bursts holding at least this many
