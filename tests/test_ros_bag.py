@@ -2043,6 +2043,77 @@ def test_an_export_to_standard_output_terminated_says_it_is_incomplete(arm, tmp_
     )
 
 
+def test_sigterm_in_code_run_from_a_string_ends_bag2csv_with_exit_1(arm, tmp_path):
+    """Found by a review: 'python -m drake_dynid.cli bag2csv' given SIGTERM
+    in its first moments printed 'interrupted', returned 1, and then died by
+    SIGINT (-2; 3 of 40 runs): the KeyboardInterrupt had left code run from
+    a string (a dataclass's methods being made, exec of text), which CPython
+    marks as unhandled even once caught. The signal is now raised as
+    bag2csv.Terminated, a subclass (CPython checks the exact type): exit 1."""
+    import os
+    import subprocess
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 50)))
+    (tmp_path / "sigterm_probe.py").write_text(
+        "import sys\n"
+        "from drake_dynid import cli, ros_bag\n"
+        "real = ros_bag.export_bag\n"
+        "def export(*args, **kwargs):\n"
+        "    exec('import os, signal\\nos.kill(os.getpid(), signal.SIGTERM)\\n"
+        "for _ in range(9): pass')\n"
+        "    return real(*args, **kwargs)\n"
+        "ros_bag.export_bag = export\n"
+        "sys.exit(cli.main(sys.argv[1:]))\n"
+    )
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    argv = [sys.executable, "-m", "sigterm_probe", "bag2csv", str(bag), "--out", "-"]
+    done = subprocess.run(argv, capture_output=True, env=env, timeout=120)
+    assert done.returncode == 1, done
+    assert done.stderr.decode() == "dynid bag2csv: interrupted\n"
+
+
+def test_bag2csv_restores_the_sigterm_handler_when_the_signal_lands_then(
+    arm, tmp_path, monkeypatch, capsys
+):
+    """Found by a review: a SIGTERM pending as bag2csv put the handler back
+    (CPython runs pending handlers in signal.signal) raised there and left
+    bag2csv's handler installed: cli.main called from user code then turned
+    every later SIGTERM into a KeyboardInterrupt. It is restored now (and
+    the interruption raised after: exit 1); in a thread nothing is set."""
+    import signal
+    import threading
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm, slice(0, 50)))
+    out = tmp_path / "log.csv"
+    argv = ["bag2csv", str(bag), "--out", str(out), "--quiet"]
+    before = signal.getsignal(signal.SIGTERM)
+    real = signal.signal
+    pending = [True]
+
+    def with_pending(signum, handler):
+        current = signal.getsignal(signum)
+        if pending and handler is before and callable(current):
+            pending.clear()
+            current(signum, None)  # the pending signal, run first
+        return real(signum, handler)
+
+    monkeypatch.setattr(signal, "signal", with_pending)
+    try:
+        assert cli.main(argv) == 1
+        assert capsys.readouterr().err == "dynid bag2csv: interrupted\n"
+        assert signal.getsignal(signal.SIGTERM) is before
+    finally:
+        real(signal.SIGTERM, before)
+    codes = []
+    thread = threading.Thread(target=lambda: codes.append(cli.main(argv)))
+    thread.start()
+    thread.join()
+    assert codes == [0] and out.exists()
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 @pytest.mark.parametrize("drive", [False, True])
 def test_a_command_given_a_stepped_bag_prints_bag2csv_commands_that_run(
     arm, tmp_path, capsys, monkeypatch, drive

@@ -129,7 +129,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Writes the CSV log. Returns 0."""
+    """Writes the CSV log. Returns 0.
+
+    SIGTERM from the start on is Ctrl-C's interruption (exit 1, the export's
+    incomplete line when rows were written: :func:`_terminated_as_interrupted`).
+    """
+    with _terminated_as_interrupted():
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     from drake_dynid.ros_bag import export_bag
 
     args.log = args.bag  # an input: --out is checked against it
@@ -164,19 +173,18 @@ def run(args: argparse.Namespace) -> int:
         def columns(names: tuple[str, ...], efforts: bool) -> list[str]:
             return [*layout.positions, *layout.torques * efforts]
 
-    with _terminated_as_interrupted():
-        done = export_bag(
-            args.bag,
-            args.out,
-            joints,
-            columns,
-            topic=args.topic,
-            time=time,
-            time_unit=unit,
-            stamps=args.stamps,
-            span=(args.start, args.stop),
-            options=bag_options(args),
-        )
+    done = export_bag(
+        args.bag,
+        args.out,
+        joints,
+        columns,
+        topic=args.topic,
+        time=time,
+        time_unit=unit,
+        stamps=args.stamps,
+        span=(args.start, args.stop),
+        options=bag_options(args),
+    )
     names = done.joint_names
     for note in done.notes:
         print(f"dynid bag2csv: note: {note}", file=sys.stderr)
@@ -196,28 +204,58 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised as Ctrl-C's interruption (:func:`_terminated_as_interrupted`).
+
+    A subclass, not KeyboardInterrupt itself: CPython marks a KeyboardInterrupt
+    that leaves code run from a string (``exec`` of text: a dataclass's or
+    namedtuple's methods being made, an import's) as unhandled even when it is
+    caught after, and ``python -m drake_dynid.cli`` then ended by SIGINT (-2)
+    after printing 'interrupted' and returning 1; the check is on the exact type.
+    """
+
+
 @contextlib.contextmanager
 def _terminated_as_interrupted() -> Iterator[None]:
-    """SIGTERM raised as KeyboardInterrupt (Ctrl-C's) while the export runs.
+    """SIGTERM raised as KeyboardInterrupt (Ctrl-C's, :class:`Terminated`) inside.
 
     Python's default SIGTERM ends the process at once: an export to standard
     output kept its whole rows and no incomplete-export line (read as the
     whole bag), a file's temporary copy was left beside it. Interrupted, the
-    export ends with that line, the temporary file is removed (exit 1). The
-    handler before is restored after; outside the main thread nothing is set.
-    SIGKILL cannot be caught.
+    export ends with that line, the temporary file is removed (exit 1). Raised
+    once (a second SIGTERM while it unwinds is ignored). The handler before
+    is restored after, also when the signal lands while it is restored (then
+    raised after); outside the main thread, or over a handler that is not
+    Python's (``signal.getsignal`` None), nothing is set. SIGKILL cannot be
+    caught.
     """
     import signal
     import threading
 
-    def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt("terminated (SIGTERM)")
+    raised: list[int] = []
 
-    if threading.current_thread() is not threading.main_thread():
+    def interrupt(signum: int, frame: Any) -> None:
+        if not raised:
+            raised.append(signum)
+            raise Terminated("terminated (SIGTERM)")
+
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGTERM) if main else None
+    if before is None:
         yield
         return
-    before = signal.signal(signal.SIGTERM, interrupt)
     try:
+        # Inside the try: a signal raised as soon as the handler is set is
+        # still followed by the restore.
+        signal.signal(signal.SIGTERM, interrupt)
         yield
     finally:
-        signal.signal(signal.SIGTERM, before)
+        late: Terminated | None = None
+        for _ in range(2):  # the handler raises once: at most one retry
+            try:
+                signal.signal(signal.SIGTERM, before)
+                break
+            except Terminated as error:  # pending as the handler was restored
+                late = error
+        if late is not None:
+            raise late
