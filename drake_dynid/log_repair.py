@@ -21,6 +21,7 @@ from drake_dynid.core.timestamps import (
     fill_short_runs,
     fit_time_grid,
     nominal_step,
+    phase_breaks,
 )
 from drake_dynid.log_store import GridTimes, RowSink
 
@@ -257,6 +258,11 @@ def repair(
             f"{where(i - 1)}: the two are in the wrong order; sort the log by time."
         )
 
+    part = None  # (N,) int: the part of each sample between restarts (None: one)
+    if joined is None:  # a joined file's parts are on their own grids (raw_log)
+        t, part, note = _restarts(t, shown, labels, noun)
+        warnings += note
+
     grid: TimeGrid | None = None
     try:
         grid = fit_time_grid(
@@ -296,6 +302,8 @@ def repair(
         labels, bad = labels[kept], bad[kept]
         if soft is not None and hard is not None:
             soft, hard = soft[kept], hard[kept]
+        if part is not None:
+            part = part[kept]
     jitter = 0.0 if grid is None else grid.jitter
     if options.resample and (grid is None or jitter > REPORTED_JITTER):
         log = _resampled(
@@ -310,6 +318,7 @@ def repair(
             warnings,
             reason,
             (soft, hard),
+            part,
         )
     else:
         assert grid is not None
@@ -323,6 +332,7 @@ def repair(
             options,
             warnings,
             (soft, hard),
+            part,
         )
     samples = log.t.size
     duration = (samples - 1) * log.time_step
@@ -539,7 +549,47 @@ def _placed(grid, samples, options, kept_bad):
     return sinks[0].finish(), sinks[1].finish(), filled, bad_after
 
 
-def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joined):
+def _restarts(t, shown, labels, noun):
+    """Stamps with each restart's later part moved onto the earlier part's grid.
+
+    A gap whose length is not a whole number of steps (``core.timestamps.
+    phase_breaks``: a logger paused and resumed, a clock stepped forward) would
+    put the later stamps half a step off any grid: snapped (timing wrong by up to
+    half a step), or refused as non-uniform. The later stamps are moved by the
+    gap's missing fraction of a step (always later: at least one slot stays
+    empty at the break); ``_snapped`` and ``_resampled`` never fill across a
+    break, so the log is split there. Returns (t, part, notes): part the (N,)
+    index of each sample's part, or None without a break.
+    """
+    indices, shifts, h = phase_breaks(t)
+    if indices.size == 0:
+        return t, None, []
+    t = np.asarray(t, dtype=float)
+    start = np.zeros(t.size, bool)
+    start[indices + 1] = True
+    part = np.cumsum(start)
+    before = t[indices + 1] - t[indices]
+    moved = np.zeros(t.size)
+    moved[indices + 1] = shifts
+    t = t + np.cumsum(moved)
+    notes = []
+    for i, gap, shift in zip(indices[:3], before[:3], shifts[:3], strict=False):
+        notes.append(
+            f"a gap of {gap * 1e3:.6g} ms, {gap / h - 1.0:.6g} steps of {h:.6g} s, "
+            f"between {noun} {labels[i]} and {noun} {labels[i + 1]} (t = "
+            f"{shown[i]:.16g} to {shown[i + 1]:.16g}): the logger restarted or its "
+            "clock stepped; the parts are read on their own grids (same step, the "
+            f"later one placed {shift * 1e3:.3g} ms later), the gap never filled: "
+            "the log is split there."
+        )
+    if indices.size > 3:
+        notes.append(f"{indices.size - 3} more such gap(s) split the log.")
+    return t, part, notes
+
+
+def _snapped(
+    owner, noun, grid, samples, labels, shown, options, warnings, joined, part=None
+):
     """Samples placed on their grid slots; dropped samples and bad cells filled.
 
     ``samples`` = (q, tau, index, bad): the read rows (arrays or stored arrays),
@@ -558,6 +608,10 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joine
         )
     q, tau, index, bad_before = samples
     soft, hard = joined
+    breaks = np.zeros(total, bool)  # empty slots of a restart: never filled
+    if part is not None:
+        for j in np.flatnonzero(np.diff(part)):
+            breaks[slots[j] + 1 : slots[j + 1]] = True
     if index is None and total == slots.size and not bad_before.any():
         filled = np.zeros(total, bool)  # every slot read, every cell finite
         if soft is not None:
@@ -568,6 +622,8 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joine
         if hard is not None and hard.any():
             kept_bad = np.zeros(total, bool)
             kept_bad[slots[hard]] = True
+        if breaks.any():
+            kept_bad = breaks if kept_bad is None else kept_bad | breaks
         q, tau, filled, bad_after = _placed(grid, samples, options, kept_bad)
         if soft is not None:
             filled[slots[soft]] = True
@@ -603,7 +659,18 @@ def _snapped(owner, noun, grid, samples, labels, shown, options, warnings, joine
 
 
 def _resampled(
-    owner, noun, s, samples, labels, step, grid, options, warnings, reason, joined
+    owner,
+    noun,
+    s,
+    samples,
+    labels,
+    step,
+    grid,
+    options,
+    warnings,
+    reason,
+    joined,
+    part=None,
 ):
     """Linear interpolation from the stamps onto the fitted uniform grid.
 
@@ -667,6 +734,8 @@ def _resampled(
             before, after = a + finite[left], a + finite[right]
             if hard_count is not None:
                 ok &= hard_count[after] == hard_count[before]
+            if part is not None:  # never across a restart
+                ok &= part[after] == part[before]
             out[ok, j] = np.interp(times[ok], xs, values[finite, j])
             bridge = (skipped > 0) | (gap > 1.5 * h)
             if soft is not None:

@@ -381,3 +381,56 @@ def test_two_swapped_rows_are_refused_naming_both_as_the_drive_reader_does(
     slot_log(tmp_path / "o.csv", t)
     log = read_log(tmp_path / "o.csv", JOINTS)
     assert any("outliers" in w for w in log.warnings), log.warnings
+
+
+def restarted(n1, n2, gap, jitter=0.0, seed=0):
+    """Stamps 1 ms apart with one gap of ``gap`` s after row n1 - 1 (a restart)."""
+    t1 = 1e-3 * np.arange(n1)
+    t = np.r_[t1, 1e-3 * np.arange(n2) + t1[-1] + gap]
+    return t + 1e-3 * np.random.default_rng(seed).uniform(-jitter, jitter, t.size)
+
+
+def test_a_gap_off_the_grid_splits_the_log_unfilled_each_part_on_its_grid(tmp_path):
+    """A 5.5 ms gap (4.5 steps) was filled by cubic interpolation with the later
+    part's 30 000 stamps snapped by half a step (jitter 25 %), silently."""
+    t = restarted(3000, 3000, 5.5e-3)
+    k = np.arange(t.size, dtype=float)  # q = row number: where each row went
+    write_log(
+        tmp_path / "g.csv", t, np.column_stack([k, -k]), np.ones((t.size, 2)), JOINTS
+    )
+    log = read_log(tmp_path / "g.csv", JOINTS)
+    assert log.time_step == 1e-3 and log.num_samples == 6005
+    np.testing.assert_array_equal(log.q[:3000, 0], k[:3000])
+    assert np.all(np.isnan(log.q[3000:3005]))  # 5 empty slots, never filled
+    np.testing.assert_array_equal(log.q[3005:, 0], k[3000:])
+    assert not log.filled.any()
+    assert log.good_segments() == [(0, 3000), (3005, 6005)]
+    assert not any("jitter" in w for w in log.warnings)
+    (note,) = [w for w in log.warnings if "restarted" in w]
+    assert (
+        "a gap of 5.5 ms, 4.5 steps of 0.001 s, between row 3001 and row 3002" in note
+    )
+    assert "placed 0.5 ms later" in note and "split" in note
+
+
+@pytest.mark.parametrize("gap", [5.5e-3, 1.2345])
+def test_a_long_log_with_a_restart_is_read_not_refused(tmp_path, gap):
+    """50 000 + 10 000 rows, a 5.5 ms gap: refused as non-uniform sampling ('0.28
+    steps off') with --resample advised; a 1.2345 s gap: h fitted 0.99999 ms."""
+    t = restarted(50_000, 10_000, gap)
+    slot_log(tmp_path / "g.csv", t)
+    log = read_log(tmp_path / "g.csv", JOINTS)
+    assert log.time_step == 1e-3 and len(log.good_segments()) == 2
+    assert abs(log.time_offset) == 0.0
+    assert not any("jitter" in w for w in log.warnings)
+
+
+@pytest.mark.parametrize("jitter", [0.05, 0.2])
+def test_a_jittered_log_with_a_dropped_sample_is_not_split(tmp_path, jitter):
+    """A gap of a whole number of steps (2 steps ± the jitter) stays one log, filled."""
+    t = restarted(3000, 3000, 2e-3, jitter, seed=3)
+    slot_log(tmp_path / "g.csv", t)
+    log = read_log(tmp_path / "g.csv", JOINTS)
+    assert log.num_samples == 6001 and log.filled.sum() == 1
+    assert len(log.good_segments()) == 1
+    assert not any("restarted" in w for w in log.warnings)

@@ -2156,3 +2156,22 @@ def test_a_command_given_a_stepped_bag_prints_bag2csv_commands_that_run(
         assert len((tmp_path / out).read_text().splitlines()) == rows + 1
         code = cli.main(["offline", out, *options, "--quiet"])
         assert code == 0, capsys.readouterr().err
+
+
+def test_a_header_clock_stepped_forward_off_the_grid_splits_the_log(
+    arm, tmp_path, capsys
+):
+    """A robot's clock stepped forward 0.2005 s at message 4001 (200.5 steps):
+    the stamps were snapped to one grid of step 0.0010001 s, 'jitter up to 24 %',
+    each part a quarter step off. The gap is now a restart: each side on its own
+    grid of 0.001 s, never filled, the log split there (2 segments)."""
+    messages = stepped_back(arm_messages(arm), 4000, -200_500_000)
+    bag = tmp_path / "forward.bag"
+    write_bag(bag, "ros1", messages)
+    document, err = offline(capsys, bag, tmp_path / "f.json")
+    gap = "a gap of 201.5 ms, 200.5 steps of 0.001 s, between row 4001 and row 4002"
+    assert gap in err
+    assert "the logger restarted or its clock stepped" in err
+    assert "jitter" not in err
+    fit = json.dumps(document)
+    assert '"segments": 2' in fit and '"segments_used": 2' in fit

@@ -24,6 +24,11 @@ Missing slots (k_{j+1} - k_j > 1) are dropped samples. The fit (``fit_time_grid`
    tolerance (origin refitted), else the fitted step: the step then divides the
    periods of the on-line blocks exactly.
 
+A gap whose length is not a whole number of steps, by more than the jitter of the
+other steps (``phase_breaks``: a logger restarted, a clock stepped forward), is no
+jitter: the caller moves the later stamps onto the earlier grid and keeps the gap
+unfilled (``drake_dynid.log_repair``), the log split there.
+
 A gap would insert missing slots: their total is bounded by ``max_inserted`` and
 checked before anything is allocated. Pure numpy; no file or row notions: the caller
 names the samples through ``where`` (e.g. ``"row 12 (t = 0.011)"``).
@@ -54,6 +59,7 @@ __all__ = [
     "fit_time_grid",
     "nominal_step",
     "order_outliers",
+    "phase_breaks",
 ]
 
 STEP_AGREEMENT = 1e-5  # nominal_step: relative agreement (10 ppm)
@@ -323,6 +329,61 @@ def _drop_outliers(t, h0, gaps, max_outliers, run, owner, where) -> np.ndarray:
         if int(np.count_nonzero(~keep)) > max_outliers:
             fail(p, b + 1)
     return keep
+
+
+#: phase_breaks: a gap is a restart only when its fractional part [steps] exceeds
+#: this, and PHASE_MARGIN times the largest deviation of the normal steps.
+PHASE_FLOOR = 0.1
+PHASE_MARGIN = 1.25
+
+
+def phase_breaks(t: Any) -> tuple[np.ndarray, np.ndarray, float]:
+    """Gaps whose length is not a whole number of steps: a logger restarted.
+
+    With r_i = (t[i+1] - t[i]) / h̄, h̄ the mean of the normal steps (r in
+    (0.5, 1.5) of the median step; their mean is exact to the jitter over the
+    log's length, not the median's 3·10⁻⁴ h), a gap i is a break when::
+
+        r_i >= 1.5  and  |r_i - round(r_i)| > max(PHASE_FLOOR,
+                                                  PHASE_MARGIN · max |r_normal - 1|)
+
+    and the steps on either side of it are normal (not a corrupted stamp, which
+    the grid fit drops as an outlier). A gap of a dropped sample carries the
+    jitter of two stamps, as a normal step does: a jittery log (±20 %: the
+    threshold reaches 0.5 step) is never split; a clean one is split where its
+    clock stepped. Each break's shift [s] is (ceil(r_i) - r_i)·h̄: the later
+    stamps, moved by it, sit on the grid of the earlier ones with at least one
+    slot missing at the break.
+
+    Args:
+        t: (N,) increasing finite stamps [s] (an array or a stored array).
+
+    Returns:
+        (indices, shifts, step): the i of each break (between t[i] and t[i+1]),
+        its shift [s], and h̄ [s]. Empty arrays when none.
+    """
+    none = np.zeros(0, np.int64), np.zeros(0), math.nan
+    d = _steps(t)
+    if d.size < 10 or not np.all(np.isfinite(d)):
+        return none
+    h0 = float(np.median(d))
+    if not h0 > 0.0:
+        return none
+    r = d / h0
+    normal = (r > 0.5) & (r < 1.5)
+    if np.count_nonzero(normal) < 10:
+        return none
+    h = float(np.mean(d[normal]))
+    r = d / h
+    spread = float(np.max(np.abs(r[normal] - 1.0)))
+    threshold = max(PHASE_FLOOR, PHASE_MARGIN * spread)
+    if threshold >= 0.5:
+        return none
+    candidate = (r >= 1.5) & (np.abs(r - np.rint(r)) > threshold)
+    candidate[1:] &= normal[:-1]
+    candidate[:-1] &= normal[1:]
+    indices = np.flatnonzero(candidate)
+    return indices, (np.ceil(r[indices]) - r[indices]) * h, h
 
 
 def order_outliers(
