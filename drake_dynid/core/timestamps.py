@@ -347,7 +347,8 @@ def phase_breaks(t: Any) -> tuple[np.ndarray, np.ndarray, float]:
         r_i >= 1.5  and  |r_i - round(r_i)| > max(PHASE_FLOOR,
                                                   PHASE_MARGIN · max |r_normal - 1|)
 
-    and the steps on either side of it are normal (not a corrupted stamp, which
+    (the normal steps' deviation read against the median step), and the steps
+    on either side of it are normal (not a corrupted stamp, which
     the grid fit drops as an outlier). A gap of a dropped sample carries the
     jitter of two stamps, as a normal step does: a jittery log (±20 %: the
     threshold reaches 0.5 step) is never split; a clean one is split where its
@@ -356,34 +357,48 @@ def phase_breaks(t: Any) -> tuple[np.ndarray, np.ndarray, float]:
     slot missing at the break.
 
     Args:
-        t: (N,) increasing finite stamps [s] (an array or a stored array).
+        t: (N,) increasing finite stamps [s] (an array or a stored array), read
+            a chunk at a time: memory of one (N,) array of steps (the median).
 
     Returns:
         (indices, shifts, step): the i of each break (between t[i] and t[i+1]),
         its shift [s], and h̄ [s]. Empty arrays when none.
     """
     none = np.zeros(0, np.int64), np.zeros(0), math.nan
-    d = _steps(t)
+    d = _steps(t)  # the only (N,) array; then a chunk of t at a time
     if d.size < 10 or not np.all(np.isfinite(d)):
         return none
-    h0 = float(np.median(d))
+    h0 = float(np.median(d, overwrite_input=True))
+    del d
     if not h0 > 0.0:
         return none
-    r = d / h0
-    normal = (r > 0.5) & (r < 1.5)
-    if np.count_nonzero(normal) < 10:
+    total, count, spread, gaps = 0.0, 0, 0.0, []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for a in range(0, len(t) - 1, _CHUNK):
+            later, earlier = _pair(t, a, min(len(t) - 1, a + _CHUNK))
+            step = later - earlier
+            normal = (step > 0.5 * h0) & (step < 1.5 * h0)
+            total += float(np.sum(step[normal]))
+            count += int(np.count_nonzero(normal))
+            if normal.any():
+                spread = max(spread, float(np.max(np.abs(step[normal] / h0 - 1.0))))
+            gaps.append(a + np.flatnonzero(step >= 1.5 * h0))
+    if count < 10:
         return none
-    h = float(np.mean(d[normal]))
-    r = d / h
-    spread = float(np.max(np.abs(r[normal] - 1.0)))
-    threshold = max(PHASE_FLOOR, PHASE_MARGIN * spread)
+    h = total / count
+    threshold = max(PHASE_FLOOR, PHASE_MARGIN * spread * h0 / h)
     if threshold >= 0.5:
         return none
-    candidate = (r >= 1.5) & (np.abs(r - np.rint(r)) > threshold)
-    candidate[1:] &= normal[:-1]
-    candidate[:-1] &= normal[1:]
-    indices = np.flatnonzero(candidate)
-    return indices, (np.ceil(r[indices]) - r[indices]) * h, h
+    indices, shifts = [], []
+    for i in (int(i) for i in np.concatenate(gaps)):
+        r = float(t[i + 1] - t[i]) / h
+        if not (r >= 1.5 and abs(r - round(r)) > threshold):
+            continue
+        neighbours = [j for j in (i - 1, i + 1) if 0 <= j < len(t) - 1]
+        if all(0.5 < float(t[j + 1] - t[j]) / h0 < 1.5 for j in neighbours):
+            indices.append(i)
+            shifts.append((math.ceil(r) - r) * h)
+    return np.array(indices, np.int64), np.array(shifts, float), h
 
 
 def order_outliers(
