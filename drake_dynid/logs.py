@@ -130,6 +130,11 @@ class RobotLog:
 
         Args:
             t: (N,) time stamps [s] (an integer array >= 1e17: nanoseconds).
+                Seconds by this method's contract, so a fitted step >= 0.5 s
+                (``log_repair.SLOW_STEP``) is read with a warning, not refused as
+                by :func:`read_log` without ``time_unit`` (a file's column has no
+                stated unit; arrays given here do): scale stamps in ms, µs or ns
+                to seconds first (``t * 1e-3`` for ms).
             q: (N, n) joint positions [rad or m] ((N,) when n = 1).
             tau: (N, n) joint torques [N·m or N] ((N,) when n = 1).
             joint_names: the n joint names.

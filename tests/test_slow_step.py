@@ -180,3 +180,39 @@ def test_integer_epoch_nanoseconds_at_1_hz_are_not_called_another_unit(tmp_path)
     assert "read as integer nanoseconds since the epoch" in said
     assert "--time-unit ns" in said and "likely not in seconds" not in said
     read_log(tmp_path / "ns.csv", ["joint1", "joint2"], time_unit="ns")  # accepted
+
+
+def test_a_simulated_log_at_2_hz_is_scored_by_the_printed_command(tmp_path, capsys):
+    """``dynid simulate --rate 2`` wrote a log (step 0.5 s) that the printed
+    ``dynid offline`` command then refused as stamps in ms (exit 2): the command
+    now says ``--time-unit s``, and a warning says why."""
+    import shlex
+
+    from drake_dynid.trajectory_file import SampledTrajectory, write_trajectory
+
+    t = np.arange(0.0, 8.0 + 1e-9, 0.01)
+    w = 2 * np.pi * 0.25
+    q = np.column_stack([np.sin(w * t), 0.5 * np.sin(2 * w * t)])
+    v = np.column_stack([w * np.cos(w * t), w * np.cos(2 * w * t)])
+    names = ("joint1", "joint2")
+    reference = SampledTrajectory(t, q, v, np.full_like(q, np.nan), names)
+    write_trajectory(tmp_path / "traj.csv", reference)
+    limits = {"lower": -3.0, "upper": 3.0, "velocity": 3.0, "effort": 100.0}
+    (tmp_path / "limits.json").write_text(json.dumps(dict.fromkeys(names, limits)))
+    log = tmp_path / "sim.csv"
+    argv = [
+        "simulate", URDF, "--trajectory", str(tmp_path / "traj.csv"), "--limits",
+        str(tmp_path / "limits.json"), "--rate", "2", "--time-step", "0.01",
+        "--out", str(log),
+    ]  # fmt: skip
+    assert cli.main(argv) == 0
+    captured = capsys.readouterr()
+    assert "reads it only with --time-unit s" in captured.err, captured.err
+    hint = captured.out.split("score it with: ", 1)[1].splitlines()[0]
+    words = shlex.split(hint)
+    assert words[-2:] == ["--time-unit", "s"], hint
+    cli.main([*words[1:], "--json", str(tmp_path / "fit.json"), "--quiet"])
+    err = capsys.readouterr().err
+    assert "truly sampled at" not in err and "Traceback" not in err, err
+    assert "the time step is 0.5 s, long for a robot log" in err, err
+    read_log(log, list(names), time_unit="s")  # readable with the unit said

@@ -318,7 +318,24 @@ def _identify_hint(
         parts.append("--rotor-inertia")
     if tuple(robot.friction) != ("viscous", "coulomb"):
         parts += ["--friction", ",".join(robot.friction) or "none"]
+    if _slow_unsaid(args, robot):
+        parts += ["--time-unit", "s"]
     return shlex.join(parts)  # a path with a space quoted as a shell reads it
+
+
+def _slow_unsaid(args: argparse.Namespace, robot) -> bool:
+    """Whether the log's step 1/--rate [s] is one its readers refuse unsaid.
+
+    A step >= ``log_repair.SLOW_STEP`` (0.5 s: --rate 2 Hz or less) is read as
+    stamps in ms, µs or ns unless the time unit is given (``--time-unit``, or the
+    drive file's ``[log] time_unit``, in which the log is then written): the
+    hint then says ``--time-unit s``. Found by a review: ``--rate 2`` wrote a log
+    that the printed ``dynid offline`` command refused (exit 2).
+    """
+    from drake_dynid.log_repair import SLOW_STEP
+
+    said = robot.drive is not None and robot.drive.log.time_unit_given
+    return 1.0 / args.rate >= SLOW_STEP and not said
 
 
 #: The standard parameters of each friction kind: a joint's (FV2) or a coupled
@@ -455,6 +472,13 @@ def run(args: argparse.Namespace) -> int:
         say(
             f"warning: the command exceeded the URDF effort limit in {log.saturated} "
             "samples; the log holds the applied (clipped) torque"
+        )
+    if _slow_unsaid(args, robot):
+        print(
+            f"dynid simulate: warning: the log's step 1/--rate = {1.0 / args.rate:g} s "
+            "is >= 0.5 s: dynid reads it only with --time-unit s (else as stamps in "
+            "ms, us or ns read as seconds: refused)",
+            file=sys.stderr,
         )
     say(f"wrote {args.out} and {truth} (true base parameters)")
     hint = _identify_hint(
