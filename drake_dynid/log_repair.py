@@ -213,8 +213,8 @@ def repair(
     """
     warnings = list(notes)
     shown = t
-    t, base, note = _seconds(owner, t, exact)
-    warnings += note
+    t, base, epoch_note = _seconds(owner, t, exact)  # [] unless epoch ns
+    warnings += epoch_note
     bad = _bad(q, tau) if bad is None else bad
     soft = hard = None  # no joined file: no masks (a plain log's memory)
     if joined is not None:
@@ -260,8 +260,8 @@ def repair(
 
     part = None  # (N,) int: the part of each sample between restarts (None: one)
     if joined is None:  # a joined file's parts are on their own grids (raw_log)
-        t, part, note = _restarts(t, shown, labels, noun)
-        warnings += note
+        t, part, restart_notes = _restarts(t, shown, labels, noun)
+        warnings += restart_notes
 
     grid: TimeGrid | None = None
     try:
@@ -287,7 +287,7 @@ def repair(
             "gives; check that unit."
         )
     if step >= SLOW_STEP and not unit_given:
-        raise ValueError(f"{owner}: {_slow_step_text(step, epoch=bool(note))}")
+        raise ValueError(f"{owner}: {_slow_step_text(step, epoch=bool(epoch_note))}")
     if kept.sum() < kept.size:
         out = np.flatnonzero(~kept)
         times = ", ".join(f"{shown[i]:.16g}" for i in out[:3])
@@ -367,18 +367,19 @@ FAST_STEP = 1e-5
 
 
 def _likely_unit(step: float) -> str:
-    """The unit in which ``step`` [s] is a robot's step, with the rate it gives.
+    """The units in which ``step`` [s] is a robot's step, with the rates they give.
 
-    The first of ms, us, ns giving 1e-4 to 0.1 s, e.g. ``ms gives 1000 Hz`` for
-    1.0 ('' if none).
+    Each of ms, us, ns giving 1e-4 s to under ``SLOW_STEP``, e.g. ``ms gives
+    1000 Hz`` for 1.0, ``ms gives 5 Hz or us gives 5000 Hz`` for 200 ('' if
+    none): a 5 Hz log in ms and a 5 kHz log in µs read alike.
     """
     from drake_dynid.core.drive_log import TIME_UNITS
 
-    for unit in ("ms", "us", "ns"):
-        seconds = step * TIME_UNITS[unit]
-        if 1e-4 <= seconds <= 0.1:
-            return f"{unit} gives {1.0 / seconds:.4g} Hz"
-    return ""
+    return " or ".join(
+        f"{unit} gives {1.0 / (step * TIME_UNITS[unit]):.4g} Hz"
+        for unit in ("ms", "us", "ns")
+        if 1e-4 <= step * TIME_UNITS[unit] < SLOW_STEP
+    )
 
 
 def _slow_step_text(step: float, epoch: bool = False) -> str:
@@ -399,7 +400,8 @@ def _slow_step_text(step: float, epoch: bool = False) -> str:
             "time_unit, or a drive file's [log] time_unit, docs/DRIVE.md)."
         )
     likely = _likely_unit(step)
-    unit = likely.split(" ", 1)[0] if likely else "UNIT"
+    unit = " or ".join(part.split(" ", 1)[0] for part in likely.split(" or "))
+    unit = unit or "UNIT"
     return (
         f"{head}: the time column is likely not in seconds"
         + (f" ({likely})" if likely else "")
