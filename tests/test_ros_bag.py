@@ -1979,6 +1979,18 @@ def test_a_burst_sent_again_within_round_off_is_dropped_as_repeats(
     assert read_joint_states(tmp_path / "burst.bag").stamps.size == 4000
 
 
+def _bag2csv_to_stdout(arm, tmp_path):
+    """``python -m drake_dynid.cli bag2csv BAG --out -`` of the arm's bag, and
+    the environment that runs it from this checkout (a subprocess)."""
+    import os
+
+    bag = tmp_path / "log.bag"
+    write_bag(bag, "ros1", arm_messages(arm))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "drake_dynid.cli", "bag2csv", str(bag), "--out", "-"]
+    return argv, env
+
+
 def test_an_export_to_a_pipe_closed_by_its_reader_stops_with_an_error(arm, tmp_path):
     """Found by a review: 'dynid bag2csv BAG --out - | head' exited 0, the
     export written on to os.devnull to the bag's end once head had gone (the
@@ -1987,13 +1999,9 @@ def test_an_export_to_a_pipe_closed_by_its_reader_stops_with_an_error(arm, tmp_p
     was told the export was whole. It now stops at the closed pipe, exit 2,
     one line on standard error (no traceback); the incomplete-export line
     cannot reach a closed pipe (README)."""
-    import os
     import subprocess
 
-    bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm))
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    argv = [sys.executable, "-m", "drake_dynid.cli", "bag2csv", str(bag), "--out", "-"]
+    argv, env = _bag2csv_to_stdout(arm, tmp_path)
     with subprocess.Popen(
         argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
     ) as process:
@@ -2019,14 +2027,10 @@ def test_an_export_to_standard_output_terminated_says_it_is_incomplete(arm, tmp_
     143): read as the whole bag. bag2csv now turns SIGTERM into the
     interruption Ctrl-C is: the export ends with the line, on a line of its
     own (the signal may cut a row), exit 1. (SIGKILL cannot be caught.)"""
-    import os
     import signal
     import subprocess
 
-    bag = tmp_path / "log.bag"
-    write_bag(bag, "ros1", arm_messages(arm))
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    argv = [sys.executable, "-m", "drake_dynid.cli", "bag2csv", str(bag), "--out", "-"]
+    argv, env = _bag2csv_to_stdout(arm, tmp_path)
     with subprocess.Popen(
         argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
     ) as process:
