@@ -61,6 +61,7 @@ __all__ = [
     "quantum",
     "record_pieces",
     "repeats",
+    "repeats_with",
     "resampling",
     "resampling_kernel",
     "resampling_with",
@@ -508,13 +509,32 @@ def repeats(x: Any) -> np.ndarray:
     (what the rounding alone gives, about twice its zeros). The first and last
     two samples are not judged.
     """
-    x = np.asarray(x, dtype=float).ravel()
+    return _repeats(np.asarray(x, dtype=float).ravel(), None)
+
+
+def repeats_with(x: Any, step: float, kind: int) -> np.ndarray:
+    """:func:`repeats` of x (N,) whose quantum and resampling kind are known.
+
+    ``step``: its :func:`quantum` (NaN or 0: not counts); ``kind``: its
+    :func:`resampling`'s k (the automatic cutoff's pieces have both).
+    """
+    return _repeats(np.asarray(x, dtype=float).ravel(), (step, kind))
+
+
+def _repeats(x: np.ndarray, known: tuple[float, int] | None) -> np.ndarray:
+    """:func:`repeats` of x (N,); ``known``: its (Δ, k) when already read."""
     none = np.empty(0, dtype=int)
     if x.size < 4 or not np.all(np.isfinite(x)):
         return none
     change = np.diff(x)
     same = np.flatnonzero(change == 0.0) + 1  # x[i] == x[i - 1]
-    if same.size < _MIN_REPEATS or quantum(x) > 0.0 or resampling(x)[1]:
+    if same.size < _MIN_REPEATS:
+        return none
+    if known is None:  # read here, the resampling after the quantum (lazily)
+        step = quantum(x)
+        if step > 0.0 or _resampling(x, step)[1]:
+            return none
+    elif known[0] > 0.0 or known[1]:
         return none
     inner = same[(same >= 2) & (same <= x.size - 2)]
     isolated = inner[(x[inner + 1] != x[inner]) & (x[inner - 1] != x[inner - 2])]

@@ -123,6 +123,8 @@ reported σ), the limit is 17 Hz (errors within 1.5σ); 0.30 (25 Hz) still gave
 errors within 2σ, 2.3 (50 Hz) 3σ and 19 (100 Hz) 16σ: the errors-in-variables
 bias of v² and sign(v) terms, which σ does not show."""
 _WELCH_PIECE = 1 << 17  # samples per piece of Welch's average
+#: A joint's Welch piece: (share, Δ, r, L, k) (:func:`_pieces`, :func:`_piece_traits`).
+_Traits = tuple[float, float, float, float, int]
 
 
 def _position_spectra(
@@ -255,19 +257,15 @@ def resampled_joints(q: Any, time_step: float) -> list[tuple[int, float, int]]:
     if q.ndim == 1:
         q = q[:, None]
     fs = 1.0 / time_step
-    origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
-    traits: list[list[tuple[float, float, float, float, int]]] = [
-        [] for _ in range(origin.shape[1])
-    ]
-    repeated = np.zeros((origin.shape[1], 3))  # share, repeats, samples
-    for share, piece in _pieces(q, _segment(q.shape[0], fs)):
-        piece = piece - origin
-        for j in range(piece.shape[1]):
-            traits[j].append((share, *_piece_traits(piece[:, j], fs)))
-            if traits[j][-1][2] > 0.0:  # a moving piece
-                count = excitation.repeats(piece[:, j]).size
-                if count:
-                    repeated[j] += (share, count, piece.shape[0])
+    traits: list[list[_Traits]] = [[] for _ in range(q.shape[1])]
+    repeated = np.zeros((q.shape[1], 3))  # share, repeats, samples
+    for j, x, piece in _joint_pieces(q, _segment(q.shape[0], fs), fs):
+        traits[j].append(piece)
+        share, step, rate, _, kind = piece
+        if rate > 0.0:  # a moving piece
+            count = excitation.repeats_with(x, step, kind).size
+            if count:
+                repeated[j] += (share, count, x.size)
     found = []
     for j, pieces in enumerate(traits):
         ratio, kind = _majority_resampling(pieces)
@@ -440,6 +438,26 @@ def _pieces(q: Any, segment: int) -> Any:
         yield count / total, piece.reshape(piece.shape[0], -1).astype(float)
 
 
+def _joint_pieces(q: Any, segment: int, fs: float) -> Any:
+    """``(j, x, traits)``: each joint's Welch pieces (:func:`_pieces`), one at a time.
+
+    x (M,) the piece of joint j from the joint's first sample, ``traits`` its
+    ``(share, Δ, r, L, k)``. The automatic cutoff's spectra and
+    :func:`resampled_joints` read the same pieces.
+    """
+    # Each joint from its first sample: a joint held still (a locked torso, a
+    # gripper) is then exactly 0, where the segments' detrending left rounding
+    # residue ~1e-17 rad of its value (0.3 rad) whose smooth spectrum stood
+    # above its own floor of ~1e-45 as motion with no noise, and the
+    # automatic cutoff went to 35.8 Hz instead of the moving joints' 2.37 Hz.
+    origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
+    for share, piece in _pieces(q, segment):
+        piece = piece - origin
+        for j in range(piece.shape[1]):
+            x = piece[:, j]
+            yield j, x, (share, *_piece_traits(x, fs))
+
+
 def _welch(
     q: np.ndarray, fs: float, segment: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -451,26 +469,16 @@ def _welch(
     (F, n) [unit²/Hz] and its resampling (n, 2) ``(L, k)``, both decided piece by
     piece (:func:`_piece_traits`).
     """
-    # Each joint from its first sample: a joint held still (a locked torso, a
-    # gripper) is then exactly 0, where the segments' detrending left rounding
-    # residue ~1e-17 rad of its value (0.3 rad) whose smooth spectrum stood
-    # above its own floor of ~1e-45 as motion with no noise, and the
-    # automatic cutoff went to 35.8 Hz instead of the moving joints' 2.37 Hz.
-    origin = np.asarray(q[:1], dtype=float).reshape(1, -1)
     f, power = np.empty(0), np.empty(0)
-    traits: list[list[tuple[float, float, float, float, int]]] = [
-        [] for _ in range(origin.shape[1])
-    ]
-    for share, piece in _pieces(q, segment):
-        piece = piece - origin
-        for j in range(piece.shape[1]):  # one joint at a time: memory / n
-            traits[j].append((share, *_piece_traits(piece[:, j], fs)))
-            f, part = _joint_welch(piece[:, j], fs, segment)
-            if power.size == 0:
-                power = np.zeros((f.size, piece.shape[1]))
-            power[:, j] = power[:, j] + part * share
+    traits: list[list[_Traits]] = [[] for _ in range(q.shape[1])]
+    for j, x, piece in _joint_pieces(q, segment, fs):  # one joint at a time
+        traits[j].append(piece)
+        f, part = _joint_welch(x, fs, segment, piece)
+        if power.size == 0:
+            power = np.zeros((f.size, q.shape[1]))
+        power[:, j] = power[:, j] + part * piece[0]
     staircase = np.zeros_like(power)
-    resampled = np.tile([1.0, 0.0], (origin.shape[1], 1))
+    resampled = np.tile([1.0, 0.0], (q.shape[1], 1))
     for j, pieces in enumerate(traits):
         steps = excitation.piece_quanta([step for _, step, *_ in pieces])
         for (share, _, rate, *_), step in zip(pieces, steps, strict=True):
@@ -495,7 +503,7 @@ def _piece_traits(x: np.ndarray, fs: float) -> tuple[float, float, float, int]:
 
 
 def _majority_resampling(
-    pieces: list[tuple[float, float, float, float, int]],
+    pieces: list[_Traits],
 ) -> tuple[float, int]:
     """``(L, k)`` of a joint from its pieces' ``(share, Δ, r, L, k)``.
 
@@ -520,7 +528,7 @@ def _majority_resampling(
 
 
 def _joint_welch(
-    x: np.ndarray, fs: float, segment: int
+    x: np.ndarray, fs: float, segment: int, traits: _Traits
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(f, S)``: one joint's Welch spectrum at the log's rate, (F,) each.
 
@@ -534,7 +542,8 @@ def _joint_welch(
     """
     from drake_dynid.core.iir import welch  # numpy: no scipy.signal at start-up
 
-    found = excitation.repeats(x)
+    _, step, _, _, kind = traits  # its pieces' quantum and resampling, read
+    found = excitation.repeats_with(x, step, kind)
     if found.size == 0:
         f, part = welch(x, fs, segment)
         return f, part[:, 0]
