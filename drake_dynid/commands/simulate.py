@@ -338,17 +338,14 @@ def _slow_unsaid(args: argparse.Namespace, robot) -> bool:
     return 1.0 / args.rate >= SLOW_STEP and not said
 
 
-#: The standard parameters of each friction kind: a joint's (FV2) or a coupled
-#: motor's (FVm6).
-_FRICTION_NAMES = {"viscous": "FV", "coulomb": "FC", "offset": "OFF"}
-
-
 def _zero_friction(robot: Any, friction: Sequence[str]) -> str:
     """`` (... all 0 in the model)`` for the simulated kinds that are 0 throughout.
 
     A URDF without ``<dynamics damping/friction>`` (example-robot-data's Kinova)
     simulates no friction whatever ``--friction`` lists: the line says so.
     """
+    from drake_dynid.core.friction import FRICTION_PREFIX
+
     values = dict(zip(robot.standard_names, robot.standard_values, strict=True))
     zero = [
         kind
@@ -356,7 +353,8 @@ def _zero_friction(robot: Any, friction: Sequence[str]) -> str:
         if all(
             value == 0.0
             for name, value in values.items()
-            if re.fullmatch(rf"{_FRICTION_NAMES[kind]}m?\d+", name)
+            # A joint's (FV2) or a coupled motor's (FVm6) parameters of the kind.
+            if re.fullmatch(rf"{FRICTION_PREFIX[kind]}m?\d+", name)
         )
     ]
     if not zero:
